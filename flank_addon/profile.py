@@ -1,0 +1,259 @@
+"""Closed planar (transverse) profiles of helical surfaces.
+
+A profile is a closed curve in the plane z = 0, counter-clockwise, with the
+rotor solid on its left.  It is parametrised by ``u`` in [0, period) (close
+to arc length) and evaluated with derivatives so that foot-point Newton
+iterations and curvature formulas get exact p, p', p''.
+
+Two kinds: :class:`SplineProfile` (closed periodic cubic spline through
+points, s004 style point data) and :class:`SegmentProfile` (exact lines and
+circular arcs, e.g. the Nilson profile of s001 Ex. 3.3).
+"""
+import csv
+import math
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+
+class ProfileError(ValueError):
+    """Invalid profile input; the message names the offending value."""
+
+
+class Profile:
+    period = 1.0
+
+    def eval(self, u, der=0):  # pragma: no cover - interface
+        raise NotImplementedError
+
+    def wrap(self, u):
+        return np.mod(u, self.period)
+
+    def sample(self, n):
+        """(n, 2) points at n equally spaced parameters."""
+        u = np.arange(n) * (self.period / n)
+        return self.eval(u)
+
+    def params(self, n):
+        return np.arange(n) * (self.period / n)
+
+    def outer_radius(self, n=4096):
+        return float(np.max(np.linalg.norm(self.sample(n), axis=1)))
+
+    def outward_normal(self, u):
+        d = self.eval(u, 1)
+        n = np.stack([d[..., 1], -d[..., 0]], axis=-1)
+        return n / np.linalg.norm(n, axis=-1, keepdims=True)
+
+    def curvature(self, u):
+        """Signed curvature (positive where the CCW profile turns left = convex)."""
+        d1, d2 = self.eval(u, 1), self.eval(u, 2)
+        cr = d1[..., 0] * d2[..., 1] - d1[..., 1] * d2[..., 0]
+        return cr / np.linalg.norm(d1, axis=-1) ** 3
+
+    def polygon(self, n=2048):
+        return self.sample(n)
+
+
+class SplineProfile(Profile):
+    """Closed periodic cubic spline through points (N, 2), chord-length parameter."""
+
+    def __init__(self, points, validate=True):
+        pts = np.asarray(points, dtype=float)
+        if validate:
+            pts = validate_profile_points(pts)
+        self.points = pts
+        closed = np.vstack([pts, pts[:1]])
+        seg = np.linalg.norm(np.diff(closed, axis=0), axis=1)
+        self.knots = np.concatenate([[0.0], np.cumsum(seg)])
+        self.period = float(self.knots[-1])
+        self._spline = CubicSpline(self.knots, closed, bc_type="periodic")
+        self._d = [self._spline, self._spline.derivative(1), self._spline.derivative(2)]
+
+    def eval(self, u, der=0):
+        u = np.mod(np.asarray(u, dtype=float), self.period)
+        return self._d[der](u)
+
+    def node_param(self, i):
+        return self.knots[np.asarray(i)]
+
+
+class Line:
+    def __init__(self, p0, p1):
+        self.p0 = np.asarray(p0, float)
+        self.p1 = np.asarray(p1, float)
+        self.length = float(np.linalg.norm(self.p1 - self.p0))
+        if self.length <= 0:
+            raise ProfileError("line segment of zero length")
+        self.dir = (self.p1 - self.p0) / self.length
+
+    def eval(self, s, der):
+        s = s[..., None]
+        if der == 0:
+            return self.p0 + s * self.dir
+        if der == 1:
+            return np.broadcast_to(self.dir, s.shape[:-1] + (2,)).copy()
+        return np.zeros(s.shape[:-1] + (2,))
+
+    def end(self):
+        return self.p1
+
+
+class Arc:
+    """Circular arc from angle a0 sweeping by ``sweep`` (signed, radians)."""
+
+    def __init__(self, center, radius, a0, sweep):
+        if radius <= 0:
+            raise ProfileError(f"arc radius must be > 0, got {radius}")
+        self.c = np.asarray(center, float)
+        self.r = float(radius)
+        self.a0 = float(a0)
+        self.sweep = float(sweep)
+        self.sgn = 1.0 if sweep > 0 else -1.0
+        self.length = abs(self.sweep) * self.r
+
+    def eval(self, s, der):
+        a = self.a0 + self.sgn * s / self.r
+        ca, sa = np.cos(a), np.sin(a)
+        if der == 0:
+            return self.c + self.r * np.stack([ca, sa], -1)
+        if der == 1:
+            return self.sgn * np.stack([-sa, ca], -1)
+        return -np.stack([ca, sa], -1) / self.r
+
+    def start(self):
+        return self.c + self.r * np.array([math.cos(self.a0), math.sin(self.a0)])
+
+    def end(self):
+        a = self.a0 + self.sweep
+        return self.c + self.r * np.array([math.cos(a), math.sin(a)])
+
+
+class SegmentProfile(Profile):
+    """Exact profile made of :class:`Line` and :class:`Arc` pieces, arc-length parametrised."""
+
+    def __init__(self, segments, close_tol=1e-9):
+        self.segments = list(segments)
+        lengths = np.array([s.length for s in self.segments])
+        self.breaks = np.concatenate([[0.0], np.cumsum(lengths)])
+        self.period = float(self.breaks[-1])
+        for a, b in zip(self.segments, self.segments[1:] + self.segments[:1]):
+            start = b.start() if isinstance(b, Arc) else b.p0
+            gap = float(np.linalg.norm(a.end() - start))
+            if gap > close_tol * max(1.0, self.period):
+                raise ProfileError(f"segments do not join: gap {gap:.3g} > {close_tol:g}")
+
+    def eval(self, u, der=0):
+        u = np.mod(np.asarray(u, dtype=float), self.period)
+        idx = np.clip(np.searchsorted(self.breaks, u, side="right") - 1, 0, len(self.segments) - 1)
+        out = np.empty(u.shape + (2,))
+        for k, seg in enumerate(self.segments):
+            m = idx == k
+            if np.any(m):
+                out[m] = seg.eval(u[m] - self.breaks[k], der)
+        return out
+
+
+# --------------------------------------------------------------------------- validation
+
+def signed_area(poly):
+    x, y = poly[:, 0], poly[:, 1]
+    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+
+def segments_intersect_count(poly, chunk=512):
+    """Number of pairs of non-adjacent polygon edges that properly cross."""
+    a = poly
+    b = np.roll(poly, -1, axis=0)
+    n = len(a)
+    count = 0
+    idx = np.arange(n)
+    for s in range(0, n, chunk):
+        i = idx[s:s + chunk, None]
+        j = idx[None, :]
+        p, r = a[s:s + chunk, None, :], (b - a)[s:s + chunk, None, :]
+        q, sv = a[None, :, :], (b - a)[None, :, :]
+        rxs = r[..., 0] * sv[..., 1] - r[..., 1] * sv[..., 0]
+        qp = q - p
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (qp[..., 0] * sv[..., 1] - qp[..., 1] * sv[..., 0]) / rxs
+            w = (qp[..., 0] * r[..., 1] - qp[..., 1] * r[..., 0]) / rxs
+        adjacent = (np.abs(i - j) <= 1) | (np.abs(i - j) == n - 1)
+        hit = (t > 0) & (t < 1) & (w > 0) & (w < 1) & ~adjacent & (j > i)
+        count += int(np.count_nonzero(hit))
+    return count
+
+
+def validate_profile_points(points, name="profile"):
+    """Check a closed point list; return it as CCW (N, 2) float array.
+
+    Raises :class:`ProfileError` naming the problem: NaN/inf, too few
+    points, duplicates, an open curve, self-intersection.
+    """
+    pts = np.asarray(points, dtype=float)
+    if pts.ndim != 2 or pts.shape[1] != 2:
+        raise ProfileError(f"{name}: expected N x 2 coordinates, got shape {pts.shape}")
+    bad = ~np.isfinite(pts).all(axis=1)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise ProfileError(f"{name}: row {i + 1} is not a finite number pair: {pts[i].tolist()}")
+    if len(pts) < 8:
+        raise ProfileError(f"{name}: {len(pts)} points, at least 8 are needed")
+    seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    scale = float(np.ptp(pts, axis=0).max())
+    if scale <= 0:
+        raise ProfileError(f"{name}: all points coincide")
+    dup = np.flatnonzero(seg <= 1e-12 * scale)
+    if len(dup):
+        raise ProfileError(f"{name}: rows {dup[0] + 1} and {dup[0] + 2} are duplicate points {pts[dup[0]].tolist()}")
+    closing = float(np.linalg.norm(pts[-1] - pts[0]))
+    if closing <= 1e-12 * scale:  # explicitly closed list: drop the repeated point
+        pts = pts[:-1]
+        seg = seg[:-1]
+        closing = float(np.linalg.norm(pts[-1] - pts[0]))
+    typical = float(np.median(seg))
+    if closing > 20.0 * max(typical, float(seg.max()) / 2):
+        raise ProfileError(
+            f"{name}: curve is open: gap between last and first point {closing:.6g} "
+            f"exceeds 20x the median spacing {typical:.6g}")
+    crossings = segments_intersect_count(pts)
+    if crossings:
+        raise ProfileError(f"{name}: self-intersecting ({crossings} crossing edge pairs)")
+    if signed_area(pts) < 0:
+        pts = pts[::-1].copy()
+    return pts
+
+
+def load_profile_csv(path, unit_scale=1.0):
+    """Read ``x,y`` rows (header optional) and return a validated :class:`SplineProfile`."""
+    rows = []
+    with open(path, newline="") as f:
+        for k, row in enumerate(csv.reader(f)):
+            if not row or row[0].strip().startswith("#"):
+                continue
+            try:
+                vals = [float(v) for v in row[:2]]
+            except ValueError:
+                if k == 0 and not rows:
+                    continue  # header
+                raise ProfileError(f"{path}: line {k + 1} is not numeric: {row}") from None
+            if len(vals) < 2:
+                raise ProfileError(f"{path}: line {k + 1} has fewer than 2 columns")
+            rows.append(vals)
+    return SplineProfile(np.asarray(rows) * unit_scale)
+
+
+def points_in_polygon(xy, poly, chunk=4096):
+    """Even-odd test of points (N, 2) against a closed polygon (M, 2) -> bool (N,)."""
+    xy = np.asarray(xy, float)
+    a = poly
+    b = np.roll(poly, -1, axis=0)
+    out = np.zeros(len(xy), bool)
+    for s in range(0, len(xy), chunk):
+        p = xy[s:s + chunk, None, :]
+        cond = (a[None, :, 1] > p[..., 1]) != (b[None, :, 1] > p[..., 1])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xint = a[None, :, 0] + (p[..., 1] - a[None, :, 1]) * (b[None, :, 0] - a[None, :, 0]) / (
+                b[None, :, 1] - a[None, :, 1])
+        out[s:s + chunk] = (np.count_nonzero(cond & (p[..., 0] < xint), axis=1) % 2) == 1
+    return out
