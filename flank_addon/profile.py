@@ -37,6 +37,10 @@ class Profile:
     def params(self, n):
         return np.arange(n) * (self.period / n)
 
+    def eval_all(self, u):
+        """(p, p', p'') at parameters u in one call."""
+        return self.eval(u), self.eval(u, 1), self.eval(u, 2)
+
     def outer_radius(self, n=4096):
         return float(np.max(np.linalg.norm(self.sample(n), axis=1)))
 
@@ -73,6 +77,17 @@ class SplineProfile(Profile):
     def eval(self, u, der=0):
         u = np.mod(np.asarray(u, dtype=float), self.period)
         return self._d[der](u)
+
+    def eval_all(self, u):
+        # one interval search for value and both derivatives (hot path of foot-point Newton)
+        u = np.mod(np.asarray(u, dtype=float), self.period)
+        i = np.clip(np.searchsorted(self.knots, u, side="right") - 1, 0, len(self.knots) - 2)
+        x = (u - self.knots[i])[..., None]
+        c0, c1, c2, c3 = (self._spline.c[k][i] for k in range(4))
+        p = ((c0 * x + c1) * x + c2) * x + c3
+        p1 = (3 * c0 * x + 2 * c1) * x + c2
+        p2 = 6 * c0 * x + 2 * c1
+        return p, p1, p2
 
     def node_param(self, i):
         return self.knots[np.asarray(i)]

@@ -1,0 +1,119 @@
+import numpy as np
+import pytest
+
+from flank_addon.helical_surface import HelicalSurface
+from flank_addon.profile import SplineProfile
+from flank_addon.screw import screw_motion, screw_to_plane
+from helpers import brute_force_distance, half_disk_profile, wavy_profile
+
+
+def test_screw_motion_matches_eq1_both_hands():
+    p = np.array([0.3, -0.7, 0.2])
+    t, v0 = 0.9, 0.4
+    right = screw_motion(p, t, v0, "right")
+    left = screw_motion(p, t, v0, "left")
+    c, s = np.cos(t), np.sin(t)
+    # s000 Eq. (1): upper signs right-handed, lower signs left-handed
+    assert np.allclose(right, [p[0] * c - p[1] * s, p[0] * s + p[1] * c, t * v0 + p[2]], atol=1e-15)
+    assert np.allclose(left, [p[0] * c + p[1] * s, -p[0] * s + p[1] * c, t * v0 + p[2]], atol=1e-15)
+    # one full turn advances by the pitch 2*pi*v0
+    full = screw_motion(p, 2 * np.pi, v0, "right")
+    assert np.allclose(full[:2], p[:2]) and np.isclose(full[2] - p[2], 2 * np.pi * v0)
+    # screw_to_plane lands on the same helix in z = 0
+    q0 = screw_to_plane(p, v0, "left")
+    back = screw_motion(np.r_[q0, 0.0], p[2] / v0, v0, "left")
+    assert np.allclose(back, p, atol=1e-14)
+
+
+def test_cylinder_distance_is_exact():
+    th = np.linspace(0, 2 * np.pi, 720, endpoint=False)
+    surf = HelicalSurface(SplineProfile(0.8 * np.c_[np.cos(th), np.sin(th)]), 0.3, "left")
+    rng = np.random.default_rng(1)
+    q = rng.uniform(-1.2, 1.2, (3000, 3))
+    fp = surf.foot_points(q)
+    expected = np.hypot(q[:, 0], q[:, 1]) - 0.8
+    # spline through 720 circle points: radius error ~1e-11
+    assert np.max(np.abs(fp.distance - expected)) < 1e-9
+    assert np.array_equal(surf.contains(q), expected < 0)
+
+
+@pytest.mark.parametrize("hand", ["right", "left"])
+@pytest.mark.parametrize("v0", [0.25, 0.8])
+def test_foot_points_never_worse_than_brute_force(hand, v0):
+    surf = HelicalSurface(wavy_profile(), v0, hand)
+    rng = np.random.default_rng(7)
+    # queries everywhere in the rotor's cylinder, near the axis (many competing valleys) and outside
+    q = np.vstack([rng.uniform(-1.1, 1.1, (1500, 3)), rng.normal(0, 0.05, (300, 3)),
+                   rng.uniform(-1.6, 1.6, (200, 3))])
+    fp = surf.foot_points(q)
+    bf = brute_force_distance(surf, q)
+    gap = np.abs(fp.distance) - bf
+    assert gap.max() <= 1e-12, f"worse than brute force by {gap.max():.3g}"
+    # and brute force at this density is within its sampling error of the exact value
+    assert gap.min() > -3e-3
+    # foot is on the surface: screwed back it lies on the profile
+    foot0 = screw_to_plane(fp.point, surf.v0, surf.hand)
+    assert np.allclose(foot0, surf.profile.eval(fp.u), atol=1e-12)
+    # q - foot is normal to the surface (first-order optimality)
+    w = q - fp.point
+    nrm = np.linalg.norm(w, axis=1)
+    ok = nrm > 1e-6
+    cos = np.abs(np.einsum("ij,ij->i", w[ok], fp.normal[ok])) / nrm[ok]
+    assert np.min(cos) > 1 - 1e-9
+    # sign: negative exactly for points inside the solid
+    assert np.array_equal(fp.distance < 0, surf.contains(q))
+
+
+def test_foot_is_a_minimum_under_perturbation():
+    surf = HelicalSurface(wavy_profile(), 0.5, "right")
+    rng = np.random.default_rng(3)
+    q = rng.uniform(-1, 1, (400, 3))
+    fp = surf.foot_points(q)
+    d = np.abs(fp.distance)
+    for du, dt in [(1e-4, 0), (-1e-4, 0), (0, 1e-4), (0, -1e-4), (3e-3, -2e-3), (-0.05, 0.05)]:
+        other = np.linalg.norm(q - surf.evaluate(fp.u + du, fp.t + dt), axis=1)
+        assert np.all(other >= d - 1e-13)
+
+
+def test_global_not_local_minimum():
+    """A query whose nearest point on its own valley is only a local minimum (s004 §3.2 failure mode)."""
+    surf = HelicalSurface(wavy_profile(), 0.5, "right")
+    # on the axis every valley bottom is nearly equidistant; a slight offset makes one valley win
+    q = np.array([[0.02, 0.0, 0.0], [0.0, 0.03, 0.4], [-0.01, -0.02, -0.7]])
+    fp = surf.foot_points(q)
+    bf = brute_force_distance(surf, q, n_u=6000, n_t=1500)
+    assert np.all(np.abs(fp.distance) <= bf + 1e-12)
+
+
+def test_helicoid_and_cylinder_curvature():
+    v0 = 0.4
+    prof = half_disk_profile(1.0)
+    surf = HelicalSurface(prof, v0, "right")
+    # line part (u in (0, 2)) is a helicoid through the axis: K = -v0^2 / (rho^2 + v0^2)^2, H = 0
+    u = np.linspace(0.05, 1.95, 25)
+    rho = np.abs(prof.eval(u)[:, 0])
+    c = surf.curvatures(u)
+    assert np.allclose(c["K"], -v0 ** 2 / (rho ** 2 + v0 ** 2) ** 2, rtol=1e-12)
+    assert np.allclose(c["H"], 0.0, atol=1e-12)
+    assert np.all(surf.classify(u) == -1)
+    # arc part is the cylinder of radius 1: K = 0, principal curvatures 0 and -1 (outward normal)
+    ua = np.linspace(2.1, 2 + np.pi - 0.1, 25)
+    ca = surf.curvatures(ua)
+    assert np.allclose(ca["K"], 0.0, atol=1e-12)
+    assert np.allclose(ca["k2"], -1.0, atol=1e-12) and np.allclose(ca["k1"], 0.0, atol=1e-12)
+    assert np.all(surf.classify(ua) == 0)
+
+
+def test_wavy_profile_has_all_three_classes():
+    surf = HelicalSurface(wavy_profile(), 0.5, "right")
+    cls = surf.classify(surf.profile.params(2000))
+    # convex lobe tips are elliptic, concave valleys hyperbolic (s000 Fig. 3)
+    assert (cls == 1).mean() > 0.1 and (cls == -1).mean() > 0.1
+
+
+def test_rejects_bad_input():
+    with pytest.raises(ValueError, match="v0"):
+        HelicalSurface(wavy_profile(), -1.0)
+    surf = HelicalSurface(wavy_profile(), 0.5)
+    with pytest.raises(ValueError, match="NaN"):
+        surf.foot_points(np.array([[0.0, np.nan, 0.0]]))
