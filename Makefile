@@ -1,0 +1,99 @@
+# Flank Toolpath -- developer entry points.
+# A fresh machine needs only python3.11 and make: every target that needs
+# Python creates/refreshes ./.venv first (stamp keyed on the pins below).
+SHELL := /bin/bash
+.DEFAULT_GOAL := help
+
+PYTHON311 ?= python3.11
+VENV      ?= .venv
+PY        := $(VENV)/bin/python
+
+# Exact pins of the development venv (Blender 5.0 as a Python module).
+# bpy 5.0.1 is built against numpy 1.26 (Requires-Dist numpy<2,>=1.26);
+# scipy 1.17.1 is the same version that tools/build_extension.py bundles.
+PINS := bpy==5.0.1 numpy==1.26.4 scipy==1.17.1 pytest==9.2.0
+
+# Compatibility venvs (Blender tests only; no scipy on purpose so the
+# bundled scipy wheel inside the extension is what gets imported).
+COMPAT42_VENV := .venv-bpy42
+COMPAT42_PINS := bpy==4.2.23 numpy==1.26.4 pytest==9.2.0
+COMPAT5X_VENV := .venv-bpy52
+COMPAT5X_PINS := bpy==5.2.3 numpy==2.3.5 pytest==9.2.0
+# Python 3.13 is optional: detected, never required.
+PYTHON313 ?= $(firstword $(wildcard $(HOME)/.pyenv/versions/3.13*/bin/python3.13) $(shell command -v python3.13 2>/dev/null))
+
+# Platforms for `make extension` (all by default); e.g. PLATFORMS=linux-x64
+PLATFORMS ?= all
+
+pins_key = $(firstword $(shell printf '%s' '$(1)' | cksum))
+STAMP          := $(VENV)/.pins-$(call pins_key,$(PINS))
+COMPAT42_STAMP := $(COMPAT42_VENV)/.pins-$(call pins_key,$(COMPAT42_PINS))
+COMPAT5X_STAMP := $(COMPAT5X_VENV)/.pins-$(call pins_key,$(COMPAT5X_PINS))
+
+# $(1)=python interpreter, $(2)=venv dir, $(3)=pins, $@=stamp
+define make_venv
+	@if [ ! -x "$(2)/bin/python" ]; then echo "creating $(2) with $(1)"; "$(1)" -m venv "$(2)"; fi
+	"$(2)/bin/python" -m pip install --quiet --upgrade pip
+	"$(2)/bin/python" -m pip install --quiet $(3)
+	@rm -f "$(2)"/.pins-*
+	@touch "$@"
+endef
+
+.PHONY: help venv demo test test-core test-blender extension test-compat bench clean distclean
+
+help:
+	@echo "make demo         generate + analyze the built-in asymmetric female rotor -> out/"
+	@echo "make test         core tests (tests/*.py) + Blender tests (tests/blender/)"
+	@echo "make extension    build + validate installable zips into dist/ (PLATFORMS=all|linux-x64,...)"
+	@echo "make test-compat  Blender tests against bpy 4.2 LTS and bpy 5.2 (needs Python 3.13)"
+	@echo "make bench        run bench/*.py"
+	@echo "make clean        remove build outputs (distclean also removes venvs and wheels/)"
+
+venv: $(STAMP)
+
+$(STAMP):
+	$(call make_venv,$(PYTHON311),$(VENV),$(PINS))
+
+demo: $(STAMP)
+	$(PY) tools/demo.py
+
+test: $(STAMP)
+	$(PY) -m pytest
+
+test-core: $(STAMP)
+	$(PY) -m pytest tests --ignore=tests/blender
+
+test-blender: $(STAMP)
+	$(PY) -m pytest tests/blender
+
+extension: $(STAMP)
+	$(PY) tools/build_extension.py --platforms $(PLATFORMS)
+
+$(COMPAT42_STAMP):
+	$(call make_venv,$(PYTHON311),$(COMPAT42_VENV),$(COMPAT42_PINS))
+
+$(COMPAT5X_STAMP):
+	$(call make_venv,$(PYTHON313),$(COMPAT5X_VENV),$(COMPAT5X_PINS))
+
+test-compat: $(COMPAT42_STAMP)
+	@echo "=== Blender tests with $(COMPAT42_PINS) ==="
+	$(COMPAT42_VENV)/bin/python -m pytest -p no:cacheprovider tests/blender
+ifeq ($(strip $(PYTHON313)),)
+	@echo "SKIP: bpy 5.2 compatibility tests -- no Python 3.13 found (~/.pyenv/versions/3.13*/bin/python3.13 or python3.13 on PATH)"
+else
+	@$(MAKE) --no-print-directory $(COMPAT5X_STAMP)
+	@echo "=== Blender tests with $(COMPAT5X_PINS) ($(PYTHON313)) ==="
+	$(COMPAT5X_VENV)/bin/python -m pytest -p no:cacheprovider tests/blender
+endif
+
+bench: $(STAMP)
+	@shopt -s nullglob; files=(bench/*.py); \
+	if [ $${#files[@]} -eq 0 ]; then echo "no bench/*.py yet"; exit 0; fi; \
+	for f in "$${files[@]}"; do echo "=== $$f"; $(PY) "$$f" || exit 1; done
+
+clean:
+	rm -rf dist out build .pytest_cache
+	find . -name __pycache__ -type d -not -path './.venv*' -prune -exec rm -rf {} +
+
+distclean: clean
+	rm -rf $(VENV) $(COMPAT42_VENV) $(COMPAT5X_VENV) wheels
