@@ -1,0 +1,20 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Operators of the Flank Toolpath extension (``bpy.ops.flank.*``).
+
+Operators are thin: read properties, call the embedded planner
+(``..flank_addon``, imported lazily inside ``execute``), build Blender data
+with ``foreach_set`` and report.  Failures are reported with
+``self.report({'ERROR'}, ...)`` and return ``{'CANCELLED'}`` without leaving
+half-built data behind.
+"""
+from .properties import FLANK_PG_settings
+from .generate import FLANK_OT_generate_rotor
+from .analyze import FLANK_OT_analyze_rotor
+
+classes = (
+    FLANK_PG_settings,
+    FLANK_OT_generate_rotor,
+    FLANK_OT_analyze_rotor,
+)
+
+__all__ = ["classes", "FLANK_PG_settings", "FLANK_OT_generate_rotor", "FLANK_OT_analyze_rotor"]
