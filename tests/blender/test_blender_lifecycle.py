@@ -1,0 +1,49 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Install the zip with Blender's installer, then disable/enable it 5x: nothing may leak."""
+import os
+
+import pytest
+
+from blender_harness import run_scenario
+
+
+@pytest.fixture(scope="module")
+def lifecycle(extension_zip, tmp_path_factory):
+    return run_scenario(extension_zip, "lifecycle", tmp_path_factory.mktemp("lifecycle"))
+
+
+def test_runs_in_background_with_isolated_user_dir(lifecycle):
+    assert lifecycle["background"] is True
+    user = lifecycle["_user_dir"]
+    ext_dir = lifecycle["install"]["extensions_dir"]
+    assert os.path.commonpath([user, ext_dir]) == user, (user, ext_dir)
+    assert os.path.isfile(os.path.join(lifecycle["install"]["installed_dir"], "blender_manifest.toml"))
+
+
+def test_install_registers_everything(lifecycle):
+    state = lifecycle["after_install"]
+    assert state["enabled"]
+    assert all(state["classes"].values()), state["classes"]
+    assert state["scene_prop"] and state["scene_rna_props"] == ["flank_settings"]
+    assert {"generate_rotor", "analyze_rotor"} <= set(state["ops"])
+
+
+def test_sidebar_panel_in_flank_tab(lifecycle):
+    panel = lifecycle["panel"]
+    assert panel["bl_category"] == "Flank"
+    assert panel["bl_space_type"] == "VIEW_3D" and panel["bl_region_type"] == "UI"
+
+
+def test_disable_enable_five_times_leaves_nothing_behind(lifecycle):
+    cycles = lifecycle["cycles"]
+    assert len(cycles) == 5
+    for i, cycle in enumerate(cycles):
+        off, on = cycle["disabled"], cycle["enabled"]
+        assert not off["enabled"], i
+        assert not any(off["classes"].values()), (i, off["classes"])
+        assert not off["scene_prop"], i
+        assert off["flank_types"] == [] and off["scene_rna_props"] == [], (i, off)
+        assert on["enabled"] and all(on["classes"].values()) and on["scene_prop"], (i, on)
+        assert cycle["generate_works"], i
+    final = lifecycle["final_disabled"]
+    assert not final["enabled"] and not any(final["classes"].values()) and not final["scene_prop"]
