@@ -75,16 +75,19 @@ $(COMPAT42_STAMP):
 $(COMPAT5X_STAMP):
 	$(call make_venv,$(PYTHON313),$(COMPAT5X_VENV),$(COMPAT5X_PINS))
 
+# Both runs always happen; the target fails at the end if either failed.
 test-compat: $(COMPAT42_STAMP)
-	@echo "=== Blender tests with $(COMPAT42_PINS) ==="
-	$(COMPAT42_VENV)/bin/python -m pytest -p no:cacheprovider tests/blender
-ifeq ($(strip $(PYTHON313)),)
-	@echo "SKIP: bpy 5.2 compatibility tests -- no Python 3.13 found (~/.pyenv/versions/3.13*/bin/python3.13 or python3.13 on PATH)"
-else
-	@$(MAKE) --no-print-directory $(COMPAT5X_STAMP)
-	@echo "=== Blender tests with $(COMPAT5X_PINS) ($(PYTHON313)) ==="
-	$(COMPAT5X_VENV)/bin/python -m pytest -p no:cacheprovider tests/blender
-endif
+	@status=0; \
+	echo "=== Blender tests with $(COMPAT42_PINS) ==="; \
+	$(COMPAT42_VENV)/bin/python -m pytest -p no:cacheprovider tests/blender || status=1; \
+	if [ -z "$(strip $(PYTHON313))" ]; then \
+	  echo "SKIP: bpy 5.x compatibility tests -- no Python 3.13 found (~/.pyenv/versions/3.13*/bin/python3.13 or python3.13 on PATH)"; \
+	else \
+	  $(MAKE) --no-print-directory $(COMPAT5X_STAMP) || exit 1; \
+	  echo "=== Blender tests with $(COMPAT5X_PINS) ($(PYTHON313)) ==="; \
+	  $(COMPAT5X_VENV)/bin/python -m pytest -p no:cacheprovider tests/blender || status=1; \
+	fi; \
+	exit $$status
 
 bench: $(STAMP)
 	@shopt -s nullglob; files=(bench/*.py); \
