@@ -16,6 +16,16 @@ Male and female are both conjugate to the same rack at the same pitch
 point, hence conjugate to each other; :func:`meshing_clearance` checks this
 numerically.
 
+Designs (scale 1, all 4/6, male and female outer radius 1, root radius
+A - 1): ``nilson`` A = 1.6 (r1 0.64, r2 0.96), rack of four circular arcs
+per pitch; ``srm_a`` A = 1.5625 (r1 0.625, r2 0.9375), rack arcs centred on
+the pitch line (exact circles centred on both pitch circles) joined by
+straight racks (involute flanks); ``asymmetric`` A = 1.6, top arc centred on
+the pitch line, short steep leading flank (70.6 deg) and long trailing flank
+(48.4 deg), rounded bottom.  Measured with ``meshing_clearance(n_steps=200)``
+at scale 1: max gap <= 5e-11 and max interference <= 1.6e-9 for all three
+kinds; spline-vs-exact error of the profiles <= 1.6e-9.
+
 Conventions
 -----------
 * Units: every built-in rotor has outer radius ``scale`` (the male and the
