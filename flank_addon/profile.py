@@ -176,27 +176,32 @@ def signed_area(poly):
     return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
 
 
-def segments_intersect_count(poly, chunk=512):
-    """Number of pairs of non-adjacent polygon edges that properly cross."""
-    a = poly
-    b = np.roll(poly, -1, axis=0)
+def segments_intersect_count(poly):
+    """Number of pairs of non-adjacent polygon edges that properly cross.
+
+    Only edges whose midpoints are closer than the longest edge can cross,
+    so candidate pairs come from a KD-tree instead of all N^2 pairs.
+    """
+    from scipy.spatial import cKDTree
+    a = np.asarray(poly, float)
+    b = np.roll(a, -1, axis=0)
     n = len(a)
-    count = 0
-    idx = np.arange(n)
-    for s in range(0, n, chunk):
-        i = idx[s:s + chunk, None]
-        j = idx[None, :]
-        p, r = a[s:s + chunk, None, :], (b - a)[s:s + chunk, None, :]
-        q, sv = a[None, :, :], (b - a)[None, :, :]
-        rxs = r[..., 0] * sv[..., 1] - r[..., 1] * sv[..., 0]
-        qp = q - p
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = (qp[..., 0] * sv[..., 1] - qp[..., 1] * sv[..., 0]) / rxs
-            w = (qp[..., 0] * r[..., 1] - qp[..., 1] * r[..., 0]) / rxs
-        adjacent = (np.abs(i - j) <= 1) | (np.abs(i - j) == n - 1)
-        hit = (t > 0) & (t < 1) & (w > 0) & (w < 1) & ~adjacent & (j > i)
-        count += int(np.count_nonzero(hit))
-    return count
+    seg = b - a
+    reach = float(np.linalg.norm(seg, axis=1).max())
+    pairs = cKDTree(0.5 * (a + b)).query_pairs(reach * (1 + 1e-9), output_type="ndarray")
+    if len(pairs) == 0:
+        return 0
+    i, j = pairs[:, 0], pairs[:, 1]
+    gap = np.abs(i - j)
+    keep = (gap > 1) & (gap != n - 1)
+    i, j = i[keep], j[keep]
+    r, sv = seg[i], seg[j]
+    qp = a[j] - a[i]
+    rxs = r[:, 0] * sv[:, 1] - r[:, 1] * sv[:, 0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (qp[:, 0] * sv[:, 1] - qp[:, 1] * sv[:, 0]) / rxs
+        w = (qp[:, 0] * r[:, 1] - qp[:, 1] * r[:, 0]) / rxs
+    return int(np.count_nonzero((t > 0) & (t < 1) & (w > 0) & (w < 1)))
 
 
 def validate_profile_points(points, name="profile"):

@@ -1,0 +1,389 @@
+"""Mesh -> rotor: helical axis, v0, handedness, transverse profile and flanks.
+
+Kinematic fit in the manner of Pottmann & Randrup (1998): a helical surface
+is invariant under a one-parameter screw motion, so the velocity field
+v(p) = cbar + c x p of that motion is tangent to the surface everywhere:
+
+    v(p_f) . n_f = cbar . n_f + c . (p_f x n_f) = 0     for every face f.
+
+With |c| = 1 this is a smallest-eigenvalue problem in R^6 (solved on the
+3x3 Schur complement after eliminating cbar).  The motion gives the axis
+direction d = c, the axis point c x cbar and the signed parameter
+k = c . cbar: |k| = v0 and sign(k) is the handedness (s000 Eq. (1): right
+turns +t about d while advancing +v0 t along d).  Planar end faces and
+other non-helical parts (k != 0 is impossible for them) are removed by
+iterative trimming; coaxial shaft cylinders fit every coaxial screw and
+do no harm.
+
+The profile is taken from the *vertices* (exact surface samples) screwed
+back into the plane z = 0 of the rotor frame, ordered along a
+connectivity-based slice of the mesh at mid body, so triangle sag does not
+enter the profile.
+"""
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .profile import SplineProfile, signed_area
+from .screw import hand_name, screw_to_plane
+
+RESIDUAL_THRESHOLD = 2e-3   # RMS sin(angle between screw velocity and face plane) over helical faces
+MIN_HELICAL_AREA = 0.3      # fraction of the mesh area that must be helical
+MIN_PITCH_RATIO = 1e-3      # v0 / R below this is a surface of revolution, not a helix
+
+
+class NotHelicalError(ValueError):
+    """The mesh is not (mostly) a helical surface; the message quotes the measured value and the limit."""
+
+
+@dataclass
+class RotorAnalysis:
+    axis_point: np.ndarray       # (3,) model frame, on the axis at the rotor-frame origin
+    axis_direction: np.ndarray   # (3,) unit
+    v0: float                    # axial advance per radian, model units
+    handedness: str
+    residual: float              # RMS tangency residual of the helical faces
+    threshold: float
+    to_world: np.ndarray         # (4, 4) rotor frame -> model frame (rigid)
+    profile: np.ndarray          # (K, 2) CCW transverse profile at z = 0 of the rotor frame
+    flanks: list                 # [[i_start, i_end], ...] inclusive, indices modulo K
+    outer_radius: float
+    lobes: int
+    helical_area_fraction: float
+    body_z: tuple                # axial extent of the helical body in the rotor frame
+    surface: object = field(repr=False, default=None)
+
+    def to_dict(self):
+        return {
+            "axis_point": self.axis_point.tolist(),
+            "axis_direction": self.axis_direction.tolist(),
+            "v0": self.v0,
+            "pitch": 2 * np.pi * self.v0,
+            "handedness": self.handedness,
+            "residual": self.residual,
+            "residual_threshold": self.threshold,
+            "to_world": self.to_world.tolist(),
+            "outer_radius": self.outer_radius,
+            "lobes": self.lobes,
+            "flanks": self.flanks,
+            "flank_count": len(self.flanks),
+            "helical_area_fraction": self.helical_area_fraction,
+            "body_z": list(self.body_z),
+            "profile_points": len(self.profile),
+        }
+
+    def to_rotor_frame(self, points):
+        inv = np.linalg.inv(self.to_world)
+        p = np.asarray(points, float)
+        return p @ inv[:3, :3].T + inv[:3, 3]
+
+    def vertex_curvature(self, verts):
+        """Gaussian curvature and class (+1 elliptic, 0 parabolic, -1 hyperbolic) at mesh vertices.
+
+        Vertices are screwed into z = 0 and matched to the nearest profile
+        parameter; off-surface vertices (caps, shafts) get their nearest
+        profile point's values.
+        """
+        prof = self.surface.profile
+        n = max(4096, 8 * len(self.profile))
+        us = prof.params(n)
+        tree = cKDTree(prof.eval(us))
+        q0 = screw_to_plane(self.to_rotor_frame(verts), self.v0, self.handedness)
+        _, idx = tree.query(q0)
+        K = self.surface.curvatures(us)["K"][idx]
+        cls = self.surface.classify(us)[idx]
+        return K, cls
+
+
+def face_geometry(verts, faces):
+    v = np.asarray(verts, float)
+    f = np.asarray(faces, int)
+    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    cr = np.cross(b - a, c - a)
+    area2 = np.linalg.norm(cr, axis=1)
+    ok = area2 > 0
+    normals = np.zeros_like(cr)
+    normals[ok] = cr[ok] / area2[ok, None]
+    return (a + b + c) / 3.0, normals, 0.5 * area2
+
+
+def vertex_normals(verts, faces):
+    """Area-weighted vertex normals and vertex areas (a third of the incident triangle areas).
+
+    A vertex sits symmetrically inside its fan of triangles, so chord
+    errors of long triangles cancel to first order; face normals at
+    centroids would bias the pitch by ~0.1 % on meshes with coarse axial
+    rings.
+    """
+    v = np.asarray(verts, float)
+    f = np.asarray(faces, int)
+    cr = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    area = np.linalg.norm(cr, axis=1) / 2
+    idx = f.ravel()
+    n = len(v)
+    vn = np.stack([np.bincount(idx, np.repeat(cr[:, c], 3), minlength=n) for c in range(3)], -1)
+    va = np.bincount(idx, np.repeat(area / 3, 3), minlength=n)
+    ln = np.linalg.norm(vn, axis=1)
+    ok = ln > 0
+    vn[ok] /= ln[ok, None]
+    va[~ok] = 0.0
+    return vn, va
+
+
+def fit_screw_motion(points, normals, weights):
+    """Weighted least-squares screw motion tangent to the given surface elements.
+
+    Returns (d, axis_point, k, eigenvalues) with |d| = 1 and k the signed
+    advance per radian; points are assumed centred and scaled to ~1.
+    """
+    m = np.cross(points, normals)
+    w = weights / weights.sum()
+    Mnn = (normals * w[:, None]).T @ normals
+    Mnm = (normals * w[:, None]).T @ m
+    Mmm = (m * w[:, None]).T @ m
+    S = Mmm - Mnm.T @ np.linalg.pinv(Mnn) @ Mnm
+    evals, evecs = np.linalg.eigh(S)
+    c = evecs[:, 0]
+    cbar = -np.linalg.pinv(Mnn) @ Mnm @ c
+    k = float(c @ cbar)
+    axis_point = np.cross(c, cbar)
+    return c, axis_point, k, evals
+
+
+def slice_loops(verts, faces, origin, normal):
+    """Closed polylines of the mesh cut by a plane, chained by mesh connectivity."""
+    v = np.asarray(verts, float)
+    f = np.asarray(faces, int)
+    s = (v - origin) @ normal
+    s = np.where(s == 0, 1e-30, s)  # keep vertices off the plane
+    sf = s[f]
+    cross = (np.sign(sf).sum(axis=1) != 3) & (np.sign(sf).sum(axis=1) != -3)
+    fc = f[cross]
+    seg_keys = []
+    for e0, e1 in ((0, 1), (1, 2), (2, 0)):
+        a, b = fc[:, e0], fc[:, e1]
+        hit = np.sign(s[a]) != np.sign(s[b])
+        seg_keys.append(np.where(hit[:, None], np.sort(np.stack([a, b], 1), axis=1), -1))
+    keys = np.stack(seg_keys, 1)  # (F, 3 edges, 2)
+    pairs = []
+    for row in keys:
+        ks = [tuple(k) for k in row if k[0] >= 0]
+        if len(ks) == 2:
+            pairs.append(ks)
+    adj = {}
+    for a, b in pairs:
+        adj.setdefault(a, []).append(b)
+        adj.setdefault(b, []).append(a)
+    seen = set()
+    loops = []
+    for start in adj:
+        if start in seen:
+            continue
+        loop = [start]
+        seen.add(start)
+        prev, cur = None, start
+        while True:
+            nxt = [n for n in adj[cur] if n != prev and n not in seen]
+            if not nxt:
+                break
+            prev, cur = cur, nxt[0]
+            seen.add(cur)
+            loop.append(cur)
+        if len(loop) >= 3:
+            e = np.array(loop)
+            sa, sb = s[e[:, 0]], s[e[:, 1]]
+            t = sa / (sa - sb)
+            loops.append(v[e[:, 0]] + t[:, None] * (v[e[:, 1]] - v[e[:, 0]]))
+    return loops
+
+
+def _frame(d, origin):
+    ref = np.array([1.0, 0.0, 0.0]) if abs(d[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = ref - (ref @ d) * d
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(d, e1)
+    T = np.eye(4)
+    T[:3, 0], T[:3, 1], T[:3, 2], T[:3, 3] = e1, e2, d, origin
+    return T
+
+
+def _order_along(loop2d, pts2d):
+    """Arc-length parameter of each point's projection onto a closed polyline."""
+    a = loop2d
+    b = np.roll(loop2d, -1, axis=0)
+    seg = b - a
+    L = np.linalg.norm(seg, axis=1)
+    cum = np.concatenate([[0.0], np.cumsum(L)])
+    mids = 0.5 * (a + b)
+    tree = cKDTree(mids)
+    k = min(8, len(a))
+    _, cand = tree.query(pts2d, k=k)
+    best_d = np.full(len(pts2d), np.inf)
+    best_s = np.zeros(len(pts2d))
+    for j in range(k):
+        i = cand[:, j]
+        t = np.clip(np.einsum("ij,ij->i", pts2d - a[i], seg[i]) / np.maximum(L[i] ** 2, 1e-300), 0, 1)
+        proj = a[i] + t[:, None] * seg[i]
+        dist = np.linalg.norm(pts2d - proj, axis=1)
+        better = dist < best_d
+        best_d[better] = dist[better]
+        best_s[better] = cum[i[better]] + t[better] * L[i[better]]
+    return best_s, cum[-1], best_d
+
+
+def split_flanks(profile, min_prominence=0.05):
+    """Lobe tips (radius maxima) and valley bottoms (radius minima) -> flank index ranges.
+
+    Every valley between neighbouring lobes contributes two flanks: tip ->
+    bottom and bottom -> next tip.  Ranges are inclusive index pairs
+    [i_start, i_end] with i_start < i_end, indices taken modulo len(profile).
+    """
+    from scipy.signal import find_peaks  # slow import, only needed here
+    r = np.linalg.norm(profile, axis=1)
+    n = len(r)
+    span = float(r.max() - r.min())
+    if span <= 1e-9 * r.max():
+        return [], 0
+    ext = np.concatenate([r, r, r])
+    peaks, _ = find_peaks(ext, prominence=min_prominence * span, plateau_size=1)
+    tips = sorted({int(p) % n for p in peaks if n <= p < 2 * n})
+    if len(tips) < 2:
+        return [], len(tips)
+    flanks = []
+    for a, b in zip(tips, tips[1:] + [tips[0] + n]):
+        seg = np.arange(a, b + 1)
+        bottom = int(seg[np.argmin(r[seg % n])])
+        flanks.append([a, bottom])
+        flanks.append([bottom, b])
+    return flanks, len(tips)
+
+
+def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD):
+    """Estimate the helical motion of a rotor mesh and extract its profile and flanks.
+
+    Args:
+        verts: (N, 3) vertex coordinates in any placement and unit.
+        faces: (M, 3) triangle indices.
+        n_profile: points of the resampled transverse profile (>= 720).
+    Raises:
+        NotHelicalError with the measured residual / ratio and its limit.
+    """
+    verts = np.asarray(verts, float)
+    faces = np.asarray(faces, int)
+    if verts.ndim != 2 or verts.shape[1] != 3 or len(verts) < 4:
+        raise NotHelicalError(f"mesh needs at least 4 vertices with 3 coordinates, got shape {verts.shape}")
+    if faces.ndim != 2 or faces.shape[1] != 3 or len(faces) < 4:
+        raise NotHelicalError(f"mesh needs triangles (M x 3) and at least 4 of them, got shape {faces.shape}")
+    if not np.isfinite(verts).all():
+        raise NotHelicalError("mesh vertices contain NaN or inf")
+    normals, areas = vertex_normals(verts, faces)
+    if areas.sum() <= 0:
+        raise NotHelicalError("mesh has no area")
+    centre = np.average(verts, axis=0, weights=areas)
+    scale = float(np.sqrt(np.average(np.sum((verts - centre) ** 2, axis=1), weights=areas)))
+    P = (verts - centre) / scale
+    valid = areas > 0
+    weights = areas.copy()
+
+    def residuals(d, a, k):
+        vel = k * d + np.cross(d, P - a)
+        speed = np.linalg.norm(vel, axis=1)
+        return np.abs(np.einsum("ij,ij->i", vel, normals)) / np.maximum(speed, 1e-300)
+
+    # robust start: iteratively reweighted (Cauchy) so end faces cannot drag the first fit
+    for _ in range(12):
+        d, a, k, evals = fit_screw_motion(P[valid], normals[valid], weights[valid])
+        rel = residuals(d, a, k)
+        sigma = max(float(np.median(rel[valid])), 1e-9)
+        weights = areas / (1.0 + (rel / sigma) ** 2)
+    keep = valid & (rel <= max(10 * sigma, 1e-6))
+    for _ in range(8):
+        d, a, k, evals = fit_screw_motion(P[keep], normals[keep], areas[keep])
+        rel = residuals(d, a, k)
+        med = float(np.median(rel[keep]))
+        new_keep = valid & (rel <= max(10 * med, 1e-6))
+        if np.array_equal(new_keep, keep):
+            break
+        keep = new_keep
+    total_area = float(areas.sum())
+    frac = float(areas[keep].sum() / total_area)
+    residual = float(np.sqrt(np.average(rel[keep] ** 2, weights=areas[keep])))
+    if residual > threshold:
+        raise NotHelicalError(
+            f"not a helical surface: tangency residual {residual:.3g} exceeds the threshold {threshold:.3g}")
+    if frac < MIN_HELICAL_AREA:
+        raise NotHelicalError(
+            f"not a helical rotor: only {frac:.1%} of the surface area fits one screw motion "
+            f"(needs at least {MIN_HELICAL_AREA:.0%})")
+    # a second (near-)zero eigenvalue means the motion is not determined (cylinders, planes)
+    if evals[1] <= 1e3 * max(evals[0], 1e-30) and evals[1] < 1e-8:
+        raise NotHelicalError(
+            f"screw motion not unique: second eigenvalue {evals[1]:.3g} is as small as the first "
+            f"{evals[0]:.3g} (surface of revolution, cylinder or plane?)")
+    axis_point = centre + scale * a
+    v0 = abs(k) * scale
+    hand = 1 if k > 0 else -1
+    if d[np.argmax(np.abs(d))] < 0:   # deterministic orientation; handedness is invariant
+        d = -d
+    # helical body: inlier vertices whose normals are not perpendicular to the axis (excludes shafts)
+    body = keep & (np.abs(normals @ d) > 0.05)
+    if not body.any():
+        raise NotHelicalError("no helical faces with an axial normal component found")
+    zc = (verts[body] - axis_point) @ d
+    z0, z1 = float(zc.min()), float(zc.max())
+    origin = axis_point + z0 * d
+    T = _frame(d, origin)
+    Rinv = T[:3, :3].T
+
+    def to_rotor(p):
+        return (p - origin) @ Rinv.T
+
+    # radius check on v0 (surfaces of revolution give k ~ 0)
+    vr = to_rotor(verts[keep])
+    outer = float(np.max(np.hypot(vr[:, 0], vr[:, 1])))
+    if v0 < MIN_PITCH_RATIO * outer:
+        raise NotHelicalError(
+            f"not helical: v0 = {v0:.3g} is below {MIN_PITCH_RATIO:g} x outer radius ({outer:.3g}); "
+            "this is a surface of revolution")
+    # profile points: exact helical vertices nearest to one axial level at mid body, screwed into
+    # z = 0.  The level is a vertex's own z, so a mesh built from rings contributes exactly one ring
+    # (no pitch-error noise between copies of the same profile point).
+    # (all vertices, not only the fit's inliers: the strict trim drops sharp-corner vertices)
+    va = to_rotor(verts)
+    zr = va[:, 2]
+    zm = float(zr[np.argmin(np.abs(zr - 0.5 * (z1 - z0)))])
+    dz = np.abs(zr - zm)
+    need = min(len(dz), n_profile)
+    band = dz <= max(np.partition(dz, need - 1)[need - 1], 1e-7 * outer)  # roundoff of rigid motions
+    cloud = screw_to_plane(va[band], v0, hand)
+    # ordering reference: slice of the mesh at that level, screwed into z = 0 as well
+    loops = slice_loops(verts, faces, origin + (zm + 1e-4 * outer) * d, d)  # off the vertex level
+    if not loops:
+        raise NotHelicalError("mid-body slice of the mesh is empty")
+    loops2 = [screw_to_plane(to_rotor(L), v0, hand) for L in loops]
+    ref = max(loops2, key=lambda L: abs(signed_area(L)))
+    if signed_area(ref) < 0:
+        ref = ref[::-1]
+    s, perim, dist = _order_along(ref, cloud)
+    near = dist < 0.02 * outer   # drop points of other loops (bores, etc.)
+    s, cloud = s[near], cloud[near]
+    order = np.argsort(s)
+    s, cloud = s[order], cloud[order]
+    gaps = np.linalg.norm(np.diff(np.vstack([cloud, cloud[:1]]), axis=0), axis=1)
+    pts = cloud[gaps > 1e-9 * outer]
+    spline = SplineProfile(pts)
+    # resample uniformly, starting at the first lobe tip so flank ranges rarely wrap
+    prof = spline.sample(n_profile)
+    flanks, lobes = split_flanks(prof)
+    if lobes >= 1 and flanks:
+        start = flanks[0][0]
+        prof = np.roll(prof, -start, axis=0)
+        flanks = [[a - start, b - start] for a, b in flanks]
+    final = SplineProfile(prof)
+    from .helical_surface import HelicalSurface
+    surface = HelicalSurface(final, v0, hand)
+    return RotorAnalysis(axis_point=origin, axis_direction=d, v0=v0, handedness=hand_name(hand),
+                         residual=residual, threshold=threshold, to_world=T, profile=prof, flanks=flanks,
+                         outer_radius=float(np.max(np.linalg.norm(prof, axis=1))), lobes=lobes,
+                         helical_area_fraction=frac, body_z=(0.0, z1 - z0), surface=surface)

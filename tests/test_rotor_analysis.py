@@ -1,0 +1,141 @@
+"""Mesh -> rotor analysis on built-in rotors in random placements, plus rejection of non-helical meshes."""
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from flank_addon.rotor_analysis import NotHelicalError, _order_along, analyze_mesh
+from flank_addon.rotors import BUILTIN_NAMES, builtin_by_name
+from flank_addon.screw import screw_to_plane
+
+
+def cylinder_mesh(radius, z0, z1, n=96, rings=4):
+    th = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    zs = np.linspace(z0, z1, rings)
+    v = np.stack([np.tile(radius * np.cos(th), rings), np.tile(radius * np.sin(th), rings), np.repeat(zs, n)], -1)
+    i = np.arange(rings - 1)[:, None] * n
+    j = np.arange(n)[None, :]
+    a, b = i + j, i + (j + 1) % n
+    f = np.concatenate([np.stack([a, b, b + n], -1).reshape(-1, 3), np.stack([a, b + n, a + n], -1).reshape(-1, 3)])
+    return v, f
+
+
+def uv_sphere(n=48):
+    th = np.linspace(0, np.pi, n)[1:-1]
+    ph = np.linspace(0, 2 * np.pi, 2 * n, endpoint=False)
+    T, P = np.meshgrid(th, ph, indexing="ij")
+    v = np.stack([np.sin(T) * np.cos(P), np.sin(T) * np.sin(P), np.cos(T)], -1).reshape(-1, 3)
+    m = 2 * n
+    i = np.arange(len(th) - 1)[:, None] * m
+    j = np.arange(m)[None, :]
+    a, b = i + j, i + (j + 1) % m
+    f = np.concatenate([np.stack([a, b, b + m], -1).reshape(-1, 3), np.stack([a, b + m, a + m], -1).reshape(-1, 3)])
+    top, bot = len(v), len(v) + 1
+    v = np.vstack([v, [[0, 0, 1], [0, 0, -1]]])
+    f = np.vstack([f, np.stack([np.full(m, top), (np.arange(m) + 1) % m, np.arange(m)], -1),
+                   np.stack([np.full(m, bot), (len(th) - 1) * m + np.arange(m),
+                             (len(th) - 1) * m + (np.arange(m) + 1) % m], -1)])
+    return v, f
+
+
+def cad_like(rotor, n_profile=6000, n_axial=60):
+    """Rotor body with end faces plus shaft cylinders at both ends, as CAD exports carry."""
+    v, f = rotor.mesh(n_profile=n_profile, n_axial=n_axial)
+    parts = [(v, f)]
+    R = rotor.profile.outer_radius()
+    for z0, z1 in ((-0.8 * R, 0.0), (rotor.length, rotor.length + 1.2 * R)):
+        parts.append(cylinder_mesh(0.35 * R, z0, z1))
+    verts, faces, off = [], [], 0
+    for pv, pf in parts:
+        verts.append(pv)
+        faces.append(pf + off)
+        off += len(pv)
+    return np.vstack(verts), np.vstack(faces)
+
+
+@pytest.mark.parametrize("name", BUILTIN_NAMES)
+def test_recovers_builtin_rotor_in_random_placement(name):
+    rotor = builtin_by_name(name)
+    R = rotor.profile.outer_radius()
+    v, f = cad_like(rotor)
+    rng = np.random.default_rng(abs(hash(name)) % 2 ** 32)
+    rot = Rotation.random(random_state=rng.integers(1 << 30)).as_matrix()
+    shift = rng.uniform(-200, 200, 3)
+    mm = 40.0  # scale R = 1 to 40 mm
+    world = (v @ rot.T) * mm + shift
+    a = analyze_mesh(world, f)
+    d_true = rot @ [0.0, 0.0, 1.0]
+    angle = np.degrees(np.arccos(min(1.0, abs(a.axis_direction @ d_true))))
+    w = shift - a.axis_point
+    offset = np.linalg.norm(w - (w @ a.axis_direction) * a.axis_direction) / (mm * R)
+    assert angle < 0.01
+    assert offset < 1e-4
+    assert abs(a.v0 / (rotor.v0 * mm) - 1) < 1e-4
+    assert a.handedness == rotor.handedness
+    assert a.lobes == rotor.lobes and len(a.flanks) == 2 * rotor.lobes
+    assert abs(a.outer_radius / (mm * R) - 1) < 1e-4
+    # profile vs truth: true profile -> world -> analysis rotor frame -> screwed into z = 0
+    u = rotor.profile.params(20000)
+    truth = (np.c_[rotor.profile.eval(u), np.zeros(len(u))] @ rot.T) * mm + shift
+    q0 = screw_to_plane(a.to_rotor_frame(truth), a.v0, a.handedness)
+    est = a.surface.profile.eval(a.surface.profile.params(40000))
+    hausdorff = max(_order_along(est, q0)[2].max(), _order_along(q0, est)[2].max()) / (mm * R)
+    assert hausdorff < 1e-4
+    # to_world is rigid and maps the rotor-frame axis onto the found axis
+    T = np.asarray(a.to_world)
+    assert np.allclose(T[:3, :3] @ T[:3, :3].T, np.eye(3), atol=1e-12)
+    assert np.allclose(T[:3, 2], a.axis_direction)
+
+
+def test_flanks_cover_profile_in_order():
+    a = analyze_mesh(*builtin_by_name("asymmetric-female").mesh(n_profile=3000, n_axial=30))
+    n = len(a.profile)
+    assert len(a.profile) >= 720
+    starts = [s for s, _ in a.flanks]
+    ends = [e for _, e in a.flanks]
+    assert starts[0] == 0 and ends[-1] == n and all(e == s for e, s in zip(ends[:-1], starts[1:]))
+    r = np.linalg.norm(a.profile, axis=1)
+    for k, (s, e) in enumerate(a.flanks):
+        # tip -> bottom flanks descend in radius, bottom -> tip flanks ascend
+        ends_r = r[s % n], r[e % n]
+        assert (ends_r[0] > ends_r[1]) if k % 2 == 0 else (ends_r[0] < ends_r[1])
+
+
+def test_female_rotor_is_mostly_hyperbolic():
+    rotor = builtin_by_name("asymmetric-female")
+    v, f = rotor.mesh(n_profile=2000, n_axial=20)
+    a = analyze_mesh(v, f)
+    K, cls = a.vertex_curvature(v)
+    # s000 §3.1: female flanks consist mainly of hyperbolic points
+    assert np.mean(cls == -1) > 0.5
+    assert np.all(np.sign(K[cls == -1]) < 0)
+
+
+def test_rejects_sphere_with_pitch_message():
+    v, f = uv_sphere()
+    with pytest.raises(NotHelicalError, match=r"v0 = .* below"):
+        analyze_mesh(v * 30, f)
+
+
+def test_rejects_cube_with_residual_message():
+    v = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
+    f = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+                  [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
+    with pytest.raises(NotHelicalError, match=r"(residual .* exceeds the threshold)|(fits one screw)|(v0 = .* below)"):
+        analyze_mesh(v, f)
+
+
+def test_rejects_distorted_rotor():
+    rotor = builtin_by_name("nilson-male")
+    v, f = rotor.mesh(n_profile=1500, n_axial=30)
+    v = v.copy()
+    v[:, 0] *= 1 + 0.2 * v[:, 2] / rotor.length  # tapering breaks the screw symmetry
+    with pytest.raises(NotHelicalError):
+        analyze_mesh(v, f)
+
+
+def test_rejects_nan_and_tiny_meshes():
+    with pytest.raises(NotHelicalError, match="NaN"):
+        analyze_mesh(np.array([[0, 0, 0], [1, 0, 0], [0, np.nan, 0], [0, 0, 1]]),
+                     np.array([[0, 1, 2], [0, 1, 3], [1, 2, 3], [0, 2, 3]]))
+    with pytest.raises(NotHelicalError, match="at least 4"):
+        analyze_mesh(np.zeros((3, 3)), np.array([[0, 1, 2]]))
