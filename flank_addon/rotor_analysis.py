@@ -31,6 +31,7 @@ from .screw import hand_name, screw_to_plane
 RESIDUAL_THRESHOLD = 2e-3   # RMS sin(angle between screw velocity and face plane) over helical faces
 MIN_HELICAL_AREA = 0.3      # fraction of the mesh area that must be helical
 MIN_PITCH_RATIO = 1e-3      # v0 / R below this is a surface of revolution, not a helix
+MIN_EIGEN_SEPARATION = 1e3  # second / first eigenvalue of the screw fit; below: motion not unique
 
 
 class NotHelicalError(ValueError):
@@ -309,18 +310,20 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD):
     total_area = float(areas.sum())
     frac = float(areas[keep].sum() / total_area)
     residual = float(np.sqrt(np.average(rel[keep] ** 2, weights=areas[keep])))
+    quote = f"tangency residual {residual:.3g}, threshold {threshold:.3g}"
     if residual > threshold:
-        raise NotHelicalError(
-            f"not a helical surface: tangency residual {residual:.3g} exceeds the threshold {threshold:.3g}")
+        raise NotHelicalError(f"not a helical surface: {quote} (residual exceeds the threshold)")
     if frac < MIN_HELICAL_AREA:
         raise NotHelicalError(
             f"not a helical rotor: only {frac:.1%} of the surface area fits one screw motion "
-            f"(needs at least {MIN_HELICAL_AREA:.0%})")
-    # a second (near-)zero eigenvalue means the motion is not determined (cylinders, planes)
-    if evals[1] <= 1e3 * max(evals[0], 1e-30) and evals[1] < 1e-8:
+            f"(needs at least {MIN_HELICAL_AREA:.0%}; {quote})")
+    # spheres, cylinders and planes fit a whole family of motions: the second eigenvalue is then
+    # as small as the first, while a helical rotor separates them by many orders of magnitude
+    separation = float(evals[1] / max(evals[0], 1e-300))
+    if separation < MIN_EIGEN_SEPARATION:
         raise NotHelicalError(
-            f"screw motion not unique: second eigenvalue {evals[1]:.3g} is as small as the first "
-            f"{evals[0]:.3g} (surface of revolution, cylinder or plane?)")
+            f"not helical: the screw motion is not unique (eigenvalue separation {separation:.3g} "
+            f"< {MIN_EIGEN_SEPARATION:g}; sphere, cylinder or plane?; {quote})")
     axis_point = centre + scale * a
     v0 = abs(k) * scale
     hand = 1 if k > 0 else -1
@@ -345,7 +348,7 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD):
     if v0 < MIN_PITCH_RATIO * outer:
         raise NotHelicalError(
             f"not helical: v0 = {v0:.3g} is below {MIN_PITCH_RATIO:g} x outer radius ({outer:.3g}); "
-            "this is a surface of revolution")
+            f"this is a surface of revolution ({quote})")
     # profile points: exact helical vertices nearest to one axial level at mid body, screwed into
     # z = 0.  The level is a vertex's own z, so a mesh built from rings contributes exactly one ring
     # (no pitch-error noise between copies of the same profile point).
