@@ -59,6 +59,8 @@ class HelicalSurface:
         self.outer_radius = profile.outer_radius()
         self._table = None
         self._polygon = None
+        self._slab_tree = None
+        self._slab_reach = 0.06 * self.outer_radius
 
     # ------------------------------------------------------------------ evaluation
     def evaluate(self, u, t):
@@ -254,6 +256,19 @@ class HelicalSurface:
         outside = (fi < 0).any(axis=1) | (fi > n - 1).any(axis=1)
         return su, st, outside
 
+    def _slab(self):
+        """KD-tree of surface samples with |tau| <= slab reach / v0 (built once)."""
+        if self._slab_tree is None:
+            h = 0.003 * self.outer_radius
+            us = self.profile.params(max(2048, int(self.profile.period / h)))
+            tmax = self._slab_reach / self.v0
+            dt = h / np.sqrt(self.outer_radius ** 2 + self.v0 ** 2)
+            ts = np.linspace(-tmax, tmax, max(3, int(2 * tmax / dt) + 1))
+            U, T = np.meshgrid(us, ts, indexing="ij")
+            pts = self.evaluate(U.ravel(), T.ravel())
+            self._slab_tree = (cKDTree(pts), U.ravel(), T.ravel(), us[1] - us[0], ts[1] - ts[0])
+        return self._slab_tree
+
     # ------------------------------------------------------------------ public queries
     def foot_points(self, points):
         """Exact global foot points of 3D points (N, 3) on the (infinite) helical surface."""
@@ -274,6 +289,25 @@ class HelicalSurface:
                 u1, t1, f1 = self._newton(su[multi, k], st[multi, k], q0[multi])
                 better = f1 < f[multi]
                 idx = multi[better]
+                u[idx], tau[idx], f[idx] = u1[better], t1[better], f1[better]
+        # near the surface, basins can be thinner than a table cell (thin lobe tips).  Feet of such
+        # queries lie in a thin slab |tau| <= d / v0, so the nearest of a few dense samples of that
+        # slab is a reliable extra seed (and a cheap KD-tree query, the samples being close)
+        near = np.flatnonzero(f < self._slab_reach ** 2)
+        if len(near):
+            tree, su_s, st_s, h_u, h_t = self._slab()
+            _, js = tree.query(np.c_[q0[near], np.zeros(len(near))], k=3)
+            for j in js.T:
+                # seeds inside the basin already found add nothing; Newton only on the others
+                du = np.abs(su_s[j] - u[near])
+                du = np.minimum(du, per - du)
+                fresh = (du > 3 * h_u) | (np.abs(st_s[j] - tau[near]) > 3 * h_t)
+                if not fresh.any():
+                    continue
+                sel = near[fresh]
+                u1, t1, f1 = self._newton(su_s[j][fresh], st_s[j][fresh], q0[sel])
+                better = f1 < f[sel]
+                idx = sel[better]
                 u[idx], tau[idx], f[idx] = u1[better], t1[better], f1[better]
         far = np.flatnonzero(outside)
         if len(far):  # beyond the table: fall back to the robust scan

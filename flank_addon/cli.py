@@ -1,0 +1,126 @@
+"""Command line: ``python -m flank_addon <command> ...`` (public interface, see README)."""
+import argparse
+import json
+import sys
+import time
+
+import numpy as np
+
+
+def _cmd_rotor(args):
+    from .mesh_io import write_mesh
+    from .profile import load_profile_csv
+    from .rotors import builtin_rotor, helical_body_mesh
+    from .screw import hand_sign
+
+    t0 = time.perf_counter()
+    if args.profile_csv:
+        if args.lead is None or args.length is None:
+            raise ValueError("--profile-csv needs --lead and --length")
+        if args.lead == 0:
+            raise ValueError("--lead must not be 0")
+        prof = load_profile_csv(args.profile_csv, unit_scale=args.scale)
+        hand = args.handedness or ("right" if args.lead > 0 else "left")
+        v0 = abs(args.lead) / (2 * np.pi)
+        n_prof = args.resolution or 2048
+        verts, faces = helical_body_mesh(prof, v0, hand, args.length, n_profile=n_prof, n_axial=args.axial)
+        desc = f"profile {args.profile_csv}: {hand}-handed, v0 {v0:.6g}, length {args.length:g}"
+    else:
+        if not args.kind or not args.part:
+            raise ValueError("give --kind and --part (or --profile-csv)")
+        rotor = builtin_rotor(args.kind, args.part, scale=args.scale, lead=args.lead, length=args.length,
+                              handedness=args.handedness)
+        verts, faces = rotor.mesh(n_profile=args.resolution or 2048, n_axial=args.axial)
+        desc = (f"{rotor.name}: {rotor.lobes} lobes, {rotor.handedness}-handed, lead {rotor.lead:.6g} "
+                f"(v0 {rotor.v0:.6g}), length {rotor.length:g}, outer radius {args.scale:g}")
+    write_mesh(args.out, verts, faces)
+    print(f"{desc}; wrote {args.out} ({len(verts)} vertices, {len(faces)} triangles, "
+          f"{time.perf_counter() - t0:.2f} s)")
+    return 0
+
+
+def _cmd_analyze(args):
+    from .mesh_io import read_mesh
+    from .rotor_analysis import analyze_mesh
+
+    t0 = time.perf_counter()
+    verts, faces = read_mesh(args.path)
+    t1 = time.perf_counter()
+    a = analyze_mesh(verts, faces, n_profile=args.profile_points)
+    t2 = time.perf_counter()
+    d = a.to_dict()
+    d["mesh"] = {"path": str(args.path), "vertices": int(len(verts)), "triangles": int(len(faces))}
+    d["timing_s"] = {"read": t1 - t0, "analyze": t2 - t1}
+    if args.profile_out:
+        np.savetxt(args.profile_out, a.profile, delimiter=",", header="x,y", comments="")
+    if args.json:
+        d["profile"] = a.profile.tolist()
+        print(json.dumps(d, indent=1))
+    else:
+        print(f"axis point      {np.array2string(a.axis_point, precision=6)}")
+        print(f"axis direction  {np.array2string(a.axis_direction, precision=8)}")
+        print(f"v0              {a.v0:.8g} (pitch {2 * np.pi * a.v0:.8g}), {a.handedness}-handed")
+        print(f"residual        {a.residual:.3g} (threshold {a.threshold:.3g})")
+        print(f"outer radius    {a.outer_radius:.6g}, {a.lobes} lobes, {len(a.flanks)} flanks")
+        print(f"time            {t2 - t1:.2f} s analysis, {t1 - t0:.2f} s reading")
+    return 0
+
+
+def _cmd_check_plan(args):
+    from .plan import read_plan
+
+    plan = read_plan(args.path)
+    s = plan["summary"]
+    print(f"{args.path}: valid {plan['schema']} ({plan['method']}, {len(plan['strips'])} strips, "
+          f"unit {plan['length_unit']}); max error {s['max_error']:.4g}, min error {s['min_error']:.4g}")
+    return 0
+
+
+def _cmd_builtins(args):
+    from .rotors import BUILTIN_NAMES
+
+    print("\n".join(BUILTIN_NAMES))
+    return 0
+
+
+def build_parser():
+    p = argparse.ArgumentParser(prog="python -m flank_addon",
+                                description="5-axis flank-milling planner for helical surfaces")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    r = sub.add_parser("rotor", help="write a built-in rotor (or a rotor from a CSV profile) as a mesh")
+    r.add_argument("--kind", choices=["nilson", "srm_a", "asymmetric"])
+    r.add_argument("--part", choices=["male", "female"])
+    r.add_argument("--profile-csv", help="transverse profile as x,y rows instead of a built-in")
+    r.add_argument("--scale", type=float, default=1.0, help="outer radius (built-ins) or CSV unit factor")
+    r.add_argument("--lead", type=float, help="axial advance per turn (default: 300 deg wrap)")
+    r.add_argument("--length", type=float, help="rotor length")
+    r.add_argument("--handedness", choices=["right", "left"])
+    r.add_argument("--resolution", type=int, help="points around the profile (default 2048)")
+    r.add_argument("--axial", type=int, default=120, help="rings along the axis (default 120)")
+    r.add_argument("--out", required=True, help="PATH.stl | PATH.ply | PATH.obj")
+    r.set_defaults(func=_cmd_rotor)
+
+    a = sub.add_parser("analyze", help="helical axis, v0, handedness, profile and flanks of a rotor mesh")
+    a.add_argument("path", help="STL, PLY or OBJ mesh in any placement and unit")
+    a.add_argument("--json", action="store_true", help="print JSON (includes the profile)")
+    a.add_argument("--profile-out", help="write the transverse profile as x,y CSV")
+    a.add_argument("--profile-points", type=int, default=2048)
+    a.set_defaults(func=_cmd_analyze)
+
+    c = sub.add_parser("check-plan", help="validate a flank-plan/1 file")
+    c.add_argument("path")
+    c.set_defaults(func=_cmd_check_plan)
+
+    b = sub.add_parser("builtins", help="list built-in rotor names (KIND-PART)")
+    b.set_defaults(func=_cmd_builtins)
+    return p
+
+
+def main(argv=None):
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except (ValueError, OSError) as e:  # bad input: one clear line, no traceback
+        print(f"error: {e}", file=sys.stderr)
+        return 2

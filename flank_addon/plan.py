@@ -1,0 +1,202 @@
+"""The shared data model: plan files, schema "flank-plan/1".
+
+Every planner writes this JSON; verification, Blender and the exports read
+it.  Fields (more are welcome, none may be removed or change meaning):
+
+    schema        "flank-plan/1"
+    method        planner name, e.g. "single-flank-cone"
+    length_unit   "mm" | "R"  (every length below, including errors)
+    rotor
+      to_world      4x4 row-major, rotor frame -> input model frame
+      v0            axial advance per radian (> 0); pitch = 2 pi v0
+      handedness    "right" | "left"  (s000 Eq. (1))
+      profile       [[x, y], ...] closed transverse section z = 0 of the whole rotor, CCW, >= 720 points
+      flanks        [[i_start, i_end], ...] inclusive profile index ranges, i_start < i_end,
+                    indices taken modulo len(profile) (a flank may run through index 0)
+      outer_radius  float
+    target_flanks  [int, ...] indices into rotor.flanks
+    tool           {"kind": "cone" | "revolved" | "disc" | "paraboloid", ...shape parameters...}
+    strips         [{axis_start, axis_end (rotor frame, inscribed-sphere centres, start = tip end),
+                     radii [r_0..r_m] at m+1 equally spaced axis points (cone: 2),
+                     shank_start, shank_end, shank_radius, flank, reported_max_error,
+                     reported_min_error, collision}, ...]
+    summary        {max_error, min_error, elapsed_s}
+
+Rotor frame: helical axis = z through the origin; the rotor surface is the
+union over t of S_t(profile).  A strip's tool is fixed in the rotor frame
+while the rotor screws.  Errors are signed: positive = material left
+(undercut), negative = overcut.
+"""
+import json
+import math
+
+import numpy as np
+
+SCHEMA = "flank-plan/1"
+TOOL_KINDS = ("cone", "revolved", "disc", "paraboloid")
+LENGTH_UNITS = ("mm", "R")
+MIN_PROFILE_POINTS = 720
+
+
+class PlanError(ValueError):
+    """A plan file violates flank-plan/1; the message names the field."""
+
+
+def _vec(x, n, name):
+    a = np.asarray(x, dtype=float)
+    if a.shape != (n,) or not np.isfinite(a).all():
+        raise PlanError(f"{name} must be {n} finite numbers, got {x!r}")
+    return a
+
+
+def rotor_section(profile, v0, handedness, flanks, to_world=None, n_profile=2048):
+    """Build the ``rotor`` section from a profile (Profile object or (K, 2) points).
+
+    ``flanks`` are index ranges into the given points, or, for a Profile
+    object, parameter ranges (u_start, u_end) which are converted to index
+    ranges of the uniform resampling.
+    """
+    if hasattr(profile, "eval"):
+        n = max(n_profile, MIN_PROFILE_POINTS)
+        per = profile.period
+        pts = profile.sample(n)
+        idx = [[int(round(a / per * n)), int(round(b / per * n))] for a, b in flanks]
+    else:
+        pts = np.asarray(profile, float)
+        idx = [[int(a), int(b)] for a, b in flanks]
+    T = np.eye(4) if to_world is None else np.asarray(to_world, float)
+    return {
+        "to_world": T.tolist(),
+        "v0": float(v0),
+        "handedness": handedness,
+        "profile": pts.tolist(),
+        "flanks": idx,
+        "outer_radius": float(np.max(np.linalg.norm(pts, axis=1))),
+    }
+
+
+def new_plan(method, rotor, tool, length_unit="R", target_flanks=(), strips=(), elapsed_s=0.0):
+    plan = {
+        "schema": SCHEMA,
+        "method": method,
+        "length_unit": length_unit,
+        "rotor": rotor,
+        "target_flanks": [int(i) for i in target_flanks],
+        "tool": dict(tool),
+        "strips": [dict(s) for s in strips],
+    }
+    plan["summary"] = summarize(plan["strips"], elapsed_s)
+    validate_plan(plan)
+    return plan
+
+
+def summarize(strips, elapsed_s):
+    if strips:
+        mx = max(float(s["reported_max_error"]) for s in strips)
+        mn = min(float(s["reported_min_error"]) for s in strips)
+    else:
+        mx = mn = 0.0
+    return {"max_error": mx, "min_error": mn, "elapsed_s": float(elapsed_s)}
+
+
+def validate_plan(plan):
+    """Raise :class:`PlanError` naming the first field that breaks flank-plan/1; return the plan."""
+    if not isinstance(plan, dict):
+        raise PlanError("plan must be a JSON object")
+    if plan.get("schema") != SCHEMA:
+        raise PlanError(f"schema must be {SCHEMA!r}, got {plan.get('schema')!r}")
+    for key in ("method", "length_unit", "rotor", "target_flanks", "tool", "strips", "summary"):
+        if key not in plan:
+            raise PlanError(f"missing field {key!r}")
+    if plan["length_unit"] not in LENGTH_UNITS:
+        raise PlanError(f"length_unit must be one of {LENGTH_UNITS}, got {plan['length_unit']!r}")
+    rotor = plan["rotor"]
+    for key in ("to_world", "v0", "handedness", "profile", "flanks", "outer_radius"):
+        if key not in rotor:
+            raise PlanError(f"missing field rotor.{key}")
+    T = np.asarray(rotor["to_world"], float)
+    if T.shape != (4, 4) or not np.isfinite(T).all():
+        raise PlanError(f"rotor.to_world must be a 4x4 matrix, got shape {T.shape}")
+    if not np.allclose(T[3], [0, 0, 0, 1]):
+        raise PlanError(f"rotor.to_world last row must be [0, 0, 0, 1], got {T[3].tolist()}")
+    A = T[:3, :3]
+    s = np.cbrt(np.linalg.det(A)) if np.linalg.det(A) > 0 else 0.0
+    if s <= 0 or not np.allclose(A.T @ A, s * s * np.eye(3), atol=1e-9 * max(1.0, s * s)):
+        raise PlanError("rotor.to_world must be a proper rigid motion (optionally uniformly scaled)")
+    v0 = rotor["v0"]
+    if not (isinstance(v0, (int, float)) and math.isfinite(v0) and v0 > 0):
+        raise PlanError(f"rotor.v0 must be a number > 0, got {v0!r}")
+    if rotor["handedness"] not in ("right", "left"):
+        raise PlanError(f"rotor.handedness must be 'right' or 'left', got {rotor['handedness']!r}")
+    prof = np.asarray(rotor["profile"], float)
+    if prof.ndim != 2 or prof.shape[1] != 2 or not np.isfinite(prof).all():
+        raise PlanError("rotor.profile must be a list of finite [x, y] pairs")
+    if len(prof) < MIN_PROFILE_POINTS:
+        raise PlanError(f"rotor.profile has {len(prof)} points, at least {MIN_PROFILE_POINTS} are required")
+    x, y = prof[:, 0], prof[:, 1]
+    if np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y) <= 0:
+        raise PlanError("rotor.profile must be counter-clockwise")
+    n = len(prof)
+    for k, fl in enumerate(rotor["flanks"]):
+        if len(fl) != 2 or not all(isinstance(i, int) for i in fl):
+            raise PlanError(f"rotor.flanks[{k}] must be two integers, got {fl!r}")
+        a, b = fl
+        if not (0 <= a < n and a < b <= a + n):
+            raise PlanError(f"rotor.flanks[{k}] = {fl} must satisfy 0 <= start < {n} and start < end <= start + {n}")
+    nf = len(rotor["flanks"])
+    for i in plan["target_flanks"]:
+        if not (isinstance(i, int) and 0 <= i < nf):
+            raise PlanError(f"target_flanks entry {i!r} is not a flank index (0..{nf - 1})")
+    tool = plan["tool"]
+    if tool.get("kind") not in TOOL_KINDS:
+        raise PlanError(f"tool.kind must be one of {TOOL_KINDS}, got {tool.get('kind')!r}")
+    for k, st in enumerate(plan["strips"]):
+        for key in ("axis_start", "axis_end", "shank_start", "shank_end"):
+            if key not in st:
+                raise PlanError(f"missing field strips[{k}].{key}")
+            _vec(st[key], 3, f"strips[{k}].{key}")
+        radii = np.asarray(st.get("radii", []), float)
+        if radii.ndim != 1 or len(radii) < 2 or not np.isfinite(radii).all() or (radii < 0).any():
+            raise PlanError(f"strips[{k}].radii must hold >= 2 non-negative radii")
+        for key in ("shank_radius", "reported_max_error", "reported_min_error"):
+            if not isinstance(st.get(key), (int, float)) or not math.isfinite(st[key]):
+                raise PlanError(f"strips[{k}].{key} must be a finite number")
+        if not isinstance(st.get("flank"), int) or not 0 <= st["flank"] < nf:
+            raise PlanError(f"strips[{k}].flank must be a flank index (0..{nf - 1})")
+        if not isinstance(st.get("collision"), bool):
+            raise PlanError(f"strips[{k}].collision must be true or false")
+    for key in ("max_error", "min_error", "elapsed_s"):
+        if not isinstance(plan["summary"].get(key), (int, float)):
+            raise PlanError(f"summary.{key} must be a number")
+    return plan
+
+
+def write_plan(path, plan):
+    validate_plan(plan)
+    with open(path, "w") as f:
+        json.dump(plan, f, indent=1)
+
+
+def read_plan(path):
+    try:
+        with open(path) as f:
+            plan = json.load(f)
+    except json.JSONDecodeError as e:
+        raise PlanError(f"{path}: not valid JSON ({e})") from None
+    return validate_plan(plan)
+
+
+def plan_surface(plan):
+    """HelicalSurface of the plan's rotor (rotor frame, plan units)."""
+    from .helical_surface import HelicalSurface
+    from .profile import SplineProfile
+
+    r = plan["rotor"]
+    return HelicalSurface(SplineProfile(r["profile"]), r["v0"], r["handedness"])
+
+
+def flank_points(plan, k):
+    """(P, 2) profile points of flank k (inclusive range, indices modulo the profile length)."""
+    prof = np.asarray(plan["rotor"]["profile"], float)
+    a, b = plan["rotor"]["flanks"][k]
+    return prof[np.arange(a, b + 1) % len(prof)]
