@@ -1,0 +1,121 @@
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from flank_addon.plan import PlanError, new_plan, read_plan, rotor_section, validate_plan, write_plan
+from flank_addon.rotors import builtin_by_name
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def run_cli(*args):
+    return subprocess.run([sys.executable, "-m", "flank_addon", *map(str, args)], cwd=ROOT,
+                          capture_output=True, text=True, timeout=300)
+
+
+def sample_plan():
+    rotor = builtin_by_name("asymmetric-female")
+    section = rotor_section(rotor.profile, rotor.v0, rotor.handedness, rotor.flanks)
+    strip = {"axis_start": [0.5, 0.0, 0.0], "axis_end": [0.7, 0.0, 0.3], "radii": [0.1, 0.15],
+             "shank_start": [0.7, 0.0, 0.3], "shank_end": [0.9, 0.0, 0.8], "shank_radius": 0.15, "flank": 1,
+             "reported_max_error": 0.002, "reported_min_error": -0.0005, "collision": False}
+    return new_plan("test", section, {"kind": "cone", "r1": 0.1, "r2": 0.15, "length": 0.2},
+                    target_flanks=[1], strips=[strip], elapsed_s=0.1)
+
+
+def test_plan_round_trip_and_summary(tmp_path):
+    plan = sample_plan()
+    assert plan["summary"]["max_error"] == 0.002 and plan["summary"]["min_error"] == -0.0005
+    assert len(plan["rotor"]["profile"]) >= 720 and len(plan["rotor"]["flanks"]) == 12
+    path = tmp_path / "p.json"
+    write_plan(path, plan)
+    again = read_plan(path)
+    assert again == json.loads(json.dumps(plan))
+    # flank index ranges follow the rotor's parameter ranges: tip -> bottom radii decrease
+    prof = np.asarray(plan["rotor"]["profile"])
+    a, b = plan["rotor"]["flanks"][0]
+    r = np.linalg.norm(prof, axis=1)
+    assert r[a % len(r)] > r[b % len(r)]
+
+
+@pytest.mark.parametrize("mutate, message", [
+    (lambda p: p.update(schema="flank-plan/0"), "schema"),
+    (lambda p: p["rotor"].update(v0=-1.0), "rotor.v0"),
+    (lambda p: p["rotor"].update(handedness="up"), "rotor.handedness"),
+    (lambda p: p["rotor"].update(profile=p["rotor"]["profile"][:100]), "at least 720"),
+    (lambda p: p["rotor"].update(profile=p["rotor"]["profile"][::-1]), "counter-clockwise"),
+    (lambda p: p["rotor"]["to_world"][0].__setitem__(0, 3.0), "rigid"),
+    (lambda p: p["strips"][0].update(radii=[0.1]), "radii"),
+    (lambda p: p["strips"][0].update(flank=99), "flank"),
+    (lambda p: p["tool"].update(kind="drill"), "tool.kind"),
+    (lambda p: p.update(target_flanks=[40]), "target_flanks"),
+])
+def test_plan_validation_names_the_field(mutate, message):
+    plan = json.loads(json.dumps(sample_plan()))
+    mutate(plan)
+    with pytest.raises(PlanError, match=message):
+        validate_plan(plan)
+
+
+def test_cli_rotor_then_analyze_json(tmp_path):
+    out = tmp_path / "rotor.stl"
+    r = run_cli("rotor", "--kind", "srm_a", "--part", "male", "--scale", "50", "--resolution", "3000",
+                "--axial", "40", "--out", out)
+    assert r.returncode == 0, r.stderr
+    assert "srm_a-male" in r.stdout and out.stat().st_size > 0
+    r = run_cli("analyze", out, "--json")
+    assert r.returncode == 0, r.stderr
+    d = json.loads(r.stdout)
+    rotor = builtin_by_name("srm_a-male", scale=50)
+    assert abs(d["v0"] / rotor.v0 - 1) < 1e-4
+    assert d["handedness"] == "right" and d["flank_count"] == 8
+    T = np.array(d["to_world"])
+    assert T.shape == (4, 4) and np.allclose(T[:3, 2], d["axis_direction"])
+    assert len(d["profile"]) >= 720 and d["residual"] < d["residual_threshold"]
+
+
+def test_cli_formats_and_left_hand(tmp_path):
+    for ext in ("ply", "obj"):
+        out = tmp_path / f"r.{ext}"
+        r = run_cli("rotor", "--kind", "nilson", "--part", "female", "--handedness", "right",
+                    "--resolution", "1500", "--axial", "20", "--out", out)
+        assert r.returncode == 0, r.stderr
+        r = run_cli("analyze", out)
+        assert r.returncode == 0, r.stderr
+        assert "right-handed" in r.stdout and "12 flanks" in r.stdout
+
+
+def test_cli_bad_input_is_one_clear_line(tmp_path):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("x,y\n0,0\n1,nan\n")
+    r = run_cli("rotor", "--profile-csv", bad, "--lead", "3", "--length", "2", "--out", tmp_path / "x.stl")
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert r.stderr.startswith("error:") and "not a finite number" in r.stderr
+    missing = run_cli("analyze", tmp_path / "none.stl")
+    assert missing.returncode == 2 and "Traceback" not in missing.stderr
+
+
+def test_cli_profile_csv_rotor_round_trip(tmp_path):
+    t = np.linspace(0, 2 * np.pi, 600, endpoint=False)
+    rr = 20 + 4 * np.cos(3 * t)
+    csv = tmp_path / "p.csv"
+    np.savetxt(csv, np.c_[rr * np.cos(t), rr * np.sin(t)], delimiter=",", header="x,y", comments="")
+    out = tmp_path / "r.stl"
+    r = run_cli("rotor", "--profile-csv", csv, "--lead", "-90", "--length", "40", "--axial", "30", "--out", out)
+    assert r.returncode == 0, r.stderr
+    d = json.loads(run_cli("analyze", out, "--json").stdout)
+    assert d["handedness"] == "left" and abs(d["v0"] * 2 * np.pi / 90 - 1) < 1e-4 and d["lobes"] == 3
+
+
+def test_cli_check_plan(tmp_path):
+    path = tmp_path / "p.json"
+    write_plan(path, sample_plan())
+    r = run_cli("check-plan", path)
+    assert r.returncode == 0 and "valid flank-plan/1" in r.stdout
+    path.write_text("{not json")
+    r = run_cli("check-plan", path)
+    assert r.returncode == 2 and "not valid JSON" in r.stderr

@@ -1,0 +1,84 @@
+import numpy as np
+import pytest
+
+from flank_addon.profile import (Arc, Line, ProfileError, SegmentProfile, SplineProfile, load_profile_csv,
+                                 points_in_polygon, segments_intersect_count)
+
+
+def circle(n=400, r=1.0):
+    t = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    return np.c_[r * np.cos(t), r * np.sin(t)]
+
+
+def write_csv(path, pts, header=True):
+    with open(path, "w") as f:
+        if header:
+            f.write("x,y\n")
+        for x, y in pts:
+            f.write(f"{x!r},{y!r}\n")
+
+
+def test_spline_through_circle_points_is_accurate_and_ccw():
+    prof = SplineProfile(circle()[::-1])  # clockwise input is reversed
+    u = prof.params(5000)
+    p = prof.eval(u)
+    assert np.max(np.abs(np.linalg.norm(p, axis=1) - 1)) < 1e-9
+    assert np.allclose(prof.curvature(u), 1.0, atol=1e-4)  # CCW: convex -> positive; spline p" is O(h^2)
+    p_, d1, d2 = prof.eval_all(u[:50])
+    assert np.allclose(d1, prof.eval(u[:50], 1)) and np.allclose(d2, prof.eval(u[:50], 2))
+
+
+def test_segment_profile_is_exact():
+    prof = SegmentProfile([Line((-1, 0), (1, 0)), Arc((0, 0), 1.0, 0.0, np.pi)])
+    assert np.isclose(prof.period, 2 + np.pi)
+    assert np.allclose(prof.eval(np.array([0.5, 2 + np.pi / 2])), [[-0.5, 0], [0, 1]])
+    with pytest.raises(ProfileError, match="do not join"):
+        SegmentProfile([Line((-1, 0), (1, 0)), Arc((0, 0), 1.0, 0.0, np.pi / 2)])
+
+
+def test_csv_round_trip(tmp_path):
+    path = tmp_path / "p.csv"
+    write_csv(path, circle(300, 25.0))
+    prof = load_profile_csv(path)
+    assert abs(prof.outer_radius() - 25.0) < 1e-6
+
+
+@pytest.mark.parametrize("defect, message", [
+    ("nan", r"row 6 is not a finite number pair"),
+    ("duplicate", r"duplicate points"),
+    ("open", r"curve is open"),
+    ("self_intersection", r"self-intersecting"),
+    ("too_few", r"at least 8"),
+])
+def test_csv_validation_names_the_defect(tmp_path, defect, message):
+    pts = circle(200)
+    if defect == "nan":
+        pts[5, 1] = np.nan
+    elif defect == "duplicate":
+        pts = np.insert(pts, 10, pts[10], axis=0)
+    elif defect == "open":
+        pts = pts[:150]
+    elif defect == "self_intersection":
+        t = np.linspace(0, 2 * np.pi, 200, endpoint=False)
+        pts = np.c_[np.cos(t), np.sin(2 * t)]  # figure eight
+    elif defect == "too_few":
+        pts = pts[:5]
+    path = tmp_path / "bad.csv"
+    write_csv(path, pts)
+    with pytest.raises(ProfileError, match=message):
+        load_profile_csv(path)
+
+
+def test_non_numeric_row(tmp_path):
+    path = tmp_path / "bad.csv"
+    path.write_text("x,y\n0,1\n1,abc\n")
+    with pytest.raises(ProfileError, match="line 3 is not numeric"):
+        load_profile_csv(path)
+
+
+def test_intersection_count_and_point_in_polygon():
+    t = np.linspace(0, 2 * np.pi, 300, endpoint=False)
+    assert segments_intersect_count(np.c_[np.cos(t), np.sin(t)]) == 0
+    assert segments_intersect_count(np.c_[np.cos(t), np.sin(2 * t)]) == 1
+    inside = points_in_polygon(np.array([[0, 0], [0.99, 0], [1.01, 0], [0, -1.2]]), circle(2000))
+    assert inside.tolist() == [True, True, False, False]
