@@ -31,7 +31,7 @@ class FLANK_OT_generate_rotor(bpy.types.Operator):
                 length=self.length if self.length > 0.0 else None,
                 handedness=hand,
             )
-            verts, faces = rotor.mesh(n_profile=int(self.resolution))
+            verts, faces = rotor.mesh(n_profile=int(self.resolution), n_axial=int(self.axial))
         except Exception as ex:  # core errors (RotorError, ProfileError, ...) -> report, no traceback
             self.report({'ERROR'}, "Rotor generation failed: {}".format(ex))
             return {'CANCELLED'}

@@ -31,8 +31,10 @@ def generator_props():
         length=FloatProperty(name="Length", description="Rotor length, 0 = automatic",
                              default=0.0, min=0.0, unit='LENGTH'),
         handedness=EnumProperty(name="Handedness", items=HAND_ITEMS, default="DEFAULT"),
-        resolution=IntProperty(name="Resolution", description="Profile samples of the mesh",
-                               default=360, min=24, soft_max=4096),
+        resolution=IntProperty(name="Resolution", description="Samples around the transverse profile",
+                               default=1440, min=24, soft_max=8192),
+        axial=IntProperty(name="Axial Rings", description="Rings along the rotor axis",
+                          default=96, min=2, soft_max=1024),
     )
 
 

@@ -2,7 +2,7 @@
 """Workpiece panel: generate a built-in rotor or analyze the active mesh, show the helix data."""
 import bpy
 
-GEN_PROPS = ("kind", "part", "scale", "lead", "length", "handedness", "resolution")
+GEN_PROPS = ("kind", "part", "scale", "lead", "length", "handedness", "resolution", "axial")
 
 
 class FLANK_PT_workpiece(bpy.types.Panel):

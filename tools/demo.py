@@ -11,7 +11,7 @@
    by the ``curvature_class`` attribute; Cycles CPU fallback/option) and
    ``out/report.json``, and print a summary.
 
-    python tools/demo.py [--out out] [--engine workbench|cycles] [--resolution 360] [--zip ZIP | --source]
+    python tools/demo.py [--out out] [--engine workbench|cycles] [--resolution 1440] [--zip ZIP | --source]
 """
 import argparse
 import json
@@ -158,7 +158,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description="Flank Toolpath end-to-end demo")
     ap.add_argument("--out", default=str(ROOT / "out"))
     ap.add_argument("--engine", choices=("workbench", "cycles"), default="workbench")
-    ap.add_argument("--resolution", type=int, default=360, help="profile samples of the rotor mesh")
+    ap.add_argument("--resolution", type=int, default=1440, help="profile samples of the rotor mesh")
     ap.add_argument("--size", default="960x540")
     src = ap.add_mutually_exclusive_group()
     src.add_argument("--zip", help="install this extension zip instead of building one")
