@@ -38,3 +38,45 @@ def brute_force_distance(surface, points, n_u=3000, n_t=1200):
         d, _ = cKDTree(pts).query(q0)
         best = np.minimum(best, d)
     return best
+
+
+def cylinder_mesh(radius, z0, z1, n=96, rings=4):
+    th = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    zs = np.linspace(z0, z1, rings)
+    v = np.stack([np.tile(radius * np.cos(th), rings), np.tile(radius * np.sin(th), rings), np.repeat(zs, n)], -1)
+    i = np.arange(rings - 1)[:, None] * n
+    j = np.arange(n)[None, :]
+    a, b = i + j, i + (j + 1) % n
+    f = np.concatenate([np.stack([a, b, b + n], -1).reshape(-1, 3), np.stack([a, b + n, a + n], -1).reshape(-1, 3)])
+    return v, f
+
+
+def cad_like(rotor, n_profile=6000, n_axial=60):
+    """Rotor body with end faces plus shaft cylinders at both ends, as CAD exports carry."""
+    v, f = rotor.mesh(n_profile=n_profile, n_axial=n_axial)
+    parts = [(v, f)]
+    R = rotor.profile.outer_radius()
+    for z0, z1 in ((-0.8 * R, 0.0), (rotor.length, rotor.length + 1.2 * R)):
+        parts.append(cylinder_mesh(0.35 * R, z0, z1))
+    verts, faces, off = [], [], 0
+    for pv, pf in parts:
+        verts.append(pv)
+        faces.append(pf + off)
+        off += len(pv)
+    return np.vstack(verts), np.vstack(faces)
+
+
+def profile_hausdorff(analysis, rotor, to_model):
+    """Hausdorff distance between the analysed profile and the true one.
+
+    The true profile (rotor frame, z = 0) is moved into the model by
+    ``to_model``, then into the analysis' rotor frame and screwed into its
+    plane z = 0, so axis, pitch and profile errors all count.
+    """
+    from flank_addon.rotor_analysis import _order_along
+
+    u = rotor.profile.params(20000)
+    truth = to_model(np.c_[rotor.profile.eval(u), np.zeros(len(u))])
+    q0 = screw_to_plane(analysis.to_rotor_frame(truth), analysis.v0, analysis.handedness)
+    est = analysis.surface.profile.eval(analysis.surface.profile.params(40000))
+    return max(_order_along(est, q0)[2].max(), _order_along(q0, est)[2].max())

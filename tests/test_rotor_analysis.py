@@ -3,20 +3,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from flank_addon.rotor_analysis import NotHelicalError, _order_along, analyze_mesh
+from flank_addon.rotor_analysis import NotHelicalError, analyze_mesh
 from flank_addon.rotors import BUILTIN_NAMES, builtin_by_name
-from flank_addon.screw import screw_to_plane
-
-
-def cylinder_mesh(radius, z0, z1, n=96, rings=4):
-    th = np.linspace(0, 2 * np.pi, n, endpoint=False)
-    zs = np.linspace(z0, z1, rings)
-    v = np.stack([np.tile(radius * np.cos(th), rings), np.tile(radius * np.sin(th), rings), np.repeat(zs, n)], -1)
-    i = np.arange(rings - 1)[:, None] * n
-    j = np.arange(n)[None, :]
-    a, b = i + j, i + (j + 1) % n
-    f = np.concatenate([np.stack([a, b, b + n], -1).reshape(-1, 3), np.stack([a, b + n, a + n], -1).reshape(-1, 3)])
-    return v, f
+from helpers import cad_like, profile_hausdorff
 
 
 def uv_sphere(n=48):
@@ -35,21 +24,6 @@ def uv_sphere(n=48):
                    np.stack([np.full(m, bot), (len(th) - 1) * m + np.arange(m),
                              (len(th) - 1) * m + (np.arange(m) + 1) % m], -1)])
     return v, f
-
-
-def cad_like(rotor, n_profile=6000, n_axial=60):
-    """Rotor body with end faces plus shaft cylinders at both ends, as CAD exports carry."""
-    v, f = rotor.mesh(n_profile=n_profile, n_axial=n_axial)
-    parts = [(v, f)]
-    R = rotor.profile.outer_radius()
-    for z0, z1 in ((-0.8 * R, 0.0), (rotor.length, rotor.length + 1.2 * R)):
-        parts.append(cylinder_mesh(0.35 * R, z0, z1))
-    verts, faces, off = [], [], 0
-    for pv, pf in parts:
-        verts.append(pv)
-        faces.append(pf + off)
-        off += len(pv)
-    return np.vstack(verts), np.vstack(faces)
 
 
 @pytest.mark.parametrize("name", BUILTIN_NAMES)
@@ -74,11 +48,7 @@ def test_recovers_builtin_rotor_in_random_placement(name):
     assert a.lobes == rotor.lobes and len(a.flanks) == 2 * rotor.lobes
     assert abs(a.outer_radius / (mm * R) - 1) < 1e-4
     # profile vs truth: true profile -> world -> analysis rotor frame -> screwed into z = 0
-    u = rotor.profile.params(20000)
-    truth = (np.c_[rotor.profile.eval(u), np.zeros(len(u))] @ rot.T) * mm + shift
-    q0 = screw_to_plane(a.to_rotor_frame(truth), a.v0, a.handedness)
-    est = a.surface.profile.eval(a.surface.profile.params(40000))
-    hausdorff = max(_order_along(est, q0)[2].max(), _order_along(q0, est)[2].max()) / (mm * R)
+    hausdorff = profile_hausdorff(a, rotor, lambda p: (p @ rot.T) * mm + shift) / (mm * R)
     assert hausdorff < 1e-4
     # to_world is rigid and maps the rotor-frame axis onto the found axis
     T = np.asarray(a.to_world)
