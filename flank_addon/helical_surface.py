@@ -358,8 +358,13 @@ class HelicalSurface:
         disc = np.sqrt(np.maximum(H * H - K, 0.0))
         return {"k1": H + disc, "k2": H - disc, "K": K, "H": H}
 
-    def classify(self, u, rel_tol=1e-6):
-        """+1 elliptic (K > 0), 0 parabolic, -1 hyperbolic (K < 0), s000 Fig. 3."""
+    def classify(self, u, rel_tol=1e-3):
+        """+1 elliptic (K > 0), 0 parabolic, -1 hyperbolic (K < 0), s000 Fig. 3.
+
+        Parabolic means |K| R^2 < rel_tol: cylindrical pieces (arcs centred on
+        the axis) have K = 0 exactly, and a profile fitted to mesh vertices
+        carries curvature noise far above 1e-6 / R^2 there.
+        """
         K = self.curvatures(u)["K"]
         tol = rel_tol / self.outer_radius ** 2
         return np.where(K > tol, 1, np.where(K < -tol, -1, 0))
