@@ -135,3 +135,21 @@ def test_builtin_female_rotor_thin_lobe_tips_match_brute_force():
     gap = np.abs(fp.distance) - bf
     assert gap.max() <= 1e-12, f"worse than brute force by {gap.max():.3g}"
     assert np.array_equal(fp.distance < 0, surf.contains(q))
+
+
+@pytest.mark.parametrize("hand", ["right", "left"])
+def test_surface_from_meridian_contains_the_meridian(hand):
+    """A closed thread-like meridian (r, z): the swept surface passes through every meridian point."""
+    s = np.linspace(0, 2 * np.pi, 600, endpoint=False)
+    meridian = np.c_[0.7 + 0.2 * np.cos(s), 0.25 * np.sin(s)]  # ellipse in the (r, z) half plane
+    v0 = 0.3
+    surf = HelicalSurface.from_meridian(meridian, v0, hand)
+    on = np.c_[meridian[:, 0], np.zeros(len(s)), meridian[:, 1]]
+    assert np.max(np.abs(surf.signed_distance(on))) < 1e-8
+    # the meridian's interior is inside the solid, its exterior outside
+    assert surf.contains(np.array([[0.7, 0.0, 0.0], [0.75, 0.0, 0.1]])).all()
+    assert not surf.contains(np.array([[0.95, 0.0, 0.0], [0.7, 0.0, 0.3]])).any()
+    # and the whole helical tube: the same points screwed by any t stay on the surface
+    from flank_addon.screw import screw_motion
+    moved = screw_motion(on[::20], 1.3, v0, hand)
+    assert np.max(np.abs(surf.signed_distance(moved))) < 1e-8
