@@ -233,6 +233,44 @@ def _order_along(loop2d, pts2d):
     return best_s, cum[-1], best_d
 
 
+def body_mask_all(keep, normals, d):
+    """Vertices that fit the screw and are not on shafts (normals with an axial component)."""
+    return keep & (np.abs(normals @ d) > 0.05)
+
+
+def rotate_plane(xy, angle):
+    c, s = np.cos(angle), np.sin(angle)
+    return np.stack([c * xy[:, 0] - s * xy[:, 1], s * xy[:, 0] + c * xy[:, 1]], -1)
+
+
+def _refine_pitch(spline, verts_level, v0, hand, outer, n_use=20000):
+    """1-D refinement of v0: exact surface vertices far from the profile level, screwed back with the
+    right pitch, lie on the profile; minimise their mean squared distance to it (Brent).
+
+    The vertex-normal fit leaves ~1e-5 relative pitch error on coarse meshes; positions of exact
+    vertices pin it down far better because the error grows with the axial distance.
+    """
+    from scipy.optimize import minimize_scalar
+
+    z = verts_level[:, 2]
+    far = np.abs(z) > 0.25 * (np.ptp(z) if len(z) else 0.0)
+    pts = verts_level[far]
+    if len(pts) < 50:
+        return v0
+    if len(pts) > n_use:
+        pts = pts[np.random.default_rng(0).choice(len(pts), n_use, replace=False)]
+    poly = spline.sample(max(20000, 8 * len(spline.points)))
+    tree = cKDTree(poly)
+
+    def cost(x):
+        d, _ = tree.query(screw_to_plane(pts, x, hand))
+        return float(np.mean(np.minimum(d, 0.01 * outer) ** 2))
+
+    res = minimize_scalar(cost, bounds=(v0 * (1 - 2e-3), v0 * (1 + 2e-3)), method="bounded",
+                          options={"xatol": 1e-11 * v0})
+    return float(res.x) if res.fun <= cost(v0) else v0
+
+
 def split_flanks(profile, min_prominence=0.05):
     """Lobe tips (radius maxima) and valley bottoms (radius minima) -> flank index ranges.
 
@@ -357,14 +395,19 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD):
     zr = va[:, 2]
     zm = float(zr[np.argmin(np.abs(zr - 0.5 * (z1 - z0)))])
     dz = np.abs(zr - zm)
-    need = min(len(dz), n_profile)
-    band = dz <= max(np.partition(dz, need - 1)[need - 1], 1e-7 * outer)  # roundoff of rigid motions
-    cloud = screw_to_plane(va[band], v0, hand)
+    ring = dz <= 1e-7 * outer   # tolerance: roundoff of rigid motions
+    if ring.sum() >= 720:
+        band = ring
+    else:  # no ring structure: the vertices nearest to the level, merged below where they coincide
+        need = min(len(dz), 8 * n_profile)
+        band = dz <= max(np.partition(dz, need - 1)[need - 1], 1e-7 * outer)
+    level = np.array([0.0, 0.0, zm])
+    cloud = screw_to_plane(va[band] - level, v0, hand)   # in the plane of the level itself
     # ordering reference: slice of the mesh at that level, screwed into z = 0 as well
     loops = slice_loops(verts, faces, origin + (zm + 1e-4 * outer) * d, d)  # off the vertex level
     if not loops:
         raise NotHelicalError("mid-body slice of the mesh is empty")
-    loops2 = [screw_to_plane(to_rotor(L), v0, hand) for L in loops]
+    loops2 = [screw_to_plane(to_rotor(L) - level, v0, hand) for L in loops]
     ref = max(loops2, key=lambda L: abs(signed_area(L)))
     if signed_area(ref) < 0:
         ref = ref[::-1]
@@ -373,9 +416,20 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD):
     s, cloud = s[near], cloud[near]
     order = np.argsort(s)
     s, cloud = s[order], cloud[order]
-    gaps = np.linalg.norm(np.diff(np.vstack([cloud, cloud[:1]]), axis=0), axis=1)
-    pts = cloud[gaps > 1e-9 * outer]
+    # copies of one profile point coming from different axial levels differ only by the pitch
+    # error (~1e-6 R); a spline through such near-duplicates zigzags, so merge each run of points
+    # closer than 1e-4 R along the profile into its mean
+    start = np.concatenate([[True], np.diff(s) > 1e-4 * outer])
+    cluster = np.cumsum(start) - 1
+    if s[-1] - s[0] > perim - 1e-4 * outer:   # the last run wraps onto the first
+        cluster[cluster == cluster[-1]] = 0 if cluster[-1] > 0 else cluster[-1]
+    counts = np.bincount(cluster)
+    pts = np.stack([np.bincount(cluster, cloud[:, c]) for c in range(2)], -1)[counts > 0] / counts[counts > 0, None]
     spline = SplineProfile(pts)
+    # pitch refinement: vertices far from the profile level must screw back onto the profile
+    v0 = _refine_pitch(spline, va[body_mask_all(keep, normals, d)] - level, v0, hand, outer)
+    # the rotor frame's profile is at z = 0: screw the level's profile there with the refined pitch
+    spline = SplineProfile(rotate_plane(pts, -hand * zm / v0))
     # resample uniformly, starting at the first lobe tip so flank ranges rarely wrap
     prof = spline.sample(n_profile)
     flanks, lobes = split_flanks(prof)
