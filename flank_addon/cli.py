@@ -20,7 +20,10 @@ def _cmd_rotor(args):
         if args.lead == 0:
             raise ValueError("--lead must not be 0")
         prof = load_profile_csv(args.profile_csv, unit_scale=args.scale)
-        hand = args.handedness or ("right" if args.lead > 0 else "left")
+        # like the built-ins: a negative lead flips the hand (right by default)
+        hand = args.handedness or "right"
+        if args.lead < 0:
+            hand = "left" if hand == "right" else "right"
         v0 = abs(args.lead) / (2 * np.pi)
         n_prof = args.resolution or 2048
         verts, faces = helical_body_mesh(prof, v0, hand, args.length, n_profile=n_prof, n_axial=args.axial)
@@ -43,6 +46,8 @@ def _cmd_analyze(args):
     from .mesh_io import read_mesh
     from .rotor_analysis import analyze_mesh
 
+    if args.profile_points < 720:
+        raise ValueError(f"--profile-points {args.profile_points} is below the minimum 720 of flank-plan/1")
     t0 = time.perf_counter()
     verts, faces = read_mesh(args.path)
     t1 = time.perf_counter()
@@ -105,7 +110,7 @@ def build_parser():
     a.add_argument("path", help="STL, PLY or OBJ mesh in any placement and unit")
     a.add_argument("--json", action="store_true", help="print JSON (includes the profile)")
     a.add_argument("--profile-out", help="write the transverse profile as x,y CSV")
-    a.add_argument("--profile-points", type=int, default=2048)
+    a.add_argument("--profile-points", type=int, default=2048, help="resampled profile points (>= 720)")
     a.set_defaults(func=_cmd_analyze)
 
     c = sub.add_parser("check-plan", help="validate a flank-plan/1 file")
@@ -121,6 +126,9 @@ def main(argv=None):
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (ValueError, OSError) as e:  # bad input: one clear line, no traceback
+    except OSError as e:  # missing or unreadable files: say which and why
+        print(f"error: {e.filename or ''}: {e.strerror or e}", file=sys.stderr)
+        return 2
+    except ValueError as e:  # bad input: one clear line, no traceback
         print(f"error: {e}", file=sys.stderr)
         return 2

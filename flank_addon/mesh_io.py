@@ -397,5 +397,5 @@ def read_mesh(path):
     """Read .stl (ascii/binary), .ply (ascii/binary_little_endian) or .obj -> (verts, faces)."""
     reader = _ext(path, READERS)
     if not os.path.exists(path):
-        raise FileNotFoundError(path)
+        raise FileNotFoundError(2, "no such mesh file", str(path))
     return reader(path)

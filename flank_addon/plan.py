@@ -42,6 +42,14 @@ class PlanError(ValueError):
     """A plan file violates flank-plan/1; the message names the field."""
 
 
+def _is_int(x):
+    return isinstance(x, int) and not isinstance(x, bool)
+
+
+def _is_num(x):
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
 def _vec(x, n, name):
     a = np.asarray(x, dtype=float)
     if a.shape != (n,) or not np.isfinite(a).all():
@@ -101,6 +109,15 @@ def summarize(strips, elapsed_s):
 
 def validate_plan(plan):
     """Raise :class:`PlanError` naming the first field that breaks flank-plan/1; return the plan."""
+    try:
+        return _validate(plan)
+    except (TypeError, AttributeError, ValueError) as e:
+        if isinstance(e, PlanError):
+            raise
+        raise PlanError(f"malformed plan: {e}") from None
+
+
+def _validate(plan):
     if not isinstance(plan, dict):
         raise PlanError("plan must be a JSON object")
     if plan.get("schema") != SCHEMA:
@@ -108,6 +125,13 @@ def validate_plan(plan):
     for key in ("method", "length_unit", "rotor", "target_flanks", "tool", "strips", "summary"):
         if key not in plan:
             raise PlanError(f"missing field {key!r}")
+    for key in ("rotor", "tool", "summary"):
+        if not isinstance(plan[key], dict):
+            raise PlanError(f"{key} must be an object")
+    if not isinstance(plan["strips"], list) or not isinstance(plan["target_flanks"], list):
+        raise PlanError("strips and target_flanks must be lists")
+    if not isinstance(plan["method"], str) or not plan["method"]:
+        raise PlanError(f"method must be a non-empty string, got {plan['method']!r}")
     if plan["length_unit"] not in LENGTH_UNITS:
         raise PlanError(f"length_unit must be one of {LENGTH_UNITS}, got {plan['length_unit']!r}")
     rotor = plan["rotor"]
@@ -124,10 +148,12 @@ def validate_plan(plan):
     if s <= 0 or not np.allclose(A.T @ A, s * s * np.eye(3), atol=1e-9 * max(1.0, s * s)):
         raise PlanError("rotor.to_world must be a proper rigid motion (optionally uniformly scaled)")
     v0 = rotor["v0"]
-    if not (isinstance(v0, (int, float)) and math.isfinite(v0) and v0 > 0):
+    if not (_is_num(v0) and v0 > 0):
         raise PlanError(f"rotor.v0 must be a number > 0, got {v0!r}")
     if rotor["handedness"] not in ("right", "left"):
         raise PlanError(f"rotor.handedness must be 'right' or 'left', got {rotor['handedness']!r}")
+    if not (_is_num(rotor["outer_radius"]) and rotor["outer_radius"] > 0):
+        raise PlanError(f"rotor.outer_radius must be a number > 0, got {rotor['outer_radius']!r}")
     prof = np.asarray(rotor["profile"], float)
     if prof.ndim != 2 or prof.shape[1] != 2 or not np.isfinite(prof).all():
         raise PlanError("rotor.profile must be a list of finite [x, y] pairs")
@@ -138,19 +164,21 @@ def validate_plan(plan):
         raise PlanError("rotor.profile must be counter-clockwise")
     n = len(prof)
     for k, fl in enumerate(rotor["flanks"]):
-        if len(fl) != 2 or not all(isinstance(i, int) for i in fl):
+        if len(fl) != 2 or not all(_is_int(i) for i in fl):
             raise PlanError(f"rotor.flanks[{k}] must be two integers, got {fl!r}")
         a, b = fl
         if not (0 <= a < n and a < b <= a + n):
             raise PlanError(f"rotor.flanks[{k}] = {fl} must satisfy 0 <= start < {n} and start < end <= start + {n}")
     nf = len(rotor["flanks"])
     for i in plan["target_flanks"]:
-        if not (isinstance(i, int) and 0 <= i < nf):
+        if not (_is_int(i) and 0 <= i < nf):
             raise PlanError(f"target_flanks entry {i!r} is not a flank index (0..{nf - 1})")
     tool = plan["tool"]
     if tool.get("kind") not in TOOL_KINDS:
         raise PlanError(f"tool.kind must be one of {TOOL_KINDS}, got {tool.get('kind')!r}")
     for k, st in enumerate(plan["strips"]):
+        if not isinstance(st, dict):
+            raise PlanError(f"strips[{k}] must be an object")
         for key in ("axis_start", "axis_end", "shank_start", "shank_end"):
             if key not in st:
                 raise PlanError(f"missing field strips[{k}].{key}")
@@ -159,14 +187,14 @@ def validate_plan(plan):
         if radii.ndim != 1 or len(radii) < 2 or not np.isfinite(radii).all() or (radii < 0).any():
             raise PlanError(f"strips[{k}].radii must hold >= 2 non-negative radii")
         for key in ("shank_radius", "reported_max_error", "reported_min_error"):
-            if not isinstance(st.get(key), (int, float)) or not math.isfinite(st[key]):
+            if not _is_num(st.get(key)):
                 raise PlanError(f"strips[{k}].{key} must be a finite number")
-        if not isinstance(st.get("flank"), int) or not 0 <= st["flank"] < nf:
+        if not _is_int(st.get("flank")) or not 0 <= st["flank"] < nf:
             raise PlanError(f"strips[{k}].flank must be a flank index (0..{nf - 1})")
         if not isinstance(st.get("collision"), bool):
             raise PlanError(f"strips[{k}].collision must be true or false")
     for key in ("max_error", "min_error", "elapsed_s"):
-        if not isinstance(plan["summary"].get(key), (int, float)):
+        if not _is_num(plan["summary"].get(key)):
             raise PlanError(f"summary.{key} must be a number")
     return plan
 

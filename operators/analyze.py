@@ -38,7 +38,12 @@ class FLANK_OT_analyze_rotor(bpy.types.Operator):
     @classmethod
     def poll(cls, context):
         obj = context.active_object
-        return obj is not None and obj.type == 'MESH'
+        if obj is None or obj.type != 'MESH':
+            return False
+        if obj.mode != 'OBJECT':  # edit-mode geometry is stale and attribute writes would be lost
+            cls.poll_message_set("Switch to Object Mode to analyze the rotor")
+            return False
+        return True
 
     def execute(self, context):
         import json
@@ -56,9 +61,12 @@ class FLANK_OT_analyze_rotor(bpy.types.Operator):
             self.report({'ERROR'}, "Mesh '{}' has too little geometry to analyze".format(obj.name))
             return {'CANCELLED'}
 
+        if obj.mode != 'OBJECT':
+            self.report({'ERROR'}, "Switch '{}' to Object Mode before analyzing".format(obj.name))
+            return {'CANCELLED'}
         t0 = time.perf_counter()
-        verts, faces = mesh_world_arrays(np, obj)
         try:
+            verts, faces = mesh_world_arrays(np, obj)
             res = rotor_analysis.analyze_mesh(verts, faces)
             K, cls = res.vertex_curvature(verts)
             K = np.asarray(K, dtype=np.float64).reshape(-1)
@@ -109,6 +117,10 @@ class FLANK_OT_analyze_rotor(bpy.types.Operator):
         obj["flank_to_world"] = [float(x) for x in np.asarray(res.to_world, dtype=np.float64).ravel()]
         obj["flank_analysis"] = summary_json
 
+        ignored = [m.name for m in obj.modifiers if m.show_viewport]
+        if ignored:
+            self.report({'WARNING'}, "Analyzed the base mesh of '{}'; modifiers ignored: {}".format(
+                obj.name, ", ".join(ignored)))
         counts = {name: int(np.count_nonzero(cls == value))
                   for name, value in (("elliptic", 1), ("parabolic", 0), ("hyperbolic", -1))}
         self.report({'INFO'}, "Analyzed '{}': v0={:.6g}, {}-handed, residual {:.3g} (threshold {:.3g}), "

@@ -44,7 +44,10 @@ def new_mesh_from_arrays(bpy, np, name, verts, faces):
 
 
 def mesh_world_arrays(np, obj):
-    """World-space vertices (N,3 float64) and triangles (M,3 int) of a mesh object's base mesh."""
+    """World-space vertices (N,3 float64) and triangles (M,3 int) of a mesh object's base mesh.
+
+    Analysis results are therefore stored in world coordinates (axis, v0 in scene units, to_world).
+    """
     mesh = obj.data
     n = len(mesh.vertices)
     co = np.empty(n * 3, dtype=np.float64)

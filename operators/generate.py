@@ -44,8 +44,15 @@ class FLANK_OT_generate_rotor(bpy.types.Operator):
             return {'CANCELLED'}
 
         obj = bpy.data.objects.new(name, mesh)
-        context.collection.objects.link(obj)
-        select_only(context, obj)
+        try:
+            context.collection.objects.link(obj)
+            select_only(context, obj)
+        except Exception as ex:  # e.g. a linked (read-only) active collection: leave nothing behind
+            bpy.data.objects.remove(obj)
+            bpy.data.meshes.remove(mesh)
+            self.report({'ERROR'}, "Could not add the rotor to collection '{}': {}".format(
+                context.collection.name, ex))
+            return {'CANCELLED'}
 
         hand_name = rotor.handedness if isinstance(rotor.handedness, str) else (
             "right" if rotor.handedness > 0 else "left")

@@ -13,7 +13,7 @@ def test_screw_motion_matches_eq1_both_hands():
     right = screw_motion(p, t, v0, "right")
     left = screw_motion(p, t, v0, "left")
     c, s = np.cos(t), np.sin(t)
-    # s000 Eq. (1): upper signs right-handed, lower signs left-handed
+    # s000 Eq. (1): right-handed turns by +t; left-handed is the proper motion turning by -t
     assert np.allclose(right, [p[0] * c - p[1] * s, p[0] * s + p[1] * c, t * v0 + p[2]], atol=1e-15)
     assert np.allclose(left, [p[0] * c + p[1] * s, -p[0] * s + p[1] * c, t * v0 + p[2]], atol=1e-15)
     # one full turn advances by the pitch 2*pi*v0
@@ -104,7 +104,7 @@ def test_helicoid_and_cylinder_curvature():
     assert np.all(surf.classify(ua) == 0)
 
 
-def test_wavy_profile_has_all_three_classes():
+def test_wavy_profile_has_elliptic_and_hyperbolic_parts():
     surf = HelicalSurface(wavy_profile(), 0.5, "right")
     cls = surf.classify(surf.profile.params(2000))
     # convex lobe tips are elliptic, concave valleys hyperbolic (s000 Fig. 3)

@@ -53,6 +53,13 @@ def test_plan_round_trip_and_summary(tmp_path):
     (lambda p: p["strips"][0].update(flank=99), "flank"),
     (lambda p: p["tool"].update(kind="drill"), "tool.kind"),
     (lambda p: p.update(target_flanks=[40]), "target_flanks"),
+    (lambda p: p["rotor"].update(v0=True), "rotor.v0"),
+    (lambda p: p.update(method=17), "method"),
+    (lambda p: p["rotor"].update(outer_radius="big"), "outer_radius"),
+    (lambda p: p.update(tool="cone"), "tool must be an object"),
+    (lambda p: p.update(summary=[]), "summary must be an object"),
+    (lambda p: p["strips"][0].update(flank=True), "flank"),
+    (lambda p: p["rotor"].update(flanks=[[0, "a"]]), "rotor.flanks"),
 ])
 def test_plan_validation_names_the_field(mutate, message):
     plan = json.loads(json.dumps(sample_plan()))
@@ -97,6 +104,9 @@ def test_cli_bad_input_is_one_clear_line(tmp_path):
     assert r.stderr.startswith("error:") and "not a finite number" in r.stderr
     missing = run_cli("analyze", tmp_path / "none.stl")
     assert missing.returncode == 2 and "Traceback" not in missing.stderr
+    assert "none.stl" in missing.stderr and "no such mesh file" in missing.stderr
+    few = run_cli("analyze", tmp_path / "none.stl", "--profile-points", "100")
+    assert few.returncode == 2 and "720" in few.stderr
 
 
 def test_cli_profile_csv_rotor_round_trip(tmp_path):
@@ -105,6 +115,11 @@ def test_cli_profile_csv_rotor_round_trip(tmp_path):
     csv = tmp_path / "p.csv"
     np.savetxt(csv, np.c_[rr * np.cos(t), rr * np.sin(t)], delimiter=",", header="x,y", comments="")
     out = tmp_path / "r.stl"
+    r = run_cli("rotor", "--profile-csv", csv, "--lead", "-90", "--length", "40", "--axial", "30", "--out", out)
+    assert r.returncode == 0 and "left-handed" in r.stdout, r.stderr
+    r = run_cli("rotor", "--profile-csv", csv, "--lead", "-90", "--handedness", "left", "--length", "40",
+                "--axial", "30", "--out", out)
+    assert "right-handed" in r.stdout  # a negative lead flips the given hand, as for the built-ins
     r = run_cli("rotor", "--profile-csv", csv, "--lead", "-90", "--length", "40", "--axial", "30", "--out", out)
     assert r.returncode == 0, r.stderr
     d = json.loads(run_cli("analyze", out, "--json").stdout)

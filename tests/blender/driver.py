@@ -150,6 +150,20 @@ def scenario_operators(bpy, res, args):
     res["analyze"] = dict(result=ret, error=err, seconds=time.perf_counter() - t0,
                           new_objects=len(bpy.data.objects) - n1, props=_obj_props(obj),
                           attributes=_attributes(np, obj.data), vertices=len(obj.data.vertices))
+    # Edit Mode: refused by poll with a message; the earlier results stay on the object
+    v0_before = obj.get("flank_v0")
+    bpy.ops.object.mode_set(mode='EDIT')
+    ret, err = _run_op(bpy.ops.flank.analyze_rotor)
+    bpy.ops.object.mode_set(mode='OBJECT')
+    res["edit_mode"] = dict(result=ret, error=err, v0_kept=obj.get("flank_v0") == v0_before,
+                            attributes=sorted(_attributes(np, obj.data)))
+    # a scaled object is analyzed in world coordinates: v0 scales with it
+    obj.scale = (2.0, 2.0, 2.0)
+    bpy.context.view_layer.update()
+    ret, err = _run_op(bpy.ops.flank.analyze_rotor)
+    res["scaled"] = dict(result=ret, error=err, v0=obj.get("flank_v0"))
+    obj.scale = (1.0, 1.0, 1.0)
+    bpy.context.view_layer.update()
     if args.ext_dir:
         res["bundled_scipy_dirs"] = _site_packages_with(args.ext_dir, "scipy")
     mod = sys.modules.get("scipy")
