@@ -183,3 +183,93 @@ def test_surface_is_helical_surface_of_the_rotor():
     s = r.surface()
     assert isinstance(s, hs.HelicalSurface)
     assert s.profile is r.profile
+
+
+# --------------------------------------------------------------------------- nilson: male of four arcs
+
+def _on_arc(pts, arc, tol_ang=1e-9):
+    """Mask of points whose polar angle about the arc centre lies in the arc's angle range."""
+    a0, a1 = arc["angles"]
+    lo, hi = min(a0, a1), max(a0, a1)
+    ang = np.arctan2(pts[:, 1] - arc["centre"][1], pts[:, 0] - arc["centre"][0])
+    ang = lo - tol_ang + np.mod(ang - lo + tol_ang, 2 * np.pi)
+    return ang <= hi + tol_ang
+
+
+def test_nilson_male_is_four_tangent_circular_arcs_per_lobe():
+    arcs = rotors.nilson_male_arcs()
+    assert len(arcs) == 16
+    assert [a["role"] for a in arcs[:4]] == ["tip", "flank", "root", "flank"]
+    assert [a["convex"] for a in arcs[:4]] == [True, True, False, True]
+    tip, flank, root, _ = arcs[:4]
+    # tip arc and root arc centred on the male pitch circle (r1 = 0.64)
+    assert np.allclose(tip["centre"], [0.64, 0.0]) and tip["radius"] == pytest.approx(0.36)
+    assert np.linalg.norm(root["centre"]) == pytest.approx(0.64)
+    assert root["radius"] == pytest.approx(0.04)
+    # consecutive arcs meet with a common point and a common tangent (G1 chain)
+    def end(a, which):
+        ang = a["angles"][which]
+        e = np.array([np.cos(ang), np.sin(ang)])
+        return a["centre"] + a["radius"] * e, (e if a["convex"] else -e)
+    for a, b in zip(arcs, arcs[1:] + arcs[:1]):
+        (pa, na), (pb, nb) = end(a, 1), end(b, 0)
+        assert np.allclose(pa, pb, atol=1e-12) and np.allclose(na, nb, atol=1e-12)
+
+    male = rotors.builtin_rotor("nilson", "male")
+    prof = male.profile
+
+    def arc_distance(pts):
+        d = np.full(len(pts), np.inf)
+        owner = np.full(len(pts), -1)
+        for k, a in enumerate(arcs):
+            m = _on_arc(pts, a)
+            dk = np.abs(np.linalg.norm(pts - a["centre"], axis=1) - a["radius"])
+            better = m & (dk < d)
+            d[better], owner[better] = dk[better], k
+        return d, owner
+
+    # every spline node and every dense sample of the profile lies on its arc
+    d_nodes, owner = arc_distance(prof.points)
+    assert d_nodes.max() <= 1e-9
+    assert set(owner.tolist()) == set(range(16))  # all 16 arcs are used
+    d_dense, _ = arc_distance(prof.sample(40000))
+    assert d_dense.max() <= 1e-9
+    # piecewise-constant curvature: 4 arcs per lobe, 3 distinct values
+    # (tip 1/0.36, flank 1/0.518, root -1/0.04) away from the joints
+    kappa = prof.curvature(prof.params(20000))
+    targets = np.array([1 / tip["radius"], 1 / flank["radius"], -1 / root["radius"]])
+    rel = np.min(np.abs(kappa[:, None] - targets[None]) / np.abs(targets[None]), axis=1)
+    assert np.mean(rel < 1e-4) > 0.99
+
+
+def test_nilson_female_is_the_envelope_of_the_male():
+    male, female, A = rotors.rotor_pair("nilson")
+    assert A == pytest.approx(1.6)
+    assert (male.lobes, female.lobes) == (4, 6)
+    assert male.pitch_radius == pytest.approx(0.64) and female.pitch_radius == pytest.approx(0.96)
+    for r in (male, female):
+        rad = np.linalg.norm(r.profile.sample(20000), axis=1)
+        assert abs(rad.max() - 1.0) < 1e-9 and abs(rad.min() - 0.6) < 1e-9
+        poly = r.profile.sample(3000)
+        assert signed_area(poly) > 0 and segments_intersect_count(poly) == 0
+        assert rotors._star_shaped(r.profile.points)
+    # the male tip arc generates the female valley: the same circle (radius
+    # 0.36) centred on the female pitch circle; the male root arc the female
+    # tip: radius 0.04 centred on the female pitch circle
+    # (at theta1 = 0 the male tip arc lies in the female valley, at theta1 =
+    # -45 deg the male root arc on the female tip: the same circle arcs)
+    pts = female.profile.points
+    valley_c = 0.96 * np.array([-1.0, 0.0])
+    tip_c = 0.96 * np.array([np.cos(5 * np.pi / 6), np.sin(5 * np.pi / 6)])
+    for c, rho, (a0, a1) in ((valley_c, 0.36, (-40.0, 40.0)),  # facing the female axis
+                             (tip_c, 0.04, (150.0 - 51.8, 150.0 + 51.8))):  # facing outwards
+        sel = _on_arc(pts, dict(centre=c, angles=np.radians([a0, a1])))
+        sel &= np.linalg.norm(pts - c, axis=1) < 2 * rho
+        d = np.abs(np.linalg.norm(pts - c, axis=1) - rho)
+        assert sel.sum() > 20 and d[sel].max() < 1e-9
+    # conjugate action over a whole male lobe pitch: touching, no interference
+    res = rotors.meshing_clearance(male, female, A, n_steps=200)
+    assert res["max_gap"] <= 1e-6
+    assert res["max_interference"] <= 1e-6
+    assert rotors.spline_error("nilson", "male") < 1e-9
+    assert rotors.spline_error("nilson", "female") < 1e-9
