@@ -90,7 +90,7 @@ class RotorError(ValueError):
 # f_min = -(R - r2)).  Flanks are the internal common tangents (a zero
 # length tangent means the two circles touch: arcs only).
 
-def _design(z1, z2, A, ra, rb, xb_frac=0.5, top_on_pitch=True, tangent_circles=False):
+def _design(z1, z2, A, ra, rb, xb_frac=0.5):
     r1 = A * z1 / (z1 + z2)
     r2 = A * z2 / (z1 + z2)
     fmax = 1.0 - r1
@@ -98,11 +98,6 @@ def _design(z1, z2, A, ra, rb, xb_frac=0.5, top_on_pitch=True, tangent_circles=F
     p = 2 * math.pi * r1 / z1
     xb = xb_frac * p
     ya = fmax - ra
-    if tangent_circles:
-        # choose rb so that the circles touch: xb^2 + (yb - ya)^2 = (ra + rb)^2
-        # with yb = fmin + rb  ->  linear in rb
-        c = fmin - ya
-        rb = (xb ** 2 + c ** 2 - ra ** 2) / (2 * (ra - c))
     yb = fmin + rb
     return dict(z1=z1, z2=z2, A=A, r1=r1, r2=r2, p=p, ra=ra, ya=ya, rb=rb, xb=xb, yb=yb)
 
