@@ -28,7 +28,8 @@ from scipy.spatial import cKDTree
 from .profile import SplineProfile, signed_area
 from .screw import hand_name, screw_to_plane
 
-RESIDUAL_THRESHOLD = 2e-3   # RMS sin(angle between screw velocity and face plane) over helical faces
+RESIDUAL_THRESHOLD = 1e-3   # RMS distance of the helical vertices from the fitted surface, in outer radii
+TANGENCY_THRESHOLD = 0.05   # RMS sin(angle between screw velocity and vertex normal): gross pre-check
 MIN_HELICAL_AREA = 0.3      # fraction of the mesh area that must be helical
 MIN_PITCH_RATIO = 1e-3      # v0 / R below this is a surface of revolution, not a helix
 MIN_EIGEN_SEPARATION = 1e3  # second / first eigenvalue of the screw fit; below: motion not unique
@@ -44,7 +45,7 @@ class RotorAnalysis:
     axis_direction: np.ndarray   # (3,) unit
     v0: float                    # axial advance per radian, model units
     handedness: str
-    residual: float              # RMS tangency residual of the helical faces
+    residual: float              # RMS distance of helical vertices from the fitted surface / outer radius
     threshold: float
     to_world: np.ndarray         # (4, 4) rotor frame -> model frame (rigid)
     profile: np.ndarray          # (K, 2) CCW transverse profile at z = 0 of the rotor frame
@@ -53,6 +54,7 @@ class RotorAnalysis:
     lobes: int
     helical_area_fraction: float
     body_z: tuple                # axial extent of the helical body in the rotor frame
+    tangency_residual: float = 0.0   # RMS sin(angle) between screw velocity and vertex normals
     surface: object = field(repr=False, default=None)
 
     def to_dict(self):
@@ -64,6 +66,8 @@ class RotorAnalysis:
             "handedness": self.handedness,
             "residual": self.residual,
             "residual_threshold": self.threshold,
+            "residual_unit": "outer radius",
+            "tangency_residual": self.tangency_residual,
             "to_world": self.to_world.tolist(),
             "outer_radius": self.outer_radius,
             "lobes": self.lobes,
@@ -271,6 +275,16 @@ def _refine_pitch(spline, verts_level, v0, hand, outer, n_use=20000):
     return float(res.x) if res.fun <= cost(v0) else v0
 
 
+def _profile_distances(spline, verts_level, v0, hand, n_use=50000):
+    """Distances of helical vertices (level frame), screwed into the level plane, to the profile."""
+    pts = verts_level
+    if len(pts) > n_use:
+        pts = pts[np.random.default_rng(1).choice(len(pts), n_use, replace=False)]
+    poly = spline.sample(max(20000, 8 * len(spline.points)))
+    _, _, dist = _order_along(poly, screw_to_plane(pts, v0, hand))
+    return dist
+
+
 def split_flanks(profile, min_prominence=0.05):
     """Lobe tips (radius maxima) and valley bottoms (radius minima) -> flank index ranges.
 
@@ -347,9 +361,11 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD):
         keep = new_keep
     total_area = float(areas.sum())
     frac = float(areas[keep].sum() / total_area)
-    residual = float(np.sqrt(np.average(rel[keep] ** 2, weights=areas[keep])))
-    quote = f"tangency residual {residual:.3g}, threshold {threshold:.3g}"
-    if residual > threshold:
+    tangency = float(np.sqrt(np.average(rel[keep] ** 2, weights=areas[keep])))
+    # normals of coarse or irregular tessellations are only good to a few degrees, so the tangency
+    # test is a gross pre-check; the decisive residual below uses the (exact) vertex positions
+    quote = f"tangency residual {tangency:.3g}, threshold {TANGENCY_THRESHOLD:.3g}"
+    if tangency > TANGENCY_THRESHOLD:
         raise NotHelicalError(f"not a helical surface: {quote} (residual exceeds the threshold)")
     if frac < MIN_HELICAL_AREA:
         raise NotHelicalError(
@@ -427,7 +443,16 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD):
     pts = np.stack([np.bincount(cluster, cloud[:, c]) for c in range(2)], -1)[counts > 0] / counts[counts > 0, None]
     spline = SplineProfile(pts)
     # pitch refinement: vertices far from the profile level must screw back onto the profile
-    v0 = _refine_pitch(spline, va[body_mask_all(keep, normals, d)] - level, v0, hand, outer)
+    helical_verts = va[body_mask_all(keep, normals, d)] - level
+    v0 = _refine_pitch(spline, helical_verts, v0, hand, outer)
+    # decisive residual: how far the helical vertices are from the fitted helical surface
+    deviation = _profile_distances(spline, helical_verts, v0, hand)
+    residual = float(np.sqrt(np.mean(deviation ** 2)) / outer)
+    if residual > threshold:
+        raise NotHelicalError(
+            f"not a helical surface: residual {residual:.3g} exceeds the threshold {threshold:.3g} "
+            f"(RMS distance of the mesh vertices from the best screw surface, in outer radii; "
+            f"max {deviation.max() / outer:.3g})")
     # the rotor frame's profile is at z = 0: screw the level's profile there with the refined pitch
     spline = SplineProfile(rotate_plane(pts, -hand * zm / v0))
     # resample uniformly, starting at the first lobe tip so flank ranges rarely wrap
@@ -441,6 +466,7 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD):
     from .helical_surface import HelicalSurface
     surface = HelicalSurface(final, v0, hand)
     return RotorAnalysis(axis_point=origin, axis_direction=d, v0=v0, handedness=hand_name(hand),
-                         residual=residual, threshold=threshold, to_world=T, profile=prof, flanks=flanks,
+                         residual=residual, threshold=threshold, tangency_residual=tangency,
+                         to_world=T, profile=prof, flanks=flanks,
                          outer_radius=float(np.max(np.linalg.norm(prof, axis=1))), lobes=lobes,
                          helical_area_fraction=frac, body_z=(0.0, z1 - z0), surface=surface)

@@ -80,3 +80,23 @@ def profile_hausdorff(analysis, rotor, to_model):
     q0 = screw_to_plane(analysis.to_rotor_frame(truth), analysis.v0, analysis.handedness)
     est = analysis.surface.profile.eval(analysis.surface.profile.params(40000))
     return max(_order_along(est, q0)[2].max(), _order_along(q0, est)[2].max())
+
+
+def irregular_mesh(rotor, n_points=100000, seed=0):
+    """Helical side of a rotor as a CAD-like irregular tessellation: random exact surface samples
+    triangulated (Delaunay) in the (u, t) parameter rectangle, seam vertices merged."""
+    from scipy.spatial import Delaunay
+
+    surf = rotor.surface()
+    per = rotor.profile.period
+    T = rotor.length / rotor.v0
+    rng = np.random.default_rng(seed)
+    uv = np.c_[rng.uniform(0, per, n_points), rng.uniform(0, T, n_points)]
+    ub, tb = np.linspace(0, per, 2000), np.linspace(0, T, 200)
+    uv = np.vstack([uv, np.c_[ub, np.zeros_like(ub)], np.c_[ub, np.full_like(ub, T)],
+                    np.c_[np.zeros_like(tb), tb], np.c_[np.full_like(tb, per), tb]])
+    tri = Delaunay(uv / [per / 8, T]).simplices
+    v = surf.evaluate(uv[:, 0], uv[:, 1])
+    _, first, inv = np.unique(np.round(v / 1e-9).astype(np.int64), axis=0, return_index=True,
+                              return_inverse=True)
+    return v[first], inv.ravel()[tri]

@@ -5,7 +5,7 @@ from scipy.spatial.transform import Rotation
 
 from flank_addon.rotor_analysis import NotHelicalError, analyze_mesh
 from flank_addon.rotors import BUILTIN_NAMES, builtin_by_name
-from helpers import cad_like, profile_hausdorff
+from helpers import cad_like, irregular_mesh, profile_hausdorff
 
 
 def uv_sphere(n=48):
@@ -113,6 +113,28 @@ def test_irregular_vertices_without_rings():
     a = analyze_mesh(v, f)
     assert profile_hausdorff(a, rotor, lambda p: p) < 1e-4
     assert abs(a.v0 / rotor.v0 - 1) < 1e-5
+
+
+def test_irregular_cad_like_tessellation():
+    """Random surface samples, Delaunay-triangulated: normals are poor (tangency ~0.005), positions exact."""
+    rotor = builtin_by_name("asymmetric-female")
+    v, f = irregular_mesh(rotor, n_points=100000)
+    a = analyze_mesh(v, f)
+    assert a.tangency_residual > 1e-3  # such meshes defeat a normal-only criterion ...
+    assert a.residual < 1e-4           # ... but not the positional one
+    assert abs(a.v0 / rotor.v0 - 1) < 1e-5 and a.handedness == "left"
+    assert np.degrees(np.arccos(min(1.0, abs(a.axis_direction[2])))) < 0.01
+    assert profile_hausdorff(a, rotor, lambda p: p) < 1e-4
+    assert len(a.flanks) == 12
+
+
+def test_rejects_slightly_tapered_rotor_by_positional_residual():
+    rotor = builtin_by_name("nilson-male")
+    v, f = rotor.mesh(n_profile=1500, n_axial=30)
+    v = v.copy()
+    v[:, 0] *= 1 + 0.01 * v[:, 2] / rotor.length  # 1 % taper: normals alone cannot tell
+    with pytest.raises(NotHelicalError, match=r"residual .* exceeds the threshold 0\.001"):
+        analyze_mesh(v, f)
 
 
 def test_rejects_sphere_with_pitch_message():
