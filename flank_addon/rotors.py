@@ -71,7 +71,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from .profile import SplineProfile, points_in_polygon
+from .profile import SplineProfile, points_in_polygon, signed_area
 from .screw import hand_name, hand_sign, screw_motion
 
 __all__ = ["Rotor", "KINDS", "BUILTIN_NAMES", "builtin_rotor", "builtin_by_name", "rotor_pair",
@@ -291,6 +291,15 @@ def _lobe_samples(rack, d, part, n):
     return np.unique(np.concatenate([xs, extra]))
 
 
+def _check_simple(pts):
+    """Validate a generated profile once, at unit scale: a profile whose polar angle increases
+    strictly is simple (cheap exact test); otherwise the general profile validation runs."""
+    if not _star_shaped(pts):
+        prof = SplineProfile(pts)
+        if len(prof.points) != len(pts):
+            raise RotorError("internal: profile validation changed the point list")
+
+
 @lru_cache(maxsize=None)
 def _unit_profile(kind, part, n_per_lobe=2400):
     """(points (N,2) CCW at scale 1, tip indices, bottom indices) of a built-in rotor."""
@@ -308,8 +317,7 @@ def _unit_profile(kind, part, n_per_lobe=2400):
     m = len(xs)
     tips = np.arange(z) * m
     bottoms = tips + i_other
-    sa = 0.5 * np.sum(pts[:, 0] * np.roll(pts[:, 1], -1) - np.roll(pts[:, 0], -1) * pts[:, 1])
-    if sa < 0:  # reverse, keep a tip at index 0
+    if signed_area(pts) < 0:  # reverse, keep a tip at index 0
         N = len(pts)
         pts = np.roll(pts[::-1], 1, axis=0)
         tips = np.sort((N - tips) % N)
@@ -317,13 +325,7 @@ def _unit_profile(kind, part, n_per_lobe=2400):
     # index order must alternate tip, bottom, tip, ...
     if bottoms[0] < tips[0] or (len(tips) > 1 and bottoms[0] > tips[1]):
         raise RotorError("internal: tips and bottoms do not alternate")
-    # validation (simple, closed, CCW) happens once here, at unit scale; a
-    # profile whose polar angle increases strictly is simple (cheap exact
-    # test), otherwise fall back to the general O(n^2) check
-    if not _star_shaped(pts):
-        prof = SplineProfile(pts)
-        if len(prof.points) != len(pts):
-            raise RotorError("internal: profile validation changed the point list")
+    _check_simple(pts)
     return pts, tips, bottoms
 
 
@@ -432,13 +434,9 @@ def _arc_unit_profile(d, part, n_per_lobe):
     m = len(xs)
     tips = np.arange(z) * m
     bottoms = tips + i_other
-    sa = 0.5 * np.sum(pts[:, 0] * np.roll(pts[:, 1], -1) - np.roll(pts[:, 0], -1) * pts[:, 1])
-    if not sa > 0:
+    if not signed_area(pts) > 0:
         raise RotorError("internal: generated profile is not counter-clockwise")
-    if not _star_shaped(pts):
-        prof = SplineProfile(pts)
-        if len(prof.points) != len(pts):
-            raise RotorError("internal: profile validation changed the point list")
+    _check_simple(pts)
     return pts, tips, bottoms
 
 
