@@ -81,6 +81,20 @@ def _cmd_check_plan(args):
     return 0
 
 
+def _cmd_paraboloid(args):
+    from .paraboloid import groove_section
+
+    part = "full" if args.full else ("internal" if args.internal else "external")
+    t0 = time.perf_counter()
+    sec = groove_section(args.radius, args.a, args.b, args.pitch, n=args.points, part=part)
+    dt = time.perf_counter() - t0
+    np.savetxt(args.out, np.c_[sec.x, sec.y], delimiter=",", header="x,y", comments="", fmt="%.12g")
+    print(f"{part} groove section: x in [{sec.x[0]:.6g}, {sec.x[-1]:.6g}], max y {sec.y.max():.6g}, "
+          f"max overcut of the helical path {sec.overcut.max():.6g}; {len(sec.x)} points in "
+          f"{dt * 1e3:.2f} ms; wrote {args.out}")
+    return 0
+
+
 def _cmd_builtins(args):
     from .rotors import BUILTIN_NAMES
 
@@ -116,6 +130,18 @@ def build_parser():
     c = sub.add_parser("check-plan", help="validate a flank-plan/1 file")
     c.add_argument("path")
     c.set_defaults(func=_cmd_check_plan)
+
+    g = sub.add_parser("paraboloid", help="s002: section of the groove a paraboloid end mill cuts on a helix")
+    g.add_argument("--radius", type=float, required=True, help="helix radius R")
+    g.add_argument("--a", type=float, required=True, help="paraboloid constant a (< 0)")
+    g.add_argument("--b", type=float, required=True, help="paraboloid constant b (> 0)")
+    g.add_argument("--pitch", type=float, required=True, help="helix pitch p")
+    side = g.add_mutually_exclusive_group()
+    side.add_argument("--internal", action="store_true", help="internal groove (bore side), default external")
+    side.add_argument("--full", action="store_true", help="whole section, both sides of the tool axis")
+    g.add_argument("--points", type=int, default=401)
+    g.add_argument("--out", required=True, help="CSV of x,y rows (paper frame: screw axis y, plane z = 0)")
+    g.set_defaults(func=_cmd_paraboloid)
 
     b = sub.add_parser("builtins", help="list built-in rotor names (KIND-PART)")
     b.set_defaults(func=_cmd_builtins)
