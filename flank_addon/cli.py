@@ -95,6 +95,26 @@ def _cmd_paraboloid(args):
     return 0
 
 
+def _cmd_verify(args):
+    from .plan import read_plan
+    from .verify import verify_plan
+
+    plan = read_plan(args.plan)
+    res = verify_plan(plan, tolerance=args.tolerance)
+    if args.json:
+        print(json.dumps(res, indent=1))
+        return 0
+    u = res["length_unit"]
+    fmt = lambda v: "n/a" if v is None else f"{v:+.6g} {u}"  # noqa: E731
+    print(f"{args.plan}: simulated {len(plan['strips'])} strips against {len(res['deviation_profile'])} "
+          f"target points in {res['elapsed_s']:.2f} s (tolerance {res['tolerance']:.3g} {u})")
+    print(f"max undercut (material left) {fmt(res['max_undercut'])}, max overcut {fmt(res['max_overcut'])}")
+    for f in res["flanks"]:
+        print(f"  flank {f['flank']}: uncovered index ranges {f['uncovered_ranges'] or 'none'}")
+    print(f"gouge points (deeper than the tolerance, whole rotor): {len(res['gouge_points'])}")
+    return 0
+
+
 def _cmd_builtins(args):
     from .rotors import BUILTIN_NAMES
 
@@ -142,6 +162,12 @@ def build_parser():
     g.add_argument("--points", type=int, default=401)
     g.add_argument("--out", required=True, help="CSV of x,y rows (paper frame: screw axis y, plane z = 0)")
     g.set_defaults(func=_cmd_paraboloid)
+
+    v = sub.add_parser("verify", help="simulate a plan's tool motion and report the machined deviation")
+    v.add_argument("plan", help="flank-plan/1 JSON")
+    v.add_argument("--tolerance", type=float, help="in the plan's length unit (default 1e-3 x outer radius)")
+    v.add_argument("--json", action="store_true")
+    v.set_defaults(func=_cmd_verify)
 
     b = sub.add_parser("builtins", help="list built-in rotor names (KIND-PART)")
     b.set_defaults(func=_cmd_builtins)

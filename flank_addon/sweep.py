@@ -93,7 +93,7 @@ class StripTool:
         return d
 
 
-def helical_distance(tool, points, v0, handedness="right", step=None, iters=60):
+def helical_distance(tool, points, v0, handedness="right", step=None, iters=30):
     """D(x) = min_t sd_tool(S_t(x)) for 3D points (N, 3): (D, t*).
 
     Only t with S_t(x) inside the tool's axial slab can matter; that range is sampled densely
@@ -156,11 +156,22 @@ def machined_deviation(tools, points2d, normals2d, v0, handedness="right", max_d
     if max_deviation is None:
         max_deviation = 0.25 * float(np.max(np.linalg.norm(points2d, axis=1)))
 
-    def D(lam, idx=slice(None)):
-        q = p[idx] + lam[:, None] * n[idx]
-        return np.min([helical_distance(t, q, v0, handedness)[0] for t in tools], axis=0)
+    # D is 1-Lipschitz along the ray, so a tool farther than the search range at lambda = 0 can
+    # never form the surface within it: each point only looks at its candidate tools
+    d_tools = np.stack([helical_distance(t, p, v0, handedness)[0] for t in tools])
+    relevant = d_tools <= max_deviation + 1e-12
 
-    d0 = D(np.zeros(len(p)))
+    def D(lam, idx=None):
+        idx = np.arange(len(p)) if idx is None else idx
+        q = p[idx] + lam[:, None] * n[idx]
+        out = np.full(len(idx), np.inf)
+        for k, t in enumerate(tools):
+            sel = np.flatnonzero(relevant[k, idx])
+            if len(sel):
+                out[sel] = np.minimum(out[sel], helical_distance(t, q[sel], v0, handedness)[0])
+        return out
+
+    d0 = np.min(d_tools, axis=0)
     scale = float(np.max(np.abs(points2d)))
     # sphere tracing: outside the swept region D is the exact distance, so a step of D cannot jump
     # over the first crossing (a brief pass through the region included); the extra 1e-9 lets the
@@ -186,21 +197,22 @@ def machined_deviation(tools, points2d, normals2d, v0, handedness="right", max_d
         lo[idx[keep]], f_lo[idx[keep]] = lam[keep], f_new[keep]
         active[idx[crossed | out]] = False
     found = (np.sign(f_hi) != np.sign(f_lo)) | (f_lo == 0)
-    # Illinois (modified regula falsi) on the bracket
+    # Illinois (modified regula falsi) on the bracket, only for points not yet converged
     side = np.zeros(len(p))
     for _ in range(100):
-        width = np.abs(hi - lo)
-        if not (found & (width > tol)).any():
+        idx = np.flatnonzero(found & (np.abs(hi - lo) > tol) & (f_hi != 0))
+        if not len(idx):
             break
-        m = np.where(f_hi != f_lo, hi - f_hi * (hi - lo) / (f_hi - f_lo), 0.5 * (lo + hi))
-        m = np.where((m - lo) * (m - hi) < 0, m, 0.5 * (lo + hi))
-        fm = D(m)
-        same_hi = np.sign(fm) == np.sign(f_hi)
-        lo_new = np.where(same_hi, lo, hi)
-        f_lo_new = np.where(same_hi, np.where(side == 1, 0.5 * f_lo, f_lo), f_hi)
-        side = np.where(same_hi, 1, -1)
-        hi, f_hi = m, fm
-        lo, f_lo = lo_new, f_lo_new
+        l, fl, h, fh = lo[idx], f_lo[idx], hi[idx], f_hi[idx]
+        with np.errstate(invalid="ignore", divide="ignore"):   # rays never reached carry inf
+            m = np.where(fh != fl, h - fh * (h - l) / (fh - fl), 0.5 * (l + h))
+        m = np.where((m - l) * (m - h) < 0, m, 0.5 * (l + h))
+        fm = D(m, idx)
+        same_hi = np.sign(fm) == np.sign(fh)
+        lo[idx] = np.where(same_hi, l, h)
+        f_lo[idx] = np.where(same_hi, np.where(side[idx] == 1, 0.5 * fl, fl), fh)
+        side[idx] = np.where(same_hi, 1, -1)
+        hi[idx], f_hi[idx] = m, fm
     root = np.where(np.abs(f_hi) <= np.abs(f_lo), hi, lo)
     root = np.where(f_lo == 0, lo, root)
     return np.where(found, root, np.inf)

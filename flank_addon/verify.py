@@ -1,0 +1,122 @@
+"""Verify a flank-plan/1 file by the independent sweep simulation (:mod:`sweep`).
+
+For every design point of the target flanks: the signed deviation of the simulated machined surface
+(positive = material left, negative = overcut, +inf = no tool reaches it within the search range).
+Over the whole rotor profile (all lobes): gouges, i.e. points the swept tools or shanks reach more
+than the tolerance below the design surface.  Reported errors of the planners are not used.
+"""
+import time
+
+import numpy as np
+
+from .plan import validate_plan
+from .profile import SplineProfile
+from .sweep import StripTool, helical_distance, machined_deviation
+
+
+def _ranges(mask):
+    """Inclusive [start, end] index runs where mask is true."""
+    idx = np.flatnonzero(mask)
+    if not len(idx):
+        return []
+    breaks = np.flatnonzero(np.diff(idx) > 1)
+    starts = np.r_[idx[0], idx[breaks + 1]]
+    ends = np.r_[idx[breaks], idx[-1]]
+    return [[int(a), int(b)] for a, b in zip(starts, ends)]
+
+
+def _min_distance(tools, q, v0, hand):
+    d = np.stack([helical_distance(t, q, v0, hand)[0] for t in tools])
+    return d.min(axis=0), d.argmin(axis=0), d
+
+
+def verify_plan(plan, tolerance=None, search=None):
+    """Simulate a plan; return a JSON-ready dict (see module doc and README)."""
+    validate_plan(plan)
+    t0 = time.perf_counter()
+    rotor = plan["rotor"]
+    prof = np.asarray(rotor["profile"], float)
+    n = len(prof)
+    v0, hand = float(rotor["v0"]), rotor["handedness"]
+    outer = float(rotor["outer_radius"])
+    tol = float(tolerance) if tolerance is not None else 1e-3 * outer
+    search = float(search) if search is not None else 0.1 * outer
+    spline = SplineProfile(prof)
+    if len(spline.points) != n or not np.allclose(spline.points, prof):
+        raise ValueError("rotor.profile must be a CCW point list without repeated points")
+    normals = spline.outward_normal(spline.knots[:-1])
+    strips = plan["strips"]
+    tools = [StripTool.from_strip(s) for s in strips]
+    tool_only = [StripTool.from_strip(s, with_shank=False) for s in strips]
+
+    # deviation on the target flanks
+    target = np.zeros(n, bool)
+    flank_of = np.full(n, -1)
+    for f in plan["target_flanks"]:
+        a, b = rotor["flanks"][f]
+        idx = np.arange(a, b + 1) % n
+        target[idx] = True
+        flank_of[idx] = f
+    deviation = np.full(n, np.nan)
+    ti = np.flatnonzero(target)
+    if tools and len(ti):
+        deviation[ti] = machined_deviation(tools, prof[ti], normals[ti], v0, hand, max_deviation=search)
+
+    # gouges anywhere on the rotor: the swept region reaches tol below the design surface
+    gouges = []
+    if tools:
+        below = np.c_[prof - tol * normals, np.zeros(n)]
+        d_all, which, _ = _min_distance(tools, below, v0, hand)
+        hit = np.flatnonzero(d_all < 0)
+        if len(hit):  # tool or shank: only the few gouged points need the distinction
+            d_tool, _, _ = _min_distance(tool_only, below[hit], v0, hand)
+        for j, i in enumerate(hit):
+            gouges.append({"index": int(i), "x": float(prof[i, 0]), "y": float(prof[i, 1]),
+                           "strip": int(which[i]), "by": "tool" if d_tool[j] < 0 else "shank",
+                           "target": bool(target[i])})
+
+    # per strip: where it forms the machined surface, and its errors there
+    per_strip = []
+    machined = np.c_[prof + np.nan_to_num(deviation, posinf=0.0, nan=0.0)[:, None] * normals, np.zeros(n)]
+    ok = target & np.isfinite(deviation)
+    own = np.full(n, -1)
+    if tools and ok.any():
+        _, owner, _ = _min_distance(tools, machined[ok], v0, hand)
+        own[ok] = owner
+    for k, s in enumerate(strips):
+        mine = own == k
+        dev = deviation[mine]
+        per_strip.append({
+            "strip": k, "flank": s["flank"], "covered_ranges": _ranges(mine),
+            "max_error": float(dev.max()) if len(dev) else None,
+            "min_error": float(dev.min()) if len(dev) else None,
+            "gouge_points": sum(1 for g in gouges if g["strip"] == k),
+            "collision": any(g["strip"] == k and not g["target"] for g in gouges),
+            "reported_max_error": s["reported_max_error"], "reported_min_error": s["reported_min_error"],
+        })
+
+    flanks = []
+    for f in plan["target_flanks"]:
+        m = flank_of == f
+        dev = deviation[m]
+        fin = dev[np.isfinite(dev)]
+        flanks.append({
+            "flank": f,
+            "max_undercut": float(max(fin.max(), 0.0)) if len(fin) else None,
+            "max_overcut": float(min(fin.min(), 0.0)) if len(fin) else None,
+            "uncovered_ranges": _ranges(m & ~(deviation <= tol)),
+        })
+    fin = deviation[target & np.isfinite(deviation)]
+    return {
+        "schema": "flank-verify/1",
+        "length_unit": plan["length_unit"],
+        "tolerance": tol,
+        "max_undercut": float(max(fin.max(), 0.0)) if len(fin) else None,
+        "max_overcut": float(min(fin.min(), 0.0)) if len(fin) else None,
+        "gouge_points": gouges,
+        "flanks": flanks,
+        "strips": per_strip,
+        "deviation_profile": [[int(i), float(prof[i, 0]), float(prof[i, 1]),
+                               float(deviation[i]) if np.isfinite(deviation[i]) else None] for i in ti],
+        "elapsed_s": time.perf_counter() - t0,
+    }

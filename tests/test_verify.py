@@ -1,0 +1,65 @@
+"""verify: exact cases with a ball tool beside a cylindrical rotor, sign conventions, gouges, CLI."""
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from flank_addon.plan import new_plan, write_plan
+from flank_addon.verify import verify_plan
+
+RC = 0.8   # cylinder rotor radius
+
+
+def ball_plan(delta, r=0.1, shank=None, v0=0.4, hand="right", n=1440):
+    """Cylinder rotor; a ball of radius r centred at distance RC + r - delta on the x-axis.
+
+    The helical sweep of the ball is nearest to the facing profile point at t = 0, so the machined
+    radius there is RC - delta: deviation exactly -delta (overcut for delta > 0)."""
+    th = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    prof = RC * np.c_[np.cos(th), np.sin(th)]
+    rotor = {"to_world": np.eye(4).tolist(), "v0": v0, "handedness": hand, "profile": prof.tolist(),
+             "flanks": [[0, n // 2], [n // 2, n]], "outer_radius": RC}
+    c = [RC + r - delta, 0.0, 0.0]
+    strip = {"axis_start": c, "axis_end": c, "radii": [r, r], "flank": 0,
+             "shank_start": shank[0] if shank else c, "shank_end": shank[1] if shank else c,
+             "shank_radius": shank[2] if shank else 0.0,
+             "reported_max_error": 0.0, "reported_min_error": 0.0, "collision": False}
+    return new_plan("test-ball", rotor, {"kind": "revolved"}, target_flanks=[0], strips=[strip])
+
+
+@pytest.mark.parametrize("delta", [0.003, -0.002, 0.0])
+@pytest.mark.parametrize("hand", ["right", "left"])
+def test_ball_beside_cylinder_exact_deviation(delta, hand):
+    res = verify_plan(ball_plan(delta, hand=hand), tolerance=1e-3)
+    prof = {row[0]: row for row in res["deviation_profile"]}
+    assert abs(prof[0][3] - (-delta)) < 1e-9   # facing point: exactly -delta
+    if delta > 0:
+        assert abs(res["max_overcut"] + delta) < 1e-9
+        assert any(g["index"] == 0 and g["by"] == "tool" for g in res["gouge_points"])
+    else:
+        assert res["max_overcut"] > -1e-9 and not res["gouge_points"]
+    # away from the ball the flank is uncut (material left beyond the tolerance)
+    assert res["flanks"][0]["uncovered_ranges"]
+
+
+def test_shank_collision_is_reported_on_the_other_flank():
+    # a shank cylinder reaching deep into the rotor at 270 degrees, inside the non-target flank
+    shank = ([0.0, -0.9, -0.05], [0.0, -0.6, 0.05], 0.05)
+    res = verify_plan(ball_plan(0.0, shank=shank), tolerance=1e-3)
+    hits = [g for g in res["gouge_points"] if g["by"] == "shank"]
+    assert hits and all(not g["target"] for g in hits)
+    assert res["strips"][0]["collision"]
+
+
+def test_cli_verify_json(tmp_path):
+    path = tmp_path / "plan.json"
+    write_plan(path, ball_plan(0.004))
+    r = subprocess.run([sys.executable, "-m", "flank_addon", "verify", str(path), "--tolerance", "0.001", "--json"],
+                       cwd=Path(__file__).resolve().parents[1], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    d = json.loads(r.stdout)
+    assert abs(d["max_overcut"] + 0.004) < 1e-9 and d["gouge_points"] and "deviation_profile" in d
+    assert {"max_undercut", "max_overcut", "gouge_points", "strips"} <= set(d)
