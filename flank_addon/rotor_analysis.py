@@ -26,7 +26,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .profile import SplineProfile, signed_area
-from .screw import hand_name, screw_to_plane
+from .screw import hand_name, rotate2d, screw_to_plane
 
 RESIDUAL_THRESHOLD = 1e-3   # RMS distance of the helical vertices from the fitted surface, in outer radii
 TANGENCY_THRESHOLD = 0.05   # RMS sin(angle between screw velocity and vertex normal): gross pre-check
@@ -99,18 +99,6 @@ class RotorAnalysis:
         K = self.surface.curvatures(us)["K"][idx]
         cls = self.surface.classify(us)[idx]
         return K, cls
-
-
-def face_geometry(verts, faces):
-    v = np.asarray(verts, float)
-    f = np.asarray(faces, int)
-    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
-    cr = np.cross(b - a, c - a)
-    area2 = np.linalg.norm(cr, axis=1)
-    ok = area2 > 0
-    normals = np.zeros_like(cr)
-    normals[ok] = cr[ok] / area2[ok, None]
-    return (a + b + c) / 3.0, normals, 0.5 * area2
 
 
 def vertex_normals(verts, faces):
@@ -240,11 +228,6 @@ def _order_along(loop2d, pts2d):
 def body_mask_all(keep, normals, d):
     """Vertices that fit the screw and are not on shafts (normals with an axial component)."""
     return keep & (np.abs(normals @ d) > 0.05)
-
-
-def rotate_plane(xy, angle):
-    c, s = np.cos(angle), np.sin(angle)
-    return np.stack([c * xy[:, 0] - s * xy[:, 1], s * xy[:, 0] + c * xy[:, 1]], -1)
 
 
 def _refine_pitch(spline, verts_level, v0, hand, outer, n_use=20000):
@@ -454,7 +437,7 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD):
             f"(RMS distance of the mesh vertices from the best screw surface, in outer radii; "
             f"max {deviation.max() / outer:.3g})")
     # the rotor frame's profile is at z = 0: screw the level's profile there with the refined pitch
-    spline = SplineProfile(rotate_plane(pts, -hand * zm / v0))
+    spline = SplineProfile(rotate2d(pts, -hand * zm / v0))
     # resample uniformly, starting at the first lobe tip so flank ranges rarely wrap
     prof = spline.sample(n_profile)
     flanks, lobes = split_flanks(prof)

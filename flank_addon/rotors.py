@@ -72,7 +72,7 @@ from functools import lru_cache
 import numpy as np
 
 from .profile import SplineProfile, points_in_polygon, signed_area
-from .screw import hand_name, hand_sign, screw_motion
+from .screw import hand_name, hand_sign, rotate2d, screw_motion
 
 __all__ = ["Rotor", "KINDS", "BUILTIN_NAMES", "builtin_rotor", "builtin_by_name", "rotor_pair",
            "meshing_clearance", "spline_error", "RotorError", "triangulate_polygon", "nilson_male_arcs"]
@@ -247,22 +247,17 @@ class Rack:
         return f, f1, f2
 
 
-def _rot(xy, ang):
-    c, s = np.cos(ang), np.sin(ang)
-    return np.stack([c * xy[..., 0] - s * xy[..., 1], s * xy[..., 0] + c * xy[..., 1]], -1)
-
-
 def _generate(rack, d, part, x):
     """Exact conjugate points of ``part`` for rack abscissae x (rotor frame, unit scale)."""
     f, f1, _ = rack.eval(x)
     s = -f * f1 - np.asarray(x, float)
     q = np.stack([-f * f1, f], -1)
     if part == "male":
-        pts = _rot(q - np.array([0.0, -d["r1"]]), s / d["r1"])
+        pts = rotate2d(q - np.array([0.0, -d["r1"]]), s / d["r1"])
     else:
-        pts = _rot(q - np.array([0.0, d["r2"]]), -s / d["r2"])
+        pts = rotate2d(q - np.array([0.0, d["r2"]]), -s / d["r2"])
     # turn the pair so that the female axis lies on +x of the male axis
-    return _rot(pts, -math.pi / 2)
+    return rotate2d(pts, -math.pi / 2)
 
 
 def _lobe_samples(rack, d, part, n):
@@ -313,7 +308,7 @@ def _unit_profile(kind, part, n_per_lobe=2400):
     x_other = rack.x_bottom if part == "male" else rack.x_top + rack.p
     i_other = int(np.argmin(np.abs(xs - x_other)))
     step = -2 * math.pi / z if part == "male" else 2 * math.pi / z
-    pts = np.concatenate([_rot(lobe, k * step) for k in range(z)])
+    pts = np.concatenate([rotate2d(lobe, k * step) for k in range(z)])
     m = len(xs)
     tips = np.arange(z) * m
     bottoms = tips + i_other
@@ -372,7 +367,7 @@ class _ArcMale:
         e = np.stack([np.cos(a), np.sin(a)], -1)
         p = np.stack([cx, cy], -1) + np.abs(rho)[:, None] * e
         n = np.sign(rho)[:, None] * e
-        return _rot(p, k * self.step), _rot(n, k * self.step)
+        return rotate2d(p, k * self.step), rotate2d(n, k * self.step)
 
     def contact_angle(self, s):
         """Male turning angle theta1 at which the male point s is in contact."""
@@ -386,7 +381,7 @@ class _ArcMale:
         """Female profile points (female frame) conjugate to the male points s."""
         th1, p = self.contact_angle(np.atleast_1d(s))
         th2 = -th1 * self.d["z1"] / self.d["z2"]
-        return _rot(_rot(p, th1) - np.array([self.d["A"], 0.0]), -th2)
+        return rotate2d(rotate2d(p, th1) - np.array([self.d["A"], 0.0]), -th2)
 
     def curve(self, part):
         """(function of the lobe parameter x in [0, L) -> points, curvature breaks in x).
@@ -430,7 +425,7 @@ def _arc_unit_profile(d, part, n_per_lobe):
     # male: tips at polar angles 0, 90, ...; female: the first lobe's tip is at
     # pi - pi/z2 (150 deg), start one lobe further so that u = 0 is at -150 deg
     first = 0 if part == "male" else 1
-    pts = np.concatenate([_rot(lobe, (k + first) * 2 * math.pi / z) for k in range(z)])
+    pts = np.concatenate([rotate2d(lobe, (k + first) * 2 * math.pi / z) for k in range(z)])
     m = len(xs)
     tips = np.arange(z) * m
     bottoms = tips + i_other
@@ -455,7 +450,7 @@ def nilson_male_arcs(scale=1.0):
     for k in range(d["z1"]):
         ang = k * 2 * math.pi / d["z1"]
         for a, role in zip([tip] + arcs[1:4], ("tip", "flank", "root", "flank")):
-            out.append(dict(centre=_rot(np.array([a[0], a[1]]), ang) * scale,
+            out.append(dict(centre=rotate2d(np.array([a[0], a[1]]), ang) * scale,
                             radius=abs(a[2]) * scale, role=role, convex=bool(a[2] > 0),
                             angles=(a[3] + ang, a[4] + ang)))
     return out
@@ -765,8 +760,8 @@ def meshing_clearance(male, female, centre_distance, n_steps=200, n_samples=2000
     off = np.array([A, 0.0])
     for k, t1 in enumerate(th1):
         t2 = -t1 * z1 / z2 + phase
-        c1 = df.min_signed(pm, um, lambda p: _rot(_rot(p, t1) - off, -t2))
-        c2 = dm.min_signed(pf, uf, lambda p: _rot(_rot(p, t2) + off, -t1))
+        c1 = df.min_signed(pm, um, lambda p: rotate2d(rotate2d(p, t1) - off, -t2))
+        c2 = dm.min_signed(pf, uf, lambda p: rotate2d(rotate2d(p, t2) + off, -t1))
         clear[k] = min(c1, c2)
     return {"theta1": th1, "clearance": clear, "max_gap": float(np.max(clear)),
             "max_interference": float(max(0.0, -np.min(clear)))}
