@@ -25,8 +25,9 @@ def _ranges(mask):
     return [[int(a), int(b)] for a, b in zip(starts, ends)]
 
 
-def _min_distance(tools, q, v0, hand):
-    d = np.stack([helical_distance(t, q, v0, hand)[0] for t in tools])
+def _min_distance(tools, q, v0, hand, cutoff):
+    """min over tools of min(D, cutoff) and the tool attaining it (cutoff lets the time windows cull)."""
+    d = np.stack([helical_distance(t, q, v0, hand, cutoff=cutoff)[0] for t in tools])
     return d.min(axis=0), d.argmin(axis=0)
 
 
@@ -66,10 +67,10 @@ def verify_plan(plan, tolerance=None, search=None):
     gouges = []
     if tools:
         below = np.c_[prof - tol * normals, np.zeros(n)]
-        d_all, which = _min_distance(tools, below, v0, hand)
+        d_all, which = _min_distance(tools, below, v0, hand, 0.0)
         hit = np.flatnonzero(d_all < 0)
         if len(hit):  # tool or shank: only the few gouged points need the distinction
-            d_tool, _ = _min_distance(tool_only, below[hit], v0, hand)
+            d_tool, _ = _min_distance(tool_only, below[hit], v0, hand, 0.0)
         for j, i in enumerate(hit):
             gouges.append({"index": int(i), "x": float(prof[i, 0]), "y": float(prof[i, 1]),
                            "strip": int(which[i]), "by": "tool" if d_tool[j] < 0 else "shank",
@@ -81,8 +82,8 @@ def verify_plan(plan, tolerance=None, search=None):
     ok = target & np.isfinite(deviation)
     own = np.full(n, -1)
     if tools and ok.any():
-        _, owner = _min_distance(tools, machined[ok], v0, hand)
-        own[ok] = owner
+        d_own, owner = _min_distance(tools, machined[ok], v0, hand, tol)
+        own[ok] = np.where(d_own < tol, owner, -1)
     for k, s in enumerate(strips):
         mine = own == k
         dev = deviation[mine]
