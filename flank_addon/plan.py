@@ -19,7 +19,12 @@ it.  Fields (more are welcome, none may be removed or change meaning):
     strips         [{axis_start, axis_end (rotor frame, inscribed-sphere centres, start = tip end),
                      radii [r_0..r_m] at m+1 equally spaced axis points (cone: 2),
                      shank_start, shank_end, shank_radius, flank, reported_max_error,
-                     reported_min_error, collision}, ...]
+                     reported_min_error, collision,
+                     optional exact shapes instead of the inscribed spheres of "radii":
+                       meridian    [[h, R], ...] revolved polyline, h from axis_start towards
+                                   axis_end strictly increasing, R >= 0 (formed disc cutters)
+                       paraboloid  {a, b}: the lens |h| <= b + a rho^2 (a < 0 < b) centred
+                                   at axis_start (s002)}, ...]
     summary        {max_error, min_error, elapsed_s}
 
 Rotor frame: helical axis = z through the origin; the rotor surface is the
@@ -186,6 +191,17 @@ def _validate(plan):
         radii = np.asarray(st.get("radii", []), float)
         if radii.ndim != 1 or len(radii) < 2 or not np.isfinite(radii).all() or (radii < 0).any():
             raise PlanError(f"strips[{k}].radii must hold >= 2 non-negative radii")
+        if st.get("meridian") is not None:
+            mer = np.asarray(st["meridian"], float)
+            if (mer.ndim != 2 or mer.shape[1] != 2 or len(mer) < 2 or not np.isfinite(mer).all()
+                    or (np.diff(mer[:, 0]) <= 0).any() or (mer[:, 1] < 0).any()):
+                raise PlanError(f"strips[{k}].meridian must be >= 2 finite [h, R] rows, h strictly "
+                                "increasing, R >= 0")
+        if st.get("paraboloid") is not None:
+            par = st["paraboloid"]
+            if not (isinstance(par, dict) and _is_num(par.get("a")) and _is_num(par.get("b"))
+                    and par["a"] < 0 < par["b"]):
+                raise PlanError(f"strips[{k}].paraboloid must be {{a, b}} with a < 0 < b, got {par!r}")
         for key in ("shank_radius", "reported_max_error", "reported_min_error"):
             if not _is_num(st.get(key)):
                 raise PlanError(f"strips[{k}].{key} must be a finite number")

@@ -139,15 +139,17 @@ class MeridianPart:
         self.axis, _ = _unit(direction, "meridian axis")
         self.meridian = m
         h0, h1 = m[0, 0], m[-1, 0]
-        ring = np.vstack([[h0, 0.0], m, [h1, 0.0]])     # closed through the axis
+        # the boundary in the half-plane: end face, meridian, end face (the axis is not boundary)
+        ring = np.vstack([[h0, 0.0], m, [h1, 0.0]])
         extent = max(h1 - h0, m[:, 1].max())
         self.spacing = float(spacing) if spacing else extent / 400.0
-        seg = np.diff(np.vstack([ring, ring[:1]]), axis=0)
+        seg = np.diff(ring, axis=0)
         seg_len = np.linalg.norm(seg, axis=1)
         pts = [ring[i] + np.linspace(0, 1, max(1, int(np.ceil(l / self.spacing))), endpoint=False)[:, None] * seg[i]
                for i, l in enumerate(seg_len) if l > 0]
-        self.boundary = np.vstack(pts)                  # closed polyline, last edge back to the first point
+        self.boundary = np.vstack(pts + [ring[-1:]])    # open polyline
         self.tree = cKDTree(self.boundary)
+        self.golden_iters = 30
         thickness = h1 - h0
         self.feature = max(0.25 * min(thickness, m[:, 1].max()), 1e-3 * extent)
         rmax = float(m[:, 1].max())
@@ -166,9 +168,9 @@ class MeridianPart:
         near = near.reshape(len(p), -1)
         best = np.full(len(p), np.inf)
         for j in range(near.shape[1]):
-            for a_idx in (near[:, j], (near[:, j] - 1) % nb):
+            for a_idx in (np.minimum(near[:, j], nb - 2), np.maximum(near[:, j] - 1, 0)):
                 a = self.boundary[a_idx]
-                e = self.boundary[(a_idx + 1) % nb] - a
+                e = self.boundary[a_idx + 1] - a
                 u = np.clip(np.einsum("ij,ij->i", p - a, e) / np.einsum("ij,ij->i", e, e), 0.0, 1.0)
                 best = np.minimum(best, np.linalg.norm(p - a - u[:, None] * e, axis=1))
         inside = p[:, 1] <= self.radius_at(p[:, 0])
@@ -189,6 +191,7 @@ class ParaboloidPart:
         self.axis, _ = _unit(direction, "paraboloid axis")
         self.a, self.b = float(a), float(b)
         self.rho_e = float(np.sqrt(-b / a))
+        self.golden_iters = 30                     # the equator is a sharp edge
         self.feature = 0.5 * min(self.rho_e, self.b)
         rb = float(np.hypot(self.rho_e, self.b))
         self.bounds = (self.centre[None, :], np.array([rb]))
@@ -205,7 +208,7 @@ class ParaboloidPart:
             cardano = np.cbrt(-Q / 2 + sq) + np.cbrt(-Q / 2 - sq)
             cands.append(np.where(disc >= 0, cardano, np.nan))
             r = np.sqrt(np.maximum(-P / 3, 0.0))
-            arg = np.clip(np.where(r > 0, -Q / (2 * np.maximum(r, 1e-300) ** 3), 0.0), -1.0, 1.0)
+            arg = np.clip(-Q / (2 * np.maximum(r, 1e-100) ** 3), -1.0, 1.0)
             th = np.arccos(arg) / 3
             for k in range(3):
                 cands.append(np.where(disc < 0, 2 * r * np.cos(th - 2 * np.pi * k / 3), np.nan))
@@ -237,6 +240,9 @@ class RevolvingTool:
         self.bound_centres = np.vstack([p.bounds[0] for p in self.parts])
         self.bound_radii = np.concatenate([p.bounds[1] for p in self.parts])
         self.feature = min(p.feature for p in self.parts)
+        # a sharp edge makes D(x) kinked in t near the edge's trace; parabolic polish cannot
+        # converge there, golden section must shrink the bracket further (~1e-9 instead of ~1e-5)
+        self.golden_iters = max(getattr(p, "golden_iters", 12) for p in self.parts)
         self.z_range = (float((self.bound_centres[:, 2] - self.bound_radii).min()),
                         float((self.bound_centres[:, 2] + self.bound_radii).max()))
 
@@ -312,13 +318,13 @@ class StripTool(RevolvingTool):
         return cls(p0, p1, strip["radii"], *shank, extra_parts=extra)
 
 
-def helical_distance(tool, points, v0, handedness="right", step=None, iters=12, polish=4, cutoff=np.inf):
+def helical_distance(tool, points, v0, handedness="right", step=None, iters=None, polish=4, cutoff=np.inf):
     """min(D(x), cutoff) with D(x) = min_t sd_tool(S_t(x)) for 3D points (N, 3): (D, t*).
 
     Only the times inside the tool's window (:meth:`RevolvingTool.time_windows`) are searched: they
     are sampled densely (points move at most ``step`` between samples) and the best sample is
-    polished on its neighbouring interval by ``iters`` golden-section steps, then ``polish``
-    parabolic-interpolation steps.  Points whose helix never comes
+    polished on its neighbouring interval by ``iters`` golden-section steps (default: the tool's
+    ``golden_iters``), then ``polish`` parabolic-interpolation steps.  Points whose helix never comes
     within ``cutoff`` (scalar or (N,)) of the tool get exactly ``cutoff`` (a lower bound of D), t* = nan.
     """
     x = np.atleast_2d(np.asarray(points, float))
@@ -338,6 +344,8 @@ def helical_distance(tool, points, v0, handedness="right", step=None, iters=12, 
     speed = np.sqrt(np.einsum("ij,ij->i", x[:, :2], x[:, :2]) + v0 * v0)
     if step is None:
         step = 0.25 * tool.feature
+    if iters is None:
+        iters = tool.golden_iters
     n = int(np.clip(np.max((t_hi - t_lo) * speed / step), 8, 4000)) + 1
     s = np.linspace(0.0, 1.0, n)
     T = t_lo[:, None] + (t_hi - t_lo)[:, None] * s[None, :]

@@ -87,3 +87,61 @@ def test_cli_writes_paper_section(tmp_path):
                         "--b", "7.2", "--pitch", "20", "--out", str(out)],
                        cwd=Path(__file__).resolve().parents[1], capture_output=True, text=True, timeout=120)
     assert r.returncode == 2 and r.stderr.startswith("error:") and "equator radius" in r.stderr
+
+
+def section_normals(x, y):
+    """Unit normals of the upper section pointing into the groove (out of the material above it)."""
+    dx, dy = np.gradient(x), np.gradient(y)
+    n = np.c_[dy, -dx]
+    return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
+@pytest.mark.parametrize("params", [PAPER, dict(R=15.0, a=-0.08, b=5.0, p=35.0)])
+def test_sweep_simulation_reproduces_the_analytic_section(params):
+    """Part 1's sweep engine, knowing only the lens and the helix, cuts the analytic groove.
+
+    Paper frame -> rotor frame: (x, y, z) -> (x, -z, y) is a proper rotation taking the tool centre's
+    helix (R cos phi, p/2 - p phi / 2pi, R sin phi) to a right-handed helix of v0 = p / 2pi about z;
+    at phi = pi the centre sits at (-R, 0, 0) and the section plane z = 0 becomes y = 0."""
+    from flank_addon.sweep import ParaboloidPart, RevolvingTool, machined_deviation
+
+    R, a, b, p = params["R"], params["a"], params["b"], params["p"]
+    sec = groove_section(R, a, b, p, n=301)
+    nrm = section_normals(sec.x, sec.y)
+    pts = np.c_[sec.x, np.zeros_like(sec.x), sec.y]
+    nrm3 = np.c_[nrm[:, 0], np.zeros_like(sec.x), nrm[:, 1]]
+    tool = RevolvingTool([ParaboloidPart([-R, 0.0, 0.0], [0.0, 0.0, 1.0], a, b)])
+    v0 = p / (2 * np.pi)
+    dev = machined_deviation([tool], pts, nrm3, v0, "right", max_deviation=1.0)
+    assert np.abs(dev).max() < 1e-7          # mm; the issue asks for 0.1 um = 1e-4 mm
+    # and the simulation is not blind: a section shifted 2 um into the groove is 2 um short of it
+    dev2 = machined_deviation([tool], pts + 2e-3 * nrm3, nrm3, v0, "right", max_deviation=1.0)
+    assert np.allclose(dev2, -2e-3, atol=1e-7)
+    # the helix cuts more than the tool's own section (s002 Fig. 5): a point on the tool's section
+    # where the overcut is largest lies strictly inside the simulated groove
+    k = int(np.argmax(sec.overcut))
+    tool_pt = np.array([[sec.x[k], 0.0, sec.tool_y[k]]])
+    d = machined_deviation([tool], tool_pt, nrm3[k:k + 1], v0, "right", max_deviation=1.0)
+    assert d[0] < -0.5 * sec.overcut[k] * abs(nrm[k, 1])
+
+
+def test_paraboloid_lens_distance_matches_dense_sampling():
+    from flank_addon.sweep import ParaboloidPart
+
+    a, b = -0.05, 7.2
+    part = ParaboloidPart([1.0, 2.0, 3.0], [0.3, -0.2, 1.0], a, b)
+    rng = np.random.default_rng(4)
+    q = part.centre + rng.uniform(-20, 20, (3000, 3))
+    d = part.signed_distance(q)
+    # brute force in the meridian half-plane: dense samples of both parabola arcs
+    w = q - part.centre
+    h = w @ part.axis
+    rho = np.linalg.norm(w - h[:, None] * part.axis, axis=1)
+    u = np.linspace(0, part.rho_e, 200001)
+    arc = np.c_[b + a * u * u, u]
+    from scipy.spatial import cKDTree
+    dist, _ = cKDTree(np.vstack([arc, arc * [-1, 1]])).query(np.c_[h, rho])
+    inside = (np.abs(h) <= b + a * rho ** 2) & (rho <= part.rho_e)
+    assert np.array_equal(d < 0, inside)
+    assert np.max(np.abs(np.abs(d) - dist)) < 1e-4     # sampling spacing 6e-5
+    assert np.all(np.abs(d) <= dist + 1e-12)           # exact foot points are never worse

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize
 
-from flank_addon.screw import hand_sign
+from flank_addon.screw import hand_sign, screw_motion
 from flank_addon.sweep import StripTool, helical_distance, machined_deviation, sd_sphere_frustum
 
 
@@ -108,3 +108,66 @@ def test_overcut_is_negative_and_uncut_is_inf():
     assert dev[0] < 0 and np.isinf(dev[1])
     d, _ = helical_distance(tool, np.array([[0.8, 0.0, 0.0], [0.8, 0.0, 5.0]]), v0)
     assert d[0] < 0 and d[1] > 0
+
+
+def test_meridian_part_is_exact_for_a_polyline_solid():
+    """A rectangle meridian is a flat-ended cylinder; a trapezoid one a flat-ended cone frustum."""
+    from flank_addon.sweep import MeridianPart, sd_cylinder
+
+    rng = np.random.default_rng(5)
+    o, axis = np.array([0.2, -0.1, 0.3]), np.array([1.0, 2.0, 0.5])
+    a = axis / np.linalg.norm(axis)
+    cyl = MeridianPart(o, axis, [[0.0, 0.4], [1.5, 0.4]])
+    q = o + rng.uniform(-1.5, 2.5, (4000, 3))
+    assert np.max(np.abs(cyl.signed_distance(q) - sd_cylinder(q, o, o + 1.5 * a, 0.4))) < 1e-12
+    # frustum: compare with an independent 2D polygon distance in the meridian half-plane
+    mer = np.array([[-0.2, 0.1], [0.3, 0.6], [0.9, 0.6], [1.2, 0.05]])
+    part = MeridianPart(o, axis, mer)
+    w = q - o
+    h = w @ a
+    rho = np.linalg.norm(w - h[:, None] * a, axis=1)
+    poly = np.vstack([[mer[0, 0], 0.0], mer, [mer[-1, 0], 0.0]])
+    P = np.c_[h, rho]
+    best = np.full(len(q), np.inf)
+    for i in range(len(poly) - 1):       # the axis itself is not boundary
+        s0, s1 = poly[i], poly[i + 1]
+        e = s1 - s0
+        u = np.clip((P - s0) @ e / (e @ e), 0, 1)
+        best = np.minimum(best, np.linalg.norm(P - s0 - u[:, None] * e, axis=1))
+    inside = (h >= mer[0, 0]) & (h <= mer[-1, 0]) & (rho <= np.interp(h, mer[:, 0], mer[:, 1]))
+    assert np.max(np.abs(part.signed_distance(q) - np.where(inside, -best, best))) < 1e-12
+
+
+def test_meridian_tool_deviation_matches_dense_point_in_solid_brute_force():
+    """Meridian (flat-ended cone) tool, left hand: the root of the simulation is where a dense
+    point-in-solid sweep (fine t, points along the ray) first finds removed material."""
+    from flank_addon.sweep import MeridianPart, RevolvingTool
+
+    v0, hand = 0.45, "left"
+    c1 = np.array([0.62, 0.05, -0.05])
+    axis = np.array([0.2, 0.1, 0.35])
+    L = np.linalg.norm(axis)
+    a = axis / L
+    tool = RevolvingTool([MeridianPart(c1, axis, [[0.0, 0.07], [L, 0.12]])])
+    rng = np.random.default_rng(21)
+    ang = rng.uniform(-0.5, 0.5, 12)
+    rad = rng.uniform(0.4, 0.7, 12)
+    pts = np.c_[rad * np.cos(ang), rad * np.sin(ang)]
+    nrm = np.c_[np.cos(ang), np.sin(ang)]
+    dev = machined_deviation([tool], pts, nrm, v0, hand, max_deviation=1.0)
+    t = np.linspace(-2.5, 2.5, 20001)
+
+    def removed(q):
+        S = screw_motion(np.broadcast_to(q, (len(t), 3)), t, v0, hand)
+        h = (S - c1) @ a
+        rho = np.linalg.norm(S - c1 - h[:, None] * a, axis=1)
+        return bool(((h >= 0) & (h <= L) & (rho <= 0.07 + 0.05 * h / L)).any())
+
+    checked = 0
+    for p, n, d in zip(pts, nrm, dev):
+        if not np.isfinite(d):
+            continue
+        checked += 1
+        assert not removed(np.r_[p + (d - 2e-4) * n, 0.0])    # material just below the surface
+        assert removed(np.r_[p + (d + 2e-4) * n, 0.0])        # cut just above it
+    assert checked >= 8 and (dev < 0).sum() >= 2 and (dev[np.isfinite(dev)] > 0).sum() >= 2
