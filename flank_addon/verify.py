@@ -31,8 +31,12 @@ def _min_distance(tools, q, v0, hand, cutoff):
     return d.min(axis=0), d.argmin(axis=0)
 
 
-def verify_plan(plan, tolerance=None, search=None):
-    """Simulate a plan; return a JSON-ready dict (see module doc and README)."""
+def verify_plan(plan, tolerance=None, search=None, all_points=False):
+    """Simulate a plan; return a JSON-ready dict (see module doc and README).
+
+    With ``all_points`` the deviation is also simulated on every profile point (all lobes, not only
+    the target flanks) and returned as ``deviation_all`` (None where no tool reaches within
+    ``search``): what the Blender operator paints on the rotor."""
     validate_plan(plan)
     t0 = time.perf_counter()
     rotor = plan["rotor"]
@@ -60,9 +64,12 @@ def verify_plan(plan, tolerance=None, search=None):
         flank_of[idx] = f
     deviation = np.full(n, np.nan)
     ti = np.flatnonzero(target)
-    if tools and len(ti):
+    if tools and all_points:
+        deviation = machined_deviation(tools, prof, normals, v0, hand, max_deviation=search)
+        dev_all = deviation.copy()
+        deviation[~target] = np.nan
+    elif tools and len(ti):
         deviation[ti] = machined_deviation(tools, prof[ti], normals[ti], v0, hand, max_deviation=search)
-
     # gouges anywhere on the rotor: the swept region reaches tol below the design surface
     gouges = []
     if tools:
@@ -108,7 +115,7 @@ def verify_plan(plan, tolerance=None, search=None):
             "uncovered_ranges": _ranges(m & ~(deviation <= tol)),
         })
     fin = deviation[target & np.isfinite(deviation)]
-    return {
+    out = {
         "schema": "flank-verify/1",
         "length_unit": plan["length_unit"],
         "tolerance": tol,
@@ -121,3 +128,56 @@ def verify_plan(plan, tolerance=None, search=None):
                                float(deviation[i]) if np.isfinite(deviation[i]) else None] for i in ti],
         "elapsed_s": time.perf_counter() - t0,
     }
+    if all_points:
+        if not tools:
+            dev_all = np.full(n, np.inf)
+        out["deviation_all"] = [float(d) if np.isfinite(d) else None for d in dev_all]
+    return out
+
+
+# RGBA of the deviation classes, shared by Blender and the pictures
+DEVIATION_COLORS = {
+    "gouge": (0.85, 0.10, 0.10, 1.0),      # cut deeper than the tolerance
+    "ok": (0.15, 0.70, 0.25, 1.0),         # within +- tolerance
+    "stock": (0.15, 0.35, 0.90, 1.0),      # material left beyond the tolerance
+    "untouched": (0.60, 0.60, 0.60, 1.0),  # no tool within the search range
+}
+
+
+def deviation_colors(deviation, tolerance):
+    """(N, 4) RGBA for signed deviations (N,): red gouge < -tol, green within tol, blue stock > tol,
+    grey where not reached (nan or inf).  Inside each band the shade deepens with |deviation|."""
+    d = np.asarray(deviation, float)
+    tol = float(tolerance)
+    rgba = np.empty(d.shape + (4,))
+    rgba[:] = DEVIATION_COLORS["untouched"]
+    fin = np.isfinite(d)
+    for key, m in (("gouge", fin & (d < -tol)), ("ok", fin & (np.abs(d) <= tol)), ("stock", fin & (d > tol))):
+        rgba[m] = DEVIATION_COLORS[key]
+    # shade: 1 at the band edge, 0.55 at 10x tolerance and beyond
+    depth = np.clip((np.abs(np.nan_to_num(d, posinf=0.0, neginf=0.0)) / tol - 1.0) / 9.0, 0.0, 1.0)
+    shade = np.where(fin & (np.abs(np.nan_to_num(d)) > tol), 1.0 - 0.45 * depth, 1.0)
+    rgba[..., :3] *= shade[..., None]
+    return rgba
+
+
+def values_on_rotor(plan, points, values):
+    """Transfer per-profile-point ``values`` (n,) to 3D points (N, 3) in the plan's rotor frame:
+    each point is screwed along its helix into z = 0 and takes the nearest profile point's value
+    (the deviation of a helical motion is the same along every helix)."""
+    from scipy.spatial import cKDTree
+
+    from .screw import screw_to_plane
+
+    r = plan["rotor"]
+    xy = screw_to_plane(np.asarray(points, float), float(r["v0"]), r["handedness"])
+    _, idx = cKDTree(np.asarray(r["profile"], float)).query(xy)
+    return np.asarray(values, float)[idx]
+
+
+def world_to_rotor(plan, points_world):
+    """Plan-model frame points (N, 3) -> rotor frame (inverse of rotor.to_world)."""
+    T = np.asarray(plan["rotor"]["to_world"], float)
+    inv = np.linalg.inv(T)
+    p = np.asarray(points_world, float)
+    return p @ inv[:3, :3].T + inv[:3, 3]

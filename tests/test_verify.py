@@ -63,3 +63,26 @@ def test_cli_verify_json(tmp_path):
     d = json.loads(r.stdout)
     assert abs(d["max_overcut"] + 0.004) < 1e-9 and d["gouge_points"] and "deviation_profile" in d
     assert {"max_undercut", "max_overcut", "gouge_points", "strips"} <= set(d)
+
+
+def test_all_points_colours_and_transfer_to_3d():
+    from flank_addon.screw import screw_motion
+    from flank_addon.verify import deviation_colors, values_on_rotor, world_to_rotor
+
+    plan = ball_plan(0.003)
+    res = verify_plan(plan, tolerance=1e-3, all_points=True)
+    dev = np.array([np.nan if d is None else d for d in res["deviation_all"]])
+    assert len(dev) == len(plan["rotor"]["profile"])
+    assert abs(dev[0] + 0.003) < 1e-9                 # the gouge at the facing point
+    # the opposite side of the cylinder is never reached
+    assert np.isnan(dev[len(dev) // 2])
+    rgba = deviation_colors(dev, 1e-3)
+    assert rgba.shape == (len(dev), 4)
+    assert rgba[0, 0] > rgba[0, 1] and rgba[0, 0] > rgba[0, 2]          # gouge: red
+    assert np.allclose(rgba[len(dev) // 2, :3], 0.6)                     # untouched: grey
+    # 3D points on the rotor surface carry the value of the profile point on their helix
+    prof = np.asarray(plan["rotor"]["profile"])
+    t = np.linspace(-3, 3, 7)
+    pts = screw_motion(np.c_[prof[[0, 5, 700]], np.zeros(3)][:, None, :], t[None, :], 0.4, "right").reshape(-1, 3)
+    vals = values_on_rotor(plan, world_to_rotor(plan, pts), np.nan_to_num(dev, nan=9.0))
+    assert np.allclose(vals.reshape(3, -1), np.nan_to_num(dev, nan=9.0)[[0, 5, 700]][:, None])
