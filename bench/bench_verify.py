@@ -7,7 +7,7 @@ Two plans, each with 15 cone strips and shanks, on a 2,000-point profile:
   surface at one point with its axis along the surface's helix-orthogonal tangent (real deviations,
   material left between strips, gouges elsewhere).
 The baseline is the same engine with the time windows switched off (search the whole axial slab of
-the tool for every point), run side by side.
+the tool for every point) and one tool at a time instead of all strips stacked, run side by side.
 
     .venv/bin/python bench/bench_verify.py
 """
@@ -75,20 +75,25 @@ def timed(plan, repeats=3):
 
 
 def main():
-    full_slab = sweep.RevolvingTool.time_windows
+    windows, compatible = sweep.time_windows, sweep.StackedTools.compatible
 
-    def no_windows(self, x, v0, handedness, margin):
-        z0, z1 = self.z_range
-        return (z0 - x[:, 2]) / v0, (z1 - x[:, 2]) / v0, np.ones(len(x), bool)
+    def whole_slab(x, centres, radii, v0, handedness, margin):
+        c = np.asarray(centres).reshape(-1, 3) if np.ndim(centres) == 2 else None
+        if c is None:   # per-row spheres
+            lo = np.where(np.isfinite(radii), centres[..., 2] - radii, np.inf).min(1)
+            hi = np.where(np.isfinite(radii), centres[..., 2] + radii, -np.inf).max(1)
+        else:
+            lo, hi = (c[:, 2] - radii).min(), (c[:, 2] + radii).max()
+        return (lo - x[:, 2]) / v0, (hi - x[:, 2]) / v0, np.ones(len(x), bool)
 
-    print(f"{'plan':<14} {'targets':>7} {'time windows':>13} {'baseline':>9} {'ratio':>6}  result")
+    print(f"{'plan':<14} {'targets':>7} {'engine':>13} {'baseline':>9} {'ratio':>6}  result")
     for name, plan in (("cylinder", cylinder_plan()), ("female flank", female_plan())):
         t_new, res = timed(plan)
-        sweep.RevolvingTool.time_windows = no_windows
+        sweep.time_windows, sweep.StackedTools.compatible = whole_slab, staticmethod(lambda tools: False)
         try:
             t_old, ref = timed(plan, repeats=1)
         finally:
-            sweep.RevolvingTool.time_windows = full_slab
+            sweep.time_windows, sweep.StackedTools.compatible = windows, compatible
         a = np.array([r[3] if r[3] is not None else np.inf for r in res["deviation_profile"]])
         b = np.array([r[3] if r[3] is not None else np.inf for r in ref["deviation_profile"]])
         fin = np.isfinite(a) & np.isfinite(b)

@@ -61,28 +61,49 @@ def _sphere_chain(p0, p1, radius_at, piece):
     return centres, np.sqrt(r * r + half * half)
 
 
+def _rows(v, q, vec):
+    """Broadcast a per-row parameter (rows along axis 0 of q) against q (N, 3) or (N, n, 3)."""
+    v = np.asarray(v, float)
+    lead = v.ndim - (1 if vec else 0)          # 0: one value for all rows, 1: per row
+    if lead == 1 and q.ndim == 3:
+        v = v[:, None]
+    return v
+
+
 def sd_sphere_frustum(q, c1, r1, c2, r2):
-    """Signed distance from points q (N, 3) to the convex hull of two spheres (exact outside)."""
+    """Signed distance from points q (..., 3) to the convex hull of two spheres (exact outside).
+
+    Parameters are either single (c (3,), r scalar) or per row of q (c (N, 3), r (N,))."""
     q = np.asarray(q, float)
-    axis = np.asarray(c2, float) - np.asarray(c1, float)
-    L = float(np.linalg.norm(axis))
-    if L <= abs(r2 - r1):  # one sphere contains the other
-        c, r = (c2, r2) if r2 >= r1 else (c1, r1)
-        return np.linalg.norm(q - c, axis=-1) - r
-    h, rho = _axial(q, np.asarray(c1, float), axis / L)
-    nx = (r1 - r2) / L
+    c1, c2 = _rows(c1, q, True), _rows(c2, q, True)
+    r1, r2 = _rows(r1, q, False), _rows(r2, q, False)
+    axis = c2 - c1
+    L = np.sqrt(np.einsum("...i,...i->...", axis, axis))
+    contained = L <= np.abs(r2 - r1)           # one sphere contains the other
+    Ls = np.where(contained, 1.0, L)
+    w = q - c1
+    h = np.einsum("...i,...i->...", w, axis) / Ls
+    rho = np.sqrt(np.maximum(np.einsum("...i,...i->...", w, w) - h * h, 0.0))
+    nx = np.where(contained, 0.0, (r1 - r2) / Ls)
     ny = np.sqrt(1.0 - nx * nx)
     tau = (h - r1 * nx) * ny - (rho - r1 * ny) * nx     # position along the tangent line from T1
     line = h * nx + rho * ny - r1
     cap1 = np.hypot(h, rho) - r1
     cap2 = np.hypot(h - L, rho) - r2
-    return np.where(tau < 0, cap1, np.where(tau > L * ny, cap2, line))
+    d = np.where(tau < 0, cap1, np.where(tau > L * ny, cap2, line))
+    return np.where(contained, np.where(r2 >= r1, cap2, cap1), d)
 
 
 def sd_cylinder(q, s0, s1, radius):
-    """Signed distance from points q (N, 3) to a flat-ended cylinder from s0 to s1."""
-    a, L = _unit(np.subtract(s1, s0), "cylinder axis")
-    h, rho = _axial(q, np.asarray(s0, float), a)
+    """Signed distance from points q (..., 3) to a flat-ended cylinder from s0 to s1 (single or
+    per-row parameters as in :func:`sd_sphere_frustum`)."""
+    q = np.asarray(q, float)
+    s0, s1, radius = _rows(s0, q, True), _rows(s1, q, True), _rows(radius, q, False)
+    axis = s1 - s0
+    L = np.sqrt(np.einsum("...i,...i->...", axis, axis))
+    w = q - s0
+    h = np.einsum("...i,...i->...", w, axis) / L
+    rho = np.sqrt(np.maximum(np.einsum("...i,...i->...", w, w) - h * h, 0.0))
     dx = rho - radius
     dy = np.maximum(-h, h - L)
     return np.minimum(np.maximum(dx, dy), 0.0) + np.hypot(np.maximum(dx, 0.0), np.maximum(dy, 0.0))
@@ -98,6 +119,9 @@ class FrustumPart:
         self.feature = max(min(self.r1, self.r2), 1e-3 * max(rmax, np.linalg.norm(self.c2 - self.c1)))
         self.bounds = _sphere_chain(self.c1, self.c2, lambda s, ds: rmax, max(rmax, 1e-9))
 
+    stack_fields = ("c1", "r1", "c2", "r2")
+    sd_rows = staticmethod(sd_sphere_frustum)
+
     def signed_distance(self, q):
         return sd_sphere_frustum(q, self.c1, self.r1, self.c2, self.r2)
 
@@ -110,6 +134,9 @@ class CylinderPart:
         _unit(self.s1 - self.s0, "shank axis")
         self.feature = self.radius
         self.bounds = _sphere_chain(self.s0, self.s1, lambda s, ds: self.radius, self.radius)
+
+    stack_fields = ("s0", "s1", "radius")
+    sd_rows = staticmethod(sd_cylinder)
 
     def signed_distance(self, q):
         return sd_cylinder(q, self.s0, self.s1, self.radius)
@@ -253,33 +280,123 @@ class RevolvingTool:
         return d
 
     def time_windows(self, x, v0, handedness, margin):
-        """Hull [t_lo, t_hi] of the times at which S_t(x) is within ``margin`` (scalar or (N,)) of a
-        bounding sphere; (t_lo, t_hi, hit) with hit False where it never is (then D(x) > margin).
-        x: (N, 3)."""
-        h = hand_sign(handedness)
-        c, rb = self.bound_centres, self.bound_radii
-        E = rb[None, :] + np.reshape(margin, (-1, 1))              # (N or 1, M)
-        zw_lo = (c[None, :, 2] - E - x[:, 2:3]) / v0               # (N, M) axial window
-        zw_hi = (c[None, :, 2] + E - x[:, 2:3]) / v0
-        rx = np.hypot(x[:, 0], x[:, 1])[:, None]
-        rc = np.hypot(c[:, 0], c[:, 1])[None, :]
-        prod = 2 * rx * rc
-        with np.errstate(divide="ignore", invalid="ignore"):
-            kappa = np.where(prod > 1e-300, (rx * rx + rc * rc - E * E) / prod,
-                             np.where(np.abs(rx - rc) <= E, -2.0, 2.0))
-        alpha = np.arccos(np.clip(kappa, -1.0, 1.0))               # angular half-width
-        full = kappa <= -1.0
-        # centre times of the angular window: psi = theta + h t hits the sphere's angle
-        tc = h * (np.arctan2(c[None, :, 1], c[None, :, 0]) - np.arctan2(x[:, 1], x[:, 0])[:, None])
-        two_pi = 2 * np.pi
+        """See :func:`time_windows` (this tool's bounding spheres)."""
+        return time_windows(x, self.bound_centres, self.bound_radii, v0, handedness, margin)
+
+    def rows(self, idx):
+        return self
+
+
+def time_windows(x, centres, radii, v0, handedness, margin):
+    """Hull [t_lo, t_hi] of the times at which S_t(x) is within ``margin`` (scalar or (N,)) of a
+    bounding sphere; (t_lo, t_hi, hit) with hit False where it never is (then D(x) > margin).
+
+    x: (N, 3); spheres: centres (M, 3) and radii (M,) shared by all points, or per point (N, M, 3)
+    and (N, M) (radius -inf for padding).  The helix of x stays on the cylinder of radius |x_xy|:
+    it can be within E of a sphere only inside the axial window |z(t) - c_z| <= E and the angular
+    window where the planar distance to c_xy is <= E, both closed-form.
+    """
+    h = hand_sign(handedness)
+    c = np.asarray(centres, float)
+    c = c[None] if c.ndim == 2 else c                           # (1 or N, M, 3)
+    rb = np.asarray(radii, float)
+    rb = rb[None] if rb.ndim == 1 else rb
+    E = rb + np.reshape(margin, (-1, 1))                        # (N or 1, M)
+    with np.errstate(invalid="ignore"):
+        zw_lo = (c[..., 2] - E - x[:, 2:3]) / v0                # (N, M) axial window
+        zw_hi = (c[..., 2] + E - x[:, 2:3]) / v0
+    rx = np.hypot(x[:, 0], x[:, 1])[:, None]
+    rc = np.hypot(c[..., 0], c[..., 1])
+    prod = 2 * rx * rc
+    with np.errstate(divide="ignore", invalid="ignore"):
+        kappa = np.where(prod > 1e-300, (rx * rx + rc * rc - E * E) / prod,
+                         np.where(np.abs(rx - rc) <= E, -2.0, 2.0))
+    alpha = np.arccos(np.clip(kappa, -1.0, 1.0))               # angular half-width
+    full = kappa <= -1.0
+    # centre times of the angular window: psi = theta + h t hits the sphere's angle
+    tc = h * (np.arctan2(c[..., 1], c[..., 0]) - np.arctan2(x[:, 1], x[:, 0])[:, None])
+    two_pi = 2 * np.pi
+    with np.errstate(invalid="ignore"):
         k_lo = np.ceil((zw_lo - tc - alpha) / two_pi)
         k_hi = np.floor((zw_hi - tc + alpha) / two_pi)
         lo = np.where(full, zw_lo, np.maximum(zw_lo, tc + two_pi * k_lo - alpha))
         hi = np.where(full, zw_hi, np.minimum(zw_hi, tc + two_pi * k_hi + alpha))
-        ok = (kappa <= 1.0) & (full | (k_lo <= k_hi)) & (lo <= hi)
-        t_lo = np.where(ok, lo, np.inf).min(axis=1)
-        t_hi = np.where(ok, hi, -np.inf).max(axis=1)
-        return t_lo, t_hi, ok.any(axis=1)
+        ok = (E >= 0) & (kappa <= 1.0) & (full | (k_lo <= k_hi)) & (lo <= hi)
+    t_lo = np.where(ok, lo, np.inf).min(axis=1)
+    t_hi = np.where(ok, hi, -np.inf).max(axis=1)
+    return t_lo, t_hi, ok.any(axis=1)
+
+
+class StackedTools:
+    """Several tools with the same layout of frustum/cylinder parts, evaluated together: every row
+    of a query carries the index of its tool, so one numpy pass serves all strips of a plan."""
+
+    def __init__(self, tools):
+        self.tools = list(tools)
+        first = self.tools[0]
+        self.kinds = [type(p) for p in first.parts]
+        self.fields = [{f: np.stack([np.asarray(getattr(t.parts[j], f), float) for t in self.tools])
+                        for f in kind.stack_fields} for j, kind in enumerate(self.kinds)]
+        M = max(len(t.bound_radii) for t in self.tools)
+        self.centres = np.zeros((len(self.tools), M, 3))
+        self.radii = np.full((len(self.tools), M), -np.inf)
+        for k, t in enumerate(self.tools):
+            self.centres[k, :len(t.bound_radii)] = t.bound_centres
+            self.radii[k, :len(t.bound_radii)] = t.bound_radii
+        self.feature = min(t.feature for t in self.tools)
+        self.golden_iters = max(t.golden_iters for t in self.tools)
+        self.z_range = (min(t.z_range[0] for t in self.tools), max(t.z_range[1] for t in self.tools))
+
+    @staticmethod
+    def compatible(tools):
+        kinds = [tuple(type(p) for p in t.parts) for t in tools]
+        return (len(set(kinds)) == 1 and len(tools) > 1
+                and all(hasattr(k, "stack_fields") for k in kinds[0]))
+
+    def rows(self, which):
+        return _StackedRows(self, np.asarray(which))
+
+
+class _StackedRows:
+    """A view of :class:`StackedTools` whose query rows belong to tools ``which`` (N,)."""
+
+    def __init__(self, stack, which):
+        self.stack, self.which = stack, which
+        self.feature, self.golden_iters, self.z_range = stack.feature, stack.golden_iters, stack.z_range
+
+    def rows(self, idx):
+        return _StackedRows(self.stack, self.which[idx])
+
+    def time_windows(self, x, v0, handedness, margin):
+        return time_windows(x, self.stack.centres[self.which], self.stack.radii[self.which], v0,
+                            handedness, margin)
+
+    def signed_distance(self, q):
+        d = None
+        for kind, fields in zip(self.stack.kinds, self.stack.fields):
+            dj = kind.sd_rows(q, *(fields[f][self.which] for f in kind.stack_fields))
+            d = dj if d is None else np.minimum(d, dj)
+        return d
+
+
+def tool_distances(tools, points, v0, handedness, cutoff, mask=None):
+    """(K, N) min(D_k(x_i), cutoff_i) for tools k and points x_i (N, 3); pairs where ``mask`` (K, N)
+    is False are not computed (left at cutoff).  Tools of one layout are evaluated together."""
+    K, N = len(tools), len(points)
+    cutoff = np.broadcast_to(np.asarray(cutoff, float), (N,))
+    out = np.broadcast_to(cutoff, (K, N)).copy()
+    mask = np.ones((K, N), bool) if mask is None else mask
+    if StackedTools.compatible(tools):
+        kk, ii = np.nonzero(mask)
+        if len(kk):
+            stack = StackedTools(tools)
+            out[kk, ii] = helical_distance(stack.rows(kk), points[ii], v0, handedness, cutoff=cutoff[ii])[0]
+        return out
+    for k, t in enumerate(tools):
+        ii = np.flatnonzero(mask[k])
+        if len(ii):
+            out[k, ii] = helical_distance(t, points[ii], v0, handedness, cutoff=cutoff[ii])[0]
+    return out
 
 
 class StripTool(RevolvingTool):
@@ -341,6 +458,7 @@ def helical_distance(tool, points, v0, handedness="right", step=None, iters=None
     if not len(idx):
         return out_d, out_t
     x, t_lo, t_hi = x[idx], t_lo[idx], t_hi[idx]
+    tool = tool.rows(idx)
     speed = np.sqrt(np.einsum("ij,ij->i", x[:, :2], x[:, :2]) + v0 * v0)
     if step is None:
         step = 0.25 * tool.feature
@@ -436,11 +554,10 @@ def machined_deviation(tools, points, normals, v0, handedness="right", max_devia
     # (first with a small cutoff: most design points lie close to the machined surface, and a
     # capped value is still a valid lower bound; only points far from every tool need the full one)
     near = min(1e-3 * scale, cutoff)
-    d_tools = np.stack([helical_distance(t, p, v0, handedness, cutoff=near)[0] for t in tools])
+    d_tools = tool_distances(tools, p, v0, handedness, near)
     far = np.flatnonzero(d_tools.min(axis=0) >= near)
     if len(far) and near < cutoff:
-        d_tools[:, far] = np.stack([helical_distance(t, p[far], v0, handedness, cutoff=cutoff)[0]
-                                    for t in tools])
+        d_tools[:, far] = tool_distances(tools, p[far], v0, handedness, cutoff)
     relevant = d_tools < cutoff
 
     def D(lam, idx, bound):
@@ -448,13 +565,8 @@ def machined_deviation(tools, points, normals, v0, handedness="right", max_devia
         bound that |D| provably stays below (1-Lipschitz along the ray), so results stay exact while
         the time windows shrink with it; tool k cannot come within bound if d_k(0) - |lam| > bound."""
         q = p[idx] + lam[:, None] * n[idx]
-        out = bound.copy()
-        for k, t in enumerate(tools):
-            sel = np.flatnonzero(relevant[k, idx] & (d_tools[k, idx] - np.abs(lam) < bound))
-            if len(sel):
-                out[sel] = np.minimum(out[sel], helical_distance(t, q[sel], v0, handedness,
-                                                                 cutoff=bound[sel])[0])
-        return out
+        mask = relevant[:, idx] & (d_tools[:, idx] - np.abs(lam) < bound)
+        return tool_distances(tools, q, v0, handedness, bound, mask).min(axis=0)
 
     d0 = np.min(d_tools, axis=0)
     # sphere tracing: outside the swept region D is the exact distance, so a step of D cannot jump

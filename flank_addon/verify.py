@@ -11,7 +11,7 @@ import numpy as np
 
 from .plan import validate_plan
 from .profile import SplineProfile
-from .sweep import StripTool, helical_distance, machined_deviation
+from .sweep import StripTool, machined_deviation, tool_distances
 
 
 def _ranges(mask):
@@ -27,7 +27,7 @@ def _ranges(mask):
 
 def _min_distance(tools, q, v0, hand, cutoff):
     """min over tools of min(D, cutoff) and the tool attaining it (cutoff lets the time windows cull)."""
-    d = np.stack([helical_distance(t, q, v0, hand, cutoff=cutoff)[0] for t in tools])
+    d = tool_distances(tools, q, v0, hand, cutoff)
     return d.min(axis=0), d.argmin(axis=0)
 
 
