@@ -10,11 +10,16 @@ half-built data behind.
 from .properties import FLANK_PG_settings
 from .generate import FLANK_OT_generate_rotor
 from .analyze import FLANK_OT_analyze_rotor
+from .verify import FLANK_OT_verify_plan
+from .paraboloid import FLANK_OT_paraboloid_groove
 
 classes = (
     FLANK_PG_settings,
     FLANK_OT_generate_rotor,
     FLANK_OT_analyze_rotor,
+    FLANK_OT_verify_plan,
+    FLANK_OT_paraboloid_groove,
 )
 
-__all__ = ["classes", "FLANK_PG_settings", "FLANK_OT_generate_rotor", "FLANK_OT_analyze_rotor"]
+__all__ = ["classes", "FLANK_PG_settings", "FLANK_OT_generate_rotor", "FLANK_OT_analyze_rotor",
+           "FLANK_OT_verify_plan", "FLANK_OT_paraboloid_groove"]

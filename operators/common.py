@@ -73,3 +73,64 @@ def select_only(context, obj):
             other.select_set(False)
     obj.select_set(True)
     context.view_layer.objects.active = obj
+
+
+def revolved_mesh(np, rh, n=48):
+    """Closed surface of revolution about the local z-axis as (verts (V,3), faces (F,3)), outward oriented.
+
+    ``rh`` (K, 2) meridian points (radius, height) from the top pole to the bottom pole, both with
+    radius 0 (K >= 3); every inner point is revolved into a ring of ``n`` vertices.
+    """
+    rh = np.asarray(rh, dtype=np.float64)
+    rings = rh[1:-1]
+    m = len(rings)
+    if m < 1 or n < 3:
+        raise ValueError("a revolved mesh needs >= 3 meridian points and >= 3 segments")
+    ang = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
+    verts = np.empty((m * n + 2, 3))
+    verts[:m * n, 0] = (rings[:, 0:1] * np.cos(ang)[None, :]).ravel()
+    verts[:m * n, 1] = (rings[:, 0:1] * np.sin(ang)[None, :]).ravel()
+    verts[:m * n, 2] = np.repeat(rings[:, 1], n)
+    verts[m * n] = (0.0, 0.0, rh[0, 1])
+    verts[m * n + 1] = (0.0, 0.0, rh[-1, 1])
+    i = np.arange(n)
+    j = (i + 1) % n
+    faces = []
+    for k in range(m - 1):  # ring k above ring k + 1: CCW seen from outside
+        a, b = k * n + i, k * n + j
+        faces += [np.c_[a, a + n, b + n], np.c_[a, b + n, b]]
+    top, bot = m * n, m * n + 1
+    faces += [np.c_[np.full(n, top), i, j], np.c_[np.full(n, bot), (m - 1) * n + j, (m - 1) * n + i]]
+    return verts, np.vstack(faces)
+
+
+def frame_along(np, p0, p1):
+    """Orthonormal (3,3) rotation whose third column is the unit direction p0 -> p1 (None if p0 == p1)."""
+    ax = np.asarray(p1, dtype=np.float64) - np.asarray(p0, dtype=np.float64)
+    length = float(np.linalg.norm(ax))
+    if length < 1e-12:
+        return None, 0.0
+    ax = ax / length
+    ref = np.array([1.0, 0.0, 0.0]) if abs(ax[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(ax, ref)
+    e1 /= np.linalg.norm(e1)
+    return np.column_stack([e1, np.cross(ax, e1), ax]), length
+
+
+def remove_ids(bpy, objects=(), meshes=(), collections=()):
+    """Best-effort removal of data created by a failed operator (objects first)."""
+    for ob in objects:
+        try:
+            bpy.data.objects.remove(ob)
+        except (ReferenceError, RuntimeError):
+            pass
+    for me in meshes:
+        try:
+            bpy.data.meshes.remove(me)
+        except (ReferenceError, RuntimeError):
+            pass
+    for coll in collections:
+        try:
+            bpy.data.collections.remove(coll)
+        except (ReferenceError, RuntimeError):
+            pass

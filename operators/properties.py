@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Scene-level settings shown in the sidebar and shared enum items."""
 import bpy
-from bpy.props import EnumProperty, FloatProperty, IntProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 
 KIND_ITEMS = (
     ("nilson", "Nilson", "Classic Nilson (4+6) rotor pair"),
@@ -38,5 +38,59 @@ def generator_props():
     )
 
 
+GROOVE_PART_ITEMS = (
+    ("full", "Full", "Whole swept section x in [-(R + rho), -(R - rho)]"),
+    ("external", "External", "Shaft cut from outside: between the tool axis and the screw axis"),
+    ("internal", "Internal", "Bore cut from inside: beyond the tool axis"),
+)
+
+
+def verify_props():
+    """Fresh property definitions of flank.verify_plan (also the scene settings, prefixed 'verify_')."""
+    return dict(
+        filepath=StringProperty(name="Plan File", description="flank-plan/1 JSON file to verify",
+                                subtype='FILE_PATH', default=""),
+        tolerance=FloatProperty(name="Tolerance",
+                                description="Deviation tolerance in the plan's length unit, "
+                                            "0 = plan default (1e-3 x rotor outer radius)",
+                                default=0.0, min=0.0, precision=5),
+        search=FloatProperty(name="Search Range",
+                             description="How far from the design surface a tool is looked for, in the plan's "
+                                         "length unit; 0 = default (0.1 x rotor outer radius)",
+                             default=0.0, min=0.0, precision=4),
+        show_tools=BoolProperty(name="Show Tools",
+                                description="Also add the strips' tools (cutter + shank) as mesh objects in a "
+                                            "'Verify Tools' collection, placed at their contact position",
+                                default=False),
+    )
+
+
+def paraboloid_props():
+    """Fresh property definitions of flank.paraboloid_groove (also the scene settings, prefixed 'groove_').
+
+    No hard limits on R, a, b, pitch: bad values must reach the core and be reported with its
+    message (a hard limit would silently clamp them)."""
+    return dict(
+        radius=FloatProperty(name="Helix Radius R", description="Radius of the tool centre's helix (scene units)",
+                             default=20.0, soft_min=0.0, soft_max=1000.0),
+        a=FloatProperty(name="a", description="Paraboloid constant a (< 0): lens |h| <= b + a rho^2",
+                        default=-0.05, soft_max=0.0, precision=4, step=1),
+        b=FloatProperty(name="b", description="Paraboloid constant b (> 0): half height of the lens",
+                        default=7.2, soft_min=0.0, precision=4),
+        pitch=FloatProperty(name="Pitch p", description="Axial advance of the tool per turn (> 0)",
+                            default=20.0, soft_min=0.0, soft_max=1000.0),
+        turns=FloatProperty(name="Turns", description="Length of the groove in turns of the helix",
+                            default=1.0, min=0.05, soft_max=20.0),
+        part=EnumProperty(name="Section", items=GROOVE_PART_ITEMS, default="full"),
+        resolution=IntProperty(name="Resolution", description="Samples along the swept section",
+                               default=401, min=16, soft_max=4001),
+    )
+
+
+def _prefixed(prefix, props):
+    return {prefix + name: prop for name, prop in props.items()}
+
+
 class FLANK_PG_settings(bpy.types.PropertyGroup):
-    __annotations__ = generator_props()
+    __annotations__ = {**generator_props(), **_prefixed("verify_", verify_props()),
+                       **_prefixed("groove_", paraboloid_props())}

@@ -1,9 +1,13 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Sidebar UI of the Flank Toolpath extension (3D Viewport > Sidebar > "Flank")."""
 from .workpiece import FLANK_PT_workpiece
+from .verify import FLANK_PT_verify
+from .paraboloid import FLANK_PT_paraboloid
 
 classes = (
     FLANK_PT_workpiece,
+    FLANK_PT_verify,
+    FLANK_PT_paraboloid,
 )
 
-__all__ = ["classes", "FLANK_PT_workpiece"]
+__all__ = ["classes", "FLANK_PT_workpiece", "FLANK_PT_verify", "FLANK_PT_paraboloid"]

@@ -1,0 +1,266 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""flank.verify_plan -- simulate a flank-plan/1 file and paint the machined deviation on the rotor mesh."""
+import bpy
+
+from .common import frame_along, new_mesh_from_arrays, remove_ids, revolved_mesh
+from .properties import verify_props
+
+DEVIATION_ATTR = "machined_deviation"
+DEVIATION_COLOR_ATTR = "machined_deviation_color"
+# Value of ``machined_deviation`` on vertices no tool reaches within the search range, and on
+# vertices that do not lie on the plan's rotor surface (e.g. the centre vertices of end caps).
+# A large finite positive number: physically "material left beyond the search range", so every
+# comparison, clamp or colour ramp in shaders / Geometry Nodes treats it as stock, never as a
+# gouge; NaN would silently fail every comparison.  Their colour is the grey "untouched" class.
+UNTOUCHED = 1.0e9
+VERIFY_PROP_KEYS = (
+    "flank_verify_plan", "flank_verify_method", "flank_verify_unit", "flank_verify_tolerance",
+    "flank_verify_search", "flank_verify_max_undercut", "flank_verify_max_overcut", "flank_verify_gouges",
+    "flank_verify_elapsed", "flank_verify_reached", "flank_verify_untouched", "flank_verify_off_surface",
+    "flank_verify_summary",
+)
+TOOLS_COLLECTION = "Verify Tools"
+
+
+def _remove_attributes(mesh):
+    for name in (DEVIATION_ATTR, DEVIATION_COLOR_ATTR):
+        attr = mesh.attributes.get(name)
+        if attr is not None:
+            mesh.attributes.remove(attr)
+
+
+def _write_attributes(np, mesh, values, rgba):
+    _remove_attributes(mesh)
+    d_attr = mesh.attributes.new(DEVIATION_ATTR, 'FLOAT', 'POINT')
+    d_attr.data.foreach_set("value", np.ascontiguousarray(values, dtype=np.float32))
+    c_attr = mesh.color_attributes.new(DEVIATION_COLOR_ATTR, 'FLOAT_COLOR', 'POINT')
+    c_attr.data.foreach_set("color", np.ascontiguousarray(rgba, dtype=np.float32).ravel())
+    mesh.color_attributes.active_color = c_attr
+    try:
+        mesh.color_attributes.render_color_index = mesh.color_attributes.active_color_index
+    except (AttributeError, TypeError):
+        pass
+    mesh.update()
+
+
+def _tool_meshes(np, strip):
+    """[(name, verts, faces)] of one strip in the rotor frame: cutter and shank (if any).
+
+    The cutter is drawn from the strip's inscribed-sphere radii at equally spaced axis points
+    (frustums between them; a ball when axis_start == axis_end): the envelope of the spheres is
+    approximated, exact for cylinders and balls.
+    """
+    out = []
+    a = np.asarray(strip["axis_start"], dtype=np.float64)
+    radii = np.asarray(strip["radii"], dtype=np.float64)
+    rot, length = frame_along(np, a, strip["axis_end"])
+    if rot is None:
+        r = float(radii.max())
+        t = np.linspace(0.0, np.pi, 17)
+        verts, faces = revolved_mesh(np, np.c_[r * np.sin(t), r * np.cos(t)], 32)
+        out.append(("cutter", verts + a, faces))
+    else:
+        h = np.linspace(0.0, length, len(radii))
+        rh = np.vstack([[0.0, length], np.c_[radii, h][::-1], [0.0, 0.0]])
+        verts, faces = revolved_mesh(np, rh, 32)
+        out.append(("cutter", verts @ rot.T + a, faces))
+    shank_r = float(strip.get("shank_radius", 0.0))
+    if shank_r > 0.0:
+        s0 = np.asarray(strip["shank_start"], dtype=np.float64)
+        rot, length = frame_along(np, s0, strip["shank_end"])
+        if rot is not None:
+            rh = [[0.0, length], [shank_r, length], [shank_r, 0.0], [0.0, 0.0]]
+            verts, faces = revolved_mesh(np, rh, 32)
+            out.append(("shank", verts @ rot.T + s0, faces))
+    return out
+
+
+class FLANK_OT_verify_plan(bpy.types.Operator):
+    """Verify a flank-plan/1 file by sweep simulation and paint the machined deviation on the active rotor mesh.
+
+    Point attributes written on the mesh: ``machined_deviation`` (FLOAT, signed deviation in the plan's
+    length unit: > 0 material left, < 0 overcut; 1e9 where no tool reaches within the search range or
+    the vertex is not on the plan's rotor surface) and ``machined_deviation_color`` (FLOAT_COLOR, made
+    the active and render colour: red gouge, green within tolerance, blue stock, grey untouched).
+    The mesh is mapped into the plan's rotor frame with matrix_world and the inverse of rotor.to_world
+    (model frame = Blender world coordinates)."""
+
+    bl_idname = "flank.verify_plan"
+    bl_label = "Verify Plan"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    __annotations__ = dict(
+        verify_props(),
+        filter_glob=bpy.props.StringProperty(default="*.json", options={'HIDDEN'}),
+    )
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.active_object
+        if obj is None or obj.type != 'MESH':
+            cls.poll_message_set("Select the rotor mesh to verify the plan on")
+            return False
+        if obj.mode != 'OBJECT':
+            cls.poll_message_set("Switch to Object Mode to verify a plan")
+            return False
+        return True
+
+    def invoke(self, context, event):
+        if not self.filepath:
+            context.window_manager.fileselect_add(self)
+            return {'RUNNING_MODAL'}
+        return self.execute(context)
+
+    def execute(self, context):
+        import json
+        import os
+        import time
+
+        import numpy as np
+        from scipy.spatial import cKDTree
+
+        from ..flank_addon.plan import PlanError, read_plan
+        from ..flank_addon.screw import screw_to_plane
+        from ..flank_addon.verify import deviation_colors, values_on_rotor, verify_plan, world_to_rotor
+
+        obj = context.active_object
+        if obj is None or obj.type != 'MESH':
+            self.report({'ERROR'}, "Select the rotor mesh object to verify the plan on")
+            return {'CANCELLED'}
+        if obj.mode != 'OBJECT':
+            self.report({'ERROR'}, "Switch '{}' to Object Mode before verifying".format(obj.name))
+            return {'CANCELLED'}
+        mesh = obj.data
+        if len(mesh.vertices) == 0:
+            self.report({'ERROR'}, "Mesh '{}' has no vertices".format(obj.name))
+            return {'CANCELLED'}
+        path = bpy.path.abspath(self.filepath) if self.filepath else ""
+        if not path:
+            self.report({'ERROR'}, "No plan file given (filepath is empty)")
+            return {'CANCELLED'}
+        if not os.path.isfile(path):
+            self.report({'ERROR'}, "Plan file not found: '{}'".format(path))
+            return {'CANCELLED'}
+
+        t0 = time.perf_counter()
+        try:
+            plan = read_plan(path)
+        except PlanError as ex:
+            self.report({'ERROR'}, "Invalid plan file '{}': {}".format(os.path.basename(path), ex))
+            return {'CANCELLED'}
+        except (OSError, UnicodeDecodeError) as ex:
+            self.report({'ERROR'}, "Cannot read plan file '{}': {}".format(path, ex))
+            return {'CANCELLED'}
+        unit = plan["length_unit"]
+        try:
+            res = verify_plan(plan, tolerance=self.tolerance if self.tolerance > 0.0 else None,
+                              search=self.search if self.search > 0.0 else None, all_points=True)
+        except (PlanError, ValueError) as ex:
+            self.report({'ERROR'}, "Plan '{}' cannot be verified: {}".format(os.path.basename(path), ex))
+            return {'CANCELLED'}
+        except Exception as ex:
+            self.report({'ERROR'}, "Verification failed: {}: {}".format(type(ex).__name__, ex))
+            return {'CANCELLED'}
+        tol = float(res["tolerance"])
+
+        try:
+            n = len(mesh.vertices)
+            co = np.empty(n * 3, dtype=np.float64)
+            mesh.vertices.foreach_get("co", co)
+            mw = np.array(obj.matrix_world, dtype=np.float64)
+            world = co.reshape(n, 3) @ mw[:3, :3].T + mw[:3, 3]
+            rotor_pts = world_to_rotor(plan, world)
+            dev_all = np.array([np.nan if d is None else d for d in res["deviation_all"]], dtype=np.float64)
+            values = values_on_rotor(plan, rotor_pts, dev_all)
+            # vertices that are not on the plan's rotor surface get no deviation (end-cap centres, or the
+            # wrong object / plan): distance of the vertex's helix to the nearest profile point
+            rotor = plan["rotor"]
+            prof = np.asarray(rotor["profile"], dtype=np.float64)
+            dist, _ = cKDTree(prof).query(screw_to_plane(rotor_pts, float(rotor["v0"]), rotor["handedness"]))
+            spacing = float(np.linalg.norm(np.diff(np.vstack([prof, prof[:1]]), axis=0), axis=1).max())
+            max_dist = max(2.0 * spacing, 1e-2 * float(rotor["outer_radius"]))
+            on_surface = dist <= max_dist
+        except Exception as ex:
+            self.report({'ERROR'}, "Could not map '{}' into the plan's rotor frame: {}: {}".format(
+                obj.name, type(ex).__name__, ex))
+            return {'CANCELLED'}
+        if on_surface.mean() < 0.5:
+            self.report({'ERROR'}, "Mesh '{}' does not lie on the plan's rotor: {} of {} vertices are farther "
+                                   "than {:.4g} {} from the rotor surface (limit: at least half must lie on it; "
+                                   "wrong object, plan or placement?)".format(
+                                       obj.name, int((~on_surface).sum()), n, max_dist, unit))
+            return {'CANCELLED'}
+        values = np.where(on_surface, values, np.nan)
+        rgba = deviation_colors(values, tol)
+        reached = np.isfinite(values)
+        stored = np.where(reached, values, UNTOUCHED)
+
+        try:
+            _write_attributes(np, mesh, stored, rgba)
+        except Exception as ex:
+            _remove_attributes(mesh)
+            self.report({'ERROR'}, "Could not write the deviation attributes: {}".format(ex))
+            return {'CANCELLED'}
+
+        tools_note = ""
+        if self.show_tools:
+            try:
+                count = self._add_tools(context, np, plan, obj)
+                tools_note = ", {} tool objects in '{}'".format(count, TOOLS_COLLECTION)
+            except Exception as ex:  # the deviation is written; the tools are an extra
+                self.report({'WARNING'}, "Could not add the tool objects: {}".format(ex))
+        dt = time.perf_counter() - t0
+
+        for key in VERIFY_PROP_KEYS:
+            if key in obj:
+                del obj[key]
+        obj["flank_verify_plan"] = path
+        obj["flank_verify_method"] = str(plan.get("method", ""))
+        obj["flank_verify_unit"] = unit
+        obj["flank_verify_tolerance"] = tol
+        obj["flank_verify_search"] = float(self.search) if self.search > 0.0 else 0.1 * float(rotor["outer_radius"])
+        if res["max_undercut"] is not None:
+            obj["flank_verify_max_undercut"] = float(res["max_undercut"])
+        if res["max_overcut"] is not None:
+            obj["flank_verify_max_overcut"] = float(res["max_overcut"])
+        obj["flank_verify_gouges"] = len(res["gouge_points"])
+        obj["flank_verify_elapsed"] = float(res["elapsed_s"])
+        obj["flank_verify_reached"] = int(reached.sum())
+        obj["flank_verify_untouched"] = int((~reached).sum())
+        obj["flank_verify_off_surface"] = int((~on_surface).sum())
+        summary = {k: v for k, v in res.items() if k not in ("deviation_all", "deviation_profile")}
+        obj["flank_verify_summary"] = json.dumps(summary)
+
+        def fmt(v):
+            return "n/a" if v is None else "{:.4g} {}".format(v, unit)
+
+        self.report({'INFO'}, "Verified '{}' with {}: max undercut {}, max overcut {}, {} gouge points, "
+                              "tolerance {}, {}/{} vertices reached{}; simulation {:.2f}s, total {:.2f}s".format(
+                                  obj.name, os.path.basename(path), fmt(res["max_undercut"]),
+                                  fmt(res["max_overcut"]), len(res["gouge_points"]), fmt(tol),
+                                  int(reached.sum()), n, tools_note, res["elapsed_s"], dt))
+        return {'FINISHED'}
+
+    def _add_tools(self, context, np, plan, rotor_obj):
+        """Strip tools as mesh objects (model = world frame) in a new collection; all or nothing."""
+        T = np.asarray(plan["rotor"]["to_world"], dtype=np.float64)
+        created_meshes, created_objects = [], []
+        coll = bpy.data.collections.new(TOOLS_COLLECTION)
+        try:
+            for k, strip in enumerate(plan["strips"]):
+                for part, verts, faces in _tool_meshes(np, strip):
+                    world = verts @ T[:3, :3].T + T[:3, 3]
+                    name = "Strip{:03d}_{}".format(k, part)
+                    me = new_mesh_from_arrays(bpy, np, name, world, faces)
+                    created_meshes.append(me)
+                    ob = bpy.data.objects.new(name, me)
+                    created_objects.append(ob)
+                    ob["flank_strip"] = k
+                    ob["flank_strip_flank"] = int(strip["flank"])
+                    ob.color = (0.9, 0.75, 0.2, 1.0) if part == "cutter" else (0.5, 0.5, 0.55, 1.0)
+                    coll.objects.link(ob)
+            context.scene.collection.children.link(coll)
+        except Exception:
+            remove_ids(bpy, created_objects, created_meshes, [coll])
+            raise
+        return len(created_objects)

@@ -1,0 +1,40 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Paraboloid Groove (s002) panel: groove of a paraboloid end mill on a helix, section and overcut."""
+import bpy
+
+GROOVE_PROPS = ("radius", "a", "b", "pitch", "turns", "part", "resolution")
+
+
+class FLANK_PT_paraboloid(bpy.types.Panel):
+    bl_idname = "FLANK_PT_paraboloid"
+    bl_label = "Paraboloid Groove (s002)"
+    bl_space_type = 'VIEW_3D'
+    bl_region_type = 'UI'
+    bl_category = "Flank"
+    bl_order = 20
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw(self, context):
+        layout = self.layout
+        settings = getattr(context.scene, "flank_settings", None)
+        if settings is not None:
+            col = layout.column(align=True)
+            for name in GROOVE_PROPS:
+                col.prop(settings, "groove_" + name)
+        op = layout.operator("flank.paraboloid_groove", icon='MOD_SCREW')
+        if settings is not None:
+            for name in GROOVE_PROPS:
+                setattr(op, name, getattr(settings, "groove_" + name))
+
+        obj = context.active_object
+        if obj is None or "flank_groove_max_overcut" not in obj:
+            return
+        box = layout.box()
+        box.label(text=obj.name, icon='OBJECT_DATA')
+        col = box.column(align=True)
+        xs = list(obj.get("flank_groove_intercepts", ()))
+        if len(xs) == 2:
+            col.label(text="Intercepts: x = {:.6g}, {:.6g}".format(*xs))
+        col.label(text="Equator radius: {:.6g}".format(obj.get("flank_groove_equator_radius", float("nan"))))
+        col.label(text="Max overcut: {:.4g} at x = {:.6g}".format(
+            obj["flank_groove_max_overcut"], obj.get("flank_groove_max_overcut_x", float("nan"))))
