@@ -152,9 +152,11 @@ class FLANK_OT_verify_plan(bpy.types.Operator):
             self.report({'ERROR'}, "Cannot read plan file '{}': {}".format(path, ex))
             return {'CANCELLED'}
         unit = plan["length_unit"]
+        # single-precision properties: recover the typed decimal (7 significant digits)
+        tol_in, search_in = (float("{:.7g}".format(v)) for v in (self.tolerance, self.search))
         try:
-            res = verify_plan(plan, tolerance=self.tolerance if self.tolerance > 0.0 else None,
-                              search=self.search if self.search > 0.0 else None, all_points=True)
+            res = verify_plan(plan, tolerance=tol_in if tol_in > 0.0 else None,
+                              search=search_in if search_in > 0.0 else None, all_points=True)
         except (PlanError, ValueError) as ex:
             self.report({'ERROR'}, "Plan '{}' cannot be verified: {}".format(os.path.basename(path), ex))
             return {'CANCELLED'}
@@ -218,7 +220,7 @@ class FLANK_OT_verify_plan(bpy.types.Operator):
         obj["flank_verify_method"] = str(plan.get("method", ""))
         obj["flank_verify_unit"] = unit
         obj["flank_verify_tolerance"] = tol
-        obj["flank_verify_search"] = float(self.search) if self.search > 0.0 else 0.1 * float(rotor["outer_radius"])
+        obj["flank_verify_search"] = search_in if search_in > 0.0 else 0.1 * float(rotor["outer_radius"])
         if res["max_undercut"] is not None:
             obj["flank_verify_max_undercut"] = float(res["max_undercut"])
         if res["max_overcut"] is not None:

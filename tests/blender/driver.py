@@ -19,7 +19,9 @@ import traceback
 EXT_ID = "flank_toolpath"
 REPO = "user_default"
 MODULE = "bl_ext.{}.{}".format(REPO, EXT_ID)
-CLASS_NAMES = ("FLANK_OT_generate_rotor", "FLANK_OT_analyze_rotor", "FLANK_PT_workpiece")
+CLASS_NAMES = ("FLANK_OT_generate_rotor", "FLANK_OT_analyze_rotor", "FLANK_OT_verify_plan",
+               "FLANK_OT_paraboloid_groove", "FLANK_PT_workpiece", "FLANK_PT_verify", "FLANK_PT_paraboloid")
+PANEL_NAMES = ("FLANK_PT_workpiece", "FLANK_PT_verify", "FLANK_PT_paraboloid")
 
 
 def install_extension(bpy, zip_path):
@@ -68,6 +70,14 @@ def scenario_lifecycle(bpy, res, args):
     if panel is not None:
         res["panel"] = dict(bl_category=panel.bl_category, bl_space_type=panel.bl_space_type,
                             bl_region_type=panel.bl_region_type, bl_label=panel.bl_label)
+    res["panels"] = {}
+    for name in PANEL_NAMES:
+        panel = getattr(bpy.types, name, None)
+        if panel is not None:
+            res["panels"][name] = dict(bl_category=panel.bl_category, bl_space_type=panel.bl_space_type,
+                                       bl_region_type=panel.bl_region_type, bl_label=panel.bl_label)
+    settings = bpy.context.scene.flank_settings
+    res["settings_props"] = sorted(p.identifier for p in settings.bl_rna.properties if p.identifier != "rna_type")
     cycles = []
     for i in range(5):
         bpy.ops.preferences.addon_disable(module=MODULE)
@@ -197,7 +207,327 @@ def scenario_operators(bpy, res, args):
     res["builtins"] = kinds
 
 
-SCENARIOS = {"lifecycle": scenario_lifecycle, "operators": scenario_operators}
+def _core(name):
+    """A module of the planner embedded in the *installed* extension (same code the operators run)."""
+    import importlib
+
+    return importlib.import_module("{}.flank_addon.{}".format(MODULE, name))
+
+
+def _float_attr(np, mesh, name):
+    attr = mesh.attributes.get(name)
+    if attr is None:
+        return None
+    vals = np.empty(len(attr.data), dtype=np.float32)
+    attr.data.foreach_get("value", vals)
+    return vals
+
+
+def _color_attr(np, mesh, name):
+    attr = mesh.color_attributes.get(name)
+    if attr is None:
+        return None
+    cols = np.empty(len(attr.data) * 4, dtype=np.float32)
+    attr.data.foreach_get("color", cols)
+    return cols.reshape(-1, 4)
+
+
+def _ball_strip(np, point, normal, radius, depth, flank, shank=None):
+    """A ball tool touching the profile point: centre at point + (radius - depth) * normal (z = 0).
+    depth > 0 cuts into the rotor (overcut), depth < 0 stays away (stock)."""
+    c = [float(v) for v in np.r_[np.asarray(point) + (radius - depth) * np.asarray(normal), 0.0]]
+    strip = {"axis_start": c, "axis_end": c, "radii": [radius, radius], "flank": int(flank),
+             "shank_start": c, "shank_end": c, "shank_radius": 0.0,
+             "reported_max_error": 0.0, "reported_min_error": 0.0, "collision": False}
+    if shank is not None:
+        strip.update(shank_start=shank[0], shank_end=shank[1], shank_radius=shank[2])
+    return strip
+
+
+def _verify_state(np, obj):
+    mesh = obj.data
+    dev = _float_attr(np, mesh, "machined_deviation")
+    cols = _color_attr(np, mesh, "machined_deviation_color")
+    active = mesh.color_attributes.active_color
+    return dict(attributes=sorted(a.name for a in mesh.attributes if not a.name.startswith(".")),
+                active_color=active.name if active is not None else None,
+                props={k: v for k, v in _obj_props(obj).items() if k.startswith("flank_verify")},
+                dev=dev, cols=cols)
+
+
+def scenario_verify(bpy, res, args):
+    """flank.verify_plan on a generated rotor with a plan built here from the installed planner."""
+    import numpy as np
+
+    plan_mod, verify_mod, rotors = _core("plan"), _core("verify"), _core("rotors")
+    profile_mod = _core("profile")
+    tmp = os.path.abspath(os.getcwd())
+    n = 1440           # the plan's profile = the mesh's profile samples (exact comparison per vertex)
+    depth, stock, radius = 0.01, 0.02, 0.03
+
+    ret, err = _run_op(bpy.ops.flank.generate_rotor, kind="asymmetric", part="female", resolution=n, axial=48)
+    obj = bpy.context.active_object
+    res["generate"] = dict(result=ret, error=err, vertices=len(obj.data.vertices))
+    rotor = rotors.builtin_rotor("asymmetric", "female")
+    section = plan_mod.rotor_section(rotor.profile, rotor.v0, rotor.handedness, rotor.flanks, n_profile=n)
+    prof = np.asarray(section["profile"], dtype=np.float64)
+    spline = profile_mod.SplineProfile(prof)
+    normals = spline.outward_normal(spline.knots[:-1])
+    # gouge on flank 0 where its normal is most nearly radial (the facing-point deviation is then ~ -depth)
+    a0, b0 = section["flanks"][0]
+    cand = np.arange(a0 + 5, b0 - 4) % n
+    radial = np.abs(np.einsum("ij,ij->i", normals[cand], prof[cand])) / np.linalg.norm(prof[cand], axis=1)
+    i_gouge = int(cand[np.argmax(radial)])
+    a3, b3 = section["flanks"][3]
+    i_stock = int(((a3 + b3) // 2) % n)
+    strips = [_ball_strip(np, prof[i_gouge], normals[i_gouge], radius, depth, 0),
+              _ball_strip(np, prof[i_stock], normals[i_stock], radius, -stock, 3)]
+    plan = plan_mod.new_plan("test-balls", section, {"kind": "revolved"}, length_unit="R",
+                             target_flanks=[0, 3], strips=strips)
+    plan_path = os.path.join(tmp, "plan.json")
+    plan_mod.write_plan(plan_path, plan)
+    direct = verify_mod.verify_plan(plan, tolerance=None, all_points=True)
+    dev_all = np.array([np.nan if d is None else d for d in direct["deviation_all"]])
+    res["plan"] = dict(path=plan_path, i_gouge=i_gouge, i_stock=i_stock, depth=depth, stock=stock, n=n,
+                       direct=dict(max_overcut=direct["max_overcut"], max_undercut=direct["max_undercut"],
+                                   gouges=len(direct["gouge_points"]), tolerance=direct["tolerance"],
+                                   dev_gouge=dev_all[i_gouge], dev_stock=dev_all[i_stock],
+                                   reached_profile_points=int(np.isfinite(dev_all).sum())))
+
+    def compare(state):
+        """Per vertex: side vertex v lies on profile point v % n -> expected dev_all[v % n]."""
+        dev, cols = state.pop("dev"), state.pop("cols")
+        if dev is None:
+            return state
+        nv = len(dev)
+        side = (nv // n) * n
+        expect = dev_all[np.arange(side) % n]
+        fin = np.isfinite(expect)
+        tol = direct["tolerance"]
+        reached = dev < 1e8
+        grey = np.all(np.abs(cols[:, :3] - 0.6) < 1e-6, axis=1)
+        red = (cols[:, 0] > 2 * cols[:, 1]) & (cols[:, 0] > 2 * cols[:, 2])
+        blue = (cols[:, 2] > 2 * cols[:, 0]) & (cols[:, 2] > 2 * cols[:, 1])
+        k_min = int(np.argmin(dev))
+        state.update(
+            vertices=nv, side_vertices=side,
+            max_abs_diff=float(np.max(np.abs(dev[:side][fin] - expect[fin]))) if fin.any() else None,
+            untouched_match=bool(np.all(dev[:side][~fin] == np.float32(1e9))),
+            extra_vertices_untouched=bool(np.all(dev[side:] == np.float32(1e9))),
+            reached=int(reached.sum()), expected_reached=int(fin.sum()),
+            min=float(dev.min()), min_vertex_red=bool(red[k_min]),
+            gouge_vertices=int((reached & (dev < -tol)).sum()), red_vertices=int(red.sum()),
+            stock_vertices=int((reached & (dev > tol)).sum()), blue_vertices=int(blue.sum()),
+            grey_vertices=int(grey.sum()), grey_is_untouched=bool(np.array_equal(grey, ~reached)),
+            max_stock=float(dev[reached].max()),
+        )
+        return state
+
+    t0 = time.perf_counter()
+    ret, err = _run_op(bpy.ops.flank.verify_plan, filepath=plan_path)
+    res["verify"] = compare(dict(result=ret, error=err, seconds=time.perf_counter() - t0,
+                                 **_verify_state(np, obj)))
+
+    # a moved + rotated object with the matching rotor.to_world gives the same values
+    from mathutils import Matrix
+
+    # exact float64 rotation for the plan (validation wants orthogonality to 1e-9); Blender keeps float32
+    axis = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+    K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    M = np.eye(4)
+    M[:3, :3] = np.eye(3) + np.sin(0.9) * K + (1 - np.cos(0.9)) * K @ K
+    M[:3, 3] = (0.4, -0.3, 0.7)
+    obj.matrix_world = Matrix(M.tolist())
+    bpy.context.view_layer.update()
+    moved = dict(plan, rotor=dict(section, to_world=M.tolist()))
+    moved_path = os.path.join(tmp, "plan_moved.json")
+    plan_mod.write_plan(moved_path, moved)
+    ret, err = _run_op(bpy.ops.flank.verify_plan, filepath=moved_path)
+    res["moved"] = compare(dict(result=ret, error=err, **_verify_state(np, obj)))
+    # ... and the identity plan on the moved object is refused; the previous results stay
+    before = _verify_state(np, obj)
+    ret, err = _run_op(bpy.ops.flank.verify_plan, filepath=plan_path)
+    after = _verify_state(np, obj)
+    res["mismatch"] = dict(result=ret, error=err, props_kept=before["props"] == after["props"],
+                           values_kept=bool(np.array_equal(before["dev"], after["dev"])))
+    obj.matrix_world = Matrix.Identity(4)
+    bpy.context.view_layer.update()
+
+    # tolerance given explicitly, tools as objects (one strip with a shank)
+    c = prof[i_stock] + (radius + stock) * normals[i_stock]
+    shank = ([float(v) for v in np.r_[c + 0.05 * normals[i_stock], 0.0]],
+             [float(v) for v in np.r_[c + 0.3 * normals[i_stock], 0.0]], 0.01)
+    strips_sh = [strips[0], _ball_strip(np, prof[i_stock], normals[i_stock], radius, -stock, 3, shank=shank)]
+    tools_path = os.path.join(tmp, "plan_tools.json")
+    plan_mod.write_plan(tools_path, dict(plan, strips=strips_sh))
+    n_obj = len(bpy.data.objects)
+    ret, err = _run_op(bpy.ops.flank.verify_plan, filepath=tools_path, tolerance=0.005, show_tools=True)
+    coll = bpy.data.collections.get("Verify Tools")
+    tools = {}
+    if coll is not None:
+        for ob in coll.objects:
+            co = np.empty(len(ob.data.vertices) * 3)
+            ob.data.vertices.foreach_get("co", co)
+            co = co.reshape(-1, 3)
+            tools[ob.name] = dict(strip=ob.get("flank_strip"), centre=co.mean(axis=0).tolist(),
+                                  extent=(co.max(axis=0) - co.min(axis=0)).tolist())
+    st = _verify_state(np, obj)
+    st.pop("dev"), st.pop("cols")
+    res["tools"] = dict(result=ret, error=err, new_objects=len(bpy.data.objects) - n_obj, tools=tools,
+                        tolerance=st["props"].get("flank_verify_tolerance"), ball_centre=strips[0]["axis_start"],
+                        active_object=bpy.context.active_object.name, rotor=obj.name)
+    bpy.context.view_layer.objects.active = obj
+
+    # Edit Mode: refused by poll with a message
+    bpy.ops.object.mode_set(mode='EDIT')
+    ret, err = _run_op(bpy.ops.flank.verify_plan, filepath=plan_path)
+    bpy.ops.object.mode_set(mode='OBJECT')
+    res["edit_mode"] = dict(result=ret, error=err)
+
+    # bad plan files on a fresh rotor: nothing may change on the object
+    bad = {}
+    broken = json.loads(open(plan_path).read())
+    broken["rotor"]["v0"] = -1.0
+    cases = {
+        "negative_v0": json.dumps(broken),
+        "not_json": "{ this is not json",
+        "wrong_schema": json.dumps(dict(json.loads(open(plan_path).read()), schema="flank-plan/0")),
+    }
+    ret, err = _run_op(bpy.ops.flank.generate_rotor, kind="asymmetric", part="female", resolution=720, axial=8)
+    fresh = bpy.context.active_object
+    for name, text in cases.items():
+        path = os.path.join(tmp, name + ".json")
+        with open(path, "w") as fh:
+            fh.write(text)
+        bad[name] = path
+    bad["missing"] = os.path.join(tmp, "does_not_exist.json")
+    res["bad"] = {}
+    for name, path in bad.items():
+        n_obj, n_me = len(bpy.data.objects), len(bpy.data.meshes)
+        ret, err = _run_op(bpy.ops.flank.verify_plan, filepath=path)
+        st = _verify_state(np, fresh)
+        res["bad"][name] = dict(result=ret, error=err, attributes=st["attributes"], props=st["props"],
+                                new_objects=len(bpy.data.objects) - n_obj, new_meshes=len(bpy.data.meshes) - n_me)
+
+
+def _fcurve_keys(action):
+    counts = {}
+    layers = getattr(action, "layers", None)
+    if layers:
+        fcurves = [fc for layer in layers for strip in layer.strips
+                   for bag in getattr(strip, "channelbags", ()) for fc in bag.fcurves]
+    else:
+        fcurves = list(action.fcurves)
+    for fc in fcurves:
+        counts["{}[{}]".format(fc.data_path, fc.array_index)] = dict(
+            keys=len(fc.keyframe_points),
+            interpolation=sorted({kp.interpolation for kp in fc.keyframe_points}))
+    return counts
+
+
+def scenario_paraboloid(bpy, res, args):
+    """flank.paraboloid_groove: the s002 paper case, its section and the tool motion."""
+    import numpy as np
+    from scipy.spatial import cKDTree
+
+    par, screw = _core("paraboloid"), _core("screw")
+    scene = bpy.context.scene
+    R, a, b, p = 20.0, -0.05, 7.2, 20.0
+
+    def snapshot():
+        return len(bpy.data.objects), len(bpy.data.meshes), len(bpy.data.collections)
+
+    s0 = snapshot()
+    t0 = time.perf_counter()
+    ret, err = _run_op(bpy.ops.flank.paraboloid_groove, radius=R, a=a, b=b, pitch=p, turns=1.0, resolution=401)
+    s1 = snapshot()
+    out = dict(result=ret, error=err, seconds=time.perf_counter() - t0,
+               new=[s1[i] - s0[i] for i in range(3)])
+    coll = bpy.data.collections.get("Paraboloid Groove")
+    out["objects"] = sorted(o.name for o in coll.objects) if coll else []
+    out["in_scene"] = bool(coll is not None and coll.name in scene.collection.children)
+    groove = bpy.data.objects.get("Groove Surface")
+    out["active"] = bpy.context.active_object.name if bpy.context.active_object else None
+    out["props"] = _obj_props(groove) if groove else {}
+    sec = par.groove_section(R, a, b, p, n=401)
+    out["expected_max_overcut"] = float(sec.overcut.max())
+    out["expected_intercepts"] = [float(sec.x[0]), float(sec.x[-1])]
+    swept = bpy.data.objects.get("Swept Section")
+    tool_sec = bpy.data.objects.get("Tool Section")
+    if swept is not None:
+        oc = _float_attr(np, swept.data, "overcut")
+        co = np.empty(len(swept.data.vertices) * 3)
+        swept.data.vertices.foreach_get("co", co)
+        co = co.reshape(-1, 3)
+        out["swept"] = dict(vertices=len(co), edges=len(swept.data.edges), faces=len(swept.data.polygons),
+                            overcut_max=float(oc.max()), overcut_min=float(oc.min()),
+                            x_range=[float(co[:, 0].min()), float(co[:, 0].max())],
+                            y_abs_max=float(np.abs(co[:, 1]).max()), z_max=float(co[:, 2].max()))
+        # the swept section lies on the groove surface: screw both into z = 0 and compare
+        gm = groove.data
+        g = np.empty(len(gm.vertices) * 3)
+        gm.vertices.foreach_get("co", g)
+        g = g.reshape(-1, 3)
+        v0 = p / (2 * np.pi)
+        ring = screw.screw_to_plane(g, v0, "right")
+        d, _ = cKDTree(ring).query(screw.screw_to_plane(co, v0, "right"))
+        n_u = int(np.count_nonzero(g[:, 2] == g[0, 2]))  # first ring of the sheet: z = z0
+        spacing = np.linalg.norm(np.diff(ring[:n_u], axis=0), axis=1).max()
+        out["swept_on_groove"] = dict(max_distance=float(d.max()), spacing=float(spacing))
+        # the static tool (phi = pi) lies inside the groove and touches it
+        tool = bpy.data.objects.get("Paraboloid Tool")
+        tv = np.empty(len(tool.data.vertices) * 3)
+        tool.data.vertices.foreach_get("co", tv)
+        tv = tv.reshape(-1, 3) + np.array(tool.location)
+        out["tool"] = dict(location=list(tool.location), z_extent=float(tv[:, 2].max() - tv[:, 2].min()),
+                           r_extent=float(np.linalg.norm(tv[:, :2] - np.array(tool.location)[:2], axis=1).max()))
+    if tool_sec is not None:
+        co = np.empty(len(tool_sec.data.vertices) * 3)
+        tool_sec.data.vertices.foreach_get("co", co)
+        out["tool_section_z_max"] = float(co[2::3].max())
+    band = bpy.data.objects.get("Overcut Band")
+    if band is not None:
+        out["band"] = dict(faces=len(band.data.polygons),
+                           active_color=band.data.color_attributes.active_color.name
+                           if band.data.color_attributes.active_color else None,
+                           overcut_max=float(_float_attr(np, band.data, "overcut").max()))
+    moving = bpy.data.objects.get("Paraboloid Tool (moving)")
+    if moving is not None:
+        ad = moving.animation_data
+        out["anim"] = dict(has_action=bool(ad and ad.action), shares_mesh=moving.data == bpy.data.objects[
+            "Paraboloid Tool"].data, fcurves=_fcurve_keys(ad.action) if ad and ad.action else {},
+            frame_start=scene.frame_start, frame_end=scene.frame_end)
+        samples = []
+        for f in (scene.frame_start, (scene.frame_start + scene.frame_end) // 2, scene.frame_end - 7):
+            scene.frame_set(f)
+            loc = np.array(moving.matrix_world.translation)
+            rot = np.array(moving.matrix_world.to_3x3())
+            samples.append(dict(frame=f, location=loc.tolist(), radius=float(np.linalg.norm(loc[:2])),
+                                rotation_identity=bool(np.allclose(rot, np.eye(3)))))
+        out["anim"]["samples"] = samples
+    res["paper"] = out
+
+    # the external part of the section only
+    ret, err = _run_op(bpy.ops.flank.paraboloid_groove, radius=R, a=a, b=b, pitch=p, part="external",
+                       resolution=201)
+    g2 = bpy.context.active_object
+    ext = par.groove_section(R, a, b, p, n=201, part="external")
+    res["external"] = dict(result=ret, error=err, props=_obj_props(g2),
+                           expected_max_overcut=float(ext.overcut.max()),
+                           collection=[c.name for c in g2.users_collection])
+
+    # bad parameters: the core's message, nothing created
+    res["bad"] = {}
+    for name, kw in (("a_positive", dict(a=0.05)), ("a_zero", dict(a=0.0)), ("R_too_small", dict(radius=10.0)),
+                     ("b_negative", dict(b=-1.0)), ("pitch_zero", dict(pitch=0.0))):
+        s0 = snapshot()
+        ret, err = _run_op(bpy.ops.flank.paraboloid_groove, **kw)
+        s1 = snapshot()
+        res["bad"][name] = dict(result=ret, error=err, new=[s1[i] - s0[i] for i in range(3)])
+
+
+SCENARIOS = {"lifecycle": scenario_lifecycle, "operators": scenario_operators, "verify": scenario_verify,
+             "paraboloid": scenario_paraboloid}
 
 
 def main():

@@ -25,13 +25,27 @@ def test_install_registers_everything(lifecycle):
     assert state["enabled"]
     assert all(state["classes"].values()), state["classes"]
     assert state["scene_prop"] and state["scene_rna_props"] == ["flank_settings"]
-    assert {"generate_rotor", "analyze_rotor"} <= set(state["ops"])
+    assert {"generate_rotor", "analyze_rotor", "verify_plan", "paraboloid_groove"} <= set(state["ops"])
 
 
 def test_sidebar_panel_in_flank_tab(lifecycle):
     panel = lifecycle["panel"]
     assert panel["bl_category"] == "Flank"
     assert panel["bl_space_type"] == "VIEW_3D" and panel["bl_region_type"] == "UI"
+
+
+def test_all_panels_in_flank_tab(lifecycle):
+    panels = lifecycle["panels"]
+    assert sorted(panels) == ["FLANK_PT_paraboloid", "FLANK_PT_verify", "FLANK_PT_workpiece"]
+    for name, panel in panels.items():
+        assert (panel["bl_category"], panel["bl_space_type"], panel["bl_region_type"]) == ("Flank", "VIEW_3D", "UI")
+
+
+def test_scene_settings_hold_verify_and_groove_properties(lifecycle):
+    props = set(lifecycle["settings_props"])
+    assert {"verify_filepath", "verify_tolerance", "verify_search", "verify_show_tools"} <= props
+    assert {"groove_radius", "groove_a", "groove_b", "groove_pitch", "groove_turns", "groove_part",
+            "groove_resolution"} <= props
 
 
 def test_disable_enable_five_times_leaves_nothing_behind(lifecycle):
