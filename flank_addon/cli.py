@@ -115,6 +115,49 @@ def _cmd_verify(args):
     return 0
 
 
+def _cmd_cutter(args):
+    from .formed_cutter import FLAG_NAMES, cutter_profile
+    from .profile import load_profile_csv
+    from .rotors import builtin_by_name
+
+    if (args.profile is None) == (args.builtin is None):
+        raise ValueError("give exactly one of --profile CSV or --builtin NAME")
+    hand = args.handedness
+    if args.builtin:
+        rotor = builtin_by_name(args.builtin, scale=args.scale)
+        prof = rotor.profile
+        hand = hand or rotor.handedness
+        lead = rotor.lead if args.lead is None else args.lead
+        src = f"{args.builtin} (outer radius {args.scale:g})"
+    else:
+        if args.lead is None:
+            raise ValueError("--profile needs --lead")
+        prof = load_profile_csv(args.profile, unit_scale=args.scale)
+        lead = args.lead
+        hand = hand or "right"
+        src = str(args.profile)
+    if not np.isfinite(lead) or lead == 0:
+        raise ValueError(f"--lead must be a non-zero finite number, got {lead!r}")
+    if lead < 0:  # as for the rotor command: a negative lead flips the hand
+        lead = -lead
+        hand = "left" if hand == "right" else "right"
+    if args.planes < 2:
+        raise ValueError(f"--planes {args.planes} is below the minimum 2")
+    cp = cutter_profile(prof, lead, args.center_distance, args.swivel, handedness=hand, planes=args.planes,
+                        eps_b=args.eps_b)
+    np.savetxt(args.out, cp.meridian, delimiter=",", header="z,r", comments="", fmt="%.12g")
+    s = cp.summary()
+    if args.json:
+        s.update({"source": src, "out": str(args.out), "handedness": hand, "lead": lead})
+        print(json.dumps(s, indent=1))
+        return 0
+    flagged = ", ".join(f"{k} {v}" for k, v in s["flag_counts"].items() if v) or "none"
+    print(f"{src}: {s['planes']} planes, Z_u in [{s['z_range'][0]:.6g}, {s['z_range'][1]:.6g}], "
+          f"R_u in [{s['r_range'][0]:.6g}, {s['r_range'][1]:.6g}]; flagged planes: {flagged}; "
+          f"uncut tooth ranges {len(cp.uncut)}; {cp.elapsed_s * 1e3:.1f} ms; wrote {args.out}")
+    return 0
+
+
 def _cmd_builtins(args):
     from .rotors import BUILTIN_NAMES
 
@@ -168,6 +211,21 @@ def build_parser():
     v.add_argument("--tolerance", type=float, help="in the plan's length unit (default 1e-3 x outer radius)")
     v.add_argument("--json", action="store_true")
     v.set_defaults(func=_cmd_verify)
+
+    k = sub.add_parser("cutter", help="s004: axial profile of a formed disc cutter for one tooth of a rotor")
+    src = k.add_mutually_exclusive_group()
+    src.add_argument("--profile", help="closed transverse profile as x,y CSV rows (rotor axis at the origin)")
+    src.add_argument("--builtin", help="built-in rotor NAME (see the builtins command)")
+    k.add_argument("--scale", type=float, default=1.0, help="outer radius (built-ins) or CSV unit factor")
+    k.add_argument("--lead", type=float, help="axial advance per turn (built-ins: their own by default)")
+    k.add_argument("--handedness", choices=["right", "left"], help="default: right (CSV) or the built-in's")
+    k.add_argument("--center-distance", type=float, required=True, help="A: rotor axis to cutter axis")
+    k.add_argument("--swivel", type=float, required=True, help="phi: angle between the axes, degrees")
+    k.add_argument("--planes", type=int, default=119, help="planes perpendicular to the cutter axis")
+    k.add_argument("--eps-b", type=float, help="subdivision threshold (default 1e-4 x outer radius)")
+    k.add_argument("--out", required=True, help="CSV of z,r rows (cutter frame)")
+    k.add_argument("--json", action="store_true", help="print a JSON summary (flags, Z ranges, axis pose)")
+    k.set_defaults(func=_cmd_cutter)
 
     b = sub.add_parser("builtins", help="list built-in rotor names (KIND-PART)")
     b.set_defaults(func=_cmd_builtins)

