@@ -408,6 +408,52 @@ def scenario_verify(bpy, res, args):
         st = _verify_state(np, fresh)
         res["bad"][name] = dict(result=ret, error=err, attributes=st["attributes"], props=st["props"],
                                 new_objects=len(bpy.data.objects) - n_obj, new_meshes=len(bpy.data.meshes) - n_me)
+    res["panels"] = _draw_panels(bpy, obj)
+
+
+class _Layout:
+    """Records what a panel's draw() asks for (no UI in background mode); checks property names."""
+
+    def __init__(self, log):
+        self.log = log
+
+    def box(self):
+        return _Layout(self.log)
+
+    def column(self, **kw):
+        return _Layout(self.log)
+
+    row = column
+
+    def label(self, text="", icon='NONE'):
+        self.log.append(["label", text])
+
+    def prop(self, data, name, **kw):
+        if name not in data.bl_rna.properties:
+            raise AttributeError("panel draws unknown property {!r}".format(name))
+        self.log.append(["prop", name])
+
+    def operator(self, idname, **kw):
+        import types
+
+        self.log.append(["operator", idname])
+        return types.SimpleNamespace()
+
+
+def _draw_panels(bpy, active):
+    """Call every panel's draw() with a recording layout and the real scene: [calls] or an error string."""
+    import types
+
+    out = {}
+    ctx = types.SimpleNamespace(scene=bpy.context.scene, active_object=active)
+    for name in PANEL_NAMES:
+        log = []
+        try:
+            getattr(bpy.types, name).draw(types.SimpleNamespace(layout=_Layout(log)), ctx)
+            out[name] = log
+        except Exception as ex:
+            out[name] = "{}: {}".format(type(ex).__name__, ex)
+    return out
 
 
 def _fcurve_keys(action):
@@ -512,6 +558,7 @@ def scenario_paraboloid(bpy, res, args):
                        resolution=201)
     g2 = bpy.context.active_object
     ext = par.groove_section(R, a, b, p, n=201, part="external")
+    res["panels"] = _draw_panels(bpy, g2)
     res["external"] = dict(result=ret, error=err, props=_obj_props(g2),
                            expected_max_overcut=float(ext.overcut.max()),
                            collection=[c.name for c in g2.users_collection])

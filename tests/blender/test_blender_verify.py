@@ -104,3 +104,15 @@ def test_bad_plan_file_is_refused_and_changes_nothing(ver, case, words):
     assert "Traceback" not in bad["error"]
     assert "machined_deviation" not in bad["attributes"] and "machined_deviation_color" not in bad["attributes"]
     assert bad["props"] == {} and bad["new_objects"] == 0 and bad["new_meshes"] == 0
+
+
+def test_panels_draw_verify_results(ver):
+    panels = ver["panels"]
+    for name, calls in panels.items():
+        assert isinstance(calls, list), (name, calls)  # no exception in draw()
+    calls = panels["FLANK_PT_verify"]
+    assert ["operator", "flank.verify_plan"] in calls
+    assert ["prop", "verify_filepath"] in calls and ["prop", "verify_tolerance"] in calls
+    labels = [c[1] for c in calls if c[0] == "label"]
+    assert any(t.startswith("Max overcut: -0.01005 R") for t in labels), labels
+    assert any(t.startswith("Gouge points: ") for t in labels), labels
