@@ -1,0 +1,423 @@
+#!/usr/bin/env python3
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Render the README figures headless through the extension's operators (bpy as a module, Workbench).
+
+    docs/groove_overcut.png    s002 paper case (R 20, a -0.05, b 7.2, p 20): the groove cut open along the
+                               section plane through the screw axis, the lens tool at phi = pi, the swept
+                               section (red) vs the tool's own section (blue), the overcut band between them
+                               (yellow -> red), with a zoomed inset where the overcut is largest.
+    docs/verify_deviation.png  built-in asymmetric female rotor painted by flank.verify_plan for a plan of
+                               ball strips that gouge (red), cut within tolerance (green) and leave stock
+                               (blue); grey = untouched.
+
+    python tools/render_figures.py [--out docs] [--size 960x540] [--zip ZIP | --source]
+
+By default the source tree is registered directly (fast; needs numpy + scipy in this interpreter);
+``--zip`` installs a built extension with Blender's installer instead.  Workbench only: no GPU needed.
+"""
+import argparse
+import json
+import math
+import os
+import shutil
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from demo import enable_extension, isolate_blender_user_dir  # noqa: E402  (tools/demo.py)
+
+
+def log(msg):
+    print("[figures] " + msg, flush=True)
+
+
+# --------------------------------------------------------------------------- scene helpers
+
+def reset_scene(bpy, width, height):
+    """Empty the file between figures (no read_factory_settings: that would also reset the add-on)."""
+    for datablocks in (bpy.data.objects, bpy.data.meshes, bpy.data.curves, bpy.data.cameras, bpy.data.lights,
+                       bpy.data.collections, bpy.data.materials, bpy.data.images, bpy.data.actions,
+                       bpy.data.worlds):
+        for block in list(datablocks):
+            datablocks.remove(block)
+    scene = bpy.context.scene
+    render = scene.render
+    render.engine = 'BLENDER_WORKBENCH'
+    render.resolution_x, render.resolution_y, render.resolution_percentage = width, height, 100
+    render.image_settings.file_format = 'PNG'
+    render.film_transparent = False
+    shading = scene.display.shading
+    shading.light = 'STUDIO'
+    shading.color_type = 'VERTEX'  # active colour attribute of every mesh
+    shading.show_cavity = False
+    shading.show_object_outline = False
+    shading.show_specular_highlight = True
+    world = bpy.data.worlds.new("FiguresWorld")
+    scene.world = world
+    world.color = (0.94, 0.94, 0.95)
+    scene.display.render_aa = '8'
+    return scene
+
+
+def paint(bpy, np, obj, rgba):
+    """Constant FLOAT_COLOR point attribute (Workbench 'Attribute' colouring) unless one is active."""
+    mesh = obj.data
+    attr = mesh.color_attributes.new("figure_color", 'FLOAT_COLOR', 'POINT')
+    attr.data.foreach_set("color", np.tile(np.asarray(rgba, dtype=np.float32), len(mesh.vertices)))
+    mesh.color_attributes.active_color = attr
+    try:
+        mesh.color_attributes.render_color_index = mesh.color_attributes.active_color_index
+    except (AttributeError, TypeError):
+        pass
+
+
+def curve_to_mesh_object(bpy, curve_obj, name):
+    """Evaluated curve/text object -> plain mesh object (so it can carry a colour attribute)."""
+    deps = bpy.context.evaluated_depsgraph_get()
+    mesh = bpy.data.meshes.new_from_object(curve_obj.evaluated_get(deps))
+    obj = bpy.data.objects.new(name, mesh)
+    for coll in curve_obj.users_collection:
+        coll.objects.link(obj)
+    data = curve_obj.data
+    bpy.data.objects.remove(curve_obj)
+    bpy.data.curves.remove(data)
+    return obj
+
+
+def tube_from_edges(bpy, np, edge_obj, radius, offset, rgba):
+    """Thick line along the polylines of an edge-only mesh (a bevelled poly curve, then a mesh)."""
+    mesh = edge_obj.data
+    co = np.empty(len(mesh.vertices) * 3)
+    mesh.vertices.foreach_get("co", co)
+    co = co.reshape(-1, 3) + np.asarray(offset)
+    ed = np.empty(len(mesh.edges) * 2, dtype=np.int64)
+    mesh.edges.foreach_get("vertices", ed)
+    ed = ed.reshape(-1, 2)
+    # walk the chains (edges were created in order; a loop closes back to its first vertex)
+    chains, cur = [], [int(ed[0, 0]), int(ed[0, 1])]
+    for a, b in ed[1:]:
+        if a == cur[-1]:
+            cur.append(int(b))
+        else:
+            chains.append(cur)
+            cur = [int(a), int(b)]
+    chains.append(cur)
+    cu = bpy.data.curves.new(edge_obj.name + " tube", 'CURVE')
+    cu.dimensions = '3D'
+    cu.bevel_depth = radius
+    cu.bevel_resolution = 2
+    for chain in chains:
+        closed = chain[0] == chain[-1]
+        pts = co[chain[:-1] if closed else chain]
+        sp = cu.splines.new('POLY')
+        sp.points.add(len(pts) - 1)
+        sp.points.foreach_set("co", np.c_[pts, np.ones(len(pts))].ravel())
+        sp.use_cyclic_u = closed
+    ob = bpy.data.objects.new(edge_obj.name + " tube", cu)
+    edge_obj.users_collection[0].objects.link(ob)
+    ob = curve_to_mesh_object(bpy, ob, edge_obj.name + " tube")
+    paint(bpy, np, ob, rgba)
+    return ob
+
+
+def bisect_keep_positive_y(bpy, obj):
+    """Cut a mesh object open along the world plane Y = 0 and keep the Y >= 0 half (cut-away view)."""
+    import bmesh
+    from mathutils import Vector
+
+    mw_inv = obj.matrix_world.inverted()
+    co = mw_inv @ Vector((0.0, 0.0, 0.0))
+    no = (mw_inv.to_3x3().transposed().inverted() @ Vector((0.0, 1.0, 0.0))).normalized()
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    bmesh.ops.bisect_plane(bm, geom=bm.verts[:] + bm.edges[:] + bm.faces[:], plane_co=co, plane_no=no,
+                           clear_inner=True)
+    bm.to_mesh(obj.data)
+    bm.free()
+    obj.data.update()
+
+
+def add_camera(bpy, location, target, lens=50.0, ortho_scale=None, name="FigCamera"):
+    from mathutils import Vector
+
+    data = bpy.data.cameras.new(name)
+    data.lens = lens
+    if ortho_scale is not None:
+        data.type = 'ORTHO'
+        data.ortho_scale = ortho_scale
+    data.clip_end = 1e4
+    cam = bpy.data.objects.new(name, data)
+    bpy.context.scene.collection.objects.link(cam)
+    cam.location = location
+    cam.rotation_euler = (Vector(target) - Vector(location)).to_track_quat('-Z', 'Y').to_euler()
+    return cam
+
+
+def add_label(bpy, np, cam, text, x, y, size, rgba, distance=10.0):
+    """Text facing the camera: (x, y) in the camera's view plane at ``distance`` (-1..1 ~ frame width/2)."""
+    if cam.data.type == 'ORTHO':
+        half_w = cam.data.ortho_scale / 2.0
+    else:
+        half_w = distance * cam.data.sensor_width / cam.data.lens / 2.0
+        size *= distance / 10.0  # perspective sizes are given for a camera distance of 10
+    cu = bpy.data.curves.new("Label", 'FONT')
+    cu.body = text
+    cu.size = size
+    ob = bpy.data.objects.new("Label", cu)
+    bpy.context.scene.collection.objects.link(ob)
+    ob.parent = cam
+    ob.location = (x * half_w, y * half_w, -distance)
+    ob = curve_to_mesh_object(bpy, ob, "Label")
+    ob.parent = cam
+    ob.location = (x * half_w, y * half_w, -distance)
+    paint(bpy, np, ob, rgba)
+    return ob
+
+
+def render(bpy, np, path, camera=None):
+    scene = bpy.context.scene
+    if camera is not None:
+        scene.camera = camera
+    scene.render.filepath = str(path)
+    t0 = time.perf_counter()
+    bpy.ops.render.render(write_still=True)
+    return time.perf_counter() - t0
+
+
+def load_rgba(bpy, np, path):
+    img = bpy.data.images.load(str(path), check_existing=False)
+    w, h = img.size
+    px = np.empty(w * h * 4, dtype=np.float32)
+    img.pixels.foreach_get(px)
+    bpy.data.images.remove(img)
+    return px.reshape(h, w, 4)  # bottom row first
+
+
+def save_rgba(bpy, np, arr, path):
+    h, w = arr.shape[:2]
+    img = bpy.data.images.new("composite", w, h, alpha=True)
+    img.pixels.foreach_set(np.ascontiguousarray(arr, dtype=np.float32).ravel())
+    img.filepath_raw = str(path)
+    img.file_format = 'PNG'
+    img.save()
+    bpy.data.images.remove(img)
+
+
+# --------------------------------------------------------------------------- figure (a)
+
+def figure_groove(bpy, np, out, width, height):
+    scene = reset_scene(bpy, width, height)
+    R, a, b, p = 20.0, -0.05, 7.2, 20.0
+    t0 = time.perf_counter()
+    ret = bpy.ops.flank.paraboloid_groove(radius=R, a=a, b=b, pitch=p, turns=1.0, resolution=801)
+    if ret != {'FINISHED'}:
+        sys.exit("[figures] paraboloid_groove returned {}".format(ret))
+    t_op = time.perf_counter() - t0
+    objs = {o.name: o for o in bpy.data.collections["Paraboloid Groove"].objects}
+    groove = objs["Groove Surface"]
+    props = {k: (groove[k].to_list() if hasattr(groove[k], "to_list") else groove[k])
+             for k in groove.keys() if k.startswith("flank_groove")}
+
+    objs["Paraboloid Tool (moving)"].hide_render = True
+    bisect_keep_positive_y(bpy, groove)
+    paint(bpy, np, groove, (0.62, 0.68, 0.76, 1.0))
+    tool = objs["Paraboloid Tool"]
+    bisect_keep_positive_y(bpy, tool)
+    paint(bpy, np, tool, (0.93, 0.74, 0.22, 1.0))
+    band = objs["Overcut Band"]
+    band.location = (0.0, -0.05, 0.0)  # just in front of the cut, towards the camera
+    tube_from_edges(bpy, np, objs["Swept Section"], 0.035, (0.0, -0.12, 0.0), (0.80, 0.05, 0.05, 1.0))
+    tube_from_edges(bpy, np, objs["Tool Section"], 0.035, (0.0, -0.10, 0.0), (0.08, 0.25, 0.85, 1.0))
+    # the screw axis
+    cu = bpy.data.curves.new("Axis", 'CURVE')
+    cu.dimensions = '3D'
+    cu.bevel_depth = 0.1
+    sp = cu.splines.new('POLY')
+    sp.points.add(1)
+    sp.points.foreach_set("co", [0.0, 0.0, -16.0, 1.0, 0.0, 0.0, 16.0, 1.0])
+    ax = bpy.data.objects.new("Axis", cu)
+    scene.collection.objects.link(ax)
+    paint(bpy, np, curve_to_mesh_object(bpy, ax, "Axis"), (0.2, 0.2, 0.2, 1.0))
+
+    tmp = out / ".figures_tmp"
+    tmp.mkdir(exist_ok=True)
+    main_cam = add_camera(bpy, (-24.0, -84.0, 15.0), (-9.5, 0.0, -3.0), lens=50.0)
+    dark = (0.12, 0.12, 0.12, 1.0)
+    lines = ("s002: paraboloid end mill on a helix, R = 20, a = -0.05, b = 7.2, p = 20",
+             "groove and tool cut open along the section plane through the screw axis",
+             "red: swept section   blue: tool section   band: overcut, max {:.3f} at x = {:.2f}".format(
+                 props["flank_groove_max_overcut"], props["flank_groove_max_overcut_x"]))
+    for k, line in enumerate(lines):
+        add_label(bpy, np, main_cam, line, -0.97, -0.45 - 0.045 * k, 0.14 if k == 0 else 0.12, dark)
+    t_main = render(bpy, np, tmp / "groove_main.png", main_cam)
+    # inset: orthographic, straight along +Y at the section near x = -8 where the overcut is largest
+    x_max = float(props["flank_groove_max_overcut_x"])
+    inset_w, inset_h = width * 3 // 8, height * 3 // 8
+    scene.render.resolution_x, scene.render.resolution_y = inset_w, inset_h
+    inset_cam = add_camera(bpy, (x_max - 0.55, -40.0, 0.7), (x_max - 0.55, 0.0, 0.7), ortho_scale=2.6,
+                           name="InsetCamera")
+    for ob in bpy.data.objects:  # main-view labels off, inset label on
+        if ob.name.startswith("Label"):
+            ob.hide_render = True
+    add_label(bpy, np, inset_cam, "zoom near x = {:.2f}, where the overcut is largest".format(x_max), -0.95, -0.50, 0.09,
+              (0.95, 0.95, 0.95, 1.0), distance=5.0)
+    t_inset = render(bpy, np, tmp / "groove_inset.png", inset_cam)
+
+    main = load_rgba(bpy, np, tmp / "groove_main.png")
+    inset = load_rgba(bpy, np, tmp / "groove_inset.png")
+    frame = 3
+    y0, x0 = height - inset_h - 12, width - inset_w - 12  # top right (rows are bottom-up)
+    main[y0 - frame:y0 + inset_h + frame, x0 - frame:x0 + inset_w + frame] = (0.15, 0.15, 0.15, 1.0)
+    main[y0:y0 + inset_h, x0:x0 + inset_w] = inset
+    path = out / "groove_overcut.png"
+    save_rgba(bpy, np, main, path)
+    shutil.rmtree(tmp, ignore_errors=True)
+    return dict(path=str(path), operator_s=round(t_op, 3), render_s=round(t_main + t_inset, 3),
+                intercepts=props["flank_groove_intercepts"], max_overcut=props["flank_groove_max_overcut"],
+                max_overcut_x=x_max)
+
+
+# --------------------------------------------------------------------------- figure (b)
+
+def ball_strip(np, point, normal, radius, depth, flank):
+    c = [float(v) for v in np.r_[np.asarray(point) + (radius - depth) * np.asarray(normal), 0.0]]
+    return {"axis_start": c, "axis_end": c, "radii": [radius, radius], "flank": int(flank),
+            "shank_start": c, "shank_end": c, "shank_radius": 0.0,
+            "reported_max_error": 0.0, "reported_min_error": 0.0, "collision": False}
+
+
+def deviation_plan(np, core, n):
+    """Ball strips along flanks 0 and 1 of the built-in asymmetric female rotor: gouge / ok / stock."""
+    plan_mod, rotors, profile_mod = core("plan"), core("rotors"), core("profile")
+    rotor = rotors.builtin_rotor("asymmetric", "female")
+    section = plan_mod.rotor_section(rotor.profile, rotor.v0, rotor.handedness, rotor.flanks, n_profile=n)
+    prof = np.asarray(section["profile"])
+    spline = profile_mod.SplineProfile(prof)
+    normals = spline.outward_normal(spline.knots[:-1])
+    verify = core("verify")
+    strips = []
+    # flank 0: a dense row of balls just touching the design surface, one of them 0.006 too deep (gouge);
+    # flank 1: a sparse row (stock left between the contact lines); plan unit R, tolerance 1e-3.
+    # "Touching" = moved out by the ball's own helical-sweep overcut on the concave flank (one simulation
+    # per ball, as a planner would compensate), so only the deliberate one gouges.
+    for flank, count, deep in ((0, 14, 9), (1, 6, None)):
+        a, b = section["flanks"][flank]
+        for k, i in enumerate(np.linspace(a + 0.06 * (b - a), b - 0.06 * (b - a), count).astype(int) % n):
+            strip = ball_strip(np, prof[i], normals[i], 0.05, 0.0, flank)
+            single = plan_mod.new_plan("one-ball", section, {"kind": "revolved"}, target_flanks=[flank],
+                                       strips=[strip])
+            dev = [d for d in verify.verify_plan(single, all_points=True)["deviation_all"] if d is not None]
+            lift = max(0.0, -min(dev)) if dev else 0.0
+            strips.append(ball_strip(np, prof[i], normals[i], 0.05, (0.006 if k == deep else 0.0) - lift, flank))
+    return plan_mod.new_plan("figure-balls", section, {"kind": "revolved"}, length_unit="R",
+                             target_flanks=[0, 1], strips=strips)
+
+
+def figure_deviation(bpy, np, out, width, height, core):
+    from mathutils import Vector
+
+    scene = reset_scene(bpy, width, height)
+    n = 1440
+    ret = bpy.ops.flank.generate_rotor(kind="asymmetric", part="female", resolution=n, axial=192)
+    if ret != {'FINISHED'}:
+        sys.exit("[figures] generate_rotor returned {}".format(ret))
+    rotor = bpy.context.active_object
+    plan = deviation_plan(np, core, n)
+    tmp = out / ".figures_tmp"
+    tmp.mkdir(exist_ok=True)
+    plan_path = tmp / "figure_plan.json"
+    core("plan").write_plan(str(plan_path), plan)
+    t0 = time.perf_counter()
+    ret = bpy.ops.flank.verify_plan(filepath=str(plan_path), show_tools=True)
+    t_op = time.perf_counter() - t0
+    if ret != {'FINISHED'}:
+        sys.exit("[figures] verify_plan returned {}".format(ret))
+    summary = {k: rotor[k] for k in ("flank_verify_max_undercut", "flank_verify_max_overcut", "flank_verify_gouges",
+                                     "flank_verify_tolerance", "flank_verify_reached", "flank_verify_untouched")
+               if k in rotor}
+    for ob in bpy.data.collections["Verify Tools"].objects:
+        paint(bpy, np, ob, (0.93, 0.74, 0.22, 1.0))
+
+    corners = [rotor.matrix_world @ Vector(c) for c in rotor.bound_box]
+    lo = Vector([min(c[i] for c in corners) for i in range(3)])
+    hi = Vector([max(c[i] for c in corners) for i in range(3)])
+    centre = (lo + hi) / 2
+    size = (hi - lo).length
+    # look at the painted flanks: from outside, in the direction of their mean profile point
+    prof = np.asarray(plan["rotor"]["profile"])
+    idx = np.r_[tuple(np.arange(a, b + 1) % len(prof) for a, b in (plan["rotor"]["flanks"][f]
+                                                                   for f in plan["target_flanks"]))]
+    d = prof[idx].mean(axis=0)
+    d = d / np.linalg.norm(d)
+    view = Vector((float(d[0]), float(d[1]), -0.35)).normalized()  # slightly from below: tools at z = 0
+    data = bpy.data.cameras.new("DevCamera")
+    data.lens = 50
+    cam = bpy.data.objects.new("DevCamera", data)
+    scene.collection.objects.link(cam)
+    data.shift_y = -0.07  # rotor in the upper part of the frame, legend below it
+    cam.location = centre + view * size * 2.0
+    cam.rotation_euler = (centre - cam.location).to_track_quat('-Z', 'X').to_euler()
+    colours = core("verify").DEVIATION_COLORS
+    lines = (("flank.verify_plan: ball strips on two flanks of the built-in asymmetric female rotor",
+              (0.12, 0.12, 0.12, 1.0)),
+             ("red: gouge (deeper than the tolerance {:g} R)".format(summary["flank_verify_tolerance"]),
+              colours["gouge"]),
+             ("green: within the tolerance", colours["ok"]),
+             ("blue: stock left (max undercut {:.4f} R)".format(summary["flank_verify_max_undercut"]),
+              colours["stock"]),
+             ("grey: no tool within the search range", (0.35, 0.35, 0.35, 1.0)))
+    for k, (line, rgba) in enumerate(lines):
+        add_label(bpy, np, cam, line, -0.97, -0.48 - 0.045 * k, 0.13 if k == 0 else 0.12, rgba, distance=1.0)
+    path = out / "verify_deviation.png"
+    t_render = render(bpy, np, path, cam)
+    shutil.rmtree(tmp, ignore_errors=True)
+    return dict(path=str(path), operator_s=round(t_op, 3), render_s=round(t_render, 3),
+                vertices=len(rotor.data.vertices), strips=len(plan["strips"]), **summary)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description="Render the README figures (Workbench, headless)")
+    ap.add_argument("--out", default=str(ROOT / "docs"))
+    ap.add_argument("--size", default="960x540")
+    ap.add_argument("--only", choices=("groove", "deviation"))
+    src = ap.add_mutually_exclusive_group()
+    src.add_argument("--zip", help="install this extension zip with Blender's installer")
+    src.add_argument("--source", action="store_true", help="register the source tree (default)")
+    args = ap.parse_args(argv)
+    width, height = (int(v) for v in args.size.lower().split("x"))
+    out = Path(args.out).resolve()
+    out.mkdir(parents=True, exist_ok=True)
+
+    user_dir = isolate_blender_user_dir()
+    results = {}
+    try:
+        import importlib
+
+        import bpy
+        import numpy as np
+
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+        installed = enable_extension(bpy, Path(args.zip).resolve() if args.zip else None)
+        package = "bl_ext.user_default.flank_toolpath" if args.zip else "flank_toolpath"
+
+        def core(name):
+            return importlib.import_module("{}.flank_addon.{}".format(package, name))
+
+
+        if args.only in (None, "groove"):
+            results["groove_overcut"] = figure_groove(bpy, np, out, width, height)
+            log("groove_overcut: {}".format(json.dumps(results["groove_overcut"])))
+        if args.only in (None, "deviation"):
+            results["verify_deviation"] = figure_deviation(bpy, np, out, width, height, core)
+            log("verify_deviation: {}".format(json.dumps(results["verify_deviation"])))
+        results["extension"] = installed
+    finally:
+        shutil.rmtree(user_dir, ignore_errors=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
