@@ -20,6 +20,7 @@ VERIFY_PROP_KEYS = (
     "flank_verify_summary",
 )
 TOOLS_COLLECTION = "Verify Tools"
+MAX_STORED_GOUGES = 500  # gouge points kept in the flank_verify_summary JSON property
 
 
 def _remove_attributes(mesh):
@@ -204,6 +205,10 @@ class FLANK_OT_verify_plan(bpy.types.Operator):
             self.report({'ERROR'}, "Could not write the deviation attributes: {}".format(ex))
             return {'CANCELLED'}
 
+        ignored = [m.name for m in obj.modifiers if m.show_viewport]
+        if ignored:
+            self.report({'WARNING'}, "Painted the base mesh of '{}'; modifiers ignored: {}".format(
+                obj.name, ", ".join(ignored)))
         tools_note = ""
         if self.show_tools:
             try:
@@ -231,6 +236,9 @@ class FLANK_OT_verify_plan(bpy.types.Operator):
         obj["flank_verify_untouched"] = int((~reached).sum())
         obj["flank_verify_off_surface"] = int((~on_surface).sum())
         summary = {k: v for k, v in res.items() if k not in ("deviation_all", "deviation_profile")}
+        if len(summary["gouge_points"]) > MAX_STORED_GOUGES:  # keep the .blend small; the count is exact
+            summary["gouge_points"] = summary["gouge_points"][:MAX_STORED_GOUGES]
+            summary["gouge_points_truncated_to"] = MAX_STORED_GOUGES
         obj["flank_verify_summary"] = json.dumps(summary)
 
         def fmt(v):
