@@ -39,7 +39,7 @@ define make_venv
 	@touch "$@"
 endef
 
-.PHONY: help venv demo test test-core test-blender extension test-compat bench clean distclean
+.PHONY: help venv demo test test-core test-blender extension test-compat bench figures clean distclean
 
 help:
 	@echo "make demo         generate + analyze the built-in asymmetric female rotor -> out/"
@@ -47,6 +47,7 @@ help:
 	@echo "make extension    build + validate installable zips into dist/ (PLATFORMS=all|linux-x64,...)"
 	@echo "make test-compat  Blender tests against bpy 4.2 LTS and bpy 5.2 (needs Python 3.13)"
 	@echo "make bench        run bench/*.py"
+	@echo "make figures      render the README pictures into docs/ (headless Workbench)"
 	@echo "make clean        remove build outputs (distclean also removes venvs and wheels/)"
 
 venv: $(STAMP)
@@ -88,6 +89,9 @@ test-compat: $(COMPAT42_STAMP)
 	  $(COMPAT5X_VENV)/bin/python -m pytest -p no:cacheprovider tests/blender || status=1; \
 	fi; \
 	exit $$status
+
+figures: $(STAMP)
+	$(PY) tools/render_figures.py
 
 bench: $(STAMP)
 	@shopt -s nullglob; files=(bench/*.py); \
