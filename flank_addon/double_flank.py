@@ -1,0 +1,641 @@
+"""Double-flank milling of screw-rotor valleys with custom-shaped and conical tools (s001).
+
+One revolving tool, fixed in the rotor frame while the rotor screws, touches *both* flanks of a
+valley (s001 §1).  The tool is an envelope of spheres centred on its axis o' (s001 §3): it is known
+once the axis and the radial function r along it are known.
+
+Frames and units
+----------------
+Everything is in the rotor frame of :mod:`screw` (helical axis = z, profile in z = 0) and in the
+rotor's length unit.  The tool axis of a valley follows s001 Eq. (10), turned about z so that the
+start point (alpha, delta, phi) = (0, 0, 0) is the valley's reference line (the radial line through
+the valley's mid direction; for a symmetric profile its symmetry line, Prop. 3.1):
+
+    a(lam) = lam e_r(theta_v + phi) - delta e_t(theta_v + phi) + lam tan(alpha) e_z,
+
+with e_r = (cos, sin, 0), e_t = (-sin, cos, 0).  With theta_v = pi/2 this is Eq. (10) verbatim.
+``lam`` is the signed distance of the axis point's projection from the common perpendicular; the
+tool's tip is at the small-``lam`` end (deep in the valley), the shank leaves the rotor at the
+other end.
+
+Distances
+---------
+r_k(a) is the distance from an axis point a to flank k of the valley (a profile parameter range
+[u_start, u_end] screwed about z), found by :class:`FlankFeet`: the reduction of
+:mod:`helical_surface` (f(u, tau) = |R(h tau) p(u) - q0|^2 + v0^2 tau^2) minimised by projected
+Newton with the box u_start <= u <= u_end, seeded by a dense table of the flank and by warm starts.
+A foot in the open range is an ordinary foot point (s001 Eq. (2)); a foot on u = u_start or
+u = u_end lies on the flank's boundary helix (the characteristic has run off that flank, end of
+s001 §4.2).  In both cases grad_a r_k = (a - b_k) / r_k, so for axis parameters x
+dr_k/dx = ((a - b_k) / r_k) . da/dx exactly (no finite differences).
+
+Optimisation (s001 §4.2)
+------------------------
+Phi(alpha, delta, phi) = max_i |r1_i - r2_i| (Eq. (11)) over the axis samples whose feet are
+interior on both flanks.  We minimise its epigraph form, minimise s subject to
+-s <= r1_i - r2_i <= s, by SLSQP with the analytic Jacobian above, from (0, 0, 0) as the paper does
+and from a few nearby starts; the best is kept.  Radial functions: minimum (Eq. (14), never
+overcuts), average (Eq. (16)), one-sided (Eq. (17)); errors e_k = r_k - r (Eq. (15)).
+Samples whose foot on one flank lies on that flank's boundary count only for the other flank (the
+tail of the tool that mills one flank alone).
+
+Two paths with one tool (s001 §4.3, Eqs. (18)-(19)) and conical tools (s001 §5, Eqs. (20)-(21),
+Remark 5.3) are built on the same evaluator.  The errors a planner reports are checked against the
+independent sweep simulation (:mod:`sweep`, :func:`verify.verify_plan`), the rotor-to-envelope
+direction of s001 Remark 4.5.
+"""
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .helical_surface import HelicalSurface
+from .screw import hand_sign, hand_name, screw_to_plane
+
+VARIANTS = ("min", "avg", "one-sided-1", "one-sided-2")
+
+
+# ============================================================================ restricted feet
+@dataclass
+class Feet:
+    """Foot points of N query points on one flank (restricted to its parameter range)."""
+    u: np.ndarray          # (N,) profile parameter in [u_start, u_end]
+    t: np.ndarray          # (N,) screw parameter: foot = S_t(p(u), 0)
+    point: np.ndarray      # (N, 3)
+    distance: np.ndarray   # (N,) unsigned distance
+    direction: np.ndarray  # (N, 3) unit (query - foot) / distance = gradient of the distance
+    interior: np.ndarray   # (N,) bool: foot strictly inside the parameter range
+    tau: np.ndarray        # (N,) reduced screw parameter (query screwed into z = 0)
+
+
+class FlankFeet:
+    """Exact foot points on one flank {S_t(p(u), 0): u_start <= u <= u_end, t real} of a helical surface.
+
+    The reduction of :mod:`helical_surface` makes every query planar (q0 = the query screwed into
+    z = 0); the minimum of f(u, tau) over the strip u in [u_start, u_end] is found by projected
+    Newton: a full (Hessian-shifted) Newton step where the foot is interior, a step in tau alone
+    where u sits on a bound and the gradient pushes outwards, backtracking so f never increases.
+    Seeds: the k nearest samples of a dense (u, tau) table of the flank around z = 0 plus any warm
+    start the caller passes (e.g. the previous optimisation step); the best result is kept.
+    """
+
+    def __init__(self, surface, u_start, u_end, n_u=None, reach=None):
+        if not u_start < u_end <= u_start + surface.profile.period + 1e-12:
+            raise ValueError(f"flank range must satisfy u_start < u_end <= u_start + period, "
+                             f"got ({u_start}, {u_end})")
+        self.surface = surface
+        self.lo, self.hi = float(u_start), float(u_end)
+        R = surface.outer_radius
+        self.eps_u = 1e-7 * (self.hi - self.lo)
+        reach = 1.5 * R if reach is None else float(reach)
+        n_u = n_u or 160
+        us = np.linspace(self.lo, self.hi, n_u)
+        # |tau| <= d / v0 for a foot at distance d; queries of interest are within ``reach``
+        tmax = reach / surface.v0
+        dt = 0.01 * R / max(R, surface.v0)
+        n_t = int(min(max(9, 2 * tmax / dt + 1), 241))
+        ts = np.linspace(-tmax, tmax, n_t)
+        U, T = np.meshgrid(us, ts, indexing="ij")
+        pts = surface.evaluate(U.ravel(), T.ravel())
+        self._tree = cKDTree(pts)
+        self._U, self._T = U.ravel(), T.ravel()
+
+    def _newton(self, u, tau, q0, iters=40):
+        s = self.surface
+        lo, hi = self.lo, self.hi
+        u = np.clip(np.array(u, float), lo, hi)
+        tau = np.array(tau, float)
+        f = s._f_and_derivs(u, tau, q0, order=0)
+        active = np.ones(len(u), bool)
+        span = hi - lo
+        for _ in range(iters):
+            ia = np.flatnonzero(active)
+            if not len(ia):
+                break
+            ua, ta, qa = u[ia], tau[ia], q0[ia]
+            fa, gu, gt, huu, hut, htt = s._f_and_derivs(ua, ta, qa)
+            tr, det = huu + htt, huu * htt - hut ** 2
+            lam_min = 0.5 * (tr - np.sqrt(np.maximum(tr * tr - 4 * det, 0.0)))
+            scale = np.maximum(np.abs(huu) + np.abs(htt), 1e-30)
+            shift = np.where(lam_min < 1e-8 * scale, 1e-8 * scale - lam_min, 0.0)
+            a, b, c = huu + shift, hut, htt + shift
+            det = a * c - b * b
+            du = -(c * gu - b * gt) / det
+            dt = -(a * gt - b * gu) / det
+            # on a bound with the gradient pointing out of the box: move in tau only
+            pinned = ((ua <= lo) & (gu > 0)) | ((ua >= hi) & (gu < 0))
+            t_only = -gt / np.maximum(htt, 1e-8 * scale)
+            du = np.where(pinned, 0.0, du)
+            dt = np.where(pinned, t_only, dt)
+            norm = np.maximum(np.abs(du) / (0.25 * span), np.abs(dt) / (np.pi / 2))
+            k = 1.0 / np.maximum(norm, 1.0)
+            du, dt = du * k, dt * k
+            f_tol = fa + 1e-14 * (np.einsum("ij,ij->i", qa, qa) + s.outer_radius ** 2)
+            alpha = np.ones_like(du)
+            accepted = np.zeros(len(du), bool)
+            f_new = fa.copy()
+            nu, nt = ua.copy(), ta.copy()
+            for _ls in range(14):
+                todo = np.flatnonzero(~accepted)
+                if not len(todo):
+                    break
+                cu = np.clip(ua[todo] + alpha[todo] * du[todo], lo, hi)
+                ct = ta[todo] + alpha[todo] * dt[todo]
+                cf = s._f_and_derivs(cu, ct, qa[todo], order=0)
+                ok = cf <= f_tol[todo]
+                good = todo[ok]
+                accepted[good] = True
+                f_new[good], nu[good], nt[good] = cf[ok], cu[ok], ct[ok]
+                alpha[todo[~ok]] *= 0.5
+            step_u, step_t = np.abs(nu - ua), np.abs(nt - ta)
+            u[ia], tau[ia], f[ia] = nu, nt, np.minimum(f_new, fa)
+            small = (step_u <= 1e-11 * span) & (step_t <= 1e-11)
+            active[ia[small | ~accepted]] = False
+        return u, tau, f
+
+    def __call__(self, points, warm=None, k=2):
+        """Feet of 3D points (N, 3); ``warm`` = (u, tau) of a previous solve (same queries) as an extra seed."""
+        q = np.atleast_2d(np.asarray(points, float))
+        s = self.surface
+        q0 = screw_to_plane(q, s.v0, s.hand)
+        if warm is not None:
+            k = 1      # the warm start carries the basin; one table seed guards against jumps
+        _, idx = self._tree.query(np.c_[q0, np.zeros(len(q0))], k=k)
+        idx = idx.reshape(len(q0), -1)
+        seeds = [(self._U[j], self._T[j]) for j in idx.T]
+        if warm is not None:
+            seeds.insert(0, warm)
+        # all seeds in one vectorised Newton run, then the best per query
+        m = len(seeds)
+        U, T, F = self._newton(np.concatenate([sd[0] for sd in seeds]), np.concatenate([sd[1] for sd in seeds]),
+                               np.tile(q0, (m, 1)))
+        j = np.argmin(F.reshape(m, -1), axis=0)
+        rows = j * len(q0) + np.arange(len(q0))
+        u, tau, f = U[rows], T[rows], F[rows]
+        t = tau + q[:, 2] / s.v0
+        foot = s.evaluate(u, t)
+        diff = q - foot
+        d = np.linalg.norm(diff, axis=1)
+        direction = diff / np.maximum(d, 1e-300)[:, None]
+        interior = (u > self.lo + self.eps_u) & (u < self.hi - self.eps_u)
+        return Feet(u=u, t=t, point=foot, distance=d, direction=direction, interior=interior, tau=tau)
+
+
+# ============================================================================ valleys
+def _flank_u_ranges(profile, flanks):
+    """Flank parameter ranges (u_start, u_end): pass through (u, u) pairs of floats, or convert
+    inclusive index ranges [i, j] into a SplineProfile's knots (j may exceed the point count: wrap)."""
+    out = []
+    for a, b in flanks:
+        if isinstance(a, (int, np.integer)) and isinstance(b, (int, np.integer)) and hasattr(profile, "knots"):
+            n = len(profile.knots) - 1
+            ua = profile.knots[a % n] + profile.period * (a // n)
+            ub = profile.knots[b % n] + profile.period * (b // n)
+            out.append((float(ua), float(ub)))
+        else:
+            out.append((float(a), float(b)))
+    return out
+
+
+def _rim_param(profile, u_from, u_to, rho, n=4000):
+    """First parameter walking from ``u_from`` (valley bottom) towards ``u_to`` at which |p(u)| = rho."""
+    us = np.linspace(u_from, u_to, n)
+    rad = np.linalg.norm(profile.eval(us), axis=1)
+    above = np.flatnonzero(rad >= rho)
+    if not len(above):
+        return float(u_to)
+    j = above[0]
+    if j == 0:
+        return float(u_from)
+    a, b = us[j - 1], us[j]
+    for _ in range(60):
+        m = 0.5 * (a + b)
+        if np.linalg.norm(profile.eval(m)) >= rho:
+            b = m
+        else:
+            a = m
+    return float(0.5 * (a + b))
+
+
+class Valley:
+    """The two flanks of valley k of a rotor, their trimmed ("rim") parts and restricted foot solvers.
+
+    Args:
+        surface: :class:`HelicalSurface` of the rotor.
+        flank_ranges: all flank parameter ranges of the rotor, (tip, bottom), (bottom, next tip) per
+            valley in CCW order (``Rotor.flanks``, or index ranges of a SplineProfile).
+        k: valley index (flanks 2k and 2k + 1).
+        rim: fraction of the valley depth (from the bottom radius to the outer radius) up to which the
+            flanks are targeted.  Above it the lobe top turns away from every axis in the valley (its
+            normals no longer meet the axis helicoid), so no sphere on the axis can touch it; the
+            trimmed flank ends there (the "boundary of X_k" of s001 §4.2).
+    """
+
+    def __init__(self, surface, flank_ranges, k, rim=0.85):
+        nv = len(flank_ranges) // 2
+        if not (0 <= k < nv):
+            raise ValueError(f"valley {k} does not exist: this rotor has valleys 0..{nv - 1}")
+        if not (0.2 <= rim <= 0.98):
+            raise ValueError(f"rim {rim} is outside the limits 0.2..0.98 (fraction of the valley depth)")
+        prof = surface.profile
+        self.surface = surface
+        self.k = int(k)
+        self.flank_ids = (2 * k, 2 * k + 1)
+        (u0, ub), (ub2, u1) = flank_ranges[2 * k], flank_ranges[2 * k + 1]
+        self.full_ranges = ((u0, ub), (ub2, u1))
+        self.outer_radius = R = surface.outer_radius
+        self.r_bottom = float(np.linalg.norm(prof.eval(ub)))
+        self.rim = float(rim)
+        self.rho_rim = self.r_bottom + rim * (R - self.r_bottom)
+        ur1 = _rim_param(prof, ub, u0, self.rho_rim)
+        ur2 = _rim_param(prof, ub2, u1, self.rho_rim)
+        self.ranges = ((ur1, ub), (ub2, ur2))
+        pa, pc = prof.eval(u0), prof.eval(u1)
+        mid = pa / np.linalg.norm(pa) + pc / np.linalg.norm(pc)
+        self.theta = float(math.atan2(mid[1], mid[0]))
+        self.feet = (FlankFeet(surface, *self.ranges[0]), FlankFeet(surface, *self.ranges[1]))
+        self._full = None
+        # axis samples of the optimisation: from below the bottom to beyond the outer radius
+        self.lam_range = (0.9 * self.r_bottom, 1.6 * R)
+        self.lobes = max(1, nv)
+
+    @property
+    def full_feet(self):
+        if self._full is None:
+            self._full = (FlankFeet(self.surface, *self.full_ranges[0]),
+                          FlankFeet(self.surface, *self.full_ranges[1]))
+        return self._full
+
+
+def valley_of_point(surface, flank_ranges, point):
+    """Valley index whose flanks hold the profile point nearest to a 3D point (rotor frame)."""
+    q0 = screw_to_plane(np.asarray(point, float)[None, :], surface.v0, surface.hand)[0]
+    prof = surface.profile
+    us = prof.params(8192)
+    j = int(np.argmin(np.linalg.norm(prof.eval(us) - q0, axis=1)))
+    u = us[j]
+    per = prof.period
+    for i, (a, b) in enumerate(flank_ranges):
+        if a <= u <= b or a <= u + per <= b:
+            return i // 2
+    raise ValueError(f"valley point {point} is not near any flank of the rotor")
+
+
+# ============================================================================ axis (s001 Eq. (10))
+def axis_points(x, lam, theta, R=1.0):
+    """Points a(lam) of the axis with parameters x = (alpha, delta, phi) (delta in units of R), and
+    da/dx (N, 3, 3) (columns: d/dalpha, d/ddelta (per unit of delta/R), d/dphi).  Eq. (10) turned
+    by theta - pi/2 about z."""
+    al, de, ph = float(x[0]), float(x[1]) * R, float(x[2])
+    lam = np.asarray(lam, float)
+    c, s = math.cos(theta + ph), math.sin(theta + ph)
+    er, et, ez = np.array([c, s, 0.0]), np.array([-s, c, 0.0]), np.array([0.0, 0.0, 1.0])
+    ta = math.tan(al)
+    a = lam[:, None] * er - de * et + (lam * ta)[:, None] * ez
+    J = np.empty(lam.shape + (3, 3))
+    J[..., 0] = (lam / math.cos(al) ** 2)[:, None] * ez
+    J[..., 1] = -R * et
+    J[..., 2] = lam[:, None] * et + de * er
+    return a, J
+
+
+# ============================================================================ distances along an axis
+@dataclass
+class AxisRadii:
+    """Distances r_k (2, N) from axis samples to the two flanks, whether each foot is interior
+    (2, N), gradients dr_k/dx (2, N, 3) and the feet themselves."""
+    lam: np.ndarray
+    points: np.ndarray
+    r: np.ndarray
+    interior: np.ndarray
+    grad: np.ndarray
+    feet: tuple
+
+
+class AxisEvaluator:
+    """r_1, r_2 and their exact gradients for axis parameters x = (alpha, delta / R, phi).
+
+    Warm starts: the feet of the previous call with the same sample count seed the next one, so an
+    optimiser that moves the axis a little pays a few Newton steps per evaluation."""
+
+    def __init__(self, valley):
+        self.valley = valley
+        self.R = valley.outer_radius
+        self._warm = {}
+        self.calls = 0
+
+    def __call__(self, x, lam, solvers=None, tag=0):
+        v = self.valley
+        solvers = v.feet if solvers is None else solvers
+        a, J = axis_points(x, lam, v.theta, self.R)
+        out_r, out_i, out_g, feet = [], [], [], []
+        for j, fs in enumerate(solvers):
+            key = (tag, j, len(lam))
+            w = self._warm.get(key)
+            ft = fs(a, warm=w)
+            self._warm[key] = (ft.u, ft.tau)
+            feet.append(ft)
+            out_r.append(ft.distance)
+            out_i.append(ft.interior)
+            out_g.append(np.einsum("ni,nij->nj", ft.direction, J))
+        self.calls += 1
+        return AxisRadii(lam=np.asarray(lam, float), points=a, r=np.array(out_r), interior=np.array(out_i),
+                         grad=np.array(out_g), feet=tuple(feet))
+
+
+def phi_value(ar):
+    """Eq. (11): max |r1 - r2| over samples with interior feet on both flanks (0 if there are none)."""
+    both = ar.interior[0] & ar.interior[1]
+    return float(np.max(np.abs(ar.r[0] - ar.r[1])[both])) if both.any() else 0.0
+
+
+@dataclass
+class AxisFit:
+    x: np.ndarray                 # (alpha, delta, phi), delta in the rotor's length unit
+    x_unit: np.ndarray            # (alpha, delta / R, phi): what the evaluator takes
+    phi: float                    # Eq. (11) (or (18), (20)) at x
+    iterations: int               # SLSQP iterations of the winning start
+    evaluations: int              # distance evaluations over all starts
+    starts: int
+    elapsed_s: float
+    per_start: list = field(default_factory=list)   # [(start x, end x, Phi, iterations, seconds)]
+
+
+def _slsqp(fun_jac, y0, bounds, n_ineq, objective):
+    """Run SLSQP on 'minimise objective(y) s.t. g(y) >= 0' with g, dg/dy from fun_jac (cached)."""
+    from scipy.optimize import minimize
+
+    cache = {}
+
+    def get(y):
+        k = y.tobytes()
+        if k not in cache:
+            cache.clear()
+            cache[k] = fun_jac(y)
+        return cache[k]
+
+    res = minimize(lambda y: objective(y)[0], y0, jac=lambda y: objective(y)[1], method="SLSQP",
+                   bounds=bounds, constraints=[{"type": "ineq", "fun": lambda y: get(y)[0],
+                                                "jac": lambda y: get(y)[1]}],
+                   options={"maxiter": 100, "ftol": 1e-12})
+    return res
+
+
+def default_starts(valley):
+    """(0, 0, 0) as in s001 Ex. 4.3 plus a small symmetric set around it (alpha, delta/R, phi)."""
+    return [(0.0, 0.0, 0.0), (0.1, 0.0, 0.0), (-0.1, 0.0, 0.0), (0.0, 0.1, 0.1), (0.0, -0.1, -0.1)]
+
+
+def _bounds(valley):
+    half = math.pi / valley.lobes
+    return [(-0.5, 0.5), (-0.4, 0.4), (-1.5 * half, 1.5 * half)]
+
+
+def optimize_axis(valley, n=100, starts=None, evaluator=None):
+    """Minimise Phi of Eq. (11) over (alpha, delta, phi) by SLSQP on the epigraph form
+
+        minimise s  subject to  -s <= r1_i - r2_i <= s  for samples interior on both flanks,
+
+    with dr_k/dx = ((a_i - b_k) / r_k) . da_i/dx (exact).  Samples lie on lam in valley.lam_range
+    (n of them, the paper's n = 100).  Returns the best :class:`AxisFit` over ``starts``."""
+    t0 = time.perf_counter()
+    ev = evaluator or AxisEvaluator(valley)
+    lam = np.linspace(*valley.lam_range, n)
+    R = valley.outer_radius
+
+    def fun_jac(y):
+        ar = ev(y[:3], lam)
+        w = (ar.interior[0] & ar.interior[1]).astype(float)
+        d = (ar.r[0] - ar.r[1]) / R * w
+        Jd = (ar.grad[0] - ar.grad[1]) / R * w[:, None]
+        g = np.r_[y[3] - d, y[3] + d]
+        G = np.zeros((2 * n, 4))
+        G[:n, :3], G[n:, :3] = -Jd, Jd
+        G[:, 3] = 1.0
+        return g, G
+
+    obj = lambda y: (y[3], np.array([0.0, 0.0, 0.0, 1.0]))  # noqa: E731
+    best, per = None, []
+    calls0 = ev.calls
+    ref = ev(np.zeros(3), lam)
+    need = max(5, int(0.5 * np.sum(ref.interior[0] & ref.interior[1])))
+    for x0 in (starts or default_starts(valley)):
+        ts = time.perf_counter()
+        x0 = np.asarray(x0, float)
+        s0 = phi_value(ev(x0, lam)) / R
+        res = _slsqp(fun_jac, np.r_[x0, s0], _bounds(valley) + [(0.0, None)], 2 * n, obj)
+        x = res.x[:3]
+        ar = ev(x, lam)
+        val = phi_value(ar)
+        # an axis that leaves the valley has few samples touching both flanks: Phi means nothing there
+        valid = int(np.sum(ar.interior[0] & ar.interior[1])) >= need
+        per.append((x0.tolist(), x.tolist(), val if valid else float("inf"), int(res.nit),
+                    time.perf_counter() - ts))
+        if valid and (best is None or val < best[1] - 1e-15):
+            best = (x, val, int(res.nit))
+    if best is None:
+        raise ValueError("double-flank axis optimisation failed: every start left the valley")
+    x, val, nit = best
+    return AxisFit(x=np.array([x[0], x[1] * R, x[2]]), x_unit=np.array(x), phi=val, iterations=nit, evaluations=ev.calls - calls0,
+                   starts=len(per), elapsed_s=time.perf_counter() - t0, per_start=per)
+
+
+# ============================================================================ tools from an axis
+@dataclass
+class ToolPath:
+    """One position (x = (alpha, delta, phi), delta in length units) of a revolving tool (one plan strip): axis nodes, radii and the errors along it.
+
+    lam (m+1,) equally spaced axis parameters from the tip (lam[0]) to the shank end; points (m+1, 3)
+    the axis nodes (rotor frame); radii (m+1,) the radial function r at the nodes (sphere radii of
+    the envelope, s001 §3); r (2, m+1) distances to the two trimmed flanks; counted (2, m+1) whether
+    the node's foot on that flank is interior; errors (2, m+1) e_k = r_k - r (Eq. (15)), nan where the
+    node does not count for flank k.
+    """
+    x: np.ndarray
+    lam: np.ndarray
+    points: np.ndarray
+    radii: np.ndarray
+    r: np.ndarray
+    counted: np.ndarray
+    errors: np.ndarray
+    flanks: tuple = (0, 1)        # which of the valley's flanks this path mills (0, 1 or both)
+    plan_points: np.ndarray = None   # (m+1, 3) equally spaced plan nodes (axis_start .. axis_end)
+    plan_radii: np.ndarray = None    # (m+1,) radii there (flank-plan/1 "radii")
+    meridian: np.ndarray = None      # (K, 2) exact tool meridian (h from axis_start, R), or None
+    kind: str = "custom"
+
+
+def _counted(ev, x, lam, tag):
+    ar = ev(x, np.atleast_1d(lam), tag=tag)
+    return ar
+
+
+def tool_extent(ev, x, flanks=(0, 1), n_scan=400, tag="extent"):
+    """[lam_start, lam_end]: the first and last axis parameters whose foot on one of ``flanks`` is
+    interior (bisection to 1e-12 R on both ends).  Beyond them every foot sits on a flank's
+    boundary (valley bottom or rim) and the spheres no longer shape the target flanks."""
+    v = ev.valley
+    lam = np.linspace(*v.lam_range, n_scan)
+    ar = ev(x, lam, tag=(tag, n_scan))
+    ok = ar.interior[list(flanks)].any(axis=0)
+    idx = np.flatnonzero(ok)
+    if not len(idx):
+        raise ValueError("the tool axis touches neither flank of the valley")
+
+    def pred(l):
+        a = ev(x, np.array([l]), tag=(tag, "bisect"))
+        return bool(a.interior[list(flanks)].any())
+
+    def bisect(inside, outside):
+        for _ in range(60):
+            m = 0.5 * (inside + outside)
+            if pred(m):
+                inside = m
+            else:
+                outside = m
+            if abs(inside - outside) < 1e-12 * v.outer_radius:
+                break
+        return inside
+
+    i0, i1 = idx[0], idx[-1]
+    lo = bisect(lam[i0], lam[i0 - 1]) if i0 > 0 else lam[0]
+    hi = bisect(lam[i1], lam[i1 + 1]) if i1 < n_scan - 1 else lam[-1]
+    return float(lo), float(hi)
+
+
+def radial_function(r, counted, variant="min", cap=None):
+    """Radii at axis nodes from the distances r (2, N) to the two flanks.
+
+    variant: 'min' Eq. (14), 'avg' Eq. (16), 'one-sided-1' / 'one-sided-2' Eq. (17).  Where a node
+    counts for one flank only (the tail, end of s001 §4.2) it takes that flank's distance; where it
+    counts for none it takes min(r1, r2).  ``cap`` (N,) (distance to the untrimmed flanks) bounds
+    every radius that is not meant to overcut: all of them for 'min', the tail nodes otherwise.
+    """
+    if variant not in VARIANTS:
+        raise ValueError(f"variant {variant!r} is not one of {', '.join(VARIANTS)}")
+    r1, r2 = r
+    c1, c2 = counted
+    both = c1 & c2
+    if variant == "min":
+        rb = np.minimum(r1, r2)
+    elif variant == "avg":
+        rb = 0.5 * (r1 + r2)
+    elif variant == "one-sided-1":
+        rb = r1.copy()
+    else:
+        rb = r2.copy()
+    out = np.where(both, rb, np.where(c1, r1, np.where(c2, r2, np.minimum(r1, r2))))
+    if cap is not None:
+        out = np.minimum(out, cap) if variant == "min" else np.where(both, out, np.minimum(out, cap))
+    return out
+
+
+def build_path(ev, x, m=400, variant="min", radii_fn=None, extent=None, flanks=(0, 1), tag="path",
+               n_exact=1201, meridian=True, tol=2e-10):
+    """One tool position: exact distances at ``n_exact`` equally spaced axis nodes (feet on the
+    trimmed and on the untrimmed flanks, derivatives d r_k / d lam = (a - b_k)/r_k . da/dlam), cubic
+    Hermite interpolation in between, radii by ``variant`` (or ``radii_fn(lam, r, counted, cap)``),
+    ``m + 1`` plan radii and, if ``meridian``, the exact union-of-spheres meridian (h, R) sampled so
+    that its chord error is ~ ``tol``."""
+    from scipy.interpolate import CubicHermiteSpline
+
+    v = ev.valley
+    lo, hi = extent or tool_extent(ev, x, flanks)
+    lam = np.linspace(lo, hi, n_exact)
+    ar = ev(x, lam, tag=(tag, "trim"))
+    full = ev(x, lam, solvers=v.full_feet, tag=(tag, "full"))
+    al = float(x[0])
+    speed = 1.0 / math.cos(al)
+    c, sn = math.cos(v.theta + x[2]), math.sin(v.theta + x[2])
+    dadl = np.array([c, sn, math.tan(al)])
+    s = (lam - lo) * speed
+    counted = ar.interior.copy()
+    for k in (0, 1):
+        if k not in flanks:
+            counted[k] = False
+
+    def spl(dist, feet):
+        return CubicHermiteSpline(s, dist, (feet.direction @ dadl) / speed)
+
+    S1, S2 = spl(ar.r[0], ar.feet[0]), spl(ar.r[1], ar.feet[1])
+    C1, C2 = spl(full.r[0], full.feet[0]), spl(full.r[1], full.feet[1])
+
+    def radii_at(sq):
+        idx = np.clip(np.searchsorted(s, sq, side="right") - 1, 0, n_exact - 1)
+        # a node's counting holds up to the next node (the tool ends are bisected exactly)
+        cnt = counted[:, idx]
+        rr = np.array([S1(sq), S2(sq)])
+        cap = np.minimum(C1(sq), C2(sq))
+        if radii_fn is None:
+            return radial_function(rr, cnt, variant, cap), rr, cnt
+        return radii_fn(lo + sq / speed, rr, cnt, cap), rr, cnt
+
+    node_r, _, _ = radii_at(s)
+    cap_nodes = np.minimum(full.r[0], full.r[1])
+    if radii_fn is None:
+        node_r = radial_function(ar.r, counted, variant, cap_nodes)
+    errors = np.where(counted, ar.r - node_r[None, :], np.nan)
+    s_plan = np.linspace(0.0, s[-1], m + 1)
+    plan_r = radii_at(s_plan)[0]
+    mer = None
+    if meridian:
+        sd = _graded_samples(0.0, s[-1], lambda q: radii_at(q)[0], tol=tol)
+        mer = sphere_union_meridian(sd, radii_at(sd)[0], tol=tol)
+    a_plan, _ = axis_points(x, lo + s_plan / speed, v.theta, v.outer_radius)
+    return ToolPath(x=np.array([x[0], x[1] * v.outer_radius, x[2]]), lam=lam, points=ar.points, radii=node_r, r=ar.r, counted=counted,
+                    errors=errors, flanks=tuple(flanks), plan_points=a_plan, plan_radii=plan_r, meridian=mer)
+
+
+# ============================================================================ exact tool meridian
+def sphere_union_meridian(s, r, tol=2e-10, window=64):
+    """Meridian (h, R) of the union of spheres centred at axial positions s (increasing) with radii r.
+
+    The boundary of a union of spheres on an axis is R(h) = max_j sqrt(r_j^2 - (h - s_j)^2).  Where r
+    is smooth it is the envelope (contact circle h = s - r r', R = r sqrt(1 - r'^2), s001 §3); at
+    kinks of r it is a spherical zone (concave kink) or a crease (convex kink), and the end caps are
+    sphere caps.  Candidates: the contact points of every sphere plus dense cap points; each is
+    corrected to the exact max over the neighbouring spheres, then sorted by h.  ``s`` must be dense
+    enough that consecutive contact points are within sqrt(8 tol / curvature) of each other.
+    Returns (K, 2) rows (h, R), h strictly increasing, R >= 0, first and last R = 0.
+    """
+    s = np.asarray(s, float)
+    r = np.asarray(r, float)
+    dr = np.gradient(r, s)
+    ok = np.abs(dr) < 1.0
+    sin = np.clip(dr, -1.0, 1.0)
+    h_c = (s - r * sin)[ok]
+    j_c = np.flatnonzero(ok)
+    # caps: first and last spheres, angular steps giving chord errors below tol
+    caps = []
+    for j, sign in ((0, -1.0), (len(s) - 1, 1.0)):
+        step = math.sqrt(8 * tol / max(r[j], 1e-12)) if r[j] > 0 else 1.0
+        n = int(min(max(8, (math.pi / 2) / step), 20000))
+        th = np.linspace(0.0, math.pi / 2, n)
+        caps.append((s[j] + sign * r[j] * np.sin(th), np.full(n, j)))
+    h = np.concatenate([h_c, caps[0][0], caps[1][0]])
+    jj = np.concatenate([j_c, caps[0][1], caps[1][1]]).astype(int)
+    # exact max over a window of neighbouring spheres (the maximiser of a smooth union is the
+    # contact sphere itself; near kinks and caps it is one of its neighbours)
+    offs = np.arange(-window, window + 1)
+    J = np.clip(jj[:, None] + offs[None, :], 0, len(s) - 1)
+    val = r[J] ** 2 - (h[:, None] - s[J]) ** 2
+    R = np.sqrt(np.maximum(val.max(axis=1), 0.0))
+    order = np.argsort(h, kind="stable")
+    h, R = h[order], R[order]
+    keep = np.r_[True, np.diff(h) > 1e-13 * max(1.0, float(np.ptp(h)))]
+    h, R = h[keep], R[keep]
+    R[0] = R[-1] = 0.0
+    return np.c_[h, R]
+
+
+def _graded_samples(s0, s1, r_of, tol=2e-10, n_min=400, n_max=60000):
+    """Axial positions with spacing ~ sqrt(8 tol r) (meridian chord error ~ tol where its curvature
+    is ~ 1/r), between s0 and s1."""
+    probe = np.linspace(s0, s1, 2001)
+    rp = np.maximum(r_of(probe), 1e-6 * (s1 - s0))
+    density = 1.0 / np.sqrt(8 * tol * rp)            # samples per unit length
+    cum = np.r_[0.0, np.cumsum(0.5 * (density[1:] + density[:-1]) * np.diff(probe))]
+    n = int(np.clip(cum[-1], n_min, n_max))
+    return np.interp(np.linspace(0.0, cum[-1], n + 1), cum, probe)
