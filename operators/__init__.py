@@ -12,6 +12,7 @@ from .generate import FLANK_OT_generate_rotor
 from .analyze import FLANK_OT_analyze_rotor
 from .verify import FLANK_OT_verify_plan
 from .paraboloid import FLANK_OT_paraboloid_groove
+from .formed_cutter import FLANK_OT_formed_cutter
 
 classes = (
     FLANK_PG_settings,
@@ -19,7 +20,8 @@ classes = (
     FLANK_OT_analyze_rotor,
     FLANK_OT_verify_plan,
     FLANK_OT_paraboloid_groove,
+    FLANK_OT_formed_cutter,
 )
 
 __all__ = ["classes", "FLANK_PG_settings", "FLANK_OT_generate_rotor", "FLANK_OT_analyze_rotor",
-           "FLANK_OT_verify_plan", "FLANK_OT_paraboloid_groove"]
+           "FLANK_OT_verify_plan", "FLANK_OT_paraboloid_groove", "FLANK_OT_formed_cutter"]

@@ -134,3 +134,77 @@ def remove_ids(bpy, objects=(), meshes=(), collections=()):
             bpy.data.collections.remove(coll)
         except (ReferenceError, RuntimeError):
             pass
+
+
+def edge_mesh(bpy, np, name, chains):
+    """Mesh of polylines (vertices + edges only): ``chains`` is a list of ((K, 3) points, closed)."""
+    verts, edges, off = [], [], 0
+    for pts, closed in chains:
+        k = len(pts)
+        idx = np.arange(k) + off
+        e = np.c_[idx[:-1], idx[1:]]
+        if closed:
+            e = np.vstack([e, [[idx[-1], idx[0]]]])
+        verts.append(pts)
+        edges.append(e)
+        off += k
+    verts = np.ascontiguousarray(np.vstack(verts), dtype=np.float32)
+    edges = np.ascontiguousarray(np.vstack(edges), dtype=np.int32)
+    mesh = bpy.data.meshes.new(name)
+    try:
+        mesh.vertices.add(len(verts))
+        mesh.vertices.foreach_set("co", verts.ravel())
+        mesh.edges.add(len(edges))
+        mesh.edges.foreach_set("vertices", edges.ravel())
+        mesh.update()
+        mesh.validate(clean_customdata=False)
+    except Exception:
+        bpy.data.meshes.remove(mesh)
+        raise
+    return mesh
+
+
+def set_float_attr(np, mesh, name, values, domain='POINT'):
+    """(Re)create a FLOAT attribute ``name`` with ``values``."""
+    old = mesh.attributes.get(name)
+    if old is not None:
+        mesh.attributes.remove(old)
+    attr = mesh.attributes.new(name, 'FLOAT', domain)
+    attr.data.foreach_set("value", np.ascontiguousarray(values, dtype=np.float32))
+    return attr
+
+
+def set_color_attr(np, mesh, name, rgba):
+    """(Re)create a FLOAT_COLOR point attribute and make it the active and render colour."""
+    old = mesh.color_attributes.get(name)
+    if old is not None:
+        mesh.color_attributes.remove(old)
+    attr = mesh.color_attributes.new(name, 'FLOAT_COLOR', 'POINT')
+    attr.data.foreach_set("color", np.ascontiguousarray(rgba, dtype=np.float32).ravel())
+    mesh.color_attributes.active_color = attr
+    try:
+        mesh.color_attributes.render_color_index = mesh.color_attributes.active_color_index
+    except (AttributeError, TypeError):
+        pass
+    return attr
+
+
+def iter_fcurves(action):
+    """F-curves of an action, legacy (Blender < 4.4) or layered/slotted (4.4+, only API in 5.x)."""
+    layers = getattr(action, "layers", None)
+    if layers:
+        for layer in layers:
+            for strip in layer.strips:
+                for bag in getattr(strip, "channelbags", ()):
+                    yield from bag.fcurves
+    else:
+        yield from getattr(action, "fcurves", ())
+
+
+def screw_matrix(np, t, v0, hand):
+    """4x4 matrix of the screw motion S_t about the z-axis (turn hand * t, advance v0 * t)."""
+    c, s = np.cos(hand * t), np.sin(hand * t)
+    m = np.eye(4)
+    m[0, 0], m[0, 1], m[1, 0], m[1, 1] = c, -s, s, c
+    m[2, 3] = v0 * t
+    return m

@@ -87,10 +87,65 @@ def paraboloid_props():
     )
 
 
+CUTTER_SOURCE_ITEMS = (
+    ("TABLE1", "s004 Table-1 Rotor", "The paper's arc-tooth rotor (R1 55.1, R2 111.69, G 125, 4 grooves, mm): "
+                                    "built as a new mesh object"),
+    ("ACTIVE", "Active Rotor", "The active rotor made by Generate Rotor (or a Table-1 rotor from an earlier run): "
+                              "its profile is rebuilt from its custom properties and its mesh is painted"),
+)
+
+
+def formed_cutter_props():
+    """Fresh property definitions of flank.formed_cutter (also the scene settings, prefixed 'cutter_').
+
+    No hard limits on lead, centre distance, swivel: bad values (NaN included) must reach the
+    operator's checks and the core and be reported with the value and the limit."""
+    return dict(
+        source=EnumProperty(name="Rotor", items=CUTTER_SOURCE_ITEMS, default="TABLE1"),
+        lead=FloatProperty(name="Lead", description="Axial advance per turn of the rotor, 0 = the rotor's "
+                                                    "(Table 1: 450); an active rotor accepts only its own lead",
+                           default=0.0, soft_min=0.0, soft_max=10000.0),
+        centre_distance=FloatProperty(name="Centre Distance A",
+                                      description="Distance between the rotor axis and the cutter axis (> the "
+                                                  "rotor's outer radius); 0 = automatic: Table 1 200, other "
+                                                  "rotors 200 / 111.69 x their outer radius",
+                                      default=0.0, soft_min=0.0, soft_max=10000.0),
+        swivel=FloatProperty(name="Swivel", description="Angle phi between the rotor and cutter axes in degrees, "
+                                                        "0 < |phi| < 90 (Table 1: 31)",
+                             default=31.0, soft_min=-89.0, soft_max=89.0),
+        handedness=EnumProperty(name="Handedness", items=(
+            ("DEFAULT", "From Rotor", "The rotor's hand (Table 1: right)"),
+            ("right", "Right", "Right-handed helix (Table-1 rotor only, or an active right-handed rotor)"),
+            ("left", "Left", "Left-handed helix (Table-1 rotor only, or an active left-handed rotor)"),
+        ), default="DEFAULT"),
+        planes=IntProperty(name="Planes", description="Planes Z_u = const of the cutter profile (s004: 119); "
+                                                      "one ring of the cutter mesh each",
+                           default=119, min=2, soft_max=2000),
+        eps_b=FloatProperty(name="eps_b", description="Subdivision threshold of the radius search, "
+                                                      "0 = default (1e-4 x outer radius)",
+                            default=0.0, min=0.0, precision=5),
+        tolerance=FloatProperty(name="Tolerance", description="Deviation colour band (green within), "
+                                                              "0 = default (1e-5 x outer radius)",
+                                default=0.0, min=0.0, precision=6),
+        sample_points=IntProperty(name="Tooth Points", description="Tooth points simulated by the sweep "
+                                                                   "(about 10 ms each)",
+                                  default=161, min=8, soft_max=2000),
+        resolution=IntProperty(name="Resolution", description="Profile samples of the Table-1 rotor mesh",
+                               default=720, min=48, soft_max=8192),
+        animate=BoolProperty(name="Animate", description="Add a cutter moving along the rotor (inverse screw "
+                                                         "motion, rotor fixed)", default=True),
+        frame_start=IntProperty(name="Start Frame", default=1),
+        frame_end=IntProperty(name="End Frame", default=250),
+        filepath=StringProperty(name="Profile CSV", description="Also write the cutter profile as z,r rows "
+                                                                "(cutter frame); empty = no file",
+                                subtype='FILE_PATH', default=""),
+    )
+
+
 def _prefixed(prefix, props):
     return {prefix + name: prop for name, prop in props.items()}
 
 
 class FLANK_PG_settings(bpy.types.PropertyGroup):
     __annotations__ = {**generator_props(), **_prefixed("verify_", verify_props()),
-                       **_prefixed("groove_", paraboloid_props())}
+                       **_prefixed("groove_", paraboloid_props()), **_prefixed("cutter_", formed_cutter_props())}

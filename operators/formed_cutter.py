@@ -1,0 +1,370 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""flank.formed_cutter -- s004: formed disc cutter for one tooth of a rotor, its set-up, motion and result."""
+import bpy
+
+from .common import (edge_mesh, iter_fcurves, new_mesh_from_arrays, remove_ids, revolved_mesh, screw_matrix,
+                     select_only, set_color_attr, set_float_attr)
+from .properties import formed_cutter_props
+from .verify import DEVIATION_ATTR, DEVIATION_COLOR_ATTR, UNTOUCHED
+
+COLLECTION = "Formed Cutter"
+TABLE1_ROTOR = "Arc Tooth Rotor (s004)"
+TABLE1_SOURCE = "s004_table1"          # flank_source of the Table-1 rotor objects made here
+CUTTER = "Formed Cutter"
+CUTTER_MOVING = "Formed Cutter (moving)"
+MOTION = "Cutter Motion"
+CONTACT = "Contact Points"
+FLAGS_ATTR = "cutter_flags"            # FLOAT point attribute: the plane's flag bit mask (0 = clean)
+FLAGS_COLOR_ATTR = "cutter_flags_color"
+SIM_PLANES = 2000                      # planes of the dense meridian simulated by the sweep
+RING_SEGMENTS = 96
+TABLE1_AXIAL_RINGS = 96
+# A of s004 Table 1 relative to its outer radius: the automatic centre distance of other rotors
+A_RATIO = 200.0 / 111.69
+# ring colours: clean planes, interference (self occlusion, maximum point, overcut), other flags
+COLOR_CLEAN = (0.62, 0.66, 0.72, 1.0)
+COLOR_INTERFERENCE = (0.88, 0.10, 0.08, 1.0)
+COLOR_OTHER_FLAG = (0.96, 0.62, 0.10, 1.0)
+# every custom property this operator writes (cleared on the rotor before a new run)
+PROP_PREFIX = "flank_cutter_"
+
+
+def _decimal(v):
+    """Blender float properties are single precision: the decimal value that was typed (7 digits)."""
+    return float("{:.7g}".format(v))
+
+
+def _ring_colors(np, fc, flags):
+    interference = fc.FLAG_SELF_OCCLUSION | fc.FLAG_MAXIMUM_POINT | fc.FLAG_OVERCUT
+    rgba = np.tile(np.asarray(COLOR_CLEAN), (len(flags), 1))
+    rgba[flags != 0] = COLOR_OTHER_FLAG
+    rgba[(flags & interference) != 0] = COLOR_INTERFERENCE
+    return rgba
+
+
+class FLANK_OT_formed_cutter(bpy.types.Operator):
+    """s004: axial profile of a formed disc cutter for one tooth, placed at its set-up on the rotor, with
+    the machinability flags, the helical motion and the machined-vs-design deviation of a sweep simulation.
+
+    Rotor: the paper's Table-1 arc-tooth rotor (built here, 0 <= z <= 2/3 lead, centred on the world
+    origin) or the active rotor made by Generate Rotor (profile rebuilt from its custom properties; the
+    mesh's local frame is the rotor frame).  The tooth cut is the valley facing +x (all teeth alike).
+    Objects in a new "Formed Cutter" collection: the cutter (revolved meridian, one ring per plane, point
+    attributes ``cutter_flags`` (FLOAT bit mask) and ``cutter_flags_color``), placed at its set-up moved
+    along the helix to mid-length; the contact points (edge mesh, ``cutter_flags``); with Animate, an empty
+    "Cutter Motion" parented to the rotor with linear keys on its rotation about and translation along the
+    rotor axis (the inverse of the rotor's screw motion relative to the cutter, exact at every frame) and
+    a moving cutter as its child.  The rotor mesh gets ``machined_deviation`` (FLOAT, > 0 material left,
+    < 0 overcut, 1e9 off the tooth / not reached) and ``machined_deviation_color`` as flank.verify_plan."""
+
+    bl_idname = "flank.formed_cutter"
+    bl_label = "Formed Cutter"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    __annotations__ = dict(
+        formed_cutter_props(),
+        filter_glob=bpy.props.StringProperty(default="*.csv", options={'HIDDEN'}),
+    )
+
+    # ------------------------------------------------------------------ inputs
+
+    def _source(self, context, np, fc, rotors, lead_in):
+        """The rotor to cut -> dict, or an error message (str)."""
+        hand_in = None if self.handedness == "DEFAULT" else str(self.handedness)
+        if self.source == "TABLE1":
+            profile, tooth, _ = fc.arc_tooth_profile()
+            lead = lead_in if lead_in != 0.0 else fc.TABLE1["lead"]
+            return dict(profile=profile, tooth=tooth, lead=lead, hand=hand_in or "right",
+                        length=2.0 * abs(lead) / 3.0, obj=None, name=TABLE1_ROTOR, r0=fc.TABLE1["R2"],
+                        A_auto=fc.TABLE1["centre_distance"], kind="table1")
+        obj = context.active_object
+        if obj is not None and PROP_PREFIX + "rotor" in obj and obj.get("flank_source") is None:
+            other = bpy.data.objects.get(obj[PROP_PREFIX + "rotor"])  # a cutter object: use its rotor
+            if other is not None:
+                obj = other
+        if obj is None or obj.type != 'MESH':
+            return "Select a rotor made by Generate Rotor (or a Table-1 rotor) for Rotor = Active Rotor"
+        if obj.mode != 'OBJECT':
+            return "Switch '{}' to Object Mode first".format(obj.name)
+        src = obj.get("flank_source")
+        if src == TABLE1_SOURCE:
+            profile, tooth, _ = fc.arc_tooth_profile()
+            lead, hand, length = float(obj["flank_lead"]), str(obj["flank_handedness"]), float(obj["flank_length"])
+            r0, A_auto, kind = fc.TABLE1["R2"], fc.TABLE1["centre_distance"], "table1"
+        elif src == "generated":
+            try:
+                rotor = rotors.builtin_rotor(str(obj["flank_kind"]), str(obj["flank_part"]),
+                                             scale=float(obj["flank_scale"]), lead=float(obj["flank_lead"]),
+                                             length=float(obj["flank_length"]),
+                                             handedness=str(obj["flank_handedness"]))
+            except (KeyError, ValueError) as ex:
+                return "Cannot rebuild the rotor of '{}' from its custom properties: {}".format(obj.name, ex)
+            profile, lead, hand, length = rotor.profile, rotor.lead, rotor.handedness, rotor.length
+            tooth = fc.default_tooth(profile)
+            r0 = float(np.linalg.norm(profile.sample(8192), axis=1).max())
+            A_auto, kind = A_RATIO * r0, "{}-{}".format(rotor.kind, rotor.part)
+        else:
+            return ("'{}' is not a rotor made by Generate Rotor (flank_source = {!r}; analysed or foreign meshes "
+                    "have no exact profile): use Rotor = s004 Table-1 Rotor or generate one".format(obj.name, src))
+        if lead_in != 0.0 and abs(lead_in - lead) > 1e-6 * abs(lead):
+            return ("lead = {:.7g} differs from the lead {:.7g} of rotor '{}': the cutter must follow the rotor's "
+                    "helix (set Lead to 0)".format(lead_in, lead, obj.name))
+        if hand_in is not None and hand_in != hand:
+            return ("handedness '{}' differs from the rotor '{}' ({}-handed): set it to From Rotor".format(
+                hand_in, obj.name, hand))
+        return dict(profile=profile, tooth=tooth, lead=lead, hand=hand, length=length, obj=obj, name=obj.name,
+                    r0=r0, A_auto=A_auto, kind=kind)
+
+    # ------------------------------------------------------------------ run
+
+    def execute(self, context):
+        import json
+        import math
+        import os
+        import time
+
+        import numpy as np
+        from mathutils import Matrix
+        from scipy.spatial import cKDTree
+
+        from ..flank_addon import formed_cutter as fc
+        from ..flank_addon import rotors
+        from ..flank_addon.screw import hand_sign, screw_motion, screw_to_plane
+        from ..flank_addon.sweep import MeridianPart, RevolvingTool, machined_deviation
+        from ..flank_addon.verify import deviation_colors
+
+        t0 = time.perf_counter()
+        lead_in, A_in, swivel, eps_b_in, tol_in = (_decimal(v) for v in (
+            self.lead, self.centre_distance, self.swivel, self.eps_b, self.tolerance))
+        for label, value in (("lead", lead_in), ("centre distance A", A_in), ("swivel", swivel),
+                             ("eps_b", eps_b_in), ("tolerance", tol_in)):
+            if not math.isfinite(value):
+                self.report({'ERROR'}, "Formed cutter: {} = {} is not a finite number".format(label, value))
+                return {'CANCELLED'}
+        if not 0.0 < abs(swivel) < 90.0:
+            self.report({'ERROR'}, "Formed cutter: swivel = {:g} deg must satisfy 0 < |swivel| < 90 deg (0: cutter "
+                                   "axis parallel to the rotor axis, 90: perpendicular to it)".format(swivel))
+            return {'CANCELLED'}
+        fs, fe = int(self.frame_start), int(self.frame_end)
+        if self.animate and fe <= fs:
+            self.report({'ERROR'}, "Formed cutter: end frame {} must be after the start frame {}".format(fe, fs))
+            return {'CANCELLED'}
+        src = self._source(context, np, fc, rotors, lead_in)
+        if isinstance(src, str):
+            self.report({'ERROR'}, "Formed cutter: " + src)
+            return {'CANCELLED'}
+        profile, tooth, lead, hand = src["profile"], src["tooth"], src["lead"], src["hand"]
+        r0 = src["r0"]
+        A = A_in if A_in != 0.0 else src["A_auto"]
+        eps_b = eps_b_in if eps_b_in > 0.0 else None
+        tol = tol_in if tol_in > 0.0 else 1e-5 * r0
+        planes = int(self.planes)
+
+        # ---- the core: cutter profile with flags, dense meridian for the simulation
+        try:
+            cp = fc.cutter_profile(profile, lead, A, swivel, handedness=hand, tooth=tooth, planes=planes,
+                                   eps_b=eps_b)
+            Zd, Rd, setup = fc.cutter_meridian(profile, lead, A, swivel, planes=SIM_PLANES, handedness=hand,
+                                               tooth=tooth, eps_b=eps_b, phase=cp.setup.phase)
+        except fc.FormedCutterError as ex:
+            self.report({'ERROR'}, "Formed cutter: {}".format(ex))
+            return {'CANCELLED'}
+        except Exception as ex:
+            self.report({'ERROR'}, "Formed cutter failed: {}: {}".format(type(ex).__name__, ex))
+            return {'CANCELLED'}
+        summary = cp.summary()
+        v0 = lead / (2.0 * math.pi)
+        eps = hand_sign(hand)
+        period = float(profile.period)
+
+        # ---- sweep simulation on tooth points (exclusive of the tooth's end corners: no normal there)
+        t1 = time.perf_counter()
+        a_t, b_t = float(tooth[0]), float(tooth[1])
+        if b_t <= a_t:
+            b_t += period
+        n_s = int(self.sample_points)
+        u_s = np.linspace(a_t, b_t, n_s + 2)[1:-1]
+        try:
+            tool = RevolvingTool([MeridianPart(setup.axis_point, setup.axis_direction, np.c_[Zd, Rd])])
+            dev = machined_deviation([tool], profile.eval(u_s % period), profile.outward_normal(u_s % period),
+                                     v0, hand, max_deviation=0.1 * r0)
+        except Exception as ex:
+            self.report({'ERROR'}, "Formed cutter: sweep simulation failed: {}: {}".format(type(ex).__name__, ex))
+            return {'CANCELLED'}
+        t_sim = time.perf_counter() - t1
+        fin = np.isfinite(dev)
+
+        # ---- rotor mesh (Table 1: built here) and the deviation per rotor vertex
+        length = float(src["length"])
+        rotor_obj = src["obj"]
+        try:
+            if rotor_obj is None:
+                r_verts, r_faces = rotors.helical_body_mesh(profile, v0, hand, length,
+                                                            n_profile=int(self.resolution),
+                                                            n_axial=TABLE1_AXIAL_RINGS)
+                rotor_world = np.eye(4)
+                rotor_world[2, 3] = -0.5 * length
+            else:
+                me = rotor_obj.data
+                r_verts = np.empty(len(me.vertices) * 3)
+                me.vertices.foreach_get("co", r_verts)
+                r_verts = r_verts.reshape(-1, 3)
+                rotor_world = np.array(rotor_obj.matrix_world, dtype=np.float64)
+            if len(r_verts) == 0:
+                raise ValueError("the rotor mesh has no vertices")
+            # each vertex: along its helix into z = 0, nearest point of a dense profile sample
+            u_d = np.linspace(0.0, period, 16384, endpoint=False)
+            p_d = profile.eval(u_d)
+            spacing = float(np.linalg.norm(np.diff(np.vstack([p_d, p_d[:1]]), axis=0), axis=1).max())
+            dist, idx = cKDTree(p_d).query(screw_to_plane(r_verts, v0, hand))
+            s_v = (u_d[idx] - a_t) % period
+            on_tooth = (s_v <= b_t - a_t) & (dist <= 2.0 * spacing + 1e-6 * r0)
+            dev_n = np.where(fin, dev, np.nan)
+            values = np.interp(s_v, u_s - a_t, dev_n)     # constant beyond the first / last sample
+            values = np.where(on_tooth, values, np.nan)
+        except Exception as ex:
+            self.report({'ERROR'}, "Formed cutter: could not map the deviation onto the rotor: {}: {}".format(
+                type(ex).__name__, ex))
+            return {'CANCELLED'}
+        reached = np.isfinite(values)
+        stored = np.where(reached, values, UNTOUCHED)
+        rgba = deviation_colors(values, tol)
+
+        # ---- set-up moved along the helix to the rotor's mid-length (the rotor is screw-invariant)
+        t_mid = 0.5 * length / v0
+        C = screw_matrix(np, t_mid, v0, eps) @ np.asarray(setup.cutter_to_rotor)
+        z, r, flags = np.asarray(cp.z), np.asarray(cp.r), np.asarray(cp.flags, dtype=np.int64)
+        rh = np.vstack([[0.0, z[-1]], np.c_[r[::-1], z[::-1]], [0.0, z[0]]])
+        c_verts, c_faces = revolved_mesh(np, rh, RING_SEGMENTS)
+        ring_flags = np.r_[np.repeat(flags[::-1], RING_SEGMENTS), 0, 0]
+        contact = screw_motion(np.asarray(cp.contact), t_mid, v0, hand)
+        r_max = float(r.max())
+        s_m = (0.5 * length + r_max) / v0                 # the cutter starts and ends clear of the rotor
+
+        objects, meshes, colls, actions = [], [], [], []
+        touched_rotor = False
+        csv_path = ""
+        try:
+            coll = bpy.data.collections.new(COLLECTION)
+            colls.append(coll)
+            context.scene.collection.children.link(coll)
+
+            def add(name, data, color=None):
+                if data is not None and data not in meshes:
+                    meshes.append(data)
+                ob = bpy.data.objects.new(name, data)
+                objects.append(ob)
+                if color is not None:
+                    ob.color = color
+                coll.objects.link(ob)
+                return ob
+
+            if rotor_obj is None:
+                rotor_obj = add(TABLE1_ROTOR, new_mesh_from_arrays(bpy, np, TABLE1_ROTOR, r_verts, r_faces),
+                                (0.70, 0.72, 0.75, 1.0))
+                rotor_obj.matrix_world = Matrix(rotor_world.tolist())
+                for key, value in dict(flank_source=TABLE1_SOURCE, flank_kind="arc_tooth", flank_part="male",
+                                       flank_lobes=int(fc.TABLE1["teeth"]), flank_scale=float(fc.TABLE1["R2"]),
+                                       flank_outer_radius=float(fc.TABLE1["R2"]), flank_lead=float(lead),
+                                       flank_length=length, flank_v0=v0, flank_handedness=hand,
+                                       flank_axis_point=(0.0, 0.0, 0.0), flank_axis=(0.0, 0.0, 1.0)).items():
+                    rotor_obj[key] = value
+            cutter_mesh = new_mesh_from_arrays(bpy, np, CUTTER, c_verts, c_faces)
+            cutter = add(CUTTER, cutter_mesh, (0.62, 0.66, 0.72, 1.0))
+            set_float_attr(np, cutter_mesh, FLAGS_ATTR, ring_flags)
+            set_color_attr(np, cutter_mesh, FLAGS_COLOR_ATTR, _ring_colors(np, fc, ring_flags))
+            cutter.matrix_world = Matrix((rotor_world @ C).tolist())
+
+            contact_mesh = edge_mesh(bpy, np, CONTACT, [(contact, False)])
+            contact_obj = add(CONTACT, contact_mesh, (0.10, 0.10, 0.10, 1.0))
+            set_float_attr(np, contact_mesh, FLAGS_ATTR, flags)
+            contact_obj.matrix_world = Matrix(rotor_world.tolist())
+
+            if self.animate:
+                motion = add(MOTION, None)
+                motion.empty_display_type = 'ARROWS'
+                motion.empty_display_size = 0.25 * r0
+                motion.parent = rotor_obj
+                motion.matrix_parent_inverse = Matrix.Identity(4)
+                motion.matrix_basis = Matrix.Identity(4)
+                for f, s in ((fs, -s_m), (fe, s_m)):
+                    motion.location = (0.0, 0.0, v0 * s)
+                    motion.rotation_euler = (0.0, 0.0, eps * s)
+                    motion.keyframe_insert(data_path="location", index=2, frame=f)
+                    motion.keyframe_insert(data_path="rotation_euler", index=2, frame=f)
+                if motion.animation_data is not None and motion.animation_data.action is not None:
+                    actions.append(motion.animation_data.action)
+                    for fcu in iter_fcurves(motion.animation_data.action):
+                        for kp in fcu.keyframe_points:
+                            kp.interpolation = 'LINEAR'
+                moving = add(CUTTER_MOVING, cutter_mesh, (0.62, 0.66, 0.72, 1.0))
+                moving.parent = motion
+                moving.matrix_parent_inverse = Matrix.Identity(4)
+                moving.matrix_basis = Matrix(C.tolist())
+
+            mesh = rotor_obj.data
+            touched_rotor = True
+            set_float_attr(np, mesh, DEVIATION_ATTR, stored)
+            set_color_attr(np, mesh, DEVIATION_COLOR_ATTR, rgba)
+            mesh.update()
+
+            if self.filepath:
+                csv_path = bpy.path.abspath(self.filepath)
+                np.savetxt(csv_path, cp.meridian, delimiter=",", header="z,r", comments="", fmt="%.12g")
+        except Exception as ex:
+            if touched_rotor and src["obj"] is not None:  # the user's rotor: no half-written attributes
+                for name in (DEVIATION_ATTR, DEVIATION_COLOR_ATTR):
+                    attr = src["obj"].data.attributes.get(name)
+                    if attr is not None:
+                        src["obj"].data.attributes.remove(attr)
+            for act in actions:
+                try:
+                    bpy.data.actions.remove(act)
+                except (ReferenceError, RuntimeError):
+                    pass
+            remove_ids(bpy, objects, meshes, colls)
+            self.report({'ERROR'}, "Could not build the formed cutter objects: {}: {}".format(type(ex).__name__, ex))
+            return {'CANCELLED'}
+
+        dev_t = dev[fin]
+        flag_counts = summary["flag_counts"]
+        n_flagged = int(np.count_nonzero(flags))
+        elapsed = time.perf_counter() - t0
+        props = dict(
+            rotor=rotor_obj.name, source=src["kind"], lead=float(lead), centre_distance=float(A),
+            swivel=float(swivel), handedness=hand, planes=int(len(z)), eps_b=float(cp.eps_b),
+            tooth=[float(tooth[0]), float(tooth[1])],
+            z_range=[float(z[0]), float(z[-1])], r_range=[float(r.min()), r_max],
+            flag_counts={k: int(v) for k, v in flag_counts.items()}, flagged_planes=n_flagged,
+            uncut=len(cp.uncut), axis_point=[float(v) for v in setup.axis_point],
+            axis_direction=[float(v) for v in setup.axis_direction], setup_t=float(t_mid),
+            tolerance=float(tol), sample_points=int(n_s), reached_points=int(fin.sum()),
+            max_abs_deviation=float(np.abs(dev_t).max()) if len(dev_t) else float("nan"),
+            max_overcut=float(max(0.0, -dev_t.min())) if len(dev_t) else 0.0,
+            max_undercut=float(max(0.0, dev_t.max())) if len(dev_t) else 0.0,
+            tooth_vertices=int(on_tooth.sum()), elapsed=float(cp.elapsed_s), sim_elapsed=float(t_sim),
+            total_elapsed=float(elapsed), summary=json.dumps(dict(summary, deviation_tooth_u=u_s.tolist(),
+                                                                  deviation_tooth=[None if not math.isfinite(d)
+                                                                                   else float(d) for d in dev])),
+        )
+        if self.animate:
+            props.update(frames=[fs, fe], motion=[-float(s_m), float(s_m)])
+        if csv_path:
+            props["csv"] = csv_path
+        for key in [k for k in rotor_obj.keys() if k.startswith(PROP_PREFIX)]:
+            del rotor_obj[key]
+        for target in (cutter, coll, rotor_obj):
+            for key, value in props.items():
+                target[PROP_PREFIX + key] = value
+        select_only(context, cutter)
+
+        flagged = ", ".join("{} {}".format(k, v) for k, v in flag_counts.items() if v) or "none"
+        self.report({'INFO'}, "Formed cutter for {} (A = {:.6g}, swivel {:.6g} deg, lead {:.6g}, {}-handed): {} planes, "
+                              "R {:.6g}..{:.6g}, Z {:.6g}..{:.6g}; flagged planes: {}; uncut tooth ranges {}; "
+                              "sweep: max |deviation| {:.3g} on {}/{} tooth points (max overcut {:.3g}, max stock "
+                              "{:.3g}); cutter {:.2f}s, simulation {:.2f}s, total {:.2f}s{}".format(
+                                  rotor_obj.name, A, swivel, lead, hand, len(z), r.min(), r_max, z[0], z[-1],
+                                  flagged, len(cp.uncut), props["max_abs_deviation"], int(fin.sum()), n_s,
+                                  props["max_overcut"], props["max_undercut"], cp.elapsed_s, t_sim, elapsed,
+                                  ", wrote {}".format(os.path.basename(csv_path)) if csv_path else ""))
+        return {'FINISHED'}
