@@ -20,8 +20,9 @@ EXT_ID = "flank_toolpath"
 REPO = "user_default"
 MODULE = "bl_ext.{}.{}".format(REPO, EXT_ID)
 CLASS_NAMES = ("FLANK_OT_generate_rotor", "FLANK_OT_analyze_rotor", "FLANK_OT_verify_plan",
-               "FLANK_OT_paraboloid_groove", "FLANK_PT_workpiece", "FLANK_PT_verify", "FLANK_PT_paraboloid")
-PANEL_NAMES = ("FLANK_PT_workpiece", "FLANK_PT_verify", "FLANK_PT_paraboloid")
+               "FLANK_OT_paraboloid_groove", "FLANK_OT_formed_cutter", "FLANK_PT_workpiece", "FLANK_PT_verify",
+               "FLANK_PT_paraboloid", "FLANK_PT_formed_cutter")
+PANEL_NAMES = ("FLANK_PT_workpiece", "FLANK_PT_verify", "FLANK_PT_paraboloid", "FLANK_PT_formed_cutter")
 
 
 def install_extension(bpy, zip_path):
@@ -573,8 +574,205 @@ def scenario_paraboloid(bpy, res, args):
         res["bad"][name] = dict(result=ret, error=err, new=[s1[i] - s0[i] for i in range(3)])
 
 
+def _mesh_co(np, obj):
+    co = np.empty(len(obj.data.vertices) * 3)
+    obj.data.vertices.foreach_get("co", co)
+    return co.reshape(-1, 3)
+
+
+def _world(np, obj, co):
+    mw = np.array(obj.matrix_world, dtype=np.float64)
+    return co @ mw[:3, :3].T + mw[:3, 3]
+
+
+def _screw4(np, t, v0, hand):
+    """Independent 4x4 of S_t (rotation hand * t about z, advance v0 t)."""
+    c, s = np.cos(hand * t), np.sin(hand * t)
+    return np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, v0 * t], [0, 0, 0, 1.0]])
+
+
+def _cutter_run(bpy, np, fc, screw, **kw):
+    """Run flank.formed_cutter; collect objects, props, attributes and independent checks (JSON-able)."""
+    def snapshot():
+        return (len(bpy.data.objects), len(bpy.data.meshes), len(bpy.data.collections), len(bpy.data.actions))
+
+    s0 = snapshot()
+    t0 = time.perf_counter()
+    ret, err = _run_op(bpy.ops.flank.formed_cutter, **kw)
+    s1 = snapshot()
+    out = dict(result=ret, error=err, seconds=time.perf_counter() - t0, new=[s1[i] - s0[i] for i in range(4)])
+    if ret is None:
+        return out, None
+    cutter = bpy.context.active_object
+    coll = cutter.users_collection[0]
+    out.update(active=cutter.name, collection=coll.name, in_scene=coll.name in bpy.context.scene.collection.children,
+               objects=sorted(o.name for o in coll.objects), props=_obj_props(cutter),
+               coll_props=sorted(k for k in coll.keys() if k.startswith("flank_cutter_")))
+    props = out["props"]
+    rotor = bpy.data.objects[props["flank_cutter_rotor"]]
+    out["rotor"] = dict(name=rotor.name, in_collection=rotor.name in coll.objects,
+                        props=sorted(k for k in rotor.keys() if k.startswith("flank_")))
+    # cutter mesh: flags per ring + colours; geometry against the core's meridian in its own frame
+    flags = _float_attr(np, cutter.data, "cutter_flags")
+    cols = _color_attr(np, cutter.data, "cutter_flags_color")
+    red = (cols[:, 0] > 0.8) & (cols[:, 1] < 0.2) & (cols[:, 2] < 0.2)
+    orange = (cols[:, 0] > 0.9) & (cols[:, 1] > 0.5) & (cols[:, 1] < 0.7) & (cols[:, 2] < 0.2)
+    active = cutter.data.color_attributes.active_color
+    out["cutter"] = dict(vertices=len(cutter.data.vertices), flagged_vertices=int((flags != 0).sum()),
+                         red_vertices=int(red.sum()), orange_vertices=int(orange.sum()),
+                         red_is_flagged=bool(np.all(flags[red] != 0)), plain_not_flagged=bool(
+                             np.all(flags[~red & ~orange] == 0)),
+                         active_color=active.name if active is not None else None)
+    return out, dict(cutter=cutter, rotor=rotor, flags=flags, coll=coll)
+
+
+def scenario_formed_cutter(bpy, res, args):
+    """flank.formed_cutter: the s004 Table-1 set-up, a flagged set-up, the active rotor, bad input."""
+    import numpy as np
+
+    fc, screw = _core("formed_cutter"), _core("screw")
+    scene = bpy.context.scene
+    tmp = os.path.abspath(os.getcwd())
+    T = fc.TABLE1
+    csv = os.path.join(tmp, "cutter.csv")
+
+    # ---------------------------------------------------------------- Table 1 (31 deg, A 200, lead 450)
+    out, objs = _cutter_run(bpy, np, fc, screw, filepath=csv, frame_start=1, frame_end=101)
+    res["table1"] = out
+    if objs is None:
+        return
+    cutter, rotor = objs["cutter"], objs["rotor"]
+    props = out["props"]
+    prof, tooth, _ = fc.arc_tooth_profile()
+    cp = fc.cutter_profile(prof, T["lead"], T["centre_distance"], T["swivel_deg"], tooth=tooth)
+    s = cp.summary()
+    out["expected"] = dict(r_range=s["r_range"], z_range=s["z_range"], flag_counts=s["flag_counts"],
+                           planes=s["planes"], r_max_formula=T["centre_distance"] - (T["G"] - T["R1"]))
+    v0 = T["lead"] / (2 * np.pi)
+    # the static cutter: world = rotor_world @ S(t_mid) @ cutter_to_rotor (set-up moved along the helix)
+    rw = np.array(rotor.matrix_world, dtype=np.float64)
+    t_mid = props["flank_cutter_setup_t"]
+    C = _screw4(np, t_mid, v0, 1) @ cp.setup.cutter_to_rotor
+    out["placement"] = dict(max_matrix_diff=float(np.abs(np.array(cutter.matrix_world) - rw @ C).max()),
+                            rotor_location=list(rotor.location), t_mid_z=float(v0 * t_mid))
+    # cutter vertices in the cutter frame reproduce the meridian R(Z)
+    co = _mesh_co(np, cutter)
+    loc = co[:-2]                                  # ring vertices (the two poles last)
+    rad = np.hypot(loc[:, 0], loc[:, 1])
+    out["meridian"] = dict(max_radius_error=float(np.abs(rad - np.interp(loc[:, 2], cp.z, cp.r)).max()),
+                           z_span=[float(loc[:, 2].min()), float(loc[:, 2].max())])
+    # contact points: on the rotor's groove circle after screwing back, and on the cutter surface
+    cc = _world(np, bpy.data.objects["Contact Points"], _mesh_co(np, bpy.data.objects["Contact Points"]))
+    cc_rotor = (cc - rw[:3, 3]) @ rw[:3, :3]
+    q = screw.screw_to_plane(cc_rotor, v0, "right")
+    on_groove = np.abs(np.hypot(q[:, 0] - T["G"], q[:, 1]) - T["R1"])
+    cw = np.array(cutter.matrix_world, dtype=np.float64)
+    c_loc = (cc - cw[:3, 3]) @ cw[:3, :3]
+    out["contact"] = dict(count=len(cc), max_off_groove=float(on_groove.max()),
+                          max_off_cutter=float(np.abs(np.hypot(c_loc[:, 0], c_loc[:, 1]) - cp.r).max()))
+    # rotor: machined deviation on the tooth vertices (the groove circle facing +x), untouched elsewhere
+    dev = _float_attr(np, rotor.data, "machined_deviation")
+    rcols = _color_attr(np, rotor.data, "machined_deviation_color")
+    rq = screw.screw_to_plane(_mesh_co(np, rotor), v0, "right")
+    tooth_v = (np.abs(np.hypot(rq[:, 0] - T["G"], rq[:, 1]) - T["R1"]) < 1e-3) & (rq[:, 0] > 0)
+    reached = dev < 1e8
+    grey = np.all(np.abs(rcols[:, :3] - 0.6) < 1e-6, axis=1)
+    green = (rcols[:, 1] > rcols[:, 0]) & (rcols[:, 1] > rcols[:, 2])
+    ract = rotor.data.color_attributes.active_color
+    out["rotor_dev"] = dict(vertices=len(dev), tooth_vertices=int(tooth_v.sum()), reached=int(reached.sum()),
+                            reached_is_tooth=bool(np.array_equal(reached, tooth_v)),
+                            max_abs_tooth=float(np.abs(dev[tooth_v]).max()) if tooth_v.any() else None,
+                            off_tooth_untouched=bool(np.all(dev[~tooth_v] == np.float32(1e9))),
+                            grey_is_untouched=bool(np.array_equal(grey, ~reached)),
+                            green_tooth=bool(np.all(green[tooth_v])),
+                            active_color=ract.name if ract is not None else None)
+    # CSV: z,r of the cutter profile
+    if os.path.isfile(csv):
+        with open(csv) as fh:
+            header = fh.readline().strip()
+        data = np.loadtxt(csv, delimiter=",", skiprows=1)
+        out["csv"] = dict(header=header, rows=len(data), max_diff=float(np.abs(data - cp.meridian).max()))
+    # animation: linear keys on the motion empty; moving cutter = rotor_world @ S(s(f)) @ C
+    motion = bpy.data.objects.get("Cutter Motion")
+    moving = bpy.data.objects.get("Formed Cutter (moving)")
+    anim = dict(has_action=bool(motion and motion.animation_data and motion.animation_data.action),
+                shares_mesh=bool(moving and moving.data == cutter.data),
+                parent=[motion.parent.name if motion and motion.parent else None,
+                        moving.parent.name if moving and moving.parent else None])
+    if anim["has_action"]:
+        anim["fcurves"] = _fcurve_keys(motion.animation_data.action)
+        fs, fe = props["flank_cutter_frames"]
+        s0, s1 = props["flank_cutter_motion"]
+        pick = np.array([0, 40 * 96 + 5, 100 * 96 + 50, len(co) - 1])    # some cutter vertices
+        samples = []
+        for f in (fs, 26, (fs + fe) // 2, fe - 7, fe):
+            scene.frame_set(f)
+            sf = s0 + (s1 - s0) * (f - fs) / (fe - fs)
+            expect = (rw @ _screw4(np, sf, v0, 1) @ C) @ np.c_[co[pick], np.ones(len(pick))].T
+            got = _world(np, moving, co[pick])
+            samples.append(dict(frame=f, s=sf, max_diff=float(np.abs(got - expect[:3].T).max()),
+                                z_centre=float(np.array(moving.matrix_world)[2, 3])))
+        anim["samples"] = samples
+        scene.frame_set(fs)
+    out["anim"] = anim
+    res["panels"] = _draw_panels(bpy, cutter)
+
+    # ---------------------------------------------------------------- flagged set-up: swivel 50 deg
+    out, objs = _cutter_run(bpy, np, fc, screw, swivel=50.0, animate=False)
+    res["flagged"] = out
+    if objs is not None:
+        cp50 = fc.cutter_profile(prof, T["lead"], T["centre_distance"], 50.0, tooth=tooth)
+        out["expected_flag_counts"] = cp50.summary()["flag_counts"]
+        out["expected_flagged_planes"] = int(np.count_nonzero(cp50.flags))
+        out["expected_uncut"] = len(cp50.uncut)
+        dev = _float_attr(np, objs["rotor"].data, "machined_deviation")
+        rcols = _color_attr(np, objs["rotor"].data, "machined_deviation_color")
+        blue = (rcols[:, 2] > 2 * rcols[:, 0]) & (rcols[:, 2] > 2 * rcols[:, 1])
+        out["rotor_dev"] = dict(max_stock=float(dev[dev < 1e8].max()), blue_vertices=int(blue.sum()),
+                                stock_vertices=int(((dev < 1e8) & (dev > out["props"]["flank_cutter_tolerance"])).sum()))
+
+    # ---------------------------------------------------------------- the active generated rotor
+    ret, err = _run_op(bpy.ops.flank.generate_rotor, kind="srm_a", part="male", resolution=360, axial=24)
+    gen = bpy.context.active_object
+    out, objs = _cutter_run(bpy, np, fc, screw, source="ACTIVE", sample_points=41, animate=False)
+    res["active"] = out
+    if objs is not None:
+        dev = _float_attr(np, gen.data, "machined_deviation")
+        out["rotor_reached"] = int((dev < 1e8).sum())
+        out["rotor_vertices"] = len(dev)
+        out["outer_radius"] = 1.0
+        # again with the cutter selected: the operator finds the rotor through flank_cutter_rotor
+        again, _ = _cutter_run(bpy, np, fc, screw, source="ACTIVE", sample_points=41, animate=False)
+        out["again"] = dict(result=again["result"], error=again["error"],
+                            rotor=again.get("props", {}).get("flank_cutter_rotor"))
+    bad_active = {}
+    bpy.context.view_layer.objects.active = gen
+    s0 = len(bpy.data.objects)
+    ret, err = _run_op(bpy.ops.flank.formed_cutter, source="ACTIVE", lead=5.0)
+    bad_active["wrong_lead"] = dict(result=ret, error=err, new_objects=len(bpy.data.objects) - s0)
+    ret, err = _run_op(bpy.ops.flank.formed_cutter, source="ACTIVE", handedness="left")
+    bad_active["wrong_hand"] = dict(result=ret, error=err, new_objects=len(bpy.data.objects) - s0)
+    bpy.ops.mesh.primitive_cube_add(location=(5.0, 0.0, 0.0))
+    s0 = len(bpy.data.objects)
+    ret, err = _run_op(bpy.ops.flank.formed_cutter, source="ACTIVE")
+    bad_active["cube"] = dict(result=ret, error=err, new_objects=len(bpy.data.objects) - s0)
+    res["bad_active"] = bad_active
+
+    # ---------------------------------------------------------------- bad input: nothing created
+    res["bad"] = {}
+    nan = float("nan")
+    for name, kw in (("A_below_radius", dict(centre_distance=100.0)), ("swivel_zero", dict(swivel=0.0)),
+                     ("swivel_90", dict(swivel=90.0)), ("swivel_nan", dict(swivel=nan)),
+                     ("A_nan", dict(centre_distance=nan)), ("lead_nan", dict(lead=nan)),
+                     ("lead_negative", dict(lead=-450.0)), ("frames", dict(frame_start=10, frame_end=10))):
+        s0 = (len(bpy.data.objects), len(bpy.data.meshes), len(bpy.data.collections), len(bpy.data.actions))
+        ret, err = _run_op(bpy.ops.flank.formed_cutter, **kw)
+        s1 = (len(bpy.data.objects), len(bpy.data.meshes), len(bpy.data.collections), len(bpy.data.actions))
+        res["bad"][name] = dict(result=ret, error=err, new=[s1[i] - s0[i] for i in range(4)])
+
+
 SCENARIOS = {"lifecycle": scenario_lifecycle, "operators": scenario_operators, "verify": scenario_verify,
-             "paraboloid": scenario_paraboloid}
+             "paraboloid": scenario_paraboloid, "formed_cutter": scenario_formed_cutter}
 
 
 def main():
