@@ -533,7 +533,7 @@ def radial_function(r, counted, variant="min", cap=None):
 
 
 def build_path(ev, x, m=400, variant="min", radii_fn=None, extent=None, flanks=(0, 1), tag="path",
-               n_exact=1201, meridian=True, tol=2e-10):
+               n_exact=1201, meridian=True, tol=1e-8):
     """One tool position: exact distances at ``n_exact`` equally spaced axis nodes (feet on the
     trimmed and on the untrimmed flanks, derivatives d r_k / d lam = (a - b_k)/r_k . da/dlam), cubic
     Hermite interpolation in between, radii by ``variant`` (or ``radii_fn(lam, r, counted, cap)``),
@@ -543,7 +543,11 @@ def build_path(ev, x, m=400, variant="min", radii_fn=None, extent=None, flanks=(
 
     v = ev.valley
     lo, hi = extent or tool_extent(ev, x, flanks)
-    lam = np.linspace(lo, hi, n_exact)
+    # uniform nodes plus geometric clusters at both ends, where the feet leave the valley bottom or
+    # reach the rim (r is only C1 there and Hermite interpolation needs short intervals)
+    g = np.geomspace(1e-9, 0.02, 120) * (hi - lo)
+    lam = np.unique(np.r_[np.linspace(lo, hi, n_exact), lo + g, hi - g])
+    n_exact = len(lam)
     ar = ev(x, lam, tag=(tag, "trim"))
     full = ev(x, lam, solvers=v.full_feet, tag=(tag, "full"))
     al = float(x[0])
@@ -581,7 +585,8 @@ def build_path(ev, x, m=400, variant="min", radii_fn=None, extent=None, flanks=(
     plan_r = radii_at(s_plan)[0]
     mer = None
     if meridian:
-        sd = _graded_samples(0.0, s[-1], lambda q: radii_at(q)[0], tol=tol)
+        sd = _refine_samples(_graded_samples(0.0, s[-1], lambda q: radii_at(q)[0], tol=tol, n_max=4000),
+                             lambda q: radii_at(q)[0], tol)
         mer = sphere_union_meridian(sd, radii_at(sd)[0], tol=tol)
     a_plan, _ = axis_points(x, lo + s_plan / speed, v.theta, v.outer_radius)
     return ToolPath(x=np.array([x[0], x[1] * v.outer_radius, x[2]]), lam=lam, points=ar.points, radii=node_r, r=ar.r, counted=counted,
@@ -627,7 +632,43 @@ def sphere_union_meridian(s, r, tol=2e-10, window=64):
     keep = np.r_[True, np.diff(h) > 1e-13 * max(1.0, float(np.ptp(h)))]
     h, R = h[keep], R[keep]
     R[0] = R[-1] = 0.0
-    return np.c_[h, R]
+    # thin clusters far below the chord-error spacing (contact points crowd at the tool tip)
+    d_min = 0.25 * math.sqrt(8 * tol * max(float(r.min()), 1e-9))
+    P = np.c_[h, R]
+    keep = np.zeros(len(P), bool)
+    keep[[0, -1]] = True
+    arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))]
+    keep[np.unique(np.searchsorted(arc, np.arange(0.0, arc[-1], d_min)))] = True
+    return _graded_polyline(P[keep], ratio=1.3)
+
+
+def _graded_polyline(P, ratio=1.1):
+    """Resample a polyline (along its own chords) so that neighbouring segment lengths differ by at
+    most ``ratio``: nearest-vertex searches (:class:`sweep.MeridianPart` looks at the 4 nearest
+    vertices) then always see the segment that holds the nearest point."""
+    seg = np.linalg.norm(np.diff(P, axis=0), axis=1)
+    seg = np.maximum(seg, 1e-15)
+    sig = seg.copy()
+    # grading by cumulative minima in log space: sig_i <= sig_j * ratio^|i-j|
+    lr = math.log(ratio)
+    idx = np.arange(len(sig))
+    ls = np.log(sig)
+    fwd = np.minimum.accumulate(ls - idx * lr) + idx * lr
+    bwd = (np.minimum.accumulate((ls + idx * lr)[::-1]))[::-1] - idx * lr
+    sig = np.exp(np.minimum(fwd, bwd))
+    L = np.r_[0.0, np.cumsum(seg)]
+    # march along the arc length with the local target spacing
+    pos = [0.0]
+    j = 0
+    total = L[-1]
+    while pos[-1] < total:
+        j = min(np.searchsorted(L, pos[-1], side="right") - 1, len(sig) - 1)
+        pos.append(pos[-1] + sig[j])
+    pos = np.minimum(np.array(pos), total)
+    pos = np.unique(np.r_[pos, 0.0, total])
+    out = np.c_[np.interp(pos, L, P[:, 0]), np.interp(pos, L, P[:, 1])]
+    keep = np.r_[True, np.diff(out[:, 0]) > 0]
+    return out[keep]
 
 
 def _graded_samples(s0, s1, r_of, tol=2e-10, n_min=400, n_max=60000):
@@ -639,3 +680,26 @@ def _graded_samples(s0, s1, r_of, tol=2e-10, n_min=400, n_max=60000):
     cum = np.r_[0.0, np.cumsum(0.5 * (density[1:] + density[:-1]) * np.diff(probe))]
     n = int(np.clip(cum[-1], n_min, n_max))
     return np.interp(np.linspace(0.0, cum[-1], n + 1), cum, probe)
+
+
+def _contact_points(s, r):
+    dr = np.clip(np.gradient(r, s), -1.0, 1.0)
+    return s - r * dr, r * np.sqrt(1.0 - dr * dr)
+
+
+def _refine_samples(s, r_of, tol, n_max=60000):
+    """Subdivide the axial samples so that every piece of the contact curve (meridian) turns by at
+    most what a chord error of ``tol`` allows: a piece of length L turning by dtheta has chord error
+    ~ L dtheta / 8, split into k = sqrt(L dtheta / (8 tol)) parts."""
+    h, R = _contact_points(s, r_of(s))
+    dh, dR = np.diff(h), np.diff(R)
+    L = np.hypot(dh, dR)
+    ang = np.arctan2(dR, dh)
+    turn = np.abs(np.r_[0.0, np.diff(ang)])
+    turn = np.maximum(turn, np.r_[np.diff(ang), 0.0].__abs__())
+    k = np.ceil(np.sqrt(L * turn / (8 * tol))).astype(int)
+    k = np.clip(k, 1, None)
+    scale = min(1.0, n_max / max(int(k.sum()), 1))
+    k = np.maximum((k * scale).astype(int), 1)
+    pieces = [s[i] + (s[i + 1] - s[i]) * np.arange(k[i]) / k[i] for i in range(len(s) - 1)]
+    return np.r_[np.concatenate(pieces), s[-1]]
