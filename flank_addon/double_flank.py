@@ -465,6 +465,7 @@ class ToolPath:
     plan_radii: np.ndarray = None    # (m+1,) radii there (flank-plan/1 "radii")
     meridian: np.ndarray = None      # (K, 2) exact tool meridian (h from axis_start, R), or None
     kind: str = "custom"
+    dirs: np.ndarray = None          # (2, N, 3) unit (node - foot_k) / r_k
 
 
 def _counted(ev, x, lam, tag):
@@ -590,7 +591,8 @@ def build_path(ev, x, m=400, variant="min", radii_fn=None, extent=None, flanks=(
         mer = sphere_union_meridian(sd, radii_at(sd)[0], tol=tol)
     a_plan, _ = axis_points(x, lo + s_plan / speed, v.theta, v.outer_radius)
     return ToolPath(x=np.array([x[0], x[1] * v.outer_radius, x[2]]), lam=lam, points=ar.points, radii=node_r, r=ar.r, counted=counted,
-                    errors=errors, flanks=tuple(flanks), plan_points=a_plan, plan_radii=plan_r, meridian=mer)
+                    errors=errors, flanks=tuple(flanks), plan_points=a_plan, plan_radii=plan_r, meridian=mer,
+                    dirs=np.array([ar.feet[0].direction, ar.feet[1].direction]))
 
 
 # ============================================================================ exact tool meridian
@@ -703,3 +705,230 @@ def _refine_samples(s, r_of, tol, n_max=60000):
     k = np.maximum((k * scale).astype(int), 1)
     pieces = [s[i] + (s[i + 1] - s[i]) * np.arange(k[i]) / k[i] for i in range(len(s) - 1)]
     return np.r_[np.concatenate(pieces), s[-1]]
+
+
+# ============================================================================ two paths, cones
+def optimize_two_paths(valley, n=100, x0=None, evaluator=None):
+    """s001 §4.3: one tool, two axes.  Minimise Eq. (18) Phi = max_i |r1(a1_i) - r2(a2_i)| over
+    (x1, x2) by SLSQP on the epigraph form (exact gradients as in :func:`optimize_axis`), starting
+    from the double-flank optimum ``x0`` (unit delta) on both axes (the paper starts from zeros)."""
+    t0 = time.perf_counter()
+    ev = evaluator or AxisEvaluator(valley)
+    lam = np.linspace(*valley.lam_range, n)
+    R = valley.outer_radius
+    f1, f2 = valley.feet
+    x0 = np.zeros(3) if x0 is None else np.asarray(x0, float)
+
+    def both(y):
+        a = ev(y[:3], lam, solvers=(f1,), tag="two-1")
+        b = ev(y[3:6], lam, solvers=(f2,), tag="two-2")
+        return a, b
+
+    def fun_jac(y):
+        a, b = both(y)
+        w = (a.interior[0] & b.interior[0]).astype(float)
+        d = (a.r[0] - b.r[0]) / R * w
+        G = np.zeros((2 * n, 7))
+        Ja, Jb = a.grad[0] / R * w[:, None], b.grad[0] / R * w[:, None]
+        G[:n, :3], G[:n, 3:6] = -Ja, Jb
+        G[n:, :3], G[n:, 3:6] = Ja, -Jb
+        G[:, 6] = 1.0
+        return np.r_[y[6] - d, y[6] + d], G
+
+    def phi(y):
+        a, b = both(y)
+        w = a.interior[0] & b.interior[0]
+        return float(np.max(np.abs(a.r[0] - b.r[0])[w])) if w.any() else float("inf"), int(w.sum())
+
+    y0 = np.r_[x0, x0, 0.0]
+    p0, need = phi(y0)
+    y0[6] = p0 / R
+    obj = lambda y: (y[6], np.r_[np.zeros(6), 1.0])  # noqa: E731
+    res = _slsqp(fun_jac, y0, _bounds(valley) * 2 + [(0.0, None)], 2 * n, obj)
+    val, cnt = phi(res.x)
+    if not (cnt >= 0.5 * need and val <= p0):
+        res.x, val = y0, p0
+    x1, x2 = res.x[:3], res.x[3:6]
+    return (AxisFit(x=np.array([x1[0], x1[1] * R, x1[2]]), x_unit=x1, phi=val, iterations=int(res.nit),
+                    evaluations=0, starts=1, elapsed_s=time.perf_counter() - t0),
+            AxisFit(x=np.array([x2[0], x2[1] * R, x2[2]]), x_unit=x2, phi=val, iterations=int(res.nit),
+                    evaluations=0, starts=1, elapsed_s=time.perf_counter() - t0))
+
+
+def optimize_cone_axis(valley, lam, x0=None, evaluator=None):
+    """s001 Eq. (20): Phi = max|r1 - r2| + (1/(n-2)) (sum |D2 r1| + sum |D2 r2|) (D2 = second
+    differences along the axis samples ``lam``), minimised by SLSQP on its epigraph form with slack
+    variables for the absolute values; gradients exact (D2 is linear in r)."""
+    t0 = time.perf_counter()
+    ev = evaluator or AxisEvaluator(valley)
+    lam = np.asarray(lam, float)
+    n = len(lam)
+    R = valley.outer_radius
+    x0 = np.zeros(3) if x0 is None else np.asarray(x0, float)
+    D2 = np.zeros((n - 2, n))
+    i = np.arange(n - 2)
+    D2[i, i], D2[i, i + 1], D2[i, i + 2] = 1.0, -2.0, 1.0
+    tag = ("cone", float(lam[0]), float(lam[-1]))
+
+    def fun_jac(y):
+        ar = ev(y[:3], lam, tag=tag)
+        c = ar.interior
+        w = (c[0] & c[1]).astype(float)
+        d = (ar.r[0] - ar.r[1]) / R * w
+        Jd = (ar.grad[0] - ar.grad[1]) / R * w[:, None]
+        # second differences of each flank's distances, only over triples counted on that flank
+        rows, jac = [], []
+        for k in (0, 1):
+            t = (c[k][:-2] & c[k][1:-1] & c[k][2:]).astype(float)
+            rows.append(t * (D2 @ ar.r[k]) / R)
+            jac.append(t[:, None] * (D2 @ ar.grad[k]) / R)
+        m = n - 2
+        nv = 4 + 2 * m
+        g = np.r_[y[3] - d, y[3] + d, y[4:4 + m] - rows[0], y[4:4 + m] + rows[0],
+                  y[4 + m:] - rows[1], y[4 + m:] + rows[1]]
+        G = np.zeros((len(g), nv))
+        G[:n, :3], G[n:2 * n, :3] = -Jd, Jd
+        G[:2 * n, 3] = 1.0
+        o = 2 * n
+        eye = np.eye(m)
+        for k in (0, 1):
+            G[o:o + m, :3], G[o + m:o + 2 * m, :3] = -jac[k], jac[k]
+            G[o:o + m, 4 + k * m:4 + (k + 1) * m] = eye
+            G[o + m:o + 2 * m, 4 + k * m:4 + (k + 1) * m] = eye
+            o += 2 * m
+        return g, G
+
+    m = n - 2
+    grad_obj = np.r_[0.0, 0.0, 0.0, 1.0, np.full(2 * m, 1.0 / m)]
+    obj = lambda y: (y[3] + np.sum(y[4:]) / m, grad_obj)  # noqa: E731
+    g0, _ = fun_jac(np.r_[x0, np.zeros(1 + 2 * m)])
+    # feasible start: every slack at the absolute value it bounds (g = slack -/+ value with slack 0)
+    y0 = np.r_[x0, np.abs(g0[:n]).max(), np.abs(g0[2 * n:2 * n + m]), np.abs(g0[2 * n + 2 * m:2 * n + 3 * m])]
+    res = _slsqp(fun_jac, y0, _bounds(valley) + [(0.0, None)] * (1 + 2 * m), len(g0), obj)
+    x = res.x[:3]
+    return AxisFit(x=np.array([x[0], x[1] * R, x[2]]), x_unit=x, phi=float(obj(res.x)[0] * R),
+                   iterations=int(res.nit), evaluations=0, starts=1, elapsed_s=time.perf_counter() - t0)
+
+
+def fit_cone_below(t, rmin):
+    """s001 Eq. (21) with the overcut set I2 empty by construction: the line r(t) = a + b t with
+    r(t_i) <= rmin_i maximising sum r(t_i) (= minimising sum of rmin_i - r(t_i)), by linprog."""
+    from scipy.optimize import linprog
+
+    t = np.asarray(t, float)
+    A = np.c_[np.ones_like(t), t]
+    res = linprog(c=-A.sum(axis=0), A_ub=A, b_ub=np.asarray(rmin, float), bounds=[(None, None)] * 2,
+                  method="highs")
+    if not res.success:
+        raise ValueError(f"cone fit failed: {res.message}")
+    return float(res.x[0]), float(res.x[1])
+
+
+def build_cone(ev, x, extent, n=200, tag="cone"):
+    """A cone on axis x between lam in ``extent``: distances at n nodes, the LP fit of Eq. (21) below
+    min(r1, r2) over the counted nodes (the tail counts for its own flank), errors e_k = r_k - r."""
+    v = ev.valley
+    lo, hi = extent
+    lam = np.linspace(lo, hi, n)
+    ar = ev(x, lam, tag=(tag, lo, hi))
+    full = ev(x, lam, solvers=v.full_feet, tag=(tag, "full", lo, hi))
+    cap = np.minimum(full.r[0], full.r[1])
+    counted = ar.interior
+    rmin = np.minimum(radial_function(ar.r, counted, "min", cap), cap)
+    speed = 1.0 / math.cos(float(x[0]))
+    s = (lam - lo) * speed
+    a, b = fit_cone_below(s, rmin)
+    radii = a + b * s
+    errors = np.where(counted, ar.r - radii[None, :], np.nan)
+    return ToolPath(x=np.array([x[0], x[1] * v.outer_radius, x[2]]), lam=lam, points=ar.points, radii=radii,
+                    r=ar.r, counted=counted, errors=errors, plan_points=ar.points[[0, -1]],
+                    plan_radii=radii[[0, -1]], meridian=None, kind="cone",
+                    dirs=np.array([ar.feet[0].direction, ar.feet[1].direction]))
+
+
+# ============================================================================ meshes, CSV
+def tool_mesh(path, n_around=48, max_rings=400, shank=None):
+    """Revolved triangle mesh of a path's tool in the rotor frame: (verts (V, 3), faces (F, 3)).
+
+    The custom tool revolves its exact meridian (decimated to ``max_rings`` rings), a cone its two
+    radii (plus the sphere caps of the envelope are omitted: flat ends).  ``shank`` = (start, end,
+    radius) adds a closed cylinder."""
+    a0, a1 = path.plan_points[0], path.plan_points[-1]
+    d = (a1 - a0) / np.linalg.norm(a1 - a0)
+    if path.meridian is not None:
+        mer = path.meridian
+        if len(mer) > max_rings:
+            mer = mer[np.unique(np.r_[np.linspace(0, len(mer) - 1, max_rings).astype(int), len(mer) - 1])]
+    else:
+        L = float(np.linalg.norm(a1 - a0))
+        mer = np.array([[0.0, 0.0], [0.0, path.plan_radii[0]], [L, path.plan_radii[-1]], [L, 0.0]])
+    e1 = np.cross(d, [0.0, 0.0, 1.0] if abs(d[2]) < 0.9 else [1.0, 0.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(d, e1)
+    parts = [(a0, mer)]
+    if shank is not None:
+        s0, s1, rs = (np.asarray(shank[0], float), np.asarray(shank[1], float), float(shank[2]))
+        Ls = float(np.linalg.norm(s1 - s0))
+        off = float((s0 - a0) @ d)
+        parts.append((a0, np.array([[off, 0.0], [off, rs], [off + Ls, rs], [off + Ls, 0.0]])))
+    th = np.linspace(0, 2 * np.pi, n_around, endpoint=False)
+    ring = np.cos(th)[:, None] * e1 + np.sin(th)[:, None] * e2
+    verts, faces, base = [], [], 0
+    for origin, m in parts:
+        v = origin + m[:, 0][:, None, None] * d + m[:, 1][:, None, None] * ring
+        v = v.reshape(-1, 3)
+        K = len(m)
+        i = np.arange(K - 1)[:, None] * n_around
+        j = np.arange(n_around)[None, :]
+        a, b = i + j, i + (j + 1) % n_around
+        f = np.concatenate([np.stack([a, b, b + n_around], -1).reshape(-1, 3),
+                            np.stack([a, b + n_around, a + n_around], -1).reshape(-1, 3)]) + base
+        verts.append(v)
+        faces.append(f)
+        base += len(v)
+    return np.vstack(verts), np.vstack(faces)
+
+
+def envelope_meshes(path, surface, z_range=(0.0, 1.0), n_t=48):
+    """The two branches of the tool's envelope (s001 Eqs. (5)-(9)): the characteristic points
+    c_k = a + r (b_k - a)/|b_k - a| on the tool toward the feet b_k, screwed by the helical motion
+    over ``z_range``.  Returns [(verts (N*n_t, 3), faces, deviation (N*n_t,)) per flank]; the
+    per-vertex deviation is the tool-to-rotor error e_k of its axis node (constant along helices,
+    s001 §4.2), nan where the node does not mill that flank."""
+    from .screw import screw_motion
+
+    out = []
+    for k in (0, 1):
+        sel = path.counted[k]
+        if sel.sum() < 2:
+            out.append((np.zeros((0, 3)), np.zeros((0, 3), int), np.zeros(0)))
+            continue
+        a = path.points[sel]
+        c = a - path_feet_dirs(path, k)[sel] * path.radii[sel][:, None]
+        ts = np.linspace(z_range[0], z_range[1], n_t) / surface.v0
+        V = screw_motion(c[:, None, :], ts[None, :], surface.v0, surface.hand)   # (N, n_t, 3)
+        N = len(c)
+        i = np.arange(N - 1)[:, None] * n_t
+        j = np.arange(n_t - 1)[None, :]
+        q = i + j
+        f = np.concatenate([np.stack([q, q + n_t, q + n_t + 1], -1).reshape(-1, 3),
+                            np.stack([q, q + n_t + 1, q + 1], -1).reshape(-1, 3)])
+        dev = np.repeat(path.errors[k][sel], n_t)
+        out.append((V.reshape(-1, 3), f, dev))
+    return out
+
+
+def path_feet_dirs(path, k):
+    """Unit vectors (N, 3) from the foot on flank k to the axis node (stored when the path was built)."""
+    return path.dirs[k]
+
+
+def write_tool_csv(path_or_file, tool_path, max_rows=4000):
+    """The tool grinder's data: the revolved profile as (axial position from the tip, radius) rows."""
+    mer = tool_path.meridian
+    if mer is None:
+        L = float(np.linalg.norm(tool_path.plan_points[-1] - tool_path.plan_points[0]))
+        mer = np.array([[0.0, tool_path.plan_radii[0]], [L, tool_path.plan_radii[-1]]])
+    if len(mer) > max_rows:
+        mer = mer[np.unique(np.r_[np.linspace(0, len(mer) - 1, max_rows).astype(int), len(mer) - 1])]
+    np.savetxt(path_or_file, mer, delimiter=",", header="axial_position,radius", comments="", fmt="%.12g")
