@@ -21,8 +21,8 @@ RING_SEGMENTS = 96
 TABLE1_AXIAL_RINGS = 96
 # A of s004 Table 1 relative to its outer radius: the automatic centre distance of other rotors
 A_RATIO = 200.0 / 111.69
-# ring colours: clean planes, interference (self occlusion, maximum point, overcut), other flags
-COLOR_CLEAN = (0.62, 0.66, 0.72, 1.0)
+# ring colours: clean planes (tool gold), interference (self occlusion, maximum point, overcut), other flags
+COLOR_CLEAN = (0.85, 0.70, 0.25, 1.0)
 COLOR_INTERFERENCE = (0.88, 0.10, 0.08, 1.0)
 COLOR_OTHER_FLAG = (0.96, 0.62, 0.10, 1.0)
 # every custom property this operator writes (cleared on the rotor before a new run)

@@ -9,6 +9,10 @@
     docs/verify_deviation.png  built-in asymmetric female rotor painted by flank.verify_plan for a plan of
                                ball strips that gouge (red), cut within tolerance (green) and leave stock
                                (blue); grey = untouched.
+    docs/formed_cutter.png     s004 Table-1 arc-tooth rotor (A 200, swivel 31 deg, lead 450) with the formed disc
+                               cutter of flank.formed_cutter at its set-up (seen along the disc plane, sitting
+                               in the groove), the rotor painted with the machined deviation of the sweep
+                               simulation (green: within the tolerance on the cut tooth; grey: not cut).
 
     python tools/render_figures.py [--out docs] [--size 960x540] [--zip ZIP | --source]
 
@@ -378,11 +382,54 @@ def figure_deviation(bpy, np, out, width, height, core):
                 vertices=len(rotor.data.vertices), strips=len(plan["strips"]), **summary)
 
 
+# --------------------------------------------------------------------------- figure (c)
+
+def figure_formed_cutter(bpy, np, out, width, height):
+    from mathutils import Vector
+
+    scene = reset_scene(bpy, width, height)
+    t0 = time.perf_counter()
+    ret = bpy.ops.flank.formed_cutter(source="TABLE1", animate=False, resolution=1440)
+    t_op = time.perf_counter() - t0
+    if ret != {'FINISHED'}:
+        sys.exit("[figures] formed_cutter returned {}".format(ret))
+    cutter = bpy.context.active_object
+    p = {k: (cutter[k].to_list() if hasattr(cutter[k], "to_list") else cutter[k]) for k in cutter.keys()
+         if k.startswith("flank_cutter_") and k != "flank_cutter_summary"}
+    rotor = bpy.data.objects[p["flank_cutter_rotor"]]
+    bpy.data.objects["Contact Points"].hide_render = True   # inside the disc in this view
+
+    # look along the disc plane (the disc nearly edge-on, sitting in the groove), a little from outside
+    o = Vector(cutter.matrix_world.translation)
+    d = Vector((o.x, o.y, 0.0)).normalized()
+    a = Vector(cutter.matrix_world.col[2][:3]).normalized()   # the cutter axis
+    view = (a.cross(d).normalized() + 0.45 * d).normalized()
+    target = d * 70.0
+    cam = add_camera(bpy, target + view * 1250.0, target, lens=50.0)
+    cam.data.shift_y = -0.09
+    colours = (0.12, 0.12, 0.12, 1.0)
+    green = (0.15, 0.55, 0.20, 1.0)
+    lines = (("s004 formed disc cutter, Table-1 arc-tooth rotor: A = {:g}, swivel {:g} deg, lead {:g} mm".format(
+                 p["flank_cutter_centre_distance"], p["flank_cutter_swivel"], p["flank_cutter_lead"]), colours),
+             ("cutter radius {:.2f} .. {:.2f} mm over {} planes, no flagged plane".format(
+                 p["flank_cutter_r_range"][0], p["flank_cutter_r_range"][1], p["flank_cutter_planes"]), colours),
+             ("green: sweep-simulated machined surface within {:.2g} um of the tooth (max {:.2g} um); "
+              "grey: not cut".format(p["flank_cutter_tolerance"] * 1e3, p["flank_cutter_max_abs_deviation"] * 1e3),
+              green))
+    for k, (line, rgba) in enumerate(lines):
+        add_label(bpy, np, cam, line, -0.97, -0.47 - 0.045 * k, 0.13 if k == 0 else 0.12, rgba, distance=1.0)
+    path = out / "formed_cutter.png"
+    t_render = render(bpy, np, path, cam)
+    return dict(path=str(path), operator_s=round(t_op, 3), render_s=round(t_render, 3),
+                rotor_vertices=len(rotor.data.vertices), r_range=p["flank_cutter_r_range"],
+                max_abs_deviation=p["flank_cutter_max_abs_deviation"], flagged_planes=p["flank_cutter_flagged_planes"])
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description="Render the README figures (Workbench, headless)")
     ap.add_argument("--out", default=str(ROOT / "docs"))
     ap.add_argument("--size", default="960x540")
-    ap.add_argument("--only", choices=("groove", "deviation"))
+    ap.add_argument("--only", choices=("groove", "deviation", "cutter"))
     src = ap.add_mutually_exclusive_group()
     src.add_argument("--zip", help="install this extension zip with Blender's installer")
     src.add_argument("--source", action="store_true", help="register the source tree (default)")
@@ -413,6 +460,9 @@ def main(argv=None):
         if args.only in (None, "deviation"):
             results["verify_deviation"] = figure_deviation(bpy, np, out, width, height, core)
             log("verify_deviation: {}".format(json.dumps(results["verify_deviation"])))
+        if args.only in (None, "cutter"):
+            results["formed_cutter"] = figure_formed_cutter(bpy, np, out, width, height)
+            log("formed_cutter: {}".format(json.dumps(results["formed_cutter"])))
         results["extension"] = installed
     finally:
         shutil.rmtree(user_dir, ignore_errors=True)

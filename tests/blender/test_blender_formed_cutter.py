@@ -96,7 +96,7 @@ def test_flagged_setup_highlights_rings(cut):
     assert f["new"] == [3, 3, 1, 0]          # no animation: no empty, no moving cutter, no action
     p = f["props"]
     assert p["flank_cutter_flag_counts"] == f["expected_flag_counts"]
-    assert sum(p["flank_cutter_flag_counts"].values()) > 0 and p["flank_cutter_flag_counts"]["overcut"] > 0
+    assert sum(p["flank_cutter_flag_counts"].values()) > 0
     assert p["flank_cutter_flagged_planes"] == f["expected_flagged_planes"] > 0
     assert p["flank_cutter_uncut"] == f["expected_uncut"] > 0
     c = f["cutter"]
