@@ -932,3 +932,193 @@ def write_tool_csv(path_or_file, tool_path, max_rows=4000):
     if len(mer) > max_rows:
         mer = mer[np.unique(np.r_[np.linspace(0, len(mer) - 1, max_rows).astype(int), len(mer) - 1])]
     np.savetxt(path_or_file, mer, delimiter=",", header="axial_position,radius", comments="", fmt="%.12g")
+
+
+# ============================================================================ plans
+@dataclass
+class DoubleFlankResult:
+    """Everything an operator needs: the plan dict, the tool paths (axis nodes, radii, errors along
+    the axis), the axis fits and the one-sided distances of s001 Remark 4.5 per target flank."""
+    plan: dict
+    paths: list
+    fits: list
+    valley: Valley
+    tool_to_rotor: list        # per target flank: (max e_k, min e_k) over its paths' nodes (Eq. (15))
+    rotor_to_envelope: list    # per target flank: (max, min) simulated deviation of its profile points
+    hausdorff: list            # per target flank: max(|tool_to_rotor|, |rotor_to_envelope|)
+    elapsed_s: float
+    optimize_s: float
+
+    def tool_mesh(self, k=0, **kw):
+        st = self.plan["strips"][k]
+        return tool_mesh(self.paths[k], shank=(st["shank_start"], st["shank_end"], st["shank_radius"]), **kw)
+
+    def envelope_meshes(self, z_range=(0.0, 1.0), n_t=48):
+        surf = self.valley.surface
+        return [envelope_meshes(p, surf, z_range, n_t) for p in self.paths]
+
+    def errors_along_axis(self, k=0):
+        """(s (N,), e1 (N,), e2 (N,)): axial position from the tip and the errors of Eq. (15), nan where
+        a node does not mill that flank."""
+        p = self.paths[k]
+        s = np.linalg.norm(p.points - p.points[0], axis=1)
+        return s, p.errors[0], p.errors[1]
+
+
+def _strip(path, flank, shank_len):
+    a0, a1 = path.plan_points[0], path.plan_points[-1]
+    d = (a1 - a0) / np.linalg.norm(a1 - a0)
+    st = {"axis_start": a0.tolist(), "axis_end": a1.tolist(), "radii": [float(x) for x in path.plan_radii],
+          "shank_start": a1.tolist(), "shank_end": (a1 + shank_len * d).tolist(),
+          "shank_radius": float(0.5 * path.plan_radii[-1]), "flank": int(flank),
+          "reported_max_error": 0.0, "reported_min_error": 0.0, "collision": False,
+          "axis_params": {"alpha": float(path.x[0]), "delta": float(path.x[1]), "phi": float(path.x[2])}}
+    if path.meridian is not None:
+        st["meridian"] = path.meridian.tolist()
+    return st
+
+
+def simulate_plan_errors(plan, search=None):
+    """Rotor-to-envelope deviations of a plan's target flank points by the sweep simulation
+    (:mod:`sweep`, signed: + material left, - overcut), each point owned by the strip that cuts
+    deepest there.  Returns (indices, deviation, owner, per-strip (max, min))."""
+    from .profile import SplineProfile
+    from .sweep import StripTool, machined_deviation
+
+    rot = plan["rotor"]
+    prof = np.asarray(rot["profile"], float)
+    n = len(prof)
+    spline = SplineProfile(prof)
+    normals = spline.outward_normal(spline.knots[:-1])
+    idx = np.unique(np.concatenate([np.arange(a, b + 1) % n for a, b in
+                                    (rot["flanks"][f] for f in plan["target_flanks"])]))
+    search = 0.1 * float(rot["outer_radius"]) if search is None else search
+    devs = np.array([machined_deviation([StripTool.from_strip(s)], prof[idx], normals[idx], rot["v0"],
+                                        rot["handedness"], max_deviation=search) for s in plan["strips"]])
+    owner = np.argmin(devs, axis=0)
+    dev = devs[owner, np.arange(len(idx))]
+    per = []
+    for k in range(len(plan["strips"])):
+        d = dev[(owner == k) & np.isfinite(dev)]
+        per.append((float(d.max()), float(d.min())) if len(d) else (0.0, 0.0))
+    return idx, dev, owner, per
+
+
+def plan_double_flank(surface, flank_ranges, valley=0, variant="min", tool="custom", two_paths=False, m=400,
+                      rim=0.85, n=100, to_world=None, length_unit="R", simulate=True, starts=None):
+    """Plan double-flank milling of one valley (s001).  Returns :class:`DoubleFlankResult`.
+
+    surface: :class:`HelicalSurface` (rotor frame); flank_ranges: the rotor's flank parameter ranges
+    (``Rotor.flanks``); valley: valley index; variant: 'min' | 'avg' | 'one-sided-1' | 'one-sided-2'
+    (custom tool); tool: 'custom' | 'cone' | 'cones:K'; two_paths: one custom tool on two axes
+    (s001 §4.3); m: the plan's strip carries m + 1 radii; rim: targeted fraction of the valley depth.
+    The plan's rotor section lists the rotor's flanks followed by the valley's two trimmed flanks,
+    which are the plan's target flanks.  With ``simulate`` the strips' reported errors are the
+    sweep simulation's (what verify_plan finds); otherwise they are the tool-to-rotor errors.
+    """
+    from .plan import new_plan, rotor_section
+
+    t0 = time.perf_counter()
+    if variant not in VARIANTS:
+        raise ValueError(f"variant {variant!r} is not one of {', '.join(VARIANTS)}")
+    if not (isinstance(m, (int, np.integer)) and 2 <= m <= 5000):
+        raise ValueError(f"m = {m!r} radii intervals is outside the limits 2..5000")
+    kind, n_cones = tool, 1
+    if tool.startswith("cones:"):
+        try:
+            n_cones = int(tool.split(":", 1)[1])
+        except ValueError:
+            raise ValueError(f"tool {tool!r}: K in cones:K must be an integer") from None
+        if not 1 <= n_cones <= 12:
+            raise ValueError(f"tool {tool!r}: K = {n_cones} is outside the limits 1..12")
+        kind = "cones"
+    elif tool not in ("custom", "cone"):
+        raise ValueError(f"tool {tool!r} is not one of custom, cone, cones:K")
+    if two_paths and kind != "custom":
+        raise ValueError("--two-paths needs the custom tool (s001 §4.3)")
+    v = Valley(surface, flank_ranges, valley, rim=rim)
+    ev = AxisEvaluator(v)
+    fit = optimize_axis(v, n=n, starts=starts, evaluator=ev)
+    fits, paths = [fit], []
+    if kind == "custom" and not two_paths:
+        paths.append(build_path(ev, fit.x_unit, m=m, variant=variant))
+        method = "double-flank-custom"
+    elif kind == "custom":
+        f1, f2 = optimize_two_paths(v, n=n, x0=fit.x_unit, evaluator=ev)
+        fits = [fit, f1, f2]
+        e1 = tool_extent(ev, f1.x_unit, flanks=(0,))
+        e2 = tool_extent(ev, f2.x_unit, flanks=(1,))
+        ext = (min(e1[0], e2[0]), max(e1[1], e2[1]))
+        p1 = build_path(ev, f1.x_unit, m=m, extent=ext, flanks=(0,), meridian=False, tag="p1")
+        p2 = build_path(ev, f2.x_unit, m=m, extent=ext, flanks=(1,), meridian=False, tag="p2")
+        # Eq. (19) + (14): one radial function, the smaller of the two paths' distances
+        lam = p1.lam
+        own1 = np.where(p1.counted[0], p1.r[0], np.inf)
+        own2 = np.where(p2.counted[1], p2.r[1], np.inf)
+        shared = np.minimum(own1, own2)
+        shared = np.where(np.isfinite(shared), shared, np.minimum(p1.radii, p2.radii))
+
+        def fn(lq, rr, cnt, cap):
+            return np.minimum(np.interp(lq, lam, shared), cap)
+
+        paths = [build_path(ev, f1.x_unit, m=m, extent=ext, flanks=(0,), radii_fn=fn, tag="q1"),
+                 build_path(ev, f2.x_unit, m=m, extent=ext, flanks=(1,), radii_fn=fn, tag="q2")]
+        method = "double-flank-custom-two-paths"
+    else:
+        ext = tool_extent(ev, fit.x_unit)
+        edges = np.linspace(ext[0], ext[1], n_cones + 1) if kind == "cones" else np.array(ext)
+        fits = [fit]
+        for j in range(len(edges) - 1):
+            lam = np.linspace(edges[j], edges[j + 1], n if kind == "cone" else max(20, n // n_cones))
+            cf = optimize_cone_axis(v, lam, x0=fit.x_unit, evaluator=ev)
+            fits.append(cf)
+            e = (edges[j], edges[j + 1]) if kind == "cones" else tool_extent(ev, cf.x_unit)
+            paths.append(build_cone(ev, cf.x_unit, e, tag=("cone", j)))
+        method = "double-flank-cone" if kind == "cone" else f"double-flank-cones-{n_cones}"
+    t_opt = sum(f.elapsed_s for f in fits)
+    # plan: the rotor's flanks plus the two trimmed flanks of the valley (targets)
+    prof = surface.profile
+    per = prof.period
+    npts = 2048
+    half = 0.5 * per / npts
+    (ur1, ub), (ub2, ur2) = v.ranges
+    fl = list(flank_ranges) + [(ur1 + half, ub), (ub2, ur2 - half)]
+    rot = rotor_section(prof, surface.v0, surface.handedness, fl, to_world=to_world, n_profile=npts)
+    nf = len(flank_ranges)
+    if method.endswith("two-paths"):
+        flank_of = [nf, nf + 1]
+    else:
+        flank_of = [nf] * len(paths)
+    R = v.outer_radius
+    strips = [_strip(p, f, 0.6 * R) for p, f in zip(paths, flank_of)]
+    for st in strips:
+        st["target_flanks"] = [nf, nf + 1]
+    tool_desc = {"kind": "revolved" if kind == "custom" else "cone", "variant": variant,
+                 "valley": int(valley), "rim": rim}
+    plan = new_plan(method, rot, tool_desc, length_unit=length_unit, target_flanks=[nf, nf + 1], strips=strips)
+    t2r = []
+    for k in (0, 1):
+        e = np.concatenate([p.errors[k][p.counted[k]] for p in paths])
+        t2r.append((float(e.max()), float(e.min())) if len(e) else (float("nan"), float("nan")))
+    r2e, haus = [(float("nan"), float("nan"))] * 2, [float("nan")] * 2
+    if simulate:
+        idx, dev, owner, per_strip = simulate_plan_errors(plan)
+        for st, (mx, mn) in zip(plan["strips"], per_strip):
+            st["reported_max_error"], st["reported_min_error"] = mx, mn
+        n_prof = len(rot["profile"])
+        r2e, haus = [], []
+        for k, f in enumerate((nf, nf + 1)):
+            a, b = rot["flanks"][f]
+            sel = np.isin(idx, np.arange(a, b + 1) % n_prof) & np.isfinite(dev)
+            d = dev[sel]
+            r2e.append((float(d.max()), float(d.min())) if len(d) else (float("nan"), float("nan")))
+            haus.append(max(abs(t2r[k][0]), abs(t2r[k][1]), abs(r2e[k][0]), abs(r2e[k][1])))
+    else:
+        for st, p in zip(plan["strips"], paths):
+            e = p.errors[np.isfinite(p.errors)]
+            st["reported_max_error"], st["reported_min_error"] = float(e.max()), float(e.min())
+    from .plan import summarize
+    plan["summary"] = summarize(plan["strips"], time.perf_counter() - t0)
+    return DoubleFlankResult(plan=plan, paths=paths, fits=fits, valley=v, tool_to_rotor=t2r,
+                             rotor_to_envelope=r2e, hausdorff=haus, elapsed_s=time.perf_counter() - t0,
+                             optimize_s=t_opt)
