@@ -158,6 +158,78 @@ def _cmd_cutter(args):
     return 0
 
 
+def _parse_point(text):
+    try:
+        vals = [float(x) for x in text.split(",")]
+    except ValueError:
+        vals = []
+    if len(vals) != 3 or not np.all(np.isfinite(vals)):
+        raise ValueError(f"--valley-point {text!r} must be three finite numbers X,Y,Z")
+    return np.array(vals)
+
+
+def _cmd_plan(args):
+    from .double_flank import plan_double_flank, valley_of_point
+    from .plan import write_plan
+
+    if (args.mesh is None) == (args.builtin is None):
+        raise ValueError("give exactly one of --mesh PATH or --builtin NAME")
+    if (args.valley is None) == (args.valley_point is None):
+        raise ValueError("give exactly one of --valley K or --valley-point X,Y,Z")
+    to_world = None
+    unit = "R"
+    if args.builtin:
+        from .rotors import builtin_by_name
+
+        rotor = builtin_by_name(args.builtin)
+        surface, flanks = rotor.surface(), rotor.flanks
+        src = args.builtin
+    else:
+        from .double_flank import _flank_u_ranges
+        from .helical_surface import HelicalSurface
+        from .mesh_io import read_mesh
+        from .profile import SplineProfile
+        from .rotor_analysis import analyze_mesh
+
+        verts, faces = read_mesh(args.mesh)
+        a = analyze_mesh(verts, faces)
+        prof = SplineProfile(a.profile)
+        surface = HelicalSurface(prof, a.v0, a.handedness)
+        flanks = _flank_u_ranges(prof, [(int(i), int(j)) for i, j in a.flanks])
+        to_world = a.to_world
+        unit = "mm"
+        src = str(args.mesh)
+    nv = len(flanks) // 2
+    if args.valley is not None:
+        if not 0 <= args.valley < nv:
+            raise ValueError(f"--valley {args.valley} is outside 0..{nv - 1} (this rotor has {nv} valleys)")
+        k = args.valley
+    else:
+        pt = _parse_point(args.valley_point)
+        if to_world is not None:
+            inv = np.linalg.inv(np.asarray(to_world, float))
+            pt = pt @ inv[:3, :3].T + inv[:3, 3]
+        k = valley_of_point(surface, flanks, pt)
+    if not 0.2 <= args.rim <= 0.98:
+        raise ValueError(f"--rim {args.rim} is outside the limits 0.2..0.98")
+    res = plan_double_flank(surface, flanks, valley=k, variant=args.variant, tool=args.tool,
+                            two_paths=args.two_paths, m=args.radii, rim=args.rim, to_world=to_world,
+                            length_unit=unit)
+    write_plan(args.out, res.plan)
+    if args.tool_csv:
+        from .double_flank import write_tool_csv
+        write_tool_csv(args.tool_csv, res.paths[0])
+    print(f"{src}: valley {k}, {res.plan['method']} ({args.variant}), {len(res.paths)} strip(s)")
+    for j, f in enumerate(res.fits):
+        print(f"  axis {j}: alpha {f.x[0]:+.5f}  delta {f.x[1]:+.5f}  phi {f.x[2]:+.5f}  "
+              f"Phi {f.phi:.4g}  iterations {f.iterations}  {f.elapsed_s:.3f} s")
+    for j, (t2r, r2e) in enumerate(zip(res.tool_to_rotor, res.rotor_to_envelope)):
+        print(f"  flank {j + 1}: tool->rotor max {t2r[0]:.5g} min {t2r[1]:.3g}; rotor->envelope max "
+              f"{r2e[0]:.5g} min {r2e[1]:.3g}; Hausdorff ~ {res.hausdorff[j]:.5g}")
+    print(f"  time {res.elapsed_s:.2f} s (optimisation {res.optimize_s:.3f} s); wrote {args.out}")
+    return 0
+
+
 def _cmd_builtins(args):
     from .rotors import BUILTIN_NAMES
 
@@ -226,6 +298,23 @@ def build_parser():
     k.add_argument("--out", required=True, help="CSV of z,r rows (cutter frame)")
     k.add_argument("--json", action="store_true", help="print a JSON summary (flags, Z ranges, axis pose)")
     k.set_defaults(func=_cmd_cutter)
+
+    pl = sub.add_parser("plan", help="plan a tool path (s001 double-flank milling)")
+    pl.add_argument("planner", choices=["double-flank"])
+    src = pl.add_mutually_exclusive_group()
+    src.add_argument("--mesh", help="rotor mesh (STL, PLY, OBJ), analysed for axis, pitch and flanks")
+    src.add_argument("--builtin", help="built-in rotor NAME (see the builtins command)")
+    val = pl.add_mutually_exclusive_group()
+    val.add_argument("--valley", type=int, help="valley index K (flanks 2K and 2K+1)")
+    val.add_argument("--valley-point", help="a point X,Y,Z (model frame) near the valley")
+    pl.add_argument("--variant", default="min", choices=["min", "avg", "one-sided-1", "one-sided-2"])
+    pl.add_argument("--tool", default="custom", help="custom | cone | cones:K")
+    pl.add_argument("--two-paths", action="store_true", help="one custom tool on two axes (s001 4.3)")
+    pl.add_argument("--radii", type=int, default=400, help="radii intervals per strip (default 400)")
+    pl.add_argument("--rim", type=float, default=0.85, help="targeted fraction of the valley depth")
+    pl.add_argument("--tool-csv", help="write the tool profile (axial position, radius) as CSV")
+    pl.add_argument("--out", required=True, help="PLAN.json")
+    pl.set_defaults(func=_cmd_plan)
 
     b = sub.add_parser("builtins", help="list built-in rotor names (KIND-PART)")
     b.set_defaults(func=_cmd_builtins)
