@@ -61,10 +61,7 @@ class FLANK_OT_formed_cutter(bpy.types.Operator):
     bl_label = "Formed Cutter"
     bl_options = {'REGISTER', 'UNDO'}
 
-    __annotations__ = dict(
-        formed_cutter_props(),
-        filter_glob=bpy.props.StringProperty(default="*.csv", options={'HIDDEN'}),
-    )
+    __annotations__ = formed_cutter_props()
 
     # ------------------------------------------------------------------ inputs
 
