@@ -2,29 +2,18 @@
 """flank.analyze_rotor -- recover axis, v0, handedness and flanks of the active mesh."""
 import bpy
 
-from .common import CLASS_COLORS, clear_flank_props, mesh_world_arrays
+from .common import CLASS_COLORS, clear_flank_props, mesh_world_arrays, set_color_attr, set_float_attr
 
 CURVATURE_ATTR = "gaussian_curvature"
 CLASS_ATTR = "curvature_class"
 
 
 def _write_attributes(np, mesh, K, cls):
-    for name in (CURVATURE_ATTR, CLASS_ATTR):
-        old = mesh.attributes.get(name)
-        if old is not None:
-            mesh.attributes.remove(old)
-    k_attr = mesh.attributes.new(CURVATURE_ATTR, 'FLOAT', 'POINT')
-    k_attr.data.foreach_set("value", np.ascontiguousarray(K, dtype=np.float32))
+    set_float_attr(np, mesh, CURVATURE_ATTR, K)
     rgba = np.empty((len(cls), 4), dtype=np.float32)
     for value, color in CLASS_COLORS.items():
         rgba[cls == value] = color
-    c_attr = mesh.color_attributes.new(CLASS_ATTR, 'FLOAT_COLOR', 'POINT')
-    c_attr.data.foreach_set("color", rgba.ravel())
-    mesh.color_attributes.active_color = c_attr
-    try:
-        mesh.color_attributes.render_color_index = mesh.color_attributes.active_color_index
-    except (AttributeError, TypeError):
-        pass
+    set_color_attr(np, mesh, CLASS_ATTR, rgba)
     mesh.update()
 
 

@@ -2,7 +2,7 @@
 """flank.paraboloid_groove -- s002: helical groove of a paraboloid end mill, its section and overcut."""
 import bpy
 
-from .common import new_mesh_from_arrays, remove_ids, revolved_mesh, select_only
+from .common import new_mesh_from_arrays, remove_ids, revolved_mesh, select_only, set_color_attr, set_float_attr
 from .properties import paraboloid_props
 
 COLLECTION = "Paraboloid Groove"
@@ -53,23 +53,6 @@ def _section_chains(np, x, y, closed_tol):
         loop = np.vstack([upper, lower[::-1][1:-1]])
         return [(loop, True)], np.r_[idx, idx[::-1][1:-1]]
     return [(upper, False), (lower, False)], np.r_[idx, idx]
-
-
-def _set_float_attr(np, mesh, name, values, domain='POINT'):
-    attr = mesh.attributes.new(name, 'FLOAT', domain)
-    attr.data.foreach_set("value", np.ascontiguousarray(values, dtype=np.float32))
-    return attr
-
-
-def _set_color_attr(np, mesh, name, rgba):
-    attr = mesh.color_attributes.new(name, 'FLOAT_COLOR', 'POINT')
-    attr.data.foreach_set("color", np.ascontiguousarray(rgba, dtype=np.float32).ravel())
-    mesh.color_attributes.active_color = attr
-    try:
-        mesh.color_attributes.render_color_index = mesh.color_attributes.active_color_index
-    except (AttributeError, TypeError):
-        pass
-    return attr
 
 
 def _ramp(np, t):
@@ -188,13 +171,13 @@ class FLANK_OT_paraboloid_groove(bpy.types.Operator):
             closed_tol = 1e-9 * max(1.0, R)
             chains, src = _section_chains(np, x, y, closed_tol)
             swept = add("Swept Section", _edge_mesh(bpy, np, "Swept Section", chains), (0.85, 0.10, 0.10, 1.0))
-            _set_float_attr(np, swept.data, OVERCUT_ATTR, overcut[src])
+            set_float_attr(np, swept.data, OVERCUT_ATTR, overcut[src])
             chains, _ = _section_chains(np, x, ty, closed_tol)
             add("Tool Section", _edge_mesh(bpy, np, "Tool Section", chains), (0.10, 0.30, 0.85, 1.0))
             band = add("Overcut Band", new_mesh_from_arrays(bpy, np, "Overcut Band", band_verts, band_faces),
                        (0.95, 0.45, 0.10, 1.0))
-            _set_float_attr(np, band.data, OVERCUT_ATTR, band_oc)
-            _set_color_attr(np, band.data, OVERCUT_COLOR_ATTR, _ramp(np, band_oc / scale))
+            set_float_attr(np, band.data, OVERCUT_ATTR, band_oc)
+            set_color_attr(np, band.data, OVERCUT_COLOR_ATTR, _ramp(np, band_oc / scale))
 
             # the tool moving along its helix: the lens is a solid of revolution whose axis stays parallel
             # to the screw axis, so a pure translation along the helix is the exact motion

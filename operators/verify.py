@@ -2,7 +2,7 @@
 """flank.verify_plan -- simulate a flank-plan/1 file and paint the machined deviation on the rotor mesh."""
 import bpy
 
-from .common import frame_along, new_mesh_from_arrays, remove_ids, revolved_mesh
+from .common import frame_along, new_mesh_from_arrays, remove_ids, revolved_mesh, set_color_attr, set_float_attr
 from .properties import verify_props
 
 DEVIATION_ATTR = "machined_deviation"
@@ -31,16 +31,8 @@ def _remove_attributes(mesh):
 
 
 def _write_attributes(np, mesh, values, rgba):
-    _remove_attributes(mesh)
-    d_attr = mesh.attributes.new(DEVIATION_ATTR, 'FLOAT', 'POINT')
-    d_attr.data.foreach_set("value", np.ascontiguousarray(values, dtype=np.float32))
-    c_attr = mesh.color_attributes.new(DEVIATION_COLOR_ATTR, 'FLOAT_COLOR', 'POINT')
-    c_attr.data.foreach_set("color", np.ascontiguousarray(rgba, dtype=np.float32).ravel())
-    mesh.color_attributes.active_color = c_attr
-    try:
-        mesh.color_attributes.render_color_index = mesh.color_attributes.active_color_index
-    except (AttributeError, TypeError):
-        pass
+    set_float_attr(np, mesh, DEVIATION_ATTR, values)
+    set_color_attr(np, mesh, DEVIATION_COLOR_ATTR, rgba)
     mesh.update()
 
 

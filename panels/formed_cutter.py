@@ -2,6 +2,8 @@
 """Formed Cutter (s004) panel: disc cutter for one tooth, its flags, motion and machined deviation."""
 import bpy
 
+from .common import settings_and_operator
+
 CUTTER_PROPS = ("source", "lead", "centre_distance", "swivel", "handedness", "planes", "eps_b", "tolerance",
                 "sample_points", "resolution", "animate", "frame_start", "frame_end", "filepath")
 
@@ -17,15 +19,7 @@ class FLANK_PT_formed_cutter(bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
-        settings = getattr(context.scene, "flank_settings", None)
-        if settings is not None:
-            col = layout.column(align=True)
-            for name in CUTTER_PROPS:
-                col.prop(settings, "cutter_" + name)
-        op = layout.operator("flank.formed_cutter", icon='MOD_SCREW')
-        if settings is not None:
-            for name in CUTTER_PROPS:
-                setattr(op, name, getattr(settings, "cutter_" + name))
+        settings_and_operator(layout, context, "flank.formed_cutter", 'MOD_SCREW', CUTTER_PROPS, "cutter_")
 
         obj = context.active_object
         if obj is None or "flank_cutter_r_range" not in obj:

@@ -2,6 +2,8 @@
 """Paraboloid Groove (s002) panel: groove of a paraboloid end mill on a helix, section and overcut."""
 import bpy
 
+from .common import settings_and_operator
+
 GROOVE_PROPS = ("radius", "a", "b", "pitch", "turns", "part", "resolution")
 
 
@@ -16,15 +18,7 @@ class FLANK_PT_paraboloid(bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
-        settings = getattr(context.scene, "flank_settings", None)
-        if settings is not None:
-            col = layout.column(align=True)
-            for name in GROOVE_PROPS:
-                col.prop(settings, "groove_" + name)
-        op = layout.operator("flank.paraboloid_groove", icon='MOD_SCREW')
-        if settings is not None:
-            for name in GROOVE_PROPS:
-                setattr(op, name, getattr(settings, "groove_" + name))
+        settings_and_operator(layout, context, "flank.paraboloid_groove", 'MOD_SCREW', GROOVE_PROPS, "groove_")
 
         obj = context.active_object
         if obj is None or "flank_groove_max_overcut" not in obj:

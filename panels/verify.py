@@ -2,6 +2,8 @@
 """Verify panel: simulate a plan file on the active rotor mesh, show the deviation summary."""
 import bpy
 
+from .common import settings_and_operator
+
 VERIFY_PROPS = ("filepath", "tolerance", "search", "show_tools")
 
 
@@ -15,15 +17,7 @@ class FLANK_PT_verify(bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
-        settings = getattr(context.scene, "flank_settings", None)
-        if settings is not None:
-            col = layout.column(align=True)
-            for name in VERIFY_PROPS:
-                col.prop(settings, "verify_" + name)
-        op = layout.operator("flank.verify_plan", icon='CHECKMARK')
-        if settings is not None:
-            for name in VERIFY_PROPS:
-                setattr(op, name, getattr(settings, "verify_" + name))
+        settings_and_operator(layout, context, "flank.verify_plan", 'CHECKMARK', VERIFY_PROPS, "verify_")
 
         obj = context.active_object
         if obj is None or "flank_verify_plan" not in obj:

@@ -2,6 +2,8 @@
 """Workpiece panel: generate a built-in rotor or analyze the active mesh, show the helix data."""
 import bpy
 
+from .common import settings_and_operator
+
 GEN_PROPS = ("kind", "part", "scale", "lead", "length", "handedness", "resolution", "axial")
 
 
@@ -14,18 +16,9 @@ class FLANK_PT_workpiece(bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
-        settings = getattr(context.scene, "flank_settings", None)
-
         box = layout.box()
         box.label(text="Built-in Rotor", icon='MESH_CYLINDER')
-        if settings is not None:
-            col = box.column(align=True)
-            for name in GEN_PROPS:
-                col.prop(settings, name)
-        op = box.operator("flank.generate_rotor", icon='ADD')
-        if settings is not None:
-            for name in GEN_PROPS:
-                setattr(op, name, getattr(settings, name))
+        settings_and_operator(box, context, "flank.generate_rotor", 'ADD', GEN_PROPS)
 
         layout.operator("flank.analyze_rotor", icon='VIEWZOOM')
 
