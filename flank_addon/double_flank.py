@@ -179,7 +179,9 @@ class FlankFeet:
         diff = q - foot
         d = np.linalg.norm(diff, axis=1)
         direction = diff / np.maximum(d, 1e-300)[:, None]
-        interior = (u > self.lo + self.eps_u) & (u < self.hi - self.eps_u)
+        # a query inside the rotor solid has no business in a tool axis: it never counts as interior
+        outside = np.einsum("ij,ij->i", diff, s.normal(u, t)) > 0
+        interior = (u > self.lo + self.eps_u) & (u < self.hi - self.eps_u) & outside
         return Feet(u=u, t=t, point=foot, distance=d, direction=direction, interior=interior, tau=tau)
 
 
@@ -534,7 +536,7 @@ def radial_function(r, counted, variant="min", cap=None):
 
 
 def build_path(ev, x, m=400, variant="min", radii_fn=None, extent=None, flanks=(0, 1), tag="path",
-               n_exact=1201, meridian=True, tol=1e-8):
+               n_exact=1201, meridian=True, tol=1e-9):
     """One tool position: exact distances at ``n_exact`` equally spaced axis nodes (feet on the
     trimmed and on the untrimmed flanks, derivatives d r_k / d lam = (a - b_k)/r_k . da/dlam), cubic
     Hermite interpolation in between, radii by ``variant`` (or ``radii_fn(lam, r, counted, cap)``),
@@ -617,7 +619,7 @@ def sphere_union_meridian(s, r, tol=2e-10, window=64):
     # caps: first and last spheres, angular steps giving chord errors below tol
     caps = []
     for j, sign in ((0, -1.0), (len(s) - 1, 1.0)):
-        step = math.sqrt(8 * tol / max(r[j], 1e-12)) if r[j] > 0 else 1.0
+        step = math.sqrt(8 * tol / max(r[j], 1e-3 * float(r.max()))) if r[j] > 0 else 1.0
         n = int(min(max(8, (math.pi / 2) / step), 20000))
         th = np.linspace(0.0, math.pi / 2, n)
         caps.append((s[j] + sign * r[j] * np.sin(th), np.full(n, j)))
@@ -635,7 +637,7 @@ def sphere_union_meridian(s, r, tol=2e-10, window=64):
     h, R = h[keep], R[keep]
     R[0] = R[-1] = 0.0
     # thin clusters far below the chord-error spacing (contact points crowd at the tool tip)
-    d_min = 0.25 * math.sqrt(8 * tol * max(float(r.min()), 1e-9))
+    d_min = 0.25 * math.sqrt(8 * tol * max(float(r.min()), 1e-3 * float(r.max())))
     P = np.c_[h, R]
     keep = np.zeros(len(P), bool)
     keep[[0, -1]] = True
@@ -659,15 +661,11 @@ def _graded_polyline(P, ratio=1.1):
     bwd = (np.minimum.accumulate((ls + idx * lr)[::-1]))[::-1] - idx * lr
     sig = np.exp(np.minimum(fwd, bwd))
     L = np.r_[0.0, np.cumsum(seg)]
-    # march along the arc length with the local target spacing
-    pos = [0.0]
-    j = 0
-    total = L[-1]
-    while pos[-1] < total:
-        j = min(np.searchsorted(L, pos[-1], side="right") - 1, len(sig) - 1)
-        pos.append(pos[-1] + sig[j])
-    pos = np.minimum(np.array(pos), total)
-    pos = np.unique(np.r_[pos, 0.0, total])
+    # split every segment into pieces no longer than its graded target spacing
+    k = np.maximum(np.ceil(seg / sig - 1e-9).astype(int), 1)
+    start = np.repeat(L[:-1], k)
+    frac = np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k)
+    pos = np.r_[start + frac * np.repeat(seg / k, k), L[-1]]
     out = np.c_[np.interp(pos, L, P[:, 0]), np.interp(pos, L, P[:, 1])]
     keep = np.r_[True, np.diff(out[:, 0]) > 0]
     return out[keep]
@@ -677,7 +675,7 @@ def _graded_samples(s0, s1, r_of, tol=2e-10, n_min=400, n_max=60000):
     """Axial positions with spacing ~ sqrt(8 tol r) (meridian chord error ~ tol where its curvature
     is ~ 1/r), between s0 and s1."""
     probe = np.linspace(s0, s1, 2001)
-    rp = np.maximum(r_of(probe), 1e-6 * (s1 - s0))
+    rp = np.maximum(r_of(probe), 1e-2 * (s1 - s0))
     density = 1.0 / np.sqrt(8 * tol * rp)            # samples per unit length
     cum = np.r_[0.0, np.cumsum(0.5 * (density[1:] + density[:-1]) * np.diff(probe))]
     n = int(np.clip(cum[-1], n_min, n_max))
@@ -703,8 +701,9 @@ def _refine_samples(s, r_of, tol, n_max=60000):
     k = np.clip(k, 1, None)
     scale = min(1.0, n_max / max(int(k.sum()), 1))
     k = np.maximum((k * scale).astype(int), 1)
-    pieces = [s[i] + (s[i + 1] - s[i]) * np.arange(k[i]) / k[i] for i in range(len(s) - 1)]
-    return np.r_[np.concatenate(pieces), s[-1]]
+    ds = np.diff(s)
+    frac = np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k)
+    return np.r_[np.repeat(s[:-1], k) + frac * np.repeat(ds / k, k), s[-1]]
 
 
 # ============================================================================ two paths, cones
