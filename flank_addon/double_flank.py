@@ -536,7 +536,7 @@ def radial_function(r, counted, variant="min", cap=None):
 
 
 def build_path(ev, x, m=400, variant="min", radii_fn=None, extent=None, flanks=(0, 1), tag="path",
-               n_exact=1201, meridian=True, tol=1e-9):
+               n_exact=1201, meridian=True, tol=4e-9):
     """One tool position: exact distances at ``n_exact`` equally spaced axis nodes (feet on the
     trimmed and on the untrimmed flanks, derivatives d r_k / d lam = (a - b_k)/r_k . da/dlam), cubic
     Hermite interpolation in between, radii by ``variant`` (or ``radii_fn(lam, r, counted, cap)``),
@@ -591,6 +591,9 @@ def build_path(ev, x, m=400, variant="min", radii_fn=None, extent=None, flanks=(
         sd = _refine_samples(_graded_samples(0.0, s[-1], lambda q: radii_at(q)[0], tol=tol, n_max=4000),
                              lambda q: radii_at(q)[0], tol)
         mer = sphere_union_meridian(sd, radii_at(sd)[0], tol=tol)
+        # the polyline's chords lie up to ~tol outside the true tool where the meridian is concave:
+        # shrink it by tol so that the plan's tool never cuts deeper than the designed one
+        mer[1:-1, 1] = np.maximum(mer[1:-1, 1] - tol, 0.0)
     a_plan, _ = axis_points(x, lo + s_plan / speed, v.theta, v.outer_radius)
     return ToolPath(x=np.array([x[0], x[1] * v.outer_radius, x[2]]), lam=lam, points=ar.points, radii=node_r, r=ar.r, counted=counted,
                     errors=errors, flanks=tuple(flanks), plan_points=a_plan, plan_radii=plan_r, meridian=mer,
@@ -816,8 +819,9 @@ def fit_cone_below(t, rmin):
 
     t = np.asarray(t, float)
     A = np.c_[np.ones_like(t), t]
-    res = linprog(c=-A.sum(axis=0), A_ub=A, b_ub=np.asarray(rmin, float), bounds=[(None, None)] * 2,
-                  method="highs")
+    ends = -A[[0, -1]]          # and r >= 0 at both ends: a tool has no negative radius
+    res = linprog(c=-A.sum(axis=0), A_ub=np.r_[A, ends], b_ub=np.r_[np.asarray(rmin, float), 0.0, 0.0],
+                  bounds=[(None, None)] * 2, method="highs")
     if not res.success:
         raise ValueError(f"cone fit failed: {res.message}")
     return float(res.x[0]), float(res.x[1])

@@ -1,0 +1,197 @@
+"""s001 double-flank milling: restricted feet, symmetric exactness, optimum, variants, plans, CLI."""
+import json
+
+import numpy as np
+import pytest
+
+from flank_addon.cli import main
+from flank_addon.double_flank import (AxisEvaluator, Valley, build_path, optimize_axis, phi_value,
+                                      plan_double_flank, radial_function, tool_extent, tool_mesh,
+                                      write_tool_csv)
+from flank_addon.plan import read_plan
+from flank_addon.rotors import builtin_by_name
+from flank_addon.screw import screw_motion, screw_to_plane
+from flank_addon.verify import verify_plan
+
+
+def _valley(name, k=0):
+    r = builtin_by_name(name)
+    return r, Valley(r.surface(), r.flanks, k)
+
+
+def _brute_flank_distance(surface, lo, hi, q, n_u=1500, n_t=1201, tmax=1.2):
+    """Distance from 3D points to the flank u in [lo, hi] by dense sampling (upper bound of the truth)."""
+    u = np.linspace(lo, hi, n_u)
+    p3 = np.c_[surface.profile.eval(u), np.zeros(n_u)]
+    q0 = np.c_[screw_to_plane(q, surface.v0, surface.hand), np.zeros(len(q))]
+    best = np.full(len(q), np.inf)
+    for ch in np.array_split(np.linspace(-tmax, tmax, n_t), 40):
+        pts = screw_motion(p3[:, None, :], ch[None, :], surface.v0, surface.hand).reshape(-1, 3)
+        d = np.linalg.norm(pts[None, :, :] - q0[:, None, :], axis=-1).min(axis=1)
+        best = np.minimum(best, d)
+    return best
+
+
+def test_restricted_feet_match_dense_sampling():
+    r, v = _valley("asymmetric-female")
+    rng = np.random.default_rng(3)
+    lam = rng.uniform(0.55, 1.2, 16)
+    q = np.c_[lam * np.cos(v.theta) + 0.05 * rng.normal(size=16), lam * np.sin(v.theta) + 0.05 * rng.normal(size=16),
+              0.3 * rng.normal(size=16)]
+    for j, (lo, hi) in enumerate(v.ranges):
+        ft = v.feet[j](q)
+        ref = _brute_flank_distance(v.surface, lo, hi, q)
+        # the sampled reference is an upper bound ~1e-4 above the truth at most; a missed basin costs 1e-2
+        assert np.all(ft.distance <= ref + 1e-12)
+        assert np.max(ref - ft.distance) < 2e-4
+        assert np.all((ft.u >= lo) & (ft.u <= hi))
+
+
+@pytest.mark.parametrize("name", ["nilson-male", "srm_a-female"])
+def test_symmetric_profile_is_exact(name):
+    """Prop. 3.1: on the symmetry line (0, 0, 0) both flanks are at the same distance from every axis point."""
+    r, v = _valley(name)
+    fit = optimize_axis(v, starts=[(0.0, 0.0, 0.0)])
+    assert fit.phi < 1e-12 and np.all(np.abs(fit.x) < 1e-9)
+    ev = AxisEvaluator(v)
+    p = build_path(ev, np.zeros(3), m=100, meridian=False)
+    both = p.counted[0] & p.counted[1]
+    assert both.mean() > 0.9
+    assert np.nanmax(np.abs(p.errors)) < 1e-12 * v.outer_radius
+    # rotor -> envelope, independent: profile points of both flanks against the swept node spheres
+    lam = np.linspace(p.lam[0], p.lam[-1], 4001)
+    rad = np.interp(lam, p.lam, p.radii)
+    A = p.points[0] + (lam - p.lam[0])[:, None] * (p.points[-1] - p.points[0]) / (p.lam[-1] - p.lam[0])
+    for (lo, hi) in v.ranges:
+        for u in np.linspace(lo, hi, 5)[1:-1]:
+            x = np.r_[r.profile.eval(u), 0.0]
+            X = screw_motion(x[None], np.linspace(-0.6, 0.6, 1601), r.v0, r.handedness)
+            d = min((np.linalg.norm(X[c][:, None] - A[None], axis=-1) - rad).min()
+                    for c in np.array_split(np.arange(len(X)), 12))
+            assert abs(d) < 5e-6     # sampling resolution of this brute force (t step 7.5e-4, lam step 2e-4)
+
+
+def test_analytic_gradient_matches_finite_differences():
+    _, v = _valley("asymmetric-male")
+    ev = AxisEvaluator(v)
+    lam = np.linspace(*v.lam_range, 60)
+    x = np.array([-0.05, -0.15, -0.25])
+    ar = ev(x, lam)
+    h = 1e-6
+    for j in range(3):
+        e = np.zeros(3)
+        e[j] = h
+        rp, rm = ev(x + e, lam).r, ev(x - e, lam).r
+        fd = (rp - rm) / (2 * h)
+        ok = ar.interior
+        assert np.max(np.abs(fd[ok] - ar.grad[..., j][ok])) < 1e-6
+
+
+@pytest.fixture(scope="module")
+def asym_fit():
+    _, v = _valley("asymmetric-male")
+    return v, optimize_axis(v)
+
+
+def test_asymmetric_optimum_is_a_local_minimum(asym_fit):
+    v, fit = asym_fit
+    assert 1e-4 < fit.phi < 1e-2
+    ev = AxisEvaluator(v)
+    lam = np.linspace(*v.lam_range, 100)
+    base = phi_value(ev(fit.x_unit, lam))
+    assert base == pytest.approx(fit.phi, abs=1e-12)
+    for j in range(3):
+        for sgn in (1, -1):
+            y = fit.x_unit.copy()
+            y[j] += sgn * 1e-4
+            assert phi_value(ev(y, lam)) >= base - 1e-10
+    # and it beats the paper's start (0, 0, 0) by a wide margin
+    assert base < 0.5 * phi_value(ev(np.zeros(3), lam))
+
+
+def test_tail_covers_the_whole_valley(asym_fit):
+    """Unequal characteristics: nodes counting for one flank only continue the tool; together the
+    feet sweep both trimmed flanks from the bottom to the rim."""
+    v, fit = asym_fit
+    ev = AxisEvaluator(v)
+    p = build_path(ev, fit.x_unit, m=100, meridian=False)
+    one = p.counted[0] ^ p.counted[1]
+    assert one.any() and (p.counted[0] | p.counted[1]).mean() > 0.98
+    ar = ev(fit.x_unit, p.lam)
+    def worst_gap(mask):
+        return max(np.diff(np.sort(np.r_[lo, ar.feet[k].u[mask[k]], hi])).max() / (hi - lo)
+                   for k, (lo, hi) in enumerate(v.ranges))
+
+    # the largest remaining gap is next to the valley bottom, where the foot on the short flank jumps
+    # from the bottom helix onto the flank (measured 0.023 of the flank's range)
+    g_tail = worst_gap(p.counted)
+    both = p.counted[0] & p.counted[1]
+    g_both = worst_gap(np.array([both, both]))
+    assert g_tail < 0.05
+    assert g_both > g_tail + 0.01      # without the tail part of a flank would stay unreached
+
+
+def test_radial_function_variants():
+    r = np.array([[1.0, 2.0, 3.0, 4.0], [1.5, 1.0, 5.0, 0.5]])
+    c = np.array([[True, True, False, True], [True, True, True, False]])
+    assert radial_function(r, c, "min").tolist() == [1.0, 1.0, 5.0, 4.0]
+    assert radial_function(r, c, "avg").tolist() == [1.25, 1.5, 5.0, 4.0]
+    assert radial_function(r, c, "one-sided-2").tolist() == [1.5, 1.0, 5.0, 4.0]
+    assert radial_function(r, c, "min", cap=np.full(4, 2.5)).tolist() == [1.0, 1.0, 2.5, 2.5]
+    with pytest.raises(ValueError, match="variant 'max'"):
+        radial_function(r, c, "max")
+
+
+@pytest.fixture(scope="module")
+def asym_plan():
+    r = builtin_by_name("asymmetric-male")
+    res = plan_double_flank(r.surface(), r.flanks, m=200)
+    return res, verify_plan(res.plan)
+
+
+def test_min_variant_never_overcuts_and_reports_what_verify_finds(asym_plan):
+    res, ver = asym_plan
+    R = res.valley.outer_radius
+    assert ver["gouge_points"] == []
+    # the meridian polyline is shrunk by its chord tolerance, so it never cuts deeper than the design;
+    # what remains (measured -1.19e-9 R) is the resolution of the simulation and of the Hermite radii
+    assert ver["max_overcut"] >= -2e-9 * R
+    for st, vs in zip(res.plan["strips"], ver["strips"]):
+        assert st["reported_max_error"] == pytest.approx(vs["max_error"], abs=1e-6 * R)
+        assert st["reported_min_error"] == pytest.approx(vs["min_error"], abs=1e-6 * R)
+    # Remark 4.5: both one-sided distances are close (tool->rotor at nodes, rotor->envelope at points)
+    for (t_max, _), (e_max, _) in zip(res.tool_to_rotor, res.rotor_to_envelope):
+        assert abs(t_max - e_max) < 0.5 * t_max
+
+
+def test_tool_mesh_and_csv(asym_plan, tmp_path):
+    res, _ = asym_plan
+    v, f = res.tool_mesh()
+    assert f.max() < len(v) and len(f) > 1000
+    p = res.paths[0]
+    d = (p.plan_points[-1] - p.plan_points[0]) / np.linalg.norm(p.plan_points[-1] - p.plan_points[0])
+    w = v - p.plan_points[0]
+    rho = np.linalg.norm(w - (w @ d)[:, None] * d, axis=1)
+    assert rho.max() <= max(p.radii.max(), res.plan["strips"][0]["shank_radius"]) + 1e-9
+    write_tool_csv(tmp_path / "t.csv", p)
+    rows = np.loadtxt(tmp_path / "t.csv", delimiter=",", skiprows=1)
+    assert np.all(np.diff(rows[:, 0]) > 0) and rows[0, 1] == 0.0
+    env = res.envelope_meshes(z_range=(0.0, 0.5), n_t=8)[0]
+    assert len(env) == 2 and env[0][0].shape[1] == 3 and len(env[0][2]) == len(env[0][0])
+
+
+def test_cli_round_trip_and_errors(tmp_path, capsys):
+    out = tmp_path / "p.json"
+    assert main(["plan", "double-flank", "--builtin", "nilson-male", "--valley", "1", "--tool", "cone",
+                 "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "alpha" in text and "iterations" in text and "rotor->envelope" in text
+    plan = read_plan(out)
+    assert plan["method"] == "double-flank-cone" and len(plan["strips"]) == 1
+    assert len(plan["strips"][0]["radii"]) == 2
+    for argv, msg in ((["--valley", "7"], "--valley 7 is outside 0..3"),
+                      (["--valley", "0", "--tool", "cones:40"], "K = 40 is outside the limits 1..12"),
+                      (["--valley", "0", "--rim", "1.5"], "--rim 1.5 is outside the limits 0.2..0.98"),
+                      (["--valley-point", "1,2"], "must be three finite numbers")):
+        assert main(["plan", "double-flank", "--builtin", "nilson-male", *argv, "--out", str(tmp_path / "x.json")]) == 2
+        assert msg in capsys.readouterr().err
