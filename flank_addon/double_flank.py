@@ -746,7 +746,10 @@ def optimize_two_paths(valley, n=100, x0=None, evaluator=None):
     p0, need = phi(y0)
     y0[6] = p0 / R
     obj = lambda y: (y[6], np.r_[np.zeros(6), 1.0])  # noqa: E731
-    res = _slsqp(fun_jac, y0, _bounds(valley) * 2 + [(0.0, None)], 2 * n, obj)
+    # a trust region around the double-flank axis: the paper's two axes stay within ~0.1 of it, and
+    # far from it the interior sets shrink until Eq. (18) is small for meaningless axes
+    box = [(max(lo, c - 0.15), min(hi, c + 0.15)) for (lo, hi), c in zip(_bounds(valley), x0)]
+    res = _slsqp(fun_jac, y0, box * 2 + [(0.0, None)], 2 * n, obj)
     val, cnt = phi(res.x)
     if not (cnt >= 0.5 * need and val <= p0):
         res.x, val = y0, p0
@@ -1007,6 +1010,29 @@ def simulate_plan_errors(plan, search=None):
     return idx, dev, owner, per
 
 
+def _max_err(paths):
+    return max(float(np.nanmax(p.errors)) for p in paths)
+
+
+def _two_paths(ev, f1, f2, m):
+    """Eqs. (19) + (14): one radial function (the smaller of the two axes' distances to their own
+    flanks) placed on both axes."""
+    e1 = tool_extent(ev, f1.x_unit, flanks=(0,))
+    e2 = tool_extent(ev, f2.x_unit, flanks=(1,))
+    ext = (min(e1[0], e2[0]), max(e1[1], e2[1]))
+    p1 = build_path(ev, f1.x_unit, m=m, extent=ext, flanks=(0,), meridian=False, tag="p1")
+    p2 = build_path(ev, f2.x_unit, m=m, extent=ext, flanks=(1,), meridian=False, tag="p2")
+    lam = p1.lam
+    shared = np.minimum(np.where(p1.counted[0], p1.r[0], np.inf), np.where(p2.counted[1], p2.r[1], np.inf))
+    shared = np.where(np.isfinite(shared), shared, np.minimum(p1.radii, p2.radii))
+
+    def fn(lq, rr, cnt, cap):
+        return np.minimum(np.interp(lq, lam, shared), cap)
+
+    return [build_path(ev, f1.x_unit, m=m, extent=ext, flanks=(0,), radii_fn=fn, tag="q1"),
+            build_path(ev, f2.x_unit, m=m, extent=ext, flanks=(1,), radii_fn=fn, tag="q2")]
+
+
 def plan_double_flank(surface, flank_ranges, valley=0, variant="min", tool="custom", two_paths=False, m=400,
                       rim=0.85, n=100, to_world=None, length_unit="R", simulate=True, starts=None):
     """Plan double-flank milling of one valley (s001).  Returns :class:`DoubleFlankResult`.
@@ -1049,23 +1075,12 @@ def plan_double_flank(surface, flank_ranges, valley=0, variant="min", tool="cust
     elif kind == "custom":
         f1, f2 = optimize_two_paths(v, n=n, x0=fit.x_unit, evaluator=ev)
         fits = [fit, f1, f2]
-        e1 = tool_extent(ev, f1.x_unit, flanks=(0,))
-        e2 = tool_extent(ev, f2.x_unit, flanks=(1,))
-        ext = (min(e1[0], e2[0]), max(e1[1], e2[1]))
-        p1 = build_path(ev, f1.x_unit, m=m, extent=ext, flanks=(0,), meridian=False, tag="p1")
-        p2 = build_path(ev, f2.x_unit, m=m, extent=ext, flanks=(1,), meridian=False, tag="p2")
-        # Eq. (19) + (14): one radial function, the smaller of the two paths' distances
-        lam = p1.lam
-        own1 = np.where(p1.counted[0], p1.r[0], np.inf)
-        own2 = np.where(p2.counted[1], p2.r[1], np.inf)
-        shared = np.minimum(own1, own2)
-        shared = np.where(np.isfinite(shared), shared, np.minimum(p1.radii, p2.radii))
-
-        def fn(lq, rr, cnt, cap):
-            return np.minimum(np.interp(lq, lam, shared), cap)
-
-        paths = [build_path(ev, f1.x_unit, m=m, extent=ext, flanks=(0,), radii_fn=fn, tag="q1"),
-                 build_path(ev, f2.x_unit, m=m, extent=ext, flanks=(1,), radii_fn=fn, tag="q2")]
+        paths = _two_paths(ev, f1, f2, m)
+        # Eq. (18) ignores the one-flank tails; if the tool it yields is worse than the double-flank
+        # axis used twice, keep the latter (reported in fits[1:] as that axis)
+        ref = _two_paths(ev, fit, fit, m)
+        if _max_err(paths) > _max_err(ref):
+            paths, fits = ref, [fit, fit, fit]
         method = "double-flank-custom-two-paths"
     else:
         ext = tool_extent(ev, fit.x_unit)
