@@ -36,10 +36,30 @@ nearer.  The Z_u range is §2.6 (Eqs. 12-14): where the helices of the tooth's t
 the cutter's axial plane Y_u = 0.
 
 Unlike the paper, which intersects only the tooth curve, every line is intersected with the whole
-rotor section (all teeth and the blank cylinder).  The disc of each plane therefore never enters the
-rotor, and by the screw invariance of the rotor neither does the swept cutter: no overcut is
-possible, only uncut regions.  The tooth-only radius (the paper's) is computed too, for the overcut
-check below.
+rotor section (all teeth and the blank cylinder), and the radius of a plane is the minimum of
+
+* the subdivision search, started from *every* local minimum of the plane's initial grid (the four
+  lowest), not only from the lowest sample, so a second minimum is refined too (Fig. 10e,f); and
+* the exact distances of the section's *corners* (tangent discontinuities, e.g. the groove edges of
+  the arc tooth, plus the tooth's end points): each corner's helix is crossed with the plane at all
+  its crossings (:func:`_helix_crossings`).  Where the nearest material of a plane is a corner, the
+  first-crossing distance L(Y_u) has a kink there (found only to ~ slope x eps_b) or a jump (lines just
+  beside an edge miss the groove behind it and hit deep), which the grid does not see at all: at
+  swivel 50 deg on the Table-1 tooth the search alone came out up to 2.1 mm too large and the swept
+  cutter cut 0.44 mm into the groove.
+
+The nearest material of a plane is either such a corner or a smooth boundary point where L(Y_u) has a
+smooth local minimum (a silhouette end of a visible branch is never a minimum: L falls into the
+branch).  So R(Z_u) <= the true minimum distance to all rotor material in the plane, to the search
+accuracy ~ L'' eps_b^2 / 8 of smooth minima, provided every smooth minimum's visible branch is wider
+than the grid spacing 2 Yb / n_init (tested against an independent brute force of all helix-plane
+crossings, tests/test_formed_cutter.py).  A disc of each plane therefore does not enter the rotor,
+and by the screw invariance of the rotor neither does the swept cutter: no overcut, only uncut
+regions.  This holds at the planes computed; a caller interpolating R between planes (e.g. the
+piecewise-linear :class:`sweep.MeridianPart`) adds its own chord error R'' dZ^2 / 8 where R(Z) is
+convex -- largest at the ends of the range, where the radius falls steeply (Table 1, 2000 planes:
+1.4 um in radius at the two tooth edges).  The tooth-only radius (the paper's) is computed too, for
+the overcut check below.
 
 Contact-equation method (classical, for comparison): for each profile point solve
 N . ((P - O) x e_z) = 0 for the screw angle (the surface normal meets the cutter axis), see
@@ -222,6 +242,65 @@ class Section:
         rad = rad * 1.02 + chord / 8 + 1e-12 * max(1.0, float(np.nanmax(np.abs(blk))))
         res = (ends, i0, i1, centres, rad, pieces)
         self._block_cache = ((id(self.cubic_c), size), res)
+        return res
+
+    def corners(self, angle_tol=1e-7):
+        """Points where the section's tangent turns abruptly (or a piece end is unmatched) -> (pts (K, 2),
+        u (K,), target (K,)).
+
+        A corner belongs to two pieces; it is a tooth point if either is a tooth piece, and its
+        parameter is then taken on the tooth side.  Smooth joins (spline knots, tangent arcs) are
+        not corners.  The first-crossing distance of a plane is discontinuous or kinked at the lines
+        through a corner's helix, so the subdivision search cannot locate a minimum there to better
+        than its spacing (or at all, s004 §2.4): :func:`cutter_profile` adds the corners exactly."""
+        cached = getattr(self, "_corner_cache", None)
+        key = (id(self.cubic_c), id(self.arc_c), len(self.cubic_h), len(self.arc_r))
+        if cached is not None and cached[0] == key:
+            return cached[1]
+        c, h = self.cubic_c, self.cubic_h
+        p0 = [c[:, 3]]
+        t0 = [c[:, 2]]
+        p1 = [((c[:, 0] * h[:, None] + c[:, 1]) * h[:, None] + c[:, 2]) * h[:, None] + c[:, 3]]
+        t1 = [(3 * c[:, 0] * h[:, None] + 2 * c[:, 1]) * h[:, None] + c[:, 2]]
+        u0 = [self.cubic_u0]
+        u1 = [self.cubic_u0 + h]
+        tg = [self.cubic_target]
+        if len(self.arc_r):
+            a0, a1, sg = self.arc_a0, self.arc_a0 + self.arc_sweep, np.sign(self.arc_sweep)
+            rr = self.arc_r[:, None]
+            p0.append(self.arc_c + rr * np.stack([np.cos(a0), np.sin(a0)], -1))
+            p1.append(self.arc_c + rr * np.stack([np.cos(a1), np.sin(a1)], -1))
+            t0.append(sg[:, None] * np.stack([-np.sin(a0), np.cos(a0)], -1))
+            t1.append(sg[:, None] * np.stack([-np.sin(a1), np.cos(a1)], -1))
+            u0.append(self.arc_u0)
+            u1.append(self.arc_u0 + np.abs(self.arc_sweep) * self.arc_r)
+            tg.append(self.arc_target)
+        p0, p1, t0, t1 = (np.concatenate(x) for x in (p0, p1, t0, t1))
+        u0, u1, tg = np.concatenate(u0), np.concatenate(u1), np.concatenate(tg)
+        if len(p0) == 0:
+            res = (np.zeros((0, 2)), np.zeros(0), np.zeros(0, bool))
+            self._corner_cache = (key, res)
+            return res
+        from scipy.spatial import cKDTree
+        scale = max(1.0, float(np.abs(np.r_[p0.ravel(), p1.ravel()]).max()))
+        tol = 1e-9 * scale
+        unit = lambda v: v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)  # noqa: E731
+        t0, t1 = unit(t0), unit(t1)
+        dist, j = cKDTree(p0).query(p1)               # the piece starting where piece i ends
+        matched = dist <= tol
+        cosang = np.einsum("ij,ij->i", t1, t0[j])
+        turn = ~matched | (cosang < math.cos(angle_tol))
+        nxt_tooth = matched & tg[j]                   # the corner's other piece is a tooth piece
+        i = np.flatnonzero(turn)
+        pts, us, tgt = [p1[i]], [np.where(~tg[i] & nxt_tooth[i], u0[j[i]], u1[i])], [tg[i] | nxt_tooth[i]]
+        # piece starts that no piece ends at
+        dist2, _ = cKDTree(p1).query(p0)
+        free = dist2 > tol
+        pts.append(p0[free])
+        us.append(u0[free])
+        tgt.append(tg[free])
+        res = (np.concatenate(pts), np.concatenate(us), np.concatenate(tgt))
+        self._corner_cache = (key, res)
         return res
 
     def _arc_contains(self, ang, idx=None):
@@ -628,17 +707,18 @@ def _first_hits(section, setup, Y, Z, eps_a, reach=None):
     return {k: v.reshape(shape) for k, v in res.items()}
 
 
-def _subdivide(fun, Yb, eps_b, grid, Lg):
-    """Subdivision search of s004 §2.4 for the minimum of fun(Y) per plane on [-Yb, Yb].
+def _subdivide(fun, Yb, eps_b, grid, Lg, start=None):
+    """Subdivision search of s004 §2.4 for the minimum of fun(Y) per row on [-Yb, Yb].
 
-    ``grid`` (M, n_init + 1): the initial equally spaced Y_u of each plane, ``Lg`` the distances
-    there; ``fun(Y)`` maps an (M, 2) array to distances.  Step (5)-(6): around the best sample the two
-    mid points are inserted, the best of the five is kept and its spacing halved, until the spacing is
-    <= eps_b; the result is the best sample (step 7).  Returns (Y*, L*).
+    ``grid`` (M, n_init + 1): the initial equally spaced Y_u of each row, ``Lg`` the distances
+    there; ``fun(Y)`` maps an (M, 2) array to distances.  Step (5)-(6): around the best sample (or
+    the grid index ``start``) the two mid points are inserted, the best of the five is kept and its
+    spacing halved, until the spacing is <= eps_b; the result is the best sample (step 7).
+    Returns (Y*, L*).
     """
     M = len(Yb)
     n_init = grid.shape[1] - 1
-    i = np.argmin(Lg, axis=1)
+    i = np.argmin(Lg, axis=1) if start is None else np.asarray(start)
     rows = np.arange(M)
     h = 2 * Yb / n_init
     b = grid[rows, i]
@@ -667,6 +747,34 @@ def _subdivide(fun, Yb, eps_b, grid, Lg):
         Lp = np.where(active, nLp, Lp)
         h = np.where(active, hh, h)
     return b, Lb
+
+
+def _search(fun, z, Yb, eps_b, grid, Lg, max_starts=4):
+    """Minimum of fun(Y, Z) per plane: the subdivision search (:func:`_subdivide`) started from every
+    local minimum of the plane's initial grid (the ``max_starts`` lowest), not only from the lowest
+    sample: a second minimum whose grid samples are not the lowest (Fig. 10e,f) is refined too.
+    Returns (Y*, L*) per plane."""
+    M, n1 = Lg.shape
+    v = np.where(np.isfinite(Lg), Lg, np.inf)
+    inf = np.full((M, 1), np.inf)
+    left, right = np.hstack([inf, v[:, :-1]]), np.hstack([v[:, 1:], inf])
+    cand = np.isfinite(v) & (v < left) & (v <= right)
+    cand[np.arange(M), np.argmin(v, axis=1)] = True
+    key = np.where(cand, v, np.inf)
+    order = np.argsort(key, axis=1, kind="stable")[:, :max_starts]
+    ok = np.isfinite(np.take_along_axis(key, order, 1))
+    ok[:, 0] = True
+    pm, col = np.nonzero(ok)
+    st = order[pm, col]
+    zz = np.asarray(z, float)[pm][:, None]
+    b, Lb = _subdivide(lambda Y: fun(Y, np.broadcast_to(zz, Y.shape)), Yb[pm], eps_b, grid[pm], Lg[pm], st)
+    Lb = np.where(np.isfinite(Lb), Lb, np.inf)
+    best = np.full(M, np.inf)
+    np.minimum.at(best, pm, Lb)
+    win = np.flatnonzero(Lb == best[pm])
+    yb = np.zeros(M)
+    yb[pm[win]] = b[win]
+    return yb, np.where(np.isfinite(best), best, Lg[np.arange(M), np.argmin(v, axis=1)])
 
 
 def _boundary_z(section_pts, setup):
@@ -703,25 +811,97 @@ def _boundary_z(section_pts, setup):
     return np.array(out)
 
 
-def _end_point_distances(section, setup, z):
-    """Per plane Z_u = z: the smaller distance from the cutter axis of the two tooth end points' helices
-    where they cross the plane.  The crossing is unique (found by Newton) when the points' radius is
-    below v0 / tan|phi|; otherwise inf is returned (no candidate)."""
-    (_, p0), (_, p1) = _tooth_ends(section)
-    c, s, e, v0 = math.cos(setup.swivel), math.sin(setup.swivel), setup.eps, setup.v0
-    best = np.full(len(z), np.inf)
-    for p in (np.asarray(p0, float), np.asarray(p1, float)):
-        r, a = float(np.hypot(*p)), math.atan2(p[1], p[0])
-        if s != 0 and r >= v0 * c / abs(s):
-            continue
-        th = z / (c * v0)
-        for _ in range(50):
-            f = -e * s * r * np.sin(a + e * th) + c * v0 * th - z
-            th = th - f / (-s * r * np.cos(a + e * th) + c * v0)
-        x, y = r * np.cos(a + e * th), r * np.sin(a + e * th)
-        Y = c * y + e * s * v0 * th
-        best = np.minimum(best, np.hypot(x - setup.centre_distance, Y))
-    return best
+def _helix_crossings(pts, setup, z):
+    """Every crossing of the helices of section points ``pts`` (K, 2, working frame, at rotor height 0)
+    with the planes Z_u = z (M,); for each plane and point the crossing nearest the cutter axis.
+
+    On the helix theta -> (r cos(a + e theta), r sin(a + e theta), v0 theta) the plane equation is
+    g(theta) = c v0 theta - e s r sin(a + e theta) - Z_u = 0.  All roots lie within
+    |theta - Z_u / (c v0)| <= |s| r / (c v0), and g is monotone between its critical points
+    cos(a + e theta) = c v0 / (s r), known in closed form; so every root is bracketed and refined by
+    bisection to rounding (a helix that only touches the plane is kept if g vanishes there to
+    rounding).  Returns (L, x, Y), each (M, K): distance from the cutter axis, rotor x (working
+    frame) and Y_u of that crossing (inf / nan where the helix misses the plane, i.e. never)."""
+    pts = np.asarray(pts, float).reshape(-1, 2)
+    z = np.asarray(z, float)
+    M, K = len(z), len(pts)
+    c, s, e, v0, A = math.cos(setup.swivel), math.sin(setup.swivel), setup.eps, setup.v0, setup.centre_distance
+    if K == 0:
+        return np.full((M, 0), np.inf), np.full((M, 0), np.nan), np.full((M, 0), np.nan)
+    r = np.hypot(pts[:, 0], pts[:, 1])
+    a = np.arctan2(pts[:, 1], pts[:, 0])
+    th0 = (z / (c * v0))[:, None]                                   # (M, 1)
+    w = abs(s) * r / (c * v0)                                       # (K,)
+    lo = np.broadcast_to(th0 - w, (M, K))
+    hi = np.broadcast_to(th0 + w, (M, K))
+    ends = [lo[..., None], hi[..., None]]
+    sr = s * r
+    with np.errstate(divide="ignore", invalid="ignore"):
+        kappa = np.where(sr != 0, c * v0 / np.where(sr != 0, sr, 1.0), np.inf)
+    bend = np.abs(kappa) < 1
+    if bend.any():
+        ac = np.arccos(np.clip(kappa, -1.0, 1.0))
+        nk = int(math.ceil(float(w.max()) / math.pi)) + 1
+        ks = np.arange(-nk, nk + 1)
+        kc = np.round((a[None, :] + e * th0) / (2 * math.pi))            # (M, K): turn of the window centre
+        for sg in (-1.0, 1.0):
+            psi = sg * ac[None, :, None] + 2 * math.pi * (kc[..., None] + ks)   # (M, K, 2 nk + 1)
+            T = e * (psi - a[None, :, None])
+            T = np.where(bend[None, :, None], T, lo[..., None])
+            ends.append(np.clip(T, lo[..., None], hi[..., None]))
+    T = np.sort(np.concatenate(ends, -1), axis=-1)                   # (M, K, n) monotone pieces of g
+    zz = z[:, None, None]
+    rr, aa = r[None, :, None], a[None, :, None]
+
+    def g(th, rr=rr, aa=aa, zz=zz):
+        return c * v0 * th - e * s * rr * np.sin(aa + e * th) - zz
+
+    gT = g(T)
+    tol = 1e-13 * (A + float(r.max()) + float(np.abs(z).max()))
+    ta, tb, ga, gb = T[..., :-1], T[..., 1:], gT[..., :-1], gT[..., 1:]
+    root = ((ga < 0) != (gb < 0)) & (np.abs(ga) > tol) & (np.abs(gb) > tol)
+    m_i, k_i, j_i = np.nonzero(root)
+    a0, b0, f0 = ta[m_i, k_i, j_i], tb[m_i, k_i, j_i], ga[m_i, k_i, j_i]
+    r1, a1, z1 = r[k_i], a[k_i], z[m_i]
+    for _ in range(64):
+        mid = 0.5 * (a0 + b0)
+        fm = g(mid, r1, a1, z1)
+        left = (fm < 0) == (f0 < 0)
+        a0 = np.where(left, mid, a0)
+        f0 = np.where(left, fm, f0)
+        b0 = np.where(left, b0, mid)
+        if not len(mid) or np.max(b0 - a0) <= 4e-16 * max(1.0, float(np.abs(mid).max())):
+            break
+    th_b = 0.5 * (a0 + b0)
+    # exact (or grazing) zeros at the piece ends
+    zero = np.abs(gT) <= tol
+    m_z, k_z, j_z = np.nonzero(zero)
+    th = np.r_[th_b, T[m_z, k_z, j_z]]
+    mm, kk = np.r_[m_i, m_z], np.r_[k_i, k_z]
+    psi = a[kk] + e * th
+    x = r[kk] * np.cos(psi)
+    Y = c * r[kk] * np.sin(psi) + e * s * v0 * th
+    L = np.hypot(x - A, Y)
+    out_L = np.full((M, K), np.inf)
+    out_x = np.full((M, K), np.nan)
+    out_Y = np.full((M, K), np.nan)
+    if len(L):
+        order = np.lexsort((L, kk, mm))
+        mm, kk, L, x, Y = mm[order], kk[order], L[order], x[order], Y[order]
+        first = np.r_[True, (mm[1:] != mm[:-1]) | (kk[1:] != kk[:-1])]
+        out_L[mm[first], kk[first]] = L[first]
+        out_x[mm[first], kk[first]] = x[first]
+        out_Y[mm[first], kk[first]] = Y[first]
+    return out_L, out_x, out_Y
+
+
+def _corner_points(section):
+    """Candidate points whose helices are intersected with the planes exactly: the section's corners
+    and the tooth's two end points (edges of the tooth-only surface) -> (pts, u, target)."""
+    pts, u, tg = section.corners()
+    (u0, p0), (u1, p1) = _tooth_ends(section)
+    return (np.vstack([pts, np.asarray(p0, float)[None], np.asarray(p1, float)[None]]),
+            np.r_[u, u0, u1], np.r_[tg, True, True])
 
 
 def _tooth_param_range(section):
@@ -891,13 +1071,24 @@ def cutter_profile(profile, lead, centre_distance, swivel_deg, handedness="right
     Zcol = z[:, None]
     grid = np.linspace(-1.0, 1.0, int(n_init) + 1)[None, :] * Yb[:, None]
     G = _first_hits(work, setup, grid, np.broadcast_to(Zcol, grid.shape), eps_a, reach)
-    yb, rb = _subdivide(lambda Y: _first_hits(work, setup, Y, np.broadcast_to(Zcol, Y.shape), eps_a, reach)["L"],
-                        Yb, eps_b, grid, G["L"])
+    yb, rb = _search(lambda Y, Zb: _first_hits(work, setup, Y, Zb, eps_a, reach)["L"], z, Yb, eps_b, grid, G["L"])
     if not np.isfinite(rb).all():
         bad = int(np.flatnonzero(~np.isfinite(rb))[0])
         raise FormedCutterError(f"plane Z_u = {z[bad]:.6g} does not meet the rotor within the search range: "
                                 "the Z range lies beyond the rotor")
     hit = _first_hits(work, setup, yb, z, eps_a, reach)
+    # the corners' helices, crossed with every plane exactly: the distance is kinked or jumps there
+    cpts, cu, ctg = _corner_points(work)
+    Lc, xc, Yc = _helix_crossings(cpts, setup, z)
+    rows = np.arange(M)
+    kc = np.argmin(Lc, axis=1)
+    use = Lc[rows, kc] < rb
+    if use.any():
+        rb = np.where(use, Lc[rows, kc], rb)
+        yb = np.where(use, Yc[rows, kc], yb)
+        hit["s"] = np.where(use, xc[rows, kc], hit["s"])
+        hit["u"] = np.where(use, cu[kc], hit["u"])
+        hit["target"] = np.where(use, ctg[kc], hit["target"])
     _, yw, zw = _lines(setup, yb, z)[1:]
     xw = hit["s"]
     contact_w = np.c_[xw, yw, zw]
@@ -906,7 +1097,8 @@ def cutter_profile(profile, lead, centre_distance, swivel_deg, handedness="right
     r_tooth = np.full(M, np.inf)
     uncut = []
     if analyse:
-        flags, r_tooth, uncut = _analyse(work, setup, z, rb, hit, grid, G, Yb, eps_b, eps_a, reach)
+        r_corner_tooth = np.min(np.where(ctg[None, :], Lc, np.inf), axis=1, initial=np.inf)
+        flags, r_tooth, uncut = _analyse(work, setup, z, rb, hit, grid, G, Yb, eps_b, eps_a, reach, r_corner_tooth)
     overcut = np.where(np.isfinite(r_tooth), np.maximum(r_tooth - rb, 0.0), 0.0)
     return CutterProfile(setup=setup, z=z, r=rb, y=yb, contact=contact, contact_u=hit["u"],
                          on_tooth=hit["target"], r_tooth=r_tooth, overcut=overcut, flags=flags,
@@ -942,22 +1134,22 @@ def _local_minima(Lg, rel_tol):
     return counts
 
 
-def _analyse(work, setup, z, rb, hit, grid, full, Yb, eps_b, eps_a, reach):
+def _analyse(work, setup, z, rb, hit, grid, full, Yb, eps_b, eps_a, reach, r_corner_tooth):
     """Machinability flags of s004 §4 per plane, and the uncut tooth ranges (``full``: the first-hit
-    data on the initial grid of every plane)."""
+    data on the initial grid of every plane; ``r_corner_tooth``: the nearest crossing of a tooth
+    corner's or tooth end point's helix with each plane)."""
     M = len(z)
     flags = np.zeros(M, np.int64)
-    Zcol = z[:, None]
     # the paper's tooth-only radius, by the same subdivision
     r_tooth = np.full(M, np.inf)
     has = np.isfinite(full["Lt"]).any(axis=1)
     if has.any():
-        _, rt = _subdivide(lambda Y: _first_hits(work, setup, Y, np.broadcast_to(Zcol[has], Y.shape), eps_a, reach)["Lt"],
-                           Yb[has], eps_b, grid[has], full["Lt"][has])
+        _, rt = _search(lambda Y, Zb: _first_hits(work, setup, Y, Zb, eps_a, reach)["Lt"], z[has], Yb[has],
+                        eps_b, grid[has], full["Lt"][has])
         r_tooth[has] = rt
     # the tooth-only distance is discontinuous next to the tooth's end edges, where its minimum often
-    # lies: add the end points' own crossings with each plane as exact candidates
-    r_tooth = np.minimum(r_tooth, _end_point_distances(work, setup, z))
+    # lies: add the end points' (and the tooth's corners') own crossings with each plane exactly
+    r_tooth = np.minimum(r_tooth, r_corner_tooth)
     # Fig. 10c,d: tooth surface hidden behind material within the cutter's largest radius
     r_max = float(rb.max())
     occl = np.any(full["hidden"] <= r_max, axis=1)
@@ -1005,7 +1197,9 @@ def _analyse(work, setup, z, rb, hit, grid, full, Yb, eps_b, eps_a, reach):
 def cutter_meridian(profile, lead, centre_distance, swivel_deg, planes=2000, **kw):
     """Dense cutter meridian for simulation -> (Z, R, setup): (Z_u, R_u) arrays of ``planes`` samples
     (Z increasing) and the :class:`CutterSetup` whose ``axis_point`` / ``axis_direction`` place it in
-    the rotor frame.  Same arguments as :func:`cutter_profile` (no machinability pass)."""
+    the rotor frame.  Same arguments as :func:`cutter_profile` (no machinability pass).  R is exact
+    (to eps_b) at the samples; linear interpolation between them overestimates by up to
+    R'' dZ^2 / 8 where R(Z) is convex, mostly near the ends of the range (see the module docstring)."""
     kw.setdefault("analyse", False)
     cp = cutter_profile(profile, lead, centre_distance, swivel_deg, planes=planes, **kw)
     return cp.z, cp.r, cp.setup

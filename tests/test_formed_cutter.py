@@ -9,7 +9,9 @@ import pytest
 
 from flank_addon.formed_cutter import (FLAG_CONTACT_JUMP, FLAG_MAXIMUM_POINT, TABLE1, CutterSetup,
                                        FormedCutterError, Section, arc_tooth_profile, arc_tooth_section,
-                                       contact_equation_profile, cutter_profile, table2, _first_hits)
+                                       contact_equation_profile, cutter_meridian, cutter_profile,
+                                       section_from_profile, table2,
+                                       _first_hits)
 from flank_addon.profile import SplineProfile
 from flank_addon.rotors import builtin_by_name
 from flank_addon.screw import screw_to_plane
@@ -53,6 +55,130 @@ def brute_plane_min(profile, setup, z, n=40000, tooth=None):
         Y = c * y + e * s * v0 * th
         out.append(np.min(np.hypot(x - setup.centre_distance, Y)))
     return np.array(out)
+
+
+def brute_plane_min_all(profile, setup, z, n=20000):
+    """Independent minimum distance from the cutter axis to the rotor surface in planes Z_u = z, for
+    any swivel (a helix may cross a plane several times).
+
+    Dense profile samples plus every segment break (corners) are turned into the working frame;
+    each sample's helix g(th) = c v0 th - e s r sin(a + e th) - Z_u is monotone between its closed
+    form critical points cos(a + e th) = c v0 / (s r), and all roots lie within
+    |th - Z_u / (c v0)| <= |s| r / (c v0): every crossing is bracketed and bisected.  Every value
+    is the distance of a real surface point, so the result is >= the true minimum."""
+    u = np.r_[profile.params(n), np.asarray(getattr(profile, "breaks", []), float)]
+    p = profile.eval(u)
+    cph, sph = math.cos(setup.phase), math.sin(setup.phase)
+    p = np.c_[cph * p[:, 0] + sph * p[:, 1], -sph * p[:, 0] + cph * p[:, 1]]
+    r, a = np.hypot(p[:, 0], p[:, 1]), np.arctan2(p[:, 1], p[:, 0])
+    c, s, e, v0, A = math.cos(setup.swivel), math.sin(setup.swivel), setup.eps, setup.v0, setup.centre_distance
+    w = abs(s) * r / (c * v0)
+    kappa = c * v0 / (s * r)
+    ac = np.arccos(np.clip(kappa, -1, 1))
+    nk = int(np.ceil(w.max() / np.pi)) + 1
+    out = []
+    for zz in np.atleast_1d(z):
+        th0 = zz / (c * v0)
+        lo, hi = th0 - w, th0 + w
+        kc = np.round((a + e * th0) / (2 * np.pi))
+        crit = [e * (sg * ac[:, None] + 2 * np.pi * (kc[:, None] + np.arange(-nk, nk + 1)) - a[:, None])
+                for sg in (-1, 1)]
+        T = np.where((np.abs(kappa) < 1)[:, None], np.hstack(crit), lo[:, None])
+        T = np.sort(np.hstack([lo[:, None], np.clip(T, lo[:, None], hi[:, None]), hi[:, None]]), axis=1)
+        gT = c * v0 * T - e * s * r[:, None] * np.sin(a[:, None] + e * T) - zz
+        i, j = np.nonzero((gT[:, :-1] <= 0) != (gT[:, 1:] <= 0))
+        ri, ai, ta, tb, neg = r[i], a[i], T[i, j], T[i, j + 1], gT[i, j] <= 0
+        for _ in range(60):
+            tm = 0.5 * (ta + tb)
+            same = (c * v0 * tm - e * s * ri * np.sin(ai + e * tm) - zz <= 0) == neg
+            ta, tb = np.where(same, tm, ta), np.where(same, tb, tm)
+        th = 0.5 * (ta + tb)
+        Y = c * ri * np.sin(ai + e * th) + e * s * v0 * th
+        out.append(np.min(np.hypot(ri * np.cos(ai + e * th) - A, Y)))
+    return np.array(out)
+
+
+def dense_line_min(section, cp, Yb=100.0, n=8001):
+    """Minimum of the first-crossing distance over a dense set of lines Y_u of each plane (``section``
+    in the rotor frame)."""
+    work = section.rotated(-cp.setup.phase)
+    Y = np.linspace(-Yb, Yb, n)
+    L = _first_hits(work, cp.setup, np.tile(Y, len(cp.z)), np.repeat(cp.z, n), 1e-12)["L"]
+    return np.nanmin(L.reshape(len(cp.z), n), axis=1)
+
+
+@pytest.mark.parametrize("swivel", [10.0, 50.0])
+def test_radius_never_exceeds_the_nearest_material_flagged_setups(swivel):
+    """In every plane R(Z) <= the distance of every rotor point in it (else the disc enters the rotor).
+
+    At 50 deg a groove edge (the corner tooth / blank cylinder) pokes towards the disc in some planes
+    and the first-crossing distance jumps there (lines just beside the edge miss the groove and hit
+    deep); the grid of the subdivision search did not see it and R came out up to 2.1 mm too large.
+    At 10 deg the minimum is a kink at the edge, found only to ~ slope x eps_b."""
+    prof, tooth, _ = arc_tooth_profile()
+    z = np.r_[np.linspace(-28.0, 28.0, 15), -4.7242, 4.7242]      # +-4.72: the plane of the 2.1 mm error
+    cp = cutter_profile(prof, T["lead"], T["centre_distance"], swivel, tooth=tooth, z=z, eps_b=1e-3)
+    assert cp.flags.any()                                         # a flagged (misaligned) set-up
+    ref = np.minimum(brute_plane_min_all(prof, cp.setup, cp.z),
+                     dense_line_min(section_from_profile(prof, tooth), cp))
+    assert np.all(cp.r <= ref + 1e-9), np.max(cp.r - ref)
+    assert np.all(cp.r >= ref - 1e-4), np.min(cp.r - ref)        # and not needlessly small
+
+
+def test_radius_never_exceeds_the_nearest_material_builtin():
+    rot = builtin_by_name("srm_a-male", scale=100.0)
+    cp = cutter_profile(rot.profile, rot.lead, 180.0, 55.0, handedness=rot.handedness, planes=13, eps_b=1e-3)
+    assert cp.flags.any()
+    ref = np.minimum(brute_plane_min_all(rot.profile, cp.setup, cp.z, n=40000),
+                     dense_line_min(section_from_profile(rot.profile, cp.tooth), cp, n=4001))
+    assert np.all(cp.r <= ref + 1e-9), np.max(cp.r - ref)
+    assert np.all(cp.r >= ref - 1e-3), np.min(cp.r - ref)
+
+
+@pytest.mark.parametrize("swivel", [31.0, 50.0])
+def test_swept_cutter_never_overcuts_the_tooth(swivel):
+    """Independent check by the sweep simulation: the 2000-plane meridian swept along the helix,
+    deviation of tooth points along their normals (> 0 material left, < 0 overcut).  Points crowd
+    towards the tooth's edges, where the 50 deg cutter used to cut 0.44 mm into the groove (u ~ 0.35)."""
+    from flank_addon.sweep import MeridianPart, RevolvingTool, machined_deviation
+    prof, tooth, _ = arc_tooth_profile()
+    Z, R, setup = cutter_meridian(prof, T["lead"], T["centre_distance"], swivel, planes=2000, tooth=tooth)
+    tool = RevolvingTool([MeridianPart(setup.axis_point, setup.axis_direction, np.c_[Z, R])])
+    edge = np.linspace(0.1, 3.0, 8)
+    u = np.r_[edge, np.linspace(tooth[0], tooth[1], 26)[1:-1], tooth[1] - edge]      # interior points only
+    dev = machined_deviation([tool], prof.eval(u), prof.outward_normal(u), T["lead"] / (2 * np.pi), "right",
+                             max_deviation=20.0)
+    assert dev.min() >= -1e-3, (dev.min(), u[np.argmin(dev)])
+    if swivel == T["swivel_deg"]:                                 # Table 1: no flags, the tooth is reproduced
+        assert np.isfinite(dev).all() and np.abs(dev).max() <= 1e-3, np.abs(dev).max()
+
+
+def test_corners_of_sections():
+    pts, u, tg = arc_tooth_section("S3").corners()
+    _, tooth, _ = arc_tooth_profile()
+    assert len(pts) == 8                                          # 4 grooves x 2 edges
+    assert np.allclose(np.hypot(pts[:, 0], pts[:, 1]), T["R2"])
+    assert sorted(u[tg]) == pytest.approx([0.0, tooth[1]])        # the tooth's edges, on its side
+    assert len(arc_tooth_section("S1").corners()[0]) == 8         # spline knots are not corners
+    rot = builtin_by_name("nilson-male", scale=100.0)
+    assert len(section_from_profile(rot.profile).corners()[0]) == 0
+
+
+def test_multi_start_search_finds_a_narrow_deeper_minimum():
+    """Two minima: a wide one whose grid samples are lowest and a narrow, deeper one between grid
+    samples; the plain search (one start) refines the wrong one."""
+    from flank_addon.formed_cutter import _search, _subdivide
+
+    def f(Y, Z=None):
+        return np.minimum(10 + 0.01 * (Y + 30) ** 2, 9.0 + 40.0 * np.abs(Y - 31.3))
+
+    Yb = np.array([64.0])
+    grid = np.linspace(-1, 1, 65)[None, :] * Yb[:, None]
+    Lg = f(grid)
+    assert Lg.min() > 9.5                                          # the grid does not see the deep one
+    _, one = _subdivide(f, Yb, 1e-6, grid, Lg)
+    y, best = _search(f, np.zeros(1), Yb, 1e-6, grid, Lg)
+    assert one[0] > 9.9 and abs(best[0] - 9.0) < 1e-4 and abs(y[0] - 31.3) < 1e-5
 
 
 def test_s3_matches_contact_equation_within_a_nanometre():
