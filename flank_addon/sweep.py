@@ -149,10 +149,13 @@ class MeridianPart:
         origin, direction: axis point (h = 0) and axis direction.
         meridian: (K, 2) rows (h, R) with h strictly increasing and R >= 0 (e.g. the axial profile
             (Z_u, R_u) of a formed disc cutter, s004).
-    The 2D distance uses the nearest boundary vertices (KD-tree) and their adjacent edges, so the
-    boundary is resampled to a spacing well below its features (``spacing``, default 1/400 of the
-    meridian's extent); the sign is the exact point-in-region test rho <= R(h).
+    The 2D distance is exact: the boundary is resampled so no edge is longer than ``spacing``
+    (default 1/400 of the meridian's extent), the nearest foot lies on an edge next to one of the
+    vertices within (nearest distance + spacing) of the query, and rows where the k nearest vertices
+    do not provably include those fall back to all edges.  The sign is the exact test rho <= R(h).
     """
+
+    K_NEAR = 8
 
     def __init__(self, origin, direction, meridian, spacing=None):
         m = np.asarray(meridian, float)
@@ -175,31 +178,50 @@ class MeridianPart:
         pts = [ring[i] + np.linspace(0, 1, max(1, int(np.ceil(l / self.spacing))), endpoint=False)[:, None] * seg[i]
                for i, l in enumerate(seg_len) if l > 0]
         self.boundary = np.vstack(pts + [ring[-1:]])    # open polyline
+        self.edge_max = float(np.linalg.norm(np.diff(self.boundary, axis=0), axis=1).max())
         self.tree = cKDTree(self.boundary)
         self.golden_iters = 30
-        thickness = h1 - h0
-        self.feature = max(0.25 * min(thickness, m[:, 1].max()), 1e-3 * extent)
-        rmax = float(m[:, 1].max())
+        # time sampling must resolve the thinnest part of the tool the helix can pass through
+        thin = m[m[:, 1] > 1e-3 * extent, 1]
+        r_small = float(thin.min()) if len(thin) else 1e-3 * extent
+        self.feature = float(np.clip(0.5 * r_small, 1e-3 * extent, max(0.25 * (h1 - h0), 1e-3 * extent)))
+        hh = np.linspace(h0, h1, 4001)
+        rr = np.interp(hh, m[:, 0], m[:, 1])
+        rr = np.maximum(np.maximum(rr, np.r_[rr[1:], rr[-1]]), np.r_[rr[0], rr[:-1]])   # upper envelope
+
+        def radius_over(s, ds):
+            sel = (hh >= h0 + (s - ds) * (h1 - h0) - 1e-12) & (hh <= h0 + (s + ds) * (h1 - h0) + 1e-12)
+            return float(rr[sel].max()) + (h1 - h0) / 4000.0    # grid spacing covers the slope
         self.bounds = _sphere_chain(self.origin + h0 * self.axis, self.origin + h1 * self.axis,
-                                    lambda s, ds: rmax, max(rmax, 1e-9))
+                                    radius_over, max(float(m[:, 1].max()), 1e-9))
 
     def radius_at(self, h):
         return np.interp(h, self.meridian[:, 0], self.meridian[:, 1], left=-1.0, right=-1.0)
+
+    def _edge_distance(self, p, a_idx):
+        a = self.boundary[a_idx]
+        e = self.boundary[a_idx + 1] - a
+        u = np.clip(np.einsum("...j,...j->...", p - a, e) / np.einsum("...j,...j->...", e, e), 0.0, 1.0)
+        return np.linalg.norm(p - a - u[..., None] * e, axis=-1)
 
     def signed_distance(self, q):
         h, rho = _axial(q, self.origin, self.axis)
         shape = h.shape
         p = np.c_[h.ravel(), rho.ravel()]
         nb = len(self.boundary)
-        _, near = self.tree.query(p, k=min(4, nb))
-        near = near.reshape(len(p), -1)
+        k = min(self.K_NEAR, nb)
+        dist, near = self.tree.query(p, k=k)
+        dist, near = dist.reshape(len(p), -1), near.reshape(len(p), -1)
         best = np.full(len(p), np.inf)
-        for j in range(near.shape[1]):
+        for j in range(k):
             for a_idx in (np.minimum(near[:, j], nb - 2), np.maximum(near[:, j] - 1, 0)):
-                a = self.boundary[a_idx]
-                e = self.boundary[a_idx + 1] - a
-                u = np.clip(np.einsum("ij,ij->i", p - a, e) / np.einsum("ij,ij->i", e, e), 0.0, 1.0)
-                best = np.minimum(best, np.linalg.norm(p - a - u[:, None] * e, axis=1))
+                best = np.minimum(best, self._edge_distance(p, a_idx))
+        # the foot edge has an end vertex within best + edge_max / 2; if the k-th nearest vertex is
+        # farther than that, all such vertices were examined.  Otherwise check every edge.
+        unsure = np.flatnonzero((dist[:, -1] <= best + 0.5 * self.edge_max) & (k < nb))
+        for chunk in np.array_split(unsure, max(1, len(unsure) // 512)) if len(unsure) else ():
+            d_all = self._edge_distance(p[chunk, None, :], np.arange(nb - 1)[None, :])
+            best[chunk] = d_all.min(axis=1)
         inside = p[:, 1] <= self.radius_at(p[:, 0])
         return np.where(inside, -best, best).reshape(shape)
 

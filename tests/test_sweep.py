@@ -171,3 +171,26 @@ def test_meridian_tool_deviation_matches_dense_point_in_solid_brute_force():
         assert not removed(np.r_[p + (d - 2e-4) * n, 0.0])    # material just below the surface
         assert removed(np.r_[p + (d + 2e-4) * n, 0.0])        # cut just above it
     assert checked >= 8 and (dev < 0).sum() >= 2 and (dev[np.isfinite(dev)] > 0).sum() >= 2
+
+
+def test_meridian_part_is_exact_with_clustered_vertices():
+    """Tiny segments next to long ones (e.g. a graded tool tip): the nearest vertices need not touch
+    the nearest edge; the distance must still be exact."""
+    from flank_addon.sweep import MeridianPart
+
+    h = np.r_[np.linspace(0.0, 0.01, 60), 0.5, 1.0]
+    r = np.r_[0.02 + 0.3 * h[:60], 0.4, 0.05]
+    mer = np.c_[h, r]
+    part = MeridianPart([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], mer, spacing=0.2)
+    rng = np.random.default_rng(9)
+    q = np.c_[rng.uniform(-0.3, 0.3, (5000, 2)), rng.uniform(-0.2, 1.2, 5000)]
+    P = np.c_[q[:, 2], np.hypot(q[:, 0], q[:, 1])]
+    poly = np.vstack([[h[0], 0.0], mer, [h[-1], 0.0]])
+    # independent reference: dense points on every boundary edge
+    dense = np.vstack([poly[i] + np.linspace(0, 1, 4001)[:, None] * (poly[i + 1] - poly[i])
+                       for i in range(len(poly) - 1)])
+    from scipy.spatial import cKDTree
+    ref, _ = cKDTree(dense).query(P)
+    d = part.signed_distance(q)
+    assert np.max(np.abs(np.abs(d) - ref)) < 2e-4      # reference spacing <= 1.3e-4
+    assert np.all(np.abs(d) <= ref + 1e-12)             # never worse than any boundary sample
