@@ -150,9 +150,9 @@ class MeridianPart:
         meridian: (K, 2) rows (h, R) with h strictly increasing and R >= 0 (e.g. the axial profile
             (Z_u, R_u) of a formed disc cutter, s004).
     The 2D distance is exact: the boundary is resampled so no edge is longer than ``spacing``
-    (default 1/400 of the meridian's extent), the nearest foot lies on an edge next to one of the
-    vertices within (nearest distance + spacing) of the query, and rows where the k nearest vertices
-    do not provably include those fall back to all edges.  The sign is the exact test rho <= R(h).
+    (default: 1/400 of the meridian's extent or twice the median edge, the smaller), the nearest
+    foot lies on an edge next to a vertex within sqrt(d^2 + spacing^2 / 4) of the query, and rows
+    where the k nearest vertices do not provably include those fall back to all edges.  The sign is the exact test rho <= R(h).
     """
 
     K_NEAR = 8
@@ -172,9 +172,12 @@ class MeridianPart:
         # the boundary in the half-plane: end face, meridian, end face (the axis is not boundary)
         ring = np.vstack([[h0, 0.0], m, [h1, 0.0]])
         extent = max(h1 - h0, m[:, 1].max())
-        self.spacing = float(spacing) if spacing else extent / 400.0
         seg = np.diff(ring, axis=0)
         seg_len = np.linalg.norm(seg, axis=1)
+        # long edges are split to about the typical edge length, so the k nearest vertices of a
+        # query usually bracket its foot (see signed_distance)
+        typical = 2.0 * float(np.median(seg_len[seg_len > 0]))
+        self.spacing = float(spacing) if spacing else min(extent / 400.0, typical)
         pts = [ring[i] + np.linspace(0, 1, max(1, int(np.ceil(l / self.spacing))), endpoint=False)[:, None] * seg[i]
                for i, l in enumerate(seg_len) if l > 0]
         self.boundary = np.vstack(pts + [ring[-1:]])    # open polyline
@@ -216,9 +219,11 @@ class MeridianPart:
         for j in range(k):
             for a_idx in (np.minimum(near[:, j], nb - 2), np.maximum(near[:, j] - 1, 0)):
                 best = np.minimum(best, self._edge_distance(p, a_idx))
-        # the foot edge has an end vertex within best + edge_max / 2; if the k-th nearest vertex is
-        # farther than that, all such vertices were examined.  Otherwise check every edge.
-        unsure = np.flatnonzero((dist[:, -1] <= best + 0.5 * self.edge_max) & (k < nb))
+        # the foot edge has an end vertex within sqrt(best^2 + (edge_max / 2)^2) (the foot's offset
+        # is perpendicular to its edge); if the k-th nearest vertex is farther, all such vertices
+        # were examined.  Otherwise (clusters of tiny edges) check every edge.
+        unsure = np.flatnonzero((dist[:, -1] <= np.sqrt(best ** 2 + 0.25 * self.edge_max ** 2) * (1 + 1e-12))
+                                & (k < nb))
         for chunk in np.array_split(unsure, max(1, len(unsure) // 512)) if len(unsure) else ():
             d_all = self._edge_distance(p[chunk, None, :], np.arange(nb - 1)[None, :])
             best[chunk] = d_all.min(axis=1)
