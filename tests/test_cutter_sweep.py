@@ -40,3 +40,16 @@ def test_flagged_regions_show_in_the_sweep_and_nothing_is_overcut(swivel):
     assert np.abs(dev[~flagged]).max(initial=0.0) <= 1 * UM  # unflagged: on the design surface
     # flagged uncut ranges really are left standing (interior points; the range ends touch)
     assert np.mean(dev[flagged] > 10 * UM) > 0.8
+
+
+def test_table1_tooth_corners_within_1um():
+    """The tooth ends meet the blank cylinder at sharp corners, where the meridian curves most:
+    measured along the tooth's own normal the swept cutter still meets them within 1 um."""
+    prof, tooth, _ = fc.arc_tooth_profile()
+    Z, R, setup = fc.cutter_meridian(prof, LEAD, A, 31.0, tooth=tooth)
+    tool = RevolvingTool([MeridianPart(setup.axis_point, setup.axis_direction, np.c_[Z, R])])
+    u = np.array([tooth[0], tooth[1]])
+    inward = np.array([tooth[0] + 1e-9, tooth[1] - 1e-9])        # the tooth side of each corner
+    dev = machined_deviation([tool], prof.eval(u), prof.outward_normal(inward), LEAD / (2 * np.pi), "right",
+                             max_deviation=5.0)
+    assert np.abs(dev).max() <= 1 * UM, dev
