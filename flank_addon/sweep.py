@@ -156,6 +156,7 @@ class MeridianPart:
     """
 
     K_NEAR = 8
+    expensive = True     # worth pruning time samples by bounding spheres first
 
     def __init__(self, origin, direction, meridian, spacing=None):
         m = np.asarray(meridian, float)
@@ -184,19 +185,20 @@ class MeridianPart:
         self.edge_max = float(np.linalg.norm(np.diff(self.boundary, axis=0), axis=1).max())
         self.tree = cKDTree(self.boundary)
         self.golden_iters = 30
-        # time sampling must resolve the thinnest part of the tool the helix can pass through
-        thin = m[m[:, 1] > 1e-3 * extent, 1]
-        r_small = float(thin.min()) if len(thin) else 1e-3 * extent
-        self.feature = float(np.clip(0.5 * r_small, 1e-3 * extent, max(0.25 * (h1 - h0), 1e-3 * extent)))
+        # time sampling must resolve the thinner parts of the tool a helix can pass through; the
+        # radius at the lowest 5 % of the axis (not the minimum, which a rounded or pointed end
+        # would drive to zero) sets the step
         hh = np.linspace(h0, h1, 4001)
         rr = np.interp(hh, m[:, 0], m[:, 1])
+        r_small = max(float(np.quantile(rr, 0.05)), 1e-3 * extent)
+        self.feature = float(np.clip(0.5 * r_small, 1e-3 * extent, max(0.25 * (h1 - h0), 1e-3 * extent)))
         rr = np.maximum(np.maximum(rr, np.r_[rr[1:], rr[-1]]), np.r_[rr[0], rr[:-1]])   # upper envelope
 
         def radius_over(s, ds):
             sel = (hh >= h0 + (s - ds) * (h1 - h0) - 1e-12) & (hh <= h0 + (s + ds) * (h1 - h0) + 1e-12)
             return float(rr[sel].max()) + (h1 - h0) / 4000.0    # grid spacing covers the slope
         self.bounds = _sphere_chain(self.origin + h0 * self.axis, self.origin + h1 * self.axis,
-                                    radius_over, max(float(m[:, 1].max()), 1e-9))
+                                    radius_over, max(0.1 * float(m[:, 1].max()), 1e-9))
 
     def radius_at(self, h):
         return np.interp(h, self.meridian[:, 0], self.meridian[:, 1], left=-1.0, right=-1.0)
@@ -212,21 +214,25 @@ class MeridianPart:
         shape = h.shape
         p = np.c_[h.ravel(), rho.ravel()]
         nb = len(self.boundary)
-        k = min(self.K_NEAR, nb)
-        dist, near = self.tree.query(p, k=k)
-        dist, near = dist.reshape(len(p), -1), near.reshape(len(p), -1)
         best = np.full(len(p), np.inf)
-        for j in range(k):
-            for a_idx in (np.minimum(near[:, j], nb - 2), np.maximum(near[:, j] - 1, 0)):
-                best = np.minimum(best, self._edge_distance(p, a_idx))
+        rows = np.arange(len(p))
         # the foot edge has an end vertex within sqrt(best^2 + (edge_max / 2)^2) (the foot's offset
         # is perpendicular to its edge); if the k-th nearest vertex is farther, all such vertices
-        # were examined.  Otherwise (clusters of tiny edges) check every edge.
-        unsure = np.flatnonzero((dist[:, -1] <= np.sqrt(best ** 2 + 0.25 * self.edge_max ** 2) * (1 + 1e-12))
-                                & (k < nb))
-        for chunk in np.array_split(unsure, max(1, len(unsure) // 512)) if len(unsure) else ():
-            d_all = self._edge_distance(p[chunk, None, :], np.arange(nb - 1)[None, :])
-            best[chunk] = d_all.min(axis=1)
+        # were examined.  Rows in clusters of tiny edges retry with more neighbours, then all edges.
+        for k in (self.K_NEAR, 8 * self.K_NEAR, 64 * self.K_NEAR):
+            k = min(k, nb)
+            dist, near = self.tree.query(p[rows], k=k)
+            dist, near = dist.reshape(len(rows), -1), near.reshape(len(rows), -1)
+            near = np.concatenate([np.minimum(near, nb - 2), np.maximum(near - 1, 0)], axis=1)
+            best[rows] = self._edge_distance(p[rows, None, :], near).min(axis=1)
+            if k == nb:
+                rows = rows[:0]
+                break
+            rows = rows[dist[:, -1] <= np.sqrt(best[rows] ** 2 + 0.25 * self.edge_max ** 2) * (1 + 1e-12)]
+            if not len(rows):
+                break
+        for chunk in np.array_split(rows, max(1, len(rows) // 256)) if len(rows) else ():
+            best[chunk] = self._edge_distance(p[chunk, None, :], np.arange(nb - 1)[None, :]).min(axis=1)
         inside = p[:, 1] <= self.radius_at(p[:, 0])
         return np.where(inside, -best, best).reshape(shape)
 
@@ -297,6 +303,7 @@ class RevolvingTool:
         # a sharp edge makes D(x) kinked in t near the edge's trace; parabolic polish cannot
         # converge there, golden section must shrink the bracket further (~1e-9 instead of ~1e-5)
         self.golden_iters = max(getattr(p, "golden_iters", 12) for p in self.parts)
+        self.expensive = any(getattr(p, "expensive", False) for p in self.parts)
         self.z_range = (float((self.bound_centres[:, 2] - self.bound_radii).min()),
                         float((self.bound_centres[:, 2] + self.bound_radii).max()))
 
@@ -304,6 +311,13 @@ class RevolvingTool:
         d = self.parts[0].signed_distance(q)
         for p in self.parts[1:]:
             d = np.minimum(d, p.signed_distance(q))
+        return d
+
+    def lower_bound(self, q):
+        """A lower bound of signed_distance (q (..., 3)): distance to the nearest bounding sphere."""
+        d = np.full(np.shape(q)[:-1], np.inf)
+        for c, r in zip(self.bound_centres, self.bound_radii):
+            d = np.minimum(d, np.linalg.norm(q - c, axis=-1) - r)
         return d
 
     def time_windows(self, x, v0, handedness, margin):
@@ -494,7 +508,18 @@ def helical_distance(tool, points, v0, handedness="right", step=None, iters=None
     n = int(np.clip(np.max((t_hi - t_lo) * speed / step), 8, 4000)) + 1
     s = np.linspace(0.0, 1.0, n)
     T = t_lo[:, None] + (t_hi - t_lo)[:, None] * s[None, :]
-    D = tool.signed_distance(screw_motion(x[:, None, :], T, v0, handedness))
+    Q = screw_motion(x[:, None, :], T, v0, handedness)
+    if getattr(tool, "expensive", False):
+        # bounding spheres give a cheap lower bound; a sample whose bound exceeds the exact value
+        # at the most promising sample can never be the minimum, so it is not evaluated exactly
+        lb = tool.lower_bound(Q)
+        rows = np.arange(len(x))
+        upper = tool.signed_distance(Q[rows, np.argmin(lb, axis=1)])
+        todo = lb <= upper[:, None]
+        D = np.full(lb.shape, np.inf)
+        D[todo] = tool.signed_distance(Q[todo])
+    else:
+        D = tool.signed_distance(Q)
     k = np.argmin(D, axis=1)
     rows = np.arange(len(x))
     a = T[rows, np.maximum(k - 1, 0)]
