@@ -536,7 +536,7 @@ def radial_function(r, counted, variant="min", cap=None):
 
 
 def build_path(ev, x, m=400, variant="min", radii_fn=None, extent=None, flanks=(0, 1), tag="path",
-               n_exact=1201, meridian=True, tol=4e-9):
+               n_exact=1201, meridian=True, tol=5e-10):
     """One tool position: exact distances at ``n_exact`` equally spaced axis nodes (feet on the
     trimmed and on the untrimmed flanks, derivatives d r_k / d lam = (a - b_k)/r_k . da/dlam), cubic
     Hermite interpolation in between, radii by ``variant`` (or ``radii_fn(lam, r, counted, cap)``),
@@ -588,12 +588,21 @@ def build_path(ev, x, m=400, variant="min", radii_fn=None, extent=None, flanks=(
     plan_r = radii_at(s_plan)[0]
     mer = None
     if meridian:
-        sd = _refine_samples(_graded_samples(0.0, s[-1], lambda q: radii_at(q)[0], tol=tol, n_max=4000),
-                             lambda q: radii_at(q)[0], tol)
-        mer = sphere_union_meridian(sd, radii_at(sd)[0], tol=tol)
-        # the polyline's chords lie up to ~tol outside the true tool where the meridian is concave:
-        # shrink it by tol so that the plan's tool never cuts deeper than the designed one
-        mer[1:-1, 1] = np.maximum(mer[1:-1, 1] - tol, 0.0)
+        L = float(s[-1])
+        eps = 1e-7 * L
+
+        def r_and_dr(q):
+            # r' by central differences of the Hermite pieces (exact for the selected branch away
+            # from kinks: the radial functions are selections and averages of smooth distances)
+            q = np.asarray(q, float)
+            rp = radii_at(np.minimum(q + eps, L))[0]
+            rm = radii_at(np.maximum(q - eps, 0.0))[0]
+            return radii_at(q)[0], (rp - rm) / (np.minimum(q + eps, L) - np.maximum(q - eps, 0.0))
+
+        sd = _contact_samples(r_and_dr, np.r_[s, s_plan], tol)
+        rd, drd = r_and_dr(sd)
+        mer = sphere_union_meridian(sd, rd, tol=tol, dr=drd, end_tol=1e-5 * v.outer_radius)
+        mer = _shrink_concave(mer, tol)
     a_plan, _ = axis_points(x, lo + s_plan / speed, v.theta, v.outer_radius)
     return ToolPath(x=np.array([x[0], x[1] * v.outer_radius, x[2]]), lam=lam, points=ar.points, radii=node_r, r=ar.r, counted=counted,
                     errors=errors, flanks=tuple(flanks), plan_points=a_plan, plan_radii=plan_r, meridian=mer,
@@ -601,43 +610,110 @@ def build_path(ev, x, m=400, variant="min", radii_fn=None, extent=None, flanks=(
 
 
 # ============================================================================ exact tool meridian
-def sphere_union_meridian(s, r, tol=2e-10, window=64):
+class SphereUnion:
+    """Exact meridian R(h) of the union of spheres centred at axial positions s_j with radii r_j.
+
+    R(h)^2 = max_j (r_j^2 - (h - s_j)^2) = max_j (2 s_j h + r_j^2 - s_j^2) - h^2: the upper envelope
+    of N lines in h (slopes 2 s_j), built once by the monotone convex-hull sweep, answers every
+    query with one binary search -- the maximum over *all* spheres, not a window of neighbours."""
+
+    def __init__(self, s, r):
+        s = np.asarray(s, float)
+        r = np.asarray(r, float)
+        order = np.argsort(s, kind="stable")
+        m, c = 2.0 * s[order], r[order] ** 2 - s[order] ** 2
+        self.s, self.r = s[order], r[order]
+        hull = []          # indices into m, c of the lines on the upper envelope, slopes increasing
+        xs = []            # x where hull[k] takes over from hull[k - 1]
+        for j in range(len(m)):
+            if hull and m[j] == m[hull[-1]]:
+                if c[j] <= c[hull[-1]]:
+                    continue
+                hull.pop()
+                xs.pop()
+            while hull:
+                k = hull[-1]
+                x = (c[k] - c[j]) / (m[j] - m[k])
+                if len(hull) > 1 and x <= xs[-1]:
+                    hull.pop()
+                    xs.pop()
+                    continue
+                break
+            xs.append(-np.inf if not hull else (c[hull[-1]] - c[j]) / (m[j] - m[hull[-1]]))
+            hull.append(j)
+        self.hull = np.array(hull)
+        self.breaks = np.array(xs[1:])
+        self.m, self.c = m[self.hull], c[self.hull]
+
+    def which(self, h):
+        """Index (into the sorted spheres) of the sphere forming the union's boundary at h."""
+        return self.hull[np.searchsorted(self.breaks, np.asarray(h, float), side="right")]
+
+    def __call__(self, h):
+        h = np.asarray(h, float)
+        k = np.searchsorted(self.breaks, h, side="right")
+        return np.sqrt(np.maximum(self.m[k] * h + self.c[k] - h * h, 0.0))
+
+
+def sphere_union_meridian(s, r, tol=2e-10, dr=None, end_tol=None, grade=None):
     """Meridian (h, R) of the union of spheres centred at axial positions s (increasing) with radii r.
 
     The boundary of a union of spheres on an axis is R(h) = max_j sqrt(r_j^2 - (h - s_j)^2).  Where r
     is smooth it is the envelope (contact circle h = s - r r', R = r sqrt(1 - r'^2), s001 §3); at
     kinks of r it is a spherical zone (concave kink) or a crease (convex kink), and the end caps are
-    sphere caps.  Candidates: the contact points of every sphere plus dense cap points; each is
-    corrected to the exact max over the neighbouring spheres, then sorted by h.  ``s`` must be dense
-    enough that consecutive contact points are within sqrt(8 tol / curvature) of each other.
+    sphere caps.  Candidates: the contact points of every sphere (``dr`` = r' if known exactly, else
+    finite differences), the exposed parts of the two end caps (from the tip to the first sphere's
+    contact circle, from the last sphere's contact circle to the end) and arc points of any sphere
+    whose visible zone is wider than the chord allowance; each candidate's R is the exact maximum over
+    *all* spheres (:class:`SphereUnion`), so every vertex lies on the union's boundary.  The cap
+    at the shank end (beyond the last contact circle: it mills nothing) may be coarser, ``end_tol``
+    (its chords stay inside the sphere).  ``grade`` (e.g. 1.3) limits the ratio of neighbouring
+    segment lengths (fewer all-edge fallbacks in :class:`sweep.MeridianPart`, more vertices).
+    ``s`` must be dense enough that consecutive contact points are within sqrt(8 tol / curvature).
     Returns (K, 2) rows (h, R), h strictly increasing, R >= 0, first and last R = 0.
     """
     s = np.asarray(s, float)
     r = np.asarray(r, float)
-    dr = np.gradient(r, s)
+    dr = np.gradient(r, s) if dr is None else np.asarray(dr, float)
+    end_tol = tol if end_tol is None else float(end_tol)
+    U = SphereUnion(s, r)
     ok = np.abs(dr) < 1.0
-    sin = np.clip(dr, -1.0, 1.0)
-    h_c = (s - r * sin)[ok]
-    j_c = np.flatnonzero(ok)
-    # caps: first and last spheres, angular steps giving chord errors below tol
+    h_c = (s - r * dr)[ok]
+    # exposed end caps: sphere 0 from its tip (angle 0) to its contact circle (cos = r'_0), the last
+    # sphere from its contact circle (cos = -r'_N) to its end; chord error below tol
     caps = []
-    for j, sign in ((0, -1.0), (len(s) - 1, 1.0)):
-        step = math.sqrt(8 * tol / max(r[j], 1e-3 * float(r.max()))) if r[j] > 0 else 1.0
-        n = int(min(max(8, (math.pi / 2) / step), 20000))
-        th = np.linspace(0.0, math.pi / 2, n)
-        caps.append((s[j] + sign * r[j] * np.sin(th), np.full(n, j)))
-    h = np.concatenate([h_c, caps[0][0], caps[1][0]])
-    jj = np.concatenate([j_c, caps[0][1], caps[1][1]]).astype(int)
-    # exact max over a window of neighbouring spheres (the maximiser of a smooth union is the
-    # contact sphere itself; near kinks and caps it is one of its neighbours)
-    offs = np.arange(-window, window + 1)
-    J = np.clip(jj[:, None] + offs[None, :], 0, len(s) - 1)
-    val = r[J] ** 2 - (h[:, None] - s[J]) ** 2
-    R = np.sqrt(np.maximum(val.max(axis=1), 0.0))
-    order = np.argsort(h, kind="stable")
-    h, R = h[order], R[order]
+    for j, sign, cosc, ctol in ((0, -1.0, dr[0], tol), (len(s) - 1, 1.0, -dr[-1], end_tol)):
+        if r[j] <= 0:
+            continue
+        phi_c = math.acos(float(np.clip(cosc, -1.0, 1.0)))
+        step = math.sqrt(8 * max(ctol, tol) / r[j])
+        n = int(min(max(8, phi_c / step), 200000))
+        ph = np.linspace(0.0, phi_c, n)
+        caps.append(s[j] + sign * r[j] * np.cos(ph))
+    # zones: spheres whose visible h-interval is wide (kinks of r) get arc points
+    j_vis = U.hull
+    lo_h = np.r_[s[0] - r[0], U.breaks]
+    hi_h = np.r_[U.breaks, s[-1] + r[-1]]
+    # (a visible interval without a contact point in its middle half: where r has a kink the union is
+    # that sphere's arc between the neighbouring contact circles, not an envelope)
+    zones = []
+    hs = np.sort(h_c)
+    for j, a, b in zip(j_vis, lo_h, hi_h):
+        if j == 0 or j == len(s) - 1:
+            continue            # the end spheres' exposed parts are the caps above
+        a, b = max(a, s[j] - r[j]), min(b, s[j] + r[j])
+        step = math.sqrt(8 * tol * max(r[j], 1e-300))
+        if b - a > step:
+            q = 0.25 * (b - a)
+            if np.searchsorted(hs, b - q) > np.searchsorted(hs, a + q):
+                continue
+            n = int(min(np.ceil((b - a) / step) + 1, 200000))
+            zones.append(np.linspace(a, b, n))
+    h = np.unique(np.concatenate([h_c] + caps + zones + [[s[0] - r[0], s[-1] + r[-1]]]))
+    h = h[(h >= s[0] - r[0]) & (h <= s[-1] + r[-1])]
     keep = np.r_[True, np.diff(h) > 1e-13 * max(1.0, float(np.ptp(h)))]
-    h, R = h[keep], R[keep]
+    h = h[keep]
+    R = U(h)
     R[0] = R[-1] = 0.0
     # thin clusters far below the chord-error spacing (contact points crowd at the tool tip)
     d_min = 0.25 * math.sqrt(8 * tol * max(float(r.min()), 1e-3 * float(r.max())))
@@ -646,7 +722,7 @@ def sphere_union_meridian(s, r, tol=2e-10, window=64):
     keep[[0, -1]] = True
     arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))]
     keep[np.unique(np.searchsorted(arc, np.arange(0.0, arc[-1], d_min)))] = True
-    return _graded_polyline(P[keep], ratio=1.3)
+    return _graded_polyline(P[keep], ratio=grade) if grade else P[keep]
 
 
 def _graded_polyline(P, ratio=1.1):
@@ -707,6 +783,54 @@ def _refine_samples(s, r_of, tol, n_max=60000):
     ds = np.diff(s)
     frac = np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k)
     return np.r_[np.repeat(s[:-1], k) + frac * np.repeat(ds / k, k), s[-1]]
+
+
+def _contact_samples(r_and_dr, s_init, tol, max_rounds=40, n_max=400000):
+    """Axial samples whose envelope contact points (h, R) = (s - r r', r sqrt(1 - r'^2)) are close
+    enough that every chord of the contact polyline is within ~``tol`` of the envelope: a segment of
+    length L between directions turning by dtheta at its ends has sagitta ~ L dtheta / 8; segments
+    above ``tol`` (and segments next to a point where |r'| >= 1) are bisected in s until none is
+    left (or the s spacing reaches 1e-12 of the extent)."""
+    s = np.unique(np.asarray(s_init, float))
+    span = float(s[-1] - s[0])
+    for _ in range(max_rounds):
+        r, dr = r_and_dr(s)
+        bad = np.abs(dr) >= 1.0
+        d = np.clip(dr, -1.0, 1.0)
+        h, R = s - r * d, r * np.sqrt(1.0 - d * d)
+        dh, dR = np.diff(h), np.diff(R)
+        Lseg = np.hypot(dh, dR)
+        ang = np.arctan2(dR, dh)
+        turn = np.abs(np.angle(np.exp(1j * np.diff(ang))))
+        t_seg = np.maximum(np.r_[0.0, turn], np.r_[turn, 0.0])
+        sag = Lseg * t_seg / 8.0
+        # backwards or jumping contact points (hidden parts, kinks): refine them too
+        sag = np.where((dh < 0) | bad[:-1] | bad[1:], np.maximum(sag, Lseg), sag)
+        split = (sag > tol) & (np.diff(s) > 1e-12 * span)
+        if not split.any() or len(s) + split.sum() > n_max:
+            break
+        s = np.sort(np.r_[s, 0.5 * (s[:-1] + s[1:])[split]])
+    return s
+
+
+def _shrink_concave(mer, tol):
+    """Pull the vertices of concave stretches of a meridian polyline (R'' > 0, where its chords lie
+    outside the smooth tool by up to their sagitta) inwards by that sagitta (at most ``tol``);
+    convex stretches keep their exact vertices (chords inside the tool)."""
+    P = mer.copy()
+    if len(P) < 3:
+        return P
+    d = np.diff(P, axis=0)
+    L = np.hypot(d[:, 0], d[:, 1])
+    ang = np.arctan2(d[:, 1], d[:, 0])
+    turn = np.angle(np.exp(1j * np.diff(ang)))          # > 0: turning left = concave for R(h)
+    sag = np.zeros(len(P))
+    conc = np.maximum(turn, 0.0)
+    # a vertex next to a concave turn: the adjacent chords overshoot by ~ L * turn / 8
+    sag[1:-1] = np.minimum(np.maximum(L[:-1], L[1:]) * conc / 4.0, tol)
+    sag[1:-1] = np.maximum(sag[1:-1], np.r_[0.0, sag[1:-2]] * 0.0)
+    P[1:-1, 1] = np.maximum(P[1:-1, 1] - sag[1:-1], 0.0)
+    return P
 
 
 # ============================================================================ two paths, cones
