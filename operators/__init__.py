@@ -13,6 +13,7 @@ from .analyze import FLANK_OT_analyze_rotor
 from .verify import FLANK_OT_verify_plan
 from .paraboloid import FLANK_OT_paraboloid_groove
 from .formed_cutter import FLANK_OT_formed_cutter
+from .double_flank import FLANK_OT_plan_double_flank
 
 classes = (
     FLANK_PG_settings,
@@ -21,7 +22,9 @@ classes = (
     FLANK_OT_verify_plan,
     FLANK_OT_paraboloid_groove,
     FLANK_OT_formed_cutter,
+    FLANK_OT_plan_double_flank,
 )
 
 __all__ = ["classes", "FLANK_PG_settings", "FLANK_OT_generate_rotor", "FLANK_OT_analyze_rotor",
-           "FLANK_OT_verify_plan", "FLANK_OT_paraboloid_groove", "FLANK_OT_formed_cutter"]
+           "FLANK_OT_verify_plan", "FLANK_OT_paraboloid_groove", "FLANK_OT_formed_cutter",
+           "FLANK_OT_plan_double_flank"]

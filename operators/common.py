@@ -208,3 +208,48 @@ def screw_matrix(np, t, v0, hand):
     m[0, 0], m[0, 1], m[1, 0], m[1, 1] = c, -s, s, c
     m[2, 3] = v0 * t
     return m
+
+
+RESULTS_COLLECTION = "Flank Results"
+
+
+def results_parent(bpy, context, name=RESULTS_COLLECTION):
+    """The parent collection of operator results, linked to the scene -> (collection, created).
+
+    An existing collection of that name is reused (and linked to the scene if it is not); the caller
+    removes a created one again if its own work fails."""
+    coll = bpy.data.collections.get(name)
+    created = coll is None
+    if created:
+        coll = bpy.data.collections.new(name)
+    scene_root = context.scene.collection
+    if coll.name not in scene_root.children:
+        try:
+            scene_root.children.link(coll)
+        except Exception:
+            if created:
+                bpy.data.collections.remove(coll)
+            raise
+    return coll, created
+
+
+def similarity_parts(np, matrix, rel_tol=1e-5):
+    """Split a 4x4 matrix into (exact float64 similarity (4, 4), uniform scale s) or an error string.
+
+    Blender keeps matrices in single precision: the rotation is re-orthonormalised (polar
+    decomposition) so that files validated to 1e-9 accept it, and the scale is rounded to 7
+    significant digits; non-uniform or mirroring scales are refused."""
+    M = np.asarray(matrix, dtype=np.float64)
+    A = M[:3, :3]
+    det = float(np.linalg.det(A))
+    if not np.isfinite(M).all() or det <= 0.0:
+        return "its matrix is singular or mirrored (determinant {:.6g})".format(det)
+    U, S, Vt = np.linalg.svd(A)
+    s = float(np.cbrt(np.prod(S)))
+    if float(S.max() - S.min()) > rel_tol * s:
+        return "its scale is not uniform (singular values {})".format(", ".join("{:.6g}".format(v) for v in S))
+    s = float("{:.7g}".format(s))   # single-precision matrix: the decimal scale that was typed
+    out = np.eye(4)
+    out[:3, :3] = s * (U @ Vt)
+    out[:3, 3] = M[:3, 3]
+    return out, s

@@ -142,10 +142,68 @@ def formed_cutter_props():
     )
 
 
+DF_VARIANT_ITEMS = (
+    ("min", "Minimum", "Radial function r = min(r1, r2) (s001 Eq. (14)): never overcuts"),
+    ("avg", "Average", "Radial function r = (r1 + r2) / 2 (s001 Eq. (16))"),
+    ("one-sided-1", "One-Sided 1", "r = r1: exact on flank 1 (s001 Eq. (17))"),
+    ("one-sided-2", "One-Sided 2", "r = r2: exact on flank 2 (s001 Eq. (17))"),
+)
+DF_TOOL_ITEMS = (
+    ("custom", "Custom", "Custom-shaped revolving tool (envelope of spheres on the optimised axis, s001 Sec. 4)"),
+    ("cone", "Cone", "One conical tool (s001 Sec. 5)"),
+    ("cones", "Cones", "K conical segments along the axis (s001 Remark 5.3; K = Cones)"),
+)
+
+
+def double_flank_props():
+    """Fresh property definitions of flank.plan_double_flank (also the scene settings, prefixed 'df_').
+
+    No hard limits on valley, radii, rim, cones: bad values (NaN included) must reach the operator's
+    checks and the core and be reported with the value and the limit."""
+    return dict(
+        valley=IntProperty(name="Valley", description="Valley index K (flanks 2K and 2K+1 of the rotor)",
+                           default=0, soft_min=0, soft_max=12),
+        variant=EnumProperty(name="Radial Function", items=DF_VARIANT_ITEMS, default="min"),
+        tool=EnumProperty(name="Tool", items=DF_TOOL_ITEMS, default="custom"),
+        cones=IntProperty(name="Cones", description="Number K of conical segments for Tool = Cones (1..12)",
+                          default=3, soft_min=1, soft_max=12),
+        two_paths=BoolProperty(name="Two Paths", description="One custom tool on two axes, one per flank "
+                                                             "(s001 Sec. 4.3; custom tool only)", default=False),
+        radii=IntProperty(name="Radii m", description="Radii intervals per strip of the plan (m + 1 radii, "
+                                                      "2..5000)", default=400, soft_min=2, soft_max=5000),
+        rim=FloatProperty(name="Rim", description="Targeted fraction of the valley depth, from the valley "
+                                                  "bottom to the outer radius (core limits 0.2..0.98)",
+                          default=0.85, soft_min=0.2, soft_max=0.98, precision=3, step=1),
+        samples=IntProperty(name="Axis Samples", description="Axis samples of the optimisation of Phi "
+                                                             "(s001 Eq. (11))", default=100, soft_min=10,
+                            soft_max=1000),
+        simulate=BoolProperty(name="Simulate", description="Run the sweep simulation for the rotor-to-envelope "
+                                                           "errors and the Hausdorff distance (s001 Remark 4.5; "
+                                                           "can take a minute)", default=False),
+        tolerance=FloatProperty(name="Tolerance", description="Deviation colour band in scene units (green "
+                                                              "within), 0 = 1e-3 x rotor outer radius",
+                                default=0.0, min=0.0, precision=6),
+        envelope_rings=IntProperty(name="Envelope Rings", description="Rings of the envelope strips along the "
+                                                                      "rotor (screw positions)",
+                                   default=48, min=2, soft_max=1000),
+        animate=BoolProperty(name="Animate", description="Add a tool moving along the rotor (its screw motion "
+                                                         "relative to the rotor)", default=True),
+        frame_start=IntProperty(name="Start Frame", default=1),
+        frame_end=IntProperty(name="End Frame", default=250),
+        filepath=StringProperty(name="Plan File", description="Also write the flank-plan/1 JSON; empty = no "
+                                                              "file", subtype='FILE_PATH', default=""),
+        tool_csv=StringProperty(name="Tool CSV", description="Also write the tool profile as axial_position,"
+                                                             "radius rows (cones: one file per cone, _k "
+                                                             "suffix); empty = no file",
+                                subtype='FILE_PATH', default=""),
+    )
+
+
 def _prefixed(prefix, props):
     return {prefix + name: prop for name, prop in props.items()}
 
 
 class FLANK_PG_settings(bpy.types.PropertyGroup):
     __annotations__ = {**generator_props(), **_prefixed("verify_", verify_props()),
-                       **_prefixed("groove_", paraboloid_props()), **_prefixed("cutter_", formed_cutter_props())}
+                       **_prefixed("groove_", paraboloid_props()), **_prefixed("cutter_", formed_cutter_props()),
+                       **_prefixed("df_", double_flank_props())}

@@ -4,12 +4,15 @@ from .workpiece import FLANK_PT_workpiece
 from .verify import FLANK_PT_verify
 from .paraboloid import FLANK_PT_paraboloid
 from .formed_cutter import FLANK_PT_formed_cutter
+from .double_flank import FLANK_PT_double_flank
 
 classes = (
     FLANK_PT_workpiece,
     FLANK_PT_verify,
     FLANK_PT_paraboloid,
     FLANK_PT_formed_cutter,
+    FLANK_PT_double_flank,
 )
 
-__all__ = ["classes", "FLANK_PT_workpiece", "FLANK_PT_verify", "FLANK_PT_paraboloid", "FLANK_PT_formed_cutter"]
+__all__ = ["classes", "FLANK_PT_workpiece", "FLANK_PT_verify", "FLANK_PT_paraboloid", "FLANK_PT_formed_cutter",
+           "FLANK_PT_double_flank"]

@@ -21,8 +21,9 @@ REPO = "user_default"
 MODULE = "bl_ext.{}.{}".format(REPO, EXT_ID)
 CLASS_NAMES = ("FLANK_OT_generate_rotor", "FLANK_OT_analyze_rotor", "FLANK_OT_verify_plan",
                "FLANK_OT_paraboloid_groove", "FLANK_OT_formed_cutter", "FLANK_PT_workpiece", "FLANK_PT_verify",
-               "FLANK_PT_paraboloid", "FLANK_PT_formed_cutter")
-PANEL_NAMES = ("FLANK_PT_workpiece", "FLANK_PT_verify", "FLANK_PT_paraboloid", "FLANK_PT_formed_cutter")
+               "FLANK_PT_paraboloid", "FLANK_PT_formed_cutter", "FLANK_OT_plan_double_flank", "FLANK_PT_double_flank")
+PANEL_NAMES = ("FLANK_PT_workpiece", "FLANK_PT_verify", "FLANK_PT_paraboloid", "FLANK_PT_formed_cutter",
+               "FLANK_PT_double_flank")
 
 
 def install_extension(bpy, zip_path):
@@ -771,8 +772,298 @@ def scenario_formed_cutter(bpy, res, args):
         res["bad"][name] = dict(result=ret, error=err, new=[s1[i] - s0[i] for i in range(4)])
 
 
+# --------------------------------------------------------------------------- double flank (s001)
+
+def _snapshot4(bpy):
+    return (len(bpy.data.objects), len(bpy.data.meshes), len(bpy.data.collections), len(bpy.data.actions))
+
+
+def _df_run(bpy, np, **kw):
+    """Run flank.plan_double_flank; collect the result objects by role (JSON-able) and the live objects."""
+    s0 = _snapshot4(bpy)
+    t0 = time.perf_counter()
+    ret, err = _run_op(bpy.ops.flank.plan_double_flank, **kw)
+    s1 = _snapshot4(bpy)
+    out = dict(result=ret, error=err, seconds=time.perf_counter() - t0, new=[s1[i] - s0[i] for i in range(4)])
+    if ret is None:
+        return out, None
+    tool = bpy.context.active_object
+    coll = tool.users_collection[0]
+    parents = [c.name for c in bpy.data.collections if coll.name in c.children]
+    roles = {}
+    for ob in coll.objects:
+        roles.setdefault(ob.get("flank_df_role", "?"), []).append(ob.name)
+    out.update(active=tool.name, collection=coll.name, parents=parents,
+               parent_in_scene="Flank Results" in bpy.context.scene.collection.children,
+               roles={k: sorted(v) for k, v in roles.items()}, props=_obj_props(tool),
+               coll_props=sorted(k for k in coll.keys() if k.startswith("flank_df_")), log=err)
+    rotor = bpy.data.objects[out["props"]["flank_df_rotor"]]
+    out["rotor_props"] = sorted(k for k in rotor.keys() if k.startswith("flank_df_"))
+    return out, dict(tool=tool, coll=coll, rotor=rotor)
+
+
+def _df_compare(bpy, np, out, objs, res, rotor_world, scale, z_range, n_t, tol):
+    """Compare the Blender objects of one run against the core's result ``res`` (rotor frame)."""
+    verify = _core("verify")
+    coll = objs["coll"]
+    by_role = {}
+    for ob in coll.objects:
+        by_role.setdefault(ob.get("flank_df_role"), []).append(ob)
+    # envelope strips: deviation min/max, colours, placement
+    env = res.envelope_meshes(z_range, n_t)
+    strips = []
+    for ob in sorted(by_role.get("envelope", []), key=lambda o: (o["flank_df_path"], o["flank_df_flank"])):
+        k, f = ob["flank_df_path"], ob["flank_df_flank"] - 1
+        ev, ef, ed = env[k][f]
+        dev = _float_attr(np, ob.data, "deviation")
+        cols = _color_attr(np, ob.data, "error_color")
+        expect_cols = verify.deviation_colors(dev.astype(np.float64), tol)
+        world = _world(np, ob, _mesh_co(np, ob))
+        core_world = ev @ rotor_world[:3, :3].T + rotor_world[:3, 3]
+        active = ob.data.color_attributes.active_color
+        strips.append(dict(
+            path=k, flank=f + 1, vertices=len(dev), core_vertices=len(ev), faces=len(ob.data.polygons),
+            core_faces=len(ef), dev_min=float(dev.min()), dev_max=float(dev.max()),
+            core_min=float(np.nanmin(ed)) * scale, core_max=float(np.nanmax(ed)) * scale,
+            max_abs_diff=float(np.abs(dev - ed * scale).max()),
+            color_diff=float(np.abs(cols - expect_cols).max()), active_color=active.name if active else None,
+            placement_diff=float(np.abs(world - core_world).max()),
+            domain=ob.data.attributes["deviation"].domain, data_type=ob.data.attributes["deviation"].data_type))
+    out["envelopes"] = strips
+    # tools: vertices in world = rotor world @ core tool mesh; the origin at the axis start
+    tools = []
+    for ob in sorted(by_role.get("tool", []), key=lambda o: o["flank_df_path"]):
+        k = ob["flank_df_path"]
+        tv, _ = res.tool_mesh(k, n_around=48, max_rings=400)
+        world = _world(np, ob, _mesh_co(np, ob))
+        core_world = tv @ rotor_world[:3, :3].T + rotor_world[:3, 3]
+        a0 = np.asarray(res.paths[k].plan_points[0], dtype=np.float64)
+        a1 = np.asarray(res.paths[k].plan_points[-1], dtype=np.float64)
+        mw = np.array(ob.matrix_world, dtype=np.float64)
+        axis_dir = mw[:3, 2] / np.linalg.norm(mw[:3, 2])
+        expect_dir = rotor_world[:3, :3] @ (a1 - a0)
+        expect_dir /= np.linalg.norm(expect_dir)
+        tools.append(dict(path=k, vertices=len(world), core_vertices=len(tv),
+                          max_vertex_diff=float(np.abs(world - core_world).max()),
+                          origin=mw[:3, 3].tolist(), expect_origin=(rotor_world[:3, :3] @ a0 + rotor_world[:3, 3]).tolist(),
+                          axis_dot=float(axis_dir @ expect_dir), object_scale=float(np.cbrt(np.linalg.det(mw[:3, :3])))))
+    out["tools"] = tools
+    # error charts: max |error| (scene units) vs the core, x offset = error x scale
+    charts = []
+    for ob in sorted(by_role.get("error_chart", []), key=lambda o: o["flank_df_path"]):
+        k = ob["flank_df_path"]
+        s_ax, e1, e2 = res.errors_along_axis(k)
+        err = _float_attr(np, ob.data, "error")
+        flank = _float_attr(np, ob.data, "flank")
+        co = _mesh_co(np, ob)
+        x0 = ob["flank_df_chart_offset"] / scale
+        k_vis = ob["flank_df_error_scale"]
+        e_core = np.r_[e1, e2]
+        charts.append(dict(path=k, vertices=len(co), edges=len(ob.data.edges), faces=len(ob.data.polygons),
+                           max_abs=float(np.abs(err).max()),
+                           core_max_abs=float(np.nanmax(np.abs(e_core))) * scale,
+                           offset_diff=float(np.abs((co[:, 0] - x0) - k_vis * err / scale).max()),
+                           flanks=sorted(set(int(v) for v in flank)), error_scale=k_vis,
+                           finite_core=[int(np.isfinite(e1).sum()), int(np.isfinite(e2).sum())],
+                           flank_vertices=[int((flank == 1).sum()), int((flank == 2).sum())]))
+    out["charts"] = charts
+
+
+def scenario_double_flank(bpy, res, args):
+    """flank.plan_double_flank: nilson-male (symmetric), asymmetric-male (moved, scaled), cone, bad input."""
+    import numpy as np
+    from mathutils import Matrix
+
+    df, rotors, plan_mod = _core("double_flank"), _core("rotors"), _core("plan")
+    scene = bpy.context.scene
+    tmp = os.path.abspath(os.getcwd())
+    M_RADII, N_T = 40, 12
+    opts = dict(radii=M_RADII, envelope_rings=N_T, simulate=False)
+
+    # ---------------------------------------------------------------- bad input first: nothing at all created
+    ret, err = _run_op(bpy.ops.flank.generate_rotor, kind="nilson", part="male", resolution=360, axial=24)
+    nilson = bpy.context.active_object
+    res["bad"] = {}
+    nan = float("nan")
+    for name, kw in (("valley_4", dict(valley=4)), ("valley_neg", dict(valley=-1)), ("rim_zero", dict(rim=0.0)),
+                     ("rim_1_5", dict(rim=1.5)), ("rim_nan", dict(rim=nan)), ("rim_0_1", dict(rim=0.1)),
+                     ("radii_1", dict(radii=1)), ("radii_big", dict(radii=6000)), ("cones_0", dict(tool="cones", cones=0)),
+                     ("two_paths_cone", dict(tool="cone", two_paths=True)),
+                     ("frames", dict(frame_start=10, frame_end=10)),
+                     ("plan_dir_missing", dict(filepath=os.path.join(tmp, "no_such_dir", "plan.json")))):
+        bpy.context.view_layer.objects.active = nilson
+        s0 = _snapshot4(bpy)
+        ret, err = _run_op(bpy.ops.flank.plan_double_flank, **dict(opts, **kw))
+        s1 = _snapshot4(bpy)
+        res["bad"][name] = dict(result=ret, error=err, new=[s1[i] - s0[i] for i in range(4)],
+                                results_collection=bpy.data.collections.get("Flank Results") is not None,
+                                rotor_props=sorted(k for k in nilson.keys() if k.startswith("flank_df_")))
+    bpy.ops.mesh.primitive_cube_add(location=(5.0, 0.0, 0.0))
+    s0 = _snapshot4(bpy)
+    ret, err = _run_op(bpy.ops.flank.plan_double_flank, **opts)
+    s1 = _snapshot4(bpy)
+    res["bad"]["cube"] = dict(result=ret, error=err, new=[s1[i] - s0[i] for i in range(4)],
+                              results_collection=bpy.data.collections.get("Flank Results") is not None)
+    bpy.ops.object.empty_add()
+    s0 = _snapshot4(bpy)
+    ret, err = _run_op(bpy.ops.flank.plan_double_flank, **opts)
+    s1 = _snapshot4(bpy)
+    res["bad"]["empty"] = dict(result=ret, error=err, new=[s1[i] - s0[i] for i in range(4)])
+
+    # ---------------------------------------------------------------- nilson-male: symmetric, errors ~ 0
+    bpy.context.view_layer.objects.active = nilson
+    plan_path = os.path.join(tmp, "nilson_plan.json")
+    csv_path = os.path.join(tmp, "nilson_tool.csv")
+    out, objs = _df_run(bpy, np, filepath=plan_path, tool_csv=csv_path, frame_start=1, frame_end=101, **opts)
+    res["nilson"] = out
+    if objs is not None:
+        rotor = rotors.builtin_rotor("nilson", "male")
+        t0 = time.perf_counter()
+        core = df.plan_double_flank(rotor.surface(), rotor.flanks, valley=0, m=M_RADII, simulate=False)
+        out["core_seconds"] = time.perf_counter() - t0
+        out["core"] = dict(x=[[float(v) for v in f.x] for f in core.fits], Phi=[float(f.phi) for f in core.fits],
+                           iterations=[int(f.iterations) for f in core.fits],
+                           tool_to_rotor=[list(v) for v in core.tool_to_rotor], method=core.plan["method"])
+        rw = np.array(nilson.matrix_world, dtype=np.float64)
+        _df_compare(bpy, np, out, objs, core, rw, 1.0, (0.0, rotor.length), N_T, out["props"]["flank_df_tolerance"])
+        # plan file valid and carrying the rotor's placement
+        try:
+            plan = plan_mod.read_plan(plan_path)
+            out["plan"] = dict(ok=True, method=plan["method"], strips=len(plan["strips"]),
+                               length_unit=plan["length_unit"], target_flanks=plan["target_flanks"],
+                               to_world_diff=float(np.abs(np.array(plan["rotor"]["to_world"]) - rw).max()),
+                               axis_start_diff=float(np.abs(np.array(plan["strips"][0]["axis_start"])
+                                                            - core.plan["strips"][0]["axis_start"]).max()))
+        except Exception as ex:
+            out["plan"] = dict(ok=False, error="{}: {}".format(type(ex).__name__, ex))
+        if os.path.isfile(csv_path):
+            with open(csv_path) as fh:
+                header = fh.readline().strip()
+            data = np.loadtxt(csv_path, delimiter=",", skiprows=1, ndmin=2)
+            out["csv"] = dict(header=header, rows=len(data), r_max=float(data[:, 1].max()),
+                              core_r_max=float(np.max(core.paths[0].meridian[:, 1])
+                                               if core.paths[0].meridian is not None
+                                               else np.max(core.paths[0].plan_radii)),
+                              core_rows=min(4000, len(core.paths[0].meridian))
+                              if core.paths[0].meridian is not None else 2)
+        # animation: the moving tool = rotor world @ S(s(f)) @ tool frame
+        motion = [o for o in objs["coll"].objects if o.get("flank_df_role") == "motion"]
+        moving = [o for o in objs["coll"].objects if o.get("flank_df_role") == "moving"]
+        anim = dict(motions=len(motion), movings=len(moving))
+        if motion and moving and motion[0].animation_data and motion[0].animation_data.action:
+            anim["fcurves"] = _fcurve_keys(motion[0].animation_data.action)
+            anim["parent"] = [motion[0].parent.name if motion[0].parent else None,
+                              moving[0].parent.name if moving[0].parent else None]
+            anim["shares_mesh"] = moving[0].data == objs["tool"].data
+            fs, fe = out["props"]["flank_df_frames"]
+            s_lo, s_hi = out["props"]["flank_df_motion"]
+            T = np.array(objs["tool"].matrix_world, dtype=np.float64)       # rotor world @ tool frame
+            co = _mesh_co(np, moving[0])[[0, 100, -1]]
+            samples = []
+            for f in (fs, (fs + fe) // 2, fe):
+                scene.frame_set(f)
+                sf = s_lo + (s_hi - s_lo) * (f - fs) / (fe - fs)
+                expect = (rw @ _screw4(np, sf, rotor.v0, 1) @ np.linalg.inv(rw) @ T) @ np.c_[co, np.ones(3)].T
+                samples.append(dict(frame=f, s=sf, max_diff=float(np.abs(_world(np, moving[0], co) - expect[:3].T).max())))
+            scene.frame_set(fs)
+            anim["samples"] = samples
+        out["anim"] = anim
+        res["panels"] = _draw_panels(bpy, objs["tool"])
+        # again with the tool selected: the operator finds the rotor through flank_df_rotor
+        again, _ = _df_run(bpy, np, animate=False, **opts)
+        out["again"] = dict(result=again["result"], error=again["error"],
+                            rotor=again.get("props", {}).get("flank_df_rotor"), parents=again.get("parents"))
+
+    # ---------------------------------------------------------------- asymmetric-male, moved, rotated, scaled x2
+    ret, err = _run_op(bpy.ops.flank.generate_rotor, kind="asymmetric", part="male", resolution=360, axial=24)
+    asym = bpy.context.active_object
+    axis = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+    K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    M = np.eye(4)
+    M[:3, :3] = 2.0 * (np.eye(3) + np.sin(0.9) * K + (1 - np.cos(0.9)) * K @ K)
+    M[:3, 3] = (0.4, -0.3, 0.7)
+    asym.matrix_world = Matrix(M.tolist())
+    bpy.context.view_layer.update()
+    plan_path = os.path.join(tmp, "asym_plan.json")
+    out, objs = _df_run(bpy, np, valley=1, filepath=plan_path, animate=False, **opts)
+    res["asym"] = out
+    if objs is not None:
+        rotor = rotors.builtin_rotor("asymmetric", "male")
+        core = df.plan_double_flank(rotor.surface(), rotor.flanks, valley=1, m=M_RADII, simulate=False)
+        out["core"] = dict(x=[[float(v) for v in f.x] for f in core.fits], Phi=[float(f.phi) for f in core.fits],
+                           iterations=[int(f.iterations) for f in core.fits],
+                           tool_to_rotor=[list(v) for v in core.tool_to_rotor], method=core.plan["method"])
+        rw = np.array(asym.matrix_world, dtype=np.float64)
+        _df_compare(bpy, np, out, objs, core, rw, 2.0, (0.0, rotor.length), N_T, out["props"]["flank_df_tolerance"])
+        try:
+            plan = plan_mod.read_plan(plan_path)
+            out["plan"] = dict(ok=True, method=plan["method"], strips=len(plan["strips"]),
+                               length_unit=plan["length_unit"],
+                               to_world_diff=float(np.abs(np.array(plan["rotor"]["to_world"]) - rw).max()))
+        except Exception as ex:
+            out["plan"] = dict(ok=False, error="{}: {}".format(type(ex).__name__, ex))
+
+    # ---------------------------------------------------------------- cones:2 (one tool object per cone)
+    bpy.context.view_layer.objects.active = asym
+    csv_path = os.path.join(tmp, "cones.csv")
+    out, objs = _df_run(bpy, np, tool="cones", cones=2, tool_csv=csv_path, animate=True, **opts)
+    res["cones"] = out
+    if objs is not None:
+        rotor = rotors.builtin_rotor("asymmetric", "male")
+        core = df.plan_double_flank(rotor.surface(), rotor.flanks, valley=0, tool="cones:2", m=M_RADII,
+                                    simulate=False)
+        out["core"] = dict(x=[[float(v) for v in f.x] for f in core.fits], paths=len(core.paths),
+                           tool_to_rotor=[list(v) for v in core.tool_to_rotor], method=core.plan["method"])
+        _df_compare(bpy, np, out, objs, core, np.array(asym.matrix_world, dtype=np.float64), 2.0,
+                    (0.0, rotor.length), N_T, out["props"]["flank_df_tolerance"])
+        out["csv_files"] = sorted(f for f in os.listdir(tmp) if f.startswith("cones"))
+
+    # ---------------------------------------------------------------- an analyzed mesh (analysed again, as --mesh)
+    ret, err = _run_op(bpy.ops.flank.generate_rotor, kind="nilson", part="male", resolution=720, axial=48)
+    mesh_rotor = bpy.context.active_object
+    mesh_rotor.location = (3.0, 0.0, 0.0)
+    bpy.context.view_layer.update()
+    t0 = time.perf_counter()
+    ret, err = _run_op(bpy.ops.flank.analyze_rotor)
+    res["analyzed_setup"] = dict(result=ret, error=err, seconds=time.perf_counter() - t0,
+                                 source=mesh_rotor.get("flank_source"))
+    out, objs = _df_run(bpy, np, animate=True, **opts)
+    res["analyzed"] = out
+    if objs is not None:
+        tool = objs["tool"]
+        env = [o for o in objs["coll"].objects if o.get("flank_df_role") == "envelope"]
+        co = _world(np, env[0], _mesh_co(np, env[0]))
+        # the envelope lies on the rotor (nilson: exact envelope = rotor): screw its world points, taken into
+        # the object's local frame (= the generated rotor's frame), into z = 0 and measure to the exact profile
+        from scipy.spatial import cKDTree
+
+        nil = rotors.builtin_rotor("nilson", "male")
+        local = co - np.array(mesh_rotor.location)
+        q = _core("screw").screw_to_plane(local, nil.v0, nil.handedness)
+        dense = nil.profile.sample(200000)
+        d, _ = cKDTree(dense).query(q)
+        out["envelope_to_profile"] = dict(median=float(np.median(d)), max=float(d.max()),
+                                          spacing=float(np.linalg.norm(dense[1] - dense[0])))
+        out["tool_origin"] = list(tool.matrix_world.translation)
+        motion = [o for o in objs["coll"].objects if o.get("flank_df_role") == "motion"]
+        moving = [o for o in objs["coll"].objects if o.get("flank_df_role") == "moving"]
+        if motion and moving:
+            fs = out["props"]["flank_df_frames"][0]
+            s_lo = out["props"]["flank_df_motion"][0]
+            scene.frame_set(fs)
+            # at the first frame the moving tool = static tool screwed by s_lo about the rotor axis (world)
+            T = np.array(tool.matrix_world, dtype=np.float64)
+            W = np.array(motion[0].matrix_world, dtype=np.float64) @ np.linalg.inv(
+                _screw4(np, s_lo, mesh_rotor["flank_v0"], 1))
+            stored = np.array(list(mesh_rotor["flank_to_world"]), dtype=np.float64).reshape(4, 4)
+            out["motion_frame_vs_analysis"] = float(np.abs(W - stored).max())
+            expect = W @ _screw4(np, s_lo, mesh_rotor["flank_v0"], 1) @ np.linalg.inv(W) @ T
+            out["moving_diff"] = float(np.abs(np.array(moving[0].matrix_world, dtype=np.float64) - expect).max())
+
+
 SCENARIOS = {"lifecycle": scenario_lifecycle, "operators": scenario_operators, "verify": scenario_verify,
-             "paraboloid": scenario_paraboloid, "formed_cutter": scenario_formed_cutter}
+             "paraboloid": scenario_paraboloid, "formed_cutter": scenario_formed_cutter,
+             "double_flank": scenario_double_flank}
 
 
 def main():

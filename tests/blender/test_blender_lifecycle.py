@@ -25,7 +25,8 @@ def test_install_registers_everything(lifecycle):
     assert state["enabled"]
     assert all(state["classes"].values()), state["classes"]
     assert state["scene_prop"] and state["scene_rna_props"] == ["flank_settings"]
-    assert {"generate_rotor", "analyze_rotor", "verify_plan", "paraboloid_groove", "formed_cutter"} <= set(state["ops"])
+    assert {"generate_rotor", "analyze_rotor", "verify_plan", "paraboloid_groove", "formed_cutter",
+            "plan_double_flank"} <= set(state["ops"])
 
 
 def test_sidebar_panel_in_flank_tab(lifecycle):
@@ -36,13 +37,13 @@ def test_sidebar_panel_in_flank_tab(lifecycle):
 
 def test_all_panels_in_flank_tab(lifecycle):
     panels = lifecycle["panels"]
-    assert sorted(panels) == ["FLANK_PT_formed_cutter", "FLANK_PT_paraboloid", "FLANK_PT_verify",
-                              "FLANK_PT_workpiece"]
+    assert sorted(panels) == ["FLANK_PT_double_flank", "FLANK_PT_formed_cutter", "FLANK_PT_paraboloid",
+                              "FLANK_PT_verify", "FLANK_PT_workpiece"]
     for name, panel in panels.items():
         assert (panel["bl_category"], panel["bl_space_type"], panel["bl_region_type"]) == ("Flank", "VIEW_3D", "UI")
 
 
-def test_scene_settings_hold_verify_groove_and_cutter_properties(lifecycle):
+def test_scene_settings_hold_verify_groove_cutter_and_double_flank_properties(lifecycle):
     props = set(lifecycle["settings_props"])
     assert {"verify_filepath", "verify_tolerance", "verify_search", "verify_show_tools"} <= props
     assert {"groove_radius", "groove_a", "groove_b", "groove_pitch", "groove_turns", "groove_part",
@@ -50,6 +51,9 @@ def test_scene_settings_hold_verify_groove_and_cutter_properties(lifecycle):
     assert {"cutter_source", "cutter_lead", "cutter_centre_distance", "cutter_swivel", "cutter_handedness",
             "cutter_planes", "cutter_eps_b", "cutter_tolerance", "cutter_sample_points", "cutter_resolution",
             "cutter_animate", "cutter_frame_start", "cutter_frame_end", "cutter_filepath"} <= props
+    assert {"df_valley", "df_variant", "df_tool", "df_cones", "df_two_paths", "df_radii", "df_rim", "df_samples",
+            "df_simulate", "df_tolerance", "df_envelope_rings", "df_animate", "df_frame_start", "df_frame_end",
+            "df_filepath", "df_tool_csv"} <= props
 
 
 def test_disable_enable_five_times_leaves_nothing_behind(lifecycle):

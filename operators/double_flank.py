@@ -1,0 +1,425 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""flank.plan_double_flank -- s001: double-flank milling of one rotor valley with a custom-shaped or conical tool."""
+import bpy
+
+from .common import (edge_mesh, iter_fcurves, frame_along, mesh_world_arrays, new_mesh_from_arrays, remove_ids,
+                     results_parent, screw_matrix, select_only, set_color_attr, set_float_attr, similarity_parts)
+from .properties import double_flank_props
+
+PROP_PREFIX = "flank_df_"
+DEVIATION_ATTR = "deviation"           # FLOAT point attribute of the envelope strips (scene units, + = stock)
+DEVIATION_COLOR_ATTR = "error_color"   # FLOAT_COLOR of the envelope strips (flank_addon.verify.deviation_colors)
+ERROR_ATTR = "error"                   # FLOAT point attribute of the error chart (scene units, unscaled)
+FLANK_ATTR = "flank"                   # FLOAT point attribute of the error chart: 1, 2 (0 = baseline)
+CHART_COLOR_ATTR = "flank_color"
+# value of ``deviation`` where the core gives none (never expected: the strips hold milled nodes only)
+UNTOUCHED = 1.0e9
+TOOL_SEGMENTS = 48
+TOOL_MAX_RINGS = 400
+COLOR_TOOL = (0.90, 0.72, 0.20, 1.0)
+COLOR_ENVELOPE = (0.55, 0.62, 0.70, 1.0)
+CHART_COLORS = {0: (0.35, 0.35, 0.35, 1.0), 1: (0.85, 0.15, 0.10, 1.0), 2: (0.10, 0.35, 0.85, 1.0)}
+
+
+def _decimal(v):
+    """Blender float properties are single precision: the decimal value that was typed (7 digits)."""
+    return float("{:.7g}".format(v))
+
+
+def _finite_runs(np, mask):
+    """[(start, stop)] of the runs of True in a boolean array (stop exclusive)."""
+    m = np.r_[False, np.asarray(mask, dtype=bool), False]
+    d = np.diff(m.astype(np.int8))
+    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)))
+
+
+def _tool_frame(np, path):
+    """4x4 tool frame in the rotor frame: origin at the axis start (tip end), z along the axis."""
+    a0 = np.asarray(path.plan_points[0], dtype=np.float64)
+    rot, length = frame_along(np, a0, path.plan_points[-1])
+    if rot is None:
+        raise ValueError("tool axis of zero length")
+    T = np.eye(4)
+    T[:3, :3] = rot
+    T[:3, 3] = a0
+    return T, length
+
+
+class FLANK_OT_plan_double_flank(bpy.types.Operator):
+    """s001: plan double-flank milling of one valley of the active rotor with a custom-shaped tool (optimised
+    axis, radial function min / avg / one-sided) or conical tools, and show the result.
+
+    Rotor: the active rotor made by Generate Rotor (rebuilt exactly from its custom properties; the mesh's
+    local frame is the rotor frame) or an analyzed mesh (analysed again here, as the command line does with
+    --mesh; the rotor frame is the analysis's to_world, in scene units).  Objects in a new collection under
+    "Flank Results": per tool path the tool (revolved meridian + shank, origin at the tip, local z along its
+    axis), the two envelope strips with the point attributes ``deviation`` (FLOAT, signed, scene units =
+    rotor units x object scale, > 0 material left) and ``error_color``, the error along the axis (s001
+    Figs. 12/14/17) as an edge-mesh chart beside the tool (x offset = error x flank_df_error_scale), and
+    with Animate a "Tool Motion" empty parented to the rotor with linear keys along the screw motion and a
+    moving tool.  Custom properties flank_df_* (alpha, delta, phi, Phi, iterations, errors, Hausdorff,
+    times) on the collection, the tools and the rotor."""
+
+    bl_idname = "flank.plan_double_flank"
+    bl_label = "Plan Double Flank"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    __annotations__ = double_flank_props()
+
+    # ------------------------------------------------------------------ inputs
+
+    def _source(self, context, np):
+        """The rotor to plan on -> dict, or an error message (str)."""
+        from ..flank_addon import rotors
+
+        obj = context.active_object
+        if obj is not None and PROP_PREFIX + "rotor" in obj and obj.get("flank_source") is None:
+            other = bpy.data.objects.get(obj[PROP_PREFIX + "rotor"])  # a result object: use its rotor
+            if other is not None:
+                obj = other
+        if obj is None or obj.type != 'MESH':
+            return "Select a rotor made by Generate Rotor or an analyzed rotor mesh (active object: {})".format(
+                "none" if obj is None else "'{}' ({})".format(obj.name, obj.type))
+        if obj.mode != 'OBJECT':
+            return "Switch '{}' to Object Mode first".format(obj.name)
+        src = obj.get("flank_source")
+        if src == "generated":
+            try:
+                rotor = rotors.builtin_rotor(str(obj["flank_kind"]), str(obj["flank_part"]),
+                                             scale=float(obj["flank_scale"]), lead=float(obj["flank_lead"]),
+                                             length=float(obj["flank_length"]),
+                                             handedness=str(obj["flank_handedness"]))
+            except (KeyError, ValueError) as ex:
+                return "Cannot rebuild the rotor of '{}' from its custom properties: {}".format(obj.name, ex)
+            display = np.array(obj.matrix_world, dtype=np.float64)
+            parts = similarity_parts(np, display)
+            if isinstance(parts, str):
+                return "Rotor '{}': {}; apply or reset its scale".format(obj.name, parts)
+            to_world, scale = parts
+            return dict(obj=obj, surface=rotor.surface(), flanks=list(rotor.flanks), display=display,
+                        to_world=to_world, scale=scale, z_range=(0.0, float(rotor.length)),
+                        unit="R" if float(obj["flank_scale"]) == 1.0 else "mm",
+                        kind="{}-{}".format(rotor.kind, rotor.part))
+        if src == "analyzed":
+            from ..flank_addon import double_flank as df
+            from ..flank_addon.helical_surface import HelicalSurface
+            from ..flank_addon.profile import SplineProfile
+            from ..flank_addon.rotor_analysis import NotHelicalError, analyze_mesh
+
+            try:
+                verts, faces = mesh_world_arrays(np, obj)
+                a = analyze_mesh(verts, faces)
+                prof = SplineProfile(a.profile)
+                surface = HelicalSurface(prof, a.v0, a.handedness)
+                flanks = df._flank_u_ranges(prof, [(int(i), int(j)) for i, j in a.flanks])
+                to_world = np.asarray(a.to_world, dtype=np.float64)
+            except NotHelicalError as ex:
+                return "'{}' is not a helical rotor: {}".format(obj.name, ex)
+            except Exception as ex:
+                return "Cannot analyze '{}' again: {}: {}".format(obj.name, type(ex).__name__, ex)
+            parts = similarity_parts(np, to_world)
+            if isinstance(parts, str):
+                return "Analysis of '{}': {}".format(obj.name, parts)
+            to_world, scale = parts
+            z = [float(v) for v in a.body_z] if getattr(a, "body_z", None) is not None else [0.0, 0.0]
+            if not z[1] > z[0]:
+                z = [0.0, 2.0 * float(a.outer_radius)]
+            return dict(obj=obj, surface=surface, flanks=flanks, display=to_world, to_world=to_world,
+                        scale=scale, z_range=(z[0], z[1]), unit="mm", kind="analyzed")
+        return ("'{}' is not a rotor (flank_source = {!r}): select a rotor made by Generate Rotor or run "
+                "Analyze Rotor on the mesh first".format(obj.name, src))
+
+    # ------------------------------------------------------------------ run
+
+    def execute(self, context):
+        import json
+        import math
+        import os
+        import time
+
+        import numpy as np
+        from mathutils import Matrix
+
+        t0 = time.perf_counter()
+        rim, tol_in = _decimal(self.rim), _decimal(self.tolerance)
+        k_valley, m, n_cones = int(self.valley), int(self.radii), int(self.cones)
+        if not math.isfinite(rim) or not 0.0 < rim <= 1.0:
+            self.report({'ERROR'}, "Double flank: rim = {} must be in (0, 1] (fraction of the valley depth)".format(
+                rim))
+            return {'CANCELLED'}
+        if not math.isfinite(tol_in) or tol_in < 0.0:
+            self.report({'ERROR'}, "Double flank: tolerance = {} must be a finite number >= 0".format(tol_in))
+            return {'CANCELLED'}
+        if m < 2:
+            self.report({'ERROR'}, "Double flank: radii m = {} is below the minimum 2 (the plan needs m + 1 >= 3 "
+                                   "radii per strip)".format(m))
+            return {'CANCELLED'}
+        if int(self.samples) < 4:
+            self.report({'ERROR'}, "Double flank: axis samples = {} is below the minimum 4".format(int(self.samples)))
+            return {'CANCELLED'}
+        if self.two_paths and self.tool != "custom":
+            self.report({'ERROR'}, "Double flank: Two Paths needs Tool = Custom (s001 Sec. 4.3), got Tool = "
+                                   "{}".format(self.tool))
+            return {'CANCELLED'}
+        fs, fe = int(self.frame_start), int(self.frame_end)
+        if self.animate and fe <= fs:
+            self.report({'ERROR'}, "Double flank: end frame {} must be after the start frame {}".format(fe, fs))
+            return {'CANCELLED'}
+        src = self._source(context, np)
+        if isinstance(src, str):
+            self.report({'ERROR'}, "Double flank: " + src)
+            return {'CANCELLED'}
+        rotor_obj, surface, flanks = src["obj"], src["surface"], src["flanks"]
+        nv = len(flanks) // 2
+        if not 0 <= k_valley < nv:
+            self.report({'ERROR'}, "Double flank: valley = {} is outside 0..{} (rotor '{}' has {} valleys)".format(
+                k_valley, nv - 1, rotor_obj.name, nv))
+            return {'CANCELLED'}
+        tool = "cones:{}".format(n_cones) if self.tool == "cones" else str(self.tool)
+
+        from ..flank_addon import double_flank as df
+        from ..flank_addon.verify import deviation_colors
+
+        # ---- the core
+        try:
+            res = df.plan_double_flank(surface, flanks, valley=k_valley, variant=str(self.variant), tool=tool,
+                                       two_paths=bool(self.two_paths), m=m, rim=rim, n=int(self.samples),
+                                       to_world=src["to_world"].tolist(), length_unit=src["unit"],
+                                       simulate=bool(self.simulate))
+            env = res.envelope_meshes(src["z_range"], int(self.envelope_rings))
+            tools = [res.tool_mesh(k, n_around=TOOL_SEGMENTS, max_rings=TOOL_MAX_RINGS)
+                     for k in range(len(res.paths))]
+            frames = [_tool_frame(np, p) for p in res.paths]
+            charts = [res.errors_along_axis(k) for k in range(len(res.paths))]
+        except ValueError as ex:
+            self.report({'ERROR'}, "Double flank: {}".format(ex))
+            return {'CANCELLED'}
+        except Exception as ex:
+            self.report({'ERROR'}, "Double flank failed: {}: {}".format(type(ex).__name__, ex))
+            return {'CANCELLED'}
+
+        s = float(src["scale"])                       # scene units per rotor unit
+        R = float(surface.outer_radius)
+        tol = tol_in if tol_in > 0.0 else 1e-3 * R * s
+        display = src["display"]
+        v0, eps = float(surface.v0), (1 if surface.hand > 0 else -1)
+        multi = len(res.paths) > 1
+
+        def name(base, k):
+            return "{} {}".format(base, k + 1) if multi else base
+
+        # ---- error charts (tool frame: z along the axis, x = offset + error x scale)
+        e_all = np.concatenate([np.r_[c[1], c[2]] for c in charts])
+        e_all = e_all[np.isfinite(e_all)]
+        e_max = float(np.abs(e_all).max()) if len(e_all) else 0.0
+        r_tool = max(float(np.nanmax(p.radii)) for p in res.paths)
+        err_scale = 0.5 * r_tool / e_max if e_max > 1e-12 * R else 1.0
+
+        objects, meshes, colls, actions, files = [], [], [], [], []
+        parent, parent_created = None, False
+        dev_ranges = []
+        try:
+            parent, parent_created = results_parent(bpy, context)
+            coll = bpy.data.collections.new("Double Flank ({}, valley {})".format(rotor_obj.name, k_valley))
+            colls.append(coll)
+            parent.children.link(coll)
+
+            def add(obj_name, data, color=None, role=None, k=None):
+                if data is not None and data not in meshes:
+                    meshes.append(data)
+                ob = bpy.data.objects.new(obj_name, data)
+                objects.append(ob)
+                if color is not None:
+                    ob.color = color
+                coll.objects.link(ob)
+                ob[PROP_PREFIX + "rotor"] = rotor_obj.name
+                if role is not None:
+                    ob[PROP_PREFIX + "role"] = role
+                if k is not None:
+                    ob[PROP_PREFIX + "path"] = int(k)
+                return ob
+
+            tool_objs, tool_meshes = [], []
+            for k, path in enumerate(res.paths):
+                T, _ = frames[k]
+                Tinv = np.linalg.inv(T)
+                verts, faces = tools[k]
+                local = np.asarray(verts, dtype=np.float64) @ Tinv[:3, :3].T + Tinv[:3, 3]
+                me = new_mesh_from_arrays(bpy, np, name("DF Tool", k), local, faces)
+                ob = add(name("DF Tool", k), me, COLOR_TOOL, "tool", k)
+                ob.matrix_world = Matrix((display @ T).tolist())
+                ob[PROP_PREFIX + "axis_start"] = [float(v) for v in path.plan_points[0]]
+                ob[PROP_PREFIX + "axis_end"] = [float(v) for v in path.plan_points[-1]]
+                ob[PROP_PREFIX + "radii_range"] = [float(np.nanmin(path.radii)) * s, float(np.nanmax(path.radii)) * s]
+                tool_objs.append(ob)
+                tool_meshes.append(me)
+
+                for f, (ev, ef, ed) in enumerate(env[k]):
+                    if len(ev) == 0 or len(ef) == 0:
+                        continue
+                    label = name("DF Envelope", k) + " F{}".format(f + 1)
+                    em = new_mesh_from_arrays(bpy, np, label, ev, ef)
+                    eo = add(label, em, COLOR_ENVELOPE, "envelope", k)
+                    eo[PROP_PREFIX + "flank"] = f + 1
+                    eo.matrix_world = Matrix(display.tolist())
+                    dev = np.asarray(ed, dtype=np.float64) * s
+                    fin = np.isfinite(dev)
+                    set_float_attr(np, em, DEVIATION_ATTR, np.where(fin, dev, UNTOUCHED))
+                    set_color_attr(np, em, DEVIATION_COLOR_ATTR, deviation_colors(dev, tol))
+                    em.update()
+                    rng = [float(dev[fin].min()), float(dev[fin].max())] if fin.any() else [float("nan")] * 2
+                    eo[PROP_PREFIX + "deviation_range"] = rng
+                    dev_ranges.append(rng)
+
+                s_ax, e1, e2 = charts[k]
+                z_loc = (np.asarray(path.points, dtype=np.float64) - path.plan_points[0]) @ T[:3, 2]
+                x0 = 1.25 * float(np.nanmax(path.radii))
+                chains, err_v, flank_v = [], [], []
+                for fl, e in ((1, np.asarray(e1, dtype=np.float64)), (2, np.asarray(e2, dtype=np.float64))):
+                    for a, b in _finite_runs(np, np.isfinite(e)):
+                        if b - a < 2:
+                            continue
+                        chains.append((np.c_[x0 + err_scale * e[a:b], np.zeros(b - a), z_loc[a:b]], False))
+                        err_v.append(e[a:b] * s)
+                        flank_v.append(np.full(b - a, fl))
+                zb = [float(np.nanmin(z_loc)), float(np.nanmax(z_loc))]
+                chains.append((np.array([[x0, 0.0, zb[0]], [x0, 0.0, zb[1]]]), False))
+                err_v.append(np.zeros(2))
+                flank_v.append(np.zeros(2, dtype=int))
+                cm = edge_mesh(bpy, np, name("DF Error along axis", k), chains)
+                co = add(name("DF Error along axis", k), cm, (0.1, 0.1, 0.1, 1.0), "error_chart", k)
+                co.matrix_world = Matrix((display @ T).tolist())
+                fv = np.concatenate(flank_v)
+                set_float_attr(np, cm, ERROR_ATTR, np.concatenate(err_v))
+                set_float_attr(np, cm, FLANK_ATTR, fv.astype(np.float64))
+                set_color_attr(np, cm, CHART_COLOR_ATTR, np.array([CHART_COLORS[int(v)] for v in fv]))
+                co[PROP_PREFIX + "error_scale"] = float(err_scale)
+                co[PROP_PREFIX + "chart_offset"] = float(x0 * s)
+                co[PROP_PREFIX + "max_abs_error"] = float(np.nanmax(np.abs(np.r_[e1, e2]))) * s \
+                    if np.isfinite(np.r_[e1, e2]).any() else float("nan")
+
+            motion_range = None
+            if self.animate:
+                z0, z1 = src["z_range"]
+                s0, s1 = (z0 - R) / v0, (z1 + R) / v0
+                motion_range = [float(s0), float(s1)]
+                motion = add("DF Tool Motion", None, role="motion")
+                motion.empty_display_type = 'ARROWS'
+                motion.empty_display_size = 0.25 * R
+                motion.parent = rotor_obj
+                if src["kind"] == "analyzed":   # rotor frame = to_world, not the object's local frame
+                    motion.matrix_parent_inverse = rotor_obj.matrix_world.inverted() @ Matrix(display.tolist())
+                else:
+                    motion.matrix_parent_inverse = Matrix.Identity(4)
+                motion.matrix_basis = Matrix.Identity(4)
+                for f, t in ((fs, s0), (fe, s1)):
+                    motion.location = (0.0, 0.0, v0 * t)
+                    motion.rotation_euler = (0.0, 0.0, eps * t)
+                    motion.keyframe_insert(data_path="location", index=2, frame=f)
+                    motion.keyframe_insert(data_path="rotation_euler", index=2, frame=f)
+                if motion.animation_data is not None and motion.animation_data.action is not None:
+                    actions.append(motion.animation_data.action)
+                    for fcu in iter_fcurves(motion.animation_data.action):
+                        for kp in fcu.keyframe_points:
+                            kp.interpolation = 'LINEAR'
+                for k, me in enumerate(tool_meshes):
+                    mv = add(name("DF Tool", k) + " (moving)", me, COLOR_TOOL, "moving", k)
+                    mv.parent = motion
+                    mv.matrix_parent_inverse = Matrix.Identity(4)
+                    mv.matrix_basis = Matrix(frames[k][0].tolist())
+
+            plan_path = csv_paths = None
+            if self.filepath:
+                from ..flank_addon.plan import write_plan
+
+                plan_path = bpy.path.abspath(self.filepath)
+                files.append(plan_path)
+                write_plan(plan_path, res.plan)
+            if self.tool_csv:
+                base = bpy.path.abspath(self.tool_csv)
+                which = range(len(res.paths)) if self.tool == "cones" else [0]
+                stem, ext = os.path.splitext(base)
+                csv_paths = []
+                for k in which:
+                    p = base if len(which) == 1 else "{}_{}{}".format(stem, k + 1, ext or ".csv")
+                    files.append(p)
+                    df.write_tool_csv(p, res.paths[k])
+                    csv_paths.append(p)
+        except Exception as ex:
+            for act in actions:
+                try:
+                    bpy.data.actions.remove(act)
+                except (ReferenceError, RuntimeError):
+                    pass
+            remove_ids(bpy, objects, meshes, colls + ([parent] if parent_created else []))
+            for p in files:
+                try:
+                    os.remove(p)
+                except OSError:
+                    pass
+            self.report({'ERROR'}, "Could not build the double-flank results: {}: {}".format(type(ex).__name__, ex))
+            return {'CANCELLED'}
+
+        # ---- custom properties (lengths in scene units, angles in radians)
+        def fl(v):
+            return float(v) if v is not None else float("nan")
+
+        fits = res.fits
+        t2r, r2e = res.tool_to_rotor, res.rotor_to_envelope
+        props = dict(
+            rotor=rotor_obj.name, source=src["kind"], valley=k_valley, variant=str(self.variant), tool=tool,
+            method=str(res.plan.get("method", "")), two_paths=bool(self.two_paths), radii=m, rim=rim,
+            samples=int(self.samples), simulated=bool(self.simulate), length_unit=src["unit"],
+            length_scale=s, tolerance=float(tol), paths=len(res.paths),
+            alpha=[fl(f.x[0]) for f in fits], delta=[fl(f.x[1]) * s for f in fits], phi=[fl(f.x[2]) for f in fits],
+            Phi=[fl(f.phi) * s for f in fits], iterations=[int(f.iterations) for f in fits],
+            fit_elapsed=[fl(getattr(f, "elapsed_s", float("nan"))) for f in fits],
+            tool_to_rotor_max=[fl(v[0]) * s for v in t2r], tool_to_rotor_min=[fl(v[1]) * s for v in t2r],
+            rotor_to_envelope_max=[fl(v[0]) * s for v in r2e], rotor_to_envelope_min=[fl(v[1]) * s for v in r2e],
+            hausdorff=[fl(v) * s for v in res.hausdorff], error_scale=float(err_scale),
+            elapsed=fl(res.elapsed_s), optimize_elapsed=fl(res.optimize_s),
+            total_elapsed=float(time.perf_counter() - t0),
+            summary=json.dumps(dict(res.plan.get("summary", {}), fits=[dict(
+                x=[float(v) for v in f.x], Phi=float(f.phi), iterations=int(f.iterations)) for f in fits]),
+                default=str),
+        )
+        if motion_range is not None:
+            props.update(frames=[fs, fe], motion=motion_range)
+        if plan_path:
+            props["plan"] = plan_path
+        if csv_paths:
+            props["tool_csv"] = csv_paths
+        for key in [k for k in rotor_obj.keys() if k.startswith(PROP_PREFIX)]:
+            del rotor_obj[key]
+        for target in [coll, rotor_obj] + tool_objs:
+            for key, value in props.items():
+                target[PROP_PREFIX + key] = value
+        select_only(context, tool_objs[0])
+
+        f0 = fits[0]
+        unit = "scene units"
+
+        def pair(v):
+            return "{:.4g}/{:.4g}".format(v[0], v[1])
+
+        extra = ""
+        if len(fits) > 1:
+            extra = "; {} further axes (alpha {} deg)".format(len(fits) - 1, ", ".join(
+                "{:+.4f}".format(math.degrees(f.x[0])) for f in fits[1:]))
+        sim = ("; rotor->envelope max F1/F2 {} min {}; Hausdorff {} {}".format(
+            pair(props["rotor_to_envelope_max"]), pair(props["rotor_to_envelope_min"]), pair(props["hausdorff"]),
+            unit) if self.simulate else "; not simulated")
+        files_note = ""
+        if plan_path:
+            files_note += ", wrote {}".format(os.path.basename(plan_path))
+        if csv_paths:
+            files_note += ", wrote {}".format(", ".join(os.path.basename(p) for p in csv_paths))
+        self.report({'INFO'}, "Double flank {} valley {} ({}, {}, {} path(s)): alpha {:+.5f} deg, delta {:+.6g} {}, "
+                              "phi {:+.5f} deg, Phi {:.4g} {}, {} iterations{}; tool->rotor max F1/F2 {} min {} {}{}; "
+                              "optimisation {:.2f}s, core {:.2f}s, total {:.2f}s{}".format(
+                                  rotor_obj.name, k_valley, props["method"], self.variant, len(res.paths),
+                                  math.degrees(f0.x[0]), props["delta"][0], unit, math.degrees(f0.x[2]),
+                                  props["Phi"][0], unit, int(f0.iterations), extra, pair(props["tool_to_rotor_max"]),
+                                  pair(props["tool_to_rotor_min"]), unit, sim, res.optimize_s, res.elapsed_s,
+                                  props["total_elapsed"], files_note))
+        return {'FINISHED'}
