@@ -13,6 +13,10 @@
                                cutter of flank.formed_cutter at its set-up (seen along the disc plane, sitting
                                in the groove), the rotor painted with the machined deviation of the sweep
                                simulation (green: within the tolerance on the cut tooth; grey: not cut).
+    docs/double_flank.png      s001 built-in asymmetric male rotor, valley 0: the custom tool of
+                               flank.plan_double_flank (min radial function) half-way along its screw motion,
+                               the envelope strips coloured by their error (green within 1e-3 R, blue stock),
+                               the error along the tool axis (flank 1 red, flank 2 blue) beside the tool.
 
     python tools/render_figures.py [--out docs] [--size 960x540] [--zip ZIP | --source]
 
@@ -425,11 +429,111 @@ def figure_formed_cutter(bpy, np, out, width, height):
                 max_abs_deviation=p["flank_cutter_max_abs_deviation"], flagged_planes=p["flank_cutter_flagged_planes"])
 
 
+def figure_double_flank(bpy, np, out, width, height):
+    """s001: asymmetric male rotor, valley 0, custom tool (min radial function) of flank.plan_double_flank."""
+    from mathutils import Matrix, Vector
+
+    scene = reset_scene(bpy, width, height)
+    ret = bpy.ops.flank.generate_rotor(kind="asymmetric", part="male", resolution=1440, axial=160)
+    if ret != {'FINISHED'}:
+        sys.exit("[figures] generate_rotor returned {}".format(ret))
+    rotor = bpy.context.active_object
+    paint(bpy, np, rotor, (0.62, 0.64, 0.67, 1.0))
+    rotor.hide_render = True      # the envelope strips are the valley's flanks: shown instead of the rotor
+    t0 = time.perf_counter()
+    ret = bpy.ops.flank.plan_double_flank(valley=0, radii=400, simulate=False, envelope_rings=96, animate=True,
+                                          frame_start=1, frame_end=201)
+    t_op = time.perf_counter() - t0
+    if ret != {'FINISHED'}:
+        sys.exit("[figures] plan_double_flank returned {}".format(ret))
+    tool = bpy.context.active_object
+    p = {k: (tool[k].to_list() if hasattr(tool[k], "to_list") else tool[k]) for k in tool.keys()
+         if k.startswith("flank_df_") and k != "flank_df_summary"}
+    coll = tool.users_collection[0]
+    by_role = {}
+    for ob in coll.objects:
+        by_role.setdefault(ob.get("flank_df_role"), []).append(ob)
+    # the moving tool half-way along the rotor; the static tool (at the rotor's end) and the empty hidden
+    scene.frame_set(101)
+    for ob in by_role.get("tool", []) + by_role.get("motion", []):
+        ob.hide_render = True
+    moving = by_role["moving"][0]
+    paint(bpy, np, moving, (0.90, 0.72, 0.20, 1.0))
+    # the error chart beside the moving tool, drawn as tubes (flank 1 red, flank 2 blue, baseline grey)
+    chart = by_role["error_chart"][0]
+    chart.hide_render = True
+    mw = Matrix(moving.matrix_world)
+    attr = chart.data.attributes["flank"]
+    fl = np.empty(len(attr.data), dtype=np.float32)
+    attr.data.foreach_get("value", fl)
+    co = np.empty(len(chart.data.vertices) * 3)
+    chart.data.vertices.foreach_get("co", co)
+    co = co.reshape(-1, 3)
+    ed = np.empty(len(chart.data.edges) * 2, dtype=np.int64)
+    chart.data.edges.foreach_get("vertices", ed)
+    ed = ed.reshape(-1, 2)
+    r_tool = p["flank_df_radii_range"][1]
+    tubes = []
+    for value, rgba in ((1, (0.85, 0.15, 0.10, 1.0)), (2, (0.10, 0.35, 0.85, 1.0)), (0, (0.3, 0.3, 0.3, 1.0))):
+        keep = ed[(fl[ed[:, 0]] == value) & (fl[ed[:, 1]] == value)]
+        if not len(keep):
+            continue
+        idx = np.unique(keep)
+        remap = -np.ones(len(co), dtype=np.int64)
+        remap[idx] = np.arange(len(idx))
+        me = bpy.data.meshes.new("chart{}".format(value))
+        me.vertices.add(len(idx))
+        me.vertices.foreach_set("co", co[idx].astype(np.float32).ravel())
+        me.edges.add(len(keep))
+        me.edges.foreach_set("vertices", remap[keep].astype(np.int32).ravel())
+        me.update()
+        ob = bpy.data.objects.new("chart{}".format(value), me)
+        coll.objects.link(ob)
+        tubes.append(tube_from_edges(bpy, np, ob, 0.02 * r_tool, (0.0, 0.0, 0.0), rgba))
+        ob.hide_render = True
+    # camera: beside the tool, looking at it across the valley (perpendicular to its axis, a little above)
+    o = mw.translation
+    axis = Vector(mw.col[2][:3]).normalized()
+    side = axis.cross(Vector((0.0, 0.0, 1.0))).normalized()
+    view = (side * 1.0 + axis * 0.9 + Vector((0.0, 0.0, 0.35))).normalized()
+    # the chart stands beside the tool, in the plane of the tool axis facing the camera
+    right = axis.cross(view).normalized()     # in the image: below the tool axis
+    frame = Matrix.Identity(4)
+    for i, col in enumerate((right, axis.cross(right), axis)):
+        for j in range(3):
+            frame[j][i] = col[j]
+    frame.translation = o + right * 0.1
+    for ob in tubes:
+        ob.matrix_world = frame
+    centre = o + axis * 0.45
+    cam = add_camera(bpy, centre + view * 5.0, centre, lens=50.0)
+    cam.data.shift_x = -0.14   # the scene to the right, the labels top left
+    ink = (0.12, 0.12, 0.12, 1.0)
+    deg = math.degrees
+    lines = (("s001 double-flank milling, built-in asymmetric male rotor, valley 0: custom tool, min radial function",
+              ink),
+             ("axis alpha {:+.3f} deg, delta {:+.4f} R, phi {:+.3f} deg (Phi {:.3g} R, {} iterations)".format(
+                 deg(p["flank_df_alpha"][0]), p["flank_df_delta"][0], deg(p["flank_df_phi"][0]), p["flank_df_Phi"][0],
+                 p["flank_df_iterations"][0]), ink),
+             ("envelope: green within {:.0e} R, blue stock; max error flank 1 {:.2e} R, flank 2 {:.2e} R".format(
+                 p["flank_df_tolerance"], p["flank_df_tool_to_rotor_max"][0], p["flank_df_tool_to_rotor_max"][1]),
+              (0.10, 0.40, 0.20, 1.0)),
+             ("error along the tool axis x {:.0f}: flank 1 red, flank 2 blue".format(
+                 chart["flank_df_error_scale"]), (0.45, 0.12, 0.10, 1.0)))
+    for k, (line, rgba) in enumerate(lines):
+        add_label(bpy, np, cam, line, -1.25, 0.53 - 0.04 * k, 0.11 if k == 0 else 0.10, rgba, distance=1.0)
+    path = out / "double_flank.png"
+    t_render = render(bpy, np, path, cam)
+    return dict(path=str(path), operator_s=round(t_op, 3), render_s=round(t_render, 3),
+                alpha=p["flank_df_alpha"][0], delta=p["flank_df_delta"][0], phi=p["flank_df_phi"][0],
+                max_error=p["flank_df_tool_to_rotor_max"])
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description="Render the README figures (Workbench, headless)")
     ap.add_argument("--out", default=str(ROOT / "docs"))
     ap.add_argument("--size", default="960x540")
-    ap.add_argument("--only", choices=("groove", "deviation", "cutter"))
+    ap.add_argument("--only", choices=("groove", "deviation", "cutter", "double_flank"))
     src = ap.add_mutually_exclusive_group()
     src.add_argument("--zip", help="install this extension zip with Blender's installer")
     src.add_argument("--source", action="store_true", help="register the source tree (default)")
@@ -463,6 +567,9 @@ def main(argv=None):
         if args.only in (None, "cutter"):
             results["formed_cutter"] = figure_formed_cutter(bpy, np, out, width, height)
             log("formed_cutter: {}".format(json.dumps(results["formed_cutter"])))
+        if args.only in (None, "double_flank"):
+            results["double_flank"] = figure_double_flank(bpy, np, out, width, height)
+            log("double_flank: {}".format(json.dumps(results["double_flank"])))
         results["extension"] = installed
     finally:
         shutil.rmtree(user_dir, ignore_errors=True)
