@@ -61,7 +61,7 @@ def main():
                 if args.verify:
                     from flank_addon.verify import verify_plan
                     v = verify_plan(res.plan)
-                    line += f" {v['max_undercut']:10.5f} {v['max_overcut']:+9.1e} {len(v['gouge_points']):6d}"
+                    line += f" {v['max_undercut']:10.3e} {v['max_overcut']:+9.1e} {len(v['gouge_points']):6d}"
                 paper = PAPER.get((part, label), "")
                 print(line + (f"   {paper}" if paper else ""), flush=True)
 

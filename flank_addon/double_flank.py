@@ -834,54 +834,105 @@ def _shrink_concave(mer, tol):
 
 
 # ============================================================================ two paths, cones
-def optimize_two_paths(valley, n=100, x0=None, evaluator=None):
-    """s001 §4.3: one tool, two axes.  Minimise Eq. (18) Phi = max_i |r1(a1_i) - r2(a2_i)| over
-    (x1, x2) by SLSQP on the epigraph form (exact gradients as in :func:`optimize_axis`), starting
-    from the double-flank optimum ``x0`` (unit delta) on both axes (the paper starts from zeros)."""
+def eval_at_tool_coordinate(ev, x, t, solvers=None, tag=0):
+    """:class:`AxisEvaluator` at tool coordinates t (arc length along the axis from its common
+    perpendicular with z, lam = t cos(alpha)), with the gradients d r / d x at fixed t: the
+    alpha-derivative gains (a - b)/r . da/dlam * dlam/dalpha = ... * (-t sin(alpha)).  One tool
+    placed on two axes with different alpha is the same tool only in this coordinate."""
+    t = np.asarray(t, float)
+    al = float(x[0])
+    ar = ev(x, t * math.cos(al), solvers=solvers, tag=tag)
+    c, s = math.cos(ev.valley.theta + x[2]), math.sin(ev.valley.theta + x[2])
+    dadl = np.array([c, s, math.tan(al)])
+    for k, ft in enumerate(ar.feet):
+        ar.grad[k][:, 0] += (ft.direction @ dadl) * (-t * math.sin(al))
+    return ar
+
+
+def _two_path_terms(ev, y, t):
+    """Errors of one tool on two axes (s001 §4.3) at tool coordinates t, as rows e >= 0 with their
+    gradients d e / d (x1, x2) (M, 6) and the counted masks.
+
+    Axis p mills its flank (own_p: distance to the trimmed flank p, counted where the foot is
+    interior).  The tool's radius r(t) must stay below every counted own_q (Eq. (19) with (14)) and
+    below the distances G_p,k of *both* axes to both untrimmed flanks (a tool on axis 1 must not cut
+    flank 2; this is what Eq. (18) leaves out and why its optimum can be a worse tool).  With
+    r = the minimum of all of them, the error of axis p is own_p - r = the largest of own_p - own_q,
+    own_p - G_p,k, own_p - G_q,k: every such difference is a row (where own_p counts)."""
+    v = ev.valley
+    x1, x2 = y[:3], y[3:6]
+    A = eval_at_tool_coordinate(ev, x1, t, solvers=(v.feet[0],) + tuple(v.full_feet), tag="tp1")
+    B = eval_at_tool_coordinate(ev, x2, t, solvers=(v.feet[1],) + tuple(v.full_feet), tag="tp2")
+    rows, grads, owners = [], [], []
+    z = np.zeros((len(t), 3))
+    own = [(A.r[0], A.grad[0], A.interior[0], 0), (B.r[0], B.grad[0], B.interior[0], 1)]
+    caps = [(A.r[k], A.grad[k], 0) for k in (1, 2)] + [(B.r[k], B.grad[k], 1) for k in (1, 2)]
+    for (rp, gp, cp, p), (rq, gq, cq, q) in ((own[0], own[1]), (own[1], own[0])):
+        terms = [(rq, gq, q, cp & cq)] + [(rc, gc, pc, cp) for rc, gc, pc in caps]
+        for r2, g2, p2, mask in terms:
+            gp6 = np.c_[gp, z] if p == 0 else np.c_[z, gp]
+            g26 = np.c_[g2, z] if p2 == 0 else np.c_[z, g2]
+            rows.append(np.where(mask, rp - r2, 0.0))
+            grads.append(np.where(mask[:, None], gp6 - g26, 0.0))
+            owners.append(np.full(len(t), p))
+    return np.concatenate(rows), np.vstack(grads), np.concatenate(owners), (A, B)
+
+
+def _coverage_gap(valley, k, feet):
+    """Largest gap (fraction of the trimmed flank k's parameter range) between the interior feet of
+    axis samples on that flank and its ends: 0 = every sample spacing reaches the whole flank."""
+    lo, hi = valley.ranges[k]
+    u = np.sort(np.r_[lo, feet.u[feet.interior], hi])
+    return float(np.diff(u).max() / (hi - lo))
+
+
+def optimize_two_paths(valley, n=100, x0=None, evaluator=None, starts=None):
+    """s001 §4.3: one tool, two axes.  Minimise the largest error of the shared tool on either axis
+    (Eq. (18) plus the one-flank tails and the other-flank clearance, see :func:`_two_path_terms`)
+    over (x1, x2) by SLSQP on the epigraph form with exact gradients, from the double-flank optimum
+    ``x0`` on both axes and a few starts that move the two axes apart in delta and phi (the paper
+    starts from zeros).  Axes may not lose more than half of their counted samples."""
     t0 = time.perf_counter()
     ev = evaluator or AxisEvaluator(valley)
-    lam = np.linspace(*valley.lam_range, n)
     R = valley.outer_radius
-    f1, f2 = valley.feet
     x0 = np.zeros(3) if x0 is None else np.asarray(x0, float)
-
-    def both(y):
-        a = ev(y[:3], lam, solvers=(f1,), tag="two-1")
-        b = ev(y[3:6], lam, solvers=(f2,), tag="two-2")
-        return a, b
-
-    def fun_jac(y):
-        a, b = both(y)
-        w = (a.interior[0] & b.interior[0]).astype(float)
-        d = (a.r[0] - b.r[0]) / R * w
-        G = np.zeros((2 * n, 7))
-        Ja, Jb = a.grad[0] / R * w[:, None], b.grad[0] / R * w[:, None]
-        G[:n, :3], G[:n, 3:6] = -Ja, Jb
-        G[n:, :3], G[n:, 3:6] = Ja, -Jb
-        G[:, 6] = 1.0
-        return np.r_[y[6] - d, y[6] + d], G
+    t = np.linspace(*valley.lam_range, n) / math.cos(float(x0[0]))
 
     def phi(y):
-        a, b = both(y)
-        w = a.interior[0] & b.interior[0]
-        return float(np.max(np.abs(a.r[0] - b.r[0])[w])) if w.any() else float("inf"), int(w.sum())
+        e, _, _, (A, B) = _two_path_terms(ev, y, t)
+        return float(e.max()), (_coverage_gap(valley, 0, A.feet[0]), _coverage_gap(valley, 1, B.feet[0]))
 
-    y0 = np.r_[x0, x0, 0.0]
-    p0, need = phi(y0)
-    y0[6] = p0 / R
+    def fun_jac(y):
+        e, G, _, _ = _two_path_terms(ev, y, t)
+        J = np.zeros((len(e), 7))
+        J[:, :6] = -G / R
+        J[:, 6] = 1.0
+        return y[6] - e / R, J
+
     obj = lambda y: (y[6], np.r_[np.zeros(6), 1.0])  # noqa: E731
-    # a trust region around the double-flank axis: the paper's two axes stay within ~0.1 of it, and
-    # far from it the interior sets shrink until Eq. (18) is small for meaningless axes
-    box = [(max(lo, c - 0.15), min(hi, c + 0.15)) for (lo, hi), c in zip(_bounds(valley), x0)]
-    res = _slsqp(fun_jac, y0, box * 2 + [(0.0, None)], 2 * n, obj)
-    val, cnt = phi(res.x)
-    if not (cnt >= 0.5 * need and val <= p0):
-        res.x, val = y0, p0
-    x1, x2 = res.x[:3], res.x[3:6]
-    return (AxisFit(x=np.array([x1[0], x1[1] * R, x1[2]]), x_unit=x1, phi=val, iterations=int(res.nit),
-                    evaluations=0, starts=1, elapsed_s=time.perf_counter() - t0),
-            AxisFit(x=np.array([x2[0], x2[1] * R, x2[2]]), x_unit=x2, phi=val, iterations=int(res.nit),
-                    evaluations=0, starts=1, elapsed_s=time.perf_counter() - t0))
+    p_ref, need = phi(np.r_[x0, x0])
+    box = [(max(lo, c - 0.2), min(hi, c + 0.2)) for (lo, hi), c in zip(_bounds(valley), x0)]
+    starts = starts or [(0.0, 0.0, 0.0, 0.0), (0.0, 0.05, 0.0, -0.05)]
+    best, per, nit = (np.r_[x0, x0], p_ref), [], 0
+    for d1, f1_, d2, f2_ in starts:
+        ts = time.perf_counter()
+        y0 = np.r_[x0 + [0.0, d1, f1_], x0 + [0.0, d2, f2_]]
+        y0 = np.clip(y0, [b_[0] for b_ in box * 2], [b_[1] for b_ in box * 2])
+        p0, _ = phi(y0)
+        res = _slsqp(fun_jac, np.r_[y0, p0 / R], box * 2 + [(0.0, None)], 0, obj)
+        val, cnt = phi(res.x[:6])
+        # the axes must still sweep their whole flanks (coverage is not in the objective)
+        ok = cnt[0] <= need[0] + 0.01 and cnt[1] <= need[1] + 0.01
+        per.append((y0.tolist(), res.x[:6].tolist(), val if ok else float("inf"), int(res.nit),
+                    time.perf_counter() - ts))
+        if ok and val < best[1]:
+            best, nit = (res.x[:6].copy(), val), int(res.nit)
+    y, val = best
+    x1, x2 = y[:3], y[3:6]
+    el = time.perf_counter() - t0
+    mk = lambda xx: AxisFit(x=np.array([xx[0], xx[1] * R, xx[2]]), x_unit=xx, phi=val, iterations=nit,  # noqa: E731
+                            evaluations=0, starts=len(per), elapsed_s=el, per_start=per)
+    return mk(x1), mk(x2)
 
 
 def optimize_cone_axis(valley, lam, x0=None, evaluator=None):
@@ -1138,23 +1189,42 @@ def _max_err(paths):
     return max(float(np.nanmax(p.errors)) for p in paths)
 
 
-def _two_paths(ev, f1, f2, m):
-    """Eqs. (19) + (14): one radial function (the smaller of the two axes' distances to their own
-    flanks) placed on both axes."""
-    e1 = tool_extent(ev, f1.x_unit, flanks=(0,))
-    e2 = tool_extent(ev, f2.x_unit, flanks=(1,))
-    ext = (min(e1[0], e2[0]), max(e1[1], e2[1]))
-    p1 = build_path(ev, f1.x_unit, m=m, extent=ext, flanks=(0,), meridian=False, tag="p1")
-    p2 = build_path(ev, f2.x_unit, m=m, extent=ext, flanks=(1,), meridian=False, tag="p2")
-    lam = p1.lam
-    shared = np.minimum(np.where(p1.counted[0], p1.r[0], np.inf), np.where(p2.counted[1], p2.r[1], np.inf))
-    shared = np.where(np.isfinite(shared), shared, np.minimum(p1.radii, p2.radii))
+def _two_paths(ev, f1, f2, m, n_dense=3001, tol=2e-8):
+    """Eqs. (19) + (14): one tool on two axes.  Its radial function, in the tool coordinate t
+    (:func:`eval_at_tool_coordinate`), is the minimum of the counted distances of the axes to their
+    own flanks and of both axes' distances to both untrimmed flanks (no axis cuts the other flank),
+    exact at ``n_dense`` samples over the union of the two tools' extents, linear in between; both
+    strips carry the same meridian in h = t - t_start."""
+    v = ev.valley
+    xs = [f1.x_unit, f2.x_unit]
+    ext = [tool_extent(ev, xs[0], flanks=(0,)), tool_extent(ev, xs[1], flanks=(1,))]
+    T0 = min(e[0] / math.cos(x[0]) for e, x in zip(ext, xs))
+    T1 = max(e[1] / math.cos(x[0]) for e, x in zip(ext, xs))
+    t = np.linspace(T0, T1, n_dense)
+    shared = np.full(n_dense, np.inf)
+    for p, x in enumerate(xs):
+        ar = eval_at_tool_coordinate(ev, x, t, solvers=(v.feet[p],) + tuple(v.full_feet), tag=("tp", p))
+        shared = np.minimum(shared, np.where(ar.interior[0], ar.r[0], np.inf))
+        # an axis point inside the rotor (past the valley bottom) leaves no room for the tool there
+        inside = ~(ar.feet[1].interior | ar.feet[2].interior) & (np.minimum(ar.r[1], ar.r[2]) < ar.r[0] - 1e-12)
+        shared = np.minimum(shared, np.where(inside, 0.0, np.minimum(ar.r[1], ar.r[2])))
+    shared = np.maximum(np.where(np.isfinite(shared), shared, 0.0), 0.0)
+    gaps = []
+    for p, x in enumerate(xs):
+        ar = eval_at_tool_coordinate(ev, x, t, solvers=(v.feet[p],), tag=("tpc", p))
+        gaps.append(_coverage_gap(v, p, ar.feet[0]))
+    from scipy.interpolate import PchipInterpolator
+    spline = PchipInterpolator(t, shared)      # C1, no overshoot: a smooth contact curve
+    paths = []
+    for p, x in enumerate(xs):
+        c = math.cos(x[0])
 
-    def fn(lq, rr, cnt, cap):
-        return np.minimum(np.interp(lq, lam, shared), cap)
+        def fn(lq, rr, cnt, cap, c=c):
+            return spline(np.clip(lq / c, T0, T1))
 
-    return [build_path(ev, f1.x_unit, m=m, extent=ext, flanks=(0,), radii_fn=fn, tag="q1"),
-            build_path(ev, f2.x_unit, m=m, extent=ext, flanks=(1,), radii_fn=fn, tag="q2")]
+        paths.append(build_path(ev, x, m=m, extent=(T0 * c, T1 * c), flanks=(p,), radii_fn=fn, tag=("q", p),
+                                tol=tol * v.outer_radius))
+    return paths, gaps
 
 
 def plan_double_flank(surface, flank_ranges, valley=0, variant="min", tool="custom", two_paths=False, m=400,
@@ -1199,11 +1269,11 @@ def plan_double_flank(surface, flank_ranges, valley=0, variant="min", tool="cust
     elif kind == "custom":
         f1, f2 = optimize_two_paths(v, n=n, x0=fit.x_unit, evaluator=ev)
         fits = [fit, f1, f2]
-        paths = _two_paths(ev, f1, f2, m)
-        # Eq. (18) ignores the one-flank tails; if the tool it yields is worse than the double-flank
-        # axis used twice, keep the latter (reported in fits[1:] as that axis)
-        ref = _two_paths(ev, fit, fit, m)
-        if _max_err(paths) > _max_err(ref):
+        paths, gaps = _two_paths(ev, f1, f2, m)
+        # keep the two-axis tool only if it is better and still sweeps both flanks as completely as
+        # the double-flank axis used twice; otherwise report that pair (fits[1:] = that axis)
+        ref, ref_gaps = _two_paths(ev, fit, fit, m)
+        if _max_err(paths) >= _max_err(ref) or max(gaps) > max(ref_gaps) + 0.005:
             paths, fits = ref, [fit, fit, fit]
         method = "double-flank-custom-two-paths"
     else:

@@ -211,3 +211,45 @@ def test_cli_round_trip_and_errors(tmp_path, capsys):
                       (["--valley-point", "1,2"], "must be three finite numbers")):
         assert main(["plan", "double-flank", "--builtin", "nilson-male", *argv, "--out", str(tmp_path / "x.json")]) == 2
         assert msg in capsys.readouterr().err
+
+
+def test_cli_mesh_input(tmp_path, capsys):
+    """--mesh: the rotor is analysed from a mesh file (axis, pitch, flanks), the plan is in the mesh's
+    frame and unit, and a valley point picks the valley."""
+    from flank_addon.mesh_io import write_mesh
+    from flank_addon.rotors import builtin_rotor
+
+    rot = builtin_rotor("nilson", "male")
+    v, f = rot.mesh()
+    write_mesh(tmp_path / "rotor.stl", v, f)
+    out = tmp_path / "m.json"
+    assert main(["plan", "double-flank", "--mesh", str(tmp_path / "rotor.stl"), "--valley", "0",
+                 "--tool", "cone", "--radii", "50", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "rotor->envelope" in text and "alpha" in text
+    plan = read_plan(out)
+    assert plan["method"] == "double-flank-cone" and plan["length_unit"] == "mm"
+    st = plan["strips"][0]
+    assert st["reported_max_error"] > 0 and np.isfinite(st["reported_max_error"])
+    # a point on the mesh picks a valley of that rotor
+    assert main(["plan", "double-flank", "--mesh", str(tmp_path / "rotor.stl"), "--valley-point",
+                 ",".join(str(c) for c in v[0]), "--tool", "cone", "--out", str(tmp_path / "p.json")]) == 0
+    assert "valley" in capsys.readouterr().out
+
+
+def test_cli_two_paths(tmp_path, capsys):
+    out = tmp_path / "two.json"
+    assert main(["plan", "double-flank", "--builtin", "nilson-male", "--valley", "0", "--two-paths",
+                 "--radii", "100", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "axis 1" in text and "axis 2" in text
+    plan = read_plan(out)
+    assert plan["method"] == "double-flank-custom-two-paths" and len(plan["strips"]) == 2
+    a, b = plan["strips"]
+    # one tool on two axes: the same meridian on both strips, one strip per flank
+    assert a["meridian"] == b["meridian"] and a["flank"] != b["flank"]
+    ver = verify_plan(plan)
+    assert ver["max_undercut"] <= 1e-6 and ver["max_overcut"] >= -1e-6 and ver["gouge_points"] == []
+    assert main(["plan", "double-flank", "--builtin", "nilson-male", "--valley", "0", "--two-paths",
+                 "--tool", "cone", "--out", str(tmp_path / "x.json")]) == 2
+    assert "--two-paths needs the custom tool" in capsys.readouterr().err
