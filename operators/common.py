@@ -253,3 +253,20 @@ def similarity_parts(np, matrix, rel_tol=1e-5):
     out[:3, :3] = s * (U @ Vt)
     out[:3, 3] = M[:3, 3]
     return out, s
+
+
+def key_screw_motion(motion, keys, v0, eps):
+    """LINEAR keys of the screw motion on an object about its parent's z axis: ``keys`` is
+    [(frame, t), ...] (turn eps t, advance v0 t).  Returns the action (None if none was made)."""
+    for f, t in keys:
+        motion.location = (0.0, 0.0, v0 * t)
+        motion.rotation_euler = (0.0, 0.0, eps * t)
+        motion.keyframe_insert(data_path="location", index=2, frame=f)
+        motion.keyframe_insert(data_path="rotation_euler", index=2, frame=f)
+    ad = motion.animation_data
+    if ad is None or ad.action is None:
+        return None
+    for fcu in iter_fcurves(ad.action):
+        for kp in fcu.keyframe_points:
+            kp.interpolation = 'LINEAR'
+    return ad.action

@@ -2,7 +2,7 @@
 """flank.plan_double_flank -- s001: double-flank milling of one rotor valley with a custom-shaped or conical tool."""
 import bpy
 
-from .common import (edge_mesh, iter_fcurves, frame_along, mesh_world_arrays, new_mesh_from_arrays, remove_ids,
+from .common import (edge_mesh, frame_along, key_screw_motion, mesh_world_arrays, new_mesh_from_arrays, remove_ids,
                      results_parent, screw_matrix, select_only, set_color_attr, set_float_attr, similarity_parts)
 from .properties import double_flank_props
 
@@ -312,16 +312,9 @@ class FLANK_OT_plan_double_flank(bpy.types.Operator):
                 else:
                     motion.matrix_parent_inverse = Matrix.Identity(4)
                 motion.matrix_basis = Matrix.Identity(4)
-                for f, t in ((fs, s0), (fe, s1)):
-                    motion.location = (0.0, 0.0, v0 * t)
-                    motion.rotation_euler = (0.0, 0.0, eps * t)
-                    motion.keyframe_insert(data_path="location", index=2, frame=f)
-                    motion.keyframe_insert(data_path="rotation_euler", index=2, frame=f)
-                if motion.animation_data is not None and motion.animation_data.action is not None:
-                    actions.append(motion.animation_data.action)
-                    for fcu in iter_fcurves(motion.animation_data.action):
-                        for kp in fcu.keyframe_points:
-                            kp.interpolation = 'LINEAR'
+                action = key_screw_motion(motion, ((fs, s0), (fe, s1)), v0, eps)
+                if action is not None:
+                    actions.append(action)
                 for k, me in enumerate(tool_meshes):
                     mv = add(name("DF Tool", k) + " (moving)", me, COLOR_TOOL, "moving", k)
                     mv.parent = motion

@@ -2,7 +2,7 @@
 """flank.formed_cutter -- s004: formed disc cutter for one tooth of a rotor, its set-up, motion and result."""
 import bpy
 
-from .common import (edge_mesh, iter_fcurves, new_mesh_from_arrays, remove_ids, revolved_mesh, screw_matrix,
+from .common import (edge_mesh, key_screw_motion, new_mesh_from_arrays, remove_ids, revolved_mesh, screw_matrix,
                      select_only, set_color_attr, set_float_attr)
 from .properties import formed_cutter_props
 from .verify import DEVIATION_ATTR, DEVIATION_COLOR_ATTR, UNTOUCHED
@@ -284,16 +284,9 @@ class FLANK_OT_formed_cutter(bpy.types.Operator):
                 motion.parent = rotor_obj
                 motion.matrix_parent_inverse = Matrix.Identity(4)
                 motion.matrix_basis = Matrix.Identity(4)
-                for f, s in ((fs, -s_m), (fe, s_m)):
-                    motion.location = (0.0, 0.0, v0 * s)
-                    motion.rotation_euler = (0.0, 0.0, eps * s)
-                    motion.keyframe_insert(data_path="location", index=2, frame=f)
-                    motion.keyframe_insert(data_path="rotation_euler", index=2, frame=f)
-                if motion.animation_data is not None and motion.animation_data.action is not None:
-                    actions.append(motion.animation_data.action)
-                    for fcu in iter_fcurves(motion.animation_data.action):
-                        for kp in fcu.keyframe_points:
-                            kp.interpolation = 'LINEAR'
+                action = key_screw_motion(motion, ((fs, -s_m), (fe, s_m)), v0, eps)
+                if action is not None:
+                    actions.append(action)
                 moving = add(CUTTER_MOVING, cutter_mesh, (0.62, 0.66, 0.72, 1.0))
                 moving.parent = motion
                 moving.matrix_parent_inverse = Matrix.Identity(4)

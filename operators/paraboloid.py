@@ -2,7 +2,8 @@
 """flank.paraboloid_groove -- s002: helical groove of a paraboloid end mill, its section and overcut."""
 import bpy
 
-from .common import new_mesh_from_arrays, remove_ids, revolved_mesh, select_only, set_color_attr, set_float_attr
+from .common import (edge_mesh, iter_fcurves, new_mesh_from_arrays, remove_ids, revolved_mesh, select_only, set_color_attr,
+                     set_float_attr)
 from .properties import paraboloid_props
 
 COLLECTION = "Paraboloid Groove"
@@ -11,34 +12,6 @@ OVERCUT_COLOR_ATTR = "overcut_color"
 # overcut colour ramp: 0 -> pale yellow, max -> red
 RAMP_LOW = (1.00, 0.85, 0.35, 1.0)
 RAMP_HIGH = (0.85, 0.08, 0.08, 1.0)
-
-
-def _edge_mesh(bpy, np, name, chains):
-    """Mesh of polylines: ``chains`` is a list of ((K, 3) points, closed) -> vertices + edges only."""
-    verts, edges, off = [], [], 0
-    for pts, closed in chains:
-        k = len(pts)
-        idx = np.arange(k) + off
-        e = np.c_[idx[:-1], idx[1:]]
-        if closed:
-            e = np.vstack([e, [[idx[-1], idx[0]]]])
-        verts.append(pts)
-        edges.append(e)
-        off += k
-    verts = np.ascontiguousarray(np.vstack(verts), dtype=np.float32)
-    edges = np.ascontiguousarray(np.vstack(edges), dtype=np.int32)
-    mesh = bpy.data.meshes.new(name)
-    try:
-        mesh.vertices.add(len(verts))
-        mesh.vertices.foreach_set("co", verts.ravel())
-        mesh.edges.add(len(edges))
-        mesh.edges.foreach_set("vertices", edges.ravel())
-        mesh.update()
-        mesh.validate(clean_customdata=False)
-    except Exception:
-        bpy.data.meshes.remove(mesh)
-        raise
-    return mesh
 
 
 def _section_chains(np, x, y, closed_tol):
@@ -58,18 +31,6 @@ def _section_chains(np, x, y, closed_tol):
 def _ramp(np, t):
     t = np.clip(np.asarray(t, dtype=np.float64), 0.0, 1.0)[:, None]
     return (1.0 - t) * np.asarray(RAMP_LOW) + t * np.asarray(RAMP_HIGH)
-
-
-def _iter_fcurves(action):
-    """F-curves of an action, legacy (Blender < 4.4) or layered/slotted (4.4+, only API in 5.x)."""
-    layers = getattr(action, "layers", None)
-    if layers:
-        for layer in layers:
-            for strip in layer.strips:
-                for bag in getattr(strip, "channelbags", ()):
-                    yield from bag.fcurves
-    else:
-        yield from getattr(action, "fcurves", ())
 
 
 def tool_location(np, theta, R, v0):
@@ -170,10 +131,10 @@ class FLANK_OT_paraboloid_groove(bpy.types.Operator):
 
             closed_tol = 1e-9 * max(1.0, R)
             chains, src = _section_chains(np, x, y, closed_tol)
-            swept = add("Swept Section", _edge_mesh(bpy, np, "Swept Section", chains), (0.85, 0.10, 0.10, 1.0))
+            swept = add("Swept Section", edge_mesh(bpy, np, "Swept Section", chains), (0.85, 0.10, 0.10, 1.0))
             set_float_attr(np, swept.data, OVERCUT_ATTR, overcut[src])
             chains, _ = _section_chains(np, x, ty, closed_tol)
-            add("Tool Section", _edge_mesh(bpy, np, "Tool Section", chains), (0.10, 0.30, 0.85, 1.0))
+            add("Tool Section", edge_mesh(bpy, np, "Tool Section", chains), (0.10, 0.30, 0.85, 1.0))
             band = add("Overcut Band", new_mesh_from_arrays(bpy, np, "Overcut Band", band_verts, band_faces),
                        (0.95, 0.45, 0.10, 1.0))
             set_float_attr(np, band.data, OVERCUT_ATTR, band_oc)
@@ -194,7 +155,7 @@ class FLANK_OT_paraboloid_groove(bpy.types.Operator):
                 moving.location = [float(c) for c in loc]
                 moving.keyframe_insert(data_path="location", frame=int(f))
             if moving.animation_data is not None and moving.animation_data.action is not None:
-                for fc in _iter_fcurves(moving.animation_data.action):
+                for fc in iter_fcurves(moving.animation_data.action):
                     for kp in fc.keyframe_points:
                         kp.interpolation = 'LINEAR'
 
