@@ -51,7 +51,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .helical_surface import HelicalSurface
+from .helical_surface import HelicalSurface, shifted_newton_step
 from .screw import hand_sign, hand_name, screw_to_plane
 
 VARIANTS = ("min", "avg", "one-sided-1", "one-sided-2")
@@ -116,14 +116,7 @@ class FlankFeet:
                 break
             ua, ta, qa = u[ia], tau[ia], q0[ia]
             fa, gu, gt, huu, hut, htt = s._f_and_derivs(ua, ta, qa)
-            tr, det = huu + htt, huu * htt - hut ** 2
-            lam_min = 0.5 * (tr - np.sqrt(np.maximum(tr * tr - 4 * det, 0.0)))
-            scale = np.maximum(np.abs(huu) + np.abs(htt), 1e-30)
-            shift = np.where(lam_min < 1e-8 * scale, 1e-8 * scale - lam_min, 0.0)
-            a, b, c = huu + shift, hut, htt + shift
-            det = a * c - b * b
-            du = -(c * gu - b * gt) / det
-            dt = -(a * gt - b * gu) / det
+            du, dt, scale = shifted_newton_step(gu, gt, huu, hut, htt)
             # on a bound with the gradient pointing out of the box: move in tau only
             pinned = ((ua <= lo) & (gu > 0)) | ((ua >= hi) & (gu < 0))
             t_only = -gt / np.maximum(htt, 1e-8 * scale)

@@ -51,6 +51,18 @@ def _keep_better(best, sel, cand):
     u[idx], tau[idx], f[idx] = u1[better], t1[better], f1[better]
 
 
+def shifted_newton_step(gu, gt, huu, hut, htt):
+    """Newton step (du, dt) of a 2-variable minimisation, the Hessian shifted to be positive
+    definite (its smallest eigenvalue raised to 1e-8 of its scale); also returns that scale."""
+    tr, det = huu + htt, huu * htt - hut ** 2
+    lam_min = 0.5 * (tr - np.sqrt(np.maximum(tr * tr - 4 * det, 0.0)))
+    scale = np.maximum(np.abs(huu) + np.abs(htt), 1e-30)
+    shift = np.where(lam_min < 1e-8 * scale, 1e-8 * scale - lam_min, 0.0)
+    a, b, c = huu + shift, hut, htt + shift
+    det = a * c - b * b
+    return -(c * gu - b * gt) / det, -(a * gt - b * gu) / det, scale
+
+
 def _rot(v, c, s):
     return np.stack([c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1]], axis=-1)
 
@@ -172,15 +184,7 @@ class HelicalSurface:
             ia = np.flatnonzero(active)
             ua, ta, qa = u[ia], tau[ia], q0[ia]
             fa, gu, gt, huu, hut, htt = self._f_and_derivs(ua, ta, qa)
-            # smallest eigenvalue of [[huu, hut], [hut, htt]]
-            tr, det = huu + htt, huu * htt - hut ** 2
-            lam_min = 0.5 * (tr - np.sqrt(np.maximum(tr * tr - 4 * det, 0.0)))
-            scale = np.maximum(np.abs(huu) + np.abs(htt), 1e-30)
-            shift = np.where(lam_min < 1e-8 * scale, 1e-8 * scale - lam_min, 0.0)
-            a, b, c = huu + shift, hut, htt + shift
-            det = a * c - b * b
-            du = -(c * gu - b * gt) / det
-            dt = -(a * gt - b * gu) / det
+            du, dt, scale = shifted_newton_step(gu, gt, huu, hut, htt)
             # keep steps inside a trust region: a quarter of the profile, a quarter turn
             norm = np.maximum(np.abs(du) / step_cap, np.abs(dt) / (np.pi / 2))
             k = 1.0 / np.maximum(norm, 1.0)

@@ -270,3 +270,10 @@ def key_screw_motion(motion, keys, v0, eps):
         for kp in fcu.keyframe_points:
             kp.interpolation = 'LINEAR'
     return ad.action
+
+
+def builtin_from_props(rotors, obj):
+    """The built-in Rotor that Generate Rotor made ``obj`` from (KeyError/ValueError if it cannot)."""
+    return rotors.builtin_rotor(str(obj["flank_kind"]), str(obj["flank_part"]), scale=float(obj["flank_scale"]),
+                                lead=float(obj["flank_lead"]), length=float(obj["flank_length"]),
+                                handedness=str(obj["flank_handedness"]))

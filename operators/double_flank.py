@@ -2,7 +2,7 @@
 """flank.plan_double_flank -- s001: double-flank milling of one rotor valley with a custom-shaped or conical tool."""
 import bpy
 
-from .common import (edge_mesh, frame_along, key_screw_motion, mesh_world_arrays, new_mesh_from_arrays, remove_ids,
+from .common import (builtin_from_props, edge_mesh, frame_along, key_screw_motion, mesh_world_arrays, new_mesh_from_arrays, remove_ids,
                      results_parent, screw_matrix, select_only, set_color_attr, set_float_attr, similarity_parts)
 from .properties import double_flank_props
 
@@ -85,10 +85,7 @@ class FLANK_OT_plan_double_flank(bpy.types.Operator):
         src = obj.get("flank_source")
         if src == "generated":
             try:
-                rotor = rotors.builtin_rotor(str(obj["flank_kind"]), str(obj["flank_part"]),
-                                             scale=float(obj["flank_scale"]), lead=float(obj["flank_lead"]),
-                                             length=float(obj["flank_length"]),
-                                             handedness=str(obj["flank_handedness"]))
+                rotor = builtin_from_props(rotors, obj)
             except (KeyError, ValueError) as ex:
                 return "Cannot rebuild the rotor of '{}' from its custom properties: {}".format(obj.name, ex)
             display = np.array(obj.matrix_world, dtype=np.float64)

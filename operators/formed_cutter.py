@@ -2,7 +2,7 @@
 """flank.formed_cutter -- s004: formed disc cutter for one tooth of a rotor, its set-up, motion and result."""
 import bpy
 
-from .common import (edge_mesh, key_screw_motion, new_mesh_from_arrays, remove_ids, revolved_mesh, screw_matrix,
+from .common import (builtin_from_props, edge_mesh, key_screw_motion, new_mesh_from_arrays, remove_ids, revolved_mesh, screw_matrix,
                      select_only, set_color_attr, set_float_attr)
 from .properties import formed_cutter_props
 from .verify import DEVIATION_ATTR, DEVIATION_COLOR_ATTR, UNTOUCHED
@@ -90,10 +90,7 @@ class FLANK_OT_formed_cutter(bpy.types.Operator):
             r0, A_auto, kind = fc.TABLE1["R2"], fc.TABLE1["centre_distance"], "table1"
         elif src == "generated":
             try:
-                rotor = rotors.builtin_rotor(str(obj["flank_kind"]), str(obj["flank_part"]),
-                                             scale=float(obj["flank_scale"]), lead=float(obj["flank_lead"]),
-                                             length=float(obj["flank_length"]),
-                                             handedness=str(obj["flank_handedness"]))
+                rotor = builtin_from_props(rotors, obj)
             except (KeyError, ValueError) as ex:
                 return "Cannot rebuild the rotor of '{}' from its custom properties: {}".format(obj.name, ex)
             profile, lead, hand, length = rotor.profile, rotor.lead, rotor.handedness, rotor.length
