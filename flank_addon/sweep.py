@@ -446,18 +446,16 @@ class StripTool(RevolvingTool):
 
     def __init__(self, axis_start, axis_end, radii, shank_start=None, shank_end=None, shank_radius=0.0,
                  extra_parts=()):
-        self.radii = np.asarray(radii, float)
-        if self.radii.ndim != 1 or len(self.radii) < 2 or (self.radii < 0).any():
-            raise ValueError(f"tool radii must be >= 2 non-negative values, got {radii!r}")
-        s = np.linspace(0.0, 1.0, len(self.radii))[:, None]
-        self.centres = (1 - s) * np.asarray(axis_start, float) + s * np.asarray(axis_end, float)
-        parts = list(extra_parts) or [FrustumPart(self.centres[k], self.radii[k], self.centres[k + 1],
-                                                  self.radii[k + 1]) for k in range(len(self.radii) - 1)]
-        self.shank = None
+        radii = np.asarray(radii, float)
+        if radii.ndim != 1 or len(radii) < 2 or (radii < 0).any():
+            raise ValueError(f"tool radii must be >= 2 non-negative values, got {radii.tolist()!r}")
+        s = np.linspace(0.0, 1.0, len(radii))[:, None]
+        centres = (1 - s) * np.asarray(axis_start, float) + s * np.asarray(axis_end, float)
+        parts = list(extra_parts) or [FrustumPart(centres[k], radii[k], centres[k + 1], radii[k + 1])
+                                      for k in range(len(radii) - 1)]
         if shank_start is not None and shank_radius > 0 and np.linalg.norm(
                 np.subtract(shank_end, shank_start)) > 0:
-            self.shank = (np.asarray(shank_start, float), np.asarray(shank_end, float), float(shank_radius))
-            parts.append(CylinderPart(*self.shank))
+            parts.append(CylinderPart(shank_start, shank_end, shank_radius))
         super().__init__(parts)
 
     @classmethod
