@@ -153,20 +153,30 @@ class FlankFeet:
         q = np.atleast_2d(np.asarray(points, float))
         s = self.surface
         q0 = screw_to_plane(q, s.v0, s.hand)
+        Q = np.c_[q0, np.zeros(len(q0))]
         if warm is not None:
-            k = 1      # the warm start carries the basin; one table seed guards against jumps
-        _, idx = self._tree.query(np.c_[q0, np.zeros(len(q0))], k=k)
-        idx = idx.reshape(len(q0), -1)
-        seeds = [(self._U[j], self._T[j]) for j in idx.T]
-        if warm is not None:
-            seeds.insert(0, warm)
-        # all seeds in one vectorised Newton run, then the best per query
-        m = len(seeds)
-        U, T, F = self._newton(np.concatenate([sd[0] for sd in seeds]), np.concatenate([sd[1] for sd in seeds]),
-                               np.tile(q0, (m, 1)))
-        j = np.argmin(F.reshape(m, -1), axis=0)
-        rows = j * len(q0) + np.arange(len(q0))
-        u, tau, f = U[rows], T[rows], F[rows]
+            # the warm start carries the basin.  Guard against a jump to another basin: a rough table
+            # seed (approximate nearest neighbour, 4x cheaper than the exact query) that is already
+            # nearer than the warm foot starts a second Newton run for that query only
+            u, tau, f = self._newton(warm[0], warm[1], q0)
+            _, idx = self._tree.query(Q, k=1, eps=2.0)
+            su, st = self._U[idx], self._T[idx]
+            fs = s._f_and_derivs(su, st, q0, order=0)
+            jump = np.flatnonzero(fs < f)
+            if len(jump):
+                ju, jt, jf = self._newton(su[jump], st[jump], q0[jump])
+                better = jf < f[jump]
+                b = jump[better]
+                u[b], tau[b], f[b] = ju[better], jt[better], jf[better]
+        else:
+            _, idx = self._tree.query(Q, k=k)
+            idx = idx.reshape(len(q0), -1)
+            # all seeds in one vectorised Newton run, then the best per query
+            m = idx.shape[1]
+            U, T, F = self._newton(self._U[idx.T.ravel()], self._T[idx.T.ravel()], np.tile(q0, (m, 1)))
+            j = np.argmin(F.reshape(m, -1), axis=0)
+            rows = j * len(q0) + np.arange(len(q0))
+            u, tau, f = U[rows], T[rows], F[rows]
         t = tau + q[:, 2] / s.v0
         foot = s.evaluate(u, t)
         diff = q - foot
@@ -384,8 +394,9 @@ def default_starts(valley):
 
 
 def _bounds(valley):
-    half = math.pi / valley.lobes
-    return [(-0.5, 0.5), (-0.4, 0.4), (-1.5 * half, 1.5 * half)]
+    # phi is an angle (a turn about z maps the axis onto itself); alpha and delta stop short of
+    # axes that lie along the rotor or far off the valley, which the interior-count check rejects anyway
+    return [(-1.2, 1.2), (-0.8, 0.8), (-math.pi, math.pi)]
 
 
 def optimize_axis(valley, n=100, starts=None, evaluator=None):
@@ -400,9 +411,18 @@ def optimize_axis(valley, n=100, starts=None, evaluator=None):
     lam = np.linspace(*valley.lam_range, n)
     R = valley.outer_radius
 
+    seen = {}
+
     def fun_jac(y):
         ar = ev(y[:3], lam)
-        w = (ar.interior[0] & ar.interior[1]).astype(float)
+        both = ar.interior[0] & ar.interior[1]
+        # SLSQP's line search may wander off after reaching the optimum (the interior sets change
+        # in jumps): remember the best valid axis it evaluated
+        if both.sum() >= need:
+            val = phi_value(ar)
+            if val < seen.get("phi", np.inf):
+                seen.update(phi=val, x=y[:3].copy())
+        w = both.astype(float)
         d = (ar.r[0] - ar.r[1]) / R * w
         Jd = (ar.grad[0] - ar.grad[1]) / R * w[:, None]
         g = np.r_[y[3] - d, y[3] + d]
@@ -420,12 +440,15 @@ def optimize_axis(valley, n=100, starts=None, evaluator=None):
         ts = time.perf_counter()
         x0 = np.asarray(x0, float)
         s0 = phi_value(ev(x0, lam)) / R
+        seen.clear()
         res = _slsqp(fun_jac, np.r_[x0, s0], _bounds(valley) + [(0.0, None)], 2 * n, obj)
         x = res.x[:3]
         ar = ev(x, lam)
         val = phi_value(ar)
         # an axis that leaves the valley has few samples touching both flanks: Phi means nothing there
         valid = int(np.sum(ar.interior[0] & ar.interior[1])) >= need
+        if "x" in seen and (not valid or seen["phi"] < val):
+            x, val, valid = seen["x"], seen["phi"], True
         per.append((x0.tolist(), x.tolist(), val if valid else float("inf"), int(res.nit),
                     time.perf_counter() - ts))
         if valid and (best is None or val < best[1] - 1e-15):
@@ -473,7 +496,8 @@ def tool_extent(ev, x, flanks=(0, 1), n_scan=400, tag="extent"):
     interior (bisection to 1e-12 R on both ends).  Beyond them every foot sits on a flank's
     boundary (valley bottom or rim) and the spheres no longer shape the target flanks."""
     v = ev.valley
-    lam = np.linspace(*v.lam_range, n_scan)
+    # scan beyond the optimisation's samples: a tilted axis can still touch a flank there
+    lam = np.linspace(0.5 * v.lam_range[0], 1.25 * v.lam_range[1], n_scan)
     ar = ev(x, lam, tag=(tag, n_scan))
     ok = ar.interior[list(flanks)].any(axis=0)
     idx = np.flatnonzero(ok)
@@ -879,48 +903,95 @@ def _coverage_gap(valley, k, feet):
     return float(np.diff(u).max() / (hi - lo))
 
 
-def optimize_two_paths(valley, n=100, x0=None, evaluator=None, starts=None):
+def optimize_two_paths(valley, n=100, x0=None, evaluator=None, starts=None, rounds=4, n_dense=3000):
     """s001 §4.3: one tool, two axes.  Minimise the largest error of the shared tool on either axis
     (Eq. (18) plus the one-flank tails and the other-flank clearance, see :func:`_two_path_terms`)
     over (x1, x2) by SLSQP on the epigraph form with exact gradients, from the double-flank optimum
     ``x0`` on both axes and a few starts that move the two axes apart in delta and phi (the paper
-    starts from zeros).  Axes may not lose more than half of their counted samples."""
+    starts from zeros).
+
+    The errors have narrow spikes (a foot jumping across a flank's corner) that a fixed sample set
+    misses and the optimiser then exploits, so the samples are exchanged as in semi-infinite
+    programming: after each round the errors are evaluated at ``n_dense`` tool coordinates, the
+    local maxima above the sampled optimum join the samples, and SLSQP restarts from the best pair.
+    Pairs are compared by the dense error; a pair whose axes leave part of their flank unswept
+    (coverage gap larger than the double-flank axis has) is never kept."""
     t0 = time.perf_counter()
     ev = evaluator or AxisEvaluator(valley)
     R = valley.outer_radius
     x0 = np.zeros(3) if x0 is None else np.asarray(x0, float)
-    t = np.linspace(*valley.lam_range, n) / math.cos(float(x0[0]))
+    # tool coordinates over the double-flank tool's whole extent (its tip may reach below the
+    # optimisation samples of Eq. (11))
+    ext = tool_extent(ev, x0)
+    t_lo = (ext[0] - 0.02 * R) / math.cos(float(x0[0]))
+    t_hi = max(ext[1], valley.lam_range[1]) / math.cos(float(x0[0]))
+    t_dense = np.linspace(t_lo, t_hi, n_dense)
+    samples = {"t": np.linspace(t_lo, t_hi, 2 * n)}
 
-    def phi(y):
-        e, _, _, (A, B) = _two_path_terms(ev, y, t)
-        return float(e.max()), (_coverage_gap(valley, 0, A.feet[0]), _coverage_gap(valley, 1, B.feet[0]))
+    def gaps(A, B):
+        return _coverage_gap(valley, 0, A.feet[0]), _coverage_gap(valley, 1, B.feet[0])
+
+    def dense(y):
+        """Largest error over the dense coordinates (and per coordinate), coverage gaps."""
+        e, _, _, (A, B) = _two_path_terms(ev, y, t_dense)
+        per_t = e.reshape(-1, n_dense).max(axis=0)
+        return float(per_t.max()), per_t, gaps(A, B)
+
+    seen = {}
 
     def fun_jac(y):
-        e, G, _, _ = _two_path_terms(ev, y, t)
+        e, G, _, (A, B) = _two_path_terms(ev, y, samples["t"])
+        # keep the best axis pair SLSQP evaluated that still sweeps both whole flanks: coverage
+        # is not smooth enough for a constraint, and the final iterate may have lost part of a flank
+        val = float(e.max())
+        if val < seen.get("phi", np.inf) and covers(gaps(A, B)):
+            seen.update(phi=val, y=y[:6].copy())
         J = np.zeros((len(e), 7))
         J[:, :6] = -G / R
         J[:, 6] = 1.0
         return y[6] - e / R, J
 
     obj = lambda y: (y[6], np.r_[np.zeros(6), 1.0])  # noqa: E731
-    p_ref, need = phi(np.r_[x0, x0])
+    p_ref, per_ref, need = dense(np.r_[x0, x0])
+
+    def covers(g):
+        return g[0] <= need[0] + 0.01 and g[1] <= need[1] + 0.01
+
     box = [(max(lo, c - 0.2), min(hi, c + 0.2)) for (lo, hi), c in zip(_bounds(valley), x0)]
+    lo_b, hi_b = [b_[0] for b_ in box * 2], [b_[1] for b_ in box * 2]
     starts = starts or [(0.0, 0.0, 0.0, 0.0), (0.0, 0.05, 0.0, -0.05)]
-    best, per, nit = (np.r_[x0, x0], p_ref), [], 0
-    for d1, f1_, d2, f2_ in starts:
-        ts = time.perf_counter()
-        y0 = np.r_[x0 + [0.0, d1, f1_], x0 + [0.0, d2, f2_]]
-        y0 = np.clip(y0, [b_[0] for b_ in box * 2], [b_[1] for b_ in box * 2])
-        p0, _ = phi(y0)
-        res = _slsqp(fun_jac, np.r_[y0, p0 / R], box * 2 + [(0.0, None)], 0, obj)
-        val, cnt = phi(res.x[:6])
-        # the axes must still sweep their whole flanks (coverage is not in the objective)
-        ok = cnt[0] <= need[0] + 0.01 and cnt[1] <= need[1] + 0.01
-        per.append((y0.tolist(), res.x[:6].tolist(), val if ok else float("inf"), int(res.nit),
-                    time.perf_counter() - ts))
-        if ok and val < best[1]:
-            best, nit = (res.x[:6].copy(), val), int(res.nit)
-    y, val = best
+    best = (np.r_[x0, x0], p_ref, per_ref)
+    per, nit = [], 0
+    y_starts = [np.clip(np.r_[x0 + [0.0, d1, f1_], x0 + [0.0, d2, f2_]], lo_b, hi_b)
+                for d1, f1_, d2, f2_ in starts]
+    for rnd in range(rounds):
+        improved = False
+        for y0 in y_starts:
+            ts = time.perf_counter()
+            e0, _, _, _ = _two_path_terms(ev, y0, samples["t"])
+            seen.clear()
+            res = _slsqp(fun_jac, np.r_[y0, float(e0.max()) / R], box * 2 + [(0.0, None)], 0, obj)
+            cands = [res.x[:6].copy()] + ([seen["y"]] if "y" in seen else [])
+            for y_end in cands:
+                val, per_t, g = dense(y_end)
+                ok = covers(g)
+                per.append((y0.tolist(), y_end.tolist(), val if ok else float("inf"), int(res.nit),
+                            time.perf_counter() - ts))
+                if ok and val < best[1] - 1e-12 * R:
+                    best, nit, improved = (y_end, val, per_t), int(res.nit), True
+        # exchange: dense local maxima of the best pair that the samples do not hold yet
+        per_t = best[2]
+        peak = np.r_[False, (per_t[1:-1] >= per_t[:-2]) & (per_t[1:-1] >= per_t[2:]), False]
+        peak |= np.r_[per_t[0] >= per_t[1], np.zeros(n_dense - 2, bool), per_t[-1] >= per_t[-2]]
+        idx = np.flatnonzero(peak & (per_t > 0.5 * best[1]))
+        idx = idx[np.argsort(per_t[idx])[::-1][:40]]
+        new_t = t_dense[idx]
+        near = np.min(np.abs(new_t[:, None] - samples["t"][None, :]), axis=1) < 0.25 * (t_hi - t_lo) / n_dense
+        if not len(new_t) or near.all() or (rnd and not improved):
+            break
+        samples["t"] = np.sort(np.r_[samples["t"], new_t[~near]])
+        y_starts = [best[0]]
+    y, val = best[0], best[1]
     x1, x2 = y[:3], y[3:6]
     el = time.perf_counter() - t0
     mk = lambda xx: AxisFit(x=np.array([xx[0], xx[1] * R, xx[2]]), x_unit=xx, phi=val, iterations=nit,  # noqa: E731
