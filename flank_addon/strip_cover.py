@@ -1,0 +1,518 @@
+"""Which part of a flank each candidate tool pose mills within tolerance, the fewest poses that
+mill all of it, adaptive seeding of the gaps, and the kink between neighbouring envelopes.
+
+Coverage (s000 §3.3, §6.1 "Gaps between strips")
+-------------------------------------------------
+A pose's tool is fixed in the rotor frame while the rotor screws (s000 Eq. (1)); its envelope is
+a helical surface of the same screw motion as the flank, so the rotor-to-envelope deviation of a
+flank point depends only on its profile point in z = 0: a 2D problem along the profile.  The
+deviation of profile point p with outward normal n is the root lambda of D(p + lambda n) = 0,
+D(x) = min_t sd_tool(S_t(x)) (the sweep engine of :mod:`sweep`, exact for the helical motion);
+positive = material left, negative = overcut.  A pose *covers* the profile points where
+-eps_over <= deviation <= eps_under.
+
+For several strips the machined deviation is the minimum of the strips' deviations (the swept
+regions are united).  Hence a set of poses none of which overcuts the flank by more than eps_over
+anywhere ("admissible" poses) mills a point within tolerance exactly when one of them covers it,
+and choosing strips becomes covering the flank's parameter range [u_start, u_end] by the covered
+intervals: :func:`minimum_interval_cover`.  A pose that overcuts somewhere by more than eps_over
+spoils the flank there whatever else is chosen, so it is not used for covering (its coverage is
+still reported).
+
+The per-pose evaluation is vectorised over poses and points: every (pose, point) pair is one row,
+the rows' tools are stacked (:class:`sweep.StackedTools`) and the same sphere tracing + Illinois
+root finding as :func:`sweep.machined_deviation` runs on all rows at once.
+
+Junctions (s000 §7, s003 Eq. (16))
+----------------------------------
+Where two envelopes overlap, the machined surface switches from one to the other at the profile
+point where their deviation curves cross.  Both envelopes pass through the machined point x
+there; the kink angle is the angle between their normals at x.  The normal of an envelope at x
+is the tool's surface normal at the contact: with t* the minimising time of D(x),
+grad D(x) = R(t*)^T grad sd_tool(S_t*(x)) (envelope theorem), a 3D vector; the envelope is a
+helical surface, so this is its normal along the whole helix through x.  s003 measures G1 by the
+angles of the tool axes with the reference normal (its Eq. (16)); here the kink itself is measured.
+"""
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .screw import screw_motion
+from .sweep import StackedTools, StripTool, helical_distance
+
+_ROW_CHUNK = 4096
+
+
+# ============================================================================ flank samples
+@dataclass
+class FlankSamples:
+    """Profile samples of one flank: parameters u (n,), points (n, 2), outward unit normals (n, 2)."""
+    u: np.ndarray
+    points: np.ndarray
+    normals: np.ndarray
+    profile: object = None
+
+    def at(self, u):
+        """Points and normals at arbitrary parameters (exact on the profile, else interpolated)."""
+        u = np.asarray(u, float)
+        if self.profile is not None:
+            return self.profile.eval(u), self.profile.outward_normal(u)
+        p = np.stack([np.interp(u, self.u, self.points[:, k]) for k in (0, 1)], -1)
+        n = np.stack([np.interp(u, self.u, self.normals[:, k]) for k in (0, 1)], -1)
+        return p, n / np.linalg.norm(n, axis=-1, keepdims=True)
+
+
+def flank_samples(surface, flank_range, n=500):
+    """n equally spaced profile parameters over flank_range = (u_start, u_end) of ``surface``
+    (a :class:`helical_surface.HelicalSurface`; only its profile is used)."""
+    u0, u1 = (float(x) for x in flank_range)
+    if not (u1 > u0 and n >= 2):
+        raise ValueError(f"flank range must satisfy u_start < u_end and n >= 2, got ({u0}, {u1}), n = {n}")
+    u = np.linspace(u0, u1, int(n))
+    prof = surface.profile
+    return FlankSamples(u, prof.eval(u), prof.outward_normal(u), prof)
+
+
+def tool_of(pose, with_shank=False):
+    """The revolving tool of a :class:`cone.ConePose` or of a flank-plan/1 strip dict."""
+    strip = pose if isinstance(pose, dict) else pose.strip(0)
+    return StripTool.from_strip(strip, with_shank=with_shank)
+
+
+# ============================================================================ per-pose deviation
+def _layout(tool):
+    return tuple(type(p) for p in tool.parts)
+
+
+def pose_deviations(tools, points, normals, v0, handedness, search, tol=1e-12):
+    """(K, N) deviation of each of N profile points (z = 0) under each of K tools *alone*.
+
+    Same definition as :func:`sweep.machined_deviation` (root of D(p + lambda n) along the
+    outward normal; + material left, - overcut, +inf: no machined surface within ``search``),
+    evaluated for all (tool, point) pairs together: tools of one part layout are stacked and every
+    pair is a row of one sphere-tracing / Illinois pass."""
+    points = np.asarray(points, float)
+    normals = np.asarray(normals, float)
+    K, N = len(tools), len(points)
+    out = np.full((K, N), np.inf)
+    groups = {}
+    for k, t in enumerate(tools):
+        groups.setdefault(_layout(t), []).append(k)
+    p1 = np.c_[points, np.zeros(N)]
+    n1 = np.c_[normals, np.zeros(N)]
+    for ks in groups.values():
+        if len(ks) == 1 or not StackedTools.compatible([tools[k] for k in ks]):
+            for k in ks:      # RevolvingTool.rows() is the tool itself
+                out[k] = _row_roots(tools[k], np.zeros(N, int), p1, n1, v0, handedness, search, tol)
+            continue
+        stack = StackedTools([tools[k] for k in ks])
+        which = np.repeat(np.arange(len(ks)), N)
+        p = np.tile(p1, (len(ks), 1))
+        n = np.tile(n1, (len(ks), 1))
+        out[ks] = _row_roots(stack, which, p, n, v0, handedness, search, tol).reshape(len(ks), N)
+    return out
+
+
+def _row_roots(stack, which, p, n, v0, hand, search, tol):
+    """Root of D_k(p + lambda n) per row (tool k = which[row]); the scheme of machined_deviation."""
+    R = len(p)
+    scale = float(np.max(np.abs(p)))
+    cutoff = search + 1e-6 * scale
+    eps = 1e-9 * scale
+
+    def D(lam, idx, bound):
+        res = np.empty(len(idx))
+        for s in range(0, len(idx), _ROW_CHUNK):
+            j = idx[s:s + _ROW_CHUNK]
+            q = p[j] + lam[s:s + _ROW_CHUNK, None] * n[j]
+            res[s:s + _ROW_CHUNK] = helical_distance(stack.rows(which[j]), q, v0, hand,
+                                                     cutoff=np.broadcast_to(bound, (len(idx),))[s:s + _ROW_CHUNK])[0]
+        return res
+
+    allr = np.arange(R)
+    d0 = D(np.zeros(R), allr, cutoff)
+    lo, f_lo = np.zeros(R), d0.copy()
+    hi, f_hi = lo.copy(), d0.copy()
+    direction = np.where(d0 >= 0, 1.0, -1.0)
+    # D is 1-Lipschitz along the ray: a tool farther than the search range never forms the surface in it
+    active = (d0 != 0) & (d0 < cutoff)
+    for _ in range(400):
+        idx = np.flatnonzero(active)
+        if not len(idx):
+            break
+        lam = lo[idx] + direction[idx] * (np.abs(f_lo[idx]) + eps)
+        out = np.abs(lam) > search
+        lam = np.clip(lam, -search, search)
+        f_new = D(lam, idx, np.minimum(np.abs(f_lo[idx]) + np.abs(lam - lo[idx]) + eps, cutoff))
+        crossed = np.sign(f_new) != np.sign(f_lo[idx])
+        hi[idx], f_hi[idx] = lam, f_new
+        keep = ~crossed & ~out
+        lo[idx[keep]], f_lo[idx[keep]] = lam[keep], f_new[keep]
+        active[idx[crossed | out]] = False
+    found = (np.sign(f_hi) != np.sign(f_lo)) | (f_lo == 0)
+    side = np.zeros(R)
+    for _ in range(100):          # Illinois on the brackets
+        idx = np.flatnonzero(found & (np.abs(hi - lo) > tol) & (f_hi != 0))
+        if not len(idx):
+            break
+        l, fl, h, fh = lo[idx], f_lo[idx], hi[idx], f_hi[idx]
+        m = np.where(fh != fl, h - fh * (h - l) / np.where(fh != fl, fh - fl, 1.0), 0.5 * (l + h))
+        m = np.where((m - l) * (m - h) < 0, m, 0.5 * (l + h))
+        fm = D(m, idx, np.minimum(np.abs(fh) + np.abs(h - l) + eps, cutoff))
+        same_hi = np.sign(fm) == np.sign(fh)
+        lo[idx] = np.where(same_hi, l, h)
+        f_lo[idx] = np.where(same_hi, np.where(side[idx] == 1, 0.5 * fl, fl), fh)
+        side[idx] = np.where(same_hi, 1, -1)
+        hi[idx], f_hi[idx] = m, fm
+    root = np.where(np.abs(f_hi) <= np.abs(f_lo), hi, lo)
+    root = np.where(f_lo == 0, lo, root)
+    # inside the swept region with no exit within the search range: an overcut deeper than it
+    return np.where(found, root, np.where(d0 < 0, -np.inf, np.inf))
+
+
+# ============================================================================ covered intervals
+def index_runs(mask):
+    """Inclusive (start, end) index runs where ``mask`` is true."""
+    idx = np.flatnonzero(mask)
+    if not len(idx):
+        return []
+    br = np.flatnonzero(np.diff(idx) > 1)
+    return [(int(a), int(b)) for a, b in zip(np.r_[idx[0], idx[br + 1]], np.r_[idx[br], idx[-1]])]
+
+
+def _end_param(u, dev, i_in, i_out, eps_under, eps_over):
+    """Parameter where the deviation leaves the band between sample i_in (inside) and i_out
+    (outside), linear interpolation; the inside sample itself if the outside one is not reached."""
+    d_out = dev[i_out]
+    if not np.isfinite(d_out):
+        return float(u[i_in])
+    bound = eps_under if d_out > eps_under else -eps_over
+    g_in, g_out = dev[i_in] - bound, d_out - bound
+    w = g_in / (g_in - g_out) if g_in != g_out else 0.0
+    return float(u[i_in] + np.clip(w, 0.0, 1.0) * (u[i_out] - u[i_in]))
+
+
+@dataclass
+class PoseCoverage:
+    """One pose on one flank.  ``intervals``: parameter ranges [a, b] where the deviation is inside
+    [-eps_over, eps_under] (ends interpolated linearly between the last sample inside and the first
+    outside); ``index_ranges``: the same as inclusive sample index runs; ``admissible``: nowhere on
+    the flank an overcut beyond eps_over (``overcut_ranges``: sample runs where there is)."""
+    deviation: np.ndarray
+    intervals: list
+    index_ranges: list
+    overcut_ranges: list
+    admissible: bool
+    max_overcut: float
+
+
+@dataclass
+class Coverage:
+    samples: FlankSamples
+    eps_under: float
+    eps_over: float
+    poses: list            # PoseCoverage per input pose
+
+    @property
+    def deviation(self):
+        """(K, n) deviations of all poses."""
+        return np.array([c.deviation for c in self.poses]).reshape(len(self.poses), len(self.samples.u))
+
+
+def coverage_of(deviation, u, eps_under, eps_over):
+    """:class:`PoseCoverage` from one deviation curve sampled at parameters u."""
+    dev = np.asarray(deviation, float)
+    ok = (dev >= -eps_over) & (dev <= eps_under)
+    runs = index_runs(ok)
+    iv = []
+    last = len(u) - 1
+    for a, b in runs:
+        ua = float(u[a]) if a == 0 else _end_param(u, dev, a, a - 1, eps_under, eps_over)
+        ub = float(u[b]) if b == last else _end_param(u, dev, b, b + 1, eps_under, eps_over)
+        iv.append((ua, ub))
+    over = dev < -eps_over
+    return PoseCoverage(deviation=dev, intervals=iv, index_ranges=runs, overcut_ranges=index_runs(over),
+                        admissible=not over.any(), max_overcut=float(max(0.0, -dev.min())) if len(dev) else 0.0)
+
+
+def covered_intervals(poses, surface, flank_range, eps_under, eps_over, n=500, search=None, samples=None,
+                      with_shank=False):
+    """Rotor-to-envelope deviation of a flank's profile points under each pose, and where each
+    pose mills the flank within [-eps_over, +eps_under].
+
+    Args:
+        poses: :class:`cone.ConePose` objects or flank-plan/1 strip dicts (any mix).
+        surface: the rotor's :class:`HelicalSurface` (profile, v0, handedness).
+        flank_range: (u_start, u_end) profile parameters of the flank.
+        eps_under, eps_over: allowed material left / overcut (>= 0, plan length unit).
+        n: flank samples (ignored when ``samples`` (:class:`FlankSamples`) is given).
+        search: deviation search range (default 10 max(eps) + 1e-3 R); beyond it: +inf.
+        with_shank: include the shank in the tool (the global test is :mod:`collision`).
+    Returns:
+        :class:`Coverage` (``.poses[k]``: deviation (n,), intervals, index_ranges, admissible ...).
+    """
+    if not (eps_under >= 0 and eps_over >= 0):
+        raise ValueError(f"eps_under = {eps_under}, eps_over = {eps_over} must be >= 0")
+    fs = samples if samples is not None else flank_samples(surface, flank_range, n)
+    if search is None:
+        search = 10.0 * max(eps_under, eps_over) + 1e-3 * float(np.max(np.linalg.norm(fs.points, axis=1)))
+    tools = [tool_of(p, with_shank) for p in poses]
+    dev = pose_deviations(tools, fs.points, fs.normals, surface.v0, surface.handedness, search) if tools \
+        else np.zeros((0, len(fs.u)))
+    return Coverage(fs, float(eps_under), float(eps_over), [coverage_of(d, fs.u, eps_under, eps_over) for d in dev])
+
+
+# ============================================================================ interval cover
+@dataclass
+class IntervalCover:
+    """``chosen``: indices into the input intervals, in order along [lo, hi]; ``gaps``: maximal
+    open parameter ranges (a, b) of [lo, hi] that no interval covers; ``complete``: no gaps."""
+    chosen: list
+    gaps: list
+    complete: bool
+
+
+def minimum_interval_cover(intervals, lo, hi):
+    """Fewest closed intervals covering [lo, hi] (greedy: sort by start; from the current reach,
+    take the interval that starts at or before it and reaches furthest).  Greedy is optimal: any
+    cover must contain an interval covering the current reach, and the furthest-reaching one leaves
+    the shortest remainder.  Where nothing covers the reach, the gap up to the next start is recorded
+    and the scan continues there, so ``chosen`` is also a minimum cover of [lo, hi] ∩ union of the
+    intervals (each connected piece is covered independently).
+
+    intervals: sequence of (a, b) with a <= b (others, and empty ones, are ignored)."""
+    lo, hi = float(lo), float(hi)
+    if not hi >= lo:
+        raise ValueError(f"cover range must satisfy lo <= hi, got [{lo}, {hi}]")
+    iv = [(float(a), float(b), k) for k, (a, b) in enumerate(intervals)
+          if a <= b and b >= lo and a <= hi and math.isfinite(a) and math.isfinite(b)]
+    iv.sort()
+    chosen, gaps = [], []
+    reach = lo
+    covered_reach = False        # is the point ``reach`` itself covered by a chosen interval?
+    j = 0
+    best = None
+    while True:
+        # candidates: start <= reach
+        while j < len(iv) and iv[j][0] <= reach:
+            if best is None or iv[j][1] > best[1]:
+                best = iv[j]
+            j += 1
+        if best is not None and (best[1] > reach or (not covered_reach and best[1] >= reach)):
+            chosen.append(best[2])
+            reach = best[1]
+            covered_reach = True
+            best = None
+            if reach >= hi:
+                break
+            continue
+        # no interval extends the cover beyond reach: a gap up to the next start
+        if j >= len(iv):
+            gaps.append((reach, hi))
+            break
+        gaps.append((reach, iv[j][0]))
+        reach = iv[j][0]
+        covered_reach = False
+        best = None
+    return IntervalCover(chosen=chosen, gaps=gaps, complete=not gaps)
+
+
+# ============================================================================ adaptive seeding
+@dataclass
+class AdaptiveCover:
+    """Result of :func:`adaptive_cover`.
+
+    poses / intervals: the chosen poses and their covered parameter intervals;
+    gaps: parameter ranges no admissible candidate covers (interval model);
+    deviation: the machined deviation of the chosen poses together at the flank samples (the minimum
+    of their own deviations: exact for the union of the swept regions); uncovered: parameter ranges
+    of the samples outside [-eps_over, eps_under] there (the sample-level answer, no interpolation); rounds: per round the seeds tried,
+    candidates returned, admissible ones and the gaps left."""
+    poses: list
+    intervals: list
+    gaps: list
+    deviation: np.ndarray
+    uncovered: list
+    samples: FlankSamples
+    candidates: list = field(default_factory=list)
+    coverage: list = field(default_factory=list)
+    rounds: list = field(default_factory=list)
+
+    @property
+    def complete(self):
+        return not self.gaps and not self.uncovered
+
+
+def _param_ranges(u, runs):
+    return [(float(u[a]), float(u[b])) for a, b in runs]
+
+
+def _gap_seeds(gap, tries):
+    a, b = gap
+    m = tries + 1
+    return [a + (b - a) * k / (m + 1) for k in range(1, m + 1)]
+
+
+def adaptive_cover(make_candidates, surface, flank_range, eps_under, eps_over, seeds=None, n_seeds=5,
+                   max_rounds=6, n=500, search=None, with_shank=False):
+    """Cover a flank with candidate poses, seeding new candidates where it is not yet covered
+    (s000 §6.1: start coarse, insert samples where the error is worst).
+
+    make_candidates(param_values) -> poses: a callback (e.g. the single-flank optimiser) that turns
+    profile parameters of the flank into candidate poses (any number; None entries are skipped).
+    Round 1 uses ``seeds`` (default: ``n_seeds`` parameters spread over the flank); every further
+    round seeds the gaps of the minimum cover (a gap seeded before gets one more seed each time) until
+    the cover is complete or ``max_rounds`` is reached.  The chosen poses are then simulated together
+    and what stays outside the tolerance band is reported as parameter ranges."""
+    fs = flank_samples(surface, flank_range, n)
+    u0, u1 = float(fs.u[0]), float(fs.u[-1])
+    if seeds is None:
+        seeds = list(u0 + (u1 - u0) * (np.arange(n_seeds) + 0.5) / n_seeds)
+    cands, cov = [], []
+    tried = {}
+    rounds = []
+    seeds = list(seeds)
+    cover = IntervalCover([], [(u0, u1)], False)
+    flat = []
+    for r in range(max_rounds):
+        if not seeds:
+            break
+        new = [p for p in make_candidates(np.asarray(seeds, float)) if p is not None]
+        c = covered_intervals(new, surface, flank_range, eps_under, eps_over, search=search, samples=fs,
+                              with_shank=with_shank) if new else None
+        cands += new
+        if c is not None:
+            cov += c.poses
+        flat = [(iv, k) for k, pc in enumerate(cov) if pc.admissible for iv in pc.intervals]
+        cover = minimum_interval_cover([iv for iv, _ in flat], u0, u1)
+        rounds.append({"round": r + 1, "seeds": [float(s) for s in seeds], "candidates": len(new),
+                       "admissible": sum(pc.admissible for pc in (c.poses if c else [])),
+                       "gaps": [tuple(g) for g in cover.gaps]})
+        if cover.complete:
+            break
+        seeds = []
+        for g in cover.gaps:
+            key = (round(g[0], 12), round(g[1], 12))
+            tried[key] = tried.get(key, 0) + 1
+            seeds += _gap_seeds(g, tried[key] - 1)
+    chosen_k = []
+    for i in cover.chosen:
+        k = flat[i][1]
+        if k not in chosen_k:
+            chosen_k.append(k)
+    poses = [cands[k] for k in chosen_k]
+    # union of swept regions: along each normal ray the first crossing of the union is the first
+    # crossing of one of the tools, so the machined deviation is the minimum of the tools' own
+    dev = np.min([cov[k].deviation for k in chosen_k], axis=0) if chosen_k else np.full(len(fs.u), np.inf)
+    bad = ~((dev >= -eps_over) & (dev <= eps_under))
+    return AdaptiveCover(poses=poses, intervals=[cov[k].intervals for k in chosen_k], gaps=list(cover.gaps),
+                         deviation=dev, uncovered=_param_ranges(fs.u, index_runs(bad)), samples=fs,
+                         candidates=cands, coverage=cov, rounds=rounds)
+
+
+# ============================================================================ junction kinks
+def _grad_sd(tool, q, h):
+    """Central-difference gradient of the tool's signed distance at points q (N, 3)."""
+    g = np.empty_like(q)
+    for k in range(3):
+        e = np.zeros(3)
+        e[k] = h
+        g[:, k] = (tool.signed_distance(q + e) - tool.signed_distance(q - e)) / (2 * h)
+    return g
+
+
+def envelope_normals(tool, x, v0, handedness, cutoff=None):
+    """Unit normals (N, 3) of the tool's envelope at points x (N, 3) on (or next to) it:
+    R(t*)^T grad sd_tool(S_t*(x)), pointing away from the swept region (into the material)."""
+    x = np.atleast_2d(np.asarray(x, float))
+    scale = max(float(np.max(np.abs(x))), float(np.max(np.abs(tool.bound_centres)) + tool.bound_radii.max()))
+    cutoff = 1e-3 * scale if cutoff is None else cutoff
+    _, t = helical_distance(tool, x, v0, handedness, cutoff=cutoff)
+    if np.isnan(t).any():
+        raise ValueError("envelope_normals: a point is farther than the cutoff from the envelope")
+    q = screw_motion(x, t, v0, handedness)
+    g = _grad_sd(tool, q, 1e-6 * scale)
+    N = screw_motion(g, -t, 0.0, handedness)          # rotation part only: R(t*)^T g
+    return N / np.linalg.norm(N, axis=1, keepdims=True)
+
+
+@dataclass
+class Junction:
+    """A switch of the machined surface between two envelopes on the flank profile.
+
+    u: profile parameter; point: machined point (3,) in z = 0 (on both envelopes);
+    deviation: its deviation from the design profile; kink_deg: angle between the envelopes' normals
+    (3D); section_kink_deg: angle between the envelopes' sections in z = 0; normals: (2, 3)."""
+    u: float
+    point: np.ndarray
+    deviation: float
+    kink_deg: float
+    section_kink_deg: float
+    normals: np.ndarray
+
+
+def junction_kinks(strip_a, strip_b, surface, flank_range=None, n=500, search=None, samples=None, u_tol=None):
+    """Kink angles where the envelopes of two poses (ConePose or strip dicts) meet on a flank.
+
+    The deviation curves d_a(u), d_b(u) of the two tools alone are sampled on the flank; every sign
+    change of d_a - d_b (both finite) is refined by regula falsi (Illinois) in u to ``u_tol``
+    (default 1e-9 of the flank length); there x = p(u) + d n(u) lies on both envelopes and the kink
+    is the angle between the envelope normals (:func:`envelope_normals`).  Returns a list of
+    :class:`Junction` (empty: the envelopes never switch, e.g. disjoint or one always deeper)."""
+    fs = samples if samples is not None else flank_samples(surface, flank_range, n)
+    v0, hand = surface.v0, surface.handedness
+    scale = float(np.max(np.linalg.norm(fs.points, axis=1)))
+    if search is None:
+        search = 0.05 * scale
+    tools = [tool_of(strip_a), tool_of(strip_b)]
+    dev = pose_deviations(tools, fs.points, fs.normals, v0, hand, search)
+    fin = np.isfinite(dev).all(axis=0)
+    with np.errstate(invalid="ignore"):
+        g = np.where(fin, dev[0] - dev[1], 0.0)
+    s = np.sign(g)
+    i = np.flatnonzero(fin[:-1] & fin[1:] & (s[:-1] * s[1:] < 0))
+    exact = np.flatnonzero(fin & (g == 0))
+    u_tol = 1e-9 * abs(fs.u[-1] - fs.u[0]) if u_tol is None else u_tol
+
+    def gap(u):
+        p, nn = fs.at(u)
+        d = pose_deviations(tools, p, nn, v0, hand, search)
+        return d[0] - d[1], d
+
+    a, b = fs.u[i].copy(), fs.u[i + 1].copy()
+    ga, gb = g[i].copy(), g[i + 1].copy()
+    side = np.zeros(len(i))
+    for _ in range(80):
+        act = np.flatnonzero(np.abs(b - a) > u_tol)
+        if not len(act):
+            break
+        m = b[act] - gb[act] * (b[act] - a[act]) / (gb[act] - ga[act])
+        m = np.where((m - a[act]) * (m - b[act]) < 0, m, 0.5 * (a[act] + b[act]))
+        gm, _ = gap(m)
+        bad = ~np.isfinite(gm)
+        gm = np.where(bad, 0.0, gm)
+        same_b = np.sign(gm) == np.sign(gb[act])
+        a_new = np.where(same_b, a[act], b[act])
+        ga_new = np.where(same_b, np.where(side[act] == 1, 0.5 * ga[act], ga[act]), gb[act])
+        side[act] = np.where(same_b, 1, -1)
+        a[act], ga[act] = a_new, ga_new
+        b[act], gb[act] = m, gm
+        if bad.any():
+            a[act[bad]] = b[act[bad]]
+    uj = np.concatenate([np.where(np.abs(gb) <= np.abs(ga), b, a), fs.u[exact]])
+    uj.sort()
+    if not len(uj):
+        return []
+    p, nn = fs.at(uj)
+    _, d = gap(uj)
+    dj = 0.5 * (d[0] + d[1])
+    x = np.c_[p + dj[:, None] * nn, np.zeros(len(uj))]
+    Na = envelope_normals(tools[0], x, v0, hand)
+    Nb = envelope_normals(tools[1], x, v0, hand)
+    kink = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", Na, Nb), -1.0, 1.0)))
+    pa = Na[:, :2] / np.linalg.norm(Na[:, :2], axis=1, keepdims=True)
+    pb = Nb[:, :2] / np.linalg.norm(Nb[:, :2], axis=1, keepdims=True)
+    sk = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", pa, pb), -1.0, 1.0)))
+    return [Junction(u=float(uj[k]), point=x[k], deviation=float(dj[k]), kink_deg=float(kink[k]),
+                     section_kink_deg=float(sk[k]), normals=np.stack([Na[k], Nb[k]])) for k in range(len(uj))]
