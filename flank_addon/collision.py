@@ -125,7 +125,8 @@ def pose_parts(pose, model="cone"):
     if model == "cone":
         cone = FlatConePart(c1, c2, t.r1c, t.r2c)
     elif model == "spheres":
-        cone = FrustumPart(pose.tip, t.r1s, pose.top, t.r2s)
+        from .strip_cover import cap_safe
+        cone = cap_safe(RevolvingTool([FrustumPart(pose.tip, t.r1s, pose.top, t.r2s)])).parts[0]
     else:
         raise ValueError(f"model {model!r} is not 'cone' or 'spheres'")
     sh = pose.shank

@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .screw import screw_motion
-from .sweep import StackedTools, StripTool, helical_distance
+from .sweep import FrustumPart, RevolvingTool, StackedTools, StripTool, _sphere_chain, helical_distance
 
 _ROW_CHUNK = 4096
 
@@ -74,10 +74,31 @@ def flank_samples(surface, flank_range, n=500):
     return FlankSamples(u, prof.eval(u), prof.outward_normal(u), prof)
 
 
+def cap_safe(tool):
+    """The same tool with bounding spheres that also cover the spherical end caps of its
+    :class:`sweep.FrustumPart` pieces.  sweep.FrustumPart bounds only the segment c1-c2 (radius
+    sqrt(rmax^2 + half^2)), so a helix passing only through the cap beyond c1 or c2 (up to r1 / r2
+    past the centres) is culled by the time windows whenever a finite cutoff is used, and
+    helical_distance then returns the cutoff instead of a negative distance."""
+    parts = []
+    for p in tool.parts:
+        if isinstance(p, FrustumPart):
+            q = FrustumPart(p.c1, p.r1, p.c2, p.r2)
+            d = q.c2 - q.c1
+            L = float(np.linalg.norm(d))
+            u = d / L if L > 0 else np.array([0.0, 0.0, 1.0])
+            rmax = max(q.r1, q.r2)
+            q.bounds = _sphere_chain(q.c1 - q.r1 * u, q.c2 + q.r2 * u, lambda s, ds: rmax, max(rmax, 1e-9))
+            p = q
+        parts.append(p)
+    return RevolvingTool(parts)
+
+
 def tool_of(pose, with_shank=False):
-    """The revolving tool of a :class:`cone.ConePose` or of a flank-plan/1 strip dict."""
+    """The revolving tool of a :class:`cone.ConePose` or of a flank-plan/1 strip dict (end caps
+    bounded, :func:`cap_safe`)."""
     strip = pose if isinstance(pose, dict) else pose.strip(0)
-    return StripTool.from_strip(strip, with_shank=with_shank)
+    return cap_safe(StripTool.from_strip(strip, with_shank=with_shank))
 
 
 # ============================================================================ per-pose deviation
@@ -505,7 +526,13 @@ def junction_kinks(strip_a, strip_b, surface, flank_range=None, n=500, search=No
     if not len(uj):
         return []
     p, nn = fs.at(uj)
-    _, d = gap(uj)
+    gj, d = gap(uj)
+    # a sign change across a jump of one curve (an envelope ending) is no junction: both envelopes
+    # must pass through the same machined point
+    keep = np.isfinite(gj) & (np.abs(gj) <= 1e-7 * scale)
+    uj, p, nn, d = uj[keep], p[keep], nn[keep], d[:, keep]
+    if not len(uj):
+        return []
     dj = 0.5 * (d[0] + d[1])
     x = np.c_[p + dj[:, None] * nn, np.zeros(len(uj))]
     Na = envelope_normals(tools[0], x, v0, hand)
