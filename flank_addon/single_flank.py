@@ -1,0 +1,993 @@
+"""Single-flank milling of a helical flank by a given conical tool (s000 §5): initial poses,
+pose optimisation and the candidate strips a cover / collision stage chooses from.
+
+Frames, units, tool
+-------------------
+Rotor frame of :mod:`screw` (helical axis z, profile in z = 0), the rotor's length unit.  The tool is
+a :class:`cone.ConeTool`; a pose is a :class:`cone.ConePose` (tip sphere centre x1S and the unit
+axis towards the shank).  Because the flank is invariant under the screw, a pose and any screwed
+copy of it mill the same strip, so the pose space has four parameters.  We use those of Eq. (8),
+
+    o(s) = R_phi((delta, 0, 0) + (rho + L s)(0, cos beta, sin beta)),   s in [0, 1],
+
+x = (delta, rho, beta, phi): the common perpendicular of the axis and z lies in z = 0 (that fixes the
+screw), delta is the axis' distance from z, rho the position of x1S = o(0) along it.  Every pose is
+screwed into this normal form before it is optimised (:func:`pose_params`).
+
+Distances and errors
+--------------------
+d_i is the distance from the axis sample o(s_i) to the flank {S_t(p(u), 0): u_start <= u <= u_end}
+(the flank as a closed patch, :class:`double_flank.FlankFeet`), signed negative when the sample is
+inside the rotor material over the open flank; e_i = d_i - r(s_i) is the tool-surface error of
+Eq. (27) (> 0 material left, < 0 the sphere of the sample cuts into the flank).  Its gradient with
+respect to the sample point is the unit vector from the foot to the point, chained through
+do/dx of Eq. (8): no finite differences anywhere.
+
+Objectives (all with the asymmetric weight w of Remark 5.1 on the overcutting samples)
+-------------------------------------------------------------------------------------
+* ``phi1``: Eq. (25), sum of e_i over I1 plus w times the sum of -e_i over I2.
+* ``phi3``: Eq. (31), the same with f_i, the signed distance from the characteristic point of sample
+  i (the point of the cone that touches the envelope of the helical motion, Eqs. (11)-(14)) to the
+  flank.  The characteristic point of the sphere (o(s_i), r(s_i)) has the unit normal n with
+  n . a = -sin(alpha) (envelope of the spheres along the axis, the cone) and n . V(o(s_i)) = 0
+  (the sphere is stationary under the screw velocity field V); its derivative follows from
+  differentiating these two equations and |n| = 1 (a 3 x 3 linear system per sample).
+* hard mode (Eq. (30) style): minimise the sum of e_i (or f_i) subject to e_i >= 0 at every sample;
+  after each solve the tool is checked on a dense sample set and samples where it still dips into
+  the flank are added (exchange method), so the final pose does not cut the flank anywhere along the
+  axis (up to ~1e-10 R).
+
+The weighted objectives are piecewise linear in the errors.  We minimise their smoothed form
+sum w_i (sqrt(e_i^2 + mu^2) - mu) with mu decreasing from 1e-3 R to 1e-7 R, by Levenberg-Marquardt
+steps on the iteratively reweighted normal equations, batched over all seeds (one foot-point solve per
+iteration for all poses).  Hard mode uses SLSQP per pose.  The paper's own method (finite-difference
+gradient descent, Remark 5.1) is :func:`optimize_fd_gradient_descent`, kept as the benchmark baseline.
+
+Initial poses (§5.1)
+--------------------
+Instead of integrating the field of "good directions" of Eq. (22) we place the given cone directly
+in second-order line contact at each flank sample q (Fig. 5a): with principal curvatures k1 >= k2
+(outward normal n, positive = bending towards the air side) the cone's middle sphere of radius r
+touches X at q and its normal curvature perpendicular to the ruling g is 1/r.  The Dupin indicatrices
+touch iff II_X(g) = r K, i.e. cos^2(gamma) = (r K - k2) / (k1 - k2) for g = cos(gamma) e1 +
+sin(gamma) e2 (closed form; real iff r <= 1/k1, the condition of Eq. (18)).  Then the axis is
+a = sin(alpha) n + cos(alpha) g.  At elliptic and parabolic points the ruling follows the principal
+direction of the smallest |curvature| (tangential contact, Ex. 6.5).  Candidates are kept if they
+satisfy Eq. (24) (tip nearer to z than the top) and ranked by the tangential movability F of Eq. (23).
+"""
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .cone import ConePose, ConeTool
+from .double_flank import FlankFeet
+
+OBJECTIVES = ("phi1", "phi3")
+MODES = ("weighted", "hard")
+W_OVERCUT = 100.0
+
+
+# ============================================================================ pose parameters (Eq. 8)
+def screw_pose(pose, t, surface):
+    """The pose moved by the screw S_t of the surface (same strip)."""
+    h, v0 = surface.hand, surface.v0
+    c, s = math.cos(h * t), math.sin(h * t)
+    rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    return ConePose(pose.tool, rot @ pose.tip + np.array([0.0, 0.0, v0 * t]), rot @ pose.axis)
+
+
+def pose_params(pose, surface):
+    """(delta, rho, beta, phi) of Eq. (8) of the pose screwed so that the axis' common perpendicular
+    with z lies in z = 0."""
+    a, x1 = pose.axis, pose.tip
+    axy = float(a[0] ** 2 + a[1] ** 2)
+    if axy < 1e-20:
+        raise ValueError("cone pose: an axis parallel to the helical axis has no Eq. (8) parameters")
+    w = -float(x1[:2] @ a[:2]) / axy
+    zc = x1[2] + w * a[2]
+    p = screw_pose(pose, -zc / surface.v0, surface)
+    a, x1 = p.axis, p.tip
+    beta = math.asin(max(-1.0, min(1.0, float(a[2]))))
+    phi = math.atan2(-a[0], a[1])
+    er = np.array([math.cos(phi), math.sin(phi), 0.0])
+    return np.array([float(x1 @ er), float(x1 @ a), beta, phi])
+
+
+def params_pose(x, tool):
+    """ConePose of Eq. (8) parameters x = (delta, rho, beta, phi): tip o(0), axis o'(s) / L."""
+    de, rho, be, ph = (float(v) for v in x)
+    cb, sb, cp, sp = math.cos(be), math.sin(be), math.cos(ph), math.sin(ph)
+    d = np.array([-cb * sp, cb * cp, sb])
+    return ConePose(tool, np.array([de * cp, de * sp, 0.0]) + rho * d, d)
+
+
+def axis_and_jacobian(X, s, L):
+    """Axis points o(s) (N, n, 3) of Eq. (8) for parameter rows X (N, 4), their derivatives
+    do/dx (N, n, 3, 4), unit directions a (N, 3) and da/dx (N, 3, 4)."""
+    X = np.atleast_2d(X)
+    de, rho, be, ph = X.T
+    cb, sb, cp, sp = np.cos(be), np.sin(be), np.cos(ph), np.sin(ph)
+    zero = np.zeros_like(de)
+    er = np.stack([cp, sp, zero], -1)
+    et = np.stack([-sp, cp, zero], -1)
+    a = np.stack([-cb * sp, cb * cp, sb], -1)
+    a_be = np.stack([sb * sp, -sb * cp, cb], -1)
+    a_ph = -cb[:, None] * er
+    w = rho[:, None] + L * np.asarray(s, float)[None, :]                 # (N, n)
+    pts = de[:, None, None] * er[:, None, :] + w[..., None] * a[:, None, :]
+    J = np.empty(pts.shape + (4,))
+    J[..., 0] = er[:, None, :]
+    J[..., 1] = a[:, None, :]
+    J[..., 2] = w[..., None] * a_be[:, None, :]
+    J[..., 3] = de[:, None, None] * et[:, None, :] + w[..., None] * a_ph[:, None, :]
+    da = np.zeros(a.shape + (4,))
+    da[..., 2], da[..., 3] = a_be, a_ph
+    return pts, J, a, da
+
+
+def mid_radius(X, L):
+    """Distance of the axis midpoint o(1/2) from the helical axis (screw-invariant) and its gradient
+    (N, 4) w.r.t. the Eq. (8) parameters: sqrt(delta^2 + (rho + L/2)^2 cos^2 beta)."""
+    X = np.atleast_2d(X)
+    de, rho, be = X[:, 0], X[:, 1], X[:, 2]
+    w = rho + 0.5 * L
+    cb, sb = np.cos(be), np.sin(be)
+    r = np.sqrt(de ** 2 + (w * cb) ** 2)
+    g = np.stack([de / r, w * cb ** 2 / r, -w * w * cb * sb / r, np.zeros_like(r)], -1)
+    return r, g
+
+
+# ============================================================================ flank geometry
+def flank_samples(surface, u_start, u_end, n, along="profile", n_fine=4001):
+    """n profile parameters on [u_start, u_end], uniform in arc length of the profile (``profile``)
+    or of the orthogonal trajectory of the helices through the flank (``orthogonal``, Remark 4.2).
+
+    The orthogonal trajectory runs on X perpendicular to x_t; its screwed-back points are the profile
+    points again, so only the spacing differs: |x_u|^2 - (x_u . x_t)^2 / |x_t|^2 per du^2."""
+    if along not in ("profile", "orthogonal"):
+        raise ValueError(f"along must be 'profile' or 'orthogonal', got {along!r}")
+    if n < 1:
+        raise ValueError(f"need at least one flank sample, got {n}")
+    prof = surface.profile
+    uf = np.linspace(u_start, u_end, n_fine)
+    p, p1 = prof.eval(uf), prof.eval(uf, 1)
+    speed2 = np.einsum("ij,ij->i", p1, p1)
+    if along == "orthogonal":
+        jp = np.stack([-p[:, 1], p[:, 0]], -1) * surface.hand
+        speed2 = speed2 - np.einsum("ij,ij->i", p1, jp) ** 2 / (np.einsum("ij,ij->i", p, p) + surface.v0 ** 2)
+    sp = np.sqrt(np.maximum(speed2, 0.0))
+    arc = np.r_[0.0, np.cumsum(0.5 * (sp[1:] + sp[:-1]) * np.diff(uf))]
+    # samples at the centres of n equal arc-length cells (the flank ends are shared with neighbours)
+    target = (np.arange(n) + 0.5) / n * arc[-1]
+    return np.interp(target, arc, uf)
+
+
+@dataclass
+class PrincipalFrame:
+    """Surface point, outward normal, principal curvatures k1 >= k2 and unit principal directions
+    (3D, at t = 0) at profile parameters u."""
+    point: np.ndarray
+    normal: np.ndarray
+    k1: np.ndarray
+    k2: np.ndarray
+    e1: np.ndarray
+    e2: np.ndarray
+
+
+def principal_frame(surface, u):
+    """Principal curvatures and directions of the helical surface at (u, t = 0) (shape operator
+    I^-1 II in the (x_u, x_t) basis; sign convention of :meth:`HelicalSurface.curvatures`)."""
+    u = np.atleast_1d(np.asarray(u, float))
+    h, v0 = surface.hand, surface.v0
+    prof = surface.profile
+    p, p1, p2 = (prof.eval(u, k) for k in range(3))
+    z = np.zeros((len(u), 1))
+    J = lambda v: np.stack([-v[:, 1], v[:, 0]], -1)  # noqa: E731
+    xu = np.c_[p1, z]
+    xt = np.c_[h * J(p), np.full((len(u), 1), v0)]
+    xuu, xut, xtt = np.c_[p2, z], np.c_[h * J(p1), z], np.c_[-p, z]
+    n = np.cross(xu, xt)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    dot = lambda a, b: np.einsum("ij,ij->i", a, b)  # noqa: E731
+    E, F, G = dot(xu, xu), dot(xu, xt), dot(xt, xt)
+    L, M, N = dot(xuu, n), dot(xut, n), dot(xtt, n)
+    Ii = np.linalg.inv(np.stack([np.stack([E, F], -1), np.stack([F, G], -1)], -2))
+    II = np.stack([np.stack([L, M], -1), np.stack([M, N], -1)], -2)
+    S = Ii @ II
+    # eigen-decomposition of the (self-adjoint w.r.t. I) shape operator
+    tr, det = S[:, 0, 0] + S[:, 1, 1], S[:, 0, 0] * S[:, 1, 1] - S[:, 0, 1] * S[:, 1, 0]
+    disc = np.sqrt(np.maximum(0.25 * tr * tr - det, 0.0))
+    k1, k2 = 0.5 * tr + disc, 0.5 * tr - disc
+
+    def direction(k):
+        # (S - k I) v = 0: v = (S01, k - S00) or (k - S11, S10), whichever is longer
+        va = np.stack([S[:, 0, 1], k - S[:, 0, 0]], -1)
+        vb = np.stack([k - S[:, 1, 1], S[:, 1, 0]], -1)
+        v = np.where((np.linalg.norm(va, axis=1) >= np.linalg.norm(vb, axis=1))[:, None], va, vb)
+        d3 = v[:, :1] * xu + v[:, 1:] * xt
+        nd = np.linalg.norm(d3, axis=1, keepdims=True)
+        return d3 / np.maximum(nd, 1e-300), nd[:, 0]
+
+    e1, n1 = direction(k1)
+    e2 = np.cross(n, e1)           # orthonormal frame; e1 x e2 = n
+    # umbilic points (n1 ~ 0): any frame is principal; keep the x_u direction
+    umb = n1 < 1e-12
+    if umb.any():
+        e1[umb] = xu[umb] / np.linalg.norm(xu[umb], axis=1, keepdims=True)
+        e2[umb] = np.cross(n[umb], e1[umb])
+    pt = np.c_[p, z]
+    return PrincipalFrame(point=pt, normal=n, k1=k1, k2=k2, e1=e1, e2=e2)
+
+
+def screw_velocity(points, surface):
+    """Velocity (..., 3) of the screw S_t (Eq. (1)) at the points, per unit t."""
+    h, v0 = surface.hand, surface.v0
+    p = np.asarray(points, float)
+    return np.stack([-h * p[..., 1], h * p[..., 0], np.full(p.shape[:-1], v0)], -1)
+
+
+# ============================================================================ initial positions (§5.1)
+@dataclass
+class SeedPose:
+    """An initial pose: the cone touches the flank at ``point`` (profile parameter ``u``, t = 0) with
+    its middle sphere.  ``contact``: 2 = second-order line contact (hyperbolic point, Fig. 5a),
+    1 = tangential contact (elliptic/parabolic point, or a hyperbolic point where the tool is too
+    large for Eq. (18)); ``movability``: F(l) of Eq. (23) (smaller is better); ``rank``: 0 = best
+    candidate at this sample."""
+    pose: ConePose
+    params: np.ndarray
+    u: float
+    point: np.ndarray
+    gauss: float
+    contact: int
+    movability: float
+    admissible: bool
+    rank: int = 0
+    sample: int = 0
+
+
+def _contact_axes(frame, r_mid, alpha):
+    """Candidate axis directions (M, 4, 3) at each sample (4 = the two contact lines, each with both
+    orientations) and a validity mask (M, 4) and contact order (M,)."""
+    k1, k2, n, e1, e2 = frame.k1, frame.k2, frame.normal, frame.e1, frame.e2
+    K = k1 * k2
+    hyper = K < 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        c2 = (r_mid * K - k2) / (k1 - k2)
+    second = hyper & (c2 >= 0) & (c2 <= 1)
+    c2 = np.clip(np.nan_to_num(c2, nan=0.0), 0.0, 1.0)
+    # elliptic / parabolic: ruling along the principal direction of the smallest |k|
+    c2 = np.where(hyper, c2, np.where(np.abs(k1) <= np.abs(k2), 1.0, 0.0))
+    cg, sg = np.sqrt(c2), np.sqrt(1.0 - c2)
+    g1 = cg[:, None] * e1 + sg[:, None] * e2
+    g2 = cg[:, None] * e1 - sg[:, None] * e2
+    G = np.stack([g1, -g1, g2, -g2], 1)
+    A = math.sin(alpha) * n[:, None, :] + math.cos(alpha) * G
+    valid = np.ones(A.shape[:2], bool)
+    # a single line (elliptic, parabolic, or a degenerate double root) has only 2 distinct axes
+    single = ~hyper | (sg < 1e-12) | (cg < 1e-12)
+    valid[single, 2:] = False
+    return A, valid, np.where(second, 2, 1)
+
+
+def movability(feet_fn, tips, axes, L, surface, n=25):
+    """F(l) of Eq. (23) for axis segments tip + s L a, s in [0, 1] (rows of tips/axes): mean squared
+    component of the normalised screw velocity along the distance gradient (0 = the axis moves
+    tangentially to the flank everywhere)."""
+    s = np.linspace(0.0, 1.0, n)
+    pts = tips[:, None, :] + (L * s)[None, :, None] * axes[:, None, :]
+    ft = feet_fn(pts.reshape(-1, 3))
+    dirs = ft.direction.reshape(pts.shape)
+    v = screw_velocity(pts, surface)
+    vmid = np.linalg.norm(screw_velocity(tips + 0.5 * L * axes, surface), axis=1)
+    proj = np.einsum("mni,mni->mn", v, dirs) / vmid[:, None]
+    return np.mean(proj ** 2, axis=1)
+
+
+def initial_positions(surface, u_range, tool, n_samples=18, along="profile", feet=None, u=None,
+                      keep="admissible"):
+    """Initial poses of the given cone on one flank (s000 §5.1, closed form, see module doc).
+
+    surface: :class:`HelicalSurface`; u_range: the flank (u_start, u_end); tool: :class:`ConeTool`;
+    n_samples flank samples (``along`` 'profile' or 'orthogonal', or explicit profile parameters
+    ``u``).  Returns a list (per sample) of lists of :class:`SeedPose`, admissible ones (Eq. (24))
+    first, each sorted by movability F (Eq. (23)); with ``keep='admissible'`` only admissible poses
+    are listed, with ``keep='all'`` every candidate."""
+    if keep not in ("admissible", "all"):
+        raise ValueError(f"keep must be 'admissible' or 'all', got {keep!r}")
+    feet = feet or FlankFeet(surface, *u_range)
+    us = flank_samples(surface, *u_range, n_samples, along=along) if u is None else np.atleast_1d(u)
+    fr = principal_frame(surface, us)
+    r_mid = float(tool.radius(0.5))
+    L = tool.L
+    A, valid, order = _contact_axes(fr, r_mid, tool.alpha)
+    mid = fr.point + r_mid * fr.normal
+    tips = mid[:, None, :] - 0.5 * L * A
+    tops = tips + L * A
+    # Eq. (24): the tip is nearer to the helical axis than the top (r1S < r2S holds for every cone)
+    adm = np.linalg.norm(tips[..., :2], axis=-1) < np.linalg.norm(tops[..., :2], axis=-1)
+    M = len(us)
+    F = np.full((M, 4), np.inf)
+    vi, vj = np.nonzero(valid)
+    F[vi, vj] = movability(feet, tips[vi, vj], A[vi, vj], L, surface)
+    K = fr.k1 * fr.k2
+    out = []
+    for i in range(M):
+        cands = []
+        for j in np.flatnonzero(valid[i]):
+            if keep == "admissible" and not adm[i, j]:
+                continue
+            pose = ConePose(tool, tips[i, j], A[i, j])
+            cands.append(SeedPose(pose=pose, params=pose_params(pose, surface), u=float(us[i]),
+                                  point=fr.point[i], gauss=float(K[i]), contact=int(order[i]),
+                                  movability=float(F[i, j]), admissible=bool(adm[i, j]), sample=i))
+        cands.sort(key=lambda c: (not c.admissible, c.movability))
+        for k, c in enumerate(cands):
+            c.rank = k
+        out.append(cands)
+    return out
+
+
+# ============================================================================ errors along the axis
+@dataclass
+class AxisErrors:
+    """Per-sample errors of one pose: s (n,) along x1S -> x2S, axis points (n, 3), signed distances
+    d (n,) to the flank, radii r (n,), e = d - r (Eq. (27)), the feet' profile parameters u (n,) and
+    screw parameters t (n,), and whether each foot is interior to the flank (not on its boundary
+    helices).  For Phi3 poses also f (n,): signed distances of the characteristic points to the flank
+    (nan where the characteristic is not real)."""
+    s: np.ndarray
+    points: np.ndarray
+    d: np.ndarray
+    r: np.ndarray
+    e: np.ndarray
+    u: np.ndarray
+    t: np.ndarray
+    interior: np.ndarray
+    f: np.ndarray = None
+
+    @property
+    def max_error(self):
+        return float(np.max(self.e))
+
+    @property
+    def min_error(self):
+        return float(np.min(self.e))
+
+
+class PoseEvaluator:
+    """Errors and exact Jacobians of many poses of one tool on one flank at once.
+
+    The foot points of all axis samples of all poses are found in one vectorised call of
+    :class:`FlankFeet`, warm-started from the previous call with the same shape."""
+
+    def __init__(self, surface, u_range, tool, n=100, feet=None):
+        if n < 4:
+            raise ValueError(f"need at least 4 axis samples, got {n}")
+        self.surface, self.tool = surface, tool
+        self.u_range = (float(u_range[0]), float(u_range[1]))
+        self.feet = feet or FlankFeet(surface, *u_range)
+        self.s = np.linspace(0.0, 1.0, n)
+        self.L = tool.L
+        self._warm = {}
+        self.calls = 0
+        self.points_solved = 0
+
+    def _feet(self, pts, key, idx=None):
+        """Signed distances, their gradients, feet u, t and interior flags of points (k, n, 3) of
+        poses ``idx`` (k,) (default 0..k-1); warm-started per pose from the last call with ``key``."""
+        k, n = pts.shape[:2]
+        idx = np.arange(k) if idx is None else np.asarray(idx)
+        flat = pts.reshape(-1, 3)
+        store = self._warm.setdefault((key, n), {}) if key is not None else {}
+        w = None
+        if len(store) and all(int(i) in store for i in idx):
+            w = (np.concatenate([store[int(i)][0] for i in idx]), np.concatenate([store[int(i)][1] for i in idx]))
+        ft = self.feet(flat, warm=w)
+        uu, tt = ft.u.reshape(k, n), ft.tau.reshape(k, n)
+        for j, i in enumerate(idx):
+            store[int(i)] = (uu[j], tt[j])
+        self.calls += 1
+        self.points_solved += len(flat)
+        lo, hi = self.feet.lo + self.feet.eps_u, self.feet.hi - self.feet.eps_u
+        in_range = (ft.u > lo) & (ft.u < hi)
+        # in range but not interior = the point is inside the material over the open flank
+        sign = np.where(in_range & ~ft.interior, -1.0, 1.0)
+        sh = pts.shape[:-1]
+        return (sign * ft.distance).reshape(sh), (sign[:, None] * ft.direction).reshape(sh + (3,)), \
+            ft.u.reshape(sh), ft.t.reshape(sh), ft.interior.reshape(sh)
+
+    def distances(self, X, s=None, key="d", jac=True, idx=None):
+        """e = d - r (N, n), de/dx (N, n, 4) and the feet data for parameter rows X (N, 4) (of poses
+        ``idx``, for the warm starts)."""
+        s = self.s if s is None else np.asarray(s, float)
+        pts, J, _, _ = axis_and_jacobian(X, s, self.L)
+        d, g, u, t, inter = self._feet(pts, key, idx)
+        e = d - self.tool.radius(s)[None, :]
+        de = np.einsum("Nni,Nnij->Nnj", g, J) if jac else None
+        return e, de, dict(points=pts, d=d, u=u, t=t, interior=inter)
+
+    def characteristic(self, X, branch, s=None):
+        """Characteristic points c (N, n, 3) of the cones at X under the screw (Eqs. (11)-(14)),
+        dc/dx (N, n, 3, 4), and a mask of samples where the characteristic is real.  ``branch``
+        (N,) = +-1 selects the side of the axis."""
+        s = self.s if s is None else np.asarray(s, float)
+        m, Jm, a, da = axis_and_jacobian(X, s, self.L)
+        tool = self.tool
+        sa, ca = math.sin(tool.alpha), math.cos(tool.alpha)
+        r = tool.radius(s)
+        V = screw_velocity(m, self.surface)
+        A = np.broadcast_to(a[:, None, :], m.shape)
+        va = np.einsum("Nni,Nni->Nn", V, A)
+        vperp = V - va[..., None] * A
+        nv = np.linalg.norm(vperp, axis=-1)
+        e1 = vperp / np.maximum(nv, 1e-300)[..., None]
+        e2 = np.cross(A, e1)
+        cth = math.tan(tool.alpha) * va / np.maximum(nv, 1e-300)
+        real = (np.abs(cth) < 1.0 - 1e-9) & (nv > 1e-12)
+        cth = np.clip(cth, -1.0, 1.0)
+        sth = np.sqrt(1.0 - cth ** 2) * np.asarray(branch, float)[:, None]
+        nrm = -sa * A + ca * (cth[..., None] * e1 + sth[..., None] * e2)
+        c = m + r[None, :, None] * nrm
+        # derivative of n from a.n = -sin(alpha), V.n = 0, n.n = 1
+        h = self.surface.hand
+        ez = np.array([0.0, 0.0, 1.0])
+        dV = h * np.cross(ez[None, None, :, None], Jm, axisa=2, axisb=2, axisc=2)   # (N, n, 3, 4)
+        Mx = np.stack([A, V, nrm], -2)                                               # (N, n, 3, 3)
+        rhs = np.stack([-np.einsum("Nni,Nij->Nnj", nrm, da),
+                        -np.einsum("Nni,Nnij->Nnj", nrm, dV),
+                        np.zeros(m.shape[:2] + (4,))], -2)                           # (N, n, 3, 4)
+        det = np.linalg.det(Mx)
+        ok = real & (np.abs(det) > 1e-12)
+        Mx = np.where(ok[..., None, None], Mx, np.eye(3))
+        dn = np.linalg.solve(Mx, rhs)
+        dc = Jm + r[None, :, None, None] * dn
+        return c, dc, ok
+
+    def char_distances(self, X, branch, s=None, key="f", idx=None):
+        """Signed distances f (N, n) of the characteristic points to the flank and df/dx; nan and a
+        zero gradient where the characteristic is not real."""
+        c, dc, ok = self.characteristic(X, branch, s)
+        f, g, u, t, inter = self._feet(c, key, idx)
+        df = np.einsum("Nni,Nnij->Nnj", g, dc)
+        f = np.where(ok, f, np.nan)
+        df = np.where(ok[..., None], df, 0.0)
+        return f, df, dict(points=c, u=u, t=t, interior=inter, real=ok)
+
+    def branch(self, X):
+        """Side of the characteristic (+-1 per pose) that faces the flank."""
+        m, _, a, _ = axis_and_jacobian(X, self.s, self.L)
+        _, g, _, _, _ = self._feet(m, None)
+        V = screw_velocity(m, self.surface)
+        A = np.broadcast_to(a[:, None, :], m.shape)
+        va = np.einsum("Nni,Nni->Nn", V, A)
+        e1 = V - va[..., None] * A
+        e2 = np.cross(A, e1)
+        # g points from the flank to the axis; the characteristic lies on the opposite side
+        side = -np.einsum("Nni,Nni->N", e2, g)
+        return np.where(side >= 0, 1.0, -1.0)
+
+    def axis_errors(self, x, s=None, branch=None):
+        """:class:`AxisErrors` of one pose (parameters x)."""
+        s = self.s if s is None else np.asarray(s, float)
+        e, _, info = self.distances(np.atleast_2d(x), s, key=None, jac=False)
+        f = None
+        if branch is not None:
+            f = self.char_distances(np.atleast_2d(x), np.atleast_1d(branch), s, key=None)[0][0]
+        return AxisErrors(s=s, points=info["points"][0], d=info["d"][0], r=self.tool.radius(s), e=e[0],
+                          u=info["u"][0], t=info["t"][0], interior=info["interior"][0], f=f)
+
+
+def weighted_l1(e, w=W_OVERCUT):
+    """Eq. (25) / (31) for error rows e (..., n): sum of e >= 0 plus w times sum of -e over e < 0
+    (nan entries, e.g. non-real characteristic points, are skipped)."""
+    e = np.nan_to_num(np.asarray(e, float), nan=0.0)
+    return np.sum(np.where(e >= 0, e, -w * e), axis=-1)
+
+
+def phi_value(ev, x, objective="phi1", w=W_OVERCUT, branch=None):
+    """Phi1 (Eq. (25)) or Phi3 (Eq. (31)) of one pose x with evaluator ``ev``."""
+    X = np.atleast_2d(x)
+    if objective == "phi1":
+        e = ev.distances(X, key=None, jac=False)[0]
+    else:
+        if branch is None:
+            branch = ev.branch(X)
+        e = ev.char_distances(X, np.atleast_1d(branch), key=None)[0]
+    return float(weighted_l1(e, w)[0])
+
+
+# ============================================================================ optimisation
+@dataclass
+class Convergence:
+    """How one pose optimisation went: objective and mode, Phi at the start and end, iterations,
+    foot-point evaluations (batched calls count once per pose), the Phi history per accepted step,
+    a status string and the wall time (shared batched time split evenly over the poses)."""
+    objective: str
+    mode: str
+    phi_start: float
+    phi_end: float
+    iterations: int
+    evaluations: int
+    converged: bool
+    status: str
+    seconds: float
+    history: list = field(default_factory=list)
+
+
+@dataclass
+class CandidateStrip:
+    """An optimised pose of the tool on the flank: ``pose`` (:class:`ConePose`), its Eq. (8)
+    parameters, the seed it came from, the errors along the axis and the convergence record."""
+    pose: ConePose
+    params: np.ndarray
+    seed: SeedPose
+    errors: AxisErrors
+    convergence: Convergence
+    flank: int = -1
+
+    @property
+    def max_error(self):
+        return self.errors.max_error
+
+    @property
+    def min_error(self):
+        return self.errors.min_error
+
+    def strip(self, flank=None, **extra):
+        """flank-plan/1 strip dict (reported errors = the axis errors of Eq. (27))."""
+        f = self.flank if flank is None else flank
+        return self.pose.strip(f, max_error=self.max_error, min_error=self.min_error, **extra)
+
+
+def _lp_steps(e, J, delta, w, eq=None):
+    """Minimisers dx (k, 4) of the linearised weighted L1 objectives sum rho(e_i + J_i dx),
+    rho(a) = max(a, -w a), over the boxes |dx_j| <= delta_k (one sparse block LP for all k rows, HiGHS),
+    and the model values there."""
+    import scipy.sparse as sp
+    from scipy.optimize import linprog
+
+    k, n = e.shape
+    blocks, rhs, bounds = [], [], []
+    eye = sp.identity(n, format="csr")
+    for i in range(k):
+        Ji = sp.csr_matrix(J[i])
+        blocks.append(sp.bmat([[Ji, -eye], [-w * Ji, -eye]], format="csr"))
+        rhs.append(np.r_[-e[i], w * e[i]])
+        bounds += [(-delta[i], delta[i])] * 4 + [(None, None)] * n
+    c = np.tile(np.r_[np.zeros(4), np.ones(n)], k)
+    A_eq = b_eq = None
+    if eq is not None:
+        # one linear equation g . dx = b per pose (the anchor of the contact depth)
+        g, b = eq
+        A_eq = sp.block_diag([sp.csr_matrix(np.r_[g[i], np.zeros(n)][None, :]) for i in range(k)], format="csr")
+        b_eq = b
+    res = linprog(c, A_ub=sp.block_diag(blocks, format="csr"), b_ub=np.concatenate(rhs), A_eq=A_eq, b_eq=b_eq,
+                  bounds=bounds, method="highs")
+    if res.status != 0:
+        return np.zeros((k, 4)), None
+    z = res.x.reshape(k, 4 + n)
+    dx = z[:, :4]
+    a = e + np.einsum("kni,ki->kn", J, dx)
+    return dx, np.sum(np.where(a >= 0, a, -w * a), axis=1)
+
+
+def _slp_weighted_l1(fun, X0, w=W_OVERCUT, max_iter=40, delta0=0.05, scale=1.0, tol=1e-13, anchor=None):
+    """Minimise the weighted L1 objective sum_i rho(e_i(x)), rho(a) = max(a, -w a) (Eqs. (25), (31))
+    for every row of X0 (N, 4) at once by sequential linear programming in a box trust region: each
+    step minimises the objective of the linearised errors e + J dx exactly (an LP), the step is taken
+    when the true objective falls, the box grows or shrinks with the ratio of true to predicted
+    decrease.  Near a minimum the LP picks the samples where the error vanishes and the steps become
+    Newton steps on them.  ``fun(X, idx)`` returns e (k, n) and de/dx (k, n, 4) for rows X (k, 4) of
+    poses idx (nan errors are ignored).  Returns X, iterations (N,), evaluations, histories,
+    converged (N,).  ``anchor`` = (function X -> (values, gradients), targets (N,)): one equality kept
+    (linearised) in every step."""
+    X = np.array(X0, float)
+    N = len(X)
+    delta = np.full(N, delta0 * scale)
+    active = np.ones(N, bool)
+    converged = np.zeros(N, bool)
+    iters = np.zeros(N, int)
+    clean = lambda e, J: (np.nan_to_num(e, nan=0.0), np.where(np.isnan(e)[..., None], 0.0, J))  # noqa: E731
+    e, J = clean(*fun(X, np.arange(N)))
+    phi = weighted_l1(e, w)
+    hist = [[float(v)] for v in phi]
+    evals = 1
+    for _ in range(max_iter):
+        ia = np.flatnonzero(active)
+        if not len(ia):
+            break
+        eq = None
+        if anchor is not None:
+            rv, gv = anchor[0](X[ia])
+            eq = (gv, anchor[1][ia] - rv)
+        dx, model = _lp_steps(e[ia], J[ia], delta[ia], w, eq)
+        if model is None:           # LP failure (should not happen): stop these poses where they are
+            active[ia] = False
+            break
+        pred = phi[ia] - model
+        done = pred <= tol * (1.0 + phi[ia])
+        for k in np.flatnonzero(done):
+            active[ia[k]] = False
+            converged[ia[k]] = True
+        go = np.flatnonzero(~done)
+        if not len(go):
+            continue
+        ib = ia[go]
+        Xt = X[ib] + dx[go]
+        et, Jt = clean(*fun(Xt, ib))
+        evals += 1
+        pt = weighted_l1(et, w)
+        ratio = (phi[ib] - pt) / pred[go]
+        step = np.max(np.abs(dx[go]), axis=1)
+        for k, i in enumerate(ib):
+            iters[i] += 1
+            if ratio[k] > 1e-4:
+                X[i], e[i], J[i], phi[i] = Xt[k], et[k], Jt[k], pt[k]
+                hist[i].append(float(pt[k]))
+            if ratio[k] < 0.25:
+                delta[i] = 0.25 * step[k]
+            elif ratio[k] > 0.75 and step[k] > 0.99 * delta[i]:
+                delta[i] = min(2.0 * delta[i], 0.5 * scale)
+            if delta[i] < 1e-13 * scale:
+                active[i] = False
+                converged[i] = True
+    return X, iters, evals, hist, converged
+
+
+def _slsqp_solve(ev, x0, objective, constrain, branch, s, i=0, maxiter=100, anchor=None):
+    """SLSQP for one pose: minimise mean(e) (Phi1) or mean(f) (Phi3) subject to ``constrain`` >= 0 at
+    the samples s (``constrain`` 'e': the tool spheres, Eq. (30); 'f': the characteristic points).
+    Exact gradients; the foot points are warm-started per pose."""
+    from scipy.optimize import minimize
+
+    cache = {}
+    n = len(s)
+    count = [0]
+
+    def get(x):
+        k = x.tobytes()
+        if k not in cache:
+            cache.clear()
+            X = x[None, :]
+            count[0] += 1
+            e, de, _ = ev.distances(X, s, key="slsqp", idx=[i])
+            e, de = e[0], de[0]
+            if objective == "phi3":
+                f, df, _ = ev.char_distances(X, np.atleast_1d(branch), s, key="slsqp-f", idx=[i])
+                real = np.isfinite(f[0])
+                f0, df0 = np.where(real, f[0], 0.0), np.where(real[:, None], df[0], 0.0)
+                val, grad = f0.sum() / n, df0.sum(axis=0) / n
+            else:
+                val, grad = e.sum() / n, de.sum(axis=0) / n
+            if constrain == "f" and objective == "phi3":
+                g, dg = np.where(real, f0, 1.0), df0
+            else:
+                g, dg = e, de
+            cache[k] = (val, grad, g, dg)
+        return cache[k]
+
+    cons = [{"type": "ineq", "fun": lambda x: get(x)[2], "jac": lambda x: get(x)[3]}]
+    if anchor is not None:
+        cons.append({"type": "eq", "fun": lambda x: mid_radius(x, ev.L)[0] - anchor,
+                     "jac": lambda x: mid_radius(x, ev.L)[1]})
+    res = minimize(lambda x: get(x)[0], np.asarray(x0, float), jac=lambda x: get(x)[1], method="SLSQP",
+                   constraints=cons, options={"maxiter": maxiter, "ftol": 1e-15})
+    res.evaluations = count[0]
+    return res
+
+
+def _dense_dips(ev, x, s, n_dense=801, tol=0.0, i=0):
+    """Axis parameters where the tool dips below the flank between the samples s (local minima of
+    e on a dense grid with e < -tol, refined by a parabola through the neighbours)."""
+    sd = np.linspace(0.0, 1.0, n_dense)
+    e = ev.distances(np.atleast_2d(x), sd, key="dense", jac=False, idx=[i])[0][0]
+    lm = np.flatnonzero((e < -tol) & (np.r_[True, e[1:] <= e[:-1]]) & (np.r_[e[:-1] <= e[1:], True]))
+    out = []
+    h = sd[1] - sd[0]
+    for j in lm:
+        if 0 < j < n_dense - 1:
+            den = e[j - 1] - 2 * e[j] + e[j + 1]
+            off = 0.5 * (e[j - 1] - e[j + 1]) / den if den > 0 else 0.0
+            out.append(float(np.clip(sd[j] + off * h, 0.0, 1.0)))
+        else:
+            out.append(float(sd[j]))
+    return np.array(out), float(e.min())
+
+
+def optimize_poses(ev, X0, objective="phi1", mode="weighted", w=W_OVERCUT, max_iter=40, anchor=True):
+    """Optimise the poses X0 (N, 4) (Eq. (8) parameters) of ``ev``'s tool on its flank.
+
+    objective 'phi1' (Eq. (25)) or 'phi3' (Eq. (31)); mode 'weighted' (overcut weight w) or 'hard'
+    (no point of the tool axis' spheres inside the flank, Eq. (30) style, checked densely).  With
+    ``anchor`` the distance of the axis midpoint from z stays that of X0 (the pose may not slide to
+    another depth of the flank, so the seeds keep covering the flank); without it the poses are free
+    local minima of Phi.  Returns (X (N, 4), [Convergence], branches (N,) or None)."""
+    if objective not in OBJECTIVES:
+        raise ValueError(f"objective {objective!r} is not one of {', '.join(OBJECTIVES)}")
+    if mode not in MODES:
+        raise ValueError(f"mode {mode!r} is not one of {', '.join(MODES)}")
+    t0 = time.perf_counter()
+    X0 = np.atleast_2d(np.asarray(X0, float))
+    N = len(X0)
+    R = ev.surface.outer_radius
+    branch = ev.branch(X0) if objective == "phi3" else None
+    rho0 = mid_radius(X0, ev.L)[0] if anchor else None
+
+    if objective == "phi1":
+        def fun(X, idx):
+            e, de, _ = ev.distances(X, key="lm", idx=idx)
+            return e, de
+    else:
+        def fun(X, idx):
+            f, df, _ = ev.char_distances(X, branch[idx], key="lm", idx=idx)
+            return f, df
+
+    phi0 = [phi_value(ev, X0[i], objective, w, None if branch is None else branch[i]) for i in range(N)]
+    X = X0.copy()
+    iters = np.zeros(N, int)
+    evals = 0
+    conv = np.zeros(N, bool)
+    status = [""] * N
+    hist = [[p] for p in phi0]
+    times = np.zeros(N)
+    # stage 1 (both modes): SLSQP on the smooth constrained form, which follows the curved valley of
+    # Phi (a pose that rolls along the flank) with its quasi-Newton Hessian
+    constrain = "e" if (mode == "hard" or objective == "phi1") else "f"
+    for i in range(N):
+        th = time.perf_counter()
+        s = ev.s.copy()
+        x = X0[i]
+        dips, emin = np.zeros(0), 0.0
+        for _round in range(4 if mode == "hard" else 1):
+            res = _slsqp_solve(ev, x, objective, constrain, None if branch is None else branch[i], s, i,
+                               anchor=None if rho0 is None else rho0[i])
+            iters[i] += int(res.nit)
+            evals += res.evaluations
+            if np.all(np.isfinite(res.x)):
+                x = res.x
+            if mode != "hard":
+                break
+            dips, emin = _dense_dips(ev, x, s, tol=1e-12 * R, i=i)
+            if not len(dips):
+                break
+            s = np.unique(np.r_[s, dips])
+        X[i] = x
+        conv[i] = bool(res.success) and not len(dips)
+        status[i] = "slsqp: " + str(res.message) + \
+            ("" if not len(dips) else f"; dips below the flank remain (min e {emin:.2e})")
+        hist[i].append(phi_value(ev, x, objective, w, None if branch is None else branch[i]))
+        times[i] += time.perf_counter() - th
+    if mode == "weighted":
+        # stage 2: the weighted L1 objective itself, exactly (sequential LP, batched over the poses)
+        th = time.perf_counter()
+        if objective == "phi1":
+            def fun(Xa, idx):
+                e, de, _ = ev.distances(Xa, key="lm", idx=idx)
+                return e, de
+        else:
+            def fun(Xa, idx):
+                f, df, _ = ev.char_distances(Xa, branch[idx], key="lm", idx=idx)
+                return f, df
+        anc = None if rho0 is None else (lambda Xa: mid_radius(Xa, ev.L), rho0)
+        X, it2, ev2, hist2, conv2 = _slp_weighted_l1(fun, X, w, max_iter=max_iter, scale=R, delta0=1e-3,
+                                                     anchor=anc)
+        for i in range(N):
+            iters[i] += it2[i]
+            hist[i] += hist2[i][1:]
+            conv[i] = bool(conv2[i])
+            status[i] += "; lp polish: " + ("converged" if conv2[i] else "iteration limit")
+        evals += ev2 * N
+        times += (time.perf_counter() - th) / N
+    out = []
+    for i in range(N):
+        phi_end = phi_value(ev, X[i], objective, w, None if branch is None else branch[i])
+        out.append(Convergence(objective=objective, mode=mode, phi_start=phi0[i], phi_end=phi_end,
+                               iterations=int(iters[i]), evaluations=int(evals), converged=bool(conv[i]),
+                               status=status[i], seconds=float(times[i]), history=[float(v) for v in hist[i]]))
+    return X, out, branch
+
+
+# ============================================================================ candidate strips
+def flank_range(surface_or_rotor_flanks, flank):
+    """(u_start, u_end) of flank index ``flank`` from a rotor's flank list."""
+    fl = list(surface_or_rotor_flanks)
+    if not (0 <= int(flank) < len(fl)):
+        raise ValueError(f"flank {flank} does not exist: the rotor has flanks 0..{len(fl) - 1}")
+    return tuple(float(v) for v in fl[int(flank)])
+
+
+def candidate_strips(surface, u_range, tool, n_seeds=18, objective="phi1", mode="weighted", w=W_OVERCUT,
+                     n=100, along="profile", flank=-1, evaluator=None, max_iter=40, seeds=None, anchor=True):
+    """Optimised candidate poses ("candidate strips") of a given cone on one flank.
+
+    surface: :class:`HelicalSurface`; u_range: the flank's (u_start, u_end) (``Rotor.flanks[k]``);
+    tool: :class:`ConeTool`; n_seeds flank samples (§5.1, ``along`` 'profile' | 'orthogonal'), the
+    best admissible seed (Eq. (24), smallest F of Eq. (23)) of each is optimised; objective 'phi1'
+    (Eq. (25)) | 'phi3' (Eq. (31)); mode 'weighted' (overcut weight w, Remark 5.1) | 'hard' (Eq. (30)
+    style: no overcut along the axis); n axis samples (the paper's 100); ``anchor``: keep each pose at
+    its seed's depth on the flank (see :func:`optimize_poses`).  ``seeds``: explicit
+    :class:`SeedPose` list instead of §5.1.  Returns a list of :class:`CandidateStrip` in flank order
+    (samples without an admissible seed are skipped); each has ``pose`` (:class:`ConePose`), the
+    errors along its axis (Eq. (27)) and a :class:`Convergence` record."""
+    ev = evaluator or PoseEvaluator(surface, u_range, tool, n=n)
+    if seeds is None:
+        per = initial_positions(surface, u_range, tool, n_seeds, along=along, feet=ev.feet)
+        seeds = [c[0] for c in per if c]
+    if not seeds:
+        return []
+    X0 = np.array([sd.params for sd in seeds])
+    X, conv, branch = optimize_poses(ev, X0, objective, mode, w, max_iter=max_iter, anchor=anchor)
+    out = []
+    for i, sd in enumerate(seeds):
+        errs = ev.axis_errors(X[i], branch=None if branch is None else branch[i])
+        out.append(CandidateStrip(pose=params_pose(X[i], tool), params=X[i].copy(), seed=sd, errors=errs,
+                                  convergence=conv[i], flank=int(flank)))
+    return out
+
+
+def single_flank_plan(surface, flank_ranges, flank, strips, tool, to_world=None, length_unit="R",
+                      method=None, n_profile=2048, elapsed_s=0.0):
+    """flank-plan/1 dict with the given :class:`CandidateStrip` list on target flank ``flank``
+    (reported errors = the axis errors; verify with :func:`verify.verify_plan`)."""
+    from .plan import new_plan, rotor_section
+
+    rot = rotor_section(surface.profile, surface.v0, surface.handedness, flank_ranges, to_world=to_world,
+                        n_profile=n_profile)
+    desc = tool.as_dict()
+    mth = method or "single-flank-cone"
+    return new_plan(mth, rot, desc, length_unit=length_unit, target_flanks=[int(flank)],
+                    strips=[c.strip(int(flank)) for c in strips], elapsed_s=elapsed_s)
+
+
+# ============================================================================ tool shape (§5.3)
+@dataclass
+class ToolFit:
+    """Result of the tool-shape optimisation (§5.3): the fitted cone (same axis length L as the
+    start tool), its pose, the distances d (n,) along the axis, the linear radial function
+    r(s) = r1S + (r2S - r1S) s fitted below them (Eqs. (29)-(30)), errors e = d - r >= 0, Phi2 at the
+    start and the end, and the convergence of the axis optimisation."""
+    tool: ConeTool
+    pose: ConePose
+    params: np.ndarray
+    s: np.ndarray
+    d: np.ndarray
+    r: np.ndarray
+    e: np.ndarray
+    phi2_start: float
+    phi2_end: float
+    r1s: float
+    r2s: float
+    iterations: int
+    seconds: float
+    seed: SeedPose = None
+
+    @property
+    def max_error(self):
+        return float(np.max(self.e))
+
+
+def linear_fit_below(s, d):
+    """The line r(s) = c0 + c1 s minimising sum (d_i - r(s_i)) subject to r(s_i) <= d_i (Eqs. (29)-(30);
+    the absolute values of Eq. (29) equal d_i - r(s_i) under the constraint): a 2-variable LP."""
+    from scipy.optimize import linprog
+
+    s, d = np.asarray(s, float), np.asarray(d, float)
+    n = len(s)
+    res = linprog(c=[-n, -float(s.sum())], A_ub=np.c_[np.ones(n), s], b_ub=d, bounds=[(None, None)] * 2,
+                  method="highs")
+    if not res.success:
+        raise ValueError(f"linear fit below the distances failed: {res.message}")
+    c0, c1 = res.x
+    # the LP's vertex touches two samples; make r <= d hold exactly in floating point
+    c0 -= max(0.0, float(np.max(c0 + c1 * s - d)))
+    return float(c0), float(c1)
+
+
+def second_differences(n):
+    """(n - 2, n) matrix of the second differences d_i - 2 d_(i+1) + d_(i+2) (Eq. (28))."""
+    D = np.zeros((n - 2, n))
+    i = np.arange(n - 2)
+    D[i, i], D[i, i + 1], D[i, i + 2] = 1.0, -2.0, 1.0
+    return D
+
+
+def optimize_tool_shape(surface, u_range, tool0, n=100, n_seeds=18, along="profile", top=4, max_nfev=200):
+    """Tool-shape optimisation of §5.3 on one flank, starting from cone ``tool0`` (Ex. 6.1: alpha = 0.25,
+    r1c = 0.25, r2c = 0.5): initial poses of tool0 (§5.1), then for the ``top`` best-ranked seeds the axis
+    (length L of tool0) minimising Phi2 = sum of squared second differences of the distances d_i
+    (Eq. (28), squared so that it is a least-squares problem; as printed it telescopes) by
+    scipy least_squares with the exact Jacobian, then the linear radial function below the distances
+    (Eqs. (29)-(30)).  Returns the :class:`ToolFit` with the smallest maximal error."""
+    from scipy.optimize import least_squares
+
+    t0 = time.perf_counter()
+    ev = PoseEvaluator(surface, u_range, tool0, n=n)
+    per = initial_positions(surface, u_range, tool0, n_seeds, along=along, feet=ev.feet)
+    seeds = sorted((c[0] for c in per if c), key=lambda c: c.movability)[:top]
+    if not seeds:
+        raise ValueError("no admissible initial pose of the start tool on this flank")
+    D = second_differences(n)
+    R = surface.outer_radius
+    best = None
+    for k, sd in enumerate(seeds):
+        def fun(x):
+            e, _, info = ev.distances(x[None, :], key="phi2", idx=[k], jac=False)
+            return D @ info["d"][0] / R
+
+        def jac(x):
+            _, de, _ = ev.distances(x[None, :], key="phi2", idx=[k])
+            return D @ de[0] / R
+
+        res = least_squares(fun, sd.params, jac=jac, method="trf", x_scale="jac", max_nfev=max_nfev,
+                            xtol=1e-12, ftol=1e-12, gtol=1e-12)
+        e0 = fun(sd.params)
+        x = res.x
+        _, _, info = ev.distances(x[None, :], key=None, jac=False)
+        d = info["d"][0]
+        c0, c1 = linear_fit_below(ev.s, d)
+        fit = (x, d, c0, c1, float(e0 @ e0), float(res.fun @ res.fun), int(res.nfev), sd)
+        if c1 > 0 and c0 > 0:
+            if best is None or np.max(d - c0 - c1 * ev.s) < np.max(best[1] - best[2] - best[3] * ev.s):
+                best = fit
+    if best is None:
+        raise ValueError("tool-shape optimisation: no seed gave a cone (radii increasing towards the shank)")
+    x, d, c0, c1, p0, p1, nfev, sd = best
+    L = tool0.L
+    r1s, r2s = c0, c0 + c1
+    alpha = math.asin(min(1.0, c1 / L))                     # Eq. (3)
+    tool = ConeTool(alpha, r1s * math.cos(alpha), r2s * math.cos(alpha), tool0.shank_radius, tool0.shank_length)
+    r = c0 + c1 * ev.s
+    return ToolFit(tool=tool, pose=params_pose(x, tool), params=x, s=ev.s.copy(), d=d, r=r, e=d - r,
+                   phi2_start=p0, phi2_end=p1, r1s=r1s, r2s=r2s, iterations=nfev,
+                   seconds=time.perf_counter() - t0, seed=sd)
+
+
+# ============================================================================ the paper's optimiser (baseline)
+def optimize_fd_gradient_descent(ev, x0, objective="phi1", w=W_OVERCUT, h=1e-6, eps=1e-5, step0=1e-3,
+                                 max_iter=5000, branch=None):
+    """Remark 5.1's optimiser, for benchmarks: gradient descent on Phi1 (or Phi3) with the gradient by
+    forward finite differences (step h), stopped when two subsequent iterates differ by less than
+    eps = 1e-5.  The step length adapts (x1.2 on success, /2 with a retry on failure).  Returns
+    (x, iterations, evaluations)."""
+    x = np.asarray(x0, float).copy()
+    if objective == "phi3" and branch is None:
+        branch = ev.branch(x[None, :])[0]
+    key = ("fd", objective)
+
+    def phi(xx):
+        X = xx[None, :]
+        if objective == "phi1":
+            e = ev.distances(X, key=key, jac=False)[0]
+        else:
+            e = ev.char_distances(X, np.atleast_1d(branch), key=key)[0]
+        return float(weighted_l1(e, w)[0])
+
+    f = phi(x)
+    evals, step, it = 1, step0, 0
+    for it in range(1, max_iter + 1):
+        g = np.empty(4)
+        for j in range(4):
+            xp = x.copy()
+            xp[j] += h
+            g[j] = (phi(xp) - f) / h
+        evals += 4
+        gn = float(np.linalg.norm(g))
+        if gn == 0:
+            break
+        while True:
+            xn = x - step * g / gn
+            fn = phi(xn)
+            evals += 1
+            if fn < f or step < 1e-12:
+                break
+            step *= 0.5
+        moved = float(np.linalg.norm(xn - x))
+        if fn < f:
+            x, f = xn, fn
+            step *= 1.2
+        if moved < eps:
+            break
+    return x, it, evals
