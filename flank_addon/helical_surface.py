@@ -366,29 +366,58 @@ class HelicalSurface:
         return points_in_polygon(q0, self._polygon)
 
     # ------------------------------------------------------------------ curvature
+    def fundamental_forms(self, u):
+        """Tangents x_u, x_t (..., 3), unit outward normal n and the coefficients (E, F, G) and
+        (L, M, N) of the first and second fundamental forms at the profile points (u, t = 0).
+
+        II is taken with the outward normal: it is negative in directions in which X bends away from
+        the air side (convex), positive where it bends towards it (concave)."""
+        u = np.asarray(u, float)
+        h, v0 = self.hand, self.v0
+        p, p1, p2 = (self.profile.eval(u, k) for k in range(3))
+        z = np.zeros(u.shape + (1,))
+        xu = np.concatenate([p1, z], -1)
+        xt = np.concatenate([h * _J(p), np.full(u.shape + (1,), v0)], -1)
+        xuu = np.concatenate([p2, z], -1)
+        xut = np.concatenate([h * _J(p1), z], -1)
+        xtt = np.concatenate([-p, z], -1)
+        n = self._normal_at_t0(p, p1)
+        dot = lambda a, b: np.einsum("...i,...i->...", a, b)  # noqa: E731
+        first = (dot(xu, xu), dot(xu, xt), dot(xt, xt))
+        second = (dot(xuu, n), dot(xut, n), dot(xtt, n))
+        return xu, xt, n, first, second
+
     def curvatures(self, u):
         """Principal (k1 >= k2), Gaussian K and mean H curvature at profile parameters u.
 
         Screw-invariant, so they depend on u only.  Sign convention: outward
         normal; on a convex lobe tip both principal curvatures are negative.
         """
-        u = np.asarray(u, float)
-        h, v0 = self.hand, self.v0
-        p, p1, p2 = (self.profile.eval(u, k) for k in range(3))
-        xu = np.concatenate([p1, np.zeros(u.shape + (1,))], -1)
-        xt = np.concatenate([h * _J(p), np.full(u.shape + (1,), v0)], -1)
-        xuu = np.concatenate([p2, np.zeros(u.shape + (1,))], -1)
-        xut = np.concatenate([h * _J(p1), np.zeros(u.shape + (1,))], -1)
-        xtt = np.concatenate([-p, np.zeros(u.shape + (1,))], -1)
-        n = self._normal_at_t0(p, p1)
-        dot = lambda a, b: np.einsum("...i,...i->...", a, b)
-        E, F, G = dot(xu, xu), dot(xu, xt), dot(xt, xt)
-        L, M, N = dot(xuu, n), dot(xut, n), dot(xtt, n)
+        _, _, _, (E, F, G), (L, M, N) = self.fundamental_forms(u)
         W = E * G - F * F
         K = (L * N - M * M) / W
         H = (E * N - 2 * F * M + G * L) / (2 * W)
         disc = np.sqrt(np.maximum(H * H - K, 0.0))
         return {"k1": H + disc, "k2": H - disc, "K": K, "H": H}
+
+    def principal_directions(self, u):
+        """Unit principal directions (e1, e2) (..., 3) of k1 >= k2 at (u, t = 0), e1 x e2 = n.
+
+        e1 solves (II - k1 I) v = 0 in the (x_u, x_t) basis (the longer of the two row solutions);
+        at umbilics, where every direction is principal, e1 is the profile tangent."""
+        xu, xt, n, (E, F, G), (L, M, N) = self.fundamental_forms(u)
+        k1 = self.curvatures(u)["k1"]
+        va = np.stack([M - k1 * F, -(L - k1 * E)], -1)
+        vb = np.stack([N - k1 * G, -(M - k1 * F)], -1)
+        use_a = np.linalg.norm(va, axis=-1) >= np.linalg.norm(vb, axis=-1)
+        v = np.where(use_a[..., None], va, vb)
+        e1 = v[..., :1] * xu + v[..., 1:] * xt
+        ln = np.linalg.norm(e1, axis=-1, keepdims=True)
+        scale = np.abs(E) + np.abs(G) + np.abs(L) + np.abs(N)
+        umb = ln[..., 0] <= 1e-12 * scale[...]
+        e1 = np.where(umb[..., None], xu, e1)
+        e1 = e1 / np.linalg.norm(e1, axis=-1, keepdims=True)
+        return e1, np.cross(n, e1)
 
     def classify(self, u, rel_tol=1e-3):
         """+1 elliptic (K > 0), 0 parabolic, -1 hyperbolic (K < 0), s000 Fig. 3.
