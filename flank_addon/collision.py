@@ -218,18 +218,46 @@ class ProfileSolid:
             return -1
         return int(((f + 1) // 2) % max(1, self.n_flanks // 2))
 
-    def contains(self, xy, chunk=2048):
-        """Even-odd point-in-polygon test of 2D points (N, 2)."""
+    def _bins(self):
+        """Edges registered in horizontal bins of the y range they span (for the ray test)."""
+        if getattr(self, "_bin_edges", None) is None:
+            a, b = self._a, self._b
+            y0, y1 = float(self.points[:, 1].min()), float(self.points[:, 1].max())
+            nb = max(1, len(self.points) // 4)
+            h = (y1 - y0) / nb or 1.0
+            lo = np.clip(np.floor((np.minimum(a[:, 1], b[:, 1]) - y0) / h).astype(int), 0, nb - 1)
+            hi = np.clip(np.floor((np.maximum(a[:, 1], b[:, 1]) - y0) / h).astype(int), 0, nb - 1)
+            lists = [[] for _ in range(nb)]
+            for e, (l, u) in enumerate(zip(lo, hi)):
+                for k in range(l, u + 1):
+                    lists[k].append(e)
+            M = max(1, max(len(x) for x in lists))
+            table = np.full((nb, M), -1)
+            for k, x in enumerate(lists):
+                table[k, :len(x)] = x
+            self._bin_edges, self._bin_y0, self._bin_h = table, y0, h
+        return self._bin_edges, self._bin_y0, self._bin_h
+
+    def contains(self, xy):
+        """Even-odd point-in-polygon test of 2D points (N, 2): a ray towards +x, counting crossings
+        only with the edges whose y range shares the point's bin."""
         xy = np.atleast_2d(np.asarray(xy, float))
+        table, y0, h = self._bins()
         out = np.zeros(len(xy), bool)
-        a, b = self._a, self._b
-        for s in range(0, len(xy), chunk):
-            p = xy[s:s + chunk, None, :]
-            cond = (a[None, :, 1] > p[..., 1]) != (b[None, :, 1] > p[..., 1])
-            with np.errstate(divide="ignore", invalid="ignore"):
-                xint = a[None, :, 0] + (p[..., 1] - a[None, :, 1]) * (b[None, :, 0] - a[None, :, 0]) / (
-                    b[None, :, 1] - a[None, :, 1])
-            out[s:s + chunk] = (np.count_nonzero(cond & (p[..., 0] < xint), axis=1) % 2) == 1
+        k = np.floor((xy[:, 1] - y0) / h).astype(int)
+        ok = (k >= 0) & (k < len(table))
+        kk = np.flatnonzero(ok)
+        if not len(kk):
+            return out
+        e = table[k[kk]]                                   # (n, M) candidate edges, -1 padding
+        valid = e >= 0
+        e = np.where(valid, e, 0)
+        a, b = self._a[e], self._b[e]
+        px, py = xy[kk, 0][:, None], xy[kk, 1][:, None]
+        cond = valid & ((a[..., 1] > py) != (b[..., 1] > py))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xint = a[..., 0] + (py - a[..., 1]) * (b[..., 0] - a[..., 0]) / (b[..., 1] - a[..., 1])
+        out[kk] = (np.count_nonzero(cond & (px < xint), axis=1) % 2) == 1
         return out
 
     def nearest(self, xy, k=8):

@@ -250,3 +250,10 @@ def test_batch_equals_single(female):
         assert s.collides == b.collides
         assert [(c["part"], c["flank"], round(c["depth"], 9)) for c in s.collisions] == \
                [(c["part"], c["flank"], round(c["depth"], 9)) for c in b.collisions]
+
+
+def test_binned_point_in_polygon_equals_plain(female):
+    r, S, solid = female
+    rng = np.random.default_rng(5)
+    q = np.vstack([rng.uniform(-1.05, 1.05, (3000, 2)), solid.points + 1e-7 * rng.normal(size=solid.points.shape)])
+    np.testing.assert_array_equal(solid.contains(q), points_in_polygon(q, solid.points))
