@@ -53,7 +53,8 @@ touch iff II_X(g) = r K, i.e. cos^2(gamma) = (r K - k2) / (k1 - k2) for g = cos(
 sin(gamma) e2 (closed form; real iff r <= 1/k1, the condition of Eq. (18)).  Then the axis is
 a = sin(alpha) n + cos(alpha) g.  At elliptic and parabolic points the ruling follows the principal
 direction of the smallest |curvature| (tangential contact, Ex. 6.5).  Candidates are kept if they
-satisfy Eq. (24) (tip nearer to z than the top) and ranked by the tangential movability F of Eq. (23).
+satisfy Eq. (24) (tip nearer to z than the top) and ranked by their own Phi1; the tangential movability
+F of Eq. (23) is reported but vanishes identically for a helical surface (see :class:`SeedPose`).
 """
 import math
 import time
@@ -234,8 +235,14 @@ class SeedPose:
     """An initial pose: the cone touches the flank at ``point`` (profile parameter ``u``, t = 0) with
     its middle sphere.  ``contact``: 2 = second-order line contact (hyperbolic point, Fig. 5a),
     1 = tangential contact (elliptic/parabolic point, or a hyperbolic point where the tool is too
-    large for Eq. (18)); ``movability``: F(l) of Eq. (23) (smaller is better); ``rank``: 0 = best
-    candidate at this sample."""
+    large for Eq. (18)); ``movability``: F(l) of Eq. (23); ``phi``: Phi1 (Eq. (25)) of the seed
+    itself; ``rank``: 0 = best candidate at this sample.
+
+    Note on Eq. (23): the distance to a helical surface is invariant under its own screw, so its
+    gradient is orthogonal to the screw velocity at *every* point and F(l) vanishes identically
+    (up to round-off) for every line.  It is still computed and reported, but candidates are ranked
+    by ``phi``, the error of the seed along the whole axis, which is what F is meant to measure
+    for a general motion (how well the axis keeps its distance profile while it moves)."""
     pose: ConePose
     params: np.ndarray
     u: float
@@ -244,6 +251,7 @@ class SeedPose:
     contact: int
     movability: float
     admissible: bool
+    phi: float = float("nan")
     rank: int = 0
     sample: int = 0
 
@@ -287,13 +295,14 @@ def movability(feet_fn, tips, axes, L, surface, n=25):
 
 
 def initial_positions(surface, u_range, tool, n_samples=18, along="profile", feet=None, u=None,
-                      keep="admissible"):
+                      keep="admissible", n_rank=33, w=W_OVERCUT):
     """Initial poses of the given cone on one flank (s000 §5.1, closed form, see module doc).
 
     surface: :class:`HelicalSurface`; u_range: the flank (u_start, u_end); tool: :class:`ConeTool`;
     n_samples flank samples (``along`` 'profile' or 'orthogonal', or explicit profile parameters
     ``u``).  Returns a list (per sample) of lists of :class:`SeedPose`, admissible ones (Eq. (24))
-    first, each sorted by movability F (Eq. (23)); with ``keep='admissible'`` only admissible poses
+    first, each sorted by the seed's own Phi1 on ``n_rank`` axis samples (see :class:`SeedPose` on
+    why not by F of Eq. (23), which is reported too); with ``keep='admissible'`` only admissible poses
     are listed, with ``keep='all'`` every candidate."""
     if keep not in ("admissible", "all"):
         raise ValueError(f"keep must be 'admissible' or 'all', got {keep!r}")
@@ -312,6 +321,11 @@ def initial_positions(surface, u_range, tool, n_samples=18, along="profile", fee
     F = np.full((M, 4), np.inf)
     vi, vj = np.nonzero(valid)
     F[vi, vj] = movability(feet, tips[vi, vj], A[vi, vj], L, surface)
+    P = np.full((M, 4), np.inf)
+    if len(vi):
+        ev = PoseEvaluator(surface, u_range, tool, n=n_rank, feet=feet)
+        Xc = np.array([pose_params(ConePose(tool, tips[i, j], A[i, j]), surface) for i, j in zip(vi, vj)])
+        P[vi, vj] = weighted_l1(ev.distances(Xc, key=None, jac=False)[0], w)
     K = fr.k1 * fr.k2
     out = []
     for i in range(M):
@@ -322,8 +336,9 @@ def initial_positions(surface, u_range, tool, n_samples=18, along="profile", fee
             pose = ConePose(tool, tips[i, j], A[i, j])
             cands.append(SeedPose(pose=pose, params=pose_params(pose, surface), u=float(us[i]),
                                   point=fr.point[i], gauss=float(K[i]), contact=int(order[i]),
-                                  movability=float(F[i, j]), admissible=bool(adm[i, j]), sample=i))
-        cands.sort(key=lambda c: (not c.admissible, c.movability))
+                                  movability=float(F[i, j]), admissible=bool(adm[i, j]), phi=float(P[i, j]),
+                                  sample=i))
+        cands.sort(key=lambda c: (not c.admissible, c.phi))
         for k, c in enumerate(cands):
             c.rank = k
         out.append(cands)
@@ -679,22 +694,35 @@ def _slsqp_solve(ev, x0, objective, constrain, branch, s, i=0, maxiter=100, anch
     return res
 
 
-def _dense_dips(ev, x, s, n_dense=801, tol=0.0, i=0):
-    """Axis parameters where the tool dips below the flank between the samples s (local minima of
-    e on a dense grid with e < -tol, refined by a parabola through the neighbours)."""
+def _dense_dips(ev, x, s, n_dense=801, tol=0.0, i=0, iters=40):
+    """Axis parameters where the tool dips below the flank between the samples s: local minima of e
+    on a dense grid (those below 1e-7 R), refined by golden-section search in their grid bracket (all
+    brackets at once); returns the minimisers with e < -tol and the smallest e found."""
     sd = np.linspace(0.0, 1.0, n_dense)
-    e = ev.distances(np.atleast_2d(x), sd, key="dense", jac=False, idx=[i])[0][0]
-    lm = np.flatnonzero((e < -tol) & (np.r_[True, e[1:] <= e[:-1]]) & (np.r_[e[:-1] <= e[1:], True]))
-    out = []
-    h = sd[1] - sd[0]
-    for j in lm:
-        if 0 < j < n_dense - 1:
-            den = e[j - 1] - 2 * e[j] + e[j + 1]
-            off = 0.5 * (e[j - 1] - e[j + 1]) / den if den > 0 else 0.0
-            out.append(float(np.clip(sd[j] + off * h, 0.0, 1.0)))
-        else:
-            out.append(float(sd[j]))
-    return np.array(out), float(e.min())
+    X = np.atleast_2d(x)
+    e = ev.distances(X, sd, key="dense", jac=False, idx=[i])[0][0]
+    near = 1e-7 * ev.surface.outer_radius
+    lm = np.flatnonzero((e < near) & np.r_[True, e[1:] <= e[:-1]] & np.r_[e[:-1] <= e[1:], True])
+    if not len(lm):
+        return np.zeros(0), float(e.min())
+    a = sd[np.maximum(lm - 1, 0)]
+    b = sd[np.minimum(lm + 1, n_dense - 1)]
+    ip = 0.5 * (math.sqrt(5.0) - 1.0)
+    c, d = b - ip * (b - a), a + ip * (b - a)
+    ev_at = lambda t: ev.distances(X, t, key=None, jac=False)[0][0]  # noqa: E731
+    fc, fd = ev_at(c), ev_at(d)
+    for _ in range(iters):
+        left = fc < fd                       # the minimum lies in [a, d]
+        a, b = np.where(left, a, c), np.where(left, d, b)
+        keep, fkeep = np.where(left, c, d), np.where(left, fc, fd)
+        new = np.where(left, b - ip * (b - a), a + ip * (b - a))
+        fnew = ev_at(new)
+        c, fc = np.where(left, new, keep), np.where(left, fnew, fkeep)
+        d, fd = np.where(left, keep, new), np.where(left, fkeep, fnew)
+    cand = np.r_[sd[lm], 0.5 * (a + b)]
+    ec = np.r_[e[lm], ev_at(0.5 * (a + b))]
+    bad = ec < -tol
+    return np.unique(cand[bad]), float(min(e.min(), ec.min()))
 
 
 def optimize_poses(ev, X0, objective="phi1", mode="weighted", w=W_OVERCUT, max_iter=40, anchor=True):
@@ -805,7 +833,7 @@ def candidate_strips(surface, u_range, tool, n_seeds=18, objective="phi1", mode=
 
     surface: :class:`HelicalSurface`; u_range: the flank's (u_start, u_end) (``Rotor.flanks[k]``);
     tool: :class:`ConeTool`; n_seeds flank samples (§5.1, ``along`` 'profile' | 'orthogonal'), the
-    best admissible seed (Eq. (24), smallest F of Eq. (23)) of each is optimised; objective 'phi1'
+    best admissible seed (Eq. (24), smallest seed Phi1) of each is optimised; objective 'phi1'
     (Eq. (25)) | 'phi3' (Eq. (31)); mode 'weighted' (overcut weight w, Remark 5.1) | 'hard' (Eq. (30)
     style: no overcut along the axis); n axis samples (the paper's 100); ``anchor``: keep each pose at
     its seed's depth on the flank (see :func:`optimize_poses`).  ``seeds``: explicit
@@ -898,37 +926,58 @@ def optimize_tool_shape(surface, u_range, tool0, n=100, n_seeds=18, along="profi
     """Tool-shape optimisation of §5.3 on one flank, starting from cone ``tool0`` (Ex. 6.1: alpha = 0.25,
     r1c = 0.25, r2c = 0.5): initial poses of tool0 (§5.1), then for the ``top`` best-ranked seeds the axis
     (length L of tool0) minimising Phi2 = sum of squared second differences of the distances d_i
-    (Eq. (28), squared so that it is a least-squares problem; as printed it telescopes) by
-    scipy least_squares with the exact Jacobian, then the linear radial function below the distances
-    (Eqs. (29)-(30)).  Returns the :class:`ToolFit` with the smallest maximal error."""
-    from scipy.optimize import least_squares
+    (Eq. (28), squared: as printed the sum telescopes) by SLSQP with the exact gradient, then the
+    linear radial function below the distances (Eqs. (29)-(30)).  Phi2 alone is degenerate (an axis far
+    from the flank sees almost linear distances), so two constraints keep the problem local: the
+    distance of the middle sample is at most the start tool's middle radius, the rise d(1) - d(0) stays
+    between a quarter of and the start tool's r2S - r1S, and the axis midpoint keeps the seed's distance
+    from z (its depth on the flank).  Returns the :class:`ToolFit` with the
+    smallest maximal error."""
 
     t0 = time.perf_counter()
     ev = PoseEvaluator(surface, u_range, tool0, n=n)
     per = initial_positions(surface, u_range, tool0, n_seeds, along=along, feet=ev.feet)
-    seeds = sorted((c[0] for c in per if c), key=lambda c: c.movability)[:top]
+    seeds = sorted((c[0] for c in per if c), key=lambda c: c.phi)[:top]
     if not seeds:
         raise ValueError("no admissible initial pose of the start tool on this flank")
-    D = second_differences(n)
-    R = surface.outer_radius
+    from scipy.optimize import minimize
+
+    D = second_differences(n) * (n - 1) ** 2          # d'' at the inner samples
+    r_mid0 = float(tool0.radius(0.5))
     best = None
     for k, sd in enumerate(seeds):
-        def fun(x):
-            e, _, info = ev.distances(x[None, :], key="phi2", idx=[k], jac=False)
-            return D @ info["d"][0] / R
+        rho0 = float(mid_radius(sd.params[None], tool0.L)[0][0])
+        cache = {}
 
-        def jac(x):
-            _, de, _ = ev.distances(x[None, :], key="phi2", idx=[k])
-            return D @ de[0] / R
+        def get(x):
+            key = x.tobytes()
+            if key not in cache:
+                cache.clear()
+                e, de, info = ev.distances(x[None, :], key="phi2", idx=[k])
+                d, J = info["d"][0], de[0]
+                q = D @ d / n
+                cache[key] = (float(q @ q), 2.0 * (D @ J).T @ q / n, d, J)
+            return cache[key]
 
-        res = least_squares(fun, sd.params, jac=jac, method="trf", x_scale="jac", max_nfev=max_nfev,
-                            xtol=1e-12, ftol=1e-12, gtol=1e-12)
-        e0 = fun(sd.params)
-        x = res.x
+        mid = n // 2
+        slope0 = tool0.r2s - tool0.r1s
+        cons = [  # the middle sphere no larger than the start tool's, the contact depth of the seed kept,
+            # the opening angle between a quarter of and the start tool's (an axis along the flank
+            # normal has exactly linear distances: the other degenerate optimum of Phi2)
+            {"type": "ineq", "fun": lambda x: r_mid0 - get(x)[2][mid], "jac": lambda x: -get(x)[3][mid]},
+            {"type": "ineq", "fun": lambda x: np.array([slope0 - (get(x)[2][-1] - get(x)[2][0]),
+                                                        get(x)[2][-1] - get(x)[2][0] - 0.25 * slope0]),
+             "jac": lambda x: np.array([get(x)[3][0] - get(x)[3][-1], get(x)[3][-1] - get(x)[3][0]])},
+            {"type": "eq", "fun": lambda x: mid_radius(x[None], tool0.L)[0][0] - rho0,
+             "jac": lambda x: mid_radius(x[None], tool0.L)[1][0]}]
+        p0 = get(sd.params)[0]
+        res = minimize(lambda x: get(x)[0], sd.params, jac=lambda x: get(x)[1], method="SLSQP",
+                       constraints=cons, options={"maxiter": max_nfev, "ftol": 1e-16})
+        x = res.x if np.all(np.isfinite(res.x)) else sd.params
         _, _, info = ev.distances(x[None, :], key=None, jac=False)
         d = info["d"][0]
         c0, c1 = linear_fit_below(ev.s, d)
-        fit = (x, d, c0, c1, float(e0 @ e0), float(res.fun @ res.fun), int(res.nfev), sd)
+        fit = (x, d, c0, c1, p0, get(x)[0], int(res.nit), sd)
         if c1 > 0 and c0 > 0:
             if best is None or np.max(d - c0 - c1 * ev.s) < np.max(best[1] - best[2] - best[3] * ev.s):
                 best = fit
