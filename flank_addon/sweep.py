@@ -117,7 +117,12 @@ class FrustumPart:
         self.r1, self.r2 = float(r1), float(r2)
         rmax = max(self.r1, self.r2)
         self.feature = max(min(self.r1, self.r2), 1e-3 * max(rmax, np.linalg.norm(self.c2 - self.c1)))
-        self.bounds = _sphere_chain(self.c1, self.c2, lambda s, ds: rmax, max(rmax, 1e-9))
+        # the chain runs over the end caps too: a helix may pass through a cap only
+        u = self.c2 - self.c1
+        n = float(np.linalg.norm(u))
+        u = u / n if n > 0 else np.array([0.0, 0.0, 1.0])
+        self.bounds = _sphere_chain(self.c1 - self.r1 * u, self.c2 + self.r2 * u, lambda s, ds: rmax,
+                                    max(rmax, 1e-9))
 
     stack_fields = ("c1", "r1", "c2", "r2")
     sd_rows = staticmethod(sd_sphere_frustum)

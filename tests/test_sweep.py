@@ -194,3 +194,18 @@ def test_meridian_part_is_exact_with_clustered_vertices():
     d = part.signed_distance(q)
     assert np.max(np.abs(np.abs(d) - ref)) < 2e-4      # reference spacing <= 1.3e-4
     assert np.all(np.abs(d) <= ref + 1e-12)             # never worse than any boundary sample
+
+
+def test_cutoff_sees_helices_through_the_end_caps_only():
+    """A helix that meets only a rounded end cap of a frustum (beyond the sphere centres) must not
+    be pruned by the bounding spheres when a cutoff is given (it was: the cutoff came back)."""
+    import numpy as np
+    from flank_addon.sweep import StripTool, helical_distance
+
+    tool = StripTool([0.5, 0.0, 0.0], [0.5, 0.3, 0.0], [0.05, 0.08])
+    pts = np.array([[0.5, 0.379, 0.0], [0.5, -0.045, 0.0]])     # inside the top / tip caps only
+    for v0 in (5.0, 50.0):
+        free, _ = helical_distance(tool, pts, v0)
+        cut, _ = helical_distance(tool, pts, v0, cutoff=1e-3)
+        assert np.all(free < 0)
+        np.testing.assert_allclose(cut, free, atol=1e-12)
