@@ -1337,7 +1337,7 @@ def plan_double_flank(surface, flank_ranges, valley=0, variant="min", tool="cust
         # keep the two-axis tool only if it is better and still sweeps both flanks as completely as
         # the double-flank axis used twice; otherwise report that pair (fits[1:] = that axis)
         ref, ref_gaps = _two_paths(ev, fit, fit, m)
-        if _max_err(paths) >= _max_err(ref) or max(gaps) > max(ref_gaps) + 0.005:
+        if _max_err(paths) >= _max_err(ref) or max(gaps) > max(ref_gaps) + 0.01:
             paths, fits = ref, [fit, fit, fit]
         method = "double-flank-custom-two-paths"
     else:
@@ -1349,9 +1349,20 @@ def plan_double_flank(surface, flank_ranges, valley=0, variant="min", tool="cust
             cf = optimize_cone_axis(v, lam, x0=fit.x_unit, evaluator=ev)
             fits.append(cf)
             e = (edges[j], edges[j + 1]) if kind == "cones" else tool_extent(ev, cf.x_unit)
-            paths.append(build_cone(ev, cf.x_unit, e, tag=("cone", j)))
+            path = build_cone(ev, cf.x_unit, e, tag=("cone", j))
+            if not np.isfinite(path.errors).any():
+                # the optimised axis lost every contact on this part of the valley (a tail that
+                # touches one flank only): the double-flank axis still reaches it
+                cf = AxisFit(x=fit.x, x_unit=fit.x_unit, phi=float("nan"), iterations=cf.iterations,
+                             evaluations=0, starts=1, elapsed_s=cf.elapsed_s)
+                fits[-1] = cf
+                path = build_cone(ev, fit.x_unit, e, tag=("cone-dfa", j))
+            paths.append(path)
         method = "double-flank-cone" if kind == "cone" else f"double-flank-cones-{n_cones}"
-    t_opt = sum(f.elapsed_s for f in fits)
+    if method.endswith("two-paths"):       # f1 and f2 come from one run (their elapsed_s is shared)
+        t_opt = fit.elapsed_s + f1.elapsed_s
+    else:
+        t_opt = sum(f.elapsed_s for f in fits)
     # plan: the rotor's flanks plus the two trimmed flanks of the valley (targets)
     prof = surface.profile
     per = prof.period

@@ -253,3 +253,22 @@ def test_cli_two_paths(tmp_path, capsys):
     assert main(["plan", "double-flank", "--builtin", "nilson-male", "--valley", "0", "--two-paths",
                  "--tool", "cone", "--out", str(tmp_path / "x.json")]) == 2
     assert "--two-paths needs the custom tool" in capsys.readouterr().err
+
+
+def test_two_paths_beat_one_axis_on_asymmetric_female():
+    """s001 §4.3: one tool on two axes mills the asymmetric female valley better than the
+    double-flank axis; its plan's reported errors are the simulated ones (rotor -> envelope)."""
+    r = builtin_by_name("asymmetric-female")
+    one = plan_double_flank(r.surface(), r.flanks, m=200, simulate=False)
+    two = plan_double_flank(r.surface(), r.flanks, m=200, two_paths=True)
+    e_one = max(e for e, _ in one.tool_to_rotor)
+    e_two = max(e for e, _ in two.tool_to_rotor)
+    assert e_two < 0.96 * e_one
+    x1, x2 = two.fits[1].x, two.fits[2].x
+    assert np.linalg.norm(x1 - x2) > 1e-3                # really two different axes
+    # nothing of the valley is left unswept (that would leave ~0.1 R of stock), no overcut
+    sim_max = max(e for e, _ in two.rotor_to_envelope)
+    sim_min = min(m for _, m in two.rotor_to_envelope)
+    assert sim_max < 1.5 * e_one and sim_min > -1e-6
+    strips = two.plan["strips"]
+    assert max(s["reported_max_error"] for s in strips) == pytest.approx(sim_max, abs=1e-12)
