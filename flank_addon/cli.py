@@ -230,6 +230,84 @@ def _cmd_plan(args):
     return 0
 
 
+SUGGEST_DEFAULT_R_MM = 50.0
+
+
+def _cmd_suggest_tool(args):
+    """s000 §4: Dupin analysis of one flank, Eqs. (18)-(21) and the largest admissible catalogue tool."""
+    from . import cutter_selection as cs
+
+    if (args.mesh is None) == (args.builtin is None):
+        raise ValueError("give exactly one of --mesh PATH or --builtin NAME")
+    if args.builtin:
+        from .rotors import builtin_by_name
+
+        rotor = builtin_by_name(args.builtin)
+        surface, flanks, src, unit = rotor.surface(), rotor.flanks, args.builtin, "R"
+        r_mm = args.outer_radius_mm
+        if not (np.isfinite(r_mm) and r_mm > 0):
+            raise ValueError(f"--outer-radius-mm {r_mm} must be a finite number > 0")
+        catalogue = cs.catalogue_tools(r_mm)
+    else:
+        if args.outer_radius_mm != SUGGEST_DEFAULT_R_MM:
+            raise ValueError("--outer-radius-mm applies to --builtin only (a mesh is read in mm)")
+        from .double_flank import _flank_u_ranges
+        from .helical_surface import HelicalSurface
+        from .mesh_io import read_mesh
+        from .profile import SplineProfile
+        from .rotor_analysis import analyze_mesh
+
+        a = analyze_mesh(*read_mesh(args.mesh))
+        prof = SplineProfile(a.profile)
+        surface = HelicalSurface(prof, a.v0, a.handedness)
+        flanks = _flank_u_ranges(prof, [(int(i), int(j)) for i, j in a.flanks])
+        src, unit, r_mm = str(args.mesh), "mm", 1.0
+        catalogue = cs.catalogue_tools()
+    if not 0 <= args.flank < len(flanks):
+        raise ValueError(f"--flank {args.flank} is outside 0..{len(flanks) - 1} (this rotor has {len(flanks)} flanks)")
+    t0 = time.perf_counter()
+    dup, bounds, region, sug = cs.select_cutter(surface, flanks, args.flank, catalogue, n=args.samples)
+    dt = time.perf_counter() - t0
+    d = {"source": src, "unit": unit, "unit_mm": r_mm, "flank": args.flank, "valley": args.flank // 2,
+         "dupin": dup.summary(), "bounds": bounds.as_dict(),
+         "region": None if region is None else region.summary(),
+         "suggested": None if sug.index is None else {"name": sug.entry.name, "tool": sug.tool.as_dict(),
+                                                      "tool_mm": cs.scale_tool(sug.tool, r_mm).as_dict()},
+         "catalogue": [{"name": e.name, "ok": r.ok, "failures": [f.message for f in r.failures]}
+                       for e, r in zip(catalogue, sug.results)],
+         "elapsed_s": dt}
+    if args.json:
+        print(json.dumps(d, indent=1))
+        return 0
+    s = d["dupin"]
+    print(f"{src}: flank {args.flank} (valley {args.flank // 2}), lengths in {unit}"
+          + (f" (R = {r_mm:g} mm)" if unit == "R" else ""))
+    a_txt = ("no hyperbolic point" if s["a_min"] is None else
+             f"a in [{s['a_min']:.5g}, {s['a_max']:.5g}] sqrt({unit}), a_min^2 = {s['rho_min']:.5g} {unit}")
+    print(f"  Dupin ({s['samples']} samples): hyperbolic {100 * s['hyperbolic_fraction']:.1f} %, elliptic "
+          f"{100 * s['elliptic_fraction']:.1f} %; {a_txt}")
+    print(f"  custom tool bounds: D_min {bounds.d_min:.5g}, D_max {bounds.d_max:.5g}, D_depth {bounds.d_depth:.5g}"
+          f" (c = {bounds.c:g}, D_angle = {bounds.d_angle:.4g} rad)")
+    rg = None if region is None else region.ranges()
+    if rg is None:
+        print("  admissible region: empty")
+    else:
+        print(f"  admissible region ({100 * region.fraction:.1f} % of the sampled cones): alpha "
+              f"[{rg['alpha'][0]:.4g}, {rg['alpha'][1]:.4g}] rad, r1c [{rg['r1c'][0]:.4g}, {rg['r1c'][1]:.4g}], "
+              f"r2c [{rg['r2c'][0]:.4g}, {rg['r2c'][1]:.4g}]")
+    n_ok = len(sug.admissible)
+    if sug.index is None:
+        big = max(range(len(catalogue)), key=lambda i: cs.tool_size_key(catalogue[i].tool))
+        print(f"  suggested: none of the {len(catalogue)} catalogue tools is admissible; largest "
+              f"({catalogue[big].name}) {sug.results[big].message}")
+    else:
+        t = cs.scale_tool(sug.tool, r_mm)
+        print(f"  suggested: {sug.entry.name} (alpha {np.degrees(t.alpha):.2f} deg, r1c {t.r1c:.3f} mm, "
+              f"r2c {t.r2c:.3f} mm, h {t.h:.2f} mm); {n_ok} of {len(catalogue)} catalogue tools admissible")
+    print(f"  time {dt:.2f} s")
+    return 0
+
+
 def _cmd_builtins(args):
     from .rotors import BUILTIN_NAMES
 
@@ -315,6 +393,18 @@ def build_parser():
     pl.add_argument("--tool-csv", help="write the tool profile (axial position, radius) as CSV")
     pl.add_argument("--out", required=True, help="PLAN.json")
     pl.set_defaults(func=_cmd_plan)
+
+    st = sub.add_parser("suggest-tool", help="s000 4: Dupin analysis of a flank and the largest admissible "
+                                             "catalogue cone")
+    src = st.add_mutually_exclusive_group()
+    src.add_argument("--mesh", help="rotor mesh (STL, PLY, OBJ) in mm, analysed for axis, pitch and flanks")
+    src.add_argument("--builtin", help="built-in rotor NAME (see the builtins command)")
+    st.add_argument("--flank", type=int, required=True, help="flank index K (valley K // 2)")
+    st.add_argument("--outer-radius-mm", type=float, default=SUGGEST_DEFAULT_R_MM,
+                    help="built-ins: outer radius in mm the catalogue is scaled to (default 50)")
+    st.add_argument("--samples", type=int, default=400, help="flank profile samples (default 400)")
+    st.add_argument("--json", action="store_true")
+    st.set_defaults(func=_cmd_suggest_tool)
 
     b = sub.add_parser("builtins", help="list built-in rotor names (KIND-PART)")
     b.set_defaults(func=_cmd_builtins)

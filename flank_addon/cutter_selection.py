@@ -413,7 +413,8 @@ class AdmissibleRegion:
     def summary(self):
         return {"grid": list(self.mask.shape), "admissible_points": int(self.mask.sum()),
                 "cone_points": int(self.cone.sum()), "fraction": self.fraction, "ranges": self.ranges(),
-                "failing": self.reasons(), "a_min": self.a_min, "bounds": self.bounds.as_dict()}
+                "failing": self.reasons(), "a_min": self.a_min, "bounds": self.bounds.as_dict(),
+                "largest_cone": largest_cone(self.a_min, self.bounds)}
 
 
 def admissible_region(dupin_or_a_min, bounds, n=(24, 40, 40), alpha_max=None, r1_max=None, r2_max=None):
@@ -452,6 +453,27 @@ def admissible_region(dupin_or_a_min, bounds, n=(24, 40, 40), alpha_max=None, r1
         mask &= ~failed[k]
     return AdmissibleRegion(alpha=alpha, r1c=r1, r2c=r2, mask=mask, failed=failed, cone=cone,
                             a_min=a_min, bounds=bounds)
+
+
+def largest_cone(dupin_or_a_min, bounds, n_alpha=4001):
+    """An admissible (alpha, r1c, r2c) with the largest top radius r2c (the supremum of r2c over the
+    region, up to the alpha sampling), or None.  Closed form per alpha: Omega_1 reads
+    r1c + r2c <= 2 a_min^2 cos(alpha), Omega_2 r2c - r1c <= D_depth tan(alpha); for fixed alpha the
+    best r1c balances the two caps, clipped to [0, c D_min], and r2c is the smallest of the three
+    upper bounds.  alpha runs over n_alpha values in (0, D_angle]; ties go to the smallest alpha."""
+    a_min = _a_min_of(dupin_or_a_min)
+    if not math.isfinite(a_min):
+        return None
+    al = np.linspace(bounds.d_angle / n_alpha, bounds.d_angle, int(n_alpha))
+    cap1 = 2.0 * a_min ** 2 * np.cos(al)          # Omega_1: bound on r1c + r2c
+    cap2 = bounds.d_depth * np.tan(al)            # Omega_2: bound on r2c - r1c
+    r1 = np.clip(0.5 * (cap1 - cap2), 0.0, bounds.r1_max)
+    r2 = np.minimum(np.minimum(cap1 - r1, r1 + cap2), bounds.r2_max)
+    ok = r2 > r1
+    if not ok.any():
+        return None
+    i = int(np.argmax(np.where(ok, r2, -np.inf)))
+    return float(al[i]), float(r1[i]), float(r2[i])
 
 
 # ============================================================================ catalogue
