@@ -652,7 +652,7 @@ def _slp_weighted_l1(fun, X0, w=W_OVERCUT, max_iter=40, delta0=0.05, scale=1.0, 
     return X, iters, evals, hist, converged
 
 
-def _slsqp_solve(ev, x0, objective, constrain, branch, s, i=0, maxiter=100, anchor=None):
+def _slsqp_solve(ev, x0, objective, constrain, branch, s, i=0, maxiter=60, anchor=None):
     """SLSQP for one pose: minimise mean(e) (Phi1) or mean(f) (Phi3) subject to ``constrain`` >= 0 at
     the samples s (``constrain`` 'e': the tool spheres, Eq. (30); 'f': the characteristic points).
     Exact gradients; the foot points are warm-started per pose."""
@@ -689,7 +689,7 @@ def _slsqp_solve(ev, x0, objective, constrain, branch, s, i=0, maxiter=100, anch
         cons.append({"type": "eq", "fun": lambda x: mid_radius(x, ev.L)[0] - anchor,
                      "jac": lambda x: mid_radius(x, ev.L)[1]})
     res = minimize(lambda x: get(x)[0], np.asarray(x0, float), jac=lambda x: get(x)[1], method="SLSQP",
-                   constraints=cons, options={"maxiter": maxiter, "ftol": 1e-15})
+                   constraints=cons, options={"maxiter": maxiter, "ftol": 1e-13})
     res.evaluations = count[0]
     return res
 
