@@ -1,0 +1,88 @@
+"""s000 multi-strip single-flank planning: cover to a tolerance, collisions, plan = verify."""
+import math
+
+import numpy as np
+import pytest
+
+from flank_addon.cone import ConeTool
+from flank_addon.multi_strip import plan_single_flank
+from flank_addon.plan import validate_plan
+from flank_addon.rotors import builtin_by_name
+from flank_addon.verify import verify_plan
+
+TOOL = ConeTool(math.asin(0.1), 0.05, 0.08, 0.04, 0.6)
+
+
+@pytest.fixture(scope="module")
+def female_plan():
+    r = builtin_by_name("asymmetric-female")
+    return r, plan_single_flank(r.surface(), r.flanks, 1, TOOL, 1e-3, n_seeds=18)
+
+
+def test_plan_covers_the_flank_within_tolerance_without_gouges(female_plan):
+    r, res = female_plan
+    validate_plan(res.plan)
+    assert res.complete and res.uncovered == []
+    v = verify_plan(res.plan, tolerance=1e-6)          # independent run of the sweep simulation
+    assert v["max_undercut"] <= 1e-3
+    assert v["max_overcut"] >= -1e-6
+    assert not v["gouge_points"]                        # nowhere on the whole rotor
+    # every flank point machined (no sample left untouched)
+    dev = np.array([d for _, _, _, d in v["deviation_profile"]], dtype=float)
+    assert np.isfinite(dev).all()
+    # reported errors = what verify finds, per strip and in the summary
+    for st, vs in zip(res.plan["strips"], v["strips"]):
+        assert vs["max_error"] is not None, "a chosen strip that forms no part of the surface"
+        assert abs(st["reported_max_error"] - vs["max_error"]) < 1e-6
+        assert abs(st["reported_min_error"] - vs["min_error"]) < 1e-6
+    assert abs(res.plan["summary"]["max_error"] - v["max_undercut"]) < 1e-6
+
+
+def test_chosen_strips_are_fewer_than_candidates_and_each_is_needed(female_plan):
+    """The cover is minimal (exactly so in its 500-sample interval model, see test_strip_cover):
+    dropping any chosen strip lifts the simulated flank error (2048 points) to near or past the
+    tolerance; with every strip it stays well inside."""
+    r, res = female_plan
+    n = len(res.plan["strips"])
+    assert 1 <= n < len(res.candidates)
+    for k in range(n):
+        plan = dict(res.plan, strips=[s for j, s in enumerate(res.plan["strips"]) if j != k])
+        v = verify_plan(plan, tolerance=1e-6)
+        dev = np.array([d if d is not None else np.inf for _, _, _, d in v["deviation_profile"]])
+        assert dev.max() > 0.9e-3, f"strip {k} is redundant"
+
+
+def test_junction_kinks_are_reported(female_plan):
+    r, res = female_plan
+    assert len(res.junctions) == len(res.strips) - 1
+    kinks = [j["kink_deg"] for js in res.junctions for j in js]
+    assert kinks and all(0 <= k < 90 for k in kinks)
+
+
+def test_colliding_candidates_are_excluded_and_listed():
+    """A shank as thick as the valley is wide hits the neighbouring lobe: such candidates are listed
+    with the part and flank they hit, and no chosen strip collides (verify: no gouge)."""
+    r = builtin_by_name("asymmetric-female")
+    fat = ConeTool(TOOL.alpha, TOOL.r1c, TOOL.r2c, 0.25, 1.0)
+    res = plan_single_flank(r.surface(), r.flanks, 1, fat, 1e-3, n_seeds=6, max_rounds=1)
+    assert res.collisions
+    c = res.collisions[0]["collisions"][0]
+    assert c["part"] in ("cone", "shank") and c["depth"] > 0 and "flank" in c
+    if res.plan["strips"]:
+        assert not verify_plan(res.plan, tolerance=1e-6)["gouge_points"]
+    assert not res.complete        # with every candidate colliding the flank cannot be covered
+
+
+@pytest.mark.parametrize("kw, msg", [
+    (dict(tolerance=float("nan")), "tolerance nan is outside"),
+    (dict(tolerance=-1e-3), "tolerance -0.001 is outside"),
+    (dict(flank=99), "flank 99 does not exist"),
+    (dict(n_seeds=0), "seeds 0 is outside"),
+    (dict(objective="phi2"), "objective 'phi2'"),
+])
+def test_bad_input_names_the_value(kw, msg):
+    r = builtin_by_name("asymmetric-female")
+    args = dict(flank=1, tool=TOOL, tolerance=1e-3)
+    args.update(kw)
+    with pytest.raises(ValueError, match=msg.replace("(", r"\(")):
+        plan_single_flank(r.surface(), r.flanks, **args)
