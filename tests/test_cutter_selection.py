@@ -309,6 +309,16 @@ def test_suggest_tool_none_admissible_and_ties(female_bounds):
     small = ConeTool(0.05, 0.01 * b.d_min, 0.02 * b.d_min)
     twin = ConeTool(0.05, 0.01 * b.d_min, 0.02 * b.d_min)
     assert cs.suggest_tool([big, small, twin], 10.0, b).index == 1   # first listed on ties
+    # "largest" = top radius first: a slimmer tip with a bigger top beats a bigger tip with a smaller top
+    wide_top = ConeTool.from_length(0.01 * b.d_min, 0.5 * b.d_max, 0.9 * b.d_depth)
+    wide_tip = ConeTool.from_length(0.5 * b.d_min, 0.45 * b.d_max, 0.9 * b.d_depth)
+    assert cs.is_admissible(wide_top, 10.0, b).ok and cs.is_admissible(wide_tip, 10.0, b).ok
+    assert cs.suggest_tool([wide_tip, wide_top], 10.0, b).tool is wide_top
+    # a tool exactly on a limit is admissible (the conditions are <=), just beyond it is not
+    on = ConeTool.from_length(0.5 * b.d_min, b.c * b.d_max, 0.98 * b.d_depth)
+    assert cs.is_admissible(on, 10.0, b).ok
+    off = ConeTool.from_length(0.5 * b.d_min, b.c * b.d_max * (1 + 1e-9), 0.98 * b.d_depth)
+    assert [f.name for f in cs.is_admissible(off, 10.0, b).failures] == ["r2"]
 
 
 # ---------------------------------------------------------------------------- degenerate inputs
@@ -378,3 +388,22 @@ def test_cli_suggest_tool_text_and_errors(capsys):
     assert "unknown built-in" in capsys.readouterr().err
     assert main(["suggest-tool", "--builtin", "asymmetric-male", "--flank", "0", "--outer-radius-mm", "-5"]) == 2
     assert "--outer-radius-mm" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("a_min,bounds", [
+    (0.3, (0.2, 0.3, 0.1)),       # Omega_1 and Omega_2 both bind, the tip bound does not
+    (0.6, (0.05, 0.5, 0.2)),      # tip bound and Omega_2 bind
+    (0.45, (0.2013, 0.2935, 0.2657)),   # the asymmetric female valley: c D_max binds
+])
+def test_largest_cone_matches_brute_force_grid(a_min, bounds):
+    b = cs.ValleyBounds(*bounds)
+    al, r1, r2 = cs.largest_cone(a_min, b)
+    assert cs.is_admissible(ConeTool(al, r1, r2), a_min, b).ok
+    n = 150
+    A, R1, R2 = np.meshgrid(np.linspace(1e-3, b.d_angle, n), np.linspace(0, b.c * b.d_min, n),
+                            np.linspace(1e-4, b.c * b.d_max, n), indexing="ij")
+    ok = ((np.sqrt(0.5 * (R1 + R2) / np.cos(A)) <= a_min) & ((R2 - R1) / np.tan(A) <= b.d_depth)
+          & (R1 < R2))
+    best = R2[ok].max()
+    assert best <= r2 + 1e-12                       # nothing on the grid beats the closed form
+    assert r2 - best <= 3 * b.c * b.d_max / n       # and the grid gets within a few steps of it
