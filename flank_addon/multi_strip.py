@@ -164,3 +164,31 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
                              uncovered=uncovered, junctions=junctions,
                              deviation=(cover.samples.u, cover.deviation), verify=ver, rounds=cover.rounds,
                              timings=timings)
+
+
+def envelope_strip(candidate, surface, u_range, z_range=(0.0, 1.0), n_s=60, n_t=48, evaluator=None):
+    """The envelope strip of one strip's cone (s000 Eqs. 11-14): the characteristic curve of the
+    pose under the rotor's screw motion, swept over ``z_range`` (rotor frame).
+
+    candidate: :class:`single_flank.CandidateStrip` (or anything with ``params`` and ``pose``).
+    Returns (verts (K*n_t, 3), faces (F, 3) int, deviation (K*n_t,)): K <= n_s characteristic points
+    where the characteristic is real, their signed distance to the flank (+ = material left, in the
+    rotor's length unit; constant along each helix, so exact at every vertex)."""
+    from .screw import screw_motion
+
+    ev = evaluator or PoseEvaluator(surface, u_range, candidate.pose.tool)
+    X = np.atleast_2d(candidate.params)
+    s = np.linspace(0.0, 1.0, n_s)
+    br = ev.branch(X)
+    f, _, info = ev.char_distances(X, br, s, key=None)
+    ok = info["real"][0]
+    c, dev = info["points"][0][ok], f[0][ok]
+    if len(c) < 2:
+        return np.zeros((0, 3)), np.zeros((0, 3), int), np.zeros(0)
+    ts = np.linspace(z_range[0], z_range[1], n_t) / surface.v0
+    V = screw_motion(c[:, None, :], ts[None, :], surface.v0, surface.hand)
+    K = len(c)
+    q = np.arange(K - 1)[:, None] * n_t + np.arange(n_t - 1)[None, :]
+    faces = np.concatenate([np.stack([q, q + n_t, q + n_t + 1], -1).reshape(-1, 3),
+                            np.stack([q, q + n_t + 1, q + 1], -1).reshape(-1, 3)])
+    return V.reshape(-1, 3), faces, np.repeat(dev, n_t)
