@@ -407,3 +407,28 @@ def test_largest_cone_matches_brute_force_grid(a_min, bounds):
     best = R2[ok].max()
     assert best <= r2 + 1e-12                       # nothing on the grid beats the closed form
     assert r2 - best <= 3 * b.c * b.d_max / n       # and the grid gets within a few steps of it
+
+
+def test_cli_suggest_tool_mesh_in_mm(tmp_path, capsys):
+    from flank_addon.mesh_io import write_mesh
+
+    r50 = builtin_by_name("asymmetric-female", scale=50.0)
+    path = tmp_path / "female.stl"
+    write_mesh(path, *r50.mesh(n_profile=720, n_axial=30))
+    assert main(["suggest-tool", "--mesh", str(path), "--flank", "1", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["unit"] == "mm" and d["unit_mm"] == 1.0
+    # the same surface as the built-in with R = 1: a_min^2 scales with the length unit (both flank kinds of
+    # this rotor reach a_min at the shared valley bottom, so the mesh's flank numbering does not matter)
+    r1 = builtin_by_name("asymmetric-female")
+    ref = cs.flank_dupin(r1.surface(), r1.flanks, 1).a_min ** 2
+    assert d["dupin"]["rho_min"] == pytest.approx(50.0 * ref, rel=5e-3)
+    b = cs.ValleyBounds(**{k: d["bounds"][k] for k in ("d_min", "d_max", "d_depth", "c", "d_angle")})
+    cat = cs.catalogue_tools()
+    ok = [c.name for c in cat if conditions_by_hand(c.tool, d["dupin"]["a_min"], b)]
+    assert [c["name"] for c in d["catalogue"] if c["ok"]] == ok and ok
+    assert d["suggested"]["tool_mm"] == d["suggested"]["tool"]
+    assert main(["suggest-tool", "--mesh", str(path), "--flank", "1", "--outer-radius-mm", "60"]) == 2
+    assert "--builtin only" in capsys.readouterr().err
+    assert main(["suggest-tool", "--mesh", str(tmp_path / "none.stl"), "--flank", "1"]) == 2
+    assert capsys.readouterr().err.startswith("error: ")
