@@ -158,24 +158,20 @@ def _cmd_cutter(args):
     return 0
 
 
-def _parse_point(text):
+def _parse_point(text, option="--valley-point"):
     try:
         vals = [float(x) for x in text.split(",")]
     except ValueError:
         vals = []
     if len(vals) != 3 or not np.all(np.isfinite(vals)):
-        raise ValueError(f"--valley-point {text!r} must be three finite numbers X,Y,Z")
+        raise ValueError(f"{option} {text!r} must be three finite numbers X,Y,Z")
     return np.array(vals)
 
 
-def _cmd_plan(args):
-    from .double_flank import plan_double_flank, valley_of_point
-    from .plan import write_plan
-
+def _load_rotor(args):
+    """(surface, flank parameter ranges, to_world, length unit, source name) from --builtin / --mesh."""
     if (args.mesh is None) == (args.builtin is None):
         raise ValueError("give exactly one of --mesh PATH or --builtin NAME")
-    if (args.valley is None) == (args.valley_point is None):
-        raise ValueError("give exactly one of --valley K or --valley-point X,Y,Z")
     to_world = None
     unit = "R"
     if args.builtin:
@@ -199,17 +195,33 @@ def _cmd_plan(args):
         to_world = a.to_world
         unit = "mm"
         src = str(args.mesh)
+    return surface, flanks, to_world, unit, src
+
+
+def _model_point_to_rotor(text, to_world, option):
+    pt = _parse_point(text, option)
+    if to_world is not None:
+        inv = np.linalg.inv(np.asarray(to_world, float))
+        pt = pt @ inv[:3, :3].T + inv[:3, 3]
+    return pt
+
+
+def _cmd_plan(args):
+    if args.planner == "single-flank":
+        return _cmd_plan_single_flank(args)
+    from .double_flank import plan_double_flank, valley_of_point
+    from .plan import write_plan
+
+    if (args.valley is None) == (args.valley_point is None):
+        raise ValueError("give exactly one of --valley K or --valley-point X,Y,Z")
+    surface, flanks, to_world, unit, src = _load_rotor(args)
     nv = len(flanks) // 2
     if args.valley is not None:
         if not 0 <= args.valley < nv:
             raise ValueError(f"--valley {args.valley} is outside 0..{nv - 1} (this rotor has {nv} valleys)")
         k = args.valley
     else:
-        pt = _parse_point(args.valley_point)
-        if to_world is not None:
-            inv = np.linalg.inv(np.asarray(to_world, float))
-            pt = pt @ inv[:3, :3].T + inv[:3, 3]
-        k = valley_of_point(surface, flanks, pt)
+        k = valley_of_point(surface, flanks, _model_point_to_rotor(args.valley_point, to_world, "--valley-point"))
     if not 0.2 <= args.rim <= 0.98:
         raise ValueError(f"--rim {args.rim} is outside the limits 0.2..0.98")
     res = plan_double_flank(surface, flanks, valley=k, variant=args.variant, tool=args.tool,
@@ -227,6 +239,85 @@ def _cmd_plan(args):
         print(f"  flank {j + 1}: tool->rotor max {t2r[0]:.5g} min {t2r[1]:.3g}; rotor->envelope max "
               f"{r2e[0]:.5g} min {r2e[1]:.3g}; Hausdorff ~ {res.hausdorff[j]:.5g}")
     print(f"  time {res.elapsed_s:.2f} s (optimisation {res.optimize_s:.3f} s); wrote {args.out}")
+    return 0
+
+
+def _cmd_plan_single_flank(args):
+    """s000: multi-strip single-flank milling of one flank with a given cone, to a tolerance."""
+    import json
+    import math
+
+    from .cone import ConeTool
+    from .multi_strip import flank_of_point, plan_single_flank
+    from .plan import write_plan
+
+    if (args.flank is None) == (args.flank_point is None):
+        raise ValueError("give exactly one of --flank K or --flank-point X,Y,Z")
+    if args.tool_r1 is None or args.tool_r2 is None:
+        raise ValueError("single-flank needs --tool-r1 and --tool-r2 (radii of the cone's tip and top circles)")
+    if (args.tool_alpha is None) == (args.tool_h is None):
+        raise ValueError("give exactly one of --tool-alpha RAD or --tool-h H")
+    if args.tolerance is None:
+        raise ValueError("single-flank needs --tolerance EPS (largest material left, in the rotor's unit)")
+    if args.g1:
+        raise ValueError("--g1 (tangency term at strip junctions) is not implemented yet; the plan reports "
+                         "the kink angles at the junctions without it")
+    for name in ("tool_r1", "tool_r2", "tool_alpha", "tool_h", "shank_radius", "shank_length", "tolerance"):
+        v = getattr(args, name)
+        if v is not None and not math.isfinite(v):
+            raise ValueError(f"--{name.replace('_', '-')} {v} is not a finite number")
+    surface, flanks, to_world, unit, src = _load_rotor(args)
+    if args.flank is not None:
+        if not 0 <= args.flank < len(flanks):
+            raise ValueError(f"--flank {args.flank} is outside 0..{len(flanks) - 1} (this rotor has "
+                             f"{len(flanks)} flanks)")
+        k = args.flank
+    else:
+        k = flank_of_point(surface, flanks, _model_point_to_rotor(args.flank_point, to_world, "--flank-point"))
+    shank = dict(shank_radius=args.shank_radius, shank_length=args.shank_length)
+    if args.tool_alpha is not None:
+        tool = ConeTool(args.tool_alpha, args.tool_r1, args.tool_r2, **shank)
+    else:
+        tool = ConeTool.from_length(args.tool_r1, args.tool_r2, args.tool_h, **shank)
+    res = plan_single_flank(surface, flanks, k, tool, args.tolerance, overcut_tolerance=args.overcut_tolerance,
+                            n_seeds=args.seeds, objective=args.objective, mode=args.mode,
+                            max_rounds=args.rounds, to_world=to_world, length_unit=unit,
+                            check_collisions=not args.no_collisions)
+    write_plan(args.out, res.plan)
+    if args.profile_csv:
+        u, dev = res.deviation
+        with open(args.profile_csv, "w") as fh:
+            fh.write("u,deviation\n")
+            for a, b in zip(u, dev):
+                fh.write(f"{a:.9g},{b:.9g}\n")
+    v = res.verify
+    summary = {
+        "flank": k, "strips": len(res.strips), "candidates": len(res.candidates),
+        "collisions_excluded": len(res.collisions), "uncovered_ranges": [list(g) for g in res.uncovered],
+        "max_error": v["max_undercut"], "min_error": v["max_overcut"], "gouge_points": len(v["gouge_points"]),
+        "junction_kinks_deg": [[j["kink_deg"] for j in js] for js in res.junctions],
+        "timings_s": res.timings, "tool": tool.as_dict(), "length_unit": unit,
+        "per_strip": [{"max_error": st["reported_max_error"], "min_error": st["reported_min_error"],
+                       "collision": st["collision"]} for st in res.plan["strips"]],
+    }
+    if args.json:
+        print(json.dumps(summary, indent=1))
+        return 0
+    print(f"{src}: flank {k}, {res.plan['method']}, cone alpha {tool.alpha:.5f} rad, r1 {tool.r1c:g}, "
+          f"r2 {tool.r2c:g}, h {tool.h:.5g} {unit}; tolerance {args.tolerance:g}")
+    print(f"  {len(res.strips)} strip(s) chosen of {len(res.candidates)} candidates "
+          f"({len(res.collisions)} excluded by collisions), {len(res.rounds)} round(s)")
+    for j, st in enumerate(res.plan["strips"]):
+        print(f"  strip {j}: max {st['reported_max_error']:.4g}  min {st['reported_min_error']:.3g}")
+    kinks = [j["kink_deg"] for js in res.junctions for j in js]
+    if kinks:
+        print(f"  junction kinks: {min(kinks):.2f}..{max(kinks):.2f} deg")
+    print(f"  machined flank (verify): max {v['max_undercut']:.4g}, min {v['max_overcut']:.3g}, "
+          f"gouges {len(v['gouge_points'])}")
+    if res.uncovered:
+        rng = ", ".join(f"[{a:.5g}, {b:.5g}]" for a, b in res.uncovered)
+        print(f"  NOT covered within the tolerance: u in {rng}")
+    print(f"  time {res.timings['total']:.2f} s; wrote {args.out}")
     return 0
 
 
@@ -377,8 +468,8 @@ def build_parser():
     k.add_argument("--json", action="store_true", help="print a JSON summary (flags, Z ranges, axis pose)")
     k.set_defaults(func=_cmd_cutter)
 
-    pl = sub.add_parser("plan", help="plan a tool path (s001 double-flank milling)")
-    pl.add_argument("planner", choices=["double-flank"])
+    pl = sub.add_parser("plan", help="plan a tool path: double-flank (s001) or single-flank (s000)")
+    pl.add_argument("planner", choices=["double-flank", "single-flank"])
     src = pl.add_mutually_exclusive_group()
     src.add_argument("--mesh", help="rotor mesh (STL, PLY, OBJ), analysed for axis, pitch and flanks")
     src.add_argument("--builtin", help="built-in rotor NAME (see the builtins command)")
@@ -392,6 +483,27 @@ def build_parser():
     pl.add_argument("--rim", type=float, default=0.85, help="targeted fraction of the valley depth")
     pl.add_argument("--tool-csv", help="write the tool profile (axial position, radius) as CSV")
     pl.add_argument("--out", required=True, help="PLAN.json")
+    sf = pl.add_argument_group("single-flank (s000)")
+    fsel = sf.add_mutually_exclusive_group()
+    fsel.add_argument("--flank", type=int, help="flank index K")
+    fsel.add_argument("--flank-point", help="a point X,Y,Z (model frame) near the flank")
+    sf.add_argument("--tool-r1", type=float, help="cone: tip circle radius")
+    sf.add_argument("--tool-r2", type=float, help="cone: top circle radius (> r1)")
+    sf.add_argument("--tool-alpha", type=float, help="cone: opening angle (rad)")
+    sf.add_argument("--tool-h", type=float, help="cone: length between the circles (instead of --tool-alpha)")
+    sf.add_argument("--shank-radius", type=float, default=0.0)
+    sf.add_argument("--shank-length", type=float, default=0.0)
+    sf.add_argument("--tolerance", type=float, help="largest material left (rotor unit)")
+    sf.add_argument("--overcut-tolerance", type=float, help="largest overcut (default 1e-6 R)")
+    sf.add_argument("--seeds", type=int, default=18, help="first-round seeds along the flank (default 18)")
+    sf.add_argument("--objective", default="phi1", choices=["phi1", "phi3"])
+    sf.add_argument("--mode", default="hard", choices=["hard", "weighted"],
+                    help="hard: no overcut along the tool; weighted: overcut weight 100 (Remark 5.1)")
+    sf.add_argument("--rounds", type=int, default=4, help="adaptive seeding rounds (default 4)")
+    sf.add_argument("--no-collisions", action="store_true", help="skip the global collision test")
+    sf.add_argument("--g1", action="store_true", help="tangency term at strip junctions (not implemented yet)")
+    sf.add_argument("--profile-csv", help="write the machined deviation along the flank profile (u, deviation)")
+    sf.add_argument("--json", action="store_true", help="print a JSON summary")
     pl.set_defaults(func=_cmd_plan)
 
     st = sub.add_parser("suggest-tool", help="s000 4: Dupin analysis of a flank and the largest admissible "

@@ -86,3 +86,51 @@ def test_bad_input_names_the_value(kw, msg):
     args.update(kw)
     with pytest.raises(ValueError, match=msg.replace("(", r"\(")):
         plan_single_flank(r.surface(), r.flanks, **args)
+
+
+def test_cli_plan_single_flank_round_trip(tmp_path, capsys):
+    import json
+
+    from flank_addon.cli import main
+    from flank_addon.plan import read_plan
+
+    out, csv = tmp_path / "sf.json", tmp_path / "dev.csv"
+    args = ["plan", "single-flank", "--builtin", "asymmetric-female", "--tool-r1", "0.05", "--tool-r2", "0.08",
+            "--tool-h", "0.3", "--shank-radius", "0.04", "--shank-length", "0.6", "--tolerance", "2e-3",
+            "--seeds", "8", "--rounds", "2", "--out", str(out), "--profile-csv", str(csv), "--json"]
+    # --flank-point: a point on flank 1 screwed along its helix picks flank 1
+    r = builtin_by_name("asymmetric-female")
+    s = r.surface()
+    u = 0.5 * (r.flanks[1][0] + r.flanks[1][1])
+    p = s.evaluate(np.array([u]), np.array([0.37]))[0]
+    # (with '=': a negative first coordinate would read as an option)
+    assert main(args + ["--flank-point=" + ",".join(f"{c:.12g}" for c in p)]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["flank"] == 1 and summary["strips"] >= 1
+    plan = read_plan(out)
+    v = verify_plan(plan, tolerance=1e-6)
+    assert abs(summary["max_error"] - v["max_undercut"]) < 1e-6 and not v["gouge_points"]
+    assert plan["tool"]["kind"] == "cone" and abs(plan["tool"]["h"] - 0.3) < 1e-12
+    rows = csv.read_text().splitlines()
+    assert rows[0] == "u,deviation" and len(rows) > 100
+
+
+@pytest.mark.parametrize("extra, msg", [
+    (["--flank", "1", "--tool-r1", "0.08", "--tool-r2", "0.05", "--tool-alpha", "0.1", "--tolerance", "1e-3"],
+     "r1 = 0.08, r2 = 0.05"),
+    (["--flank", "1", "--tool-r1", "0.05", "--tool-r2", "0.08", "--tolerance", "1e-3"], "--tool-alpha RAD or --tool-h"),
+    (["--flank", "40", "--tool-r1", "0.05", "--tool-r2", "0.08", "--tool-alpha", "0.1", "--tolerance", "1e-3"],
+     "--flank 40 is outside 0..11"),
+    (["--flank", "1", "--tool-r1", "0.05", "--tool-r2", "0.08", "--tool-alpha", "0.1", "--tolerance", "nan"],
+     "--tolerance nan is not a finite number"),
+    (["--flank", "1", "--tool-r1", "0.05", "--tool-r2", "0.08", "--tool-alpha", "2", "--tolerance", "1e-3"],
+     "alpha = 2.0 rad is outside"),
+])
+def test_cli_single_flank_errors(tmp_path, capsys, extra, msg):
+    from flank_addon.cli import main
+
+    rc = main(["plan", "single-flank", "--builtin", "asymmetric-female", "--out", str(tmp_path / "x.json")] + extra)
+    assert rc == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and msg in err and "Traceback" not in err
+    assert not (tmp_path / "x.json").exists()
