@@ -14,6 +14,7 @@ from .verify import FLANK_OT_verify_plan
 from .paraboloid import FLANK_OT_paraboloid_groove
 from .formed_cutter import FLANK_OT_formed_cutter
 from .double_flank import FLANK_OT_plan_double_flank
+from .single_flank import FLANK_OT_plan_single_flank
 
 classes = (
     FLANK_PG_settings,
@@ -23,8 +24,9 @@ classes = (
     FLANK_OT_paraboloid_groove,
     FLANK_OT_formed_cutter,
     FLANK_OT_plan_double_flank,
+    FLANK_OT_plan_single_flank,
 )
 
 __all__ = ["classes", "FLANK_PG_settings", "FLANK_OT_generate_rotor", "FLANK_OT_analyze_rotor",
            "FLANK_OT_verify_plan", "FLANK_OT_paraboloid_groove", "FLANK_OT_formed_cutter",
-           "FLANK_OT_plan_double_flank"]
+           "FLANK_OT_plan_double_flank", "FLANK_OT_plan_single_flank"]

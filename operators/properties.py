@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Scene-level settings shown in the sidebar and shared enum items."""
 import bpy
-from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty, StringProperty
 
 KIND_ITEMS = (
     ("nilson", "Nilson", "Classic Nilson (4+6) rotor pair"),
@@ -199,6 +199,80 @@ def double_flank_props():
     )
 
 
+SF_SHAPE_ITEMS = (
+    ("alpha", "Opening Angle", "Cone given by r1, r2 and its opening angle alpha (s000 Eq. 3)"),
+    ("length", "Length", "Cone given by r1, r2 and the distance h of its boundary circles (tan alpha = "
+                         "(r2 - r1) / h)"),
+)
+SF_OBJECTIVE_ITEMS = (
+    ("phi1", "Phi1", "Distance of the tool to the flank along the axis (s000 Eq. 25)"),
+    ("phi3", "Phi3", "Distance of the characteristic curve to the flank (s000 Eq. 31)"),
+)
+SF_MODE_ITEMS = (
+    ("hard", "Hard", "No overcut along the axis (s000 Eq. 30 style)"),
+    ("weighted", "Weighted", "Overcut weighted w = 100 (s000 Remark 5.1)"),
+)
+
+
+def single_flank_props():
+    """Fresh property definitions of flank.plan_single_flank (also the scene settings, prefixed 'sf_').
+
+    No hard limits on flank, radii, angle, tolerances, seeds, rounds: bad values (NaN included) must
+    reach the operator's checks and the core and be reported with the value and the limit."""
+    return dict(
+        flank=IntProperty(name="Flank", description="Flank index of the rotor (0 .. flanks - 1)",
+                          default=1, soft_min=0, soft_max=24),
+        use_point=BoolProperty(name="Flank From Point", description="Plan the flank nearest to Point instead of "
+                                                                    "the Flank index", default=False),
+        point=FloatVectorProperty(name="Point", description="A point near the flank, in the rotor object's "
+                                                            "local (model) coordinates", size=3,
+                                  default=(0.0, 0.0, 0.0), subtype='XYZ'),
+        shape=EnumProperty(name="Cone Given By", items=SF_SHAPE_ITEMS, default="alpha"),
+        r1=FloatProperty(name="Tip Radius r1", description="Radius r1c of the cone's tip circle (scene units, "
+                                                          ">= 0, below r2)",
+                         default=0.05, soft_min=0.0, soft_max=100.0, precision=4, unit='LENGTH'),
+        r2=FloatProperty(name="Top Radius r2", description="Radius r2c of the cone's top circle (scene units)",
+                         default=0.08, soft_min=0.0, soft_max=100.0, precision=4, unit='LENGTH'),
+        alpha=FloatProperty(name="Opening Angle", description="Opening angle alpha of the cone, 0 < alpha < 90 "
+                                                              "deg (Cone Given By = Opening Angle)",
+                            default=0.1001674211615598, soft_min=0.0, soft_max=1.5, subtype='ANGLE', precision=4),
+        length=FloatProperty(name="Length h", description="Distance h of the boundary circles, > 0 (Cone Given "
+                                                          "By = Length; scene units)",
+                             default=0.3, soft_min=0.0, soft_max=1000.0, precision=4, unit='LENGTH'),
+        shank_radius=FloatProperty(name="Shank Radius", description="Radius of the cylindrical shank beyond the "
+                                                                    "top circle, 0 = no shank (scene units)",
+                                   default=0.04, soft_min=0.0, soft_max=100.0, precision=4, unit='LENGTH'),
+        shank_length=FloatProperty(name="Shank Length", description="Length of the shank, 0 = no shank "
+                                                                    "(scene units)",
+                                   default=0.6, soft_min=0.0, soft_max=1000.0, precision=4, unit='LENGTH'),
+        tolerance=FloatProperty(name="Tolerance", description="Largest material left on the flank, > 0 "
+                                                              "(scene units; core limit: below half the outer "
+                                                              "radius)",
+                                default=0.001, soft_min=0.0, precision=6, unit='LENGTH'),
+        overcut_tolerance=FloatProperty(name="Overcut Tolerance", description="Largest overcut accepted, >= 0 "
+                                                                              "(scene units); 0 = 1e-6 x outer "
+                                                                              "radius",
+                                        default=0.0, soft_min=0.0, precision=7, unit='LENGTH'),
+        seeds=IntProperty(name="Seeds", description="First-round seeds along the flank profile (1..400)",
+                          default=18, soft_min=1, soft_max=400),
+        objective=EnumProperty(name="Objective", items=SF_OBJECTIVE_ITEMS, default="phi1"),
+        mode=EnumProperty(name="Mode", items=SF_MODE_ITEMS, default="hard"),
+        rounds=IntProperty(name="Rounds", description="Rounds of gap seeding of the cover (>= 1)",
+                           default=4, soft_min=1, soft_max=20),
+        collisions=BoolProperty(name="Collisions", description="Drop candidates whose tool or shank hits the "
+                                                               "rotor anywhere (s000 Sec. 5.5)", default=True),
+        envelope_rings=IntProperty(name="Envelope Rings", description="Rings of the envelope strips along the "
+                                                                      "rotor (screw positions)",
+                                   default=48, min=2, soft_max=1000),
+        animate=BoolProperty(name="Animate", description="Add the strips' tools moving along the rotor (their "
+                                                         "screw motion relative to the rotor)", default=True),
+        frame_start=IntProperty(name="Start Frame", default=1),
+        frame_end=IntProperty(name="End Frame", default=250),
+        filepath=StringProperty(name="Plan File", description="Also write the flank-plan/1 JSON; empty = no "
+                                                              "file", subtype='FILE_PATH', default=""),
+    )
+
+
 def _prefixed(prefix, props):
     return {prefix + name: prop for name, prop in props.items()}
 
@@ -206,4 +280,5 @@ def _prefixed(prefix, props):
 class FLANK_PG_settings(bpy.types.PropertyGroup):
     __annotations__ = {**generator_props(), **_prefixed("verify_", verify_props()),
                        **_prefixed("groove_", paraboloid_props()), **_prefixed("cutter_", formed_cutter_props()),
-                       **_prefixed("df_", double_flank_props())}
+                       **_prefixed("df_", double_flank_props()),
+                       **_prefixed("sf_", single_flank_props())}

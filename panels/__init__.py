@@ -5,6 +5,7 @@ from .verify import FLANK_PT_verify
 from .paraboloid import FLANK_PT_paraboloid
 from .formed_cutter import FLANK_PT_formed_cutter
 from .double_flank import FLANK_PT_double_flank
+from .single_flank import FLANK_PT_single_flank
 
 classes = (
     FLANK_PT_workpiece,
@@ -12,7 +13,8 @@ classes = (
     FLANK_PT_paraboloid,
     FLANK_PT_formed_cutter,
     FLANK_PT_double_flank,
+    FLANK_PT_single_flank,
 )
 
 __all__ = ["classes", "FLANK_PT_workpiece", "FLANK_PT_verify", "FLANK_PT_paraboloid", "FLANK_PT_formed_cutter",
-           "FLANK_PT_double_flank"]
+           "FLANK_PT_double_flank", "FLANK_PT_single_flank"]

@@ -21,9 +21,10 @@ REPO = "user_default"
 MODULE = "bl_ext.{}.{}".format(REPO, EXT_ID)
 CLASS_NAMES = ("FLANK_OT_generate_rotor", "FLANK_OT_analyze_rotor", "FLANK_OT_verify_plan",
                "FLANK_OT_paraboloid_groove", "FLANK_OT_formed_cutter", "FLANK_PT_workpiece", "FLANK_PT_verify",
-               "FLANK_PT_paraboloid", "FLANK_PT_formed_cutter", "FLANK_OT_plan_double_flank", "FLANK_PT_double_flank")
+               "FLANK_PT_paraboloid", "FLANK_PT_formed_cutter", "FLANK_OT_plan_double_flank", "FLANK_PT_double_flank",
+               "FLANK_OT_plan_single_flank", "FLANK_PT_single_flank")
 PANEL_NAMES = ("FLANK_PT_workpiece", "FLANK_PT_verify", "FLANK_PT_paraboloid", "FLANK_PT_formed_cutter",
-               "FLANK_PT_double_flank")
+               "FLANK_PT_double_flank", "FLANK_PT_single_flank")
 
 
 def install_extension(bpy, zip_path):
@@ -77,7 +78,8 @@ def scenario_lifecycle(bpy, res, args):
         panel = getattr(bpy.types, name, None)
         if panel is not None:
             res["panels"][name] = dict(bl_category=panel.bl_category, bl_space_type=panel.bl_space_type,
-                                       bl_region_type=panel.bl_region_type, bl_label=panel.bl_label)
+                                       bl_region_type=panel.bl_region_type, bl_label=panel.bl_label,
+                                       bl_order=getattr(panel, "bl_order", 0))
     settings = bpy.context.scene.flank_settings
     res["settings_props"] = sorted(p.identifier for p in settings.bl_rna.properties if p.identifier != "rna_type")
     cycles = []
@@ -1061,9 +1063,281 @@ def scenario_double_flank(bpy, res, args):
             out["moving_diff"] = float(np.abs(np.array(moving[0].matrix_world, dtype=np.float64) - expect).max())
 
 
+# --------------------------------------------------------------------------- single flank (s000)
+
+SF_ASIN = 0.1001674211615598          # asin(0.1)
+
+
+def _sf_run(bpy, np, **kw):
+    """Run flank.plan_single_flank; collect the result objects by role (JSON-able) and the live objects."""
+    s0 = _snapshot4(bpy)
+    t0 = time.perf_counter()
+    ret, err = _run_op(bpy.ops.flank.plan_single_flank, **kw)
+    s1 = _snapshot4(bpy)
+    out = dict(result=ret, error=err, seconds=time.perf_counter() - t0, new=[s1[i] - s0[i] for i in range(4)])
+    if ret is None:
+        return out, None
+    tool = bpy.context.active_object
+    coll = tool.users_collection[0]
+    parents = [c.name for c in bpy.data.collections if coll.name in c.children]
+    roles = {}
+    for ob in coll.objects:
+        roles.setdefault(ob.get("flank_sf_role", "?"), []).append(ob.name)
+    out.update(active=tool.name, collection=coll.name, parents=parents,
+               parent_in_scene="Flank Results" in bpy.context.scene.collection.children,
+               roles={k: sorted(v) for k, v in roles.items()}, props=_obj_props(tool),
+               coll_props=sorted(k for k in coll.keys() if k.startswith("flank_sf_")),
+               orphans=dict(meshes=sum(1 for m in bpy.data.meshes if m.users == 0),
+                            actions=sum(1 for a in bpy.data.actions if a.users == 0),
+                            collections=sorted(c.name for c in bpy.data.collections
+                                               if c.name.startswith("Single Flank"))))
+    rotor = bpy.data.objects[out["props"]["flank_sf_rotor"]]
+    out["rotor_props"] = sorted(k for k in rotor.keys() if k.startswith("flank_sf_"))
+    return out, dict(tool=tool, coll=coll, rotor=rotor)
+
+
+def scenario_single_flank(bpy, res, args):
+    """flank.plan_single_flank: asymmetric-female flank 1 (moved, rotated, scaled x2; tool asin(0.1), 0.05,
+    0.08 R, tolerance 1e-3 R) vs the core run here; a re-run from a point replaces the collection; undo; bad
+    input creates nothing."""
+    import types
+
+    import numpy as np
+    from mathutils import Matrix
+
+    ms, cone, rotors, verify = _core("multi_strip"), _core("cone"), _core("rotors"), _core("verify")
+    plan_mod, screw = _core("plan"), _core("screw")
+    scene = bpy.context.scene
+    tmp = os.path.abspath(os.getcwd())
+    S = 2.0                                       # object scale: scene units per rotor unit
+    N_T, SEEDS, ROUNDS = 12, 6, 4
+    tool_kw = dict(shape="alpha", alpha=SF_ASIN, r1=0.05 * S, r2=0.08 * S, shank_radius=0.04 * S,
+                   shank_length=0.6 * S, tolerance=1e-3 * S)
+    opts = dict(tool_kw, envelope_rings=N_T)
+
+    ret, err = _run_op(bpy.ops.flank.generate_rotor, kind="asymmetric", part="female", resolution=360, axial=24)
+    rotor_obj = bpy.context.active_object
+    rotor_name = rotor_obj.name
+    axis = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+    K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    M = np.eye(4)
+    M[:3, :3] = S * (np.eye(3) + np.sin(0.9) * K + (1 - np.cos(0.9)) * K @ K)
+    M[:3, 3] = (0.4, -0.3, 0.7)
+    rotor_obj.matrix_world = Matrix(M.tolist())
+    bpy.context.view_layer.update()
+
+    # ---------------------------------------------------------------- bad input first: nothing at all created
+    res["bad"] = {}
+    nan = float("nan")
+    for name, kw in (("r1_ge_r2", dict(r1=0.2, r2=0.1)), ("r1_eq_r2", dict(r1=0.1, r2=0.1)),
+                     ("r1_neg", dict(r1=-0.1)), ("alpha_95", dict(alpha=1.6580628)), ("alpha_0", dict(alpha=0.0)),
+                     ("length_0", dict(shape="length", length=0.0)), ("tolerance_0", dict(tolerance=0.0)),
+                     ("tolerance_nan", dict(tolerance=nan)), ("tolerance_big", dict(tolerance=1.5)),
+                     ("overcut_neg", dict(overcut_tolerance=-1e-3)), ("flank_99", dict(flank=99)),
+                     ("flank_neg", dict(flank=-1)), ("seeds_0", dict(seeds=0)), ("rounds_0", dict(rounds=0)),
+                     ("frames", dict(frame_start=10, frame_end=10)),
+                     ("plan_dir_missing", dict(seeds=1, rounds=1, filepath=os.path.join(tmp, "no_dir", "p.json")))):
+        bpy.context.view_layer.objects.active = rotor_obj
+        s0 = _snapshot4(bpy)
+        ret, err = _run_op(bpy.ops.flank.plan_single_flank, **dict(opts, **kw))
+        s1 = _snapshot4(bpy)
+        res["bad"][name] = dict(result=ret, error=err, new=[s1[i] - s0[i] for i in range(4)],
+                                results_collection=bpy.data.collections.get("Flank Results") is not None,
+                                rotor_props=sorted(k for k in rotor_obj.keys() if k.startswith("flank_sf_")))
+    bpy.ops.mesh.primitive_cube_add(location=(5.0, 0.0, 0.0))
+    cube = bpy.context.active_object
+    for name, tag in (("cube", None), ("cube_analyzed", "analyzed")):
+        if tag is not None:
+            cube["flank_source"] = tag            # claims to be analyzed: analysed again, refused as non-helical
+        s0 = _snapshot4(bpy)
+        ret, err = _run_op(bpy.ops.flank.plan_single_flank, **opts)
+        s1 = _snapshot4(bpy)
+        res["bad"][name] = dict(result=ret, error=err, new=[s1[i] - s0[i] for i in range(4)],
+                                results_collection=bpy.data.collections.get("Flank Results") is not None)
+    cube_mesh = cube.data
+    bpy.data.objects.remove(cube)
+    bpy.data.meshes.remove(cube_mesh)
+
+    # ---------------------------------------------------------------- the happy path: flank 1
+    bpy.context.view_layer.objects.active = rotor_obj
+    plan_path = os.path.join(tmp, "sf_plan.json")
+    out, objs = _sf_run(bpy, np, flank=1, seeds=SEEDS, rounds=ROUNDS, animate=True, frame_start=1, frame_end=101,
+                        filepath=plan_path, **opts)
+    res["happy"] = out
+    if objs is None:
+        return
+    p = out["props"]
+    rw = np.array(rotor_obj.matrix_world, dtype=np.float64)
+    rotor = rotors.builtin_rotor("asymmetric", "female")
+    surface = rotor.surface()
+    tool = cone.ConeTool(p["flank_sf_tool_alpha"], 0.05, 0.08, 0.04, 0.6)
+    out["tool_in_rotor_units"] = [p["flank_sf_tool_alpha"], p["flank_sf_tool_r1"] / S, p["flank_sf_tool_r2"] / S,
+                                  p["flank_sf_tool_shank_radius"] / S, p["flank_sf_tool_shank_length"] / S]
+    try:
+        to_world = plan_mod.read_plan(plan_path)["rotor"]["to_world"]
+        out["plan_file"] = dict(ok=True, to_world_diff=float(np.abs(np.array(to_world) - rw).max()))
+    except Exception as ex:
+        to_world = None
+        out["plan_file"] = dict(ok=False, error="{}: {}".format(type(ex).__name__, ex))
+    t0 = time.perf_counter()
+    core = ms.plan_single_flank(surface, rotor.flanks, 1, tool, 1e-3, n_seeds=SEEDS, max_rounds=ROUNDS,
+                                to_world=to_world)
+    out["core_seconds"] = time.perf_counter() - t0
+    out["core"] = dict(strips=len(core.strips), candidates=len(core.candidates), collisions=len(core.collisions),
+                       max_error=core.plan["summary"]["max_error"], min_error=core.plan["summary"]["min_error"],
+                       uncovered=[list(g) for g in core.uncovered],
+                       kinks=[j["kink_deg"] for js in core.junctions for j in js],
+                       strip_max=[st["reported_max_error"] for st in core.plan["strips"]],
+                       method=core.plan["method"], dev_max=float(np.nanmax(core.deviation[1])),
+                       dev_min=float(np.nanmin(core.deviation[1])))
+    coll = objs["coll"]
+    by_role = {}
+    for ob in coll.objects:
+        by_role.setdefault(ob.get("flank_sf_role"), []).append(ob)
+    u_range = rotor.flanks[1]
+    strips = []
+    for ob in sorted(by_role.get("envelope", []), key=lambda o: o["flank_sf_strip"]):
+        k = ob["flank_sf_strip"]
+        cand = core.strips[k]
+        sweep = list(ob["flank_sf_sweep"])
+        ev, ef, ed = ms.envelope_strip(cand, surface, u_range, sweep, ob["flank_sf_envelope_samples"],
+                                       ob["flank_sf_envelope_rings"])
+        dev = _float_attr(np, ob.data, "deviation")
+        cols = _color_attr(np, ob.data, "error_color")
+        world = _world(np, ob, _mesh_co(np, ob))
+        core_world = ev @ rw[:3, :3].T + rw[:3, 3]
+        active = ob.data.color_attributes.active_color
+        n_ok = len(dev) == len(ed)
+        strips.append(dict(
+            strip=k, vertices=len(dev), core_vertices=len(ev), faces=len(ob.data.polygons), core_faces=len(ef),
+            max_abs_diff=float(np.abs(dev - ed * S).max()) if n_ok else None,
+            rel_diff=float(np.abs(dev - ed * S).max() / max(np.abs(ed * S).max(), 1e-30)) if n_ok else None,
+            dev_max=float(dev.max()), core_dev_max=float(ed.max()) * S,
+            color_diff=float(np.abs(cols - verify.deviation_colors(dev.astype(np.float64), 2e-3)).max()),
+            active_color=active.name if active else None,
+            placement_diff=float(np.abs(world - core_world).max()) if n_ok else None,
+            domain=ob.data.attributes["deviation"].domain, data_type=ob.data.attributes["deviation"].data_type,
+            sweep=sweep))
+    out["envelopes"] = strips
+    tools = []
+    for ob in sorted(by_role.get("tool", []), key=lambda o: o["flank_sf_strip"]):
+        k = ob["flank_sf_strip"]
+        pose = core.strips[k].pose
+        mw = np.array(ob.matrix_world, dtype=np.float64)
+        ax = mw[:3, 2] / np.linalg.norm(mw[:3, 2])
+        expect_ax = rw[:3, :3] @ pose.axis
+        expect_ax /= np.linalg.norm(expect_ax)
+        co = _mesh_co(np, ob)
+        r_xy = np.linalg.norm(co[:, :2], axis=1)
+        tools.append(dict(strip=k, origin_diff=float(np.abs(mw[:3, 3] - (rw[:3, :3] @ pose.tip + rw[:3, 3])).max()),
+                          axis_dot=float(ax @ expect_ax), object_scale=float(np.cbrt(np.linalg.det(mw[:3, :3]))),
+                          params_diff=float(np.abs(np.array(list(ob["flank_sf_params"]))
+                                                   - np.ravel(core.strips[k].params)).max()),
+                          strip_max_diff=abs(ob["flank_sf_strip_errors"][0]
+                                             - S * core.plan["strips"][k]["reported_max_error"]),
+                          z_extent=[float(co[:, 2].min()), float(co[:, 2].max())],
+                          max_radius=float(r_xy.max()), vertices=len(co)))
+    out["tools"] = tools
+    out["tool_expect"] = dict(z_tip=-0.05 * np.tan(tool.alpha), z_top=-0.05 * np.tan(tool.alpha) + tool.h + 0.6,
+                              max_radius=0.08)
+    charts = []
+    prof = surface.profile
+    for ob in by_role.get("error_chart", []):
+        err = _float_attr(np, ob.data, "error").astype(np.float64)
+        uu = _float_attr(np, ob.data, "u").astype(np.float64)
+        curve = _float_attr(np, ob.data, "curve")
+        co = _mesh_co(np, ob)
+        k_vis = ob["flank_sf_error_scale"]
+        on = curve == 1
+        # the curve is the profile offset along its outward normal by error x scale (rotor frame, z = 0)
+        expect = prof.eval(uu) + prof.outward_normal(uu) * (k_vis * err / S)[:, None]
+        charts.append(dict(vertices=len(co), edges=len(ob.data.edges), faces=len(ob.data.polygons),
+                           curve_vertices=int(on.sum()), base_vertices=int((~on).sum()),
+                           max_abs=float(np.abs(err).max()), core_max_abs=float(np.nanmax(np.abs(core.deviation[1]))) * S,
+                           offset_diff=float(np.abs(co[:, :2] - expect).max()), z_max=float(np.abs(co[:, 2]).max()),
+                           error_scale=k_vis, base_max_error=float(np.abs(err[~on]).max())))
+    out["charts"] = charts
+    # animation: moving tool k = rotor world @ S(s(f)) @ tool frame k (rotor frame)
+    motion = by_role.get("motion", [])
+    moving = sorted(by_role.get("moving", []), key=lambda o: o["flank_sf_strip"])
+    anim = dict(motions=len(motion), movings=len(moving))
+    if motion and moving and motion[0].animation_data and motion[0].animation_data.action:
+        anim["fcurves"] = _fcurve_keys(motion[0].animation_data.action)
+        anim["parent"] = motion[0].parent.name if motion[0].parent else None
+        tool0 = [o for o in by_role["tool"] if o["flank_sf_strip"] == moving[0]["flank_sf_strip"]][0]
+        anim["shares_mesh"] = moving[0].data == tool0.data
+        fs, fe = p["flank_sf_frames"]
+        s_lo, s_hi = p["flank_sf_motion"]
+        T = np.array(tool0.matrix_world, dtype=np.float64)
+        co = _mesh_co(np, moving[0])[[0, 50, -1]]
+        samples = []
+        for f in (fs, (fs + fe) // 2, fe):
+            scene.frame_set(f)
+            sf = s_lo + (s_hi - s_lo) * (f - fs) / (fe - fs)
+            expect = (rw @ _screw4(np, sf, rotor.v0, surface.hand) @ np.linalg.inv(rw) @ T) @ np.c_[co, np.ones(3)].T
+            samples.append(dict(frame=f, max_diff=float(np.abs(_world(np, moving[0], co) - expect[:3].T).max())))
+        scene.frame_set(fs)
+        anim["samples"] = samples
+    out["anim"] = anim
+    res["panels"] = _draw_panels(bpy, objs["tool"])
+
+    # ---------------------------------------------------------------- re-run from the tool, flank from a point
+    u_mid = 0.5 * (u_range[0] + u_range[1])
+    t_pt = 1.0 / rotor.v0
+    q = surface.evaluate(u_mid, t_pt) + 0.01 * surface.normal(u_mid, t_pt)     # local = rotor frame (unit rotor)
+    before = dict(collection=coll.name, meshes=len(bpy.data.meshes), actions=len(bpy.data.actions))
+    bpy.context.view_layer.objects.active = objs["tool"]
+    out2, objs2 = _sf_run(bpy, np, use_point=True, point=[float(v) for v in q], flank=7, seeds=4, rounds=1,
+                          animate=False, **opts)
+    out2["before"] = before
+    res["rerun"] = out2
+    if objs2 is not None:
+        out2["single_flank_collections"] = sorted(c.name for c in bpy.data.collections
+                                                  if c.get("flank_sf_key") is not None)
+        out2["mesh_users"] = sorted({m.users for m in bpy.data.meshes if m.name.startswith("SF F")})
+
+    # ---------------------------------------------------------------- undo: back to before the last run
+    # In background mode operators called from Python push no undo steps themselves (the UI does, for
+    # bl_options UNDO): push around the run as the UI would, then undo and redo the memfile steps.
+    def state():
+        return dict(objects=sorted(o.name for o in bpy.data.objects),
+                    collections=sorted(c.name for c in bpy.data.collections),
+                    meshes=len(bpy.data.meshes))
+
+    bpy.context.view_layer.objects.active = bpy.data.objects[rotor_name]
+    undo = dict(bl_options=sorted(bpy.types.FLANK_OT_plan_single_flank.bl_options))
+    bpy.ops.ed.undo_push(message="before single flank")
+    undo["before"] = state()
+    out3, _ = _sf_run(bpy, np, flank=3, seeds=2, rounds=1, animate=False, **opts)
+    bpy.ops.ed.undo_push(message="Plan Single Flank")
+    undo["run"] = dict(result=out3["result"], error=out3["error"], new=out3["new"],
+                       collection=out3.get("collection"))
+    undo["after_run"] = state()
+    try:
+        bpy.ops.ed.undo()
+        undo["undo_error"] = None
+    except Exception as ex:
+        undo["undo_error"] = "{}: {}".format(type(ex).__name__, ex)
+    undo["after_undo"] = state()
+    rot = bpy.data.objects.get(rotor_name)
+    undo["rotor_flank_after_undo"] = rot.get("flank_sf_flank") if rot is not None else None
+    try:
+        bpy.ops.ed.redo()
+        undo["redo_error"] = None
+    except Exception as ex:
+        undo["redo_error"] = "{}: {}".format(type(ex).__name__, ex)
+    undo["after_redo"] = state()
+    strip = bpy.data.objects.get("SF F3 Strip 1")
+    undo["redo_strip_attrs"] = sorted(a.name for a in strip.data.attributes if not a.name.startswith(".")) \
+        if strip is not None else None
+    rot = bpy.data.objects.get(rotor_name)
+    undo["rotor_flank_after_redo"] = rot.get("flank_sf_flank") if rot is not None else None
+    res["undo"] = undo
+
+
 SCENARIOS = {"lifecycle": scenario_lifecycle, "operators": scenario_operators, "verify": scenario_verify,
              "paraboloid": scenario_paraboloid, "formed_cutter": scenario_formed_cutter,
-             "double_flank": scenario_double_flank}
+             "double_flank": scenario_double_flank, "single_flank": scenario_single_flank}
 
 
 def main():

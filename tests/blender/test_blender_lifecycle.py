@@ -26,7 +26,7 @@ def test_install_registers_everything(lifecycle):
     assert all(state["classes"].values()), state["classes"]
     assert state["scene_prop"] and state["scene_rna_props"] == ["flank_settings"]
     assert {"generate_rotor", "analyze_rotor", "verify_plan", "paraboloid_groove", "formed_cutter",
-            "plan_double_flank"} <= set(state["ops"])
+            "plan_double_flank", "plan_single_flank"} <= set(state["ops"])
 
 
 def test_sidebar_panel_in_flank_tab(lifecycle):
@@ -38,12 +38,12 @@ def test_sidebar_panel_in_flank_tab(lifecycle):
 def test_all_panels_in_flank_tab(lifecycle):
     panels = lifecycle["panels"]
     assert sorted(panels) == ["FLANK_PT_double_flank", "FLANK_PT_formed_cutter", "FLANK_PT_paraboloid",
-                              "FLANK_PT_verify", "FLANK_PT_workpiece"]
+                              "FLANK_PT_single_flank", "FLANK_PT_verify", "FLANK_PT_workpiece"]
     for name, panel in panels.items():
         assert (panel["bl_category"], panel["bl_space_type"], panel["bl_region_type"]) == ("Flank", "VIEW_3D", "UI")
 
 
-def test_scene_settings_hold_verify_groove_cutter_and_double_flank_properties(lifecycle):
+def test_scene_settings_hold_verify_groove_cutter_double_and_single_flank_properties(lifecycle):
     props = set(lifecycle["settings_props"])
     assert {"verify_filepath", "verify_tolerance", "verify_search", "verify_show_tools"} <= props
     assert {"groove_radius", "groove_a", "groove_b", "groove_pitch", "groove_turns", "groove_part",
@@ -54,6 +54,15 @@ def test_scene_settings_hold_verify_groove_cutter_and_double_flank_properties(li
     assert {"df_valley", "df_variant", "df_tool", "df_cones", "df_two_paths", "df_radii", "df_rim", "df_samples",
             "df_simulate", "df_tolerance", "df_envelope_rings", "df_animate", "df_frame_start", "df_frame_end",
             "df_filepath", "df_tool_csv"} <= props
+    assert {"sf_flank", "sf_use_point", "sf_point", "sf_shape", "sf_r1", "sf_r2", "sf_alpha", "sf_length",
+            "sf_shank_radius", "sf_shank_length", "sf_tolerance", "sf_overcut_tolerance", "sf_seeds", "sf_objective",
+            "sf_mode", "sf_rounds", "sf_collisions", "sf_envelope_rings", "sf_animate", "sf_frame_start",
+            "sf_frame_end", "sf_filepath"} <= props
+
+
+def test_panels_in_workflow_order(lifecycle):
+    order = {name: p["bl_order"] for name, p in lifecycle["panels"].items()}
+    assert order["FLANK_PT_double_flank"] < order["FLANK_PT_single_flank"]
 
 
 def test_disable_enable_five_times_leaves_nothing_behind(lifecycle):

@@ -1,0 +1,542 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""flank.plan_single_flank -- s000: multi-strip single-flank milling of one rotor flank with a conical tool."""
+import bpy
+
+from .common import (builtin_from_props, edge_mesh, frame_along, key_screw_motion, mesh_world_arrays, new_mesh_from_arrays,
+                     remove_ids, results_parent, revolved_mesh, select_only, set_color_attr, set_float_attr,
+                     similarity_parts)
+from .properties import single_flank_props
+
+PROP_PREFIX = "flank_sf_"
+DEVIATION_ATTR = "deviation"           # FLOAT point attribute of the envelope strips (scene units, + = stock)
+DEVIATION_COLOR_ATTR = "error_color"   # FLOAT_COLOR of the envelope strips and the chart (verify.deviation_colors)
+ERROR_ATTR = "error"                   # FLOAT point attribute of the error chart (scene units, unscaled; 0 = baseline)
+PARAM_ATTR = "u"                       # FLOAT point attribute of the error chart: profile parameter
+CURVE_ATTR = "curve"                   # FLOAT point attribute of the error chart: 1 error curve, 0 baseline (profile)
+ENVELOPE_SAMPLES = 60                  # characteristic points per strip (multi_strip.envelope_strip's n_s)
+CHART_FRACTION = 0.1                   # largest |error| drawn as this fraction of the outer radius
+TOOL_SEGMENTS = 48
+COLOR_TOOL = (0.90, 0.72, 0.20, 1.0)
+COLOR_ENVELOPE = (0.55, 0.62, 0.70, 1.0)
+COLOR_BASELINE = (0.35, 0.35, 0.35, 1.0)
+MAX_STORED_COLLISIONS = 50
+
+
+def _decimal(v):
+    """Blender float properties are single precision: the decimal value that was typed (7 digits)."""
+    return float("{:.7g}".format(v))
+
+
+def _finite_runs(np, mask):
+    """[(start, stop)] of the runs of True in a boolean array (stop exclusive)."""
+    m = np.r_[False, np.asarray(mask, dtype=bool), False]
+    d = np.diff(m.astype(np.int8))
+    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)))
+
+
+def _merge_ranges(ranges):
+    """Union of parameter ranges [(a, b)] as sorted disjoint ranges (the core may list a range twice)."""
+    out = []
+    for a, b in sorted((float(a), float(b)) for a, b in ranges):
+        if out and a <= out[-1][1]:
+            out[-1][1] = max(out[-1][1], b)
+        else:
+            out.append([a, b])
+    return [tuple(r) for r in out]
+
+
+def tool_meridian(np, tool):
+    """(K, 2) meridian (radius, height) of the cone tool + shank from the top pole to the tip pole, in its
+    frame: origin at the tip sphere centre x1S, z along the axis (flat tip at the circle c1)."""
+    import math
+
+    z1 = -tool.r1c * math.tan(tool.alpha)          # tip circle c1 (s000 Eq. 2)
+    z2 = z1 + tool.h                              # top circle c2
+    rh = []
+    if tool.shank_radius > 0.0 and tool.shank_length > 0.0:
+        rh += [(0.0, z2 + tool.shank_length), (tool.shank_radius, z2 + tool.shank_length), (tool.shank_radius, z2)]
+    else:
+        rh += [(0.0, z2)]
+    rh += [(tool.r2c, z2), (tool.r1c, z1), (0.0, z1)]
+    out = [rh[0]]
+    for p in rh[1:]:                                # no repeated rings (degenerate faces)
+        if abs(p[0] - out[-1][0]) > 1e-12 or abs(p[1] - out[-1][1]) > 1e-12:
+            out.append(p)
+    if out[-1][0] != 0.0:
+        out.append((0.0, z1))
+    return np.array(out, dtype=np.float64)
+
+
+def _remove_result_collection(coll):
+    """Remove a result collection of an earlier run with its objects, their meshes and actions (if no
+    longer used elsewhere)."""
+    objs = list(coll.all_objects)
+    meshes = {ob.data for ob in objs if ob.type == 'MESH' and ob.data is not None}
+    actions = {ob.animation_data.action for ob in objs if ob.animation_data and ob.animation_data.action}
+    for ob in objs:
+        bpy.data.objects.remove(ob)
+    for me in meshes:
+        if me.users == 0:
+            bpy.data.meshes.remove(me)
+    for act in actions:
+        if act.users == 0:
+            bpy.data.actions.remove(act)
+    for child in list(coll.children):
+        if not child.all_objects:
+            bpy.data.collections.remove(child)
+    bpy.data.collections.remove(coll)
+
+
+class FLANK_OT_plan_single_flank(bpy.types.Operator):
+    """s000: plan multi-strip single-flank milling of one flank of the active rotor with a truncated-cone tool
+    (optimised strips, global collision filter, minimum strip cover to a tolerance) and show the result.
+
+    Rotor: the active rotor made by Generate Rotor (rebuilt exactly from its custom properties) or an analyzed
+    mesh (analysed again).  Tool lengths and tolerances are in scene units.  Objects in a new collection under
+    "Flank Results" (a collection of an earlier run on the same rotor and flank is replaced): per chosen strip
+    its envelope strip with the point attributes ``deviation`` (FLOAT, signed, scene units, > 0 material left)
+    and ``error_color``, and its tool (cone + shank, origin at the tip sphere centre, local z along the axis);
+    the error along the flank profile (s000 Fig. 11c) as an edge mesh in the rotor's start plane (offset along
+    the profile normal = error x flank_sf_error_scale); with Animate a "Tool Motion" empty with the moving
+    tools.  Custom properties flank_sf_* (strips, candidates, errors, uncovered ranges, collisions, kinks,
+    times) on the collection, the tools and the rotor."""
+
+    bl_idname = "flank.plan_single_flank"
+    bl_label = "Plan Single Flank"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    __annotations__ = single_flank_props()
+
+    # ------------------------------------------------------------------ inputs
+
+    def _source(self, context, np):
+        """The rotor to plan on -> dict, or an error message (str) (as flank.plan_double_flank)."""
+        from ..flank_addon import rotors
+
+        obj = context.active_object
+        if obj is not None and PROP_PREFIX + "rotor" in obj and obj.get("flank_source") is None:
+            other = bpy.data.objects.get(obj[PROP_PREFIX + "rotor"])  # a result object: use its rotor
+            if other is not None:
+                obj = other
+        if obj is None or obj.type != 'MESH':
+            return "Select a rotor made by Generate Rotor or an analyzed rotor mesh (active object: {})".format(
+                "none" if obj is None else "'{}' ({})".format(obj.name, obj.type))
+        if obj.mode != 'OBJECT':
+            return "Switch '{}' to Object Mode first".format(obj.name)
+        src = obj.get("flank_source")
+        if src == "generated":
+            try:
+                rotor = builtin_from_props(rotors, obj)
+            except (KeyError, ValueError) as ex:
+                return "Cannot rebuild the rotor of '{}' from its custom properties: {}".format(obj.name, ex)
+            display = np.array(obj.matrix_world, dtype=np.float64)
+            parts = similarity_parts(np, display)
+            if isinstance(parts, str):
+                return "Rotor '{}': {}; apply or reset its scale".format(obj.name, parts)
+            to_world, scale = parts
+            return dict(obj=obj, surface=rotor.surface(), flanks=list(rotor.flanks), display=display,
+                        to_world=to_world, scale=scale, z_range=(0.0, float(rotor.length)),
+                        unit="R" if float(obj["flank_scale"]) == 1.0 else "mm",
+                        kind="{}-{}".format(rotor.kind, rotor.part))
+        if src == "analyzed":
+            from ..flank_addon import double_flank as df
+            from ..flank_addon.helical_surface import HelicalSurface
+            from ..flank_addon.profile import SplineProfile
+            from ..flank_addon.rotor_analysis import NotHelicalError, analyze_mesh
+
+            try:
+                verts, faces = mesh_world_arrays(np, obj)
+                a = analyze_mesh(verts, faces)
+                prof = SplineProfile(a.profile)
+                surface = HelicalSurface(prof, a.v0, a.handedness)
+                flanks = df._flank_u_ranges(prof, [(int(i), int(j)) for i, j in a.flanks])
+                to_world = np.asarray(a.to_world, dtype=np.float64)
+            except NotHelicalError as ex:
+                return "'{}' is not a helical rotor: {}".format(obj.name, ex)
+            except Exception as ex:
+                return "Cannot analyze '{}' again: {}: {}".format(obj.name, type(ex).__name__, ex)
+            parts = similarity_parts(np, to_world)
+            if isinstance(parts, str):
+                return "Analysis of '{}': {}".format(obj.name, parts)
+            to_world, scale = parts
+            z = [float(v) for v in a.body_z] if getattr(a, "body_z", None) is not None else [0.0, 0.0]
+            if not z[1] > z[0]:
+                z = [0.0, 2.0 * float(a.outer_radius)]
+            return dict(obj=obj, surface=surface, flanks=flanks, display=to_world, to_world=to_world,
+                        scale=scale, z_range=(z[0], z[1]), unit="mm", kind="analyzed")
+        return ("'{}' is not a rotor (flank_source = {!r}): select a rotor made by Generate Rotor or run "
+                "Analyze Rotor on the mesh first".format(obj.name, src))
+
+    def _check_inputs(self, math):
+        """Checks that need no rotor -> error message (str) or None."""
+        r1, r2 = _decimal(self.r1), _decimal(self.r2)
+        if not math.isfinite(r1) or r1 < 0.0:
+            return "tool radius r1 = {} must be a finite number >= 0".format(r1)
+        if not math.isfinite(r2) or not r1 < r2:
+            return "tool radii r1 = {} and r2 = {}: r1 must be below r2".format(r1, r2)
+        if self.shape == "alpha":
+            a = _decimal(self.alpha)
+            if not math.isfinite(a) or not 0.0 < a < 0.5 * math.pi:
+                return "opening angle alpha = {:.6g} deg is outside (0, 90) deg".format(
+                    math.degrees(a) if math.isfinite(a) else a)
+        else:
+            h = _decimal(self.length)
+            if not math.isfinite(h) or h <= 0.0:
+                return "cone length h = {} must be > 0".format(h)
+        for label, v in (("shank radius", self.shank_radius), ("shank length", self.shank_length)):
+            v = _decimal(v)
+            if not math.isfinite(v) or v < 0.0:
+                return "{} = {} must be a finite number >= 0".format(label, v)
+        tol = _decimal(self.tolerance)
+        if not math.isfinite(tol) or tol <= 0.0:
+            return "tolerance = {} must be > 0 (scene units)".format(tol)
+        over = _decimal(self.overcut_tolerance)
+        if not math.isfinite(over) or over < 0.0:
+            return "overcut tolerance = {} must be >= 0 (scene units; 0 = 1e-6 x outer radius)".format(over)
+        if not 1 <= int(self.seeds) <= 400:
+            return "seeds = {} is outside 1..400".format(int(self.seeds))
+        if int(self.rounds) < 1:
+            return "rounds = {} is below the minimum 1".format(int(self.rounds))
+        if self.animate and int(self.frame_end) <= int(self.frame_start):
+            return "end frame {} must be after the start frame {}".format(int(self.frame_end), int(self.frame_start))
+        return None
+
+    # ------------------------------------------------------------------ run
+
+    def execute(self, context):
+        import json
+        import math
+        import os
+        import time
+
+        import numpy as np
+        from mathutils import Matrix
+
+        t0 = time.perf_counter()
+        msg = self._check_inputs(math)
+        if msg is not None:
+            self.report({'ERROR'}, "Single flank: " + msg)
+            return {'CANCELLED'}
+        src = self._source(context, np)
+        if isinstance(src, str):
+            self.report({'ERROR'}, "Single flank: " + src)
+            return {'CANCELLED'}
+        rotor_obj, surface, flanks = src["obj"], src["surface"], src["flanks"]
+        s = float(src["scale"])                       # scene units per rotor unit
+        R = float(surface.outer_radius)
+        display = src["display"]
+        limit = 0.5 * R * s
+        for label, v in (("tolerance", _decimal(self.tolerance)), ("overcut tolerance",
+                                                                    _decimal(self.overcut_tolerance))):
+            if not v < limit:
+                self.report({'ERROR'}, "Single flank: {} = {} must be below half the outer radius of '{}', {:.6g} "
+                                       "(scene units)".format(label, v, rotor_obj.name, limit))
+                return {'CANCELLED'}
+
+        from ..flank_addon import multi_strip as ms
+        from ..flank_addon.cone import ConeTool
+        from ..flank_addon.screw import screw_motion
+        from ..flank_addon.verify import deviation_colors
+
+        # ---- the flank
+        point_rotor = None
+        if self.use_point:
+            p_local = np.array([_decimal(v) for v in self.point], dtype=np.float64)
+            if not np.isfinite(p_local).all():
+                self.report({'ERROR'}, "Single flank: point {} is not finite".format(p_local.tolist()))
+                return {'CANCELLED'}
+            mw = np.array(rotor_obj.matrix_world, dtype=np.float64)
+            p_world = mw[:3, :3] @ p_local + mw[:3, 3]
+            p_h = np.linalg.solve(display, np.r_[p_world, 1.0])
+            point_rotor = p_h[:3] / p_h[3]
+            try:
+                k_flank = int(ms.flank_of_point(surface, flanks, point_rotor))
+            except ValueError as ex:
+                self.report({'ERROR'}, "Single flank: {}".format(ex))
+                return {'CANCELLED'}
+        else:
+            k_flank = int(self.flank)
+            if not 0 <= k_flank < len(flanks):
+                self.report({'ERROR'}, "Single flank: flank = {} is outside 0..{} (rotor '{}' has {} flanks)".format(
+                    k_flank, len(flanks) - 1, rotor_obj.name, len(flanks)))
+                return {'CANCELLED'}
+        u_range = tuple(float(v) for v in flanks[k_flank])
+
+        # ---- the tool (rotor units)
+        r1, r2 = _decimal(self.r1) / s, _decimal(self.r2) / s
+        shank = dict(shank_radius=_decimal(self.shank_radius) / s, shank_length=_decimal(self.shank_length) / s)
+        try:
+            if self.shape == "alpha":
+                tool = ConeTool(_decimal(self.alpha), r1, r2, **shank)
+            else:
+                tool = ConeTool.from_length(r1, r2, _decimal(self.length) / s, **shank)
+        except ValueError as ex:
+            self.report({'ERROR'}, "Single flank: {}".format(ex))
+            return {'CANCELLED'}
+        tol_in, over_in = _decimal(self.tolerance), _decimal(self.overcut_tolerance)
+        tol = tol_in / s
+        over = over_in / s if over_in > 0.0 else None
+
+        # ---- the core (collisions against the infinite rotor: a pass screws the whole body past the tool, so
+        # the finite rotor's slab over the pass holds the tool entirely; z_range only places the strips)
+        z0, z1 = (float(v) for v in src["z_range"])
+        n_t = int(self.envelope_rings)
+        try:
+            res = ms.plan_single_flank(surface, flanks, k_flank, tool, tol, overcut_tolerance=over,
+                                       n_seeds=int(self.seeds), objective=str(self.objective), mode=str(self.mode),
+                                       max_rounds=int(self.rounds), to_world=src["to_world"].tolist(),
+                                       length_unit=src["unit"], check_collisions=bool(self.collisions))
+            if not res.strips:
+                raise ValueError("no collision-free strip on flank {}: {} candidates, {} colliding (uncovered {})"
+                                 .format(k_flank, len(res.candidates), len(res.collisions),
+                                         ", ".join("[{:.4g}, {:.4g}]".format(a, b)
+                                                   for a, b in _merge_ranges(res.uncovered))))
+            t_env = time.perf_counter()
+            envs, sweeps = [], []
+            for c in res.strips:
+                zc = 0.5 * float(c.pose.tip[2] + c.pose.top[2])   # centre the swept strip on the rotor body
+                sweep = (z0 - zc, z1 - zc)
+                sweeps.append(sweep)
+                envs.append(ms.envelope_strip(c, surface, u_range, sweep, ENVELOPE_SAMPLES, n_t))
+            env_elapsed = time.perf_counter() - t_env
+            frames = []
+            for c in res.strips:
+                rot, _ = frame_along(np, c.pose.tip, c.pose.top)
+                T = np.eye(4)
+                T[:3, :3] = rot
+                T[:3, 3] = c.pose.tip
+                frames.append(T)
+            tool_verts, tool_faces = revolved_mesh(np, tool_meridian(np, tool), TOOL_SEGMENTS)
+        except ValueError as ex:
+            self.report({'ERROR'}, "Single flank: {}".format(ex))
+            return {'CANCELLED'}
+        except Exception as ex:
+            self.report({'ERROR'}, "Single flank failed: {}: {}".format(type(ex).__name__, ex))
+            return {'CANCELLED'}
+
+        uncovered = _merge_ranges(res.uncovered)
+
+        # ---- error along the profile (s000 Fig. 11c): offset along the profile's outward normal, start plane
+        u_dev = np.asarray(res.deviation[0], dtype=np.float64)
+        e_dev = np.asarray(res.deviation[1], dtype=np.float64)
+        fin = np.isfinite(e_dev)
+        e_max = float(np.abs(e_dev[fin]).max()) if fin.any() else 0.0
+        err_scale = CHART_FRACTION * R / e_max if e_max > 1e-12 * R else 1.0
+        prof = surface.profile
+        t_start = z0 / float(surface.v0)
+
+        def plane_points(xy):
+            p3 = np.c_[xy, np.zeros(len(xy))]
+            return screw_motion(p3, t_start, surface.v0, surface.hand)
+
+        v0, eps = float(surface.v0), (1 if surface.hand > 0 else -1)
+        key = "{}|{}".format(rotor_obj.name, k_flank)
+        base_name = "Single Flank ({}, flank {})".format(rotor_obj.name, k_flank)
+        n_strips = len(res.strips)
+
+        objects, meshes, colls, actions, files, names = [], [], [], [], [], []
+        tag = "SF F{} ".format(k_flank)          # object name prefix: flank k's results
+        parent, parent_created = None, False
+        dev_ranges = []
+        strip_rows = res.plan["strips"]
+        try:
+            parent, parent_created = results_parent(bpy, context)
+            coll = bpy.data.collections.new(base_name + " new")
+            colls.append(coll)
+            parent.children.link(coll)
+
+            def add(obj_name, data, color=None, role=None, k=None):
+                if data is not None and data not in meshes:
+                    meshes.append(data)
+                    names.append((data, obj_name))
+                ob = bpy.data.objects.new(obj_name, data)
+                objects.append(ob)
+                names.append((ob, obj_name))
+                if color is not None:
+                    ob.color = color
+                coll.objects.link(ob)
+                ob[PROP_PREFIX + "rotor"] = rotor_obj.name
+                if role is not None:
+                    ob[PROP_PREFIX + "role"] = role
+                if k is not None:
+                    ob[PROP_PREFIX + "strip"] = int(k)
+                return ob
+
+            tool_objs, tool_meshes = [], []
+            for k, (cand, (ev, ef, ed), T) in enumerate(zip(res.strips, envs, frames)):
+                label = "{}Tool {}".format(tag, k + 1)
+                me = new_mesh_from_arrays(bpy, np, label, tool_verts, tool_faces)
+                ob = add(label, me, COLOR_TOOL, "tool", k)
+                ob.matrix_world = Matrix((display @ T).tolist())
+                ob[PROP_PREFIX + "tip"] = [float(v) for v in cand.pose.tip]          # rotor frame, rotor units
+                ob[PROP_PREFIX + "axis"] = [float(v) for v in cand.pose.axis]
+                ob[PROP_PREFIX + "params"] = [float(v) for v in np.ravel(cand.params)]
+                ob[PROP_PREFIX + "strip_errors"] = [float(strip_rows[k]["reported_max_error"]) * s,
+                                                    float(strip_rows[k]["reported_min_error"]) * s]
+                ob[PROP_PREFIX + "seed_u"] = float(cand.seed.u)
+                tool_objs.append(ob)
+                tool_meshes.append(me)
+
+                if len(ev) == 0 or len(ef) == 0:
+                    continue
+                label = "{}Strip {}".format(tag, k + 1)
+                em = new_mesh_from_arrays(bpy, np, label, ev, ef)
+                eo = add(label, em, COLOR_ENVELOPE, "envelope", k)
+                eo.matrix_world = Matrix(display.tolist())
+                dev = np.asarray(ed, dtype=np.float64) * s
+                set_float_attr(np, em, DEVIATION_ATTR, dev)
+                set_color_attr(np, em, DEVIATION_COLOR_ATTR, deviation_colors(dev, tol_in))
+                em.update()
+                rng = [float(dev.min()), float(dev.max())]
+                eo[PROP_PREFIX + "deviation_range"] = rng
+                eo[PROP_PREFIX + "sweep"] = [float(v) for v in sweeps[k]]
+                eo[PROP_PREFIX + "envelope_samples"] = ENVELOPE_SAMPLES
+                eo[PROP_PREFIX + "envelope_rings"] = n_t
+                dev_ranges.append(rng)
+
+            # chart: baseline = the flank profile, curve = profile + normal x error x scale
+            u_base = np.linspace(u_range[0], u_range[1], max(64, len(u_dev)))
+            chains = [(plane_points(prof.eval(u_base)), False)]
+            err_v, u_v, curve_v = [np.zeros(len(u_base))], [u_base], [np.zeros(len(u_base))]
+            for a, b in _finite_runs(np, fin):
+                if b - a < 2:
+                    continue
+                uu, ee = u_dev[a:b], e_dev[a:b]
+                xy = prof.eval(uu) + prof.outward_normal(uu) * (err_scale * ee)[:, None]
+                chains.append((plane_points(xy), False))
+                err_v.append(ee * s)
+                u_v.append(uu)
+                curve_v.append(np.ones(b - a))
+            cm = edge_mesh(bpy, np, tag + "Error along profile", chains)
+            co = add(tag + "Error along profile", cm, (0.1, 0.1, 0.1, 1.0), "error_chart")
+            co.matrix_world = Matrix(display.tolist())
+            errs, curves = np.concatenate(err_v), np.concatenate(curve_v)
+            set_float_attr(np, cm, ERROR_ATTR, errs)
+            set_float_attr(np, cm, PARAM_ATTR, np.concatenate(u_v))
+            set_float_attr(np, cm, CURVE_ATTR, curves)
+            cols = deviation_colors(errs, tol_in)
+            cols[curves == 0] = COLOR_BASELINE
+            set_color_attr(np, cm, DEVIATION_COLOR_ATTR, cols)
+            co[PROP_PREFIX + "error_scale"] = float(err_scale)
+            co[PROP_PREFIX + "max_abs_error"] = e_max * s
+
+            motion_range = None
+            fs, fe = int(self.frame_start), int(self.frame_end)
+            if self.animate:
+                s0, s1 = (z0 - R) / v0, (z1 + R) / v0
+                motion_range = [float(s0), float(s1)]
+                motion = add(tag + "Tool Motion", None, role="motion")
+                motion.empty_display_type = 'ARROWS'
+                motion.empty_display_size = 0.25 * R
+                motion.parent = rotor_obj
+                if src["kind"] == "analyzed":   # rotor frame = to_world, not the object's local frame
+                    motion.matrix_parent_inverse = rotor_obj.matrix_world.inverted() @ Matrix(display.tolist())
+                else:
+                    motion.matrix_parent_inverse = Matrix.Identity(4)
+                motion.matrix_basis = Matrix.Identity(4)
+                action = key_screw_motion(motion, ((fs, s0), (fe, s1)), v0, eps)
+                if action is not None:
+                    actions.append(action)
+                for k, me in enumerate(tool_meshes):
+                    mv = add("{}Tool {} (moving)".format(tag, k + 1), me, COLOR_TOOL, "moving", k)
+                    mv.parent = motion
+                    mv.matrix_parent_inverse = Matrix.Identity(4)
+                    mv.matrix_basis = Matrix(frames[k].tolist())
+
+            plan_path = None
+            if self.filepath:
+                from ..flank_addon.plan import write_plan
+
+                plan_path = bpy.path.abspath(self.filepath)
+                files.append(plan_path)
+                write_plan(plan_path, res.plan)
+
+            # replace the collection of an earlier run on this rotor and flank (only once this one is complete)
+            replaced = 0
+            for old in [c for c in parent.children if c != coll and c.get(PROP_PREFIX + "key") == key]:
+                _remove_result_collection(old)
+                replaced += 1
+            coll.name = base_name
+            coll[PROP_PREFIX + "key"] = key
+            for id_, wanted in names:          # the names the earlier run held (made unique while it existed)
+                if id_.name != wanted:
+                    id_.name = wanted
+        except Exception as ex:
+            for act in actions:
+                try:
+                    bpy.data.actions.remove(act)
+                except (ReferenceError, RuntimeError):
+                    pass
+            remove_ids(bpy, objects, meshes, colls + ([parent] if parent_created else []))
+            for p in files:
+                try:
+                    os.remove(p)
+                except OSError:
+                    pass
+            self.report({'ERROR'}, "Could not build the single-flank results: {}: {}".format(type(ex).__name__, ex))
+            return {'CANCELLED'}
+
+        # ---- custom properties (lengths in scene units, angles in radians, flank ranges as profile parameters)
+        summary = res.plan.get("summary", {})
+        kinks = [float(j["kink_deg"]) for js in res.junctions for j in js]
+        timings = {k: float(v) for k, v in res.timings.items()}
+        timings["envelopes"] = float(env_elapsed)
+
+        def fl(v):
+            return float(v) if v is not None else float("nan")
+
+        props = dict(
+            rotor=rotor_obj.name, source=src["kind"], flank=int(k_flank), flank_range=list(u_range),
+            flank_from_point=bool(self.use_point), method=str(res.plan.get("method", "")),
+            length_unit=src["unit"], length_scale=s,
+            tool_alpha=float(tool.alpha), tool_r1=float(tool.r1c) * s, tool_r2=float(tool.r2c) * s,
+            tool_h=float(tool.h) * s, tool_shank_radius=float(tool.shank_radius) * s,
+            tool_shank_length=float(tool.shank_length) * s,
+            tolerance=float(tol_in), overcut_tolerance=float(res.plan["overcut_tolerance"]) * s,
+            seeds=int(self.seeds), objective=str(self.objective), mode=str(self.mode), rounds=int(self.rounds),
+            rounds_run=len(res.rounds), collisions_checked=bool(self.collisions),
+            strips=n_strips, candidates=len(res.candidates), collisions=len(res.collisions),
+            collision_u=[float(c["u"]) for c in res.collisions],
+            complete=bool(res.complete),
+            max_error=fl(summary.get("max_error")) * s, min_error=fl(summary.get("min_error")) * s,
+            strip_max_error=[float(st["reported_max_error"]) * s for st in strip_rows],
+            strip_min_error=[float(st["reported_min_error"]) * s for st in strip_rows],
+            profile_max_error=float(np.nanmax(e_dev)) * s if fin.any() else float("nan"),
+            profile_min_error=float(np.nanmin(e_dev)) * s if fin.any() else float("nan"),
+            uncovered=[float(v) for g in uncovered for v in g], uncovered_count=len(uncovered),
+            kinks_deg=kinks, kink_max_deg=max(kinks) if kinks else 0.0,
+            error_scale=float(err_scale),
+            elapsed=float(timings.get("total", float("nan"))), total_elapsed=float(time.perf_counter() - t0),
+            summary=json.dumps(dict(summary, timings=timings, rounds=res.rounds,
+                                    collisions=res.collisions[:MAX_STORED_COLLISIONS],
+                                    junctions=res.junctions), default=str),
+        )
+        for name in ("candidates", "collision", "cover", "junctions", "verify", "envelopes"):
+            if name in timings:
+                props[name + "_elapsed"] = timings[name]
+        if point_rotor is not None:
+            props.update(point=[float(v) for v in self.point], point_rotor=[float(v) for v in point_rotor])
+        if motion_range is not None:
+            props.update(frames=[fs, fe], motion=motion_range)
+        if plan_path:
+            props["plan"] = plan_path
+        for key_ in [k for k in rotor_obj.keys() if k.startswith(PROP_PREFIX)]:
+            del rotor_obj[key_]
+        for target in [coll, rotor_obj] + tool_objs:
+            for name, value in props.items():
+                target[PROP_PREFIX + name] = value
+        select_only(context, tool_objs[0])
+
+        unit = "scene units"
+        unc = ("complete" if res.complete else "uncovered {}".format(", ".join(
+            "[{:.4g}, {:.4g}]".format(a, b) for a, b in uncovered)))
+        self.report({'INFO'}, "Single flank {} flank {} ({}): {} strips of {} candidates ({} colliding excluded), "
+                              "error {:.4g} .. {:.4g} {} (tolerance {:.4g}), {}, largest kink {:.3g} deg, "
+                              "{} round(s){}{}; core {:.2f}s, total {:.2f}s".format(
+                                  rotor_obj.name, k_flank, props["method"], n_strips, len(res.candidates),
+                                  len(res.collisions), props["min_error"], props["max_error"], unit, tol_in, unc,
+                                  props["kink_max_deg"], len(res.rounds),
+                                  ", replaced the earlier run" if replaced else "",
+                                  ", wrote {}".format(os.path.basename(plan_path)) if plan_path else "",
+                                  props["elapsed"], props["total_elapsed"]))
+        return {'FINISHED'}
