@@ -2,9 +2,9 @@
 """flank.plan_single_flank -- s000: multi-strip single-flank milling of one rotor flank with a conical tool."""
 import bpy
 
-from .common import (builtin_from_props, edge_mesh, frame_along, key_screw_motion, mesh_world_arrays, new_mesh_from_arrays,
-                     remove_ids, results_parent, revolved_mesh, select_only, set_color_attr, set_float_attr,
-                     similarity_parts)
+from .common import (builtin_from_props, edge_mesh, frame_along, key_screw_motion, mesh_world_arrays,
+                     new_mesh_from_arrays, remove_ids, results_parent, revolved_mesh, select_only, set_color_attr,
+                     set_float_attr, similarity_parts)
 from .properties import single_flank_props
 
 PROP_PREFIX = "flank_sf_"
@@ -337,7 +337,6 @@ class FLANK_OT_plan_single_flank(bpy.types.Operator):
         objects, meshes, colls, actions, files, names = [], [], [], [], [], []
         tag = "SF F{} ".format(k_flank)          # object name prefix: flank k's results
         parent, parent_created = None, False
-        dev_ranges = []
         strip_rows = res.plan["strips"]
         try:
             parent, parent_created = results_parent(bpy, context)
@@ -392,7 +391,6 @@ class FLANK_OT_plan_single_flank(bpy.types.Operator):
                 eo[PROP_PREFIX + "sweep"] = [float(v) for v in sweeps[k]]
                 eo[PROP_PREFIX + "envelope_samples"] = ENVELOPE_SAMPLES
                 eo[PROP_PREFIX + "envelope_rings"] = n_t
-                dev_ranges.append(rng)
 
             # chart: baseline = the flank profile, curve = profile + normal x error x scale
             u_base = np.linspace(u_range[0], u_range[1], max(64, len(u_dev)))

@@ -176,6 +176,8 @@ def test_undo_and_redo(sfl):
     ("seeds_0", ["seeds = 0", "1..400"]),
     ("rounds_0", ["rounds = 0", "minimum 1"]),
     ("frames", ["end frame 10", "start frame 10"]),
+    ("point_nan", ["point [nan, 0.0, 0.0]", "not finite"]),
+    ("all_colliding", ["no collision-free strip on flank 1", "2 candidates, 2 colliding", "uncovered [0.613, 1.187]"]),
     ("plan_dir_missing", ["Could not build", "no_dir"]),
     ("cube", ["'Cube", "is not a rotor", "flank_source = None"]),
     ("cube_analyzed", ["'Cube", "is not a helical rotor"]),
