@@ -32,16 +32,20 @@ Objectives (all with the asymmetric weight w of Remark 5.1 on the overcutting sa
   n . a = -sin(alpha) (envelope of the spheres along the axis, the cone) and n . V(o(s_i)) = 0
   (the sphere is stationary under the screw velocity field V); its derivative follows from
   differentiating these two equations and |n| = 1 (a 3 x 3 linear system per sample).
-* hard mode (Eq. (30) style): minimise the sum of e_i (or f_i) subject to e_i >= 0 at every sample;
-  after each solve the tool is checked on a dense sample set and samples where it still dips into
-  the flank are added (exchange method), so the final pose does not cut the flank anywhere along the
-  axis (up to ~1e-10 R).
+* hard mode (Eq. (30) style): minimise the mean of e_i (or f_i) subject to e_i >= 0 at every sample;
+  after each solve the tools are checked on a dense axis grid and the refined local minima of e that
+  still dip into the flank become constraints (exchange method, two rounds), then the dips left
+  (~1e-9 R) are removed by the smallest LP step, so the final pose does not cut the flank anywhere
+  along the axis (e >= -1e-12 R at the refined minima).
 
-The weighted objectives are piecewise linear in the errors.  We minimise their smoothed form
-sum w_i (sqrt(e_i^2 + mu^2) - mu) with mu decreasing from 1e-3 R to 1e-7 R, by Levenberg-Marquardt
-steps on the iteratively reweighted normal equations, batched over all seeds (one foot-point solve per
-iteration for all poses).  Hard mode uses SLSQP per pose.  The paper's own method (finite-difference
-gradient descent, Remark 5.1) is :func:`optimize_fd_gradient_descent`, kept as the benchmark baseline.
+All poses are optimised together, with one foot-point solve per evaluation round for all of them:
+stage 1 is scipy's SLSQP (quasi-Newton SQP, exact Jacobians) driven in lockstep on every pose
+(:func:`_slsqp_lockstep`, the same iterates as one ``scipy.optimize.minimize`` call per pose); the
+dense checks run on all poses in one call (:func:`_dense_minima`); the weighted objectives are
+piecewise linear in the errors and are polished exactly by sequential LP in a trust region
+(:func:`_slp_weighted_l1`, one sparse block LP for all poses per step).  The paper's own method
+(finite-difference gradient descent, Remark 5.1) is :func:`optimize_fd_gradient_descent`, kept as the
+benchmark baseline.
 
 Initial poses (§5.1)
 --------------------
@@ -106,7 +110,8 @@ def params_pose(x, tool):
 
 def axis_and_jacobian(X, s, L):
     """Axis points o(s) (N, n, 3) of Eq. (8) for parameter rows X (N, 4), their derivatives
-    do/dx (N, n, 3, 4), unit directions a (N, 3) and da/dx (N, 3, 4)."""
+    do/dx (N, n, 3, 4), unit directions a (N, 3) and da/dx (N, 3, 4).  s: (n,) shared by all rows
+    or (N, n), one row of axis parameters per pose."""
     X = np.atleast_2d(X)
     de, rho, be, ph = X.T
     cb, sb, cp, sp = np.cos(be), np.sin(be), np.cos(ph), np.sin(ph)
@@ -116,7 +121,8 @@ def axis_and_jacobian(X, s, L):
     a = np.stack([-cb * sp, cb * cp, sb], -1)
     a_be = np.stack([sb * sp, -sb * cp, cb], -1)
     a_ph = -cb[:, None] * er
-    w = rho[:, None] + L * np.asarray(s, float)[None, :]                 # (N, n)
+    s = np.asarray(s, float)
+    w = rho[:, None] + L * (s if s.ndim == 2 else s[None, :])           # (N, n)
     pts = de[:, None, None] * er[:, None, :] + w[..., None] * a[:, None, :]
     J = np.empty(pts.shape + (4,))
     J[..., 0] = er[:, None, :]
@@ -389,21 +395,28 @@ class PoseEvaluator:
         self._warm = {}
         self.calls = 0
         self.points_solved = 0
+        self.last_feet = None
 
-    def _feet(self, pts, key, idx=None):
+    def _feet(self, pts, key, idx=None, warm=None):
         """Signed distances, their gradients, feet u, t and interior flags of points (k, n, 3) of
-        poses ``idx`` (k,) (default 0..k-1); warm-started per pose from the last call with ``key``."""
+        poses ``idx`` (k,) (default 0..k-1); warm-started per pose from the last call with ``key``, or
+        from ``warm`` = (u, tau) arrays (k, n) when given.  The feet's (u, tau) are kept in
+        ``last_feet`` for warm starts of the caller's own."""
         k, n = pts.shape[:2]
         idx = np.arange(k) if idx is None else np.asarray(idx)
         flat = pts.reshape(-1, 3)
         store = self._warm.setdefault((key, n), {}) if key is not None else {}
         w = None
-        if len(store) and all(int(i) in store for i in idx):
+        if warm is not None:
+            w = (np.asarray(warm[0], float).ravel(), np.asarray(warm[1], float).ravel())
+        elif len(store) and all(int(i) in store for i in idx):
             w = (np.concatenate([store[int(i)][0] for i in idx]), np.concatenate([store[int(i)][1] for i in idx]))
         ft = self.feet(flat, warm=w)
         uu, tt = ft.u.reshape(k, n), ft.tau.reshape(k, n)
-        for j, i in enumerate(idx):
-            store[int(i)] = (uu[j], tt[j])
+        self.last_feet = (uu, tt)
+        if key is not None:
+            for j, i in enumerate(idx):
+                store[int(i)] = (uu[j], tt[j])
         self.calls += 1
         self.points_solved += len(flat)
         lo, hi = self.feet.lo + self.feet.eps_u, self.feet.hi - self.feet.eps_u
@@ -414,15 +427,17 @@ class PoseEvaluator:
         return (sign * ft.distance).reshape(sh), (sign[:, None] * ft.direction).reshape(sh + (3,)), \
             ft.u.reshape(sh), ft.t.reshape(sh), ft.interior.reshape(sh)
 
-    def distances(self, X, s=None, key="d", jac=True, idx=None):
+    def distances(self, X, s=None, key="d", jac=True, idx=None, warm=None):
         """e = d - r (N, n), de/dx (N, n, 4) and the feet data for parameter rows X (N, 4) (of poses
-        ``idx``, for the warm starts)."""
+        ``idx``, for the warm starts; or explicit ``warm`` = (u, tau) (N, n), see :meth:`_feet`);
+        s (n,) or one row per pose (N, n).  The feet data hold the gradient ``g`` (N, n, 3) of the
+        signed distance at the axis points (de/ds = L g . a - (r2S - r1S)) and (u, tau) for warm starts."""
         s = self.s if s is None else np.asarray(s, float)
         pts, J, _, _ = axis_and_jacobian(X, s, self.L)
-        d, g, u, t, inter = self._feet(pts, key, idx)
-        e = d - self.tool.radius(s)[None, :]
+        d, g, u, t, inter = self._feet(pts, key, idx, warm)
+        e = d - (self.tool.radius(s) if s.ndim == 2 else self.tool.radius(s)[None, :])
         de = np.einsum("Nni,Nnij->Nnj", g, J) if jac else None
-        return e, de, dict(points=pts, d=d, u=u, t=t, interior=inter)
+        return e, de, dict(points=pts, d=d, u=u, t=t, interior=inter, g=g, warm=self.last_feet)
 
     def characteristic(self, X, branch, s=None):
         """Characteristic points c (N, n, 3) of the cones at X under the screw (Eqs. (11)-(14)),
@@ -445,7 +460,8 @@ class PoseEvaluator:
         cth = np.clip(cth, -1.0, 1.0)
         sth = np.sqrt(1.0 - cth ** 2) * np.asarray(branch, float)[:, None]
         nrm = -sa * A + ca * (cth[..., None] * e1 + sth[..., None] * e2)
-        c = m + r[None, :, None] * nrm
+        r = r if r.ndim == 2 else np.broadcast_to(r[None, :], m.shape[:2])
+        c = m + r[..., None] * nrm
         # derivative of n from a.n = -sin(alpha), V.n = 0, n.n = 1
         h = self.surface.hand
         ez = np.array([0.0, 0.0, 1.0])
@@ -458,7 +474,7 @@ class PoseEvaluator:
         ok = real & (np.abs(det) > 1e-12)
         Mx = np.where(ok[..., None, None], Mx, np.eye(3))
         dn = np.linalg.solve(Mx, rhs)
-        dc = Jm + r[None, :, None, None] * dn
+        dc = Jm + r[..., None, None] * dn
         return c, dc, ok
 
     def char_distances(self, X, branch, s=None, key="f", idx=None):
@@ -694,45 +710,237 @@ def _slsqp_solve(ev, x0, objective, constrain, branch, s, i=0, maxiter=60, ancho
     return res
 
 
-def _dense_dips(ev, x, s, n_dense=801, tol=0.0, i=0, iters=40):
-    """Axis parameters where the tool dips below the flank between the samples s: local minima of e
-    on a dense grid (those below 1e-7 R), refined by golden-section search in their grid bracket (all
-    brackets at once); returns the minimisers with e < -tol and the smallest e found."""
+try:                                      # the reverse-communication core of scipy's SLSQP (scipy >= 1.16)
+    from scipy.optimize._slsqplib import slsqp as _slsqp_core
+except ImportError:                       # pragma: no cover - older scipy: per-pose scipy.optimize.minimize
+    _slsqp_core = None
+
+_SLSQP_MESSAGES = {0: "Optimization terminated successfully", 2: "More equality constraints than independent variables",
+                   3: "More than 3*n iterations in LSQ subproblem", 4: "Inequality constraints incompatible",
+                   5: "Singular matrix E in LSQ subproblem", 6: "Singular matrix C in LSQ subproblem",
+                   7: "Rank-deficient equality constraint subproblem HFTI",
+                   8: "Positive directional derivative for linesearch", 9: "Iteration limit reached"}
+
+
+class _SlsqpRun:
+    """One SLSQP instance driven by reverse communication (the state and work arrays that
+    scipy.optimize._minimize_slsqp allocates, same sizes and settings)."""
+
+    def __init__(self, x0, m, meq, maxiter, ftol):
+        n = len(x0)
+        self.x = np.array(x0, float)
+        self.m, self.meq = m, meq
+        self.state = {"acc": ftol, "alpha": 0.0, "f0": 0.0, "gs": 0.0, "h1": 0.0, "h2": 0.0, "h3": 0.0,
+                      "h4": 0.0, "t": 0.0, "t0": 0.0, "tol": 10.0 * ftol, "exact": 0, "inconsistent": 0,
+                      "reset": 0, "iter": 0, "itermax": int(maxiter), "line": 0, "m": m, "meq": meq,
+                      "mode": 0, "n": n}
+        size = n * (n + 1) // 2 + 3 * m * n - (m + 5 * n + 7) * meq + 9 * m + 8 * n * n + 35 * n + meq * meq + 28
+        if m - meq == 0:
+            size += 2 * n * (n + 1)
+        self.buffer = np.zeros(max(size, 1))
+        self.indices = np.zeros(max(m + 2 * n + 2, 1), dtype=np.int32)
+        self.mult = np.zeros(max(1, m + 2 * n + 2))
+        self.C = np.zeros((max(1, m), n), order="F")
+        self.d = np.zeros(max(1, m))
+        self.xl = np.full(n, np.nan)
+        self.xu = np.full(n, np.nan)
+        self.fx, self.g = 0.0, np.zeros(n)
+        self.evals = 0
+
+    def set(self, fx, g, c, C, fun=True, grad=True):
+        if fun:
+            self.fx = float(fx)
+            self.d[:len(c)] = c
+        if grad:
+            self.g[:] = g
+            self.C[:len(c)] = C
+
+    def step(self):
+        _slsqp_core(self.state, self.fx, self.g, self.C, self.d, self.x, self.mult, self.xl, self.xu,
+                    self.buffer, self.indices)
+        return self.state["mode"]
+
+
+def _slsqp_lockstep(batch, X0, m, meq, maxiter=60, ftol=1e-13):
+    """SLSQP (scipy's algorithm, step for step) on N independent problems at once: every round, the
+    poses that ask for an evaluation are evaluated together by ``batch(X (k, 4), ids (k,))`` ->
+    (f (k,), grad (k, 4), cons (k, m), dcons (k, m, 4)) (the first ``meq`` constraints are equalities,
+    the rest must be >= 0), so the foot points of all poses are solved in one vectorised call.
+    m: constraint count per pose (int or (N,)).  Returns X, iterations (N,), evaluations, exit modes (N,)."""
+    X0 = np.atleast_2d(np.asarray(X0, float))
+    N = len(X0)
+    ms = np.broadcast_to(np.asarray(m, int), (N,))
+    runs = [_SlsqpRun(X0[i], int(ms[i]), meq, maxiter, ftol) for i in range(N)]
+    ids = np.arange(N)
+    f, g, c, dc = batch(X0, ids)
+    last = {}
+    for i in range(N):
+        runs[i].set(f[i], g[i], c[i][:ms[i]], dc[i][:ms[i]])
+        last[i] = (X0[i].copy(), f[i], g[i], c[i][:ms[i]], dc[i][:ms[i]])
+    evals = 1
+    pending = list(range(N))
+    while pending:
+        want = []
+        for i in pending:
+            r = runs[i]
+            while True:
+                mode = r.step()
+                if mode == -1 and np.array_equal(last[i][0], r.x):   # gradient at the last evaluated x
+                    _, fi, gi, ci, Ci = last[i]
+                    r.set(fi, gi, ci, Ci, fun=False)
+                    continue
+                break
+            if abs(mode) == 1:
+                want.append((i, mode))
+        pending = [i for i, _ in want]
+        if not want:
+            break
+        ib = np.array(pending)
+        Xb = np.array([runs[i].x for i in pending])
+        f, g, c, dc = batch(Xb, ib)
+        evals += 1
+        for k, (i, mode) in enumerate(want):
+            mi = ms[i]
+            runs[i].set(f[k], g[k], c[k][:mi], dc[k][:mi], fun=mode == 1, grad=mode == -1)
+            last[i] = (Xb[k].copy(), f[k], g[k], c[k][:mi], dc[k][:mi])
+            runs[i].evals += 1
+    X = np.array([r.x for r in runs])
+    return X, np.array([r.state["iter"] for r in runs]), evals, np.array([r.state["mode"] for r in runs])
+
+
+def _dense_minima(ev, X, n_dense=801, warm_from=None, near=None, iters=40, branch=None):
+    """Local minima of the error along the axis of every pose at once: e(s) (or, with ``branch``,
+    the characteristic distance f(s)) on a dense grid of n_dense axis parameters for all poses in
+    one foot-point call (warm-started by interpolating ``warm_from`` = (s, (u, tau) (N, n)) of a
+    coarser evaluation), then every grid local minimum below ``near`` (default 1e-7 R) refined by
+    Illinois regula falsi on de/ds = L g . a - (r2S - r1S) in its grid bracket (all brackets of all
+    poses in one call per iteration, each warm-started from its previous foot).
+
+    Returns (minima, dense_min): per pose an array (k, 2) of (s, e) at the refined minima, and the
+    smallest e per pose (grid and refined)."""
+    X = np.atleast_2d(np.asarray(X, float))
+    N = len(X)
+    R = ev.surface.outer_radius
+    near = 1e-7 * R if near is None else near
     sd = np.linspace(0.0, 1.0, n_dense)
-    X = np.atleast_2d(x)
-    e = ev.distances(X, sd, key="dense", jac=False, idx=[i])[0][0]
-    near = 1e-7 * ev.surface.outer_radius
-    lm = np.flatnonzero((e < near) & np.r_[True, e[1:] <= e[:-1]] & np.r_[e[:-1] <= e[1:], True])
-    if not len(lm):
-        return np.zeros(0), float(e.min())
-    a = sd[np.maximum(lm - 1, 0)]
-    b = sd[np.minimum(lm + 1, n_dense - 1)]
-    ip = 0.5 * (math.sqrt(5.0) - 1.0)
-    c, d = b - ip * (b - a), a + ip * (b - a)
-    ev_at = lambda t: ev.distances(X, t, key=None, jac=False)[0][0]  # noqa: E731
-    fc, fd = ev_at(c), ev_at(d)
+    warm = None
+    if warm_from is not None and warm_from[1] is not None:
+        sb, (ub, tb) = warm_from
+        warm = (np.array([np.interp(sd, sb, ub[i]) for i in range(N)]),
+                np.array([np.interp(sd, sb, tb[i]) for i in range(N)]))
+    tool = ev.tool
+    rp = tool.r2s - tool.r1s
+    if branch is not None:
+        raise NotImplementedError("dense minima of the characteristic distance")
+    e, _, info = ev.distances(X, sd, key=None, jac=False, warm=warm)
+    a_ax = axis_and_jacobian(X, sd[:1], ev.L)[2]                       # (N, 3)
+    h = ev.L * np.einsum("Nni,Ni->Nn", info["g"], a_ax) - rp           # de/ds on the grid
+    left = np.c_[np.ones((N, 1), bool), e[:, 1:] <= e[:, :-1]]
+    right = np.c_[e[:, :-1] <= e[:, 1:], np.ones((N, 1), bool)]
+    pi, ki = np.nonzero((e < near) & left & right)
+    out = [np.zeros((0, 2)) for _ in range(N)]
+    emin = e.min(axis=1)
+    if not len(pi):
+        return out, emin
+    # brackets [s_(k-1), s_(k+1)]; at the axis ends the end itself when e rises into the axis
+    ka, kb = np.maximum(ki - 1, 0), np.minimum(ki + 1, n_dense - 1)
+    a, b = sd[ka].copy(), sd[kb].copy()
+    ha, hb = h[pi, ka].copy(), h[pi, kb].copy()
+    best_s, best_e = sd[ki].copy(), e[pi, ki].copy()
+    wu, wt = info["warm"]
+    fu, ft = wu[pi, ki].copy(), wt[pi, ki].copy()
+    end0 = (ki == 0) & (h[pi, 0] >= 0)
+    end1 = (ki == n_dense - 1) & (h[pi, -1] <= 0)
+    todo = ~end0 & ~end1 & (ha < 0) & (hb > 0)
+    side = np.zeros(len(pi))
+    s_tol = 1e-13
     for _ in range(iters):
-        left = fc < fd                       # the minimum lies in [a, d]
-        a, b = np.where(left, a, c), np.where(left, d, b)
-        keep, fkeep = np.where(left, c, d), np.where(left, fc, fd)
-        new = np.where(left, b - ip * (b - a), a + ip * (b - a))
-        fnew = ev_at(new)
-        c, fc = np.where(left, new, keep), np.where(left, fnew, fkeep)
-        d, fd = np.where(left, keep, new), np.where(left, fkeep, fnew)
-    cand = np.r_[sd[lm], 0.5 * (a + b)]
-    ec = np.r_[e[lm], ev_at(0.5 * (a + b))]
-    bad = ec < -tol
-    return np.unique(cand[bad]), float(min(e.min(), ec.min()))
+        act = np.flatnonzero(todo & (b - a > s_tol))
+        if not len(act):
+            break
+        m = b[act] - hb[act] * (b[act] - a[act]) / (hb[act] - ha[act])
+        m = np.where((m - a[act]) * (m - b[act]) < 0, m, 0.5 * (a[act] + b[act]))
+        em, _, inf2 = ev.distances(X[pi[act]], m[:, None], key=None, jac=False,
+                                   warm=(fu[act, None], ft[act, None]))
+        em = em[:, 0]
+        hm = ev.L * np.einsum("ki,ki->k", inf2["g"][:, 0], a_ax[pi[act]]) - rp
+        fu[act], ft[act] = inf2["warm"][0][:, 0], inf2["warm"][1][:, 0]
+        better = em < best_e[act]
+        best_s[act[better]], best_e[act[better]] = m[better], em[better]
+        # Illinois on h: keep the sign change bracketed
+        same_b = np.sign(hm) == np.sign(hb[act])
+        a_new = np.where(same_b, a[act], b[act])
+        ha_new = np.where(same_b, np.where(side[act] == 1, 0.5 * ha[act], ha[act]), hb[act])
+        side[act] = np.where(same_b, 1, -1)
+        a[act], ha[act] = a_new, ha_new
+        b[act], hb[act] = m, hm
+        todo[act[hm == 0]] = False
+    for i in range(N):
+        sel = pi == i
+        if sel.any():
+            out[i] = np.unique(np.c_[best_s[sel], best_e[sel]], axis=0)
+            emin[i] = min(emin[i], float(best_e[sel].min()))
+    return out, emin
 
 
-def optimize_poses(ev, X0, objective="phi1", mode="weighted", w=W_OVERCUT, max_iter=40, anchor=True):
+def _hard_lift(ev, X, ids, S, anchor, cons_fun, delta, margin=0.0, scale=None):
+    """Batched feasibility restoration for the hard mode: the smallest step (L1 norm of dx / delta)
+    that makes the linearised constraints >= margin at each pose's samples S (base samples + refined
+    local minima of the error along the axis), with the anchor (if any) linearised and |dx_j| <= delta_i;
+    one sparse block LP (HiGHS) for all poses.  Elastic: one slack t_i >= 0 per pose relaxes its
+    constraints at a high price, so a box too small for one pose never makes the whole LP infeasible.
+    The rows are scaled by ``scale`` (k,) (the dip depths) and the unknowns by delta, so HiGHS's 1e-7
+    feasibility tolerance means 1e-7 of the dip depth.  The dips left after the exchange rounds are
+    ~1e-9 R, so the step and its linearisation error (~1e-16 R) are negligible for the objective.
+    Returns dx (k, 4) and the slacks (k,) (> 0: the box was too small for that pose)."""
+    import scipy.sparse as sp
+    from scipy.optimize import linprog
+
+    k = len(ids)
+    delta = np.asarray(delta, float)
+    _, _, c, dc, mask = cons_fun(X, ids, S)
+    sc = np.ones(k) if scale is None else np.asarray(scale, float)
+    blocks, rhs, bounds, eq_rows, eq_b = [], [], [], [], []
+    for j in range(k):
+        Aj = dc[j][mask[j]] * (delta[j] / sc[j])
+        blocks.append(sp.csr_matrix(np.c_[-Aj, Aj, -np.ones(len(Aj))]))    # y = p - q; e + J dx + t >= margin
+        rhs.append((c[j][mask[j]] - margin) / sc[j])
+        bounds += [(0.0, 1.0)] * 8 + [(0.0, None)]
+        if anchor is not None:
+            rv, gv = anchor[0](X[j:j + 1])
+            gj = gv[0] * delta[j] / sc[j]
+            eq_rows.append(np.r_[gj, -gj, 0.0])
+            eq_b.append((anchor[1][ids[j]] - rv[0]) / sc[j])
+    A_eq = b_eq = None
+    if anchor is not None:
+        A_eq = sp.block_diag([sp.csr_matrix(r[None, :]) for r in eq_rows], format="csr")
+        b_eq = np.array(eq_b)
+    cost = np.tile(np.r_[np.ones(8), 1e4], k)
+    res = linprog(cost, A_ub=sp.block_diag(blocks, format="csr"), b_ub=np.concatenate(rhs),
+                  A_eq=A_eq, b_eq=b_eq, bounds=bounds, method="highs")
+    if res.status != 0:
+        return np.zeros((k, 4)), np.full(k, np.inf)
+    z = res.x.reshape(k, 9)
+    return (z[:, :4] - z[:, 4:8]) * delta[:, None], z[:, 8]
+
+
+def optimize_poses(ev, X0, objective="phi1", mode="weighted", w=W_OVERCUT, max_iter=40, anchor=True,
+                   exchange_rounds=2, max_rounds=4, n_dense=801):
     """Optimise the poses X0 (N, 4) (Eq. (8) parameters) of ``ev``'s tool on its flank.
 
     objective 'phi1' (Eq. (25)) or 'phi3' (Eq. (31)); mode 'weighted' (overcut weight w) or 'hard'
     (no point of the tool axis' spheres inside the flank, Eq. (30) style, checked densely).  With
     ``anchor`` the distance of the axis midpoint from z stays that of X0 (the pose may not slide to
     another depth of the flank, so the seeds keep covering the flank); without it the poses are free
-    local minima of Phi.  Returns (X (N, 4), [Convergence], branches (N,) or None)."""
+    local minima of Phi.  Returns (X (N, 4), [Convergence], branches (N,) or None).
+
+    All poses are optimised together: stage 1 is scipy's SLSQP run on every pose in lockstep
+    (:func:`_slsqp_lockstep`: one foot-point call per evaluation round for all poses), minimising the
+    mean error subject to error >= 0 at the axis samples.  Hard mode then checks every pose on a dense
+    grid of ``n_dense`` axis parameters (one call for all poses, local minima refined on de/ds,
+    :func:`_dense_minima`) and removes what dips below the flank by batched LP steps with the near-active
+    minima as extra constraints (:func:`_hard_lift`), at most ``max_rounds`` times.  Weighted mode
+    polishes the weighted L1 objective itself by sequential LP (:func:`_slp_weighted_l1`)."""
     if objective not in OBJECTIVES:
         raise ValueError(f"objective {objective!r} is not one of {', '.join(OBJECTIVES)}")
     if mode not in MODES:
@@ -743,51 +951,125 @@ def optimize_poses(ev, X0, objective="phi1", mode="weighted", w=W_OVERCUT, max_i
     R = ev.surface.outer_radius
     branch = ev.branch(X0) if objective == "phi3" else None
     rho0 = mid_radius(X0, ev.L)[0] if anchor else None
+    anc = None if rho0 is None else (lambda Xa: mid_radius(Xa, ev.L), rho0)
+    n = len(ev.s)
+    meq = 1 if anchor else 0
+    constrain = "e" if (mode == "hard" or objective == "phi1") else "f"
+    extra = [np.zeros(0) for _ in range(N)]          # hard mode: axis parameters added to the constraints
 
-    if objective == "phi1":
-        def fun(X, idx):
-            e, de, _ = ev.distances(X, key="lm", idx=idx)
-            return e, de
-    else:
-        def fun(X, idx):
-            f, df, _ = ev.char_distances(X, branch[idx], key="lm", idx=idx)
-            return f, df
+    def samples(ids):
+        """Per-pose sample rows (k, M): the base samples, then the pose's extra ones (padded by
+        repeating the last; ``mask`` marks the real ones)."""
+        M = n + max((len(extra[i]) for i in ids), default=0)
+        S = np.empty((len(ids), M))
+        mask = np.zeros((len(ids), M), bool)
+        for j, i in enumerate(ids):
+            row = np.r_[ev.s, extra[i]]
+            S[j, :len(row)], S[j, len(row):] = row, row[-1]
+            mask[j, :len(row)] = True
+        return S, mask
+
+    def cons_fun(Xb, ids, S=None):
+        """Objective (mean over the base samples), its gradient, the hard constraints and theirs."""
+        if S is None:
+            S, mask = samples(ids)
+        else:
+            S, mask = S
+        e, de, _ = ev.distances(Xb, S, key=("opt", S.shape[1]), idx=ids)
+        if objective == "phi3":
+            f, df, _ = ev.char_distances(Xb, branch[ids], S, key=("opt-f", S.shape[1]), idx=ids)
+            real = np.isfinite(f)
+            f0, df0 = np.where(real, f, 0.0), np.where(real[..., None], df, 0.0)
+            val, grad = f0[:, :n].mean(axis=1), df0[:, :n].mean(axis=1)
+            if constrain == "f":
+                e, de = np.where(real, f0, 1.0), df0
+        else:
+            val, grad = e[:, :n].mean(axis=1), de[:, :n].mean(axis=1)
+        return val, grad, e, de, mask
+
+    def batch(Xb, ids):
+        S, mask = samples(ids)
+        val, grad, c, dc, _ = cons_fun(Xb, ids, (S, mask))
+        if anc is not None:
+            rv, gv = anc[0](Xb)
+            c = np.c_[(rv - anc[1][ids])[:, None], c]
+            dc = np.concatenate([gv[:, None, :], dc], axis=1)
+        return val, grad, c, dc
 
     phi0 = [phi_value(ev, X0[i], objective, w, None if branch is None else branch[i]) for i in range(N)]
-    X = X0.copy()
-    iters = np.zeros(N, int)
-    evals = 0
-    conv = np.zeros(N, bool)
-    status = [""] * N
     hist = [[p] for p in phi0]
-    times = np.zeros(N)
+    iters = np.zeros(N, int)
+    status = [""] * N
+    conv = np.zeros(N, bool)
     # stage 1 (both modes): SLSQP on the smooth constrained form, which follows the curved valley of
     # Phi (a pose that rolls along the flank) with its quasi-Newton Hessian
-    constrain = "e" if (mode == "hard" or objective == "phi1") else "f"
-    for i in range(N):
-        th = time.perf_counter()
-        s = ev.s.copy()
-        x = X0[i]
-        dips, emin = np.zeros(0), 0.0
-        for _round in range(4 if mode == "hard" else 1):
-            res = _slsqp_solve(ev, x, objective, constrain, None if branch is None else branch[i], s, i,
+    if _slsqp_core is not None:
+        X, nit, evals, modes = _slsqp_lockstep(batch, X0, n + meq, meq, maxiter=60, ftol=1e-13)
+        msgs = [_SLSQP_MESSAGES.get(int(m), f"exit mode {int(m)}") for m in modes]
+        ok = modes == 0
+    else:                                         # pragma: no cover - scipy without the SLSQP core
+        X, nit, msgs, ok, evals = X0.copy(), np.zeros(N, int), [""] * N, np.zeros(N, bool), 0
+        for i in range(N):
+            res = _slsqp_solve(ev, X0[i], objective, constrain, None if branch is None else branch[i], ev.s, i,
                                anchor=None if rho0 is None else rho0[i])
-            iters[i] += int(res.nit)
+            X[i] = res.x if np.all(np.isfinite(res.x)) else X0[i]
+            nit[i], msgs[i], ok[i] = res.nit, str(res.message), res.success
             evals += res.evaluations
-            if np.all(np.isfinite(res.x)):
-                x = res.x
-            if mode != "hard":
+    bad_x = ~np.all(np.isfinite(X), axis=1)
+    X[bad_x] = X0[bad_x]
+    iters += nit
+    dips_left = np.zeros(N, bool)
+    emin = np.zeros(N)
+    if mode == "hard":
+        tol = 1e-12 * R
+        near = 1e-7 * R
+        # exchange: every pose is checked on a dense axis grid (one call for all), the refined local
+        # minima of its error below 1e-7 R join its constraints and SLSQP runs again (lockstep) on the
+        # poses that dip; after ``exchange_rounds`` the dips left (~1e-9 R) are removed by the smallest
+        # LP step (:func:`_hard_lift`), checked densely again
+        active = np.arange(N)
+        delta, grow = np.zeros(N), np.ones(N)
+        for rnd in range(exchange_rounds + max_rounds + 1):
+            Xa = X[active]
+            _, _, inf0 = ev.distances(Xa, key=None, jac=False)
+            mins, emin_a = _dense_minima(ev, Xa, n_dense, warm_from=(ev.s, inf0["warm"]), near=near)
+            emin[active] = emin_a
+            dipping = emin_a < -tol
+            for j, i in enumerate(active):
+                if dipping[j]:
+                    mj = mins[j]
+                    extra[i] = np.unique(np.r_[extra[i], mj[mj[:, 1] < near, 0]])
+            if not dipping.any() or rnd == exchange_rounds + max_rounds:
+                dips_left[active] = dipping
                 break
-            dips, emin = _dense_dips(ev, x, s, tol=1e-12 * R, i=i)
-            if not len(dips):
-                break
-            s = np.unique(np.r_[s, dips])
-        X[i] = x
-        conv[i] = bool(res.success) and not len(dips)
-        status[i] = "slsqp: " + str(res.message) + \
-            ("" if not len(dips) else f"; dips below the flank remain (min e {emin:.2e})")
-        hist[i].append(phi_value(ev, x, objective, w, None if branch is None else branch[i]))
-        times[i] += time.perf_counter() - th
+            active = active[dipping]
+            ids = active
+            if rnd < exchange_rounds and _slsqp_core is not None:
+                ms = [n + meq + len(extra[i]) for i in ids]
+                Xs, nit2, ev2, modes2 = _slsqp_lockstep(lambda Xb, kk: batch(Xb, ids[kk]), X[ids], ms, meq,
+                                                        maxiter=60, ftol=1e-13)
+                good = np.all(np.isfinite(Xs), axis=1)
+                X[ids[good]] = Xs[good]
+                iters[ids] += nit2
+                evals += ev2
+                continue
+            dip = -emin[ids]
+            delta[ids] = np.minimum(100.0 * dip * grow[ids], 1e-2 * R)
+            dx, slack = _hard_lift(ev, X[ids], ids, samples(ids), anc, cons_fun, delta[ids], margin=0.2 * tol,
+                                   scale=dip)
+            grow[ids] = np.where(slack > 1e-9, 10.0 * grow[ids], 1.0)
+            X[ids] += dx
+            iters[ids] += 1
+            evals += 1
+    for i in range(N):
+        conv[i] = bool(ok[i]) and not dips_left[i]
+        status[i] = "slsqp: " + msgs[i] + ("" if not dips_left[i] else
+                                           f"; dips below the flank remain (min e {emin[i]:.2e})")
+        if mode == "hard" and len(extra[i]) and not dips_left[i]:
+            status[i] += f"; {len(extra[i])} dense minima constrained"
+    times = np.full(N, (time.perf_counter() - t0) / N)
+    for i in range(N):
+        hist[i].append(phi_value(ev, X[i], objective, w, None if branch is None else branch[i]))
     if mode == "weighted":
         # stage 2: the weighted L1 objective itself, exactly (sequential LP, batched over the poses)
         th = time.perf_counter()
@@ -799,7 +1081,6 @@ def optimize_poses(ev, X0, objective="phi1", mode="weighted", w=W_OVERCUT, max_i
             def fun(Xa, idx):
                 f, df, _ = ev.char_distances(Xa, branch[idx], key="lm", idx=idx)
                 return f, df
-        anc = None if rho0 is None else (lambda Xa: mid_radius(Xa, ev.L), rho0)
         X, it2, ev2, hist2, conv2 = _slp_weighted_l1(fun, X, w, max_iter=max_iter, scale=R, delta0=1e-3,
                                                      anchor=anc)
         for i in range(N):
