@@ -349,7 +349,9 @@ class AdaptiveCover:
     deviation: the machined deviation of the chosen poses together at the flank samples (the minimum
     of their own deviations: exact for the union of the swept regions); uncovered: parameter ranges
     of the samples outside [-eps_over, eps_under] there (the sample-level answer, no interpolation); rounds: per round the seeds tried,
-    candidates returned, admissible ones and the gaps left."""
+    candidates returned, admissible ones and the gaps left; chosen_coverage: the
+    :class:`PoseCoverage` of each chosen pose (its deviation curve at ``samples``: pass them to
+    :func:`junction_kinks_chain` instead of sampling the chosen tools again)."""
     poses: list
     intervals: list
     gaps: list
@@ -359,6 +361,7 @@ class AdaptiveCover:
     candidates: list = field(default_factory=list)
     coverage: list = field(default_factory=list)
     rounds: list = field(default_factory=list)
+    chosen_coverage: list = field(default_factory=list)     # PoseCoverage of each chosen pose (as ``poses``)
 
     @property
     def complete(self):
@@ -429,7 +432,7 @@ def adaptive_cover(make_candidates, surface, flank_range, eps_under, eps_over, s
     bad = ~((dev >= -eps_over) & (dev <= eps_under))
     return AdaptiveCover(poses=poses, intervals=[cov[k].intervals for k in chosen_k], gaps=list(cover.gaps),
                          deviation=dev, uncovered=_param_ranges(fs.u, index_runs(bad)), samples=fs,
-                         candidates=cands, coverage=cov, rounds=rounds)
+                         candidates=cands, coverage=cov, rounds=rounds, chosen_coverage=[cov[k] for k in chosen_k])
 
 
 # ============================================================================ junction kinks
@@ -473,36 +476,102 @@ class Junction:
     normals: np.ndarray
 
 
-def junction_kinks(strip_a, strip_b, surface, flank_range=None, n=500, search=None, samples=None, u_tol=None):
+def deviations_rows(tools, which, points, normals, v0, handedness, search, tol=1e-12):
+    """Deviation (R,) of profile point ``points[r]`` (z = 0, outward normal ``normals[r]``) under tool
+    ``tools[which[r]]`` alone, for R rows at once (same definition and root finding as
+    :func:`pose_deviations`, which evaluates every tool at every point): rows of tools with one part
+    layout share a :class:`sweep.StackedTools` pass."""
+    which = np.asarray(which, int)
+    points = np.asarray(points, float)
+    normals = np.asarray(normals, float)
+    R = len(which)
+    out = np.full(R, np.inf)
+    p1 = np.c_[points, np.zeros(R)]
+    n1 = np.c_[normals, np.zeros(R)]
+    groups = {}
+    for k in np.unique(which):
+        groups.setdefault(_layout(tools[k]), []).append(int(k))
+    for ks in groups.values():
+        rows = np.flatnonzero(np.isin(which, ks))
+        if len(ks) == 1 or not StackedTools.compatible([tools[k] for k in ks]):
+            for k in ks:
+                rk = rows[which[rows] == k]
+                out[rk] = _row_roots(tools[k], np.zeros(len(rk), int), p1[rk], n1[rk], v0, handedness, search, tol)
+            continue
+        local = {k: j for j, k in enumerate(ks)}
+        stack = StackedTools([tools[k] for k in ks])
+        wl = np.array([local[int(k)] for k in which[rows]])
+        out[rows] = _row_roots(stack, wl, p1[rows], n1[rows], v0, handedness, search, tol)
+    return out
+
+
+def junction_kinks(strip_a, strip_b, surface, flank_range=None, n=500, search=None, samples=None, u_tol=None,
+                   deviations=None):
     """Kink angles where the envelopes of two poses (ConePose or strip dicts) meet on a flank.
 
     The deviation curves d_a(u), d_b(u) of the two tools alone are sampled on the flank; every sign
     change of d_a - d_b (both finite) is refined by regula falsi (Illinois) in u to ``u_tol``
     (default 1e-9 of the flank length); there x = p(u) + d n(u) lies on both envelopes and the kink
     is the angle between the envelope normals (:func:`envelope_normals`).  Returns a list of
-    :class:`Junction` (empty: the envelopes never switch, e.g. disjoint or one always deeper)."""
+    :class:`Junction` (empty: the envelopes never switch, e.g. disjoint or one always deeper).
+
+    ``deviations``: optional (2, n) deviations of the two tools at ``samples`` already computed (e.g.
+    ``PoseCoverage.deviation`` of the cover stage, :attr:`AdaptiveCover.chosen_coverage`), which skips
+    sampling them again; values beyond the search range the caller used are +inf there, so crossings
+    farther than it from the flank are not found (those are no machined junctions of a cover within
+    tolerance).  See :func:`junction_kinks_chain` for all neighbouring pairs of a strip list at once."""
+    devs = None if deviations is None else np.asarray(deviations, float)
+    return junction_kinks_chain([strip_a, strip_b], surface, flank_range, n=n, search=search, samples=samples,
+                                u_tol=u_tol, deviations=devs)[0]
+
+
+def junction_kinks_chain(strips, surface, flank_range=None, n=500, search=None, samples=None, u_tol=None,
+                         deviations=None):
+    """:func:`junction_kinks` of every neighbouring pair (strips[k], strips[k + 1]) of a strip list,
+    refined together (each regula-falsi iteration evaluates the deviations of all open brackets of all
+    pairs in one sphere-tracing pass).  ``deviations``: optional (K, n) deviations of the K strips at
+    ``samples`` (see :func:`junction_kinks`).  Returns one :class:`Junction` list per pair (K - 1)."""
     fs = samples if samples is not None else flank_samples(surface, flank_range, n)
     v0, hand = surface.v0, surface.handedness
     scale = float(np.max(np.linalg.norm(fs.points, axis=1)))
     if search is None:
         search = 0.05 * scale
-    tools = [tool_of(strip_a), tool_of(strip_b)]
-    dev = pose_deviations(tools, fs.points, fs.normals, v0, hand, search)
-    fin = np.isfinite(dev).all(axis=0)
-    with np.errstate(invalid="ignore"):
-        g = np.where(fin, dev[0] - dev[1], 0.0)
-    s = np.sign(g)
-    i = np.flatnonzero(fin[:-1] & fin[1:] & (s[:-1] * s[1:] < 0))
-    exact = np.flatnonzero(fin & (g == 0))
+    K = len(strips)
+    if K < 2:
+        return []
+    tools = [tool_of(s) for s in strips]
+    if deviations is None:
+        dev = pose_deviations(tools, fs.points, fs.normals, v0, hand, search)
+    else:
+        dev = np.asarray(deviations, float)
+        if dev.shape != (K, len(fs.u)):
+            raise ValueError(f"deviations must have shape ({K}, {len(fs.u)}) (strips x flank samples), "
+                             f"got {dev.shape}")
     u_tol = 1e-9 * abs(fs.u[-1] - fs.u[0]) if u_tol is None else u_tol
+    # brackets of sign changes of d_a - d_b over all pairs
+    P, I, EX = [], [], []
+    for k in range(K - 1):
+        fin = np.isfinite(dev[k]) & np.isfinite(dev[k + 1])
+        with np.errstate(invalid="ignore"):
+            g = np.where(fin, dev[k] - dev[k + 1], 0.0)
+        s = np.sign(g)
+        i = np.flatnonzero(fin[:-1] & fin[1:] & (s[:-1] * s[1:] < 0))
+        P.append(np.full(len(i), k))
+        I.append(i)
+        EX.append(np.flatnonzero(fin & (g == 0)))
+    pair = np.concatenate(P).astype(int)
+    i = np.concatenate(I).astype(int)
+    with np.errstate(invalid="ignore"):
+        gfull = dev[pair] - dev[pair + 1] if len(pair) else np.zeros((0, len(fs.u)))
 
-    def gap(u):
+    def gap(u, pr):
         p, nn = fs.at(u)
-        d = pose_deviations(tools, p, nn, v0, hand, search)
+        m = len(u)
+        d = deviations_rows(tools, np.r_[pr, pr + 1], np.r_[p, p], np.r_[nn, nn], v0, hand, search).reshape(2, m)
         return d[0] - d[1], d
 
     a, b = fs.u[i].copy(), fs.u[i + 1].copy()
-    ga, gb = g[i].copy(), g[i + 1].copy()
+    ga, gb = gfull[np.arange(len(i)), i].copy(), gfull[np.arange(len(i)), i + 1].copy()
     side = np.zeros(len(i))
     for _ in range(80):
         act = np.flatnonzero(np.abs(b - a) > u_tol)
@@ -510,7 +579,7 @@ def junction_kinks(strip_a, strip_b, surface, flank_range=None, n=500, search=No
             break
         m = b[act] - gb[act] * (b[act] - a[act]) / (gb[act] - ga[act])
         m = np.where((m - a[act]) * (m - b[act]) < 0, m, 0.5 * (a[act] + b[act]))
-        gm, _ = gap(m)
+        gm, _ = gap(m, pair[act])
         bad = ~np.isfinite(gm)
         gm = np.where(bad, 0.0, gm)
         same_b = np.sign(gm) == np.sign(gb[act])
@@ -521,25 +590,34 @@ def junction_kinks(strip_a, strip_b, surface, flank_range=None, n=500, search=No
         b[act], gb[act] = m, gm
         if bad.any():
             a[act[bad]] = b[act[bad]]
-    uj = np.concatenate([np.where(np.abs(gb) <= np.abs(ga), b, a), fs.u[exact]])
-    uj.sort()
+    uj = np.concatenate([np.where(np.abs(gb) <= np.abs(ga), b, a)] + [fs.u[e] for e in EX])
+    pj = np.concatenate([pair] + [np.full(len(e), k) for k, e in enumerate(EX)]).astype(int)
+    out = [[] for _ in range(K - 1)]
     if not len(uj):
-        return []
+        return out
+    order = np.lexsort((uj, pj))
+    uj, pj = uj[order], pj[order]
     p, nn = fs.at(uj)
-    gj, d = gap(uj)
+    gj, d = gap(uj, pj)
     # a sign change across a jump of one curve (an envelope ending) is no junction: both envelopes
     # must pass through the same machined point
     keep = np.isfinite(gj) & (np.abs(gj) <= 1e-7 * scale)
-    uj, p, nn, d = uj[keep], p[keep], nn[keep], d[:, keep]
+    uj, pj, p, nn, d = uj[keep], pj[keep], p[keep], nn[keep], d[:, keep]
     if not len(uj):
-        return []
+        return out
     dj = 0.5 * (d[0] + d[1])
     x = np.c_[p + dj[:, None] * nn, np.zeros(len(uj))]
-    Na = envelope_normals(tools[0], x, v0, hand)
-    Nb = envelope_normals(tools[1], x, v0, hand)
+    Na, Nb = np.empty_like(x), np.empty_like(x)
+    for k in np.unique(np.r_[pj, pj + 1]):
+        ra, rb = np.flatnonzero(pj == k), np.flatnonzero(pj + 1 == k)
+        rows = np.r_[ra, rb]
+        Nk = envelope_normals(tools[k], x[rows], v0, hand)
+        Na[ra], Nb[rb] = Nk[:len(ra)], Nk[len(ra):]
     kink = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", Na, Nb), -1.0, 1.0)))
     pa = Na[:, :2] / np.linalg.norm(Na[:, :2], axis=1, keepdims=True)
     pb = Nb[:, :2] / np.linalg.norm(Nb[:, :2], axis=1, keepdims=True)
     sk = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", pa, pb), -1.0, 1.0)))
-    return [Junction(u=float(uj[k]), point=x[k], deviation=float(dj[k]), kink_deg=float(kink[k]),
-                     section_kink_deg=float(sk[k]), normals=np.stack([Na[k], Nb[k]])) for k in range(len(uj))]
+    for r in range(len(uj)):
+        out[pj[r]].append(Junction(u=float(uj[r]), point=x[r], deviation=float(dj[r]), kink_deg=float(kink[r]),
+                                   section_kink_deg=float(sk[r]), normals=np.stack([Na[r], Nb[r]])))
+    return out

@@ -296,3 +296,40 @@ def test_cap_safe_bounds_cover_the_end_caps():
     np.testing.assert_allclose(exact, [-0.001, -0.005], atol=1e-9)
     np.testing.assert_allclose(helical_distance(cap_safe(raw), x, 1e6, "right", cutoff=1e-3)[0], exact,
                                atol=1e-9)
+
+
+def test_junction_kinks_chain_and_precomputed_deviations_match_pairwise(female, mid_poses):
+    """junction_kinks_chain (all neighbouring pairs refined together) and junction_kinks with the
+    deviations of the cover stage give the same junctions as the pairwise default."""
+    from flank_addon.strip_cover import junction_kinks_chain
+    r, S = female
+    fr, poses = mid_poses
+    fs = flank_samples(S, fr, 200)
+    search = 0.05 * float(np.max(np.linalg.norm(fs.points, axis=1)))
+    dev = pose_deviations([tool_of(p) for p in poses], fs.points, fs.normals, S.v0, S.handedness, search)
+    chain = junction_kinks_chain(poses, S, fr, samples=fs)
+    chain_dev = junction_kinks_chain(poses, S, fr, samples=fs, deviations=dev)
+    assert len(chain) == len(poses) - 1
+    found = 0
+    for k, (A, B) in enumerate(zip(poses, poses[1:])):
+        ref = junction_kinks(A, B, S, fr, samples=fs)
+        pre = junction_kinks(A, B, S, fr, samples=fs, deviations=dev[k:k + 2])
+        for js in (chain[k], chain_dev[k], pre):
+            assert len(js) == len(ref)
+            for j, jr in zip(js, ref):
+                assert abs(j.u - jr.u) < 1e-9 and abs(j.kink_deg - jr.kink_deg) < 1e-6
+                np.testing.assert_allclose(j.normals, jr.normals, atol=1e-9)
+        found += len(ref)
+    assert found >= 1
+    with pytest.raises(ValueError, match="deviations must have shape"):
+        junction_kinks(poses[0], poses[1], S, fr, samples=fs, deviations=dev)
+
+
+def test_adaptive_cover_reports_the_chosen_coverage(female, mid_poses):
+    r, S = female
+    fr, poses = mid_poses
+    cov = adaptive_cover(lambda us: poses, S, fr, 5e-3, 1e-6, seeds=[0.5 * (fr[0] + fr[1])], max_rounds=1, n=200)
+    assert len(cov.chosen_coverage) == len(cov.poses)
+    for p, pc in zip(cov.poses, cov.chosen_coverage):
+        k = next(k for k, c in enumerate(cov.candidates) if c is p)
+        assert pc is cov.coverage[k]
