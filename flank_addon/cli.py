@@ -259,9 +259,6 @@ def _cmd_plan_single_flank(args):
         raise ValueError("give exactly one of --tool-alpha RAD or --tool-h H")
     if args.tolerance is None:
         raise ValueError("single-flank needs --tolerance EPS (largest material left, in the rotor's unit)")
-    if args.g1:
-        raise ValueError("--g1 (tangency term at strip junctions) is not implemented yet; the plan reports "
-                         "the kink angles at the junctions without it")
     for name in ("tool_r1", "tool_r2", "tool_alpha", "tool_h", "shank_radius", "shank_length", "tolerance"):
         v = getattr(args, name)
         if v is not None and not math.isfinite(v):
@@ -282,7 +279,7 @@ def _cmd_plan_single_flank(args):
     res = plan_single_flank(surface, flanks, k, tool, args.tolerance, overcut_tolerance=args.overcut_tolerance,
                             n_seeds=args.seeds, objective=args.objective, mode=args.mode,
                             max_rounds=args.rounds, to_world=to_world, length_unit=unit,
-                            check_collisions=not args.no_collisions)
+                            check_collisions=not args.no_collisions, g1=args.g1)
     write_plan(args.out, res.plan)
     if args.profile_csv:
         u, dev = res.deviation
@@ -296,6 +293,7 @@ def _cmd_plan_single_flank(args):
         "collisions_excluded": len(res.collisions), "uncovered_ranges": [list(g) for g in res.uncovered],
         "max_error": v["max_undercut"], "min_error": v["max_overcut"], "gouge_points": len(v["gouge_points"]),
         "junction_kinks_deg": [[j["kink_deg"] for j in js] for js in res.junctions],
+        "g1": res.plan["summary"].get("g1"),
         "timings_s": res.timings, "tool": tool.as_dict(), "length_unit": unit,
         "per_strip": [{"max_error": st["reported_max_error"], "min_error": st["reported_min_error"],
                        "collision": st["collision"]} for st in res.plan["strips"]],
@@ -312,6 +310,10 @@ def _cmd_plan_single_flank(args):
     kinks = [j["kink_deg"] for js in res.junctions for j in js]
     if kinks:
         print(f"  junction kinks: {min(kinks):.2f}..{max(kinks):.2f} deg")
+    g1 = res.plan["summary"].get("g1")
+    if g1 is not None:
+        print(f"  G1 refinement {'kept' if g1['accepted'] else 'not kept'}: rms kink "
+              f"{g1['rms_kink_before_deg']:.2f} -> {g1['rms_kink_after_deg']:.2f} deg")
     print(f"  machined flank (verify): max {v['max_undercut']:.4g}, min {v['max_overcut']:.3g}, "
           f"gouges {len(v['gouge_points'])}")
     if res.uncovered:
@@ -501,7 +503,9 @@ def build_parser():
                     help="hard: no overcut along the tool; weighted: overcut weight 100 (Remark 5.1)")
     sf.add_argument("--rounds", type=int, default=4, help="adaptive seeding rounds (default 4)")
     sf.add_argument("--no-collisions", action="store_true", help="skip the global collision test")
-    sf.add_argument("--g1", action="store_true", help="tangency term at strip junctions (not implemented yet)")
+    sf.add_argument("--g1", action="store_true",
+                    help="re-optimise the chosen strips with a tangency term at their junctions (kept only "
+                         "if the tolerance still holds and the kinks drop)")
     sf.add_argument("--profile-csv", help="write the machined deviation along the flank profile (u, deviation)")
     sf.add_argument("--json", action="store_true", help="print a JSON summary")
     pl.set_defaults(func=_cmd_plan)

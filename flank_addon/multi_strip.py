@@ -54,16 +54,33 @@ def _flank_index_ranges(surface, flank_ranges, n):
     return [(int(round(a / per * n)), int(round(b / per * n))) for a, b in flank_ranges]
 
 
+def _merge_ranges(ranges):
+    """Union of closed parameter ranges, sorted, overlapping or touching ones merged."""
+    out = []
+    for a, b in sorted(ranges):
+        if out and a <= out[-1][1]:
+            out[-1] = (out[-1][0], max(out[-1][1], b))
+        else:
+            out.append((a, b))
+    return out
+
+
 def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tolerance=None, n_seeds=18,
                       objective="phi1", mode="hard", max_rounds=4, n_profile=2048, n_cover=500,
-                      to_world=None, length_unit="R", check_collisions=True, z_range=None):
+                      to_world=None, length_unit="R", check_collisions=True, z_range=None, g1=False,
+                      g1_weight=1.0):
     """Plan strips of the cone ``tool`` (:class:`cone.ConeTool`) on flank index ``flank`` so the
     machined flank stays within [-overcut_tolerance, tolerance] of the design (signed, + = stock).
 
     surface: :class:`HelicalSurface`; flank_ranges: the rotor's flank parameter ranges
     (``Rotor.flanks`` or ``RotorAnalysis`` flanks); n_seeds: first-round seeds (uniform along the
     flank profile); objective 'phi1' | 'phi3'; mode 'hard' (no overcut along the axis) | 'weighted'
-    (w = 100, Remark 5.1); overcut_tolerance defaults to 1e-6 R.  Returns :class:`SingleFlankResult`."""
+    (w = 100, Remark 5.1); overcut_tolerance defaults to 1e-6 R.  z_range: the z slab the finite rotor
+    occupies over the whole pass (None = an infinite rotor; a slab that is too short hides
+    collisions, see :func:`collision.check_collisions`).  With ``g1`` the chosen strips are
+    re-optimised together with a tangency term at their junctions (:func:`refine_g1`), weight
+    ``g1_weight`` halved until the machined flank still meets the tolerance band (kept only then).
+    Returns :class:`SingleFlankResult`."""
     from .collision import check_collisions as collide
     from .strip_cover import adaptive_cover, junction_kinks
     from .verify import verify_plan
@@ -130,14 +147,24 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
     order = sorted(range(len(cover.poses)),
                    key=lambda i: min((iv[0] for iv in cover.intervals[i]), default=math.inf))
     chosen = [cover.poses[i].candidate for i in order]
-    uncovered = [tuple(map(float, g)) for g in cover.gaps] + [tuple(map(float, g)) for g in cover.uncovered]
+    uncovered = _merge_ranges([tuple(map(float, g)) for g in list(cover.gaps) + list(cover.uncovered)])
+
+    def kinks(strips):
+        out = []
+        for a, b in zip(strips[:-1], strips[1:]):
+            js = junction_kinks(a.pose, b.pose, surface, u_range, n=n_cover, samples=cover.samples)
+            out.append([{"u": float(j.u), "kink_deg": float(j.kink_deg)} for j in js])
+        return out
 
     ts = time.perf_counter()
-    junctions = []
-    for a, b in zip(chosen[:-1], chosen[1:]):
-        js = junction_kinks(a.pose, b.pose, surface, u_range, n=n_cover, samples=cover.samples)
-        junctions.append([{"u": float(j.u), "kink_deg": float(j.kink_deg)} for j in js])
+    junctions = kinks(chosen)
     timings["junctions"] = time.perf_counter() - ts
+    g1_report = None
+    if g1 and len(chosen) > 1:
+        ts = time.perf_counter()
+        chosen, junctions, g1_report = _apply_g1(chosen, junctions, ev, cover.samples, surface, tol, eps_over,
+                                                 float(g1_weight), kinks)
+        timings["g1"] = time.perf_counter() - ts
 
     plan = single_flank_plan(surface, flank_ranges, flank, chosen, tool, to_world=to_world,
                              length_unit=length_unit, n_profile=n_profile,
@@ -160,6 +187,8 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
         plan["summary"]["max_error"], plan["summary"]["min_error"] = fin[0], fin[1]
     plan["summary"]["uncovered_ranges"] = [list(g) for g in uncovered]
     plan["summary"]["junction_kinks_deg"] = [[j["kink_deg"] for j in js] for js in junctions]
+    if g1_report is not None:
+        plan["summary"]["g1"] = g1_report
     return SingleFlankResult(plan=plan, strips=chosen, candidates=all_cands, collisions=collisions,
                              uncovered=uncovered, junctions=junctions,
                              deviation=(cover.samples.u, cover.deviation), verify=ver, rounds=cover.rounds,
@@ -211,3 +240,182 @@ def flank_of_point(surface, flank_ranges, point):
         if a <= u <= b or a <= u + per <= b or a <= u - per <= b:
             return i
     raise ValueError(f"flank point {point} is not near any flank of the rotor")
+
+
+# ============================================================================ G1 junctions
+def _apply_g1(chosen, junctions, ev, samples, surface, tol, eps_over, weight, kinks):
+    """Try :func:`refine_g1` with ``weight``, then a quarter and a sixteenth of it; keep the first
+    result whose strips together still hold the flank samples in [-eps_over, tol] and lower the
+    root-mean-square kink (the quantity the tangency term minimises; where the flank is curved
+    across a narrow strip a cone cannot meet G1 and those kinks stay).  Returns (strips, junctions,
+    report)."""
+    from dataclasses import replace
+
+    from .single_flank import params_pose
+    from .strip_cover import pose_deviations, tool_of
+
+    def worst(js):
+        return max((j["kink_deg"] for jj in js for j in jj), default=0.0)
+
+    def rms(js):
+        k = [j["kink_deg"] for jj in js for j in jj]
+        return float(np.sqrt(np.mean(np.square(k)))) if k else 0.0
+
+    ju = [max(jj, key=lambda j: j["kink_deg"])["u"] if jj else None for jj in junctions]
+    report = {"accepted": False, "weight": None, "max_kink_before_deg": worst(junctions),
+              "max_kink_after_deg": worst(junctions), "rms_kink_before_deg": rms(junctions),
+              "rms_kink_after_deg": rms(junctions), "tried": []}
+    search = 0.05 * float(surface.outer_radius)
+    for w in (weight, weight / 4.0, weight / 16.0):
+        X = refine_g1(chosen, ev, ju, weight=w)
+        new = [replace(c, pose=params_pose(X[k], c.pose.tool), params=X[k].copy(),
+                       errors=ev.axis_errors(X[k])) for k, c in enumerate(chosen)]
+        dev = pose_deviations([tool_of(c.pose) for c in new], samples.points, samples.normals, surface.v0,
+                              surface.handedness, search).min(axis=0)
+        ok = bool(np.all((dev >= -eps_over) & (dev <= tol)))
+        js = kinks(new)
+        report["tried"].append({"weight": w, "within_tolerance": ok, "max_kink_deg": worst(js),
+                                "rms_kink_deg": rms(js), "max_deviation": float(np.max(dev)),
+                                "min_deviation": float(np.min(dev))})
+        if ok and rms(js) < report["rms_kink_before_deg"]:
+            report.update(accepted=True, weight=w, max_kink_after_deg=worst(js), rms_kink_after_deg=rms(js))
+            return new, js, report
+        if ok:
+            break        # within tolerance but no smoother: a smaller weight will not help
+    return chosen, junctions, report
+
+
+def _junction_normals(ev, X, branch, s_star):
+    """Unit envelope normals (M, K, 3) at the characteristic points of samples s_star (K,) of poses
+    X (M, 4), screwed into the plane z = 0 (where all envelope sections are compared), and their
+    derivatives (M, K, 3, 4) w.r.t. each pose's parameters.
+
+    The characteristic point is c = m + r n on the sphere (m, r) of the sample, so n = (c - m) / r
+    and dn/dx = (dc/dx - dm/dx) / r (c and dc/dx from PoseEvaluator.characteristic).  Screwing by
+    t = -c_z / v0 turns n by hand * t about z."""
+    from .single_flank import axis_and_jacobian
+
+    X = np.atleast_2d(X)
+    s = np.atleast_1d(np.asarray(s_star, float))
+    c, dc, ok = ev.characteristic(X, np.atleast_1d(branch), s)
+    m, Jm, _, _ = axis_and_jacobian(X, s, ev.L)
+    r = ev.tool.radius(s)[None, :, None]
+    n = (c - m) / r
+    dn = (dc - Jm) / r[..., None]
+    h = ev.surface.hand
+    th = -h * c[..., 2] / ev.surface.v0                          # (M, K)
+    dth = -h * dc[..., 2, :] / ev.surface.v0                     # (M, K, 4)
+    ct, st = np.cos(th), np.sin(th)
+    rn = np.stack([ct * n[..., 0] - st * n[..., 1], st * n[..., 0] + ct * n[..., 1], n[..., 2]], -1)
+    drn = np.stack([ct[..., None] * dn[..., 0, :] - st[..., None] * dn[..., 1, :],
+                    st[..., None] * dn[..., 0, :] + ct[..., None] * dn[..., 1, :], dn[..., 2, :]], -2)
+    # d(R n)/dtheta = (-y', x', 0) of the turned normal
+    turn = np.stack([-rn[..., 1], rn[..., 0], np.zeros_like(th)], -1)
+    drn = drn + turn[..., None] * dth[..., None, :]
+    return rn, drn, ok
+
+
+def _junction_sample(ev, x, branch, u_j, n=201):
+    """Characteristic sample s whose flank foot parameter is nearest u_j (linear in between)."""
+    s = np.linspace(0.0, 1.0, n)
+    f, _, info = ev.char_distances(np.atleast_2d(x), np.atleast_1d(branch), s, key=None)
+    u = np.where(info["real"][0], info["u"][0], np.nan)
+    if not np.isfinite(u).any():
+        return None
+    j = int(np.nanargmin(np.abs(u - u_j)))
+    for k in (j - 1, j):
+        if 0 <= k < n - 1 and np.isfinite(u[k]) and np.isfinite(u[k + 1]) and (u[k] - u_j) * (u[k + 1] - u_j) <= 0 \
+                and u[k + 1] != u[k]:
+            return float(s[k] + (s[k + 1] - s[k]) * (u_j - u[k]) / (u[k + 1] - u[k]))
+    return float(s[j])
+
+
+def refine_g1(candidates, ev, junction_u, weight=1.0, maxiter=40):
+    """s003's G1 idea for helical strips: re-optimise the chosen poses together so neighbouring
+    envelopes share their normal at each junction, while no sphere of any tool enters the flank
+    (hard mode, e >= 0 at the axis samples) and every pose keeps its depth on the flank (the cover
+    stays a cover, as in :func:`single_flank.optimize_poses`).
+
+        minimise  sum_k mean_i e_ki / R  +  weight * sum_j |n_j,a - n_j,b|^2
+
+    n_j,a, n_j,b: the envelope normals of strips a = j, b = j + 1 at their junction j (flank
+    parameter ``junction_u[j]``, its characteristic sample held fixed per solve), compared in
+    z = 0 (|n_a - n_b| ~ the kink angle in radians).  Exact gradients throughout (foot-point
+    normals, characteristic derivatives); SLSQP.  Returns the new parameter rows (M, 4)."""
+    from scipy.optimize import minimize
+
+    from .single_flank import mid_radius
+
+    X0 = np.array([c.params for c in candidates], float)
+    M = len(X0)
+    R = float(ev.surface.outer_radius)
+    br = ev.branch(X0)
+    rho0 = mid_radius(X0, ev.L)[0]
+    pairs = []
+    for j, u_j in enumerate(junction_u):
+        if u_j is None:
+            continue
+        sa = _junction_sample(ev, X0[j], br[j], u_j)
+        sb = _junction_sample(ev, X0[j + 1], br[j + 1], u_j)
+        if sa is not None and sb is not None:
+            pairs.append((j, sa, sb))
+    if not pairs:
+        return X0
+    cache = {}
+    samples = {"s": np.linspace(0.0, 1.0, 33)}     # the exchange below adds whatever dips between
+    s_j = np.array([v for _, sa, sb in pairs for v in (sa, sb)])
+
+    def get(y):
+        key = y.tobytes()
+        if key not in cache:
+            cache.clear()
+            X = y.reshape(M, 4)
+            e, de, _ = ev.distances(X, s=samples["s"], key=("g1", len(samples["s"])))
+            n = e.shape[1]
+            val = e.sum() / (n * R)
+            grad = (de.sum(axis=1) / (n * R)).ravel()
+            nrm, dnrm, _ = _junction_normals(ev, X, br, s_j)     # every pose at every junction sample
+            for q, (j, sa, sb) in enumerate(pairs):
+                na, dna = nrm[j, 2 * q], dnrm[j, 2 * q]
+                nb, dnb = nrm[j + 1, 2 * q + 1], dnrm[j + 1, 2 * q + 1]
+                d = na - nb
+                val += weight * float(d @ d)
+                grad[4 * j:4 * j + 4] += 2.0 * weight * (d @ dna)
+                grad[4 * (j + 1):4 * (j + 1) + 4] -= 2.0 * weight * (d @ dnb)
+            G = np.zeros((M * n, 4 * M))
+            for k in range(M):
+                G[k * n:(k + 1) * n, 4 * k:4 * k + 4] = de[k]
+            cache[key] = (val, grad, e.ravel(), G)
+        return cache[key]
+
+    def anchor(y):
+        r, g = mid_radius(y.reshape(M, 4), ev.L)
+        J = np.zeros((M, 4 * M))
+        for k in range(M):
+            J[k, 4 * k:4 * k + 4] = g[k]
+        return r - rho0, J
+
+    y = X0.ravel()
+    dense = np.linspace(0.0, 1.0, 2001)
+    for _round in range(4):
+        cache.clear()
+        res = minimize(lambda y: get(y)[0], y, jac=lambda y: get(y)[1], method="SLSQP",
+                       constraints=[{"type": "ineq", "fun": lambda y: get(y)[2], "jac": lambda y: get(y)[3]},
+                                    {"type": "eq", "fun": lambda y: anchor(y)[0], "jac": lambda y: anchor(y)[1]}],
+                       options={"maxiter": maxiter, "ftol": 1e-12})
+        if not np.all(np.isfinite(res.x)):
+            return X0
+        y = res.x
+        # exchange: the spheres between the samples must stay out of the flank too
+        e, _, _ = ev.distances(y.reshape(M, 4), s=dense, key=None, jac=False)
+        low = e < -1e-12 * R
+        if not low.any():
+            break
+        # one new sample per run of dipping samples and pose: the deepest one
+        dips = []
+        for k in np.flatnonzero(low.any(axis=1)):
+            m = np.r_[False, low[k], False].astype(np.int8)
+            for a0, a1 in zip(np.flatnonzero(np.diff(m) == 1), np.flatnonzero(np.diff(m) == -1)):
+                dips.append(dense[a0 + int(np.argmin(e[k, a0:a1]))])
+        samples["s"] = np.unique(np.r_[samples["s"], dips])
+    return y.reshape(M, 4)

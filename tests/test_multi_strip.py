@@ -134,3 +134,44 @@ def test_cli_single_flank_errors(tmp_path, capsys, extra, msg):
     err = capsys.readouterr().err
     assert err.startswith("error: ") and msg in err and "Traceback" not in err
     assert not (tmp_path / "x.json").exists()
+
+
+def test_junction_normals_and_their_exact_derivatives():
+    """The envelope normals the G1 term compares are unit vectors, and their analytic derivatives
+    (characteristic derivative chained through the screw into z = 0) equal central differences."""
+    from flank_addon.multi_strip import _junction_normals
+    from flank_addon.single_flank import PoseEvaluator, candidate_strips
+
+    r = builtin_by_name("asymmetric-female")
+    s = r.surface()
+    tool = ConeTool(TOOL.alpha, TOOL.r1c, TOOL.r2c)
+    ev = PoseEvaluator(s, r.flanks[1], tool)
+    X = np.array([c.params for c in candidate_strips(s, r.flanks[1], tool, n_seeds=3, evaluator=ev)])
+    br = ev.branch(X)
+    sj = np.array([0.3, 0.7])
+    n, dn, ok = _junction_normals(ev, X, br, sj)
+    assert ok.all() and np.allclose(np.linalg.norm(n, axis=-1), 1.0, atol=1e-12)
+    h = 1e-6
+    for k in range(4):
+        Xp, Xm = X.copy(), X.copy()
+        Xp[:, k] += h
+        Xm[:, k] -= h
+        fd = (_junction_normals(ev, Xp, br, sj)[0] - _junction_normals(ev, Xm, br, sj)[0]) / (2 * h)
+        assert np.abs(fd - dn[..., k]).max() < 1e-7 * max(1.0, np.abs(fd).max())
+
+
+def test_g1_option_keeps_the_tolerance_and_reports_the_kinks():
+    """With g1 the strips are re-optimised with the tangency term; whatever is kept, the flank stays in
+    the tolerance band with no gouge, and the report says whether the kinks dropped."""
+    r = builtin_by_name("asymmetric-female")
+    res = plan_single_flank(r.surface(), r.flanks, 1, TOOL, 2e-3, n_seeds=8, max_rounds=2, g1=True)
+    g1 = res.plan["summary"]["g1"]
+    assert {"accepted", "rms_kink_before_deg", "rms_kink_after_deg", "tried"} <= set(g1)
+    if g1["accepted"]:
+        assert g1["rms_kink_after_deg"] < g1["rms_kink_before_deg"]
+    else:
+        assert g1["rms_kink_after_deg"] == g1["rms_kink_before_deg"]
+    v = verify_plan(res.plan, tolerance=1e-6)
+    assert v["max_overcut"] >= -1e-6 and not v["gouge_points"]
+    if res.complete:
+        assert v["max_undercut"] <= 2e-3
