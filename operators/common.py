@@ -277,3 +277,64 @@ def builtin_from_props(rotors, obj):
     return rotors.builtin_rotor(str(obj["flank_kind"]), str(obj["flank_part"]), scale=float(obj["flank_scale"]),
                                 lead=float(obj["flank_lead"]), length=float(obj["flank_length"]),
                                 handedness=str(obj["flank_handedness"]))
+
+
+def rotor_source(bpy, context, np, prop_prefix):
+    """The rotor a planning operator works on -> dict (obj, surface, flanks, display, to_world, scale,
+    z_range, unit, kind), or an error message (str).  The active object may be a generated rotor, an
+    analysed mesh, or a result object whose ``<prop_prefix>rotor`` names its rotor."""
+    from ..flank_addon import rotors
+
+    obj = context.active_object
+    if obj is not None and prop_prefix + "rotor" in obj and obj.get("flank_source") is None:
+        other = bpy.data.objects.get(obj[prop_prefix + "rotor"])  # a result object: use its rotor
+        if other is not None:
+            obj = other
+    if obj is None or obj.type != 'MESH':
+        return "Select a rotor made by Generate Rotor or an analyzed rotor mesh (active object: {})".format(
+            "none" if obj is None else "'{}' ({})".format(obj.name, obj.type))
+    if obj.mode != 'OBJECT':
+        return "Switch '{}' to Object Mode first".format(obj.name)
+    src = obj.get("flank_source")
+    if src == "generated":
+        try:
+            rotor = builtin_from_props(rotors, obj)
+        except (KeyError, ValueError) as ex:
+            return "Cannot rebuild the rotor of '{}' from its custom properties: {}".format(obj.name, ex)
+        display = np.array(obj.matrix_world, dtype=np.float64)
+        parts = similarity_parts(np, display)
+        if isinstance(parts, str):
+            return "Rotor '{}': {}; apply or reset its scale".format(obj.name, parts)
+        to_world, scale = parts
+        return dict(obj=obj, surface=rotor.surface(), flanks=list(rotor.flanks), display=display,
+                    to_world=to_world, scale=scale, z_range=(0.0, float(rotor.length)),
+                    unit="R" if float(obj["flank_scale"]) == 1.0 else "mm",
+                    kind="{}-{}".format(rotor.kind, rotor.part))
+    if src == "analyzed":
+        from ..flank_addon import double_flank as df
+        from ..flank_addon.helical_surface import HelicalSurface
+        from ..flank_addon.profile import SplineProfile
+        from ..flank_addon.rotor_analysis import NotHelicalError, analyze_mesh
+
+        try:
+            verts, faces = mesh_world_arrays(np, obj)
+            a = analyze_mesh(verts, faces)
+            prof = SplineProfile(a.profile)
+            surface = HelicalSurface(prof, a.v0, a.handedness)
+            flanks = df._flank_u_ranges(prof, [(int(i), int(j)) for i, j in a.flanks])
+            to_world = np.asarray(a.to_world, dtype=np.float64)
+        except NotHelicalError as ex:
+            return "'{}' is not a helical rotor: {}".format(obj.name, ex)
+        except Exception as ex:
+            return "Cannot analyze '{}' again: {}: {}".format(obj.name, type(ex).__name__, ex)
+        parts = similarity_parts(np, to_world)
+        if isinstance(parts, str):
+            return "Analysis of '{}': {}".format(obj.name, parts)
+        to_world, scale = parts
+        z = [float(v) for v in a.body_z] if getattr(a, "body_z", None) is not None else [0.0, 0.0]
+        if not z[1] > z[0]:
+            z = [0.0, 2.0 * float(a.outer_radius)]
+        return dict(obj=obj, surface=surface, flanks=flanks, display=to_world, to_world=to_world,
+                    scale=scale, z_range=(z[0], z[1]), unit="mm", kind="analyzed")
+    return ("'{}' is not a rotor (flank_source = {!r}): select a rotor made by Generate Rotor or run "
+            "Analyze Rotor on the mesh first".format(obj.name, src))

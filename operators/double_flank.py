@@ -2,8 +2,8 @@
 """flank.plan_double_flank -- s001: double-flank milling of one rotor valley with a custom-shaped or conical tool."""
 import bpy
 
-from .common import (builtin_from_props, edge_mesh, frame_along, key_screw_motion, mesh_world_arrays, new_mesh_from_arrays, remove_ids,
-                     results_parent, screw_matrix, select_only, set_color_attr, set_float_attr, similarity_parts)
+from .common import (edge_mesh, frame_along, key_screw_motion, new_mesh_from_arrays, remove_ids,
+                     results_parent, rotor_source, screw_matrix, select_only, set_color_attr, set_float_attr)
 from .properties import double_flank_props
 
 PROP_PREFIX = "flank_df_"
@@ -69,64 +69,8 @@ class FLANK_OT_plan_double_flank(bpy.types.Operator):
     # ------------------------------------------------------------------ inputs
 
     def _source(self, context, np):
-        """The rotor to plan on -> dict, or an error message (str)."""
-        from ..flank_addon import rotors
-
-        obj = context.active_object
-        if obj is not None and PROP_PREFIX + "rotor" in obj and obj.get("flank_source") is None:
-            other = bpy.data.objects.get(obj[PROP_PREFIX + "rotor"])  # a result object: use its rotor
-            if other is not None:
-                obj = other
-        if obj is None or obj.type != 'MESH':
-            return "Select a rotor made by Generate Rotor or an analyzed rotor mesh (active object: {})".format(
-                "none" if obj is None else "'{}' ({})".format(obj.name, obj.type))
-        if obj.mode != 'OBJECT':
-            return "Switch '{}' to Object Mode first".format(obj.name)
-        src = obj.get("flank_source")
-        if src == "generated":
-            try:
-                rotor = builtin_from_props(rotors, obj)
-            except (KeyError, ValueError) as ex:
-                return "Cannot rebuild the rotor of '{}' from its custom properties: {}".format(obj.name, ex)
-            display = np.array(obj.matrix_world, dtype=np.float64)
-            parts = similarity_parts(np, display)
-            if isinstance(parts, str):
-                return "Rotor '{}': {}; apply or reset its scale".format(obj.name, parts)
-            to_world, scale = parts
-            return dict(obj=obj, surface=rotor.surface(), flanks=list(rotor.flanks), display=display,
-                        to_world=to_world, scale=scale, z_range=(0.0, float(rotor.length)),
-                        unit="R" if float(obj["flank_scale"]) == 1.0 else "mm",
-                        kind="{}-{}".format(rotor.kind, rotor.part))
-        if src == "analyzed":
-            from ..flank_addon import double_flank as df
-            from ..flank_addon.helical_surface import HelicalSurface
-            from ..flank_addon.profile import SplineProfile
-            from ..flank_addon.rotor_analysis import NotHelicalError, analyze_mesh
-
-            try:
-                verts, faces = mesh_world_arrays(np, obj)
-                a = analyze_mesh(verts, faces)
-                prof = SplineProfile(a.profile)
-                surface = HelicalSurface(prof, a.v0, a.handedness)
-                flanks = df._flank_u_ranges(prof, [(int(i), int(j)) for i, j in a.flanks])
-                to_world = np.asarray(a.to_world, dtype=np.float64)
-            except NotHelicalError as ex:
-                return "'{}' is not a helical rotor: {}".format(obj.name, ex)
-            except Exception as ex:
-                return "Cannot analyze '{}' again: {}: {}".format(obj.name, type(ex).__name__, ex)
-            parts = similarity_parts(np, to_world)
-            if isinstance(parts, str):
-                return "Analysis of '{}': {}".format(obj.name, parts)
-            to_world, scale = parts
-            z = [float(v) for v in a.body_z] if getattr(a, "body_z", None) is not None else [0.0, 0.0]
-            if not z[1] > z[0]:
-                z = [0.0, 2.0 * float(a.outer_radius)]
-            return dict(obj=obj, surface=surface, flanks=flanks, display=to_world, to_world=to_world,
-                        scale=scale, z_range=(z[0], z[1]), unit="mm", kind="analyzed")
-        return ("'{}' is not a rotor (flank_source = {!r}): select a rotor made by Generate Rotor or run "
-                "Analyze Rotor on the mesh first".format(obj.name, src))
-
-    # ------------------------------------------------------------------ run
+        """The rotor to plan on -> dict, or an error message (str) (see common.rotor_source)."""
+        return rotor_source(bpy, context, np, PROP_PREFIX)
 
     def execute(self, context):
         import json
