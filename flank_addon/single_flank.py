@@ -1109,7 +1109,8 @@ def flank_range(surface_or_rotor_flanks, flank):
 
 
 def candidate_strips(surface, u_range, tool, n_seeds=18, objective="phi1", mode="weighted", w=W_OVERCUT,
-                     n=100, along="profile", flank=-1, evaluator=None, max_iter=40, seeds=None, anchor=True):
+                     n=100, along="profile", flank=-1, evaluator=None, max_iter=40, seeds=None, anchor=True,
+                     optimizer=None):
     """Optimised candidate poses ("candidate strips") of a given cone on one flank.
 
     surface: :class:`HelicalSurface`; u_range: the flank's (u_start, u_end) (``Rotor.flanks[k]``);
@@ -1118,7 +1119,9 @@ def candidate_strips(surface, u_range, tool, n_seeds=18, objective="phi1", mode=
     (Eq. (25)) | 'phi3' (Eq. (31)); mode 'weighted' (overcut weight w, Remark 5.1) | 'hard' (Eq. (30)
     style: no overcut along the axis); n axis samples (the paper's 100); ``anchor``: keep each pose at
     its seed's depth on the flank (see :func:`optimize_poses`).  ``seeds``: explicit
-    :class:`SeedPose` list instead of §5.1.  Returns a list of :class:`CandidateStrip` in flank order
+    :class:`SeedPose` list instead of §5.1.  ``optimizer``: a function with the signature and result of
+    :func:`optimize_poses` (default), e.g. :func:`fd_gradient_descent_poses` (the paper's optimiser) for
+    benchmarks.  Returns a list of :class:`CandidateStrip` in flank order
     (samples without an admissible seed are skipped); each has ``pose`` (:class:`ConePose`), the
     errors along its axis (Eq. (27)) and a :class:`Convergence` record."""
     ev = evaluator or PoseEvaluator(surface, u_range, tool, n=n)
@@ -1128,7 +1131,7 @@ def candidate_strips(surface, u_range, tool, n_seeds=18, objective="phi1", mode=
     if not seeds:
         return []
     X0 = np.array([sd.params for sd in seeds])
-    X, conv, branch = optimize_poses(ev, X0, objective, mode, w, max_iter=max_iter, anchor=anchor)
+    X, conv, branch = (optimizer or optimize_poses)(ev, X0, objective, mode, w, max_iter=max_iter, anchor=anchor)
     out = []
     for i, sd in enumerate(seeds):
         errs = ev.axis_errors(X[i], branch=None if branch is None else branch[i])
@@ -1277,18 +1280,29 @@ def optimize_tool_shape(surface, u_range, tool0, n=100, n_seeds=18, along="profi
 
 # ============================================================================ the paper's optimiser (baseline)
 def optimize_fd_gradient_descent(ev, x0, objective="phi1", w=W_OVERCUT, h=1e-6, eps=1e-5, step0=1e-3,
-                                 max_iter=5000, branch=None):
+                                 max_iter=5000, branch=None, anchor=None):
     """Remark 5.1's optimiser, for benchmarks: gradient descent on Phi1 (or Phi3) with the gradient by
     forward finite differences (step h), stopped when two subsequent iterates differ by less than
-    eps = 1e-5.  The step length adapts (x1.2 on success, /2 with a retry on failure).  Returns
-    (x, iterations, evaluations)."""
+    eps = 1e-5.  The step length adapts (x1.2 on success, /2 with a retry on failure).  ``anchor``: a
+    mid radius (see :func:`mid_radius`) to keep, by eliminating delta (the descent then runs on
+    (rho, beta, phi)).  Returns (x, iterations, evaluations)."""
     x = np.asarray(x0, float).copy()
     if objective == "phi3" and branch is None:
         branch = ev.branch(x[None, :])[0]
     key = ("fd", objective)
+    if anchor is not None:
+        full0, sgn = x.copy(), (1.0 if x[0] >= 0 else -1.0)
 
-    def phi(xx):
-        X = xx[None, :]
+        def full(y):
+            q = anchor ** 2 - ((y[0] + 0.5 * ev.L) * math.cos(y[1])) ** 2
+            return np.r_[sgn * math.sqrt(max(q, 0.0)), y]
+        x = full0[1:].copy()
+    else:
+        full = lambda y: y  # noqa: E731
+    nv = len(x)
+
+    def phi(yy):
+        X = full(yy)[None, :]
         if objective == "phi1":
             e = ev.distances(X, key=key, jac=False)[0]
         else:
@@ -1298,8 +1312,8 @@ def optimize_fd_gradient_descent(ev, x0, objective="phi1", w=W_OVERCUT, h=1e-6, 
     f = phi(x)
     evals, step, it = 1, step0, 0
     for it in range(1, max_iter + 1):
-        g = np.empty(4)
-        for j in range(4):
+        g = np.empty(nv)
+        for j in range(nv):
             xp = x.copy()
             xp[j] += h
             g[j] = (phi(xp) - f) / h
@@ -1320,4 +1334,32 @@ def optimize_fd_gradient_descent(ev, x0, objective="phi1", w=W_OVERCUT, h=1e-6, 
             step *= 1.2
         if moved < eps:
             break
-    return x, it, evals
+    return full(x), it, evals
+
+
+def fd_gradient_descent_poses(ev, X0, objective="phi1", mode="weighted", w=W_OVERCUT, max_iter=40, anchor=True,
+                              eps=1e-5, fd_max_iter=5000):
+    """The paper's optimiser (:func:`optimize_fd_gradient_descent`, Remark 5.1: FD gradient descent on
+    the weighted Phi1 / Phi3, stopped at |x_(i+1) - x_i| < eps) on every pose, one after the other,
+    with the signature and result of :func:`optimize_poses`, for ``candidate_strips(optimizer=...)``.
+    ``mode`` is ignored (the paper's objective has no hard constraint; its weight w = 100 is the only
+    guard against overcuts); ``anchor`` keeps each pose's mid radius (delta eliminated)."""
+    t0 = time.perf_counter()
+    X0 = np.atleast_2d(np.asarray(X0, float))
+    branch = ev.branch(X0) if objective == "phi3" else None
+    rho0 = mid_radius(X0, ev.L)[0] if anchor else None
+    X = X0.copy()
+    out = []
+    for i in range(len(X0)):
+        th = time.perf_counter()
+        br = None if branch is None else branch[i]
+        p0 = phi_value(ev, X0[i], objective, w, br)
+        x, it, nev = optimize_fd_gradient_descent(ev, X0[i], objective, w, eps=eps, max_iter=fd_max_iter, branch=br,
+                                                  anchor=None if rho0 is None else float(rho0[i]))
+        X[i] = x
+        p1 = phi_value(ev, x, objective, w, br)
+        out.append(Convergence(objective=objective, mode="weighted", phi_start=p0, phi_end=p1, iterations=int(it),
+                               evaluations=int(nev), converged=it < fd_max_iter,
+                               status=f"fd gradient descent (Remark 5.1, eps {eps:g})",
+                               seconds=time.perf_counter() - th, history=[p0, p1]))
+    return X, out, branch
