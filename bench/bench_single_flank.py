@@ -8,8 +8,7 @@ How the comparison is made (and why)
 ------------------------------------
 * Same rotor, flank, tool (ConeTool(asin 0.1, 0.05, 0.08, 0.04, 0.6)), tolerance 1e-3, 18 first-round
   seeds, same collision / cover / junction / verify stages: only the pose optimiser differs
-  (``candidate_strips(optimizer=...)``, patched into multi_strip for the baseline run; the
-  pipeline's own argument for it is a proposal to the multi_strip owner).
+  (``plan_single_flank(optimizer=...)``).
 * Ours: the pipeline's default, hard mode (no overcut along the axis, Eq. (30) style).
   Baseline: :func:`single_flank.fd_gradient_descent_poses` (the paper's descent, anchored at each
   seed's depth like ours) with two stopping rules: the paper's |x_(i+1) - x_i| < 1e-5 ("paper"),
@@ -19,10 +18,8 @@ How the comparison is made (and why)
 * Reported per run: stage timings, strips chosen, verify's max undercut / overcut (the machined
   errors, the figure of merit), uncovered ranges; the ratio is total baseline time / total ours.
   "Equal or lower max error" is checked on verify's max undercut with overcut >= -1e-6 R.
-* Junctions: the pipeline samples the two tools of every pair again (2.9 s); the bench also runs the
-  proposed multi_strip change (one ``junction_kinks_chain`` over the chosen strips fed with the
-  cover's deviations, ``AdaptiveCover.chosen_coverage``) by patching, for both optimisers alike; the
-  row "ours, junctions as-is" is the current multi_strip code.
+* Junctions: one ``junction_kinks_chain`` over the chosen strips, fed with the cover stage's
+  deviations (the same for both optimisers).
 * Amdahl: collision, cover and verify (~0.9 s here) are the same code in both pipelines, so the
   ratio of *totals* cannot reach 20x; the optimiser stage alone is compared in
   bench_single_flank_opt.py.
@@ -36,57 +33,17 @@ import time
 
 import numpy as np
 
-from flank_addon import multi_strip, single_flank as sf, strip_cover
+from flank_addon import multi_strip, single_flank as sf
 from flank_addon.cone import ConeTool
 from flank_addon.rotors import builtin_by_name
 
 TOOL = ConeTool(math.asin(0.1), 0.05, 0.08, 0.04, 0.6)
 
 
-def _with_cover_deviations():
-    """Patch strip_cover so the pipeline's per-pair junction_kinks calls are answered by one
-    junction_kinks_chain over the chosen strips (in the pipeline's flank order) fed with the cover
-    stage's deviations (the proposed multi_strip change).  Returns an undo function."""
-    orig_cover, orig_junc = strip_cover.adaptive_cover, strip_cover.junction_kinks
-    state = {}
-
-    def cover(*a, **k):
-        res = orig_cover(*a, **k)
-        state.clear()
-        state["cover"] = res
-        return res
-
-    def junc(a, b, surface, flank_range=None, **kw):
-        cov = state.get("cover")
-        if cov is None:
-            return orig_junc(a, b, surface, flank_range, **kw)
-        if "pairs" not in state:
-            order = sorted(range(len(cov.poses)), key=lambda i: min((iv[0] for iv in cov.intervals[i]), default=math.inf))
-            poses = [cov.poses[i] for i in order]
-            devs = np.array([cov.chosen_coverage[i].deviation for i in order])
-            ch = strip_cover.junction_kinks_chain(poses, surface, flank_range, samples=cov.samples, deviations=devs)
-            state["pairs"] = {(id(p), id(q)): js for p, q, js in zip(poses, poses[1:], ch)}
-        return state["pairs"][(id(a), id(b))]
-
-    strip_cover.adaptive_cover, strip_cover.junction_kinks = cover, junc
-
-    def undo():
-        strip_cover.adaptive_cover, strip_cover.junction_kinks = orig_cover, orig_junc
-    return undo
-
-
-def run(surface, flanks, flank, n_seeds, optimizer=None, cover_devs=True):
-    orig = multi_strip.candidate_strips
-    if optimizer is not None:
-        multi_strip.candidate_strips = functools.partial(sf.candidate_strips, optimizer=optimizer)
-    undo = _with_cover_deviations() if cover_devs else (lambda: None)
-    try:
-        t = time.perf_counter()
-        res = multi_strip.plan_single_flank(surface, flanks, flank, TOOL, 1e-3, n_seeds=n_seeds)
-        total = time.perf_counter() - t
-    finally:
-        multi_strip.candidate_strips = orig
-        undo()
+def run(surface, flanks, flank, n_seeds, optimizer=None):
+    t = time.perf_counter()
+    res = multi_strip.plan_single_flank(surface, flanks, flank, TOOL, 1e-3, n_seeds=n_seeds, optimizer=optimizer)
+    total = time.perf_counter() - t
     v = res.verify
     return dict(total=total, t=res.timings, strips=len(res.strips), cands=len(res.candidates),
                 max_err=v["max_undercut"], min_err=v["max_overcut"], uncovered=res.uncovered,
@@ -96,13 +53,13 @@ def run(surface, flanks, flank, n_seeds, optimizer=None, cover_devs=True):
 def main(repeats=3, name="asymmetric-female", flank=1, n_seeds=18):
     r = builtin_by_name(name)
     s = r.surface()
-    runs = {"ours": [], "ours, junctions as-is": [], "paper (eps 1e-5)": [], "paper (to convergence)": []}
-    opts = {"ours": None, "ours, junctions as-is": None,
+    runs = {"ours": [], "paper (eps 1e-5)": [], "paper (to convergence)": []}
+    opts = {"ours": None,
             "paper (eps 1e-5)": sf.fd_gradient_descent_poses,
             "paper (to convergence)": functools.partial(sf.fd_gradient_descent_poses, eps=1e-9, fd_max_iter=20000)}
     for _ in range(repeats):
         for k in runs:
-            runs[k].append(run(s, r.flanks, flank, n_seeds, opts[k], cover_devs=k != "ours, junctions as-is"))
+            runs[k].append(run(s, r.flanks, flank, n_seeds, opts[k]))
     stages = ("candidates", "collision", "cover", "junctions", "verify")
     print(f"{name} flank {flank}, {n_seeds} seeds, tol 1e-3, {repeats} alternating runs (min-max seconds)")
     print(f"{'optimiser':24s} {'total':>13s} " + " ".join(f"{st:>13s}" for st in stages)

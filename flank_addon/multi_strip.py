@@ -68,7 +68,7 @@ def _merge_ranges(ranges):
 def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tolerance=None, n_seeds=18,
                       objective="phi1", mode="hard", max_rounds=4, n_profile=2048, n_cover=500,
                       to_world=None, length_unit="R", check_collisions=True, z_range=None, g1=False,
-                      g1_weight=1.0):
+                      g1_weight=1.0, optimizer=None):
     """Plan strips of the cone ``tool`` (:class:`cone.ConeTool`) on flank index ``flank`` so the
     machined flank stays within [-overcut_tolerance, tolerance] of the design (signed, + = stock).
 
@@ -80,9 +80,10 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
     collisions, see :func:`collision.check_collisions`).  With ``g1`` the chosen strips are
     re-optimised together with a tangency term at their junctions (:func:`refine_g1`), weight
     ``g1_weight`` halved until the machined flank still meets the tolerance band (kept only then).
-    Returns :class:`SingleFlankResult`."""
+    ``optimizer``: replaces :func:`single_flank.optimize_poses` (same signature; the benchmark passes
+    the paper's gradient descent).  Returns :class:`SingleFlankResult`."""
     from .collision import check_collisions as collide
-    from .strip_cover import adaptive_cover, junction_kinks
+    from .strip_cover import adaptive_cover, junction_kinks_chain
     from .verify import verify_plan
 
     t0 = time.perf_counter()
@@ -116,7 +117,7 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
         per = initial_positions(surface, u_range, tool, u=np.asarray(us, float), feet=ev.feet)
         seeds = [c[0] for c in per if c]
         cands = candidate_strips(surface, u_range, tool, seeds=seeds, objective=objective, mode=mode,
-                                 evaluator=ev, flank=flank) if seeds else []
+                                 evaluator=ev, flank=flank, optimizer=optimizer) if seeds else []
         timings["candidates"] += time.perf_counter() - ts
         if not cands:
             return []
@@ -149,15 +150,15 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
     chosen = [cover.poses[i].candidate for i in order]
     uncovered = _merge_ranges([tuple(map(float, g)) for g in list(cover.gaps) + list(cover.uncovered)])
 
-    def kinks(strips):
-        out = []
-        for a, b in zip(strips[:-1], strips[1:]):
-            js = junction_kinks(a.pose, b.pose, surface, u_range, n=n_cover, samples=cover.samples)
-            out.append([{"u": float(j.u), "kink_deg": float(j.kink_deg)} for j in js])
-        return out
+    def kinks(strips, deviations=None):
+        chain = junction_kinks_chain([c.pose for c in strips], surface, u_range, samples=cover.samples,
+                                     deviations=deviations)
+        return [[{"u": float(j.u), "kink_deg": float(j.kink_deg)} for j in js] for js in chain]
 
     ts = time.perf_counter()
-    junctions = kinks(chosen)
+    # the cover stage already has each chosen strip's deviation at the flank samples
+    devs = np.array([cover.chosen_coverage[i].deviation for i in order]) if len(order) > 1 else None
+    junctions = kinks(chosen, devs)
     timings["junctions"] = time.perf_counter() - ts
     g1_report = None
     if g1 and len(chosen) > 1:
