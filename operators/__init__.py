@@ -15,6 +15,7 @@ from .paraboloid import FLANK_OT_paraboloid_groove
 from .formed_cutter import FLANK_OT_formed_cutter
 from .double_flank import FLANK_OT_plan_double_flank
 from .single_flank import FLANK_OT_plan_single_flank
+from .cutter_region import FLANK_OT_cutter_region
 
 classes = (
     FLANK_PG_settings,
@@ -25,8 +26,9 @@ classes = (
     FLANK_OT_formed_cutter,
     FLANK_OT_plan_double_flank,
     FLANK_OT_plan_single_flank,
+    FLANK_OT_cutter_region,
 )
 
 __all__ = ["classes", "FLANK_PG_settings", "FLANK_OT_generate_rotor", "FLANK_OT_analyze_rotor",
            "FLANK_OT_verify_plan", "FLANK_OT_paraboloid_groove", "FLANK_OT_formed_cutter",
-           "FLANK_OT_plan_double_flank", "FLANK_OT_plan_single_flank"]
+           "FLANK_OT_plan_double_flank", "FLANK_OT_plan_single_flank", "FLANK_OT_cutter_region"]

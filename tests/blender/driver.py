@@ -1337,9 +1337,51 @@ def scenario_single_flank(bpy, res, args):
     res["undo"] = undo
 
 
+def scenario_cutter_region(bpy, res, args):
+    """flank.cutter_region on flank 1 of the generated asymmetric female: the cloud and marker against the core
+    run here; a too-large cone is a WARNING with the core's message; bad input creates nothing."""
+    import numpy as np
+
+    cs, cone, rotors = _core("cutter_selection"), _core("cone"), _core("rotors")
+    ret, err = _run_op(bpy.ops.flank.generate_rotor, kind="asymmetric", part="female", resolution=360, axial=24)
+    rotor_obj = bpy.context.active_object
+    G = 8
+    r = rotors.builtin_by_name("asymmetric-female")
+    dup = cs.flank_dupin(r.surface(), r.flanks, 1)
+    bounds = cs.custom_tool_bounds(r.surface(), r.flanks, 0)
+    region = cs.admissible_region(dup, bounds, n=(G, G, G))
+    out = {}
+    for name, kw in (("small", dict(r1=0.02, r2=0.04, alpha=0.1)), ("large", dict(r1=0.1, r2=0.5, alpha=0.3))):
+        bpy.context.view_layer.objects.active = rotor_obj
+        s0 = _snapshot4(bpy)
+        ret, err = _run_op(bpy.ops.flank.cutter_region, flank=1, grid=G, **kw)
+        s1 = _snapshot4(bpy)
+        coll = bpy.data.collections.get("Cutter Region ({}, flank 1)".format(rotor_obj.name))
+        cloud = bpy.data.objects.get("Cutter Region ({}, flank 1)".format(rotor_obj.name))
+        adm = cs.is_admissible(cone.ConeTool(kw["alpha"], kw["r1"], kw["r2"]), dup, bounds)
+        flags = _float_attr(np, cloud.data, "admissible") if cloud is not None else None
+        out[name] = dict(result=ret, error=err, new=[s1[i] - s0[i] for i in range(4)],
+                         collection=coll is not None,
+                         flag_sum=None if flags is None else int(round(float(np.sum(flags)))),
+                         n_points=None if cloud is None else len(cloud.data.vertices),
+                         prop_admissible=None if cloud is None else bool(cloud.get("flank_cr_admissible")),
+                         prop_message=None if cloud is None else cloud.get("flank_cr_message"),
+                         core_ok=bool(adm.ok), core_message=adm.message,
+                         core_mask_sum=int(region.mask.sum()))
+    s0 = _snapshot4(bpy)
+    bpy.context.view_layer.objects.active = rotor_obj
+    ret, err = _run_op(bpy.ops.flank.cutter_region, flank=1, r1=0.08, r2=0.05)
+    out["bad_radii"] = dict(result=ret, error=err, new=[_snapshot4(bpy)[i] - s0[i] for i in range(4)])
+    s0 = _snapshot4(bpy)
+    ret, err = _run_op(bpy.ops.flank.cutter_region, flank=99)
+    out["bad_flank"] = dict(result=ret, error=err, new=[_snapshot4(bpy)[i] - s0[i] for i in range(4)])
+    res["cutter_region"] = out
+
+
 SCENARIOS = {"lifecycle": scenario_lifecycle, "operators": scenario_operators, "verify": scenario_verify,
              "paraboloid": scenario_paraboloid, "formed_cutter": scenario_formed_cutter,
-             "double_flank": scenario_double_flank, "single_flank": scenario_single_flank}
+             "double_flank": scenario_double_flank, "single_flank": scenario_single_flank,
+             "cutter_region": scenario_cutter_region}
 
 
 def main():
