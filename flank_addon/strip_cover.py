@@ -39,7 +39,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .screw import screw_motion
-from .sweep import FrustumPart, RevolvingTool, StackedTools, StripTool, _sphere_chain, helical_distance
+from .sweep import (FrustumPart, RevolvingTool, StackedTools, StripTool, _sphere_chain, helical_distance,
+                    illinois_roots)
 
 _ROW_CHUNK = 4096
 
@@ -172,22 +173,7 @@ def _row_roots(stack, which, p, n, v0, hand, search, tol):
         lo[idx[keep]], f_lo[idx[keep]] = lam[keep], f_new[keep]
         active[idx[crossed | out]] = False
     found = (np.sign(f_hi) != np.sign(f_lo)) | (f_lo == 0)
-    side = np.zeros(R)
-    for _ in range(100):          # Illinois on the brackets
-        idx = np.flatnonzero(found & (np.abs(hi - lo) > tol) & (f_hi != 0))
-        if not len(idx):
-            break
-        l, fl, h, fh = lo[idx], f_lo[idx], hi[idx], f_hi[idx]
-        m = np.where(fh != fl, h - fh * (h - l) / np.where(fh != fl, fh - fl, 1.0), 0.5 * (l + h))
-        m = np.where((m - l) * (m - h) < 0, m, 0.5 * (l + h))
-        fm = D(m, idx, np.minimum(np.abs(fh) + np.abs(h - l) + eps, cutoff))
-        same_hi = np.sign(fm) == np.sign(fh)
-        lo[idx] = np.where(same_hi, l, h)
-        f_lo[idx] = np.where(same_hi, np.where(side[idx] == 1, 0.5 * fl, fl), fh)
-        side[idx] = np.where(same_hi, 1, -1)
-        hi[idx], f_hi[idx] = m, fm
-    root = np.where(np.abs(f_hi) <= np.abs(f_lo), hi, lo)
-    root = np.where(f_lo == 0, lo, root)
+    root = illinois_roots(D, lo, hi, f_lo, f_hi, found, tol, eps, cutoff)
     # inside the swept region with no exit within the search range: an overcut deeper than it
     return np.where(found, root, np.where(d0 < 0, -np.inf, np.inf))
 

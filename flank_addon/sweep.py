@@ -579,6 +579,30 @@ def helical_distance(tool, points, v0, handedness="right", step=None, iters=None
     return out_d, out_t
 
 
+def illinois_roots(D, lo, hi, f_lo, f_hi, found, tol, slack, cutoff):
+    """Illinois (modified regula falsi) on brackets [lo, hi] of D along each row's normal, only for rows
+    ``found`` with a sign change and not yet narrower than ``tol``.  D(lam, idx, bound) evaluates the
+    rows idx at lam with a distance cutoff; the cutoff passed is |f_hi| + bracket width + ``slack``
+    (f_hi is never halved, so it bounds the distance), capped at ``cutoff``.  The arrays are updated
+    in place; returns the root estimate per row (meaningful where ``found``)."""
+    side = np.zeros(len(lo))
+    for _ in range(100):
+        idx = np.flatnonzero(found & (np.abs(hi - lo) > tol) & (f_hi != 0))
+        if not len(idx):
+            break
+        l, fl, h, fh = lo[idx], f_lo[idx], hi[idx], f_hi[idx]
+        m = np.where(fh != fl, h - fh * (h - l) / np.where(fh != fl, fh - fl, 1.0), 0.5 * (l + h))
+        m = np.where((m - l) * (m - h) < 0, m, 0.5 * (l + h))
+        fm = D(m, idx, np.minimum(np.abs(fh) + np.abs(h - l) + slack, cutoff))
+        same_hi = np.sign(fm) == np.sign(fh)
+        lo[idx] = np.where(same_hi, l, h)
+        f_lo[idx] = np.where(same_hi, np.where(side[idx] == 1, 0.5 * fl, fl), fh)
+        side[idx] = np.where(same_hi, 1, -1)
+        hi[idx], f_hi[idx] = m, fm
+    root = np.where(np.abs(f_hi) <= np.abs(f_lo), hi, lo)
+    return np.where(f_lo == 0, lo, root)
+
+
 def machined_deviation(tools, points, normals, v0, handedness="right", max_deviation=None, tol=1e-12):
     """Signed deviation of design points from the simulated machined surface, along their normals.
 
@@ -648,21 +672,5 @@ def machined_deviation(tools, points, normals, v0, handedness="right", max_devia
         lo[idx[keep]], f_lo[idx[keep]] = lam[keep], f_new[keep]
         active[idx[crossed | out]] = False
     found = (np.sign(f_hi) != np.sign(f_lo)) | (f_lo == 0)
-    # Illinois (modified regula falsi) on the bracket, only for points not yet converged
-    side = np.zeros(len(p))
-    for _ in range(100):
-        idx = np.flatnonzero(found & (np.abs(hi - lo) > tol) & (f_hi != 0))
-        if not len(idx):
-            break
-        l, fl, h, fh = lo[idx], f_lo[idx], hi[idx], f_hi[idx]
-        m = np.where(fh != fl, h - fh * (h - l) / np.where(fh != fl, fh - fl, 1.0), 0.5 * (l + h))
-        m = np.where((m - l) * (m - h) < 0, m, 0.5 * (l + h))
-        fm = D(m, idx, np.minimum(np.abs(fh) + np.abs(h - l) + 1e-9 * scale, cutoff))   # fh is never halved
-        same_hi = np.sign(fm) == np.sign(fh)
-        lo[idx] = np.where(same_hi, l, h)
-        f_lo[idx] = np.where(same_hi, np.where(side[idx] == 1, 0.5 * fl, fl), fh)
-        side[idx] = np.where(same_hi, 1, -1)
-        hi[idx], f_hi[idx] = m, fm
-    root = np.where(np.abs(f_hi) <= np.abs(f_lo), hi, lo)
-    root = np.where(f_lo == 0, lo, root)
+    root = illinois_roots(D, lo, hi, f_lo, f_hi, found, tol, 1e-9 * scale, cutoff)
     return np.where(found, root, np.inf)
