@@ -22,7 +22,7 @@ MODULE = "bl_ext.{}.{}".format(REPO, EXT_ID)
 CLASS_NAMES = ("FLANK_OT_generate_rotor", "FLANK_OT_analyze_rotor", "FLANK_OT_verify_plan",
                "FLANK_OT_paraboloid_groove", "FLANK_OT_formed_cutter", "FLANK_PT_workpiece", "FLANK_PT_verify",
                "FLANK_PT_paraboloid", "FLANK_PT_formed_cutter", "FLANK_OT_plan_double_flank", "FLANK_PT_double_flank",
-               "FLANK_OT_plan_single_flank", "FLANK_PT_single_flank")
+               "FLANK_OT_plan_single_flank", "FLANK_PT_single_flank", "FLANK_OT_cutter_region")
 PANEL_NAMES = ("FLANK_PT_workpiece", "FLANK_PT_verify", "FLANK_PT_paraboloid", "FLANK_PT_formed_cutter",
                "FLANK_PT_double_flank", "FLANK_PT_single_flank")
 

@@ -26,7 +26,7 @@ def test_install_registers_everything(lifecycle):
     assert all(state["classes"].values()), state["classes"]
     assert state["scene_prop"] and state["scene_rna_props"] == ["flank_settings"]
     assert {"generate_rotor", "analyze_rotor", "verify_plan", "paraboloid_groove", "formed_cutter",
-            "plan_double_flank", "plan_single_flank"} <= set(state["ops"])
+            "plan_double_flank", "plan_single_flank", "cutter_region"} <= set(state["ops"])
 
 
 def test_sidebar_panel_in_flank_tab(lifecycle):
