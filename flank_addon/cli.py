@@ -408,6 +408,42 @@ def _cmd_builtins(args):
     return 0
 
 
+def _cmd_export(args):
+    from . import exports
+    from .plan import read_plan
+
+    plan = read_plan(args.plan)
+    z_range = None
+    if args.z_range is not None:
+        try:
+            z_range = tuple(float(v) for v in args.z_range.split(","))
+        except ValueError:
+            z_range = ()
+        if len(z_range) != 2:
+            raise ValueError(f"--z-range {args.z_range!r} must be Z0,Z1 (two numbers)")
+    if args.strip is not None:
+        exports.strip_tip(plan, args.strip)          # names a missing strip before any work
+    t0 = time.perf_counter()
+    if args.cl:
+        text = exports.cl_data(plan, strip=args.strip, steps=args.steps, z_range=z_range)
+        with open(args.cl, "w") as fh:
+            fh.write(text)
+        n = text.count("\nGOTO/")
+        what = f"CL data, {n} GOTO steps, to {args.cl}"
+    elif args.error_csv:
+        text = exports.error_profile_csv(plan)
+        with open(args.error_csv, "w") as fh:
+            fh.write(text)
+        what = f"error profile, {text.count(chr(10)) - 1} points, to {args.error_csv}"
+    else:
+        fmt, prefix = ("stl", args.strips_stl) if args.strips_stl else ("ply", args.strips_ply)
+        paths = exports.write_strip_meshes(plan, prefix, fmt, strip=args.strip, z_range=z_range,
+                                           n_t=min(args.steps, 2000) + 1)
+        what = f"{len(paths)} strip envelope(s): {', '.join(paths)}"
+    print(f"wrote {what} in {time.perf_counter() - t0:.2f} s")
+    return 0
+
+
 def build_parser():
     p = argparse.ArgumentParser(prog="python -m flank_addon",
                                 description="5-axis flank-milling planner for helical surfaces")
@@ -521,6 +557,18 @@ def build_parser():
     st.add_argument("--samples", type=int, default=400, help="flank profile samples (default 400)")
     st.add_argument("--json", action="store_true")
     st.set_defaults(func=_cmd_suggest_tool)
+
+    ex = sub.add_parser("export", help="export a plan: APT CL data, error profile CSV, strip envelopes")
+    ex.add_argument("plan", help="flank-plan/1 JSON")
+    out = ex.add_mutually_exclusive_group(required=True)
+    out.add_argument("--cl", metavar="OUT.apt", help="APT-style CL data (GOTO/x,y,z,i,j,k + rotor angle, feed)")
+    out.add_argument("--error-csv", metavar="OUT.csv", help="verified deviation per target profile point")
+    out.add_argument("--strips-stl", metavar="PREFIX", help="strip envelopes as PREFIX_<k>.stl")
+    out.add_argument("--strips-ply", metavar="PREFIX", help="strip envelopes as PREFIX_<k>.ply")
+    ex.add_argument("--strip", type=int, help="only strip K (default: all)")
+    ex.add_argument("--steps", type=int, default=360, help="steps over the z range (default 360)")
+    ex.add_argument("--z-range", help="Z0,Z1 rotor-frame range of the tool tip (default 0,lead)")
+    ex.set_defaults(func=_cmd_export)
 
     b = sub.add_parser("builtins", help="list built-in rotor names (KIND-PART)")
     b.set_defaults(func=_cmd_builtins)
