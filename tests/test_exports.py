@@ -192,3 +192,22 @@ def test_cli_export(single, tmp_path, capsys):
         err = capsys.readouterr().err
         assert err.startswith("error: ") and err.count("\n") == 1
     assert main(["export", str(tmp_path / "missing.json"), "--cl", "x.apt"]) == 2
+
+
+def test_paraboloid_strip_envelope_and_tip(single):
+    """A paraboloid lens (s002) on a radial axis: envelope on the swept lens, tip at the lower apex."""
+    import copy
+
+    plan = copy.deepcopy(single)
+    s = plan["strips"][0]
+    s.update(axis_start=[0.9, 0.05, 0.1], axis_end=[1.2, 0.1, 0.15], paraboloid={"a": -8.0, "b": 0.03})
+    rot = plan["rotor"]
+    verts, faces = strip_mesh(plan, 0, n_s=60, n_t=9, branch="both")
+    assert len(verts) > 60 * 9 and faces.max() < len(verts)
+    D, _ = helical_distance(StripTool.from_strip(s, with_shank=False), verts[::3], rot["v0"], rot["handedness"])
+    assert np.abs(D).max() < 1e-6 * rot["outer_radius"]
+    xyz = parse_cl(cl_data(plan, strip=0, steps=3))[0][0]
+    a = np.subtract(s["axis_end"], s["axis_start"]) / np.linalg.norm(np.subtract(s["axis_end"], s["axis_start"]))
+    t = (s["axis_start"][2] - 0.03 * a[2] - xyz[:, 2]) / rot["v0"]
+    assert np.allclose(screw_motion(xyz[:, :3], t, rot["v0"], rot["handedness"]),
+                       np.asarray(s["axis_start"]) - 0.03 * a, atol=1e-8)
