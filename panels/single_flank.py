@@ -28,10 +28,8 @@ class FLANK_PT_single_flank(bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         settings_and_operator(layout, context, "flank.plan_single_flank", 'MOD_SCREW', SF_PROPS, "sf_")
-        st = getattr(context.scene, "flank_settings", None)
-        op = layout.operator("flank.cutter_region", icon='CHECKMARK')
-        if st is not None and getattr(st, "sf_shape", "alpha") == "alpha":
-            op.flank, op.r1, op.r2, op.alpha = st.sf_flank, st.sf_r1, st.sf_r2, st.sf_alpha
+        row = layout.row()          # flank.cutter_region takes flank and cone from the sf_* settings above
+        row.operator("flank.cutter_region", text="Check Tool", icon='CHECKMARK')
 
         obj = context.active_object
         if obj is None or "flank_sf_strips" not in obj:

@@ -1337,44 +1337,152 @@ def scenario_single_flank(bpy, res, args):
     res["undo"] = undo
 
 
+def _cr_run(bpy, np, rotor_obj, active=None, **kw):
+    """Run flank.cutter_region with ``active`` (default the rotor) active; the cloud and marker as facts."""
+    bpy.context.view_layer.objects.active = rotor_obj if active is None else active
+    s0 = _snapshot4(bpy)
+    t0 = time.perf_counter()
+    ret, err = _run_op(bpy.ops.flank.cutter_region, **kw)
+    out = dict(result=ret, error=err, seconds=time.perf_counter() - t0,
+               new=[_snapshot4(bpy)[i] - s0[i] for i in range(4)])
+    k = kw.get("flank", bpy.context.scene.flank_settings.sf_flank)
+    cloud = bpy.data.objects.get("Cutter Region (flank {})".format(k))
+    marker = bpy.data.objects.get("Cutter Region (flank {}) Tool".format(k))
+    if ret is None or cloud is None or marker is None:
+        return out, None
+    coll = cloud.users_collection[0]
+    flags = _float_attr(np, cloud.data, "admissible")
+    fa = cloud.data.attributes.get("failed")
+    bits = np.empty(len(fa.data), dtype=np.int32) if fa is not None else None
+    if fa is not None:
+        fa.data.foreach_get("value", bits)
+    cols = _color_attr(np, cloud.data, "admissible_color")
+    mflags = _float_attr(np, marker.data, "admissible")
+    props = _obj_props(cloud)
+    out.update(collection=coll.name, parent=[c.name for c in bpy.data.collections if coll.name in c.children],
+               cloud=cloud.name, marker=marker.name, active=bpy.context.active_object.name,
+               n_points=len(cloud.data.vertices), n_edges=len(cloud.data.edges), n_faces=len(cloud.data.polygons),
+               attrs=sorted(a.name for a in cloud.data.attributes if not a.name.startswith(".")),
+               flag_sum=int(round(float(flags.sum()))), flag_values=sorted(set(float(v) for v in flags)),
+               green=int(np.all(np.abs(cols - [0.15, 0.75, 0.25, 1.0]) < 1e-6, axis=1).sum()),
+               red=int(np.all(np.abs(cols - [0.85, 0.15, 0.10, 1.0]) < 1e-6, axis=1).sum()),
+               bits_of_admissible=sorted(set(int(v) for v in bits[flags > 0.5])),
+               zero_bits_of_other=int((bits[flags < 0.5] == 0).sum()),
+               marker_flags=sorted(set(float(v) for v in mflags)), marker_color=list(marker.color),
+               props=props, marker_props=_obj_props(marker), coll_props=_obj_props(coll),
+               rotor_props={k_: v for k_, v in _obj_props(rotor_obj).items() if k_.startswith("flank_cr_")})
+    return out, dict(cloud=cloud, marker=marker, flags=flags, bits=bits)
+
+
 def scenario_cutter_region(bpy, res, args):
-    """flank.cutter_region on flank 1 of the generated asymmetric female: the cloud and marker against the core
-    run here; a too-large cone is a WARNING with the core's message; bad input creates nothing."""
+    """flank.cutter_region on flank 1 of the generated asymmetric female against the core run here (default
+    (24, 40, 40) grid): flank and cone from the Single Flank scene settings, the cloud's admissible points
+    decoded from the chart equal the core's, the marker's flag equals is_admissible; a too-large cone
+    (r2 = 0.5 R) is a WARNING with the core's message; object scale 2; cone by length; bad input creates
+    nothing."""
+    import math
+
     import numpy as np
 
     cs, cone, rotors = _core("cutter_selection"), _core("cone"), _core("rotors")
     ret, err = _run_op(bpy.ops.flank.generate_rotor, kind="asymmetric", part="female", resolution=360, axial=24)
     rotor_obj = bpy.context.active_object
-    G = 8
     r = rotors.builtin_by_name("asymmetric-female")
+    t0 = time.perf_counter()
     dup = cs.flank_dupin(r.surface(), r.flanks, 1)
     bounds = cs.custom_tool_bounds(r.surface(), r.flanks, 0)
-    region = cs.admissible_region(dup, bounds, n=(G, G, G))
-    out = {}
-    for name, kw in (("small", dict(r1=0.02, r2=0.04, alpha=0.1)), ("large", dict(r1=0.1, r2=0.5, alpha=0.3))):
-        bpy.context.view_layer.objects.active = rotor_obj
-        s0 = _snapshot4(bpy)
-        ret, err = _run_op(bpy.ops.flank.cutter_region, flank=1, grid=G, **kw)
-        s1 = _snapshot4(bpy)
-        coll = bpy.data.collections.get("Cutter Region ({}, flank 1)".format(rotor_obj.name))
-        cloud = bpy.data.objects.get("Cutter Region ({}, flank 1)".format(rotor_obj.name))
-        adm = cs.is_admissible(cone.ConeTool(kw["alpha"], kw["r1"], kw["r2"]), dup, bounds)
-        flags = _float_attr(np, cloud.data, "admissible") if cloud is not None else None
-        out[name] = dict(result=ret, error=err, new=[s1[i] - s0[i] for i in range(4)],
-                         collection=coll is not None,
-                         flag_sum=None if flags is None else int(round(float(np.sum(flags)))),
-                         n_points=None if cloud is None else len(cloud.data.vertices),
-                         prop_admissible=None if cloud is None else bool(cloud.get("flank_cr_admissible")),
-                         prop_message=None if cloud is None else cloud.get("flank_cr_message"),
-                         core_ok=bool(adm.ok), core_message=adm.message,
-                         core_mask_sum=int(region.mask.sum()))
-    s0 = _snapshot4(bpy)
+    region = cs.admissible_region(dup, bounds)
+    core_seconds = time.perf_counter() - t0
+    core_points = region.points()
+    out = dict(rotor=rotor_obj.name, core_seconds=core_seconds, core_mask_sum=int(region.mask.sum()),
+               core_cone_sum=int(region.cone.sum()), core_a_min=float(dup.a_min),
+               core_hyperbolic_fraction=float(dup.hyperbolic_fraction), core_bounds=bounds.as_dict(),
+               core_ranges=region.ranges())
+
+    def core_check(alpha, r1, r2):
+        adm = cs.is_admissible(cone.ConeTool(alpha, r1, r2), dup, bounds)
+        return dict(core_ok=bool(adm.ok), core_message=adm.message)
+
+    def decode(objs, props, s=1.0):
+        """Cloud vertices back to (alpha, r1c, r2c) in rotor units through the documented chart mapping."""
+        co = _mesh_co(np, objs["cloud"]).astype(np.float64) / np.array(props["flank_cr_chart_scale"])
+        co[:, 1:] /= s
+        return co
+
+    def same_points(p, q):
+        if len(p) != len(q):
+            return False
+        p, q = p[np.lexsort(p.T[::-1])], q[np.lexsort(q.T[::-1])]
+        return float(np.abs(p - q).max())
+
+    # flank and cone from the Single Flank settings (no operator arguments)
+    st = bpy.context.scene.flank_settings
+    st.sf_flank, st.sf_r1, st.sf_r2, st.sf_alpha = 1, 0.02, 0.04, 0.1
+    h, objs = _cr_run(bpy, np, rotor_obj)
+    h.update(core_check(0.1, 0.02, 0.04))
+    if objs is not None:
+        h["decoded_max_diff"] = same_points(decode(objs, h["props"])[objs["flags"] > 0.5], core_points)
+        h["marker_centre"] = [float(v) for v in _mesh_co(np, objs["marker"]).mean(axis=0)]
+        h["cloud_location"] = [float(v) for v in objs["cloud"].matrix_world.translation]
+    res["panels"] = _draw_panels(bpy, bpy.context.active_object)
+    out["small"] = h
+
+    # too large (r2 = 0.5 R), run with the marker of the last run active (the rotor found through flank_cr_rotor)
+    marker = bpy.data.objects.get("Cutter Region (flank 1) Tool")
+    h, objs = _cr_run(bpy, np, rotor_obj, active=marker, flank=1, r1=0.1, r2=0.5, alpha=0.3)
+    h.update(core_check(0.3, 0.1, 0.5))
+    out["large"] = h
+
+    # object scale 2: radii in scene units are twice the rotor's
+    rotor_obj.scale = (2.0, 2.0, 2.0)
+    bpy.context.view_layer.update()
+    h, objs = _cr_run(bpy, np, rotor_obj, flank=1, r1=0.04, r2=0.08, alpha=0.1)
+    h.update(core_check(0.1, 0.02, 0.04))
+    if objs is not None:
+        h["decoded_max_diff"] = same_points(decode(objs, h["props"], 2.0)[objs["flags"] > 0.5], core_points)
+    out["scaled"] = h
+    rotor_obj.scale = (1.0, 1.0, 1.0)
+    bpy.context.view_layer.update()
+
+    # cone given by length in the Single Flank settings: alpha = atan((r2 - r1) / h)
+    st.sf_shape, st.sf_length, st.sf_flank = "length", 0.2, 2
+    h, objs = _cr_run(bpy, np, rotor_obj)
+    h.update(core_check(math.atan2(0.02, 0.2), 0.02, 0.04))
+    h["expected_alpha"] = math.atan2(0.02, 0.2)
+    out["by_length"] = h
+    st.sf_shape, st.sf_flank = "alpha", 1
+
+    for name, kw in (("bad_radii", dict(flank=1, r1=0.08, r2=0.05)), ("bad_flank", dict(flank=99)),
+                     ("bad_alpha", dict(flank=1, alpha=2.0)), ("bad_grid", dict(flank=1, grid=(1, 40, 40)))):
+        before = {k_: v for k_, v in _obj_props(rotor_obj).items() if k_.startswith("flank_cr_")}
+        h, _ = _cr_run(bpy, np, rotor_obj, **kw)
+        h["rotor_props_unchanged"] = before == {k_: v for k_, v in _obj_props(rotor_obj).items()
+                                                if k_.startswith("flank_cr_")}
+        out[name] = h
+
+    # undo / redo (pushed around the run as the UI does for bl_options UNDO; see scenario_single_flank)
+    def state():
+        return dict(objects=sorted(o.name for o in bpy.data.objects),
+                    collections=sorted(c.name for c in bpy.data.collections), meshes=len(bpy.data.meshes))
+
+    undo = dict(bl_options=sorted(bpy.types.FLANK_OT_cutter_region.bl_options))
     bpy.context.view_layer.objects.active = rotor_obj
-    ret, err = _run_op(bpy.ops.flank.cutter_region, flank=1, r1=0.08, r2=0.05)
-    out["bad_radii"] = dict(result=ret, error=err, new=[_snapshot4(bpy)[i] - s0[i] for i in range(4)])
-    s0 = _snapshot4(bpy)
-    ret, err = _run_op(bpy.ops.flank.cutter_region, flank=99)
-    out["bad_flank"] = dict(result=ret, error=err, new=[_snapshot4(bpy)[i] - s0[i] for i in range(4)])
+    bpy.ops.ed.undo_push(message="before cutter region")
+    undo["before"] = state()
+    h, _ = _cr_run(bpy, np, rotor_obj, flank=3)
+    bpy.ops.ed.undo_push(message="Check Tool")
+    undo.update(result=h["result"], error=h["error"], after_run=state())
+    try:
+        bpy.ops.ed.undo()
+        undo["after_undo"] = state()
+        bpy.ops.ed.redo()
+        undo["after_redo"] = state()
+        cloud = bpy.data.objects.get("Cutter Region (flank 3)")
+        undo["redo_attrs"] = sorted(a.name for a in cloud.data.attributes if not a.name.startswith(".")) \
+            if cloud is not None else None
+    except Exception as ex:
+        undo["error"] = "{}: {}".format(type(ex).__name__, ex)
+    out["undo"] = undo
     res["cutter_region"] = out
 
 
