@@ -68,7 +68,7 @@ def _merge_ranges(ranges):
 def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tolerance=None, n_seeds=18,
                       objective="phi1", mode="hard", max_rounds=4, n_profile=2048, n_cover=500,
                       to_world=None, length_unit="R", check_collisions=True, z_range=None, g1=False,
-                      g1_weight=1.0, optimizer=None):
+                      g1_weight=1.0, g1_extra_strips=2, g1_target_deg=1.0, g1_rounds=2, optimizer=None):
     """Plan strips of the cone ``tool`` (:class:`cone.ConeTool`) on flank index ``flank`` so the
     machined flank stays within [-overcut_tolerance, tolerance] of the design (signed, + = stock).
 
@@ -77,9 +77,13 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
     flank profile); objective 'phi1' | 'phi3'; mode 'hard' (no overcut along the axis) | 'weighted'
     (w = 100, Remark 5.1); overcut_tolerance defaults to 1e-6 R.  z_range: the z slab the finite rotor
     occupies over the whole pass (None = an infinite rotor; a slab that is too short hides
-    collisions, see :func:`collision.check_collisions`).  With ``g1`` the chosen strips are
-    re-optimised together with a tangency term at their junctions (:func:`refine_g1`), weight
-    ``g1_weight`` halved until the machined flank still meets the tolerance band (kept only then).
+    collisions, see :func:`collision.check_collisions`).  With ``g1`` (when the flank is covered):
+    first the smoothest cover with at most ``g1_extra_strips`` more strips than the minimum is
+    chosen (:func:`strip_cover.smooth_cover`), seeding new candidates between neighbours whose
+    junction kinks more than ``g1_target_deg`` for ``g1_rounds`` rounds, and kept if its largest
+    exact kink is smaller; then the strips are re-optimised together with a tangency term at their
+    junctions (:func:`refine_g1`), weight ``g1_weight`` reduced until the machined flank still meets
+    the tolerance band (kept only then).
     ``optimizer``: replaces :func:`single_flank.optimize_poses` (same signature; the benchmark passes
     the paper's gradient descent).  Returns :class:`SingleFlankResult`."""
     from .collision import check_collisions as collide
@@ -161,6 +165,13 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
     junctions = kinks(chosen, devs)
     timings["junctions"] = time.perf_counter() - ts
     g1_report = None
+    selection = None
+    if g1 and len(chosen) > 1:
+        ts = time.perf_counter()
+        chosen, junctions, selection = _smooth_selection(cover, chosen, junctions, make_candidates, surface,
+                                                         u_range, tol, eps_over, int(g1_extra_strips),
+                                                         float(g1_target_deg), int(g1_rounds), kinks)
+        timings["g1_selection"] = time.perf_counter() - ts
     if g1 and len(chosen) > 1:
         ts = time.perf_counter()
         chosen, junctions, g1_report = _apply_g1(chosen, junctions, ev, cover.samples, surface, tol, eps_over,
@@ -189,6 +200,7 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
     plan["summary"]["uncovered_ranges"] = [list(g) for g in uncovered]
     plan["summary"]["junction_kinks_deg"] = [[j["kink_deg"] for j in js] for js in junctions]
     if g1_report is not None:
+        g1_report["selection"] = selection
         plan["summary"]["g1"] = g1_report
     return SingleFlankResult(plan=plan, strips=chosen, candidates=all_cands, collisions=collisions,
                              uncovered=uncovered, junctions=junctions,
@@ -244,9 +256,62 @@ def flank_of_point(surface, flank_ranges, point):
 
 
 # ============================================================================ G1 junctions
+def _smooth_selection(cover, chosen, junctions, make_candidates, surface, u_range, tol, eps_over, extra,
+                      target_deg, rounds, kinks):
+    """The G1 cover stage of :func:`plan_single_flank`: re-choose the strips from all candidates
+    by :func:`strip_cover.smooth_cover`; between neighbours whose estimated kink exceeds target_deg
+    seed a new candidate half way (denser strips overlap more and meet flatter), up to ``rounds``
+    times.  The new choice is kept if its largest exact kink is smaller than the minimum cover's.
+    Returns (strips, junctions, report)."""
+    from .strip_cover import covered_intervals, smooth_cover
+
+    def worst(js):
+        return max((j["kink_deg"] for jj in js for j in jj), default=0.0)
+
+    poses = list(cover.candidates)
+    coverage = list(cover.coverage)
+    report = {"extra_strips_allowed": extra, "target_deg": target_deg, "strips_before": len(chosen),
+              "max_kink_before_deg": worst(junctions), "seeded": 0, "kept": False}
+    sel = None
+    for r in range(rounds + 1):
+        sel = smooth_cover(coverage, cover.samples, extra=extra)
+        if sel is None or r == rounds:
+            break
+        seeds = []
+        for a, b, k in zip(sel.chosen, sel.chosen[1:], sel.kinks):
+            if k > target_deg:
+                ua, ub = poses[a].candidate.seed.u, poses[b].candidate.seed.u
+                if abs(ub - ua) > 1e-6 * abs(u_range[1] - u_range[0]):
+                    seeds.append(0.5 * (ua + ub))
+        if not seeds:
+            break
+        new = [p for p in make_candidates(np.asarray(seeds, float)) if p is not None]
+        report["seeded"] += len(seeds)
+        if not new:
+            break
+        cov = covered_intervals(new, surface, u_range, tol, eps_over, samples=cover.samples)
+        poses += new
+        coverage += cov.poses
+    if sel is None:
+        report["reason"] = "no admissible candidate"
+        return chosen, junctions, report
+    ks = list(dict.fromkeys(sel.chosen))                       # a pose may cover two pieces
+    strips = [poses[k].candidate for k in ks]
+    devs = np.array([coverage[k].deviation for k in ks])
+    js = kinks(strips, devs) if len(strips) > 1 else []
+    report.update(strips_after=len(strips), max_kink_after_deg=worst(js),
+                  estimated_kinks_deg=[float(k) for k in sel.kinks])
+    if worst(js) < report["max_kink_before_deg"]:
+        report["kept"] = True
+        return strips, js, report
+    report.update(strips_after=len(chosen), max_kink_after_deg=report["max_kink_before_deg"])
+    return chosen, junctions, report
+
+
 def _apply_g1(chosen, junctions, ev, samples, surface, tol, eps_over, weight, kinks):
     """Try :func:`refine_g1` with ``weight``, then a quarter and a sixteenth of it; keep the first
-    result whose strips together still hold the flank samples in [-eps_over, tol] and lower the
+    result whose strips together still hold in [-eps_over, tol] every flank sample they held before
+    (and overcut nowhere) and lower the
     root-mean-square kink (the quantity the tangency term minimises; where the flank is curved
     across a narrow strip a cone cannot meet G1 and those kinks stay).  Returns (strips, junctions,
     report)."""
@@ -267,13 +332,19 @@ def _apply_g1(chosen, junctions, ev, samples, surface, tol, eps_over, weight, ki
               "max_kink_after_deg": worst(junctions), "rms_kink_before_deg": rms(junctions),
               "rms_kink_after_deg": rms(junctions), "tried": []}
     search = 0.05 * float(surface.outer_radius)
+
+    def band(strips):
+        dev = pose_deviations([tool_of(c.pose) for c in strips], samples.points, samples.normals, surface.v0,
+                              surface.handedness, search).min(axis=0)
+        return dev, (dev >= -eps_over) & (dev <= tol)
+
+    _, held = band(chosen)          # what the strips hold now must stay held (an incomplete cover's gaps may stay)
     for w in (weight, weight / 4.0, weight / 16.0):
         X = refine_g1(chosen, ev, ju, weight=w)
         new = [replace(c, pose=params_pose(X[k], c.pose.tool), params=X[k].copy(),
                        errors=ev.axis_errors(X[k])) for k, c in enumerate(chosen)]
-        dev = pose_deviations([tool_of(c.pose) for c in new], samples.points, samples.normals, surface.v0,
-                              surface.handedness, search).min(axis=0)
-        ok = bool(np.all((dev >= -eps_over) & (dev <= tol)))
+        dev, inside = band(new)
+        ok = bool(np.all(inside[held]) and np.all(dev >= -eps_over))
         js = kinks(new)
         report["tried"].append({"weight": w, "within_tolerance": ok, "max_kink_deg": worst(js),
                                 "rms_kink_deg": rms(js), "max_deviation": float(np.max(dev)),

@@ -325,6 +325,117 @@ def minimum_interval_cover(intervals, lo, hi):
     return IntervalCover(chosen=chosen, gaps=gaps, complete=not gaps)
 
 
+def crossing_kinks(dev_a, dev_b, arc, lo=-math.inf, hi=math.inf):
+    """Estimated kink angles (degrees) where two tools' deviation curves cross on the flank.
+
+    dev_a, dev_b: (n,) deviations at the flank samples; arc: (n,) arc length of the samples along
+    the profile; only crossings with both sample ends inside [lo, hi] (arc values) count.  The
+    machined section near a sample is p + d n, so its direction turns by atan(d') from the
+    profile's (d' = dd/ds, the normal's own turning is common to both curves and cancels): the
+    section kink is |atan d_a' - atan d_b'| at the crossing.  Returns one angle per sign change
+    of d_a - d_b (empty: the curves never cross there)."""
+    da, db = np.asarray(dev_a, float), np.asarray(dev_b, float)
+    with np.errstate(invalid="ignore"):
+        g = da - db
+        fin = np.isfinite(g) & (arc >= lo) & (arc <= hi)
+        i = np.flatnonzero(fin[:-1] & fin[1:] & (np.sign(g[:-1]) * np.sign(g[1:]) < 0))
+    if not len(i):
+        return np.zeros(0)
+    h = arc[i + 1] - arc[i]                                 # the crossing lies in [i, i + 1]
+    sa, sb = (da[i + 1] - da[i]) / h, (db[i + 1] - db[i]) / h
+    return np.degrees(np.abs(np.arctan(sa) - np.arctan(sb)))
+
+
+@dataclass
+class SmoothCover:
+    """``chosen``: indices of the chosen poses in flank order; ``kinks``: estimated largest kink
+    (degrees) per neighbouring pair (0 across a gap); ``cost``: sum of their squares; ``minimum``: the fewest poses
+    any cover needs (the count of :func:`minimum_interval_cover`)."""
+    chosen: list
+    kinks: list
+    cost: float
+    minimum: int
+
+
+def smooth_cover(coverage, samples, extra=2):
+    """A cover of the whole flank by at most ``extra`` more poses than the minimum that makes the
+    junctions as smooth as it can (s000 §7 / s003's G1 goal as a selection problem).
+
+    Every covered interval is a node; an edge a -> b joins intervals that overlap (b starts within
+    a and reaches further) and costs the square of the largest estimated kink where the two poses'
+    deviation curves cross (:func:`crossing_kinks`; an edge without a crossing is dropped: one of
+    the two tools is deeper on the whole overlap, so it is not a junction).  Every chain from the
+    flank start to its end is a cover (admissible poses only, see :func:`covered_intervals`), so
+    a shortest path by count and cost (dynamic programme over (intervals used, node)) is the
+    smoothest cover with that many strips; the cheapest over minimum .. minimum + extra strips is
+    returned (fewer strips on ties).  Where no interval covers a part of the flank (a gap of
+    :func:`minimum_interval_cover`), a chain may jump from an interval reaching the gap to one
+    starting at its end at no cost, so the result covers what any cover can.  None when no chain
+    exists (no admissible interval).
+
+    coverage: :class:`PoseCoverage` list (deviations at ``samples``); samples: :class:`FlankSamples`."""
+    u = np.asarray(samples.u, float)
+    arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(samples.points, axis=0), axis=1))]
+    u0, u1 = float(u[0]), float(u[-1])
+    nodes = sorted((float(a), float(b), k) for k, pc in enumerate(coverage) if pc.admissible
+                   for a, b in pc.intervals if b > a)
+    if not nodes:
+        return None
+    cover = minimum_interval_cover([(a, b) for a, b, _ in nodes], u0, u1)
+    n_min = len(cover.chosen)
+    N = len(nodes)
+    tiny = 1e-12 * max(1.0, abs(u1 - u0))
+    gaps = list(cover.gaps)
+    lo = gaps.pop(0)[1] if gaps and gaps[0][0] <= u0 + tiny else u0
+    hi = gaps.pop()[0] if gaps and gaps[-1][1] >= u1 - tiny else u1
+    s_of = np.interp                                          # parameter -> arc length
+    edges = [[] for _ in range(N)]
+    for i, (ai, bi, ki) in enumerate(nodes):
+        for j, (aj, bj, kj) in enumerate(nodes):
+            if kj == ki or not (aj <= bi + tiny and bj > bi + tiny and aj > ai - tiny):
+                continue
+            k = crossing_kinks(coverage[ki].deviation, coverage[kj].deviation, arc,
+                               s_of(min(ai, aj), u, arc), s_of(max(bi, bj), u, arc))
+            if len(k):
+                edges[i].append((j, float(k.max())))
+        for g0, g1 in gaps:                                   # jump a gap nothing covers
+            if g0 - tiny <= bi <= g0 + tiny:
+                edges[i] += [(j, 0.0) for j, (aj, bj, _) in enumerate(nodes)
+                             if g1 - tiny <= aj <= g1 + tiny and bj > g1]
+    C = n_min + int(extra)
+    cost = np.full((C + 1, N), np.inf)
+    prev = np.full((C + 1, N), -1)
+    worst = np.zeros((C + 1, N))
+    for i, (a, _, _) in enumerate(nodes):
+        if a <= lo + tiny:
+            cost[1, i] = 0.0
+    for c in range(1, C):
+        for i in np.flatnonzero(np.isfinite(cost[c])):
+            for j, kink in edges[i]:
+                v = cost[c, i] + kink * kink
+                if v < cost[c + 1, j]:
+                    cost[c + 1, j], prev[c + 1, j] = v, i
+                    worst[c + 1, j] = kink
+    ends = [i for i, (_, b, _) in enumerate(nodes) if b >= hi - tiny]
+    best = None
+    for c in range(1, C + 1):
+        for i in ends:
+            if np.isfinite(cost[c, i]) and (best is None or cost[c, i] < best[0] * (1 - 1e-9)):
+                best = (cost[c, i], c, i)
+    if best is None:
+        return None
+    v, c, i = best
+    path = [i]
+    while c > 1:
+        i = prev[c, i]
+        c -= 1
+        path.append(int(i))
+    path.reverse()
+    chosen = [nodes[i][2] for i in path]
+    kinks = [min(k for j, k in edges[a] if j == b) for a, b in zip(path, path[1:])]
+    return SmoothCover(chosen=chosen, kinks=kinks, cost=float(v), minimum=n_min)
+
+
 # ============================================================================ adaptive seeding
 @dataclass
 class AdaptiveCover:

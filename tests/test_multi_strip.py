@@ -160,18 +160,33 @@ def test_junction_normals_and_their_exact_derivatives():
         assert np.abs(fd - dn[..., k]).max() < 1e-7 * max(1.0, np.abs(fd).max())
 
 
-def test_g1_option_keeps_the_tolerance_and_reports_the_kinks():
-    """With g1 the strips are re-optimised with the tangency term; whatever is kept, the flank stays in
-    the tolerance band with no gouge, and the report says whether the kinks dropped."""
+def test_g1_option_keeps_the_tolerance_and_lowers_the_largest_kink():
+    """With g1 the strips are re-chosen for smooth junctions (at most 3 extra, new seeds between kinked
+    neighbours) and then re-optimised with the tangency term.  Measured against the same run without g1:
+    the largest exact kink drops (34.6 -> 24.7 deg when written), the flank is held wherever the minimum
+    cover held it, nothing gouges, and the report says what each stage did."""
     r = builtin_by_name("asymmetric-female")
-    res = plan_single_flank(r.surface(), r.flanks, 1, TOOL, 2e-3, n_seeds=8, max_rounds=2, g1=True)
+    kw = dict(n_seeds=12, max_rounds=4)
+    base = plan_single_flank(r.surface(), r.flanks, 1, TOOL, 2e-3, **kw)
+    res = plan_single_flank(r.surface(), r.flanks, 1, TOOL, 2e-3, g1=True, g1_extra_strips=3, **kw)
+
+    def worst(js):
+        return max(j["kink_deg"] for jj in js for j in jj)
+
     g1 = res.plan["summary"]["g1"]
+    sel = g1["selection"]
     assert {"accepted", "rms_kink_before_deg", "rms_kink_after_deg", "tried"} <= set(g1)
+    assert sel["kept"] and sel["seeded"] > 0
+    assert sel["strips_before"] == len(base.strips) < len(res.strips) <= len(base.strips) + 3
+    assert sel["max_kink_before_deg"] == pytest.approx(worst(base.junctions))
+    assert worst(res.junctions) < 0.8 * worst(base.junctions)
     if g1["accepted"]:
         assert g1["rms_kink_after_deg"] < g1["rms_kink_before_deg"]
     else:
         assert g1["rms_kink_after_deg"] == g1["rms_kink_before_deg"]
+        assert worst(res.junctions) == pytest.approx(sel["max_kink_after_deg"])
+    # covered at least where the minimum cover was: the uncovered length does not grow
+    length = lambda rs: sum(b - a for a, b in rs)
+    assert length(res.uncovered) <= length(base.uncovered) + 1e-9
     v = verify_plan(res.plan, tolerance=1e-6)
     assert v["max_overcut"] >= -1e-6 and not v["gouge_points"]
-    if res.complete:
-        assert v["max_undercut"] <= 2e-3

@@ -12,7 +12,8 @@ from flank_addon.helical_surface import HelicalSurface
 from flank_addon.profile import Line, SegmentProfile
 from flank_addon.rotors import builtin_by_name
 from flank_addon.screw import screw_motion
-from flank_addon.strip_cover import (adaptive_cover, covered_intervals, envelope_normals, flank_samples,
+from flank_addon.strip_cover import (FlankSamples, adaptive_cover, coverage_of, covered_intervals, crossing_kinks,
+                                     smooth_cover, envelope_normals, flank_samples,
                                      junction_kinks, minimum_interval_cover, pose_deviations, tool_of)
 from flank_addon.sweep import machined_deviation
 
@@ -333,3 +334,92 @@ def test_adaptive_cover_reports_the_chosen_coverage(female, mid_poses):
     for p, pc in zip(cov.poses, cov.chosen_coverage):
         k = next(k for k, c in enumerate(cov.candidates) if c is p)
         assert pc is cov.coverage[k]
+
+
+# ------------------------------------------------------------------------------------------- G1 selection
+def test_crossing_kinks_of_two_lines():
+    """Deviation lines with slopes tan 10 deg and -tan 20 deg cross once at 30 deg; arc length, not the
+    parameter, sets the slope (the samples are spaced 2 apart in arc length)."""
+    s = np.linspace(0.0, 2.0, 101)
+    da, db = math.tan(math.radians(10)) * (s - 0.7), -math.tan(math.radians(20)) * (s - 0.7)
+    assert crossing_kinks(da, db, s) == pytest.approx([30.0], abs=1e-9)
+    assert crossing_kinks(da, db, 2 * s) == pytest.approx(
+        [math.degrees(math.atan(math.tan(math.radians(10)) / 2) + math.atan(math.tan(math.radians(20)) / 2))])
+    assert len(crossing_kinks(da, db, s, lo=1.0)) == 0          # the crossing lies before lo
+    assert len(crossing_kinks(da, da + 1e-3, s)) == 0           # parallel: no junction
+
+
+def _chain_cost(dev, order, iv, arc, u):
+    """The largest kink estimate of each neighbouring pair of a chain, None if it is no cover."""
+    ks = []
+    for a, b in zip(order, order[1:]):
+        (aa, ab), (ba, bb) = iv[a], iv[b]
+        if not (ba <= ab and bb > ab and ba > aa):
+            return None
+        k = crossing_kinks(dev[a], dev[b], arc, np.interp(min(aa, ba), u, arc), np.interp(max(ab, bb), u, arc))
+        if not len(k):
+            return None
+        ks.append(k.max())
+    return ks
+
+
+def test_smooth_cover_is_the_cheapest_chain_by_exhaustive_search():
+    """Parabolic deviation curves d_k = q_k (u - c_k)^2 (no overcut) on a straight flank: the dynamic
+    programme's cover equals the cheapest of all chains of n_min .. n_min + extra poses that cover [0, 1]
+    (sum of squared kink estimates), found by enumerating every subset; and it is never worse than the
+    minimum cover's chain."""
+    u = np.linspace(0.0, 1.0, 401)
+    fs = FlankSamples(u, np.stack([3.0 * u, np.zeros_like(u)], -1), np.tile([0.0, 1.0], (len(u), 1)))
+    arc = 3.0 * u
+    rng = np.random.default_rng(11)
+    eps, checked, improved = 1e-2, 0, 0
+    for trial in range(40):
+        K = int(rng.integers(5, 10))
+        c = np.sort(rng.uniform(-0.05, 1.05, K))
+        q = rng.uniform(0.02, 0.4, K)
+        dev = q[:, None] * (u[None, :] - c[:, None]) ** 2
+        cov = [coverage_of(d, u, eps, 0.0) for d in dev]
+        iv = [pc.intervals[0] if pc.intervals else (1.0, 0.0) for pc in cov]
+        minimum = minimum_interval_cover([p for p in iv if p[1] > p[0]], 0.0, 1.0)
+        sel = smooth_cover(cov, fs, extra=2)
+        if not minimum.complete:            # jumps the gaps: still as few poses as the minimum cover allows
+            assert sel is not None and len(minimum.chosen) <= len(sel.chosen) <= len(minimum.chosen) + 2
+            continue
+        n_min = len(minimum.chosen)
+        best = None
+        for m in range(n_min, n_min + 3):
+            for sub in itertools.combinations(range(K), m):
+                order = sorted(sub, key=lambda k: iv[k])
+                if iv[order[0]][0] > 0.0 or iv[order[-1]][1] < 1.0:
+                    continue
+                ks = _chain_cost(dev, order, iv, arc, u)
+                if ks is not None:
+                    cost = float(np.sum(np.square(ks)))
+                    if best is None or cost < best[0] * (1 - 1e-9):
+                        best = (cost, m)
+        if best is None:
+            assert sel is None
+            continue
+        assert sel is not None and sel.minimum == n_min
+        assert sel.cost == pytest.approx(best[0], rel=1e-9, abs=1e-12)
+        assert len(sel.chosen) <= n_min + 2
+        assert _chain_cost(dev, sel.chosen, iv, arc, u) == pytest.approx(sel.kinks, rel=1e-12)
+        # a valid cover: together the chosen poses hold [0, 1] in the band
+        d = dev[sel.chosen].min(axis=0)
+        assert np.all(d <= eps + 1e-15)
+        checked += 1
+        improved += sel.cost < 0.999 * sum(
+            k ** 2 for k in (_chain_cost(dev, sorted(minimum.chosen, key=lambda k: iv[k]), iv, arc, u) or [np.inf]))
+    assert checked >= 15 and improved >= 3
+
+
+def test_smooth_cover_jumps_gaps_nothing_covers():
+    u = np.linspace(0.0, 1.0, 201)
+    fs = FlankSamples(u, np.stack([u, np.zeros_like(u)], -1), np.tile([0.0, 1.0], (len(u), 1)))
+    dev = np.array([(u - c) ** 2 for c in (0.1, 0.25, 0.8)])
+    cov = [coverage_of(d, u, 0.02, 0.0) for d in dev]        # [0, 0.24], [0.11, 0.39], [0.66, 0.94]
+    sel = smooth_cover(cov, fs, extra=1)
+    assert sel.chosen == [0, 1, 2] and sel.minimum == 3
+    assert sel.kinks[1] == 0.0 and sel.kinks[0] > 0.0
+    assert sel.cost == pytest.approx(sel.kinks[0] ** 2)
+    assert smooth_cover([coverage_of(-np.ones_like(u), u, 0.02, 0.0)], fs) is None     # overcuts: none
