@@ -1292,7 +1292,7 @@ def _two_paths(ev, f1, f2, m, n_dense=3001, tol=2e-8):
 
 
 def plan_double_flank(surface, flank_ranges, valley=0, variant="min", tool="custom", two_paths=False, m=400,
-                      rim=0.85, n=100, to_world=None, length_unit="R", simulate=True, starts=None):
+                      rim=0.85, n=100, to_world=None, length_unit="R", simulate=True, starts=None, progress=None):
     """Plan double-flank milling of one valley (s001).  Returns :class:`DoubleFlankResult`.
 
     surface: :class:`HelicalSurface` (rotor frame); flank_ranges: the rotor's flank parameter ranges
@@ -1302,8 +1302,13 @@ def plan_double_flank(surface, flank_ranges, valley=0, variant="min", tool="cust
     The plan's rotor section lists the rotor's flanks followed by the valley's two trimmed flanks,
     which are the plan's target flanks.  With ``simulate`` the strips' reported errors are the
     sweep simulation's (what verify_plan finds); otherwise they are the tool-to-rotor errors.
+    ``progress``: None or ``progress(fraction, message)``; returning False cancels
+    (:class:`progress.Cancelled` is raised, nothing is returned).
     """
     from .plan import new_plan, rotor_section
+    from .progress import reporter
+
+    report = reporter(progress)
 
     t0 = time.perf_counter()
     if variant not in VARIANTS:
@@ -1323,14 +1328,18 @@ def plan_double_flank(surface, flank_ranges, valley=0, variant="min", tool="cust
         raise ValueError(f"tool {tool!r} is not one of custom, cone, cones:K")
     if two_paths and kind != "custom":
         raise ValueError("--two-paths needs the custom tool (s001 §4.3)")
+    report(0.0, "preparing the valley")
     v = Valley(surface, flank_ranges, valley, rim=rim)
     ev = AxisEvaluator(v)
+    report(0.05, "optimising the tool axis")
     fit = optimize_axis(v, n=n, starts=starts, evaluator=ev)
     fits, paths = [fit], []
+    report(0.4, "building the tool")
     if kind == "custom" and not two_paths:
         paths.append(build_path(ev, fit.x_unit, m=m, variant=variant))
         method = "double-flank-custom"
     elif kind == "custom":
+        report(0.4, "optimising two axes")
         f1, f2 = optimize_two_paths(v, n=n, x0=fit.x_unit, evaluator=ev)
         fits = [fit, f1, f2]
         paths, gaps = _two_paths(ev, f1, f2, m)
@@ -1345,6 +1354,7 @@ def plan_double_flank(surface, flank_ranges, valley=0, variant="min", tool="cust
         edges = np.linspace(ext[0], ext[1], n_cones + 1) if kind == "cones" else np.array(ext)
         fits = [fit]
         for j in range(len(edges) - 1):
+            report(0.4 + 0.3 * j / (len(edges) - 1), f"optimising cone {j + 1} of {len(edges) - 1}")
             lam = np.linspace(edges[j], edges[j + 1], n if kind == "cone" else max(20, n // n_cones))
             cf = optimize_cone_axis(v, lam, x0=fit.x_unit, evaluator=ev)
             fits.append(cf)
@@ -1389,6 +1399,7 @@ def plan_double_flank(surface, flank_ranges, valley=0, variant="min", tool="cust
         t2r.append((float(e.max()), float(e.min())) if len(e) else (float("nan"), float("nan")))
     r2e, haus = [(float("nan"), float("nan"))] * 2, [float("nan")] * 2
     if simulate:
+        report(0.75, "simulating the sweep")
         idx, dev, owner, per_strip = simulate_plan_errors(plan)
         for st, (mx, mn) in zip(plan["strips"], per_strip):
             st["reported_max_error"], st["reported_min_error"] = mx, mn
@@ -1406,6 +1417,7 @@ def plan_double_flank(surface, flank_ranges, valley=0, variant="min", tool="cust
             st["reported_max_error"], st["reported_min_error"] = float(e.max()), float(e.min())
     from .plan import summarize
     plan["summary"] = summarize(plan["strips"], time.perf_counter() - t0)
+    report(1.0, "done")
     return DoubleFlankResult(plan=plan, paths=paths, fits=fits, valley=v, tool_to_rotor=t2r,
                              rotor_to_envelope=r2e, hausdorff=haus, elapsed_s=time.perf_counter() - t0,
                              optimize_s=t_opt)

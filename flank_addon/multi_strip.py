@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .cone import ConeTool
+from .progress import reporter
 from .single_flank import PoseEvaluator, candidate_strips, initial_positions, single_flank_plan
 
 
@@ -68,7 +69,8 @@ def _merge_ranges(ranges):
 def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tolerance=None, n_seeds=18,
                       objective="phi1", mode="hard", max_rounds=4, n_profile=2048, n_cover=500,
                       to_world=None, length_unit="R", check_collisions=True, z_range=None, g1=False,
-                      g1_weight=1.0, g1_extra_strips=2, g1_target_deg=1.0, g1_rounds=2, optimizer=None):
+                      g1_weight=1.0, g1_extra_strips=2, g1_target_deg=1.0, g1_rounds=2, optimizer=None,
+                      progress=None):
     """Plan strips of the cone ``tool`` (:class:`cone.ConeTool`) on flank index ``flank`` so the
     machined flank stays within [-overcut_tolerance, tolerance] of the design (signed, + = stock).
 
@@ -85,7 +87,9 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
     junctions (:func:`refine_g1`), weight ``g1_weight`` reduced until the machined flank still meets
     the tolerance band (kept only then).
     ``optimizer``: replaces :func:`single_flank.optimize_poses` (same signature; the benchmark passes
-    the paper's gradient descent).  Returns :class:`SingleFlankResult`."""
+    the paper's gradient descent).  ``progress``: None or ``progress(fraction, message)``; returning
+    False cancels (:class:`progress.Cancelled` is raised, nothing is returned).  Returns
+    :class:`SingleFlankResult`."""
     from .collision import check_collisions as collide
     from .strip_cover import adaptive_cover, junction_kinks_chain
     from .verify import verify_plan
@@ -109,6 +113,8 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
     if mode not in ("hard", "weighted"):
         raise ValueError(f"mode {mode!r} is not one of hard, weighted")
     flank = int(flank)
+    report = reporter(progress)
+    report(0.0, "preparing the flank")
     u_range = tuple(float(v) for v in flank_ranges[flank])
     ev = PoseEvaluator(surface, u_range, tool)
     prof_pts = surface.profile.sample(n_profile)
@@ -116,7 +122,15 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
     timings = {"candidates": 0.0, "collision": 0.0}
     all_cands, collisions = [], []
 
+    stage = {"calls": 0}
+    cand_end = 0.6 if g1 else 0.75
+
     def make_candidates(us):
+        # the cover asks at most max_rounds times (and the G1 stage g1_rounds more)
+        k = stage["calls"]
+        stage["calls"] += 1
+        frac = 0.02 + (cand_end - 0.02) * min(k / max(1, max_rounds + (g1_rounds if g1 else 0)), 1.0)
+        report(frac, f"optimising {len(us)} candidate strips (round {k + 1})")
         ts = time.perf_counter()
         per = initial_positions(surface, u_range, tool, u=np.asarray(us, float), feet=ev.feet)
         seeds = [c[0] for c in per if c]
@@ -159,6 +173,7 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
                                      deviations=deviations)
         return [[{"u": float(j.u), "kink_deg": float(j.kink_deg)} for j in js] for js in chain]
 
+    report(cand_end, "junction kinks")
     ts = time.perf_counter()
     # the cover stage already has each chosen strip's deviation at the flank samples
     devs = np.array([cover.chosen_coverage[i].deviation for i in order]) if len(order) > 1 else None
@@ -173,6 +188,7 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
                                                          float(g1_target_deg), int(g1_rounds), kinks)
         timings["g1_selection"] = time.perf_counter() - ts
     if g1 and len(chosen) > 1:
+        report(0.7, "G1: tangency refinement")
         ts = time.perf_counter()
         chosen, junctions, g1_report = _apply_g1(chosen, junctions, ev, cover.samples, surface, tol, eps_over,
                                                  float(g1_weight), kinks)
@@ -183,6 +199,7 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
                              method=f"single-flank-cone-{objective}-{mode}")
     plan["tolerance"] = tol
     plan["overcut_tolerance"] = eps_over
+    report(0.85, "verifying the plan (sweep simulation)")
     ts = time.perf_counter()
     ver = verify_plan(plan, tolerance=eps_over)
     timings["verify"] = time.perf_counter() - ts
@@ -202,6 +219,7 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
     if g1_report is not None:
         g1_report["selection"] = selection
         plan["summary"]["g1"] = g1_report
+    report(1.0, "done")
     return SingleFlankResult(plan=plan, strips=chosen, candidates=all_cands, collisions=collisions,
                              uncovered=uncovered, junctions=junctions,
                              deviation=(cover.samples.u, cover.deviation), verify=ver, rounds=cover.rounds,
