@@ -279,7 +279,8 @@ def _cmd_plan_single_flank(args):
     res = plan_single_flank(surface, flanks, k, tool, args.tolerance, overcut_tolerance=args.overcut_tolerance,
                             n_seeds=args.seeds, objective=args.objective, mode=args.mode,
                             max_rounds=args.rounds, to_world=to_world, length_unit=unit,
-                            check_collisions=not args.no_collisions, g1=args.g1)
+                            check_collisions=not args.no_collisions, g1=args.g1,
+                            g1_extra_strips=args.g1_extra_strips)
     write_plan(args.out, res.plan)
     if args.profile_csv:
         u, dev = res.deviation
@@ -312,6 +313,11 @@ def _cmd_plan_single_flank(args):
         print(f"  junction kinks: {min(kinks):.2f}..{max(kinks):.2f} deg")
     g1 = res.plan["summary"].get("g1")
     if g1 is not None:
+        sel = g1.get("selection")
+        if sel is not None and "strips_after" in sel:
+            print(f"  G1 smooth cover {'kept' if sel['kept'] else 'not kept'}: {sel['strips_before']} -> "
+                  f"{sel['strips_after']} strips, largest kink {sel['max_kink_before_deg']:.2f} -> "
+                  f"{sel['max_kink_after_deg']:.2f} deg")
         print(f"  G1 refinement {'kept' if g1['accepted'] else 'not kept'}: rms kink "
               f"{g1['rms_kink_before_deg']:.2f} -> {g1['rms_kink_after_deg']:.2f} deg")
     print(f"  machined flank (verify): max {v['max_undercut']:.4g}, min {v['max_overcut']:.3g}, "
@@ -540,8 +546,11 @@ def build_parser():
     sf.add_argument("--rounds", type=int, default=4, help="adaptive seeding rounds (default 4)")
     sf.add_argument("--no-collisions", action="store_true", help="skip the global collision test")
     sf.add_argument("--g1", action="store_true",
-                    help="re-optimise the chosen strips with a tangency term at their junctions (kept only "
-                         "if the tolerance still holds and the kinks drop)")
+                    help="smoother junctions: choose the smoothest cover (up to --g1-extra-strips more strips), "
+                         "then re-optimise with a tangency term (each stage kept only if the kinks drop and the "
+                         "tolerance still holds)")
+    sf.add_argument("--g1-extra-strips", type=int, default=2,
+                    help="with --g1: strips the smooth cover may add to the minimum (default 2)")
     sf.add_argument("--profile-csv", help="write the machined deviation along the flank profile (u, deviation)")
     sf.add_argument("--json", action="store_true", help="print a JSON summary")
     pl.set_defaults(func=_cmd_plan)

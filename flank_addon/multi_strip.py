@@ -112,6 +112,8 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
         raise ValueError(f"objective {objective!r} is not one of phi1, phi3")
     if mode not in ("hard", "weighted"):
         raise ValueError(f"mode {mode!r} is not one of hard, weighted")
+    if not 0 <= int(g1_extra_strips) <= 50:
+        raise ValueError(f"g1 extra strips {g1_extra_strips} is outside the limits 0..50")
     flank = int(flank)
     report = reporter(progress)
     report(0.0, "preparing the flank")

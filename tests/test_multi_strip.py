@@ -125,6 +125,8 @@ def test_cli_plan_single_flank_round_trip(tmp_path, capsys):
      "--tolerance nan is not a finite number"),
     (["--flank", "1", "--tool-r1", "0.05", "--tool-r2", "0.08", "--tool-alpha", "2", "--tolerance", "1e-3"],
      "alpha = 2.0 rad is outside"),
+    (["--flank", "1", "--tool-r1", "0.05", "--tool-r2", "0.08", "--tool-alpha", "0.1", "--tolerance", "1e-3",
+      "--g1", "--g1-extra-strips", "-1"], "g1 extra strips -1 is outside the limits 0..50"),
 ])
 def test_cli_single_flank_errors(tmp_path, capsys, extra, msg):
     from flank_addon.cli import main
