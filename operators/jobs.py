@@ -1,0 +1,63 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Run a planner off Blender's UI thread: :class:`PlannerJob` (no bpy here, so it is tested without
+Blender).
+
+The planner (pure numpy/scipy, no Blender data) runs in a worker thread and reports through
+``progress(fraction, message)``; the modal operator polls :meth:`PlannerJob.poll` on a timer,
+shows the fraction and message, and calls :meth:`PlannerJob.cancel` on ESC.  The planner then
+raises ``Cancelled`` at its next report and the job ends without a result, so the operator, which
+builds Blender data only from a finished result on the main thread, leaves the scene as it was.
+"""
+import threading
+import time
+
+
+class PlannerJob:
+    """``compute(progress)`` in a daemon thread.  States: 'running', 'finished' (``result``),
+    'cancelled', 'failed' (``error``: the exception)."""
+
+    def __init__(self, compute, cancelled_type=None):
+        self._compute = compute
+        self._cancelled_type = cancelled_type
+        self._lock = threading.Lock()
+        self._cancel = threading.Event()
+        self.fraction, self.message = 0.0, "starting"
+        self.state, self.result, self.error = "running", None, None
+        self.started = time.perf_counter()
+        self.elapsed = None
+        self._thread = threading.Thread(target=self._run, name="flank-planner", daemon=True)
+        self._thread.start()
+
+    def _progress(self, fraction, message):
+        with self._lock:
+            self.fraction, self.message = float(fraction), str(message)
+        return not self._cancel.is_set()
+
+    def _run(self):
+        try:
+            result = self._compute(self._progress)
+        except BaseException as ex:          # reported by the operator on the main thread
+            cancelled = self._cancel.is_set() and (self._cancelled_type is None
+                                                   or isinstance(ex, self._cancelled_type))
+            with self._lock:
+                self.state = "cancelled" if cancelled else "failed"
+                self.error = None if cancelled else ex
+        else:
+            with self._lock:
+                if self._cancel.is_set():    # finished before it saw the request: still discard it
+                    self.state = "cancelled"
+                else:
+                    self.state, self.result, self.fraction, self.message = "finished", result, 1.0, "done"
+        self.elapsed = time.perf_counter() - self.started
+
+    def cancel(self):
+        self._cancel.set()
+
+    def poll(self):
+        """(state, fraction, message) -- safe to call from the UI thread at any time."""
+        with self._lock:
+            return self.state, self.fraction, self.message
+
+    def wait(self, timeout=None):
+        self._thread.join(timeout)
+        return self.poll()[0]

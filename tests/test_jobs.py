@@ -1,0 +1,69 @@
+"""The worker-thread job behind the modal Run operators (operators/jobs.py has no bpy import)."""
+import importlib.util
+import math
+import time
+from pathlib import Path
+
+import pytest
+
+from flank_addon.cone import ConeTool
+from flank_addon.multi_strip import plan_single_flank
+from flank_addon.progress import Cancelled
+from flank_addon.rotors import builtin_by_name
+
+_spec = importlib.util.spec_from_file_location("flank_jobs", Path(__file__).resolve().parents[1] / "operators" / "jobs.py")
+jobs = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(jobs)
+
+TOOL = ConeTool(math.asin(0.1), 0.05, 0.08, 0.04, 0.6)
+
+
+@pytest.fixture(scope="module")
+def female():
+    return builtin_by_name("asymmetric-female")
+
+
+def _compute(female):
+    return lambda progress: plan_single_flank(female.surface(), female.flanks, 1, TOOL, 1e-3, n_seeds=18,
+                                              progress=progress)
+
+
+def test_job_finishes_with_the_same_plan_and_the_ui_thread_keeps_running(female):
+    """The planner runs in the worker while this (the 'UI') thread ticks every 5 ms: the longest gap
+    between ticks stays below 100 ms (numpy/scipy release the GIL, Python code yields it every 5 ms),
+    and the result equals a plain synchronous run."""
+    job = jobs.PlannerJob(_compute(female), Cancelled)
+    gaps, last, seen = [], time.perf_counter(), []
+    while job.poll()[0] == "running":
+        time.sleep(0.005)
+        now = time.perf_counter()
+        gaps.append(now - last)
+        last = now
+        seen.append(job.poll()[1])
+    assert job.state == "finished" and job.error is None
+    assert max(gaps) < 0.1, f"UI thread blocked {max(gaps) * 1000:.0f} ms"
+    assert len(gaps) > 50 and seen == sorted(seen) and job.poll() == ("finished", 1.0, "done")
+    ref = plan_single_flank(female.surface(), female.flanks, 1, TOOL, 1e-3, n_seeds=18)
+    assert len(job.result.strips) == len(ref.strips)
+    assert job.result.plan["summary"]["max_error"] == pytest.approx(ref.plan["summary"]["max_error"], rel=1e-9)
+
+
+def test_cancel_ends_the_job_without_a_result(female):
+    job = jobs.PlannerJob(_compute(female), Cancelled)
+    while job.poll()[1] < 0.02:
+        time.sleep(0.002)
+    t = time.perf_counter()
+    job.cancel()
+    assert job.wait(30) == "cancelled"
+    assert job.result is None and job.error is None
+    assert time.perf_counter() - t < 5.0              # stops at the planner's next report
+
+
+def test_failure_is_kept_for_the_operator_to_report():
+    def boom(progress):
+        progress(0.1, "about to fail")
+        raise ValueError("tool r1 = -1 is below the limit 0")
+    job = jobs.PlannerJob(boom, Cancelled)
+    assert job.wait(5) == "failed"
+    assert isinstance(job.error, ValueError) and "r1 = -1" in str(job.error)
+    assert job.result is None
