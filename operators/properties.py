@@ -261,6 +261,13 @@ def single_flank_props():
                            default=4, soft_min=1, soft_max=20),
         collisions=BoolProperty(name="Collisions", description="Drop candidates whose tool or shank hits the "
                                                                "rotor anywhere (s000 Sec. 5.5)", default=True),
+        g1=BoolProperty(name="G1 Junctions", description="Smoother junctions: the smoothest cover with up to G1 "
+                                                         "Extra Strips more strips, then a tangency refinement "
+                                                         "(each kept only if the kinks drop within the tolerance)",
+                        default=False),
+        g1_extra_strips=IntProperty(name="G1 Extra Strips", description="Strips the G1 cover may add to the "
+                                                                        "minimum (0..50)",
+                                    default=2, soft_min=0, soft_max=50),
         envelope_rings=IntProperty(name="Envelope Rings", description="Rings of the envelope strips along the "
                                                                       "rotor (screw positions)",
                                    default=48, min=2, soft_max=1000),

@@ -4,6 +4,7 @@ import bpy
 
 from .common import (edge_mesh, frame_along, key_screw_motion, new_mesh_from_arrays, remove_ids,
                      results_parent, revolved_mesh, rotor_source, select_only, set_color_attr, set_float_attr)
+from .modal import ModalPlannerMixin
 from .properties import single_flank_props
 
 PROP_PREFIX = "flank_sf_"
@@ -86,7 +87,7 @@ def _remove_result_collection(coll):
     bpy.data.collections.remove(coll)
 
 
-class FLANK_OT_plan_single_flank(bpy.types.Operator):
+class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
     """s000: plan multi-strip single-flank milling of one flank of the active rotor with a truncated-cone tool
     (optimised strips, global collision filter, minimum strip cover to a tolerance) and show the result.
 
@@ -103,6 +104,7 @@ class FLANK_OT_plan_single_flank(bpy.types.Operator):
     bl_idname = "flank.plan_single_flank"
     bl_label = "Plan Single Flank"
     bl_options = {'REGISTER', 'UNDO'}
+    _title = "Single flank"
 
     __annotations__ = single_flank_props()
 
@@ -140,6 +142,8 @@ class FLANK_OT_plan_single_flank(bpy.types.Operator):
             return "overcut tolerance = {} must be >= 0 (scene units; 0 = 1e-6 x outer radius)".format(over)
         if not 1 <= int(self.seeds) <= 400:
             return "seeds = {} is outside 1..400".format(int(self.seeds))
+        if not 0 <= int(self.g1_extra_strips) <= 50:
+            return "G1 extra strips = {} is outside 0..50".format(int(self.g1_extra_strips))
         if int(self.rounds) < 1:
             return "rounds = {} is below the minimum 1".format(int(self.rounds))
         if self.animate and int(self.frame_end) <= int(self.frame_start):
@@ -148,24 +152,22 @@ class FLANK_OT_plan_single_flank(bpy.types.Operator):
 
     # ------------------------------------------------------------------ run
 
-    def execute(self, context):
-        import json
+    def _prepare(self, context):
+        """Main thread: properties, rotor and tool -> job dict, or None (error reported)."""
         import math
-        import os
         import time
 
         import numpy as np
-        from mathutils import Matrix
 
         t0 = time.perf_counter()
         msg = self._check_inputs(math)
         if msg is not None:
             self.report({'ERROR'}, "Single flank: " + msg)
-            return {'CANCELLED'}
+            return None
         src = self._source(context, np)
         if isinstance(src, str):
             self.report({'ERROR'}, "Single flank: " + src)
-            return {'CANCELLED'}
+            return None
         rotor_obj, surface, flanks = src["obj"], src["surface"], src["flanks"]
         s = float(src["scale"])                       # scene units per rotor unit
         R = float(surface.outer_radius)
@@ -176,12 +178,10 @@ class FLANK_OT_plan_single_flank(bpy.types.Operator):
             if not v < limit:
                 self.report({'ERROR'}, "Single flank: {} = {} must be below half the outer radius of '{}', {:.6g} "
                                        "(scene units)".format(label, v, rotor_obj.name, limit))
-                return {'CANCELLED'}
+                return None
 
         from ..flank_addon import multi_strip as ms
         from ..flank_addon.cone import ConeTool
-        from ..flank_addon.screw import screw_motion
-        from ..flank_addon.verify import deviation_colors
 
         # ---- the flank
         point_rotor = None
@@ -189,7 +189,7 @@ class FLANK_OT_plan_single_flank(bpy.types.Operator):
             p_local = np.array([_decimal(v) for v in self.point], dtype=np.float64)
             if not np.isfinite(p_local).all():
                 self.report({'ERROR'}, "Single flank: point {} is not finite".format(p_local.tolist()))
-                return {'CANCELLED'}
+                return None
             mw = np.array(rotor_obj.matrix_world, dtype=np.float64)
             p_world = mw[:3, :3] @ p_local + mw[:3, 3]
             p_h = np.linalg.solve(display, np.r_[p_world, 1.0])
@@ -198,13 +198,13 @@ class FLANK_OT_plan_single_flank(bpy.types.Operator):
                 k_flank = int(ms.flank_of_point(surface, flanks, point_rotor))
             except ValueError as ex:
                 self.report({'ERROR'}, "Single flank: {}".format(ex))
-                return {'CANCELLED'}
+                return None
         else:
             k_flank = int(self.flank)
             if not 0 <= k_flank < len(flanks):
                 self.report({'ERROR'}, "Single flank: flank = {} is outside 0..{} (rotor '{}' has {} flanks)".format(
                     k_flank, len(flanks) - 1, rotor_obj.name, len(flanks)))
-                return {'CANCELLED'}
+                return None
         u_range = tuple(float(v) for v in flanks[k_flank])
 
         # ---- the tool (rotor units)
@@ -217,47 +217,82 @@ class FLANK_OT_plan_single_flank(bpy.types.Operator):
                 tool = ConeTool.from_length(r1, r2, _decimal(self.length) / s, **shank)
         except ValueError as ex:
             self.report({'ERROR'}, "Single flank: {}".format(ex))
-            return {'CANCELLED'}
+            return None
         tol_in, over_in = _decimal(self.tolerance), _decimal(self.overcut_tolerance)
         tol = tol_in / s
         over = over_in / s if over_in > 0.0 else None
 
-        # ---- the core (collisions against the infinite rotor: a pass screws the whole body past the tool, so
-        # the finite rotor's slab over the pass holds the tool entirely; z_range only places the strips)
         z0, z1 = (float(v) for v in src["z_range"])
-        n_t = int(self.envelope_rings)
-        try:
-            res = ms.plan_single_flank(surface, flanks, k_flank, tool, tol, overcut_tolerance=over,
-                                       n_seeds=int(self.seeds), objective=str(self.objective), mode=str(self.mode),
-                                       max_rounds=int(self.rounds), to_world=src["to_world"].tolist(),
-                                       length_unit=src["unit"], check_collisions=bool(self.collisions))
-            if not res.strips:
-                raise ValueError("no collision-free strip on flank {}: {} candidates, {} colliding (uncovered {})"
-                                 .format(k_flank, len(res.candidates), len(res.collisions),
-                                         ", ".join("[{:.4g}, {:.4g}]".format(a, b)
-                                                   for a, b in _merge_ranges(res.uncovered))))
-            t_env = time.perf_counter()
-            envs, sweeps = [], []
-            for c in res.strips:
-                zc = 0.5 * float(c.pose.tip[2] + c.pose.top[2])   # centre the swept strip on the rotor body
-                sweep = (z0 - zc, z1 - zc)
-                sweeps.append(sweep)
-                envs.append(ms.envelope_strip(c, surface, u_range, sweep, ENVELOPE_SAMPLES, n_t))
-            env_elapsed = time.perf_counter() - t_env
-            frames = []
-            for c in res.strips:
-                rot, _ = frame_along(np, c.pose.tip, c.pose.top)
-                T = np.eye(4)
-                T[:3, :3] = rot
-                T[:3, 3] = c.pose.tip
-                frames.append(T)
-            tool_verts, tool_faces = revolved_mesh(np, tool_meridian(np, tool), TOOL_SEGMENTS)
-        except ValueError as ex:
-            self.report({'ERROR'}, "Single flank: {}".format(ex))
+        return dict(t0=t0, src=src, rotor_name=rotor_obj.name, surface=surface, flanks=flanks, s=s, R=R,
+                    display=display, point_rotor=point_rotor, k_flank=k_flank, u_range=u_range, tool=tool,
+                    tol_in=tol_in, tol=tol, over=over, z0=z0, z1=z1, n_t=int(self.envelope_rings),
+                    seeds=int(self.seeds), objective=str(self.objective), mode=str(self.mode),
+                    rounds=int(self.rounds), collisions=bool(self.collisions), g1=bool(self.g1),
+                    g1_extra_strips=int(self.g1_extra_strips), to_world=src["to_world"].tolist(), unit=src["unit"])
+
+    @staticmethod
+    def _compute(job, progress):
+        """The planner and the envelope strips (numpy only: runs in the worker thread when invoked)."""
+        import time
+
+        import numpy as np
+
+        from ..flank_addon import multi_strip as ms
+
+        surface, flanks, k_flank, u_range = job["surface"], job["flanks"], job["k_flank"], job["u_range"]
+        tool, z0, z1, n_t = job["tool"], job["z0"], job["z1"], job["n_t"]
+        # collisions against the infinite rotor: a pass screws the whole body past the tool, so the finite
+        # rotor's slab over the pass holds the tool entirely; z_range only places the strips
+        res = ms.plan_single_flank(surface, flanks, k_flank, tool, job["tol"], overcut_tolerance=job["over"],
+                                   n_seeds=job["seeds"], objective=job["objective"], mode=job["mode"],
+                                   max_rounds=job["rounds"], to_world=job["to_world"], length_unit=job["unit"],
+                                   check_collisions=job["collisions"], g1=job["g1"],
+                                   g1_extra_strips=job["g1_extra_strips"], progress=progress)
+        if not res.strips:
+            raise ValueError("no collision-free strip on flank {}: {} candidates, {} colliding (uncovered {})"
+                             .format(k_flank, len(res.candidates), len(res.collisions),
+                                     ", ".join("[{:.4g}, {:.4g}]".format(a, b)
+                                               for a, b in _merge_ranges(res.uncovered))))
+        t_env = time.perf_counter()
+        envs, sweeps = [], []
+        for c in res.strips:
+            zc = 0.5 * float(c.pose.tip[2] + c.pose.top[2])   # centre the swept strip on the rotor body
+            sweep = (z0 - zc, z1 - zc)
+            sweeps.append(sweep)
+            envs.append(ms.envelope_strip(c, surface, u_range, sweep, ENVELOPE_SAMPLES, n_t))
+        env_elapsed = time.perf_counter() - t_env
+        frames = []
+        for c in res.strips:
+            rot, _ = frame_along(np, c.pose.tip, c.pose.top)
+            T = np.eye(4)
+            T[:3, :3] = rot
+            T[:3, 3] = c.pose.tip
+            frames.append(T)
+        tool_verts, tool_faces = revolved_mesh(np, tool_meridian(np, tool), TOOL_SEGMENTS)
+        return dict(res=res, envs=envs, sweeps=sweeps, env_elapsed=env_elapsed, frames=frames,
+                    tool_verts=tool_verts, tool_faces=tool_faces)
+
+    def _build(self, context, job, out):
+        """Main thread: the result collection, objects, attributes and properties from a finished run."""
+        import json
+        import os
+        import time
+
+        import numpy as np
+        from mathutils import Matrix
+
+        from ..flank_addon.screw import screw_motion
+        from ..flank_addon.verify import deviation_colors
+
+        rotor_obj = bpy.data.objects.get(job["rotor_name"])
+        if rotor_obj is None:
+            self.report({'ERROR'}, "Single flank: the rotor '{}' was removed while planning".format(job["rotor_name"]))
             return {'CANCELLED'}
-        except Exception as ex:
-            self.report({'ERROR'}, "Single flank failed: {}: {}".format(type(ex).__name__, ex))
-            return {'CANCELLED'}
+        src, surface, s, R, display = job["src"], job["surface"], job["s"], job["R"], job["display"]
+        k_flank, u_range, point_rotor, tool = job["k_flank"], job["u_range"], job["point_rotor"], job["tool"]
+        tol_in, z0, z1, n_t, t0 = job["tol_in"], job["z0"], job["z1"], job["n_t"], job["t0"]
+        res, envs, sweeps, frames = out["res"], out["envs"], out["sweeps"], out["frames"]
+        env_elapsed, tool_verts, tool_faces = out["env_elapsed"], out["tool_verts"], out["tool_faces"]
 
         uncovered = _merge_ranges(res.uncovered)
 
@@ -437,6 +472,7 @@ class FLANK_OT_plan_single_flank(bpy.types.Operator):
             tool_shank_length=float(tool.shank_length) * s,
             tolerance=float(tol_in), overcut_tolerance=float(res.plan["overcut_tolerance"]) * s,
             seeds=int(self.seeds), objective=str(self.objective), mode=str(self.mode), rounds=int(self.rounds),
+            g1=bool(job["g1"]), g1_extra_strips=int(job["g1_extra_strips"]),
             rounds_run=len(res.rounds), collisions_checked=bool(self.collisions),
             strips=n_strips, candidates=len(res.candidates), collisions=len(res.collisions),
             collision_u=[float(c["u"]) for c in res.collisions],

@@ -5,7 +5,8 @@ import bpy
 from .common import settings_and_operator
 
 SF_PROPS = ("flank", "use_point", "point", "shape", "r1", "r2", "alpha", "length", "shank_radius", "shank_length",
-            "tolerance", "overcut_tolerance", "seeds", "objective", "mode", "rounds", "collisions", "envelope_rings",
+            "tolerance", "overcut_tolerance", "seeds", "objective", "mode", "rounds", "collisions", "g1", "g1_extra_strips",
+            "envelope_rings",
             "animate", "frame_start", "frame_end", "filepath")
 
 

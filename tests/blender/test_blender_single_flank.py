@@ -209,3 +209,17 @@ def test_panel_draws_single_flank_settings_and_results(sfl):
     assert labels[0] == "Rotor_asymmetric_female: flank 1 (single-flank-cone-phi1-hard)"
     assert any(" strips of " in lab and "colliding excluded" in lab for lab in labels), labels
     assert any(lab.startswith("Error ") for lab in labels), labels
+
+
+# ------------------------------------------------------------------------------------------- G1, invoked
+def test_g1_option_invoked_as_from_the_ui_equals_the_core(sfl):
+    """'INVOKE_DEFAULT' (the modal planner; synchronous under bpy.app.background) with the G1 option gives the
+    core's smooth cover: same strips, same largest kink, and the selection report is stored."""
+    g = sfl["g1"]
+    assert g["result"] == ["FINISHED"], g["error"]
+    assert g["g1"] == 1 and g["g1_extra"] == 3
+    assert g["strips"] == g["core_strips"]
+    assert g["kink_max"] == pytest.approx(g["core_kink_max"], abs=1e-9)
+    sel, core = g["selection"], g["core_selection"]
+    assert sel["kept"] == core["kept"] and sel["strips_after"] == core["strips_after"]
+    assert sel["max_kink_after_deg"] <= sel["max_kink_before_deg"]

@@ -1,0 +1,117 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The modal side of the planning operators: progress bar, status text, ESC, planner off the UI thread.
+
+An operator using :class:`ModalPlannerMixin` splits its work in three:
+
+- ``_prepare(context)`` on the main thread: reads properties and Blender data, validates (reports
+  and returns None on bad input) and returns a ``job`` dict of plain Python/numpy values;
+- ``_compute(job, progress)``: the planner, pure numpy/scipy (``flank_addon``), no Blender data --
+  it runs in a worker thread (:class:`jobs.PlannerJob`) when invoked from the UI;
+- ``_build(context, job, result)`` on the main thread: creates the Blender data, reports, returns
+  the operator's result set.
+
+``execute`` (scripts, ``bpy.app.background``, redo) runs the three in a row.  ``invoke`` from the UI
+starts the worker and returns RUNNING_MODAL; a 0.1 s timer updates the window manager's progress
+(percent) and the status bar text; ESC cancels: the planner stops at its next progress report and
+nothing is built, so the scene is exactly as before.  Under ``bpy.app.background`` invoke is
+``execute``.
+"""
+import bpy
+
+from .jobs import PlannerJob
+
+TIMER_STEP = 0.1
+
+
+class ModalPlannerMixin:
+    _job = None
+    _timer = None
+    _prepared = None
+    _title = "Planning"
+
+    def _compute_failed(self, ex):
+        """Message for an exception of _compute (ValueError: the planner's own message)."""
+        if isinstance(ex, ValueError):
+            return "{}: {}".format(self._title, ex)
+        return "{} failed: {}: {}".format(self._title, type(ex).__name__, ex)
+
+    def execute(self, context):
+        from ..flank_addon.progress import Cancelled
+
+        job = self._prepare(context)
+        if job is None:
+            return {'CANCELLED'}
+        try:
+            result = self._compute(job, None)
+        except Cancelled:
+            return {'CANCELLED'}
+        except Exception as ex:                                    # never a traceback for the user
+            self.report({'ERROR'}, self._compute_failed(ex))
+            return {'CANCELLED'}
+        return self._build(context, job, result)
+
+    def invoke(self, context, event):
+        if bpy.app.background or context.window_manager is None or context.window is None:
+            return self.execute(context)
+        from ..flank_addon.progress import Cancelled
+
+        job = self._prepare(context)
+        if job is None:
+            return {'CANCELLED'}
+        self._prepared = job
+        self._job = PlannerJob(lambda progress: self._compute(job, progress), Cancelled)
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(TIMER_STEP, window=context.window)
+        wm.progress_begin(0, 100)
+        wm.modal_handler_add(self)
+        self._status(context, "{}: starting (Esc cancels)".format(self._title))
+        return {'RUNNING_MODAL'}
+
+    def _status(self, context, text):
+        ws = getattr(context, "workspace", None)
+        if ws is not None:
+            try:
+                ws.status_text_set(text)
+            except (AttributeError, RuntimeError, TypeError):
+                pass
+
+    def _finish(self, context):
+        wm = context.window_manager
+        if self._timer is not None:
+            wm.event_timer_remove(self._timer)
+            self._timer = None
+        wm.progress_end()
+        self._status(context, None)
+
+    def modal(self, context, event):
+        job = self._job
+        if event.type == 'ESC' and event.value == 'PRESS':
+            job.cancel()
+            self._status(context, "{}: cancelling...".format(self._title))
+            return {'RUNNING_MODAL'}
+        if event.type != 'TIMER':
+            return {'PASS_THROUGH'}
+        state, fraction, message = job.poll()
+        if state == "running":
+            context.window_manager.progress_update(int(round(100 * fraction)))
+            self._status(context, "{}: {:3.0f}%  {}  (Esc cancels)".format(self._title, 100 * fraction, message))
+            return {'RUNNING_MODAL'}
+        self._finish(context)
+        self._job = None
+        if state == "cancelled":
+            self.report({'WARNING'}, "{}: cancelled; nothing was changed".format(self._title))
+            return {'CANCELLED'}
+        if state == "failed":
+            self.report({'ERROR'}, self._compute_failed(job.error))
+            return {'CANCELLED'}
+        try:
+            return self._build(context, self._prepared, job.result)
+        finally:
+            self._prepared = None
+
+    def cancel(self, context):
+        """Blender closes the operator (e.g. the file is closed): stop the worker, drop the result."""
+        if self._job is not None:
+            self._job.cancel()
+            self._job = None
+        self._finish(context)
