@@ -4,6 +4,7 @@ import bpy
 
 from .common import (edge_mesh, frame_along, key_screw_motion, new_mesh_from_arrays, remove_ids,
                      results_parent, rotor_source, screw_matrix, select_only, set_color_attr, set_float_attr)
+from .modal import ModalPlannerMixin
 from .properties import double_flank_props
 
 PROP_PREFIX = "flank_df_"
@@ -45,7 +46,7 @@ def _tool_frame(np, path):
     return T, length
 
 
-class FLANK_OT_plan_double_flank(bpy.types.Operator):
+class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
     """s001: plan double-flank milling of one valley of the active rotor with a custom-shaped tool (optimised
     axis, radial function min / avg / one-sided) or conical tools, and show the result.
 
@@ -63,6 +64,7 @@ class FLANK_OT_plan_double_flank(bpy.types.Operator):
     bl_idname = "flank.plan_double_flank"
     bl_label = "Plan Double Flank"
     bl_options = {'REGISTER', 'UNDO'}
+    _title = "Double flank"
 
     __annotations__ = double_flank_props()
 
@@ -72,7 +74,75 @@ class FLANK_OT_plan_double_flank(bpy.types.Operator):
         """The rotor to plan on -> dict, or an error message (str) (see common.rotor_source)."""
         return rotor_source(bpy, context, np, PROP_PREFIX)
 
-    def execute(self, context):
+    def _prepare(self, context):
+        """Main thread: properties and rotor -> job dict, or None (error reported)."""
+        import math
+        import time
+
+        import numpy as np
+
+        t0 = time.perf_counter()
+        rim, tol_in = _decimal(self.rim), _decimal(self.tolerance)
+        k_valley, m, n_cones = int(self.valley), int(self.radii), int(self.cones)
+        if not math.isfinite(rim) or not 0.0 < rim <= 1.0:
+            self.report({'ERROR'}, "Double flank: rim = {} must be in (0, 1] (fraction of the valley depth)".format(
+                rim))
+            return None
+        if not math.isfinite(tol_in) or tol_in < 0.0:
+            self.report({'ERROR'}, "Double flank: tolerance = {} must be a finite number >= 0".format(tol_in))
+            return None
+        if m < 2:
+            self.report({'ERROR'}, "Double flank: radii m = {} is below the minimum 2 (the plan needs m + 1 >= 3 "
+                                   "radii per strip)".format(m))
+            return None
+        if int(self.samples) < 4:
+            self.report({'ERROR'}, "Double flank: axis samples = {} is below the minimum 4".format(int(self.samples)))
+            return None
+        if self.two_paths and self.tool != "custom":
+            self.report({'ERROR'}, "Double flank: Two Paths needs Tool = Custom (s001 Sec. 4.3), got Tool = "
+                                   "{}".format(self.tool))
+            return None
+        fs, fe = int(self.frame_start), int(self.frame_end)
+        if self.animate and fe <= fs:
+            self.report({'ERROR'}, "Double flank: end frame {} must be after the start frame {}".format(fe, fs))
+            return None
+        src = self._source(context, np)
+        if isinstance(src, str):
+            self.report({'ERROR'}, "Double flank: " + src)
+            return None
+        rotor_obj, surface, flanks = src["obj"], src["surface"], src["flanks"]
+        nv = len(flanks) // 2
+        if not 0 <= k_valley < nv:
+            self.report({'ERROR'}, "Double flank: valley = {} is outside 0..{} (rotor '{}' has {} valleys)".format(
+                k_valley, nv - 1, rotor_obj.name, nv))
+            return None
+        tool = "cones:{}".format(n_cones) if self.tool == "cones" else str(self.tool)
+
+        return dict(t0=t0, src=src, rotor_name=rotor_obj.name, surface=surface, flanks=flanks, k_valley=k_valley,
+                    tool=tool, m=m, rim=rim, tol_in=tol_in, fs=fs, fe=fe, variant=str(self.variant),
+                    two_paths=bool(self.two_paths), samples=int(self.samples), simulate=bool(self.simulate),
+                    rings=int(self.envelope_rings), to_world=src["to_world"].tolist(), unit=src["unit"],
+                    z_range=tuple(float(v) for v in src["z_range"]))
+
+    @staticmethod
+    def _compute(job, progress):
+        """The planner, envelopes, tool meshes and charts (numpy only: the worker thread when invoked)."""
+        import numpy as np
+
+        from ..flank_addon import double_flank as df
+
+        res = df.plan_double_flank(job["surface"], job["flanks"], valley=job["k_valley"], variant=job["variant"],
+                                   tool=job["tool"], two_paths=job["two_paths"], m=job["m"], rim=job["rim"],
+                                   n=job["samples"], to_world=job["to_world"], length_unit=job["unit"],
+                                   simulate=job["simulate"], progress=progress)
+        env = res.envelope_meshes(job["z_range"], job["rings"])
+        tools = [res.tool_mesh(k, n_around=TOOL_SEGMENTS, max_rings=TOOL_MAX_RINGS) for k in range(len(res.paths))]
+        frames = [_tool_frame(np, p) for p in res.paths]
+        charts = [res.errors_along_axis(k) for k in range(len(res.paths))]
+        return dict(res=res, env=env, tools=tools, frames=frames, charts=charts)
+
+    def _build(self, context, job, out):
+        """Main thread: the result collection, objects, attributes and properties from a finished run."""
         import json
         import math
         import os
@@ -81,63 +151,16 @@ class FLANK_OT_plan_double_flank(bpy.types.Operator):
         import numpy as np
         from mathutils import Matrix
 
-        t0 = time.perf_counter()
-        rim, tol_in = _decimal(self.rim), _decimal(self.tolerance)
-        k_valley, m, n_cones = int(self.valley), int(self.radii), int(self.cones)
-        if not math.isfinite(rim) or not 0.0 < rim <= 1.0:
-            self.report({'ERROR'}, "Double flank: rim = {} must be in (0, 1] (fraction of the valley depth)".format(
-                rim))
-            return {'CANCELLED'}
-        if not math.isfinite(tol_in) or tol_in < 0.0:
-            self.report({'ERROR'}, "Double flank: tolerance = {} must be a finite number >= 0".format(tol_in))
-            return {'CANCELLED'}
-        if m < 2:
-            self.report({'ERROR'}, "Double flank: radii m = {} is below the minimum 2 (the plan needs m + 1 >= 3 "
-                                   "radii per strip)".format(m))
-            return {'CANCELLED'}
-        if int(self.samples) < 4:
-            self.report({'ERROR'}, "Double flank: axis samples = {} is below the minimum 4".format(int(self.samples)))
-            return {'CANCELLED'}
-        if self.two_paths and self.tool != "custom":
-            self.report({'ERROR'}, "Double flank: Two Paths needs Tool = Custom (s001 Sec. 4.3), got Tool = "
-                                   "{}".format(self.tool))
-            return {'CANCELLED'}
-        fs, fe = int(self.frame_start), int(self.frame_end)
-        if self.animate and fe <= fs:
-            self.report({'ERROR'}, "Double flank: end frame {} must be after the start frame {}".format(fe, fs))
-            return {'CANCELLED'}
-        src = self._source(context, np)
-        if isinstance(src, str):
-            self.report({'ERROR'}, "Double flank: " + src)
-            return {'CANCELLED'}
-        rotor_obj, surface, flanks = src["obj"], src["surface"], src["flanks"]
-        nv = len(flanks) // 2
-        if not 0 <= k_valley < nv:
-            self.report({'ERROR'}, "Double flank: valley = {} is outside 0..{} (rotor '{}' has {} valleys)".format(
-                k_valley, nv - 1, rotor_obj.name, nv))
-            return {'CANCELLED'}
-        tool = "cones:{}".format(n_cones) if self.tool == "cones" else str(self.tool)
-
         from ..flank_addon import double_flank as df
         from ..flank_addon.verify import deviation_colors
 
-        # ---- the core
-        try:
-            res = df.plan_double_flank(surface, flanks, valley=k_valley, variant=str(self.variant), tool=tool,
-                                       two_paths=bool(self.two_paths), m=m, rim=rim, n=int(self.samples),
-                                       to_world=src["to_world"].tolist(), length_unit=src["unit"],
-                                       simulate=bool(self.simulate))
-            env = res.envelope_meshes(src["z_range"], int(self.envelope_rings))
-            tools = [res.tool_mesh(k, n_around=TOOL_SEGMENTS, max_rings=TOOL_MAX_RINGS)
-                     for k in range(len(res.paths))]
-            frames = [_tool_frame(np, p) for p in res.paths]
-            charts = [res.errors_along_axis(k) for k in range(len(res.paths))]
-        except ValueError as ex:
-            self.report({'ERROR'}, "Double flank: {}".format(ex))
+        rotor_obj = bpy.data.objects.get(job["rotor_name"])
+        if rotor_obj is None:
+            self.report({'ERROR'}, "Double flank: the rotor '{}' was removed while planning".format(job["rotor_name"]))
             return {'CANCELLED'}
-        except Exception as ex:
-            self.report({'ERROR'}, "Double flank failed: {}: {}".format(type(ex).__name__, ex))
-            return {'CANCELLED'}
+        t0, src, surface, k_valley, m, rim = job["t0"], job["src"], job["surface"], job["k_valley"], job["m"], job["rim"]
+        tol_in, fs, fe, tool = job["tol_in"], job["fs"], job["fe"], job["tool"]
+        res, env, tools, frames, charts = out["res"], out["env"], out["tools"], out["frames"], out["charts"]
 
         s = float(src["scale"])                       # scene units per rotor unit
         R = float(surface.outer_radius)
