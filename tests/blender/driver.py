@@ -1511,10 +1511,30 @@ SCENARIOS = {"lifecycle": scenario_lifecycle, "operators": scenario_operators, "
              "cutter_region": scenario_cutter_region}
 
 
+def plugin_scenarios():
+    """Scenarios in their own files: tests/blender/scenario_<name>.py defining ``scenario(bpy, res, args)``
+    (they may ``import driver`` for the helpers here).  name -> path."""
+    import glob
+
+    here = os.path.dirname(os.path.abspath(__file__))
+    return {os.path.basename(p)[len("scenario_"):-3]: p
+            for p in sorted(glob.glob(os.path.join(here, "scenario_*.py")))}
+
+
+def _load_plugin(path):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(os.path.basename(path)[:-3], path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod.scenario
+
+
 def main():
+    plugins = plugin_scenarios()
     ap = argparse.ArgumentParser()
     ap.add_argument("--zip", required=True)
-    ap.add_argument("--scenario", required=True, choices=sorted(SCENARIOS))
+    ap.add_argument("--scenario", required=True, choices=sorted(set(SCENARIOS) | set(plugins)))
     ap.add_argument("--out", required=True)
     ap.add_argument("--resolution", type=int, default=360)
     args = ap.parse_args()
@@ -1531,7 +1551,8 @@ def main():
         res["background"] = bool(bpy.app.background)
         res["install"] = install_extension(bpy, args.zip)
         args.ext_dir = res["install"]["extensions_dir"]
-        SCENARIOS[args.scenario](bpy, res, args)
+        run = SCENARIOS.get(args.scenario) or _load_plugin(plugins[args.scenario])
+        run(bpy, res, args)
         res["ok"] = True
     except Exception:
         res["exception"] = traceback.format_exc()
