@@ -338,3 +338,12 @@ def rotor_source(bpy, context, np, prop_prefix):
                     scale=scale, z_range=(z[0], z[1]), unit="mm", kind="analyzed")
     return ("'{}' is not a rotor (flank_source = {!r}): select a rotor made by Generate Rotor or run "
             "Analyze Rotor on the mesh first".format(obj.name, src))
+
+
+def count_limit_error(label, value, lo, hi):
+    """Message for an integer setting outside [lo, hi] (sizes that would exhaust memory or mean nothing),
+    or None."""
+    v = int(value)
+    if lo <= v <= hi:
+        return None
+    return "{} = {} is outside the limits {}..{}".format(label, v, lo, hi)

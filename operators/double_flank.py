@@ -95,8 +95,12 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
             self.report({'ERROR'}, "Double flank: radii m = {} is below the minimum 2 (the plan needs m + 1 >= 3 "
                                    "radii per strip)".format(m))
             return None
-        if int(self.samples) < 4:
-            self.report({'ERROR'}, "Double flank: axis samples = {} is below the minimum 4".format(int(self.samples)))
+        from .common import count_limit_error
+
+        msg = (count_limit_error("axis samples", self.samples, 4, 2000)
+               or count_limit_error("envelope rings", self.envelope_rings, 2, 4096))
+        if msg is not None:
+            self.report({'ERROR'}, "Double flank: " + msg)
             return None
         if self.two_paths and self.tool != "custom":
             self.report({'ERROR'}, "Double flank: Two Paths needs Tool = Custom (s001 Sec. 4.3), got Tool = "
@@ -117,6 +121,11 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
                 k_valley, nv - 1, rotor_obj.name, nv))
             return None
         tool = "cones:{}".format(n_cones) if self.tool == "cones" else str(self.tool)
+        lim = 0.5 * float(surface.outer_radius) * float(src["scale"])
+        if not tol_in < lim:
+            self.report({'ERROR'}, "Double flank: tolerance = {:g} must be below half the outer radius of '{}', "
+                                   "{:.6g} (scene units)".format(tol_in, rotor_obj.name, lim))
+            return None
 
         return dict(t0=t0, src=src, rotor_name=rotor_obj.name, surface=surface, flanks=flanks, k_valley=k_valley,
                     tool=tool, m=m, rim=rim, tol_in=tol_in, fs=fs, fe=fe, variant=str(self.variant),

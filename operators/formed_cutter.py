@@ -139,6 +139,14 @@ class FLANK_OT_formed_cutter(bpy.types.Operator):
             self.report({'ERROR'}, "Formed cutter: swivel = {:g} deg must satisfy 0 < |swivel| < 90 deg (0: cutter "
                                    "axis parallel to the rotor axis, 90: perpendicular to it)".format(swivel))
             return {'CANCELLED'}
+        from .common import count_limit_error
+
+        msg = (count_limit_error("planes", self.planes, 2, 20000)
+               or count_limit_error("tooth points", self.sample_points, 3, 100000)
+               or count_limit_error("resolution", self.resolution, 24, 65536))
+        if msg is not None:
+            self.report({'ERROR'}, "Formed cutter: " + msg)
+            return {'CANCELLED'}
         fs, fe = int(self.frame_start), int(self.frame_end)
         if self.animate and fe <= fs:
             self.report({'ERROR'}, "Formed cutter: end frame {} must be after the start frame {}".format(fe, fs))
@@ -150,6 +158,10 @@ class FLANK_OT_formed_cutter(bpy.types.Operator):
         profile, tooth, lead, hand = src["profile"], src["tooth"], src["lead"], src["hand"]
         r0 = src["r0"]
         A = A_in if A_in != 0.0 else src["A_auto"]
+        if abs(A) > 1000.0 * r0:
+            self.report({'ERROR'}, "Formed cutter: centre distance A = {:g} exceeds the limit 1000 x the rotor's "
+                                   "outer radius = {:g}".format(A, 1000.0 * r0))
+            return {'CANCELLED'}
         eps_b = eps_b_in if eps_b_in > 0.0 else None
         tol = tol_in if tol_in > 0.0 else 1e-5 * r0
         planes = int(self.planes)

@@ -23,6 +23,15 @@ class FLANK_OT_generate_rotor(bpy.types.Operator):
         from ..flank_addon import rotors
 
         t0 = time.perf_counter()
+        from .common import count_limit_error
+
+        msg = (count_limit_error("resolution", self.resolution, 24, 65536)
+               or count_limit_error("axial rings", self.axial, 2, 16384)
+               or count_limit_error("mesh vertices (resolution x axial rings)",
+                                    int(self.resolution) * int(self.axial), 48, 4000000))
+        if msg is not None:
+            self.report({'ERROR'}, "Rotor generation: " + msg)
+            return {'CANCELLED'}
         hand = None if self.handedness == "DEFAULT" else self.handedness
         try:
             rotor = rotors.builtin_rotor(

@@ -66,6 +66,14 @@ class FLANK_OT_paraboloid_groove(bpy.types.Operator):
         # (7 significant digits), so the paper case a = -0.05 gives the intercepts -8 / -32 exactly
         R, a, b, p = (float("{:.7g}".format(v)) for v in (self.radius, self.a, self.b, self.pitch))
         turns, n = float(self.turns), int(self.resolution)
+        from .common import count_limit_error
+
+        msg = count_limit_error("resolution", n, 16, 100000)
+        if msg is None and not (math.isfinite(turns) and 0.0 < turns <= 1000.0):
+            msg = "turns = {} is outside the limits (0, 1000]".format(turns)
+        if msg is not None:
+            self.report({'ERROR'}, "Paraboloid groove: " + msg)
+            return {'CANCELLED'}
         try:
             sec = groove_section(R, a, b, p, n=n, part=self.part)
             full = sec if self.part == "full" else groove_section(R, a, b, p, n=n, part="full")

@@ -144,8 +144,12 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
             return "seeds = {} is outside 1..400".format(int(self.seeds))
         if not 0 <= int(self.g1_extra_strips) <= 50:
             return "G1 extra strips = {} is outside 0..50".format(int(self.g1_extra_strips))
-        if int(self.rounds) < 1:
-            return "rounds = {} is below the minimum 1".format(int(self.rounds))
+        from .common import count_limit_error
+
+        msg = (count_limit_error("rounds", self.rounds, 1, 50)
+               or count_limit_error("envelope rings", self.envelope_rings, 2, 4096))
+        if msg is not None:
+            return msg
         if self.animate and int(self.frame_end) <= int(self.frame_start):
             return "end frame {} must be after the start frame {}".format(int(self.frame_end), int(self.frame_start))
         return None
@@ -178,6 +182,14 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
             if not v < limit:
                 self.report({'ERROR'}, "Single flank: {} = {} must be below half the outer radius of '{}', {:.6g} "
                                        "(scene units)".format(label, v, rotor_obj.name, limit))
+                return None
+        # sizes beyond these mean a tool that cannot enter any valley (and sweeps that run for minutes)
+        for label, v, k in (("tool radius r2", self.r2, 2.0), ("tool radius r1", self.r1, 2.0),
+                            ("cone length h", self.length if self.shape == "length" else 0.0, 20.0),
+                            ("shank radius", self.shank_radius, 10.0), ("shank length", self.shank_length, 100.0)):
+            if not _decimal(v) <= k * R * s:
+                self.report({'ERROR'}, "Single flank: {} = {:g} exceeds the limit {:g} x the outer radius of '{}' = "
+                                       "{:.6g} (scene units)".format(label, _decimal(v), k, rotor_obj.name, k * R * s))
                 return None
 
         from ..flank_addon import multi_strip as ms

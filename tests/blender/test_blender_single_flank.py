@@ -174,7 +174,7 @@ def test_undo_and_redo(sfl):
     ("flank_99", ["flank = 99", "0..11", "12 flanks"]),
     ("flank_neg", ["flank = -1", "0..11"]),
     ("seeds_0", ["seeds = 0", "1..400"]),
-    ("rounds_0", ["rounds = 0", "minimum 1"]),
+    ("rounds_0", ["rounds = 0", "limits 1..50"]),
     ("frames", ["end frame 10", "start frame 10"]),
     ("point_nan", ["point [nan, 0.0, 0.0]", "not finite"]),
     ("all_colliding", ["no collision-free strip on flank 1", "2 candidates, 2 colliding", "uncovered [0.613, 1.187]"]),
