@@ -1,3 +1,158 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Placeholder: being written (issue 6).  Exposes classes registered by operators/__init__.py."""
-classes = ()
+"""flank.animate_strip -- play one strip of a planning run as the machine does it: the rotor screws along and
+about its axis past the tool, which stays where it is."""
+import bpy
+from bpy.props import IntProperty, StringProperty
+
+from .common import PLAN_JSON_PROP, iter_fcurves, key_screw_motion, remove_ids
+from .export import find_run
+
+ROLE = "flank_anim_role"       # objects made here: "frame", "motion", "rotor", "strip"
+
+
+def _run_prop(coll, name):
+    """A run's custom property under any planner's prefix (flank_sf_<name>, flank_df_<name>)."""
+    for key in coll.keys():
+        if key.startswith("flank_") and key.endswith("_" + name) and key.count("_") == 2 + name.count("_"):
+            return coll[key]
+    return None
+
+
+def remove_animation(coll):
+    """Remove an earlier animation of this run (objects, their actions); the rotor's own data stays."""
+    objs = [ob for ob in coll.objects if ROLE in ob]
+    actions = [ob.animation_data.action for ob in objs if ob.animation_data and ob.animation_data.action]
+    for ob in objs:
+        bpy.data.objects.remove(ob)
+    for act in actions:
+        if act.users == 0:
+            bpy.data.actions.remove(act)
+    return len(objs)
+
+
+class FLANK_OT_animate_strip(bpy.types.Operator):
+    """Animate one strip of a planning run: the rotor (a linked copy, with the strip's envelope) screws past the
+    fixed tool and shank over the frame range, so playback shows the cut.  Re-running replaces the run's
+    animation; the original rotor is hidden, not moved"""
+
+    bl_idname = "flank.animate_strip"
+    bl_label = "Animate Strip"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    collection: StringProperty(name="Run", description="Result collection; empty = the run of the active object, "
+                                                       "else the newest run", default="")
+    strip: IntProperty(name="Strip", description="Strip number as in the object names (1 = first)", default=1)
+    frame_start: IntProperty(name="Start Frame", default=1)
+    frame_end: IntProperty(name="End Frame", default=250)
+
+    def execute(self, context):
+        import json
+        import math
+
+        import numpy as np
+        from mathutils import Matrix
+
+        from ..flank_addon.plan import PlanError, validate_plan
+
+        fs, fe = int(self.frame_start), int(self.frame_end)
+        if fe <= fs:
+            self.report({'ERROR'}, "Animate strip: end frame {} must be after the start frame {}".format(fe, fs))
+            return {'CANCELLED'}
+        coll = find_run(context, self.collection)
+        if isinstance(coll, str):
+            self.report({'ERROR'}, "Animate strip: " + coll)
+            return {'CANCELLED'}
+        try:
+            plan = validate_plan(json.loads(coll[PLAN_JSON_PROP]))
+        except (ValueError, PlanError) as ex:
+            self.report({'ERROR'}, "Animate strip: the plan stored on '{}' is not valid: {}".format(coll.name, ex))
+            return {'CANCELLED'}
+        n = len(plan["strips"])
+        k = int(self.strip) - 1
+        if not 0 <= k < n:
+            self.report({'ERROR'}, "Animate strip: strip = {} does not exist: run '{}' has strips 1..{}".format(
+                int(self.strip), coll.name, n))
+            return {'CANCELLED'}
+        rotor_name = _run_prop(coll, "rotor")
+        rotor_obj = bpy.data.objects.get(str(rotor_name)) if rotor_name is not None else None
+        if rotor_obj is None or rotor_obj.type != 'MESH':
+            self.report({'ERROR'}, "Animate strip: the rotor '{}' of run '{}' is gone".format(rotor_name, coll.name))
+            return {'CANCELLED'}
+        rot = plan["rotor"]
+        D = np.array(rot["to_world"], dtype=np.float64)            # rotor frame -> world
+        v0 = float(rot["v0"])
+        eps = 1 if str(rot["handedness"]) == "right" else -1
+        try:
+            Dinv = np.linalg.inv(D)
+        except np.linalg.LinAlgError:
+            self.report({'ERROR'}, "Animate strip: the plan's rotor placement (to_world) is singular")
+            return {'CANCELLED'}
+        # time range: the whole rotor body passes the tool tip (plus an outer radius on either side)
+        W = np.array(rotor_obj.matrix_world, dtype=np.float64)
+        corners = np.array([list(c) + [1.0] for c in rotor_obj.bound_box]) @ (Dinv @ W).T
+        z = corners[:, 2] / corners[:, 3]
+        st = plan["strips"][k]
+        z_tip = 0.5 * (float(st["axis_start"][2]) + float(st["axis_end"][2]))
+        margin = float(rot.get("outer_radius", 0.0))
+        if not (math.isfinite(v0) and abs(v0) > 0.0):
+            self.report({'ERROR'}, "Animate strip: the plan's v0 = {} gives no screw motion".format(v0))
+            return {'CANCELLED'}
+        t0, t1 = (z_tip - z.max() - margin) / v0, (z_tip - z.min() + margin) / v0
+        tag = "{} strip {}".format(coll.name, k + 1)
+        prefix_role = [key for key in ("flank_sf_role", "flank_df_role") if any(key in ob for ob in coll.objects)]
+        strip_key = prefix_role[0].replace("_role", "_strip") if prefix_role else None
+        envelopes = [ob for ob in coll.objects if prefix_role and ob.get(prefix_role[0]) == "envelope"
+                     and ob.get(strip_key) == k]
+
+        removed = remove_animation(coll)
+        made, actions = [], []
+        try:
+            frame = bpy.data.objects.new("Rotor Frame ({})".format(tag), None)
+            made.append(frame)
+            coll.objects.link(frame)
+            frame.empty_display_type = 'PLAIN_AXES'
+            frame.matrix_world = Matrix(D.tolist())
+            motion = bpy.data.objects.new("Rotor Motion ({})".format(tag), None)
+            made.append(motion)
+            coll.objects.link(motion)
+            motion.empty_display_type = 'ARROWS'
+            motion.parent = frame
+            motion.matrix_parent_inverse = Matrix.Identity(4)
+            act = key_screw_motion(motion, ((fs, t0), (fe, t1)), v0, eps)
+            if act is not None:
+                actions.append(act)
+            moving = [(rotor_obj, "rotor")] + [(ob, "strip") for ob in envelopes]
+            for src, role in moving:
+                ob = bpy.data.objects.new("{} (moving)".format(src.name), src.data)    # linked copy: no new mesh
+                made.append(ob)
+                coll.objects.link(ob)
+                ob.parent = motion
+                ob.matrix_parent_inverse = Matrix.Identity(4)
+                ob.matrix_basis = Matrix((Dinv @ np.array(src.matrix_world, dtype=np.float64)).tolist())
+                ob.color = src.color
+                ob[ROLE] = role
+            frame[ROLE], motion[ROLE] = "frame", "motion"
+            for ob in made:
+                ob["flank_anim_strip"] = k + 1
+            motion["flank_anim_time"] = [float(t0), float(t1)]
+            motion["flank_anim_frames"] = [fs, fe]
+        except Exception as ex:
+            remove_ids(bpy, made, (), ())
+            for act in actions:
+                if act.users == 0:
+                    bpy.data.actions.remove(act)
+            self.report({'ERROR'}, "Animate strip failed: {}: {}".format(type(ex).__name__, ex))
+            return {'CANCELLED'}
+        rotor_obj.hide_set(True)
+        hidden = [ob for ob in envelopes]
+        for ob in hidden:
+            ob.hide_set(True)
+        fcurves = sum(1 for a in actions for _ in iter_fcurves(a))
+        self.report({'INFO'}, "Animated strip {} of '{}': the rotor screws t = {:.4g} .. {:.4g} over frames {}..{} "
+                              "({} F-curves); '{}' is hidden (Alt+H shows it){}".format(
+                                  k + 1, coll.name, t0, t1, fs, fe, fcurves, rotor_obj.name,
+                                  ", replaced the earlier animation" if removed else ""))
+        return {'FINISHED'}
+
+
+classes = (FLANK_OT_animate_strip,)

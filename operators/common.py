@@ -2,6 +2,7 @@
 """Small helpers shared by the operators (bpy only; numpy passed in)."""
 
 # Object custom properties written by the operators.
+PLAN_JSON_PROP = "flank_plan_json"   # result collection: the run's flank-plan/1 as JSON text
 PROP_KEYS = (
     "flank_source", "flank_kind", "flank_part", "flank_lobes", "flank_scale", "flank_lead", "flank_length",
     "flank_v0", "flank_handedness", "flank_axis", "flank_axis_point", "flank_residual", "flank_threshold",

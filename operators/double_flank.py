@@ -2,7 +2,7 @@
 """flank.plan_double_flank -- s001: double-flank milling of one rotor valley with a custom-shaped or conical tool."""
 import bpy
 
-from .common import (edge_mesh, frame_along, key_screw_motion, new_mesh_from_arrays, remove_ids,
+from .common import (PLAN_JSON_PROP, edge_mesh, frame_along, key_screw_motion, new_mesh_from_arrays, remove_ids,
                      results_parent, rotor_source, screw_matrix, select_only, set_color_attr, set_float_attr)
 from .modal import ModalPlannerMixin
 from .properties import double_flank_props
@@ -360,6 +360,8 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
         for target in [coll, rotor_obj] + tool_objs:
             for key, value in props.items():
                 target[PROP_PREFIX + key] = value
+        # the run's plan (flank-plan/1) travels with its collection: exports and reports read it from there
+        coll[PLAN_JSON_PROP] = json.dumps(res.plan)
         select_only(context, tool_objs[0])
 
         f0 = fits[0]

@@ -1,3 +1,161 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Placeholder: being written (issue 6).  Exposes classes registered by operators/__init__.py."""
-classes = ()
+"""flank.export_results -- write a result run (its stored flank-plan/1) as plan JSON, CL data, error CSV or
+strip meshes, through the core writers of ``flank_addon.exports`` (the same files as ``python -m flank_addon
+export``)."""
+import bpy
+from bpy.props import EnumProperty, IntProperty, StringProperty
+from bpy_extras.io_utils import ExportHelper
+
+from .common import PLAN_JSON_PROP, RESULTS_COLLECTION
+
+FORMAT_ITEMS = (
+    ("PLAN", "Plan (JSON)", "The run's flank-plan/1 file", 0),
+    ("CL", "CL Data (APT)", "GOTO/x,y,z,i,j,k tool tip and axis per step in the rotor frame, with the rotor "
+                            "angle A and the axial feed per step (see README)", 1),
+    ("CSV", "Error Profile (CSV)", "Machined deviation along the target flanks' profile (verify engine)", 2),
+    ("STL", "Strips (STL)", "Envelope strips as binary STL, one file per strip: <name>_<k>.stl", 3),
+    ("PLY", "Strips (PLY)", "Envelope strips as PLY, one file per strip: <name>_<k>.ply", 4),
+)
+EXTENSIONS = {"PLAN": ".json", "CL": ".apt", "CSV": ".csv", "STL": ".stl", "PLY": ".ply"}
+
+
+def result_runs():
+    """Result collections that carry a plan, oldest first."""
+    parent = bpy.data.collections.get(RESULTS_COLLECTION)
+    if parent is None:
+        return []
+    return [c for c in parent.children if PLAN_JSON_PROP in c]
+
+
+def find_run(context, name=""):
+    """The run named ``name``, else the one holding the active object, else the newest -> collection or an
+    error message (str)."""
+    if name:
+        coll = bpy.data.collections.get(name)
+        if coll is None:
+            return "there is no collection '{}'".format(name)
+        if PLAN_JSON_PROP not in coll:
+            return "collection '{}' holds no plan (not a single- or double-flank run)".format(name)
+        return coll
+    runs = result_runs()
+    ob = context.active_object
+    if ob is not None:
+        for coll in ob.users_collection:
+            if PLAN_JSON_PROP in coll:
+                return coll
+    if not runs:
+        return "no planning run with a plan under '{}': run Plan Single Flank or Plan Double Flank first".format(
+            RESULTS_COLLECTION)
+    return runs[-1]
+
+
+class FLANK_OT_export_results(bpy.types.Operator, ExportHelper):
+    """Export a planning run: its plan, CL data, error profile or envelope strips (rotor frame, plan units)"""
+
+    bl_idname = "flank.export_results"
+    bl_label = "Export Flank Results"
+    bl_options = {'REGISTER'}
+
+    filename_ext = ".json"
+    filter_glob: StringProperty(default="*.json;*.apt;*.cl;*.csv;*.stl;*.ply", options={'HIDDEN'})
+    format: EnumProperty(name="Format", items=FORMAT_ITEMS, default="CL")
+    collection: StringProperty(name="Run", description="Result collection to export; empty = the run of the active "
+                                                       "object, else the newest run", default="")
+    strip: IntProperty(name="Strip", description="Strip number as in the object names (1 = first); 0 = all strips "
+                                                 "(CL, STL, PLY)", default=0, min=0)
+    steps: IntProperty(name="Steps", description="CL steps (and envelope rings) per strip over one lead (1..100000)",
+                       default=360, min=1)
+
+    def invoke(self, context, event):
+        self.filename_ext = EXTENSIONS[self.format]
+        return ExportHelper.invoke(self, context, event)
+
+    def check(self, context):
+        self.filename_ext = EXTENSIONS[self.format]
+        return ExportHelper.check(self, context)
+
+    def execute(self, context):
+        import json
+        import os
+        import shutil
+        import tempfile
+        import time
+
+        from ..flank_addon import exports
+        from ..flank_addon.plan import PlanError, validate_plan
+
+        t0 = time.perf_counter()
+        if not self.filepath:
+            self.report({'ERROR'}, "Export: no file given (filepath is empty)")
+            return {'CANCELLED'}
+        if not 1 <= int(self.steps) <= 100000:
+            self.report({'ERROR'}, "Export: steps = {} is outside the limits 1..100000".format(int(self.steps)))
+            return {'CANCELLED'}
+        coll = find_run(context, self.collection)
+        if isinstance(coll, str):
+            self.report({'ERROR'}, "Export: " + coll)
+            return {'CANCELLED'}
+        try:
+            plan = validate_plan(json.loads(coll[PLAN_JSON_PROP]))
+        except (ValueError, PlanError) as ex:
+            self.report({'ERROR'}, "Export: the plan stored on '{}' is not valid: {}".format(coll.name, ex))
+            return {'CANCELLED'}
+        n = len(plan["strips"])
+        strip = int(self.strip)
+        if strip > n:
+            self.report({'ERROR'}, "Export: strip = {} does not exist: run '{}' has strips 1..{}".format(
+                strip, coll.name, n))
+            return {'CANCELLED'}
+        k = None if strip == 0 else strip - 1
+        path = bpy.path.abspath(self.filepath)
+        folder = os.path.dirname(path) or "."
+        if not os.path.isdir(folder):
+            self.report({'ERROR'}, "Export: the folder '{}' does not exist".format(folder))
+            return {'CANCELLED'}
+        fmt = self.format
+        written = []
+        tmp = tempfile.mkdtemp(prefix=".flank_export_", dir=folder) if os.access(folder, os.W_OK) else None
+        if tmp is None:
+            self.report({'ERROR'}, "Export: the folder '{}' is not writable".format(folder))
+            return {'CANCELLED'}
+        try:
+            # everything is written into a temporary folder first and moved only when all of it succeeded
+            if fmt in ("PLAN", "CL", "CSV"):
+                if fmt == "PLAN":
+                    text, what = json.dumps(plan, indent=1), "plan, {} strips".format(n)
+                elif fmt == "CL":
+                    text = exports.cl_data(plan, strip=k, steps=int(self.steps))
+                    what = "CL data, {} GOTO steps".format(text.count("\nGOTO/"))
+                else:
+                    text = exports.error_profile_csv(plan)
+                    what = "error profile, {} points".format(text.count("\n") - 1)
+                staged = os.path.join(tmp, os.path.basename(path))
+                with open(staged, "w", encoding="utf-8") as fh:
+                    fh.write(text)
+                pairs = [(staged, path)]
+            else:
+                stem = os.path.splitext(os.path.basename(path))[0]
+                ext = fmt.lower()
+                staged = exports.write_strip_meshes(plan, os.path.join(tmp, stem), ext, strip=k,
+                                                    n_t=min(int(self.steps), 2000) + 1)
+                pairs = [(p, os.path.join(folder, os.path.basename(p))) for p in staged]
+                what = "{} strip envelope(s) as {}".format(len(pairs), fmt)
+            for src, dst in pairs:
+                os.replace(src, dst)
+                written.append(dst)
+        except Exception as ex:              # core ValueError, OSError, ...: reported, never a traceback
+            for p in written:
+                try:
+                    os.remove(p)
+                except OSError:
+                    pass
+            self.report({'ERROR'}, "Export of '{}' failed: {}: {}".format(coll.name, type(ex).__name__, ex))
+            return {'CANCELLED'}
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+        self.report({'INFO'}, "Exported '{}': {} to {} ({:.2f} s)".format(
+            coll.name, what, ", ".join(os.path.basename(p) for p in written), time.perf_counter() - t0))
+        return {'FINISHED'}
+
+
+classes = (FLANK_OT_export_results,)

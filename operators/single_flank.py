@@ -2,7 +2,7 @@
 """flank.plan_single_flank -- s000: multi-strip single-flank milling of one rotor flank with a conical tool."""
 import bpy
 
-from .common import (edge_mesh, frame_along, key_screw_motion, new_mesh_from_arrays, remove_ids,
+from .common import (PLAN_JSON_PROP, edge_mesh, frame_along, key_screw_motion, new_mesh_from_arrays, remove_ids,
                      results_parent, revolved_mesh, rotor_source, select_only, set_color_attr, set_float_attr)
 from .modal import ModalPlannerMixin
 from .properties import single_flank_props
@@ -516,6 +516,8 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
         for target in [coll, rotor_obj] + tool_objs:
             for name, value in props.items():
                 target[PROP_PREFIX + name] = value
+        # the run's plan (flank-plan/1) travels with its collection: exports and reports read it from there
+        coll[PLAN_JSON_PROP] = json.dumps(res.plan)
         select_only(context, tool_objs[0])
 
         unit = "scene units"
