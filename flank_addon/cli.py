@@ -450,6 +450,22 @@ def _cmd_export(args):
     return 0
 
 
+def _cmd_render(args):
+    from .plan import read_plan
+    from .report_render import render_plan_report
+
+    plan = read_plan(args.plan)
+    try:
+        import bpy
+    except ImportError:
+        raise ValueError("render needs Blender's Python module bpy (the venv of `make demo` has it: "
+                         "pip install bpy==5.0.1 on Python 3.11)") from None
+    w, h = args.resolution
+    info = render_plan_report(bpy, plan, args.out, width=w, height=h, tolerance=args.tolerance)
+    print(f"wrote {args.out} ({w} x {h}) in {info['seconds']:.2f} s: {info['title'][1]}")
+    return 0
+
+
 def build_parser():
     p = argparse.ArgumentParser(prog="python -m flank_addon",
                                 description="5-axis flank-milling planner for helical surfaces")
@@ -578,6 +594,14 @@ def build_parser():
     ex.add_argument("--steps", type=int, default=360, help="steps over the z range (default 360)")
     ex.add_argument("--z-range", help="Z0,Z1 rotor-frame range of the tool tip (default 0,lead)")
     ex.set_defaults(func=_cmd_export)
+
+    rr = sub.add_parser("render", help="render a report picture of a plan (rotor, strips by signed error, legend; "
+                                       "needs bpy)")
+    rr.add_argument("plan", help="flank-plan/1 JSON")
+    rr.add_argument("--out", required=True, metavar="OUT.png")
+    rr.add_argument("--resolution", type=int, nargs=2, default=(1280, 800), metavar=("W", "H"))
+    rr.add_argument("--tolerance", type=float, help="colour band (default: the plan's tolerance, else 1e-3 R)")
+    rr.set_defaults(func=_cmd_render)
 
     b = sub.add_parser("builtins", help="list built-in rotor names (KIND-PART)")
     b.set_defaults(func=_cmd_builtins)

@@ -87,6 +87,25 @@ def scenario(bpy, res, args):
     out["leftovers"] = sorted(f for f in os.listdir(tmp) if f.startswith(".flank_export_"))
     res["export"] = out
 
+    # ---------------------------------------------------------------- report picture (nothing left behind)
+    rr = driver._core("report_render")
+
+    def blocks():
+        return {k: len(getattr(bpy.data, k)) for k in ("objects", "meshes", "curves", "cameras", "worlds", "images",
+                                                      "scenes", "materials", "collections")}
+    b0 = blocks()
+    p = os.path.join(tmp, "report.png")
+    ret, err = run_op(bpy.ops.flank.render_report, filepath=p, width=640, height=400)
+    rep = dict(result=ret, error=err, new={k: v - b0[k] for k, v in blocks().items()})
+    if os.path.exists(p):
+        px = rr.read_png(p)
+        flat = px[..., :3].reshape(-1, 3)
+        rep.update(shape=list(px.shape), swatches={k: int((flat == c).all(axis=1).sum())
+                                                   for k, c in rr.legend_colors().items()})
+    r2, e2 = run_op(bpy.ops.flank.render_report, filepath=os.path.join(tmp, "no", "r.png"))
+    rep["bad_dir"] = dict(result=r2, error=e2)
+    res["report"] = rep
+
     # ---------------------------------------------------------------- animate strip 2: the rotor screws
     tool = next(ob for ob in coll.objects if ob.get("flank_sf_role") == "tool" and ob.get("flank_sf_strip") == 1)
     tool_before = np.array(tool.matrix_world, dtype=np.float64)

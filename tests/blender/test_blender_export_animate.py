@@ -73,3 +73,12 @@ def test_bad_animation_input_creates_nothing(ea, name, words):
     b = ea["animate_bad"][name]
     assert b["result"] is None and words in b["error"]
     assert b["new"] == {"objects": 0, "meshes": 0, "actions": 0, "collections": 0}
+
+
+def test_render_report_writes_the_png_and_leaves_nothing(ea):
+    r = ea["report"]
+    assert r["result"] == ["FINISHED"], r["error"]
+    assert r["shape"] == [400, 640, 4]
+    assert all(n >= 144 for n in r["swatches"].values()), r["swatches"]
+    assert all(v == 0 for v in r["new"].values()), r["new"]
+    assert r["bad_dir"]["result"] is None and "does not exist" in r["bad_dir"]["error"]
