@@ -189,7 +189,7 @@ def main(argv=None):
         installed_from = enable_extension(bpy, zip_path)
         timings["install_s"] = time.perf_counter() - t0
 
-        params = dict(kind="asymmetric", part="female", resolution=args.resolution)
+        params = dict(kind="asymmetric", part="female", resolution=args.resolution, scale=50.0)   # R = 50 mm
         t0 = time.perf_counter()
         ret = bpy.ops.flank.generate_rotor(**params)
         timings["generate_s"] = time.perf_counter() - t0
@@ -228,6 +228,28 @@ def main(argv=None):
             setup_scene(bpy, obj, "cycles", width, height)
             engine_used, dt = render_png(bpy, png, "cycles")
             timings["render_s"] += dt
+
+        # the core job: single-flank strips on flank 1 (s000 tool of the benchmark), CL data, report picture
+        sc = float(generated.get("flank_scale", 1.0))
+        bpy.context.view_layer.objects.active = obj
+        t0 = time.perf_counter()
+        try:
+            bpy.ops.flank.plan_single_flank(flank=1, shape="alpha", alpha=0.1001674, r1=0.05 * sc, r2=0.08 * sc,
+                                            shank_radius=0.04 * sc, shank_length=0.6 * sc, tolerance=1e-3 * sc,
+                                            animate=False)
+        except RuntimeError as ex:
+            sys.exit("[demo] plan_single_flank failed: {}".format(ex))
+        timings["plan_single_flank_s"] = time.perf_counter() - t0
+        plan_info = {k[len("flank_sf_"):]: obj[k] for k in ("flank_sf_strips", "flank_sf_candidates",
+                                                          "flank_sf_max_error", "flank_sf_min_error",
+                                                          "flank_sf_kink_max_deg", "flank_sf_complete")}
+        t0 = time.perf_counter()
+        bpy.ops.flank.export_results(format='CL', filepath=str(out / "demo.apt"))
+        bpy.ops.flank.export_results(format='PLAN', filepath=str(out / "demo_plan.json"))
+        timings["export_s"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        bpy.ops.flank.render_report(filepath=str(out / "report.png"), width=1280, height=800)
+        timings["report_s"] = time.perf_counter() - t0
         timings["total_s"] = time.perf_counter() - t_all
 
         import scipy
@@ -246,6 +268,7 @@ def main(argv=None):
             curvature=dict(gaussian_min=float(K.min()), gaussian_max=float(K.max()), classes=class_counts),
             outputs=dict(blend=str(out / "demo.blend"), png=str(png), render_engine=engine_used,
                          size=[width, height]),
+            single_flank=plan_info,
             timings={k: round(v, 3) for k, v in timings.items()},
             versions=dict(blender=bpy.app.version_string, python=sys.version.split()[0], numpy=np.__version__,
                           scipy=scipy.__version__, scipy_from=os.path.dirname(scipy.__file__)),
@@ -267,7 +290,12 @@ def main(argv=None):
         a["v0"], a["v0_relative_error"], a["handedness"], a["residual"], a["threshold"], a["flank_count"]))
     print("  curvature  : {}".format(report["curvature"]["classes"]))
     print("  timings    : " + ", ".join("{} {:.2f}s".format(k[:-2], v) for k, v in report["timings"].items()))
-    print("  outputs    : {}/demo.blend, demo.png ({}), report.json".format(out, engine_used))
+    sf = report["single_flank"]
+    print("  flank 1    : {} strips of {} candidates, error {:.3g} .. {:.3g}, largest kink {:.3g} deg, {}".format(
+        sf["strips"], sf["candidates"], sf["min_error"], sf["max_error"], sf["kink_max_deg"],
+        "covered" if sf["complete"] else "NOT fully covered"))
+    print("  outputs    : {}/demo.blend, demo.png ({}), report.json, report.png, demo.apt, demo_plan.json".format(
+        out, engine_used))
     return 0
 
 
