@@ -284,8 +284,30 @@ def _prefixed(prefix, props):
     return {prefix + name: prop for name, prop in props.items()}
 
 
+# verify.DEVIATION_COLORS (linear RGBA), repeated here so registering needs no planner import (a test compares)
+LEGEND_COLORS = {"gouge": (0.85, 0.10, 0.10, 1.0), "ok": (0.15, 0.70, 0.25, 1.0), "stock": (0.15, 0.35, 0.90, 1.0)}
+
+
+def _strip_index_changed(self, context):
+    from .export import find_run
+    from .ui_ops import select_strip
+
+    coll = find_run(context)
+    if not isinstance(coll, str):
+        select_strip(context, coll, int(self.results_strip_index))
+
+
+def results_props():
+    """The Results panel: the strips list's active row and the legend swatches."""
+    return dict(
+        results_strip_index=IntProperty(name="Strip", default=0, update=_strip_index_changed),
+        **{"legend_" + k: FloatVectorProperty(name=k.title(), subtype='COLOR', size=4, default=v, min=0.0, max=1.0)
+           for k, v in LEGEND_COLORS.items()},
+    )
+
+
 class FLANK_PG_settings(bpy.types.PropertyGroup):
     __annotations__ = {**generator_props(), **_prefixed("verify_", verify_props()),
                        **_prefixed("groove_", paraboloid_props()), **_prefixed("cutter_", formed_cutter_props()),
                        **_prefixed("df_", double_flank_props()),
-                       **_prefixed("sf_", single_flank_props())}
+                       **_prefixed("sf_", single_flank_props()), **results_props()}

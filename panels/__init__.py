@@ -6,6 +6,7 @@ from .paraboloid import FLANK_PT_paraboloid
 from .formed_cutter import FLANK_PT_formed_cutter
 from .double_flank import FLANK_PT_double_flank
 from .single_flank import FLANK_PT_single_flank
+from .results import FLANK_PT_results
 
 classes = (
     FLANK_PT_workpiece,
@@ -14,7 +15,8 @@ classes = (
     FLANK_PT_formed_cutter,
     FLANK_PT_double_flank,
     FLANK_PT_single_flank,
+    FLANK_PT_results,
 )
 
 __all__ = ["classes", "FLANK_PT_workpiece", "FLANK_PT_verify", "FLANK_PT_paraboloid", "FLANK_PT_formed_cutter",
-           "FLANK_PT_double_flank", "FLANK_PT_single_flank"]
+           "FLANK_PT_double_flank", "FLANK_PT_single_flank", "FLANK_PT_results"]

@@ -23,7 +23,7 @@ class FLANK_PT_double_flank(bpy.types.Panel):
     bl_space_type = 'VIEW_3D'
     bl_region_type = 'UI'
     bl_category = "Flank"
-    bl_order = 40
+    bl_order = 11
     bl_options = {'DEFAULT_CLOSED'}
 
     def draw(self, context):

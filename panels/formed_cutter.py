@@ -14,7 +14,7 @@ class FLANK_PT_formed_cutter(bpy.types.Panel):
     bl_space_type = 'VIEW_3D'
     bl_region_type = 'UI'
     bl_category = "Flank"
-    bl_order = 30
+    bl_order = 13
     bl_options = {'DEFAULT_CLOSED'}
 
     def draw(self, context):

@@ -13,7 +13,7 @@ class FLANK_PT_paraboloid(bpy.types.Panel):
     bl_space_type = 'VIEW_3D'
     bl_region_type = 'UI'
     bl_category = "Flank"
-    bl_order = 20
+    bl_order = 14
     bl_options = {'DEFAULT_CLOSED'}
 
     def draw(self, context):

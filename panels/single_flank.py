@@ -23,11 +23,15 @@ class FLANK_PT_single_flank(bpy.types.Panel):
     bl_space_type = 'VIEW_3D'
     bl_region_type = 'UI'
     bl_category = "Flank"
-    bl_order = 50
+    bl_order = 12
     bl_options = {'DEFAULT_CLOSED'}
 
     def draw(self, context):
         layout = self.layout
+        row = layout.row(align=True)            # real tapered end mills in mm, and the user's own tools
+        row.menu("FLANK_MT_tool_presets", text="Tool Presets", icon='PRESET')
+        row.operator("flank.tool_preset_add", text="", icon='ADD')
+        row.operator("flank.tool_preset_add", text="", icon='REMOVE').remove_active = True
         settings_and_operator(layout, context, "flank.plan_single_flank", 'MOD_SCREW', SF_PROPS, "sf_")
         row = layout.row()          # flank.cutter_region takes flank and cone from the sf_* settings above
         row.operator("flank.cutter_region", text="Check Tool", icon='CHECKMARK')

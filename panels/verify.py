@@ -13,7 +13,7 @@ class FLANK_PT_verify(bpy.types.Panel):
     bl_space_type = 'VIEW_3D'
     bl_region_type = 'UI'
     bl_category = "Flank"
-    bl_order = 10
+    bl_order = 30
 
     def draw(self, context):
         layout = self.layout

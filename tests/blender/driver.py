@@ -24,7 +24,7 @@ CLASS_NAMES = ("FLANK_OT_generate_rotor", "FLANK_OT_analyze_rotor", "FLANK_OT_ve
                "FLANK_PT_paraboloid", "FLANK_PT_formed_cutter", "FLANK_OT_plan_double_flank", "FLANK_PT_double_flank",
                "FLANK_OT_plan_single_flank", "FLANK_PT_single_flank", "FLANK_OT_cutter_region")
 PANEL_NAMES = ("FLANK_PT_workpiece", "FLANK_PT_verify", "FLANK_PT_paraboloid", "FLANK_PT_formed_cutter",
-               "FLANK_PT_double_flank", "FLANK_PT_single_flank")
+               "FLANK_PT_double_flank", "FLANK_PT_single_flank", "FLANK_PT_results")
 
 
 def install_extension(bpy, zip_path):
@@ -442,6 +442,23 @@ class _Layout:
 
         self.log.append(["operator", idname])
         return types.SimpleNamespace()
+
+    def menu(self, idname, **kw):
+        import bpy
+
+        if getattr(bpy.types, idname, None) is None:
+            raise AttributeError("panel draws unknown menu {!r}".format(idname))
+        self.log.append(["menu", idname])
+
+    def template_list(self, listtype, list_id, data, propname, active_data, active_propname, **kw):
+        import bpy
+
+        if getattr(bpy.types, listtype, None) is None:
+            raise AttributeError("panel draws unknown UIList {!r}".format(listtype))
+        if active_propname not in active_data.bl_rna.properties:
+            raise AttributeError("panel's list index {!r} is unknown".format(active_propname))
+        self.log.append(["template_list", listtype, getattr(data, "name", ""), propname,
+                         len(getattr(data, propname))])
 
 
 def _draw_panels(bpy, active):

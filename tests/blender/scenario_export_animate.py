@@ -87,6 +87,42 @@ def scenario(bpy, res, args):
     out["leftovers"] = sorted(f for f in os.listdir(tmp) if f.startswith(".flank_export_"))
     res["export"] = out
 
+    # ---------------------------------------------------------------- sidebar: results list, legend, presets
+    ui = {}
+    ui["panels"] = driver._draw_panels(bpy, bpy.context.active_object)
+    settings = bpy.context.scene.flank_settings
+    verify = driver._core("verify")
+    ui["legend_diff"] = max(abs(a - b) for key in ("gouge", "ok", "stock")
+                            for a, b in zip(getattr(settings, "legend_" + key), verify.DEVIATION_COLORS[key]))
+    idx = next(i for i, ob in enumerate(coll.objects) if ob.get("flank_sf_role") == "tool"
+               and ob.get("flank_sf_strip") == 1)
+    settings.results_strip_index = idx                     # picking a row selects that strip's tool + envelope
+    ui["selected"] = sorted(ob.name for ob in bpy.context.selected_objects)
+    ui["active"] = bpy.context.view_layer.objects.active.name
+    ul = bpy.types.FLANK_UL_strips
+    flags, order = ul.filter_items(ul, bpy.context, coll, "objects")
+    ui["list_rows"] = sum(1 for f in flags if f)
+    # presets: a shipped real end mill (mm) in a metric scene measured in mm
+    us = bpy.context.scene.unit_settings
+    us.system, us.scale_length = 'METRIC', 0.001
+    import glob
+    shipped = sorted(glob.glob(os.path.join(os.path.dirname(os.path.dirname(driver._core("plan").__file__)),
+                                            "presets", "flank_tool", "*.py")))
+    ui["shipped"] = [os.path.basename(p) for p in shipped]
+    pre = [p for p in shipped if os.path.basename(p) == "Tapered 3deg D6 L30.py"]
+    if pre:
+        ui["preset_result"] = sorted(bpy.ops.script.execute_preset(filepath=pre[0],
+                                                                   menu_idname="FLANK_MT_tool_presets"))
+    ui["tool_settings"] = [settings.sf_shape, settings.sf_alpha, settings.sf_r1, settings.sf_r2,
+                           settings.sf_shank_radius, settings.sf_shank_length]
+    us.scale_length = 0.01                                  # 1 unit = 1 cm: the same tool, other numbers
+    bpy.ops.flank.tool_preset(taper_deg=3.0, tip_diameter_mm=6.0, flute_length_mm=30.0, shank_diameter_mm=10.0,
+                              overall_length_mm=80.0)
+    ui["tool_settings_cm"] = [settings.sf_r1, settings.sf_r2, settings.sf_shank_radius]
+    ui["bad_preset"] = dict(zip(("result", "error"), run_op(bpy.ops.flank.tool_preset, taper_deg=60.0)))
+    us.system, us.scale_length = 'NONE', 1.0
+    res["ui"] = ui
+
     # ---------------------------------------------------------------- report picture (nothing left behind)
     rr = driver._core("report_render")
 

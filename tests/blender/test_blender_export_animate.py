@@ -82,3 +82,36 @@ def test_render_report_writes_the_png_and_leaves_nothing(ea):
     assert all(n >= 144 for n in r["swatches"].values()), r["swatches"]
     assert all(v == 0 for v in r["new"].values()), r["new"]
     assert r["bad_dir"]["result"] is None and "does not exist" in r["bad_dir"]["error"]
+
+
+def test_results_panel_list_and_legend(ea):
+    ui = ea["ui"]
+    panels = ui["panels"]
+    assert all(isinstance(v, list) for v in panels.values()), panels
+    res = panels["FLANK_PT_results"]
+    lists = [c for c in res if c[0] == "template_list"]
+    assert lists and lists[0][1] == "FLANK_UL_strips" and lists[0][2] == ea["run"]["name"]
+    assert ["prop", "legend_gouge"] in res and ["prop", "legend_ok"] in res and ["prop", "legend_stock"] in res
+    assert {"flank.animate_strip", "flank.export_results", "flank.render_report"} <= \
+        {c[1] for c in res if c[0] == "operator"}
+    assert ["menu", "FLANK_MT_tool_presets"] in panels["FLANK_PT_single_flank"]
+    assert ui["legend_diff"] < 1e-6                       # the swatches are verify.DEVIATION_COLORS
+    assert ui["list_rows"] == ea["run"]["strips"]
+    # picking strip 2's row selects its tool and envelope and makes the tool active
+    assert ui["selected"] == ["SF F1 Strip 2", "SF F1 Tool 2"] and ui["active"] == "SF F1 Tool 2"
+
+
+def test_tool_presets_are_real_end_mills_in_mm(ea):
+    import math
+
+    ui = ea["ui"]
+    assert len(ui["shipped"]) >= 8
+    assert ui["preset_result"] == ["FINISHED"]
+    shape, alpha, r1, r2, shank_r, shank_l = ui["tool_settings"]
+    # scene in mm: tip D6 -> r1 = 3, r2 = 3 + 30 tan 3 deg, shank D10 -> 5, 80 - 30 = 50
+    assert shape == "alpha" and alpha == pytest.approx(math.radians(3.0), rel=1e-6)
+    assert (r1, r2, shank_r, shank_l) == pytest.approx((3.0, 3.0 + 30.0 * math.tan(math.radians(3.0)), 5.0, 50.0),
+                                                       rel=1e-6)
+    assert ui["tool_settings_cm"] == pytest.approx([0.3, (3.0 + 30.0 * math.tan(math.radians(3.0))) / 10, 0.5],
+                                                   rel=1e-6)
+    assert ui["bad_preset"]["result"] is None and "taper = 60" in ui["bad_preset"]["error"]

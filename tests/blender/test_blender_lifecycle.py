@@ -38,7 +38,7 @@ def test_sidebar_panel_in_flank_tab(lifecycle):
 def test_all_panels_in_flank_tab(lifecycle):
     panels = lifecycle["panels"]
     assert sorted(panels) == ["FLANK_PT_double_flank", "FLANK_PT_formed_cutter", "FLANK_PT_paraboloid",
-                              "FLANK_PT_single_flank", "FLANK_PT_verify", "FLANK_PT_workpiece"]
+                              "FLANK_PT_results", "FLANK_PT_single_flank", "FLANK_PT_verify", "FLANK_PT_workpiece"]
     for name, panel in panels.items():
         assert (panel["bl_category"], panel["bl_space_type"], panel["bl_region_type"]) == ("Flank", "VIEW_3D", "UI")
 
@@ -62,7 +62,8 @@ def test_scene_settings_hold_verify_groove_cutter_double_and_single_flank_proper
 
 def test_panels_in_workflow_order(lifecycle):
     order = {name: p["bl_order"] for name, p in lifecycle["panels"].items()}
-    assert order["FLANK_PT_double_flank"] < order["FLANK_PT_single_flank"]
+    assert order["FLANK_PT_workpiece"] < order["FLANK_PT_double_flank"] < order["FLANK_PT_single_flank"] \
+        < order["FLANK_PT_formed_cutter"] < order["FLANK_PT_results"]
 
 
 def test_disable_enable_five_times_leaves_nothing_behind(lifecycle):
