@@ -4,8 +4,8 @@ about its axis past the tool, which stays where it is."""
 import bpy
 from bpy.props import IntProperty, StringProperty
 
-from .common import PLAN_JSON_PROP, iter_fcurves, key_screw_motion, remove_ids
-from .export import find_run
+from .common import iter_fcurves, key_screw_motion, remove_ids
+from .export import run_plan
 
 ROLE = "flank_anim_role"       # objects made here: "frame", "motion", "rotor", "strip"
 
@@ -46,27 +46,20 @@ class FLANK_OT_animate_strip(bpy.types.Operator):
     frame_end: IntProperty(name="End Frame", default=250)
 
     def execute(self, context):
-        import json
         import math
 
         import numpy as np
         from mathutils import Matrix
 
-        from ..flank_addon.plan import PlanError, validate_plan
-
         fs, fe = int(self.frame_start), int(self.frame_end)
         if fe <= fs:
             self.report({'ERROR'}, "Animate strip: end frame {} must be after the start frame {}".format(fe, fs))
             return {'CANCELLED'}
-        coll = find_run(context, self.collection)
-        if isinstance(coll, str):
-            self.report({'ERROR'}, "Animate strip: " + coll)
+        found = run_plan(context, self.collection)
+        if isinstance(found, str):
+            self.report({'ERROR'}, "Animate strip: " + found)
             return {'CANCELLED'}
-        try:
-            plan = validate_plan(json.loads(coll[PLAN_JSON_PROP]))
-        except (ValueError, PlanError) as ex:
-            self.report({'ERROR'}, "Animate strip: the plan stored on '{}' is not valid: {}".format(coll.name, ex))
-            return {'CANCELLED'}
+        coll, plan = found
         n = len(plan["strips"])
         k = int(self.strip) - 1
         if not 0 <= k < n:

@@ -49,6 +49,21 @@ def find_run(context, name=""):
     return runs[-1]
 
 
+def run_plan(context, name=""):
+    """(collection, plan dict) of the run :func:`find_run` picks, or an error message (str)."""
+    import json
+
+    from ..flank_addon.plan import PlanError, validate_plan
+
+    coll = find_run(context, name)
+    if isinstance(coll, str):
+        return coll
+    try:
+        return coll, validate_plan(json.loads(coll[PLAN_JSON_PROP]))
+    except (ValueError, PlanError) as ex:
+        return "the plan stored on '{}' is not valid: {}".format(coll.name, ex)
+
+
 class FLANK_OT_export_results(bpy.types.Operator, ExportHelper):
     """Export a planning run: its plan, CL data, error profile or envelope strips (rotor frame, plan units)"""
 
@@ -82,8 +97,6 @@ class FLANK_OT_export_results(bpy.types.Operator, ExportHelper):
         import time
 
         from ..flank_addon import exports
-        from ..flank_addon.plan import PlanError, validate_plan
-
         t0 = time.perf_counter()
         if not self.filepath:
             self.report({'ERROR'}, "Export: no file given (filepath is empty)")
@@ -91,15 +104,11 @@ class FLANK_OT_export_results(bpy.types.Operator, ExportHelper):
         if not 1 <= int(self.steps) <= 100000:
             self.report({'ERROR'}, "Export: steps = {} is outside the limits 1..100000".format(int(self.steps)))
             return {'CANCELLED'}
-        coll = find_run(context, self.collection)
-        if isinstance(coll, str):
-            self.report({'ERROR'}, "Export: " + coll)
+        found = run_plan(context, self.collection)
+        if isinstance(found, str):
+            self.report({'ERROR'}, "Export: " + found)
             return {'CANCELLED'}
-        try:
-            plan = validate_plan(json.loads(coll[PLAN_JSON_PROP]))
-        except (ValueError, PlanError) as ex:
-            self.report({'ERROR'}, "Export: the plan stored on '{}' is not valid: {}".format(coll.name, ex))
-            return {'CANCELLED'}
+        coll, plan = found
         n = len(plan["strips"])
         strip = int(self.strip)
         if strip > n:

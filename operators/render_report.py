@@ -5,8 +5,7 @@ render`` (``flank_addon.report_render``)."""
 import bpy
 from bpy.props import IntProperty, StringProperty
 
-from .common import PLAN_JSON_PROP
-from .export import find_run
+from .export import run_plan
 
 
 class FLANK_OT_render_report(bpy.types.Operator):
@@ -27,27 +26,21 @@ class FLANK_OT_render_report(bpy.types.Operator):
         return {'RUNNING_MODAL'}
 
     def execute(self, context):
-        import json
         import os
 
-        from ..flank_addon.plan import PlanError, validate_plan
         from ..flank_addon.report_render import render_plan_report
 
-        coll = find_run(context, self.collection)
-        if isinstance(coll, str):
-            self.report({'ERROR'}, "Render report: " + coll)
+        found = run_plan(context, self.collection)
+        if isinstance(found, str):
+            self.report({'ERROR'}, "Render report: " + found)
             return {'CANCELLED'}
+        coll, plan = found
         if not self.filepath:
             self.report({'ERROR'}, "Render report: no file given (filepath is empty)")
             return {'CANCELLED'}
         path = bpy.path.abspath(self.filepath)
         if not path.lower().endswith(".png"):
             path += ".png"
-        try:
-            plan = validate_plan(json.loads(coll[PLAN_JSON_PROP]))
-        except (ValueError, PlanError) as ex:
-            self.report({'ERROR'}, "Render report: the plan stored on '{}' is not valid: {}".format(coll.name, ex))
-            return {'CANCELLED'}
         try:
             info = render_plan_report(bpy, plan, path, width=int(self.width), height=int(self.height))
         except Exception as ex:                     # reported, never a traceback; nothing is left behind
