@@ -130,8 +130,8 @@ def plane_patch(size=1.0, resolution=20, jitter=0.0, seed=0):
     """Square [-size/2, size/2]^2 in z = 0, normal +z.  jitter > 0 moves the interior vertices by
     up to jitter x the cell size (uniformly random, reproducible by ``seed``): an irregular mesh
     of a plane, on which linear functions must still be reproduced exactly."""
-    if not (0 <= jitter < 0.5):
-        raise ValueError(f"jitter = {jitter!r} is outside the limits 0 <= jitter < 0.5 (cells would fold)")
+    if not (0 <= jitter < 0.25):
+        raise ValueError(f"jitter = {jitter!r} is outside the limits 0 <= jitter < 0.25 (cells could fold)")
     uv, point, normal, faces = _graph_surface("plane", size, resolution, lambda x, y: 0 * x,
                                               lambda x, y: (0 * x, 0 * y), jitter, seed)
 
@@ -244,39 +244,61 @@ def real_cubic_roots(a, b, c, d):
     return x
 
 
-def gear_flank(size=1.0, resolution=40, helix_angle=math.radians(25.0)):
-    """Patch of an involute helicoid: the flank of a helical involute gear, developable.
+def gear_flank(size=1.0, resolution=40, helix_angle=math.radians(25.0), base_radius=None, depth=None):
+    """Flank of a helical involute gear tooth: a patch of an involute helicoid, developable.
 
-    The base helix b(t) = (r_b cos t, r_b sin t, p t) with r_b = size and p = r_b / tan(helix
-    angle) carries the unit tangent T(t); the flank is x(t, l) = b(t) + l T(t), ruled by the helix
-    tangents (its transverse sections are involutes of the base circle).  uv = (t, l) with
-    t in [-0.3, 0.3] and l in [0.15, 0.75] size.  The unit normal is constant along each ruling:
-    n(t) = (-p sin t, p cos t, -r_b) / sqrt(r_b^2 + p^2), the side the faces are oriented to.
+    Base circle radius r_b (default 2 size), base helix angle ``helix_angle``, lead parameter
+    p = r_b / tan(helix_angle).  The transverse section z = 0 is the involute
+    I(phi) = r_b (cos phi + phi sin phi, sin phi - phi cos phi); the flank is that involute screwed
+    along z: x(phi, z) = Rot_z(z / p) I(phi) + (0, 0, z).  uv = (phi, z) with z over the face width
+    [-size/2, size/2] and phi from the root radius 1.02 r_b to the tip radius 1.02 r_b + depth
+    (default 0.5 size).  The surface is ruled by the tangents of the base helix: the point (phi, z)
+    lies on the ruling with direction T(t) = (-r_b sin t, r_b cos t, p) / c, t = phi + z / p,
+    c = sqrt(r_b^2 + p^2) (:func:`gear_ruling`), and its unit normal is constant along the ruling,
+    n = (p sin t, -p cos t, r_b) / c.
     """
     size = _positive("size", size)
     if not (0 < helix_angle < math.pi / 2):
         raise ValueError(f"helix_angle = {helix_angle!r} is outside the limits 0 < angle < pi/2")
-    rb = size
+    rb = 2.0 * size if base_radius is None else _positive("base_radius", base_radius)
+    depth = 0.5 * size if depth is None else _positive("depth", depth)
     p = rb / math.tan(helix_angle)
     c = math.hypot(rb, p)
-    t_range, l_range = (-0.3, 0.3), (0.15 * size, 0.75 * size)
-    ext_t = c * (t_range[1] - t_range[0])
-    nu, nv = grid_counts(ext_t, l_range[1] - l_range[0], resolution)
-    uv = grid_uv(t_range, l_range, nu, nv)
+    r0, r1 = 1.02 * rb, 1.02 * rb + depth
+    phi_range = (math.sqrt((r0 / rb) ** 2 - 1), math.sqrt((r1 / rb) ** 2 - 1))
+    # arc length of the involute is r_b phi^2 / 2: size the grid by it
+    ext_phi = rb * (phi_range[1] ** 2 - phi_range[0] ** 2) / 2
+    nu, nv = grid_counts(ext_phi, size, resolution)
+    # cells of equal involute arc length: uniform in phi^2
+    q = np.linspace(phi_range[0] ** 2, phi_range[1] ** 2, nu + 1)
+    U, W = np.meshgrid(np.sqrt(q), np.linspace(-size / 2, size / 2, nv + 1), indexing="ij")
+    uv = np.c_[U.ravel(), W.ravel()]
 
     def point(q):
         q = np.atleast_2d(q)
-        t, lam = q[:, 0], q[:, 1]
-        T = np.c_[-rb * np.sin(t), rb * np.cos(t), np.full(len(t), p)] / c
-        return np.c_[rb * np.cos(t), rb * np.sin(t), p * t] + lam[:, None] * T
+        phi, z = q[:, 0], q[:, 1]
+        ix = rb * (np.cos(phi) + phi * np.sin(phi))
+        iy = rb * (np.sin(phi) - phi * np.cos(phi))
+        a = z / p
+        return np.c_[np.cos(a) * ix - np.sin(a) * iy, np.sin(a) * ix + np.cos(a) * iy, z]
 
     def normal(q):
         q = np.atleast_2d(q)
-        t = q[:, 0]
-        return np.c_[-p * np.sin(t), p * np.cos(t), np.full(len(t), -rb)] / c
+        t = q[:, 0] + q[:, 1] / p
+        return np.c_[p * np.sin(t), -p * np.cos(t), np.full(len(t), rb)] / c
 
-    faces = grid_faces(nu, nv)
-    return FreeformSurface("gear_flank", point(uv), faces, uv, point, normal, None, float(max(ext_t, 0.6 * size)))
+    return FreeformSurface("gear_flank", point(uv), grid_faces(nu, nv), uv, point, normal, None,
+                           float(max(ext_phi, size)))
+
+
+def gear_ruling(surface_uv, helix_angle=math.radians(25.0), base_radius=1.0):
+    """Unit ruling directions (n, 3) of :func:`gear_flank` at parameters uv (n, 2) (same
+    helix_angle and base_radius as the surface; the default size 1 has base_radius 2)."""
+    q = np.atleast_2d(surface_uv)
+    rb = float(base_radius)
+    p = rb / math.tan(helix_angle)
+    t = q[:, 0] + q[:, 1] / p
+    return np.c_[-rb * np.sin(t), rb * np.cos(t), np.full(len(t), p)] / math.hypot(rb, p)
 
 
 def bump(size=1.0, resolution=40, height=None, width=None):
