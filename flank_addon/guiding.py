@@ -65,7 +65,7 @@ Everything is plain numpy / scipy (sparse, sparse.linalg.splu, sparse.csgraph,
 spatial.cKDTree); nothing imports bpy.
 """
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field as dataclass_field
 from typing import List
 
 import numpy as np
@@ -934,7 +934,7 @@ class GuidingCurves:
     strips: List[Strip]
     step: float
     margins: tuple
-    timings: dict = field(default_factory=dict)
+    timings: dict = dataclass_field(default_factory=dict)
 
 
 def guiding_curves(vertices, faces, *, direction=None, point=None, field_vectors=None, r1=None, r2=None, L=None,
