@@ -451,6 +451,8 @@ def _cmd_export(args):
 
 
 def _cmd_render(args):
+    import os
+
     from .plan import read_plan
     from .report_render import render_plan_report
 
@@ -461,8 +463,17 @@ def _cmd_render(args):
         raise ValueError("render needs Blender's Python module bpy (the venv of `make demo` has it: "
                          "pip install bpy==5.0.1 on Python 3.11)") from None
     w, h = args.resolution
-    info = render_plan_report(bpy, plan, args.out, width=w, height=h, tolerance=args.tolerance)
-    print(f"wrote {args.out} ({w} x {h}) in {info['seconds']:.2f} s: {info['title'][1]}")
+    try:
+        info = render_plan_report(bpy, plan, args.out, width=w, height=h, tolerance=args.tolerance,
+                                  engine=args.engine, title="{}: {}".format(os.path.basename(args.plan),
+                                                                            plan.get("method", "")))
+    except RuntimeError as ex:          # Blender's own failures: one line, no traceback
+        raise ValueError(f"rendering failed: {ex}") from None
+    if args.json:
+        print(json.dumps(info, ensure_ascii=False, indent=1))
+    else:
+        print(f"wrote {args.out} ({w} x {h}, {info['engine'].lower()}) in {info['seconds']:.2f} s: "
+              f"{info['title'][1]}")
     return 0
 
 
@@ -601,6 +612,9 @@ def build_parser():
     rr.add_argument("--out", required=True, metavar="OUT.png")
     rr.add_argument("--resolution", type=int, nargs=2, default=(1280, 800), metavar=("W", "H"))
     rr.add_argument("--tolerance", type=float, help="colour band (default: the plan's tolerance, else 1e-3 R)")
+    rr.add_argument("--engine", choices=("workbench", "cycles"), default="workbench",
+                    help="Workbench (default, fast) or Cycles on the CPU; neither needs a GPU")
+    rr.add_argument("--json", action="store_true", help="print the report's numbers and legend layout as JSON")
     rr.set_defaults(func=_cmd_render)
 
     b = sub.add_parser("builtins", help="list built-in rotor names (KIND-PART)")

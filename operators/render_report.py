@@ -1,25 +1,36 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """flank.render_report -- a report picture (rotor, strips coloured by signed error, legend, title) of a
 planning run, rendered headless from the run's stored plan by the same code as ``python -m flank_addon
-render`` (``flank_addon.report_render``)."""
+render`` (``flank_addon.report_render``).  The render happens in a temporary scene that is removed again:
+the file gains no data-block and the user's scenes are not touched."""
 import bpy
-from bpy.props import IntProperty, StringProperty
+from bpy.props import EnumProperty, IntProperty, StringProperty
 
 from .export import run_plan
 
+ENGINE_ITEMS = (
+    ("WORKBENCH", "Workbench", "Fast, flat studio lighting; the strips show their exact error colours", 0),
+    ("CYCLES", "Cycles (CPU)", "Path traced on the CPU, 16 samples, denoised; slower", 1),
+)
+
 
 class FLANK_OT_render_report(bpy.types.Operator):
-    """Render a report PNG of a planning run (Workbench, works without a display); the scene is not changed"""
+    """Render a report PNG of a planning run: the rotor, its strips coloured by signed error, a legend and a
+    title with the tolerance and the plan's max / min errors (works without a display; the scene is not
+    changed)"""
 
     bl_idname = "flank.render_report"
     bl_label = "Render Report"
     bl_options = {'REGISTER'}
 
     filepath: StringProperty(name="PNG File", subtype='FILE_PATH', default="//flank_report.png")
+    filter_glob: StringProperty(default="*.png", options={'HIDDEN'})
     collection: StringProperty(name="Run", description="Result collection; empty = the run of the active object, "
                                                        "else the newest run", default="")
-    width: IntProperty(name="Width", default=1280, min=64, max=8192)
-    height: IntProperty(name="Height", default=800, min=64, max=8192)
+    width: IntProperty(name="Width", description="Resolution X in pixels", default=1280, min=64, max=8192)
+    height: IntProperty(name="Height", description="Resolution Y in pixels", default=800, min=64, max=8192)
+    engine: EnumProperty(name="Engine", items=ENGINE_ITEMS, default="WORKBENCH",
+                         description="Render engine (neither needs a GPU)")
 
     def invoke(self, context, event):
         context.window_manager.fileselect_add(self)
@@ -28,7 +39,7 @@ class FLANK_OT_render_report(bpy.types.Operator):
     def execute(self, context):
         import os
 
-        from ..flank_addon.report_render import render_plan_report
+        from ..flank_addon.report_render import display_units, render_plan_report
 
         found = run_plan(context, self.collection)
         if isinstance(found, str):
@@ -41,13 +52,18 @@ class FLANK_OT_render_report(bpy.types.Operator):
         path = bpy.path.abspath(self.filepath)
         if not path.lower().endswith(".png"):
             path += ".png"
+        us = context.scene.unit_settings
         try:
-            info = render_plan_report(bpy, plan, path, width=int(self.width), height=int(self.height))
+            units = display_units(plan, us.system, us.scale_length)
+            info = render_plan_report(bpy, plan, path, width=int(self.width), height=int(self.height),
+                                      engine=self.engine, units=units,
+                                      title="{}: {}".format(coll.name, plan.get("method", "")))
         except Exception as ex:                     # reported, never a traceback; nothing is left behind
-            self.report({'ERROR'}, "Render report of '{}' failed: {}: {}".format(coll.name, type(ex).__name__, ex))
+            self.report({'ERROR'}, "Render report of '{}' failed: {}".format(coll.name, ex))
             return {'CANCELLED'}
-        self.report({'INFO'}, "Report of '{}' written to {} ({} x {}, {:.1f} s): {}".format(
-            coll.name, os.path.basename(path), info["width"], info["height"], info["seconds"], info["title"][1]))
+        self.report({'INFO'}, "Report of '{}' written to {} ({} x {}, {}, {:.1f} s): {}".format(
+            coll.name, os.path.abspath(path), info["width"], info["height"], info["engine"].title(),
+            info["seconds"], info["title"][1]))
         return {'FINISHED'}
 
 

@@ -1,4 +1,5 @@
 """python -m flank_addon render: the report PNG of a plan (needs bpy; the project venv has it)."""
+import json
 import math
 
 import numpy as np
@@ -8,59 +9,121 @@ from flank_addon.cli import main
 from flank_addon.cone import ConeTool
 from flank_addon.multi_strip import plan_single_flank
 from flank_addon.plan import write_plan
-from flank_addon.report_render import format_length, legend_colors, read_png, report_geometry, srgb_bytes, write_png
+from flank_addon.report_render import (BAR_SPLIT, REPORT_KEY, bar_colors, bar_deviations, choose_view,
+                                       display_strip, display_units, format_length, legend_colors,
+                                       legend_layout, read_png, read_png_text, report_geometry, srgb_bytes,
+                                       write_png)
 from flank_addon.rotors import builtin_by_name
-from flank_addon.verify import DEVIATION_COLORS
+from flank_addon.verify import DEVIATION_COLORS, deviation_colors
 
 
 @pytest.fixture(scope="module")
 def plan_file(tmp_path_factory):
     r = builtin_by_name("asymmetric-female")
-    res = plan_single_flank(r.surface(), r.flanks, 1, ConeTool(math.asin(0.1), 0.05, 0.08), 2e-3, n_seeds=6,
+    res = plan_single_flank(r.surface(), r.flanks, 1, ConeTool(math.asin(0.1), 0.05, 0.08), 1e-3, n_seeds=6,
                             max_rounds=2)
     p = tmp_path_factory.mktemp("render") / "plan.json"
     write_plan(p, res.plan)
     return p, res.plan
 
 
-def test_png_round_trip_and_srgb(tmp_path):
+@pytest.fixture(scope="module")
+def geo(plan_file):
+    return report_geometry(plan_file[1])
+
+
+def test_png_round_trip_text_and_srgb(tmp_path):
     a = np.random.default_rng(3).integers(0, 256, (7, 5, 4), dtype=np.uint8)
-    write_png(tmp_path / "x.png", a)
+    write_png(tmp_path / "x.png", a, {"flank-report": '{"t": "±5 µm"}'})
     assert np.array_equal(read_png(tmp_path / "x.png"), a)
+    assert read_png_text(tmp_path / "x.png") == {"flank-report": '{"t": "±5 µm"}'}
     assert srgb_bytes([0.0, 1.0, 0.0031308]).tolist() == [0, 255, 10]
     assert srgb_bytes([0.5])[0] == 188                      # 1.055 * 0.5 ** (1 / 2.4) - 0.055 = 0.7354
     assert format_length(0.0004, "mm") == "+0.4 µm" and format_length(-2.5, "mm") == "-2.5 mm"
     assert format_length(0.001, "R") == "+0.001 R" and format_length(float("nan"), "R") == "n/a"
 
 
-def test_report_geometry_errors_are_signed_distances(plan_file):
+def test_display_units_follow_the_scene():
+    plan = {"length_unit": "mm", "rotor": {"to_world": np.diag([2.0, 2.0, 2.0, 1.0]).tolist()}}
+    assert display_units(plan) == (1.0, "mm")                                   # command line: the plan's unit
+    assert display_units(plan, "NONE", 0.001) == (1.0, "mm")
+    f, u = display_units(plan, "METRIC", 0.001)                                 # 1 plan unit = 2 scene mm
+    assert u == "mm" and f == pytest.approx(2.0)
+    f, u = display_units(plan, "METRIC", 1.0)                                   # default scene: 1 unit = 1 m
+    assert u == "mm" and f == pytest.approx(2000.0)
+    f, u = display_units(plan, "IMPERIAL", 0.0254)
+    assert u == "in" and f == pytest.approx(2.0)
+
+
+def test_legend_bar_is_the_strip_colour_function():
+    d = bar_deviations(200, 0.05)
+    assert np.all(np.diff(d) > 0) and d[0] == pytest.approx(-0.5) and d[-1] == pytest.approx(0.5)
+    a, b = (round(f * 200) for f in BAR_SPLIT)
+    assert np.all(np.abs(d[a:b]) <= 0.05) and np.all(d[:a] < -0.05) and np.all(d[b:] > 0.05)
+    cols = bar_colors(200, 0.05)
+    assert np.array_equal(cols, srgb_bytes(deviation_colors(d, 0.05)[:, :3]))
+    assert (cols[a:b] == legend_colors()["ok"]).all()
+    assert (cols[a - 1] == legend_colors()["gouge"]).all() and (cols[b] == legend_colors()["stock"]).all()
+    lay = legend_layout(640, 400)
+    x0, y0, x1, y1 = lay["bar"]
+    gx0, gy0, gx1, gy1 = lay["region"]
+    assert 0 < x0 < x1 < 640 and gy1 < y0 < y1 < 400 and 0 < gy0 < gy1
+
+
+def test_report_geometry_errors_are_signed_distances(plan_file, geo):
     _, plan = plan_file
-    geo = report_geometry(plan)
     assert len(geo["strips"]) == len(plan["strips"])
     d = np.concatenate([s[2] for s in geo["strips"]])
     # collision-free hard-mode strips: the envelopes lie on or outside the whole rotor, and on it where they cut
     # (1e-5 R: the report measures against the spline through the plan's 2048 profile samples)
-    assert d.min() > -1e-5 and np.quantile(d, 0.1) < 2e-3
+    assert d.min() > -1e-5 and np.quantile(d, 0.1) < 1e-3
     assert geo["tolerance"] == plan["tolerance"] and geo["max_error"] == plan["summary"]["max_error"]
+    # drawn strips: on the surface (never inside), 0.2 % R above it
+    v, f, d, n = geo["strips"][0]
+    from flank_addon.plan import plan_surface
+
+    shown = plan_surface(plan).foot_points(display_strip(v, d, n, 1.0)[:300]).distance
+    assert np.allclose(shown, np.maximum(d[:300], 0.0) + 2e-3, atol=1e-6)
+
+
+def test_view_faces_the_strips(geo):
+    w = choose_view(geo["strips"], geo["outer_radius"], geo["occluders"])
+    assert abs(np.linalg.norm(w) - 1.0) < 1e-12
+    N = np.concatenate([s[3] for s in geo["strips"]])
+    assert np.mean(N @ w > 0.2) > 0.4                                         # most of the strip area faces us
 
 
 def test_render_cli_writes_the_report(plan_file, tmp_path, capsys):
     pytest.importorskip("bpy")
     p, plan = plan_file
     out = tmp_path / "report.png"
-    assert main(["render", str(p), "--out", str(out), "--resolution", "640", "400"]) == 0
-    msg = capsys.readouterr().out
-    assert "640 x 400" in msg and "max error" in msg
+    assert main(["render", str(p), "--out", str(out), "--resolution", "640", "400", "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
     px = read_png(out)
     assert px.shape == (400, 640, 4)
-    flat = px[..., :3].reshape(-1, 3)
-    for key, rgb in legend_colors().items():          # each legend swatch: at least a 12 x 12 px block
-        assert np.all(rgb == srgb_bytes(DEVIATION_COLORS[key][:3]))
-        assert (flat == rgb).all(axis=1).sum() >= 144, key
-    # the strips show up: pixels of the 'within tolerance' green family beyond the swatch
-    g = legend_colors()["ok"].astype(int)
-    near = (np.abs(flat.astype(int) - g).max(axis=1) < 60).sum()
-    assert near > (flat == g).all(axis=1).sum() + 200
+    assert json.loads(read_png_text(out)[REPORT_KEY])["title"] == info["title"]
+    # the legend bar: exactly the strips' colour function over -10 .. +10 tolerances
+    x0, y0, x1, y1 = info["legend"]["bar"]
+    assert np.array_equal(px[y0:y1, x0:x1, :3], np.broadcast_to(bar_colors(x1 - x0, 1e-3), (y1 - y0, x1 - x0, 3)))
+    # above it, each band's full colour over its part of the bar
+    ly0, ly1 = info["legend"]["band_rows"]
+    s0, s1 = info["legend"]["split"]
+    assert ly1 - ly0 >= 4 and ly1 < y0
+    cols = legend_colors()
+    for key, a, b in (("gouge", x0, s0 - 1), ("ok", s0 + 1, s1 - 1), ("stock", s1 + 1, x1)):
+        assert np.all(cols[key] == srgb_bytes(DEVIATION_COLORS[key][:3]))
+        assert (px[ly0:ly1, a:b, :3] == cols[key]).all(), key
+    # the strips show up above the legend: lit pixels of the green family
+    top = px[:y0 - 10, :, :3].astype(int)
+    assert ((top[..., 1] > top[..., 0] + 30) & (top[..., 1] > top[..., 2] + 20)).sum() > 500
+    # the title: the plan's tolerance and its max / min errors, in the plan's unit
+    assert info["max_error"] == plan["summary"]["max_error"] and info["min_error"] == plan["summary"]["min_error"]
+    line = info["title"][1]
+    assert "tolerance ±0.001 R" in line and "{} strips".format(len(plan["strips"])) in line
+    assert "max error " + format_length(plan["summary"]["max_error"], "R") in line
+    assert "min error " + format_length(plan["summary"]["min_error"], "R") in line
+    assert [t["text"] for t in info["legend"]["ticks"]] == ["-0.01 R", "-0.001 R", "0 R", "+0.001 R", "+0.01 R"]
+    assert info["title"][0] == "plan.json: " + plan["method"]
 
 
 def test_render_cli_bad_input(plan_file, tmp_path, capsys):
@@ -69,3 +132,10 @@ def test_render_cli_bad_input(plan_file, tmp_path, capsys):
     assert "does not exist" in capsys.readouterr().err
     assert main(["render", str(p), "--out", str(tmp_path / "r.png"), "--resolution", "10", "10"]) == 2
     assert "outside the limits 64..8192" in capsys.readouterr().err
+    assert main(["render", str(p), "--out", str(tmp_path)]) == 2
+    assert "is a folder" in capsys.readouterr().err
+    assert main(["render", str(p), "--out", str(tmp_path / "r.png"), "--tolerance", "nan"]) == 2
+    assert "must be a positive number" in capsys.readouterr().err
+    assert main(["render", str(tmp_path / "missing.json"), "--out", str(tmp_path / "r.png")]) == 2
+    assert "missing.json" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []

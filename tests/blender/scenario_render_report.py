@@ -1,0 +1,120 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""flank.render_report through the installed extension (for test_blender_render_report.py): a single-flank run
+of the asymmetric female (flank 1, cone alpha = asin 0.1, r1 = 0.05, r2 = 0.08, tolerance 1e-3), rendered
+in three unit settings and with Cycles; the PNG's size, legend bar and title numbers, and a full census of
+bpy.data before / after every call (nothing may be left behind, nothing removed)."""
+import json
+import os
+import time
+
+import driver
+
+# every ID collection of bpy.data that a render could touch (window managers, screens and workspaces are UI)
+SKIP = {"window_managers", "screens", "workspaces", "batch_remove", "bl_rna", "rna_type"}
+
+
+def census(bpy):
+    out = {}
+    for key in dir(bpy.data):
+        if key.startswith("_") or key in SKIP:
+            continue
+        coll = getattr(bpy.data, key, None)
+        if isinstance(coll, bpy.types.bpy_prop_collection):
+            try:
+                out[key] = sorted(block.name for block in coll)
+            except (TypeError, AttributeError):
+                pass
+    return out
+
+
+def diff(before, after):
+    return {k: dict(new=sorted(set(after.get(k, [])) - set(v)), gone=sorted(set(v) - set(after.get(k, []))))
+            for k, v in before.items() if after.get(k, []) != v}
+
+
+def png_facts(np, rr, path, bar_tol):
+    """Size, exactness of the legend bar, pixels of the strip colour families outside the legend."""
+    px = rr.read_png(path)
+    meta = json.loads(rr.read_png_text(path)[rr.REPORT_KEY])
+    x0, y0, x1, y1 = meta["legend"]["bar"]
+    bar = px[y0:y1, x0:x1, :3].astype(int)
+    want = rr.bar_colors(x1 - x0, bar_tol).astype(int)
+    flat = px[..., :3].reshape(-1, 3)
+    band = {}
+    for key, rgb in rr.legend_colors().items():
+        band[key] = int((flat == rgb).all(axis=1).sum())
+    # strips in the picture: greenish pixels (the 'within tolerance' family, lit) above the legend
+    top = px[:meta["legend"]["bar"][1] - 10, :, :3].astype(int)
+    green = int(((top[..., 1] > top[..., 0] + 30) & (top[..., 1] > top[..., 2] + 20)).sum())
+    return dict(shape=list(px.shape), bar_max_diff=int(np.abs(bar - want[None]).max()), band_pixels=band,
+                strip_green_pixels=green, meta=meta)
+
+
+def scenario(bpy, res, args):
+    import numpy as np
+
+    rr = driver._core("report_render")
+    run_op = driver._run_op
+    tmp = os.path.abspath(os.getcwd())
+    scene = bpy.context.scene
+    us = scene.unit_settings
+
+    # ---------------------------------------------------------------- nothing planned yet
+    c0 = census(bpy)
+    p = os.path.join(tmp, "none.png")
+    ret, err = run_op(bpy.ops.flank.render_report, filepath=p)
+    res["no_run"] = dict(result=ret, error=err, file=os.path.exists(p), changed=diff(c0, census(bpy)))
+
+    # ---------------------------------------------------------------- a single-flank run
+    run_op(bpy.ops.flank.generate_rotor, kind="asymmetric", part="female", resolution=360, axial=24)
+    t0 = time.perf_counter()
+    ret, err = run_op(bpy.ops.flank.plan_single_flank, flank=1, shape="alpha", alpha=0.1001674, r1=0.05, r2=0.08,
+                      shank_radius=0.04, shank_length=0.6, tolerance=1e-3, seeds=6, rounds=2, envelope_rings=8,
+                      animate=False)
+    res["plan"] = dict(result=ret, error=err, seconds=time.perf_counter() - t0)
+    coll = next(c for c in bpy.data.collections["Flank Results"].children if "flank_plan_json" in c)
+    plan = json.loads(coll["flank_plan_json"])
+    res["run"] = dict(name=coll.name, strips=len(plan["strips"]), summary=plan["summary"],
+                      tolerance=plan["tolerance"], length_unit=plan["length_unit"], method=plan["method"])
+
+    # ---------------------------------------------------------------- three unit settings, Workbench
+    renders = {}
+    for label, system, scale in (("metric_m", 'METRIC', 1.0), ("metric_mm", 'METRIC', 0.001), ("none", 'NONE', 1.0)):
+        us.system, us.scale_length = system, scale
+        scene_name, active = bpy.context.scene.name, bpy.context.view_layer.objects.active
+        c0 = census(bpy)
+        p = os.path.join(tmp, "report_{}.png".format(label))
+        t0 = time.perf_counter()
+        ret, err = run_op(bpy.ops.flank.render_report, filepath=p, width=640, height=400)
+        out = dict(result=ret, error=err, seconds=time.perf_counter() - t0, changed=diff(c0, census(bpy)),
+                   same_scene=bpy.context.scene.name == scene_name,
+                   same_active=bpy.context.view_layer.objects.active == active)
+        if os.path.exists(p):
+            out.update(png_facts(np, rr, p, plan["tolerance"]))
+        renders[label] = out
+    res["renders"] = renders
+
+    # ---------------------------------------------------------------- Cycles on the CPU (small)
+    us.system, us.scale_length = 'METRIC', 0.001
+    c0 = census(bpy)
+    p = os.path.join(tmp, "report_cycles.png")
+    t0 = time.perf_counter()
+    ret, err = run_op(bpy.ops.flank.render_report, filepath=p, width=320, height=200, engine='CYCLES')
+    out = dict(result=ret, error=err, seconds=time.perf_counter() - t0, changed=diff(c0, census(bpy)))
+    if os.path.exists(p):
+        out.update(png_facts(np, rr, p, plan["tolerance"]))
+    res["cycles"] = out
+
+    # ---------------------------------------------------------------- bad input: an error, no file, no data
+    os.makedirs(os.path.join(tmp, "a_folder.png"), exist_ok=True)
+    bad = {}
+    for label, kw in (("missing_folder", dict(filepath=os.path.join(tmp, "no", "r.png"))),
+                      ("folder", dict(filepath=os.path.join(tmp, "a_folder.png"))),
+                      ("empty_path", dict(filepath="")),
+                      ("no_such_run", dict(filepath=os.path.join(tmp, "x.png"), collection="No Such Run"))):
+        c0 = census(bpy)
+        ret, err = run_op(bpy.ops.flank.render_report, **kw)
+        bad[label] = dict(result=ret, error=err, changed=diff(c0, census(bpy)))
+    bad["files"] = sorted(f for f in os.listdir(tmp) if f.startswith(("x.", "r.")) or ".tmp" in f
+                          or ".render" in f or ".probe" in f)
+    res["bad"] = bad
