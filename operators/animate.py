@@ -8,6 +8,7 @@ from .common import iter_fcurves, key_screw_motion, remove_ids
 from .export import run_plan
 
 ROLE = "flank_anim_role"       # objects made here: "frame", "motion", "rotor", "strip"
+HID = "flank_anim_hid"         # on the motion empty: names of the objects this animation hid (shown again on removal)
 
 
 def _run_prop(coll, name):
@@ -18,15 +19,38 @@ def _run_prop(coll, name):
     return None
 
 
+# (role property, strip property) of the planners' result objects: single flank numbers strips, double
+# flank numbers paths (plan strip k = path k)
+STRIP_KEYS = (("flank_sf_role", "flank_sf_strip"), ("flank_df_role", "flank_df_path"))
+
+
+def _strip_of(ob, role):
+    """The 0-based plan strip of a result object with that role, else None."""
+    for role_key, strip_key in STRIP_KEYS:
+        if ob.get(role_key) == role and strip_key in ob:
+            return int(ob[strip_key])
+    return None
+
+
 def remove_animation(coll):
-    """Remove an earlier animation of this run (objects, their actions); the rotor's own data stays."""
+    """Remove an earlier animation of this run (objects, their actions) and show again what it hid (the rotor,
+    the strip's envelopes); the rotor's own data stays.  Also called by the planners when they replace a run.
+    Returns the number of objects removed."""
     objs = [ob for ob in coll.objects if ROLE in ob]
+    hid = [str(name) for ob in objs for name in ob.get(HID, ())]
     actions = [ob.animation_data.action for ob in objs if ob.animation_data and ob.animation_data.action]
     for ob in objs:
         bpy.data.objects.remove(ob)
     for act in actions:
         if act.users == 0:
             bpy.data.actions.remove(act)
+    for name in hid:
+        ob = bpy.data.objects.get(name)
+        if ob is not None:
+            try:
+                ob.hide_set(False)
+            except RuntimeError:            # not in the current view layer
+                pass
     return len(objs)
 
 
@@ -92,10 +116,7 @@ class FLANK_OT_animate_strip(bpy.types.Operator):
             return {'CANCELLED'}
         t0, t1 = (z_tip - z.max() - margin) / v0, (z_tip - z.min() + margin) / v0
         tag = "{} strip {}".format(coll.name, k + 1)
-        prefix_role = [key for key in ("flank_sf_role", "flank_df_role") if any(key in ob for ob in coll.objects)]
-        strip_key = prefix_role[0].replace("_role", "_strip") if prefix_role else None
-        envelopes = [ob for ob in coll.objects if prefix_role and ob.get(prefix_role[0]) == "envelope"
-                     and ob.get(strip_key) == k]
+        envelopes = [ob for ob in coll.objects if _strip_of(ob, "envelope") == k]   # double flank: F1 and F2
 
         removed = remove_animation(coll)
         made, actions = [], []
@@ -136,10 +157,15 @@ class FLANK_OT_animate_strip(bpy.types.Operator):
                     bpy.data.actions.remove(act)
             self.report({'ERROR'}, "Animate strip failed: {}: {}".format(type(ex).__name__, ex))
             return {'CANCELLED'}
-        rotor_obj.hide_set(True)
-        hidden = [ob for ob in envelopes]
-        for ob in hidden:
-            ob.hide_set(True)
+        hid = []
+        for ob in [rotor_obj] + envelopes:      # the moving copies stand in for them; shown again on removal
+            try:
+                if not ob.hide_get():
+                    ob.hide_set(True)
+                    hid.append(ob.name)
+            except RuntimeError:                 # not in the current view layer: nothing to hide
+                pass
+        motion[HID] = hid
         fcurves = sum(1 for a in actions for _ in iter_fcurves(a))
         self.report({'INFO'}, "Animated strip {} of '{}': the rotor screws t = {:.4g} .. {:.4g} over frames {}..{} "
                               "({} F-curves); '{}' is hidden (Alt+H shows it){}".format(

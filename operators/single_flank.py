@@ -70,6 +70,9 @@ def tool_meridian(np, tool):
 def _remove_result_collection(coll):
     """Remove a result collection of an earlier run with its objects, their meshes and actions (if no
     longer used elsewhere)."""
+    from .animate import remove_animation
+
+    remove_animation(coll)      # shows the rotor again that an animation of this run hid
     objs = list(coll.all_objects)
     meshes = {ob.data for ob in objs if ob.type == 'MESH' and ob.data is not None}
     actions = {ob.animation_data.action for ob in objs if ob.animation_data and ob.animation_data.action}
