@@ -3,7 +3,7 @@
 strip meshes, through the core writers of ``flank_addon.exports`` (the same files as ``python -m flank_addon
 export``)."""
 import bpy
-from bpy.props import EnumProperty, IntProperty, StringProperty
+from bpy.props import BoolProperty, EnumProperty, FloatVectorProperty, IntProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper
 
 from .common import PLAN_JSON_PROP, RESULTS_COLLECTION
@@ -78,8 +78,13 @@ class FLANK_OT_export_results(bpy.types.Operator, ExportHelper):
                                                        "object, else the newest run", default="")
     strip: IntProperty(name="Strip", description="Strip number as in the object names (1 = first); 0 = all strips "
                                                  "(CL, STL, PLY)", default=0, min=0)
-    steps: IntProperty(name="Steps", description="CL steps (and envelope rings) per strip over one lead (1..100000)",
-                       default=360, min=1)
+    steps: IntProperty(name="Steps", description="CL steps (and envelope rings) per strip over the z range "
+                                                 "(1..100000)", default=360, min=1)
+    use_z_range: BoolProperty(name="Z Range", description="Use the tool tip's rotor-frame z range below instead of "
+                                                          "one lead [0, 2 pi v0] (CL, STL, PLY; as --z-range)",
+                              default=False)
+    z_range: FloatVectorProperty(name="Z0, Z1", description="Rotor-frame z range of the tool tip in the plan's "
+                                                            "length unit, Z0 < Z1", size=2, default=(0.0, 1.0))
 
     def invoke(self, context, event):
         self.filename_ext = EXTENSIONS[self.format]
@@ -91,6 +96,7 @@ class FLANK_OT_export_results(bpy.types.Operator, ExportHelper):
 
     def execute(self, context):
         import json
+        import math
         import os
         import shutil
         import tempfile
@@ -104,6 +110,14 @@ class FLANK_OT_export_results(bpy.types.Operator, ExportHelper):
         if not 1 <= int(self.steps) <= 100000:
             self.report({'ERROR'}, "Export: steps = {} is outside the limits 1..100000".format(int(self.steps)))
             return {'CANCELLED'}
+        z_range = None
+        if self.use_z_range:
+            # single-precision property: the decimals that were typed (7 digits)
+            z_range = tuple(float("{:.7g}".format(v)) for v in self.z_range)
+            if not all(math.isfinite(v) for v in z_range) or not z_range[1] > z_range[0]:
+                self.report({'ERROR'}, "Export: the z range {:g} .. {:g} must be finite with Z0 < Z1".format(
+                    *z_range))
+                return {'CANCELLED'}
         found = run_plan(context, self.collection)
         if isinstance(found, str):
             self.report({'ERROR'}, "Export: " + found)
@@ -133,7 +147,7 @@ class FLANK_OT_export_results(bpy.types.Operator, ExportHelper):
                 if fmt == "PLAN":
                     text, what = json.dumps(plan, indent=1), "plan, {} strips".format(n)
                 elif fmt == "CL":
-                    text = exports.cl_data(plan, strip=k, steps=int(self.steps))
+                    text = exports.cl_data(plan, strip=k, steps=int(self.steps), z_range=z_range)
                     what = "CL data, {} GOTO steps".format(text.count("\nGOTO/"))
                 else:
                     text = exports.error_profile_csv(plan)
@@ -145,7 +159,7 @@ class FLANK_OT_export_results(bpy.types.Operator, ExportHelper):
             else:
                 stem = os.path.splitext(os.path.basename(path))[0]
                 ext = fmt.lower()
-                staged = exports.write_strip_meshes(plan, os.path.join(tmp, stem), ext, strip=k,
+                staged = exports.write_strip_meshes(plan, os.path.join(tmp, stem), ext, strip=k, z_range=z_range,
                                                     n_t=min(int(self.steps), 2000) + 1)
                 pairs = [(p, os.path.join(folder, os.path.basename(p))) for p in staged]
                 what = "{} strip envelope(s) as {}".format(len(pairs), fmt)

@@ -248,6 +248,27 @@ def scenario(bpy, res, args):
         meshes["{}_{}".format(fmt, strip)] = r
     x["meshes"] = meshes
 
+    # a z range instead of one lead (the CLI's --z-range): CL and a strip mesh
+    zr = (0.5, 2.25)
+    p = os.path.join(tmp, "cl_zr.apt")
+    x["cl_zr"] = dict(zip(("result", "error"), run_op(ex_op, format="CL", filepath=p, strip=1, steps=20,
+                                                       use_z_range=True, z_range=zr)))
+    text = _read(p) or ""
+    g = _gotos(text)
+    x["cl_zr"].update(equal=text == exports.cl_data(stored, strip=0, steps=20, z_range=zr), gotos=len(g),
+                      z_first_last=[g[0][2], g[-1][2]] if g else None)
+    p = os.path.join(tmp, "zr.stl")
+    x["stl_zr"] = dict(zip(("result", "error"), run_op(ex_op, format="STL", filepath=p, strip=1, steps=20,
+                                                        use_z_range=True, z_range=zr)))
+    f = os.path.join(tmp, "zr_0.stl")
+    if os.path.exists(f):
+        v, fc = mesh_io.read_stl(f)
+        cv, cf = exports.strip_mesh(stored, 0, n_t=21, z_range=zr)
+        x["stl_zr"].update(faces=len(fc), core_faces=len(cf),
+                           max_diff=float(np.abs(np.asarray(v, float)[np.asarray(fc)] -
+                                                 np.asarray(cv, float)[np.asarray(cf)]).max())
+                           if len(fc) == len(cf) else None)
+
     # by name, with an object of no run active (the rotor)
     bpy.context.view_layer.objects.active = rotor
     p = os.path.join(tmp, "by_name.json")
@@ -266,6 +287,10 @@ def scenario(bpy, res, args):
     bad["not_a_run"] = _attempt(bpy, tmp, ex_op, format="CL", filepath=os.path.join(tmp, "n.apt"),
                                 collection="Flank Results")
     bad["steps_big"] = _attempt(bpy, tmp, ex_op, format="CL", filepath=os.path.join(tmp, "n.apt"), steps=200000)
+    bad["z_nan"] = _attempt(bpy, tmp, ex_op, format="CL", filepath=os.path.join(tmp, "z.apt"), use_z_range=True,
+                            z_range=(float("nan"), 1.0))
+    bad["z_reversed"] = _attempt(bpy, tmp, ex_op, format="STL", filepath=os.path.join(tmp, "z.stl"),
+                                 use_z_range=True, z_range=(2.0, 1.0))
     nan_plan = json.loads(stored_text)
     nan_plan["strips"][0]["axis_start"][0] = float("nan")
     coll["flank_plan_json"] = json.dumps(nan_plan)                  # NaN: json writes it as the token NaN

@@ -69,6 +69,15 @@ def test_cl_export_parses_and_matches_the_core(rx):
     assert cl["same_as_core_writer_on_stored"] is True
 
 
+def test_z_range_option_matches_the_core(rx):
+    c, m = rx["export"]["cl_zr"], rx["export"]["stl_zr"]
+    assert c["result"] == ["FINISHED"], c["error"]
+    assert c["equal"] is True and c["gotos"] == 21
+    assert c["z_first_last"] == [2.25, 0.5]                 # the tip runs from Z1 down to Z0
+    assert m["result"] == ["FINISHED"], m["error"]
+    assert m["faces"] == m["core_faces"] > 0 and m["max_diff"] < 1e-5
+
+
 def test_csv_export_matches_the_core(rx):
     c = rx["export"]["csv"]
     assert c["result"] == ["FINISHED"], c["error"]
@@ -102,6 +111,8 @@ def test_strip_meshes_match_the_core_strip_mesh(rx, key, n_files):
     ("no_collection", ["no collection 'Nope'"]),
     ("not_a_run", ["holds no plan"]),
     ("steps_big", ["steps = 200000 is outside the limits"]),
+    ("z_nan", ["z range nan .. 1 must be finite with Z0 < Z1"]),
+    ("z_reversed", ["z range 2 .. 1 must be finite with Z0 < Z1"]),
     ("nan_plan", ["not valid", "axis_start"]),
     ("nan_plan_animate", ["not valid", "axis_start"]),
     ("broken_json", ["not valid"]),
