@@ -516,6 +516,7 @@ def render_plan_report(bpy, plan, path, width=1280, height=800, tolerance=None, 
             sh = sc.display.shading
             sh.light, sh.color_type = 'STUDIO', 'VERTEX'
             sh.show_cavity = sh.show_object_outline = False
+            sc.display.render_aa = 'FXAA'      # as smooth as 8 samples here, at less than half the time
         else:
             r.engine = 'CYCLES'
             if not hasattr(sc, "cycles"):

@@ -5,11 +5,15 @@
 1. build the host-platform zip with tools/build_extension.py (cached wheels),
 2. install + enable it with Blender's own installer into a throw-away user
    directory (BLENDER_USER_* set before ``import bpy``),
-3. ``bpy.ops.flank.generate_rotor`` (built-in asymmetric female rotor),
-   ``bpy.ops.flank.analyze_rotor`` on it,
+3. ``bpy.ops.flank.generate_rotor`` (built-in asymmetric female rotor, R = 50 in a
+   scene measured in millimetres), ``bpy.ops.flank.analyze_rotor`` on it,
 4. write ``out/demo.blend``, ``out/demo.png`` (headless Workbench render coloured
-   by the ``curvature_class`` attribute; Cycles CPU fallback/option) and
-   ``out/report.json``, and print a summary.
+   by the ``curvature_class`` attribute; Cycles CPU fallback/option),
+5. ``bpy.ops.flank.plan_single_flank`` on flank 1 (cone alpha = asin 0.1, r1 = 0.05 R,
+   r2 = 0.08 R, tolerance 1e-3 R), export CL data and the plan
+   (``out/demo.apt``, ``out/demo_plan.json``) and ``bpy.ops.flank.render_report``
+   -> ``out/report.png`` (rotor, strips by signed error, legend, title),
+6. write ``out/report.json`` and print a summary.
 
     python tools/demo.py [--out out] [--engine workbench|cycles] [--resolution 1440] [--zip ZIP | --source]
 """
@@ -154,6 +158,21 @@ def render_png(bpy, path, engine):
     return engine, time.perf_counter() - t0
 
 
+def report_picture_info(path):
+    """The title, numbers and legend layout that flank.render_report stored in the PNG (iTXt 'flank-report')."""
+    import struct
+
+    data = Path(path).read_bytes()
+    pos = 8
+    while pos + 8 <= len(data):
+        n, tag = struct.unpack(">I4s", data[pos:pos + 8])
+        body = data[pos + 8:pos + 8 + n]
+        if tag == b"iTXt" and body.startswith(b"flank-report\x00"):
+            return json.loads(body.split(b"\x00", 5)[5].decode("utf-8"))
+        pos += 12 + n
+    sys.exit("[demo] {} carries no report metadata".format(path))
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description="Flank Toolpath end-to-end demo")
     ap.add_argument("--out", default=str(ROOT / "out"))
@@ -186,6 +205,8 @@ def main(argv=None):
         timings["import_bpy_s"] = time.perf_counter() - t0
         t0 = time.perf_counter()
         bpy.ops.wm.read_factory_settings(use_empty=True)
+        units = bpy.context.scene.unit_settings              # 1 Blender unit = 1 mm: the rotor is R = 50 mm
+        units.system, units.scale_length, units.length_unit = 'METRIC', 0.001, 'MILLIMETERS'
         installed_from = enable_extension(bpy, zip_path)
         timings["install_s"] = time.perf_counter() - t0
 
@@ -248,8 +269,12 @@ def main(argv=None):
         bpy.ops.flank.export_results(format='PLAN', filepath=str(out / "demo_plan.json"))
         timings["export_s"] = time.perf_counter() - t0
         t0 = time.perf_counter()
-        bpy.ops.flank.render_report(filepath=str(out / "report.png"), width=1280, height=800)
+        try:
+            bpy.ops.flank.render_report(filepath=str(out / "report.png"), width=1280, height=800)
+        except RuntimeError as ex:
+            sys.exit("[demo] render_report failed: {}".format(ex))
         timings["report_s"] = time.perf_counter() - t0
+        picture = report_picture_info(out / "report.png")
         timings["total_s"] = time.perf_counter() - t_all
 
         import scipy
@@ -269,6 +294,7 @@ def main(argv=None):
             outputs=dict(blend=str(out / "demo.blend"), png=str(png), render_engine=engine_used,
                          size=[width, height]),
             single_flank=plan_info,
+            report_picture=picture,
             timings={k: round(v, 3) for k, v in timings.items()},
             versions=dict(blender=bpy.app.version_string, python=sys.version.split()[0], numpy=np.__version__,
                           scipy=scipy.__version__, scipy_from=os.path.dirname(scipy.__file__)),
@@ -294,6 +320,8 @@ def main(argv=None):
     print("  flank 1    : {} strips of {} candidates, error {:.3g} .. {:.3g}, largest kink {:.3g} deg, {}".format(
         sf["strips"], sf["candidates"], sf["min_error"], sf["max_error"], sf["kink_max_deg"],
         "covered" if sf["complete"] else "NOT fully covered"))
+    print("  report.png : {} ({} x {})".format(report["report_picture"]["title"][1],
+                                               report["report_picture"]["width"], report["report_picture"]["height"]))
     print("  outputs    : {}/demo.blend, demo.png ({}), report.json, report.png, demo.apt, demo_plan.json".format(
         out, engine_used))
     return 0
