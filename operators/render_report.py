@@ -33,6 +33,8 @@ class FLANK_OT_render_report(bpy.types.Operator):
                          description="Render engine (neither needs a GPU)")
 
     def invoke(self, context, event):
+        if bpy.app.background or context.window is None:      # no file browser without a window
+            return self.execute(context)
         context.window_manager.fileselect_add(self)
         return {'RUNNING_MODAL'}
 

@@ -94,6 +94,14 @@ def scenario(bpy, res, args):
         renders[label] = out
     res["renders"] = renders
 
+    # ---------------------------------------------------------------- INVOKE_DEFAULT without a window: runs
+    p = os.path.join(tmp, "report_invoke.png")
+    try:
+        ret, err = sorted(bpy.ops.flank.render_report('INVOKE_DEFAULT', filepath=p, width=200, height=120)), None
+    except RuntimeError as ex:
+        ret, err = None, str(ex)
+    res["invoke"] = dict(result=ret, error=err, file=os.path.exists(p))
+
     # ---------------------------------------------------------------- Cycles on the CPU (small)
     us.system, us.scale_length = 'METRIC', 0.001
     c0 = census(bpy)

@@ -65,6 +65,10 @@ def test_report_leaves_nothing_behind(rep, label):
     assert r["same_scene"] and r["same_active"]
 
 
+def test_invoke_without_a_window_renders(rep):
+    assert rep["invoke"]["result"] == ["FINISHED"] and rep["invoke"]["file"], rep["invoke"]
+
+
 def test_cycles_report(rep):
     r = rep["cycles"]
     assert r["result"] == ["FINISHED"], r["error"]
