@@ -235,6 +235,25 @@ def report_geometry(plan, n_t=61, n_profile=720, tolerance=None):
                 unit=plan.get("length_unit", "R"), method=plan.get("method", ""), outer_radius=R)
 
 
+def air_limit(tolerance, R):
+    """Envelope parts farther than this outside the rotor are the tool moving through air: not drawn (10
+    tolerances, at least 1 % of the outer radius; the legend's shade saturates at 10 tolerances anyway)."""
+    return max(BAR_RANGE * float(tolerance), 0.01 * float(R))
+
+
+def strip_part(v, f, d, n, limit):
+    """The part of a strip (verts, faces, d, normals) that is drawn: the faces with a vertex at most ``limit``
+    outside the rotor (overcuts always count), with their vertices only."""
+    f = np.asarray(f)
+    if not len(f):
+        return v[:0], f, d[:0], n[:0]
+    f = f[d[f].min(axis=1) <= limit]
+    used = np.unique(f)
+    remap = np.full(len(v), -1, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    return v[used], remap[f], d[used], n[used]
+
+
 def display_strip(v, d, n, R):
     """Strip vertices as drawn: on (never inside) the rotor, 0.2 % R above it, so that overcut parts are not
     hidden by the body; the colour still tells the signed distance d."""
@@ -248,11 +267,11 @@ def _view_basis(w):
     return r, np.cross(w, r)
 
 
-def choose_view(strips, R, occluders=None):
+def choose_view(strips, R, occluders=None, limit=None):
     """Unit direction w (towards the camera) that shows the most strip area face-on.
 
     Candidates: azimuths every 10 deg at elevations -40 .. +40 deg; score = sum of area x max(0, n . w) over
-    the strip faces lying on the rotor.  The 12 best are scored again counting only faces that the rotor
+    the strip faces lying on the rotor (a vertex at most ``limit``, default 2 % R, outside it).  The 12 best are scored again counting only faces that the rotor
     (``occluders``, surface sample points) does not hide: a depth buffer of the points on a 0.04 R grid."""
     C, N, A = [], [], []
     for v, f, d, n in strips:
@@ -261,7 +280,7 @@ def choose_view(strips, R, occluders=None):
         e = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
         nf = n[f].sum(axis=1)
         nf /= np.maximum(np.linalg.norm(nf, axis=1), 1e-12)[:, None]
-        on = np.abs(d[f]).max(axis=1) < 0.02 * R
+        on = d[f].min(axis=1) <= (0.02 * R if limit is None else limit)
         C.append(v[f[on]].mean(axis=1) + 2e-3 * R * nf[on])
         N.append(nf[on])
         A.append(0.5 * np.linalg.norm(e[on], axis=1))
@@ -531,13 +550,15 @@ def render_plan_report(bpy, plan, path, width=1280, height=800, tolerance=None, 
         rv, rf = geo["rotor"]
         _mesh_object(bpy, sc, made, "Report Rotor", rv, rf, (0.62, 0.62, 0.64, 1.0), surface_mat)
         pts = [np.asarray(rv)[::7]]
-        for k, (v, f, d, n) in enumerate(geo["strips"]):
+        limit = air_limit(tol, R)
+        parts = [strip_part(v, f, d, n, limit) for v, f, d, n in geo["strips"]]
+        for k, (v, f, d, n) in enumerate(parts):
             if len(f):
                 dv = display_strip(v, d, n, R)
                 _mesh_object(bpy, sc, made, "Report Strip {}".format(k + 1), dv, f, deviation_colors(d, tol),
                              surface_mat, smooth=True)
                 pts.append(dv)
-        w = choose_view(geo["strips"], R, geo.get("occluders"))
+        w = choose_view(parts, R, geo.get("occluders"), limit)
         M, ppu, ortho, clip_end = camera_frame(np.concatenate(pts), w, width, height, lay["region"], R)
         camd = bpy.data.cameras.new("Report Camera")
         made["cameras"].append(camd)

@@ -9,10 +9,10 @@ from flank_addon.cli import main
 from flank_addon.cone import ConeTool
 from flank_addon.multi_strip import plan_single_flank
 from flank_addon.plan import write_plan
-from flank_addon.report_render import (BAR_SPLIT, REPORT_KEY, bar_colors, bar_deviations, choose_view,
-                                       display_strip, display_units, format_length, legend_colors,
+from flank_addon.report_render import (BAR_SPLIT, REPORT_KEY, air_limit, bar_colors, bar_deviations,
+                                       choose_view, display_strip, display_units, format_length, legend_colors,
                                        legend_layout, read_png, read_png_text, report_geometry, srgb_bytes,
-                                       write_png)
+                                       strip_part, write_png)
 from flank_addon.rotors import builtin_by_name
 from flank_addon.verify import DEVIATION_COLORS, deviation_colors
 
@@ -124,6 +124,36 @@ def test_render_cli_writes_the_report(plan_file, tmp_path, capsys):
     assert "min error " + format_length(plan["summary"]["min_error"], "R") in line
     assert [t["text"] for t in info["legend"]["ticks"]] == ["-0.01 R", "-0.001 R", "0 R", "+0.001 R", "+0.01 R"]
     assert info["title"][0] == "plan.json: " + plan["method"]
+
+
+def test_overcut_strips_are_red_and_drawn(plan_file, tmp_path, capsys):
+    """Tools 5 tolerances too fat overcut the flank: the report must show it (red, never hidden in the body)."""
+    pytest.importorskip("bpy")
+    _, plan = plan_file
+    fat = json.loads(json.dumps(plan))
+    for s in fat["strips"]:
+        s["radii"] = [r + 5e-3 for r in s["radii"]]
+    d = np.concatenate([s[2] for s in report_geometry(fat)["strips"]])
+    assert d.min() < -4e-3                                                    # the envelopes cut into the rotor
+    p, out = tmp_path / "fat.json", tmp_path / "fat.png"
+    write_plan(p, fat)
+    assert main(["render", str(p), "--out", str(out), "--resolution", "480", "300", "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    top = read_png(out)[:info["legend"]["band_rows"][0] - 10, :, :3].astype(int)
+    red = (top[..., 0] > top[..., 1] + 40) & (top[..., 0] > top[..., 2] + 40)
+    assert red.sum() > 300
+
+
+def test_air_parts_are_not_drawn():
+    v = np.zeros((5, 3))
+    n = np.tile([0.0, 0.0, 1.0], (5, 1))
+    d = np.array([0.0, 0.5, 0.5, -0.3, 0.5])
+    f = np.array([[0, 1, 2], [1, 2, 4], [3, 1, 4]])
+    pv, pf, pd, pn = strip_part(v, f, d, n, air_limit(1e-3, 1.0))                 # limit 0.01
+    assert air_limit(1e-3, 1.0) == pytest.approx(0.01) and air_limit(0.01, 1.0) == pytest.approx(0.1)
+    assert pf.tolist() == [[0, 1, 2], [3, 1, 4]] and pd.tolist() == [0.0, 0.5, 0.5, -0.3, 0.5]
+    pv, pf, pd, pn = strip_part(v, f[1:2], d, n, 0.01)                            # all vertices in the air
+    assert len(pf) == 0 and len(pv) == 0
 
 
 def test_render_cli_bad_input(plan_file, tmp_path, capsys):
