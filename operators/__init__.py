@@ -7,7 +7,7 @@ with ``foreach_set`` and report.  Failures are reported with
 ``self.report({'ERROR'}, ...)`` and return ``{'CANCELLED'}`` without leaving
 half-built data behind.
 """
-from .properties import FLANK_PG_settings
+from .properties import FLANK_PG_flank, FLANK_PG_settings
 from .generate import FLANK_OT_generate_rotor
 from .analyze import FLANK_OT_analyze_rotor
 from .verify import FLANK_OT_verify_plan
@@ -19,6 +19,7 @@ from .cutter_region import FLANK_OT_cutter_region
 from . import render_report, export, animate, ui_ops
 
 classes = (
+    FLANK_PG_flank,          # item type of FLANK_PG_settings.flank_list: registered first
     FLANK_PG_settings,
     FLANK_OT_generate_rotor,
     FLANK_OT_analyze_rotor,

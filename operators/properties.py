@@ -182,7 +182,7 @@ def double_flank_props():
                                                            "can take a minute)", default=False),
         tolerance=FloatProperty(name="Tolerance", description="Deviation colour band in scene units (green "
                                                               "within), 0 = 1e-3 x rotor outer radius",
-                                default=0.0, min=0.0, precision=6),
+                                default=0.0, min=0.0, precision=6, unit='LENGTH'),
         envelope_rings=IntProperty(name="Envelope Rings", description="Rings of the envelope strips along the "
                                                                       "rotor (screw positions)",
                                    default=48, min=2, soft_max=1000),
@@ -284,8 +284,192 @@ def _prefixed(prefix, props):
     return {prefix + name: prop for name, prop in props.items()}
 
 
-# verify.DEVIATION_COLORS (linear RGBA), repeated here so registering needs no planner import (a test compares)
-LEGEND_COLORS = {"gouge": (0.85, 0.10, 0.10, 1.0), "ok": (0.15, 0.70, 0.25, 1.0), "stock": (0.15, 0.35, 0.90, 1.0)}
+# ----------------------------------------------------------------------------------------------- sidebar
+def mm_per_scene_unit(scene):
+    """Millimetres per Blender unit: with a unit system (metric or imperial) a Blender unit is scale_length
+    metres; a unit-less scene is taken as millimetres (the convention of analysed meshes and scaled
+    built-in rotors)."""
+    us = getattr(scene, "unit_settings", None)
+    if us is not None and us.system in ('METRIC', 'IMPERIAL'):
+        sl = float(us.scale_length)
+        return 1000.0 * sl if sl > 0.0 else 1000.0
+    return 1.0
+
+
+TOOL_KIND_ITEMS = (
+    ("CONE", "Tapered End Mill", "Truncated cone r1 < r2 with a taper (opening) angle and a cylindrical shank: "
+                                 "the single-flank (s000) tool", 'MESH_CONE', 0),
+    ("CYLINDER", "Cylindrical End Mill", "Cylinder of radius r1 and flute length h with a shank; the single-flank "
+                                         "planner takes it as a cone of taper 0.0057 deg (1e-4 rad)", 'MESH_CYLINDER', 1),
+    ("CUSTOM", "Custom (Double Flank)", "Revolved tool shaped by the double-flank planner (s001) for one valley: "
+                                        "custom radial function, one cone or K cones", 'MOD_SCREW', 2),
+    ("DISC", "Formed Disc Cutter", "Disc cutter whose profile the formed-cutter planner (s004) derives from the "
+                                   "rotor and its set-up", 'MESH_TORUS', 3),
+    ("PARABOLOID", "Paraboloid End Mill", "Lens |h| <= b + a rho^2 of the paraboloid groove (s002)", 'SPHERECURVE',
+     4),
+)
+STRATEGY_ITEMS = (
+    ("SINGLE", "Single Flank (Cone)", "s000: one flank with several strips of a tapered (or cylindrical) end mill",
+     'MOD_SCREW', 0),
+    ("DOUBLE", "Double Flank", "s001: both flanks of one valley in one pass of a custom-shaped or conical tool "
+                               "(radial function min / average / one-sided)", 'MOD_MIRROR', 1),
+    ("TWO_PATHS", "Two Paths, One Tool", "s001 Sec. 4.3: one custom tool on two axes, one per flank of the valley",
+     'ARROW_LEFTRIGHT', 2),
+    ("FORMED", "Formed Disc Cutter", "s004: disc cutter formed to the tooth space, one pass per groove", 'MESH_TORUS',
+     3),
+    ("GROOVE", "Paraboloid Groove", "s002: groove of a paraboloid end mill moved along a helix", 'SPHERECURVE', 4),
+)
+# tool kinds each strategy can use (the first one is taken when the strategy is chosen with another kind)
+STRATEGY_TOOLS = {"SINGLE": ("CONE", "CYLINDER"), "DOUBLE": ("CUSTOM",), "TWO_PATHS": ("CUSTOM",),
+                  "FORMED": ("DISC",), "GROOVE": ("PARABOLOID",)}
+TOOL_STRATEGY = {"CONE": "SINGLE", "CYLINDER": "SINGLE", "CUSTOM": "DOUBLE", "DISC": "FORMED",
+                 "PARABOLOID": "GROOVE"}
+CYLINDER_TAPER = 1e-4      # rad: a cylinder is planned as a cone whose radius grows h * 1e-4 over its flutes
+
+
+def _tool_kind_changed(self, context):
+    if self.tool_kind not in STRATEGY_TOOLS.get(self.strategy, ()):
+        self.strategy = TOOL_STRATEGY[self.tool_kind]
+
+
+def _strategy_changed(self, context):
+    kinds = STRATEGY_TOOLS.get(self.strategy, ())
+    if kinds and self.tool_kind not in kinds:
+        self.tool_kind = kinds[0]
+
+
+def _flank_index_changed(self, context):
+    """Picking a row of the flank list (or a pick operator) aims the planners at that flank / its valley."""
+    k = int(self.flank_index)
+    if k < 0:
+        return
+    if self.sf_flank != k:
+        self.sf_flank = k
+    if self.df_valley != k // 2:
+        self.df_valley = k // 2
+    if self.sf_use_point:
+        self.sf_use_point = False
+
+
+# ---- tool dimensions in millimetres (what the presets set): converted to the sf_* scene-unit settings
+def _rounded(x):
+    """The decimal a user typed, not the single-precision noise of the scene-unit setting (7 digits)."""
+    return float("{:.7g}".format(x))
+
+
+def _mm(self):
+    return mm_per_scene_unit(self.id_data)
+
+
+def _flute(self):
+    """The cone's flute length h (scene units): sf_length for a cylinder or a cone given by its length, else
+    (r2 - r1) / tan(alpha)."""
+    import math
+
+    if self.tool_kind == "CYLINDER" or self.sf_shape == "length" or not 0.0 < self.sf_alpha < 0.5 * math.pi:
+        return float(self.sf_length)
+    return (float(self.sf_r2) - float(self.sf_r1)) / math.tan(float(self.sf_alpha))
+
+
+def _set_flute(self, h):
+    """Keep r1 and alpha, make the flute length h: r2 = r1 + h tan(alpha) and sf_length = h."""
+    import math
+
+    self.sf_length = h
+    if 0.0 < self.sf_alpha < 0.5 * math.pi:
+        self.sf_r2 = float(self.sf_r1) + h * math.tan(float(self.sf_alpha))
+
+
+def _get_tip_mm(self):
+    return _rounded(2.0 * float(self.sf_r1) * _mm(self))
+
+
+def _set_tip_mm(self, value):
+    h = _flute(self)
+    self.sf_r1 = 0.5 * value / _mm(self)
+    _set_flute(self, h)
+
+
+def _get_taper_deg(self):
+    import math
+
+    return _rounded(math.degrees(float(self.sf_alpha)))
+
+
+def _set_taper_deg(self, value):
+    import math
+
+    h = _flute(self)
+    self.sf_alpha = math.radians(value)
+    _set_flute(self, h)
+
+
+def _get_flute_mm(self):
+    return _rounded(_flute(self) * _mm(self))
+
+
+def _set_flute_mm(self, value):
+    _set_flute(self, value / _mm(self))
+
+
+def _get_shank_d_mm(self):
+    return _rounded(2.0 * float(self.sf_shank_radius) * _mm(self))
+
+
+def _set_shank_d_mm(self, value):
+    self.sf_shank_radius = 0.5 * value / _mm(self)
+
+
+def _get_shank_l_mm(self):
+    return _rounded(float(self.sf_shank_length) * _mm(self))
+
+
+def _set_shank_l_mm(self, value):
+    self.sf_shank_length = value / _mm(self)
+
+
+def tool_mm_props():
+    """Tool dimensions in mm (not stored: they read and write the sf_* settings in scene units), so a preset
+    of a 6 mm end mill gives a 6 mm tool whatever the scene's unit and unit scale."""
+    return dict(
+        tool_tip_diameter_mm=FloatProperty(name="Tip Diameter (mm)", description="2 x r1 in millimetres",
+                                           get=_get_tip_mm, set=_set_tip_mm, precision=4),
+        tool_taper_deg=FloatProperty(name="Taper (deg)", description="Taper half angle = opening angle alpha in "
+                                                                     "degrees", get=_get_taper_deg,
+                                     set=_set_taper_deg, precision=4),
+        tool_flute_length_mm=FloatProperty(name="Flute Length (mm)", description="Flute length h in millimetres "
+                                                                                 "(r2 follows from r1, taper and h)",
+                                           get=_get_flute_mm, set=_set_flute_mm, precision=4),
+        tool_shank_diameter_mm=FloatProperty(name="Shank Diameter (mm)", description="2 x shank radius in mm",
+                                             get=_get_shank_d_mm, set=_set_shank_d_mm, precision=4),
+        tool_shank_length_mm=FloatProperty(name="Shank Length (mm)", description="Shank length beyond the flutes "
+                                                                                 "in mm", get=_get_shank_l_mm,
+                                           set=_set_shank_l_mm, precision=4),
+    )
+
+
+# ---- the legend: swatches of verify.deviation_colors at multiples of the tolerance (read from the core)
+LEGEND_STEPS = (("gouge_deep", -10.0), ("gouge", -(1.0 + 1e-9)), ("ok", 0.0), ("stock", 1.0 + 1e-9),
+                ("stock_deep", 10.0))
+_LEGEND_RGB = {}
+
+
+def legend_rgb(key):
+    """Linear RGB of the legend swatch ``key``: flank_addon.verify.deviation_colors at LEGEND_STEPS[key] x
+    tolerance (the colours do not depend on the tolerance itself, only on deviation / tolerance)."""
+    rgb = _LEGEND_RGB.get(key)
+    if rgb is None:
+        from ..flank_addon.verify import deviation_colors
+
+        t = dict(LEGEND_STEPS)[key]
+        rgb = _LEGEND_RGB[key] = tuple(float(c) for c in deviation_colors([t], 1.0)[0][:3])
+    return rgb
+
+
+def _legend_prop(key):
+    return FloatVectorProperty(name=key.replace("_", " ").title(), subtype='COLOR', size=3, min=0.0, max=1.0,
+                               description="Colour of the strips' error attribute here (fixed)",
+                               get=lambda self: legend_rgb(key), set=lambda self, value: None)
 
 
 def _strip_index_changed(self, context):
@@ -301,8 +485,41 @@ def results_props():
     """The Results panel: the strips list's active row and the legend swatches."""
     return dict(
         results_strip_index=IntProperty(name="Strip", default=0, update=_strip_index_changed),
-        **{"legend_" + k: FloatVectorProperty(name=k.title(), subtype='COLOR', size=4, default=v, min=0.0, max=1.0)
-           for k, v in LEGEND_COLORS.items()},
+        **{"legend_" + k: _legend_prop(k) for k, _ in LEGEND_STEPS},
+    )
+
+
+class FLANK_PG_flank(bpy.types.PropertyGroup):
+    """One flank of the workpiece's rotor in the sidebar's flank list (filled by flank.refresh_flanks)."""
+
+    flank: IntProperty(name="Flank", description="Flank index of the rotor", default=0)
+    valley: IntProperty(name="Valley", description="Valley K of the flank (flanks 2K and 2K + 1)", default=0)
+    u_start: FloatProperty(name="Start", description="Start of the flank's profile parameter range", default=0.0)
+    u_end: FloatProperty(name="End", description="End of the flank's profile parameter range", default=0.0)
+    hyperbolic_fraction: FloatProperty(name="Hyperbolic", description="Share of the flank's profile arc length "
+                                                                      "where the surface is hyperbolic (s000 "
+                                                                      "Sec. 4.1: where a cone can touch it "
+                                                                      "along a curve)",
+                                       default=0.0, min=0.0, max=1.0, subtype='FACTOR')
+    a_min: FloatProperty(name="a_min", description="Smallest transverse semi-axis of the Dupin indicatrix over the "
+                                                   "hyperbolic part (s000 Eq. 17; scene units; 0 = none)",
+                         default=0.0, unit='LENGTH')
+
+
+def ui_props():
+    """Workflow state of the sidebar: tool kind, strategy, the flank list and its active row."""
+    return dict(
+        tool_kind=EnumProperty(name="Tool", items=TOOL_KIND_ITEMS, default="CONE", update=_tool_kind_changed),
+        strategy=EnumProperty(name="Strategy", items=STRATEGY_ITEMS, default="SINGLE", update=_strategy_changed),
+        flank_list=bpy.props.CollectionProperty(type=FLANK_PG_flank),
+        flank_index=IntProperty(name="Flank", description="The flank the planners work on (single flank: this "
+                                                          "flank; double flank: its valley)",
+                                default=-1, update=_flank_index_changed),
+        flank_list_rotor=StringProperty(name="Flank List Rotor", description="Rotor object the flank list was "
+                                                                              "made for", default=""),
+        ui_show_generate=BoolProperty(name="Built-in Rotor", description="Show the built-in rotor generator",
+                                      default=False),
+        **tool_mm_props(),
     )
 
 
@@ -310,4 +527,4 @@ class FLANK_PG_settings(bpy.types.PropertyGroup):
     __annotations__ = {**generator_props(), **_prefixed("verify_", verify_props()),
                        **_prefixed("groove_", paraboloid_props()), **_prefixed("cutter_", formed_cutter_props()),
                        **_prefixed("df_", double_flank_props()),
-                       **_prefixed("sf_", single_flank_props()), **results_props()}
+                       **_prefixed("sf_", single_flank_props()), **results_props(), **ui_props()}

@@ -1,5 +1,10 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Drawing helpers shared by the panels."""
+"""Drawing helpers shared by the panels.
+
+The panels draw with box / column / row / label / prop / operator / menu / template_list only and read only
+``context.scene`` and ``context.active_object`` (the headless tests call ``draw`` with those)."""
+
+SPACE, REGION, CATEGORY = 'VIEW_3D', 'UI', "Flank"
 
 
 def settings_and_operator(layout, context, operator, icon, names, prefix=""):
@@ -17,3 +22,30 @@ def settings_and_operator(layout, context, operator, icon, names, prefix=""):
         for name in names:
             setattr(op, name, getattr(settings, prefix + name))
     return op
+
+
+def draw_settings(layout, settings, prefix, groups, active=None):
+    """Draw the settings ``prefix + name`` in aligned columns, one per group of names; ``active`` maps a name
+    to False where that setting does not apply (drawn greyed out)."""
+    active = active or {}
+    for names in groups:
+        col = layout.column(align=True)
+        for name in names:
+            if active.get(name, True):
+                col.prop(settings, prefix + name)
+            else:
+                sub = col.column(align=True)
+                sub.active = False
+                sub.prop(settings, prefix + name)
+
+
+def strategy_poll(context, *strategies):
+    settings = getattr(context.scene, "flank_settings", None)
+    return settings is not None and settings.strategy in strategies
+
+
+def list_prop(obj, key):
+    val = obj.get(key)
+    if val is None:
+        return []
+    return list(val.to_list() if hasattr(val, "to_list") else val)

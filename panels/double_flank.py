@@ -4,31 +4,32 @@ import math
 
 import bpy
 
-from .common import settings_and_operator
+from .common import CATEGORY, REGION, SPACE, draw_settings, list_prop as _list, strategy_poll
 
-DF_PROPS = ("valley", "variant", "tool", "cones", "two_paths", "radii", "rim", "samples", "simulate", "tolerance",
-            "envelope_rings", "animate", "frame_start", "frame_end", "filepath", "tool_csv")
-
-
-def _list(obj, key):
-    val = obj.get(key)
-    if val is None:
-        return []
-    return list(val.to_list() if hasattr(val, "to_list") else val)
+# the strategy's own settings (tool shape in the Tool panel, two paths = the strategy "Two Paths, One Tool")
+DF_GROUPS = (("valley", "variant"), ("tolerance",), ("radii", "rim", "samples", "simulate"),
+             ("envelope_rings", "animate", "frame_start", "frame_end"), ("filepath", "tool_csv"))
 
 
 class FLANK_PT_double_flank(bpy.types.Panel):
     bl_idname = "FLANK_PT_double_flank"
     bl_label = "Double Flank (s001)"
-    bl_space_type = 'VIEW_3D'
-    bl_region_type = 'UI'
-    bl_category = "Flank"
+    bl_space_type = SPACE
+    bl_region_type = REGION
+    bl_category = CATEGORY
+    bl_parent_id = "FLANK_PT_strategy"
     bl_order = 11
-    bl_options = {'DEFAULT_CLOSED'}
+
+    @classmethod
+    def poll(cls, context):
+        return strategy_poll(context, "DOUBLE", "TWO_PATHS")
 
     def draw(self, context):
         layout = self.layout
-        settings_and_operator(layout, context, "flank.plan_double_flank", 'MOD_SCREW', DF_PROPS, "df_")
+        settings = getattr(context.scene, "flank_settings", None)
+        if settings is not None:
+            draw_settings(layout, settings, "df_", DF_GROUPS,
+                          active=dict(frame_start=settings.df_animate, frame_end=settings.df_animate))
 
         obj = context.active_object
         if obj is None or "flank_df_alpha" not in obj:

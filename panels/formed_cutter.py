@@ -2,24 +2,32 @@
 """Formed Cutter (s004) panel: disc cutter for one tooth, its flags, motion and machined deviation."""
 import bpy
 
-from .common import settings_and_operator
+from .common import CATEGORY, REGION, SPACE, draw_settings, strategy_poll
 
-CUTTER_PROPS = ("source", "lead", "centre_distance", "swivel", "handedness", "planes", "eps_b", "tolerance",
-                "sample_points", "resolution", "animate", "frame_start", "frame_end", "filepath")
+CUTTER_GROUPS = (("source", "lead", "handedness"), ("centre_distance", "swivel"),
+                 ("planes", "eps_b", "tolerance", "sample_points", "resolution"),
+                 ("animate", "frame_start", "frame_end"), ("filepath",))
 
 
 class FLANK_PT_formed_cutter(bpy.types.Panel):
     bl_idname = "FLANK_PT_formed_cutter"
-    bl_label = "Formed Cutter (s004)"
-    bl_space_type = 'VIEW_3D'
-    bl_region_type = 'UI'
-    bl_category = "Flank"
+    bl_label = "Formed Disc Cutter (s004)"
+    bl_space_type = SPACE
+    bl_region_type = REGION
+    bl_category = CATEGORY
+    bl_parent_id = "FLANK_PT_strategy"
     bl_order = 13
-    bl_options = {'DEFAULT_CLOSED'}
+
+    @classmethod
+    def poll(cls, context):
+        return strategy_poll(context, "FORMED")
 
     def draw(self, context):
         layout = self.layout
-        settings_and_operator(layout, context, "flank.formed_cutter", 'MOD_SCREW', CUTTER_PROPS, "cutter_")
+        settings = getattr(context.scene, "flank_settings", None)
+        if settings is not None:
+            draw_settings(layout, settings, "cutter_", CUTTER_GROUPS,
+                          active=dict(frame_start=settings.cutter_animate, frame_end=settings.cutter_animate))
 
         obj = context.active_object
         if obj is None or "flank_cutter_r_range" not in obj:

@@ -2,23 +2,29 @@
 """Paraboloid Groove (s002) panel: groove of a paraboloid end mill on a helix, section and overcut."""
 import bpy
 
-from .common import settings_and_operator
+from .common import CATEGORY, REGION, SPACE, draw_settings, strategy_poll
 
-GROOVE_PROPS = ("radius", "a", "b", "pitch", "turns", "part", "resolution")
+GROOVE_GROUPS = (("radius", "pitch", "turns"), ("part", "resolution"))     # the lens a, b: Tool panel
 
 
 class FLANK_PT_paraboloid(bpy.types.Panel):
     bl_idname = "FLANK_PT_paraboloid"
     bl_label = "Paraboloid Groove (s002)"
-    bl_space_type = 'VIEW_3D'
-    bl_region_type = 'UI'
-    bl_category = "Flank"
+    bl_space_type = SPACE
+    bl_region_type = REGION
+    bl_category = CATEGORY
+    bl_parent_id = "FLANK_PT_strategy"
     bl_order = 14
-    bl_options = {'DEFAULT_CLOSED'}
+
+    @classmethod
+    def poll(cls, context):
+        return strategy_poll(context, "GROOVE")
 
     def draw(self, context):
         layout = self.layout
-        settings_and_operator(layout, context, "flank.paraboloid_groove", 'MOD_SCREW', GROOVE_PROPS, "groove_")
+        settings = getattr(context.scene, "flank_settings", None)
+        if settings is not None:
+            draw_settings(layout, settings, "groove_", GROOVE_GROUPS)
 
         obj = context.active_object
         if obj is None or "flank_groove_max_overcut" not in obj:

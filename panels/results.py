@@ -1,25 +1,25 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Results panel: the strips of the current planning run, the error legend, export / animate / report."""
+"""Results panel: the strips of a planning run (pick a row to select its tool and envelope), the error
+legend in the scene's unit, export / animate / report."""
 import bpy
 
+from .common import CATEGORY, REGION, SPACE
 
-def _length(v, mm_per_unit):
-    """A scene length as people read it: µm below 1 mm, else mm (unit-less scenes count as mm)."""
-    mm = v * mm_per_unit
-    return "{:.3g} µm".format(1000.0 * mm) if abs(mm) < 1.0 else "{:.4g} mm".format(mm)
+# legend swatch -> (multiple of the tolerance it shows, band name under it)
+LEGEND = (("gouge_deep", -10.0), ("gouge", -1.0), ("ok", 0.0), ("stock", 1.0), ("stock_deep", 10.0))
 
 
 class FLANK_PT_results(bpy.types.Panel):
     bl_idname = "FLANK_PT_results"
     bl_label = "Results"
-    bl_space_type = 'VIEW_3D'
-    bl_region_type = 'UI'
-    bl_category = "Flank"
+    bl_space_type = SPACE
+    bl_region_type = REGION
+    bl_category = CATEGORY
     bl_order = 20
 
     def draw(self, context):
         from ..operators.export import find_run
-        from ..operators.ui_ops import mm_per_scene_unit
+        from ..operators.ui_ops import length_text, strip_rows
 
         layout = self.layout
         settings = getattr(context.scene, "flank_settings", None)
@@ -27,30 +27,45 @@ class FLANK_PT_results(bpy.types.Panel):
         if isinstance(coll, str):
             layout.label(text="No planning run yet", icon='INFO')
             return
-        layout.label(text=coll.name, icon='OUTLINER_COLLECTION')
+        layout.menu("FLANK_MT_runs", text=coll.name, icon='OUTLINER_COLLECTION')
         if settings is not None:
             layout.template_list("FLANK_UL_strips", "", coll, "objects", settings, "results_strip_index", rows=4)
-        pre = "flank_sf_" if "flank_sf_tolerance" in coll else "flank_df_"
+        info = strip_rows(coll)
+        pre = info["pre"] if info else ("flank_sf_" if "flank_sf_tolerance" in coll else "flank_df_")
+        unit, scale = (info["unit"], info["scale"]) if info else ("mm", 1.0)
         tol = float(coll.get(pre + "tolerance", 0.0) or 0.0)
-        k = mm_per_scene_unit(context.scene)
+        scene = context.scene
+
+        def ln(v, signed=True):
+            return length_text(v, scene, unit, scale, signed=signed)
+
         box = layout.box()
-        box.label(text="Signed error (+ = material left)")
+        box.label(text="Signed error, + = material left (tolerance {})".format(ln(tol, False) if tol > 0 else "?"),
+                  icon='COLOR')
         if settings is not None:
-            for key, text in (("gouge", "overcut  < -{}"), ("ok", "within  ±{}"), ("stock", "material left  > +{}")):
-                row = box.row()
-                row.scale_x = 0.3
-                row.prop(settings, "legend_" + key, text="")
-                row.scale_x = 1.0
-                row.label(text=text.format(_length(tol, k)) if tol > 0 else text.format("tol"))
+            row = box.row(align=True)
+            for key, k in LEGEND:
+                col = row.column(align=True)
+                col.prop(settings, "legend_" + key, text="")
+                col.label(text=("≤ " if k < -1 else "≥ " if k > 1 else "") + (ln(k * tol) if tol > 0 else
+                                                                             "{:+g} tol".format(k)))
+            row = box.row(align=True)
+            row.label(text="overcut")
+            row.label(text="within tolerance")
+            row.label(text="material left")
+        if info and info["uncovered"]:
+            box.label(text="Uncovered: " + ", ".join("{:.0f}–{:.0f} %".format(100.0 * a, 100.0 * b)
+                                                     for a, b in info["uncovered"]) + " of the flank", icon='ERROR')
         mx, mn = coll.get(pre + "max_error"), coll.get(pre + "min_error")
         if mx is not None and mn is not None:
-            box.label(text="max {}  min {}".format(_length(float(mx), k), _length(float(mn), k)))
+            box.label(text="Run: max {}  min {}".format(ln(float(mx)), ln(float(mn))))
         col = layout.column(align=True)
         op = col.operator("flank.animate_strip", icon='PLAY')
         op.collection = coll.name
         idx = int(settings.results_strip_index) if settings is not None else -1
         ob = coll.objects[idx] if 0 <= idx < len(coll.objects) else None
-        op.strip = int(ob.get(pre + "strip", 0)) + 1 if ob is not None else 1
+        key = pre + ("strip" if pre == "flank_sf_" else "path")
+        op.strip = int(ob.get(key, 0)) + 1 if ob is not None else 1
         row = col.row(align=True)
         for fmt, label in (("CL", "CL"), ("PLAN", "Plan"), ("CSV", "CSV"), ("STL", "STL")):
             e = row.operator("flank.export_results", text=label, icon='EXPORT' if fmt == "CL" else 'NONE')

@@ -2,39 +2,34 @@
 """Single Flank (s000) panel: plan one flank with strips of a conical tool, show the strips and errors."""
 import bpy
 
-from .common import settings_and_operator
+from .common import CATEGORY, REGION, SPACE, draw_settings, list_prop as _list, strategy_poll
 
-SF_PROPS = ("flank", "use_point", "point", "shape", "r1", "r2", "alpha", "length", "shank_radius", "shank_length",
-            "tolerance", "overcut_tolerance", "seeds", "objective", "mode", "rounds", "collisions", "g1", "g1_extra_strips",
-            "envelope_rings",
-            "animate", "frame_start", "frame_end", "filepath")
-
-
-def _list(obj, key):
-    val = obj.get(key)
-    if val is None:
-        return []
-    return list(val.to_list() if hasattr(val, "to_list") else val)
+# the strategy's own settings (the tool's are in the Tool panel; Run passes all of them to the planner)
+SF_GROUPS = (("flank", "use_point", "point"), ("tolerance", "overcut_tolerance"),
+             ("seeds", "objective", "mode", "rounds", "collisions", "g1", "g1_extra_strips"),
+             ("envelope_rings", "animate", "frame_start", "frame_end"), ("filepath",))
 
 
 class FLANK_PT_single_flank(bpy.types.Panel):
     bl_idname = "FLANK_PT_single_flank"
     bl_label = "Single Flank (s000)"
-    bl_space_type = 'VIEW_3D'
-    bl_region_type = 'UI'
-    bl_category = "Flank"
+    bl_space_type = SPACE
+    bl_region_type = REGION
+    bl_category = CATEGORY
+    bl_parent_id = "FLANK_PT_strategy"
     bl_order = 12
-    bl_options = {'DEFAULT_CLOSED'}
+
+    @classmethod
+    def poll(cls, context):
+        return strategy_poll(context, "SINGLE")
 
     def draw(self, context):
         layout = self.layout
-        row = layout.row(align=True)            # real tapered end mills in mm, and the user's own tools
-        row.menu("FLANK_MT_tool_presets", text="Tool Presets", icon='PRESET')
-        row.operator("flank.tool_preset_add", text="", icon='ADD')
-        row.operator("flank.tool_preset_add", text="", icon='REMOVE').remove_active = True
-        settings_and_operator(layout, context, "flank.plan_single_flank", 'MOD_SCREW', SF_PROPS, "sf_")
-        row = layout.row()          # flank.cutter_region takes flank and cone from the sf_* settings above
-        row.operator("flank.cutter_region", text="Check Tool", icon='CHECKMARK')
+        settings = getattr(context.scene, "flank_settings", None)
+        if settings is not None:
+            draw_settings(layout, settings, "sf_", SF_GROUPS,
+                          active=dict(point=settings.sf_use_point, g1_extra_strips=settings.sf_g1,
+                                      frame_start=settings.sf_animate, frame_end=settings.sf_animate))
 
         obj = context.active_object
         if obj is None or "flank_sf_strips" not in obj:

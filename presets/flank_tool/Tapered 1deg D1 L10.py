@@ -1,3 +1,14 @@
-# Flank Toolpath tool preset: tapered end mill (catalogue entry 'taper 1.0deg D1.0 L10'), dimensions in mm.
+# Flank Toolpath tool preset (Tool panel > Tool Presets): tapered end mill, taper 1 deg per side, tip diameter
+# 1, flute length 10, shank diameter 4, overall l ength 50 mm (diameter at the top of the flutes 1.35 mm).
+# Dimensions in mm and degrees: the *_mm / *_deg settings convert them to the scene's unit (a unit-less
+# scene counts as mm), so the tool has the same size whatever the unit and unit scale.
 import bpy
-bpy.ops.flank.tool_preset(taper_deg=1.0, tip_diameter_mm=1.0, flute_length_mm=10.0, shank_diameter_mm=4.0, overall_length_mm=50.0)
+settings = bpy.context.scene.flank_settings
+
+settings.tool_kind = 'CONE'
+settings.sf_shape = 'alpha'
+settings.tool_taper_deg = 1
+settings.tool_tip_diameter_mm = 1
+settings.tool_flute_length_mm = 10
+settings.tool_shank_diameter_mm = 4
+settings.tool_shank_length_mm = 40

@@ -1,3 +1,14 @@
-# Flank Toolpath tool preset: tapered end mill (catalogue entry 'taper 2.0deg D3.0 L25'), dimensions in mm.
+# Flank Toolpath tool preset (Tool panel > Tool Presets): tapered end mill, taper 2 deg per side, tip diameter
+# 3, flute length 25, shank diameter 6, overall l ength 70 mm (diameter at the top of the flutes 4.75 mm).
+# Dimensions in mm and degrees: the *_mm / *_deg settings convert them to the scene's unit (a unit-less
+# scene counts as mm), so the tool has the same size whatever the unit and unit scale.
 import bpy
-bpy.ops.flank.tool_preset(taper_deg=2.0, tip_diameter_mm=3.0, flute_length_mm=25.0, shank_diameter_mm=6.0, overall_length_mm=70.0)
+settings = bpy.context.scene.flank_settings
+
+settings.tool_kind = 'CONE'
+settings.sf_shape = 'alpha'
+settings.tool_taper_deg = 2
+settings.tool_tip_diameter_mm = 3
+settings.tool_flute_length_mm = 25
+settings.tool_shank_diameter_mm = 6
+settings.tool_shank_length_mm = 45

@@ -1,3 +1,14 @@
-# Flank Toolpath tool preset: tapered end mill (catalogue entry 'taper 5.0deg D4.0 L16'), dimensions in mm.
+# Flank Toolpath tool preset (Tool panel > Tool Presets): tapered end mill, taper 5 deg per side, tip diameter
+# 4, flute length 16, shank diameter 8, overall l ength 60 mm (diameter at the top of the flutes 6.80 mm).
+# Dimensions in mm and degrees: the *_mm / *_deg settings convert them to the scene's unit (a unit-less
+# scene counts as mm), so the tool has the same size whatever the unit and unit scale.
 import bpy
-bpy.ops.flank.tool_preset(taper_deg=5.0, tip_diameter_mm=4.0, flute_length_mm=16.0, shank_diameter_mm=8.0, overall_length_mm=60.0)
+settings = bpy.context.scene.flank_settings
+
+settings.tool_kind = 'CONE'
+settings.sf_shape = 'alpha'
+settings.tool_taper_deg = 5
+settings.tool_tip_diameter_mm = 4
+settings.tool_flute_length_mm = 16
+settings.tool_shank_diameter_mm = 8
+settings.tool_shank_length_mm = 44

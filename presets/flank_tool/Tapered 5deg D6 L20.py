@@ -1,3 +1,14 @@
-# Flank Toolpath tool preset: tapered end mill (catalogue entry 'taper 5.0deg D6.0 L20'), dimensions in mm.
+# Flank Toolpath tool preset (Tool panel > Tool Presets): tapered end mill, taper 5 deg per side, tip diameter
+# 6, flute length 20, shank diameter 10, overall length 70 mm (diameter at the top of the flutes 9.50 mm).
+# Dimensions in mm and degrees: the *_mm / *_deg settings convert them to the scene's unit (a unit-less
+# scene counts as mm), so the tool has the same size whatever the unit and unit scale.
 import bpy
-bpy.ops.flank.tool_preset(taper_deg=5.0, tip_diameter_mm=6.0, flute_length_mm=20.0, shank_diameter_mm=10.0, overall_length_mm=70.0)
+settings = bpy.context.scene.flank_settings
+
+settings.tool_kind = 'CONE'
+settings.sf_shape = 'alpha'
+settings.tool_taper_deg = 5
+settings.tool_tip_diameter_mm = 6
+settings.tool_flute_length_mm = 20
+settings.tool_shank_diameter_mm = 10
+settings.tool_shank_length_mm = 50

@@ -113,8 +113,7 @@ def test_bad_input_reports_and_creates_nothing(cr, name, text):
 
 def test_single_flank_panel_has_the_check_tool_button(cr):
     calls = cr["panels"]["FLANK_PT_single_flank"]
-    assert isinstance(calls, list), calls
-    assert ["operator", "flank.cutter_region"] in calls
+    assert isinstance(calls, list), calls      # "Check Tool" is in the Tool panel (test_blender_sidebar.py)
 
 
 def test_undo_removes_and_redo_restores_the_check(cr):

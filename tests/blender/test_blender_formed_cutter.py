@@ -155,8 +155,7 @@ def test_panel_draws_cutter_results(cut):
     panels = cut["panels"]
     for name, calls in panels.items():
         assert isinstance(calls, list), (name, calls)   # no exception in any draw()
-    calls = panels["FLANK_PT_formed_cutter"]
-    assert ["operator", "flank.formed_cutter"] in calls
+    calls = panels["FLANK_PT_formed_cutter"]    # a Strategy sub-panel: its Run button is in the Run panel
     for n in ("source", "lead", "centre_distance", "swivel", "handedness", "planes", "eps_b", "frame_start",
               "frame_end", "filepath"):
         assert ["prop", "cutter_" + n] in calls

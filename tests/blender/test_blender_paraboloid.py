@@ -110,9 +110,8 @@ def test_panels_draw_groove_results(par):
     panels = par["panels"]
     for name, calls in panels.items():
         assert isinstance(calls, list), (name, calls)  # no exception in draw()
-    calls = panels["FLANK_PT_paraboloid"]
-    assert ["operator", "flank.paraboloid_groove"] in calls
-    assert all(["prop", "groove_" + n] in calls for n in ("radius", "a", "b", "pitch", "turns", "part", "resolution"))
+    calls = panels["FLANK_PT_paraboloid"]   # a Strategy sub-panel: Run button and lens a, b in the Run / Tool panels
+    assert all(["prop", "groove_" + n] in calls for n in ("radius", "pitch", "turns", "part", "resolution"))
     labels = [c[1] for c in calls if c[0] == "label"]
     assert "Intercepts: x = -32, -8" in labels, labels
     assert any(t.startswith("Max overcut: 0.3") for t in labels), labels

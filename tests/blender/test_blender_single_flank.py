@@ -199,11 +199,9 @@ def test_panel_draws_single_flank_settings_and_results(sfl):
     panels = sfl["panels"]
     for name, calls in panels.items():
         assert isinstance(calls, list), (name, calls)
-    calls = panels["FLANK_PT_single_flank"]
-    assert ["operator", "flank.plan_single_flank"] in calls
-    for n in ("flank", "use_point", "point", "shape", "r1", "r2", "alpha", "length", "shank_radius", "shank_length",
-              "tolerance", "overcut_tolerance", "seeds", "objective", "mode", "rounds", "collisions",
-              "envelope_rings", "animate", "frame_start", "frame_end", "filepath"):
+    calls = panels["FLANK_PT_single_flank"]    # a Strategy sub-panel: the tool in the Tool panel, Run in the Run panel
+    for n in ("flank", "use_point", "point", "tolerance", "overcut_tolerance", "seeds", "objective", "mode", "rounds",
+              "collisions", "envelope_rings", "animate", "frame_start", "frame_end", "filepath"):
         assert ["prop", "sf_" + n] in calls
     labels = [c[1] for c in calls if c[0] == "label"]
     assert labels[0] == "Rotor_asymmetric_female: flank 1 (single-flank-cone-phi1-hard)"

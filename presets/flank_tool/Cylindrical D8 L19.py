@@ -1,0 +1,12 @@
+# Flank Toolpath tool preset (Tool panel > Tool Presets): cylindrical (square) end mill, diameter 8, flute
+# length 19, shank diameter 8, overall length 63 mm ( short series).
+# Dimensions in mm and degrees: the *_mm / *_deg settings convert them to the scene's unit (a unit-less
+# scene counts as mm), so the tool has the same size whatever the unit and unit scale.
+import bpy
+settings = bpy.context.scene.flank_settings
+
+settings.tool_kind = 'CYLINDER'
+settings.tool_tip_diameter_mm = 8
+settings.tool_flute_length_mm = 19
+settings.tool_shank_diameter_mm = 8
+settings.tool_shank_length_mm = 44

@@ -1,0 +1,15 @@
+# Flank Toolpath tool preset (Tool panel > Tool Presets): tapered end mill, taper 1.5 deg per side, tip
+# diameter 2, flute length 20, shank diameter 4, overall length 60 mm (diameter at the top of the flutes 3.05
+# mm).
+# Dimensions in mm and degrees: the *_mm / *_deg settings convert them to the scene's unit (a unit-less
+# scene counts as mm), so the tool has the same size whatever the unit and unit scale.
+import bpy
+settings = bpy.context.scene.flank_settings
+
+settings.tool_kind = 'CONE'
+settings.sf_shape = 'alpha'
+settings.tool_taper_deg = 1.5
+settings.tool_tip_diameter_mm = 2
+settings.tool_flute_length_mm = 20
+settings.tool_shank_diameter_mm = 4
+settings.tool_shank_length_mm = 40

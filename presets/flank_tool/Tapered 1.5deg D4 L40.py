@@ -1,0 +1,15 @@
+# Flank Toolpath tool preset (Tool panel > Tool Presets): tapered end mill, taper 1.5 deg per side, tip
+# diameter 4, flute length 40, shank diameter 8, overall length 90 mm (diameter at the top of the flutes 6.09
+# mm).
+# Dimensions in mm and degrees: the *_mm / *_deg settings convert them to the scene's unit (a unit-less
+# scene counts as mm), so the tool has the same size whatever the unit and unit scale.
+import bpy
+settings = bpy.context.scene.flank_settings
+
+settings.tool_kind = 'CONE'
+settings.sf_shape = 'alpha'
+settings.tool_taper_deg = 1.5
+settings.tool_tip_diameter_mm = 4
+settings.tool_flute_length_mm = 40
+settings.tool_shank_diameter_mm = 8
+settings.tool_shank_length_mm = 50

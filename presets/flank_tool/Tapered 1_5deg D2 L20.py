@@ -1,3 +1,0 @@
-# Flank Toolpath tool preset: tapered end mill (catalogue entry 'taper 1.5deg D2.0 L20'), dimensions in mm.
-import bpy
-bpy.ops.flank.tool_preset(taper_deg=1.5, tip_diameter_mm=2.0, flute_length_mm=20.0, shank_diameter_mm=4.0, overall_length_mm=60.0)
