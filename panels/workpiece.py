@@ -79,8 +79,9 @@ class FLANK_PT_workpiece(bpy.types.Panel):
         sub = col.column(align=True)
         sub.enabled = obj is not None and obj.type == 'MESH' and obj.mode == 'EDIT'
         sub.operator("flank.pick_flank_faces", text="", icon='FACESEL')
-        if listed and 0 <= settings.flank_index < len(settings.flank_list):
-            item = settings.flank_list[settings.flank_index]
+        k = int(settings.sf_flank)            # what the planners get (also when typed in the strategy options)
+        if listed and 0 <= k < len(settings.flank_list):
+            item = settings.flank_list[k]
             layout.label(text="Target: flank {} (valley {}), {:.0f} % hyperbolic".format(
                 item.flank, item.valley, 100.0 * item.hyperbolic_fraction), icon='RESTRICT_SELECT_OFF')
         else:

@@ -592,6 +592,30 @@ def scenario(bpy, res, args):
     src_tool = [o for o in bpy.data.objects if o.get("flank_df_role") == "tool" and o.get("flank_df_path") == 0]
     runs["custom_preview"]["vertices"] = [len(prev.data.vertices) if prev else 0,
                                           len(src_tool[-1].data.vertices) if src_tool else -1]
+    # Run with the formed disc cutter (the s004 Table-1 rotor) and the paraboloid groove, then the DISC preview
+    t0 = time.perf_counter()
+    for strategy, extra in (("FORMED", dict(cutter_source="TABLE1", cutter_planes=40, cutter_sample_points=16,
+                                            cutter_resolution=240, cutter_animate=False)),
+                            ("GROOVE", dict(groove_turns=0.5, groove_resolution=101))):
+        s.strategy = strategy
+        for key, value in extra.items():
+            setattr(s, key, value)
+        idname, kw = ui_ops.run_call(s)
+        before = _datablocks(bpy)
+        try:
+            ret = (sorted(getattr(bpy.ops.flank, idname.split(".")[1])('INVOKE_DEFAULT', **kw)), None)
+        except RuntimeError as ex:
+            ret = (None, str(ex))
+        runs[strategy.lower()] = dict(idname=idname, result=ret, tool_kind=s.tool_kind,
+                                      new={k: _datablocks(bpy)[k] - before[k] for k in before})
+    s.strategy = "FORMED"
+    runs["disc_preview"] = dict(result=run_op(bpy.ops.flank.preview_tool), orphans=_orphan_meshes(bpy),
+                                previews=sum(1 for o in bpy.data.objects if o.get(ui_ops.PREVIEW_PROP)),
+                                kind=next((o[ui_ops.PREVIEW_PROP] for o in bpy.data.objects
+                                           if o.get(ui_ops.PREVIEW_PROP)), None),
+                                draw=ui.draw(panels.FLANK_PT_tool))
+    s.strategy = "DOUBLE"
+    res["timing"]["run_formed_groove"] = time.perf_counter() - t0
     # switching the shown run
     runs["select_run"] = dict(result=run_op(bpy.ops.flank.select_run, collection=sf_coll.name),
                               shown=getattr(export.find_run(bpy.context), "name", None), want=sf_coll.name)

@@ -349,6 +349,19 @@ def test_picking_a_row_selects_its_strip_and_tool(sb):
     assert dsel == ["DF Envelope 1 F1", "DF Envelope 1 F2", "DF Tool 1"]
 
 
+def test_run_formed_cutter_and_groove_and_disc_preview(sb):
+    runs = sb["runs"]
+    assert runs["formed"]["idname"] == "flank.formed_cutter" and runs["formed"]["tool_kind"] == "DISC"
+    assert runs["formed"]["result"] == [["FINISHED"], None], runs["formed"]["result"]
+    assert runs["formed"]["new"]["objects"] > 0
+    assert runs["groove"]["idname"] == "flank.paraboloid_groove" and runs["groove"]["tool_kind"] == "PARABOLOID"
+    assert runs["groove"]["result"] == [["FINISHED"], None], runs["groove"]["result"]
+    dp = runs["disc_preview"]
+    assert dp["result"] == [["FINISHED"], None] and dp["previews"] == 1 and dp["orphans"] == []
+    assert dp["kind"] == "DISC"
+    assert any(lab.startswith("Newest: radius ") for lab in _labels(dp["draw"]))
+
+
 def test_run_switching_and_results_panel(sb):
     runs = sb["runs"]
     assert runs["select_run"]["result"] == [["FINISHED"], None] and runs["select_run"]["shown"] == \
