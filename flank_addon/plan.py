@@ -27,6 +27,18 @@ it.  Fields (more are welcome, none may be removed or change meaning):
                                    at axis_start (s002)}, ...]
     summary        {max_error, min_error, elapsed_s}
 
+Free-form plans (s003, method "freeform-g1-cone") have ``surface`` instead of ``rotor``:
+
+    surface        {kind: "mesh", vertices [[x, y, z], ...], faces [[i, j, k], ...]} in the input
+                   model's coordinates; the tool is on the side the face normals point to
+    target_flanks  [] (optional)
+    tool           {kind: "cone", r1, r2, length, engagement, shank_radius, shank_length}
+    strips         [{rulings [[axis_start, axis_end], ...] one pair per time sample (sphere
+                     centres, start = tip end), radii [r1_sphere, r2_sphere], axis_start/axis_end
+                     (= the first ruling), shank_*, collision, reported_max/min_error (Eq. (19)),
+                     columns, kink_to_next_deg, axis_lengths, ...}, ...]
+    summary        adds max_kink_deg, mean_kink_deg (and the initial values)
+
 Rotor frame: helical axis = z through the origin; the rotor surface is the
 union over t of S_t(profile).  A strip's tool is fixed in the rotor frame
 while the rotor screws.  Errors are signed: positive = material left
@@ -127,6 +139,8 @@ def _validate(plan):
         raise PlanError("plan must be a JSON object")
     if plan.get("schema") != SCHEMA:
         raise PlanError(f"schema must be {SCHEMA!r}, got {plan.get('schema')!r}")
+    if plan.get("surface") is not None:
+        return _validate_mesh_plan(plan)
     for key in ("method", "length_unit", "rotor", "target_flanks", "tool", "strips", "summary"):
         if key not in plan:
             raise PlanError(f"missing field {key!r}")
@@ -213,6 +227,60 @@ def _validate(plan):
         if not _is_num(plan["summary"].get(key)):
             raise PlanError(f"summary.{key} must be a number")
     return plan
+
+
+def _validate_mesh_plan(plan):
+    """A free-form (s003) plan: ``surface`` instead of ``rotor``; strips carry ``rulings``."""
+    for key in ("method", "length_unit", "surface", "tool", "strips", "summary"):
+        if key not in plan:
+            raise PlanError(f"missing field {key!r}")
+    if plan["length_unit"] not in LENGTH_UNITS:
+        raise PlanError(f"length_unit must be one of {LENGTH_UNITS}, got {plan['length_unit']!r}")
+    surf = plan["surface"]
+    if not isinstance(surf, dict) or surf.get("kind") != "mesh":
+        raise PlanError(f"surface.kind must be 'mesh', got {surf.get('kind') if isinstance(surf, dict) else surf!r}")
+    V = np.asarray(surf.get("vertices", []), float)
+    F = np.asarray(surf.get("faces", []))
+    if V.ndim != 2 or V.shape[1] != 3 or len(V) < 3 or not np.isfinite(V).all():
+        raise PlanError("surface.vertices must be >= 3 finite [x, y, z] rows")
+    if (F.ndim != 2 or F.shape[1] != 3 or len(F) < 1 or not np.issubdtype(F.dtype, np.integer)
+            or F.min() < 0 or F.max() >= len(V)):
+        raise PlanError(f"surface.faces must be >= 1 rows of 3 vertex indices in 0..{len(V) - 1}")
+    tool = plan["tool"]
+    if not isinstance(tool, dict) or tool.get("kind") not in TOOL_KINDS:
+        raise PlanError(f"tool.kind must be one of {TOOL_KINDS}, got {tool.get('kind') if isinstance(tool, dict) else tool!r}")
+    if not isinstance(plan["strips"], list):
+        raise PlanError("strips must be a list")
+    for k, st in enumerate(plan["strips"]):
+        if not isinstance(st, dict):
+            raise PlanError(f"strips[{k}] must be an object")
+        for key in ("axis_start", "axis_end", "shank_start", "shank_end"):
+            if key not in st:
+                raise PlanError(f"missing field strips[{k}].{key}")
+            _vec(st[key], 3, f"strips[{k}].{key}")
+        R = np.asarray(st.get("rulings", []), float)
+        if R.ndim != 3 or R.shape[1:] != (2, 3) or len(R) < 2 or not np.isfinite(R).all():
+            raise PlanError(f"strips[{k}].rulings must be >= 2 finite [axis_start, axis_end] pairs")
+        radii = np.asarray(st.get("radii", []), float)
+        if radii.ndim != 1 or len(radii) != 2 or not np.isfinite(radii).all() or (radii < 0).any():
+            raise PlanError(f"strips[{k}].radii must be [r1_sphere, r2_sphere], both >= 0")
+        for key in ("shank_radius", "reported_max_error", "reported_min_error"):
+            if not _is_num(st.get(key)):
+                raise PlanError(f"strips[{k}].{key} must be a finite number")
+        if not isinstance(st.get("collision"), bool):
+            raise PlanError(f"strips[{k}].collision must be true or false")
+    summ = plan["summary"]
+    if not isinstance(summ, dict):
+        raise PlanError("summary must be an object")
+    for key in ("max_error", "min_error", "elapsed_s", "max_kink_deg", "mean_kink_deg"):
+        if not _is_num(summ.get(key)):
+            raise PlanError(f"summary.{key} must be a number")
+    return plan
+
+
+def is_mesh_plan(plan):
+    """True for a free-form plan (``surface`` of kind mesh, s003) rather than a helical rotor plan."""
+    return isinstance(plan, dict) and plan.get("surface") is not None
 
 
 def write_plan(path, plan):

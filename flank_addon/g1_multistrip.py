@@ -1,0 +1,799 @@
+"""G1-continuous multi-strip flank milling of a free-form mesh with a conical tool (s003 §4-§7).
+
+Pipeline of :func:`plan_freeform`:
+
+1. Guiding curves and base points (:mod:`.guiding`, s003 §5) from a guiding direction (one tangent
+   vector at a central point, or a vector field), spaced d = sqrt(L^2 - dr^2) apart.
+2. Initial rails and m-grid (:mod:`.initial_rulings`, Eqs. (7)-(10)).
+3. The optimisation of Eq. (18) over the m-grid (and optionally r1, r2, L, §7.2) with
+   ``scipy.optimize.least_squares`` (trust region, sparse LSMR) and an analytic sparse Jacobian.
+   Each term of Eq. (18) is written as residuals whose squares sum to that term:
+
+   * rigidity, Eq. (12): (|b - a|^2 - L^2) / L0^2 per ruling;
+   * approximation, Eq. (13): (sd(y^k) - r^k) / L0 per ruling sample of Eq. (11), sd = signed
+     distance to the mesh through the exact foot point (:mod:`.mesh_distance`); its gradient is
+     the unit normal at the foot point, which is the tangent-plane model of Eq. (13);
+   * G1, Eqs. (15)-(16): cos theta^1 - cos theta^2 per column shared by two neighbouring strips;
+   * proximity to the start, Eq. (17): (m - m_ini) / L0;
+   * fairness in time, Eq. (14): the tangential part (I - n n^T)(m_(j+1) - 2 m_j + m_(j-1)) / L0
+     along every guiding curve.  The paper takes the whole second difference; its normal part is
+     the normal curvature of the surface along the curve, which the approximation term already
+     fixes, so the full term only pulls the tool off curved surfaces (on a cylinder patch it cost
+     1e-4 of the patch size where the plan can be exact) and lets the grid shrink along the curves;
+     the tangential part keeps what the term is for: even spacing and no sideways wobble;
+
+   each block scaled by sqrt(w / count) with the paper's counts.  Dividing lengths by the tool's
+   axis length L0 makes the terms dimensionless, so the weights mean the same in mm, inches or
+   metres (the paper's weights were chosen for millimetre data with L of 1-3 mm, where L0 ~ 1).
+   The unit normals n_(i,j) of Eq. (10) are held fixed during one solve and re-taken from the foot
+   points of the m-grid for the next (``rounds``).
+4. Envelopes of the general motion (Eqs. (5)-(6)) on cubic-spline rails, the branch facing the
+   surface; envelope points are coloured by their exact signed distance to the mesh (+ = material
+   left); the error of Eq. (19) per strip; kink angles between neighbouring envelopes along their
+   shared guiding curve; the rigidity histogram (Fig. 11); collision of the tool part outside the
+   engaged cone and of the extended axis (shank) with the surface as a post-check (Fig. 4).
+
+All points are in the input mesh's coordinates; the tool is on the side the face normals point to.
+"""
+import math
+import time
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.interpolate import CubicSpline
+from scipy.optimize import least_squares
+
+from . import guiding as _guiding
+from .initial_rulings import initial_rulings
+from .mesh_distance import TriangleMesh
+from .progress import reporter, substage
+
+METHOD = "freeform-g1-cone"
+DEFAULT_WEIGHTS = (1.0, 1.0, 0.1, 1e-4, 0.01)   # w1 rigid, w2 approx, w3 G1, w4 proximity, w5 fair
+WEIGHT_NAMES = ("rigid", "approx", "g1", "proximity", "fair")
+
+
+# ============================================================================ layout
+class Layout:
+    """Index bookkeeping of the m-grid: one row per base point of every guiding curve.
+
+    offsets (M + 2,) into the stacked points; per strip the global rows of its a-side (curve i)
+    and b-side (curve i + 1) points; the G1 pairs (strip i, row in it, strip i + 1, row in it) of
+    columns shared across an inner curve; the fairness triples along each curve piece."""
+
+    def __init__(self, bases, strips):
+        sizes = [len(b.points) for b in bases]
+        self.offsets = np.r_[0, np.cumsum(sizes)].astype(np.int64)
+        self.n_points = int(self.offsets[-1])
+        self.strip_a = [self.offsets[s.index] + s.lower for s in strips]
+        self.strip_b = [self.offsets[s.index + 1] + s.upper for s in strips]
+        self.strip_columns = [s.columns for s in strips]
+        starts = np.r_[0, np.cumsum([len(x) for x in self.strip_a])].astype(np.int64)
+        self.ruling_start = starts
+        self.n_rulings = int(starts[-1])
+        self.ga = np.concatenate(self.strip_a) if strips else np.zeros(0, np.int64)
+        self.gb = np.concatenate(self.strip_b) if strips else np.zeros(0, np.int64)
+        g1 = []                                          # (ruling of strip i, ruling of strip i + 1)
+        for i in range(len(strips) - 1):
+            common, p, q = np.intersect1d(strips[i].columns, strips[i + 1].columns, return_indices=True)
+            g1.append(np.c_[starts[i] + p, starts[i + 1] + q])
+        self.g1_pairs = np.concatenate(g1) if g1 else np.zeros((0, 2), np.int64)
+        fair = []
+        for ci, b in enumerate(bases):
+            n = len(b.points)
+            if n < 3:
+                continue
+            j = np.arange(1, n - 1)
+            ok = (b.piece[j - 1] == b.piece[j]) & (b.piece[j + 1] == b.piece[j])
+            j = j[ok] + self.offsets[ci]
+            fair.append(np.c_[j - 1, j, j + 1])
+        self.fair = np.concatenate(fair) if fair else np.zeros((0, 3), np.int64)
+
+
+# ============================================================================ rails
+def rails(m, normals, layout, r1, r2):
+    """Eq. (10): tip and base sphere centres a, b (R, 3) of every ruling from the m-grid (P, 3)."""
+    h = 0.5 * (r2 - r1)
+    return m[layout.ga] - h * normals[layout.ga], m[layout.gb] + h * normals[layout.gb]
+
+
+def rail_derivative_matrix(tau):
+    """(N, N) matrix D with D @ rail = the time derivative, at the knots tau (N,), of the natural
+    cubic spline through the rail points (linear in them); N = 2: the chord."""
+    N = len(tau)
+    if N >= 3:
+        return CubicSpline(tau, np.eye(N), bc_type="natural")(tau, 1)
+    d = 1.0 / (tau[1] - tau[0])
+    return np.array([[-d, d], [-d, d]])
+
+
+def envelope_normal(ys, yt, dr, side):
+    """Unit envelope normals (n, 3) of Eq. (6) for axis derivative ys (n, 3) and motion derivative yt
+    (n, 3) of the sphere centre, radius slope dr; the branch with n . side > 0 (towards the tool
+    from the surface).  Returns (n, valid)."""
+    E, F, G = (ys * ys).sum(1), (ys * yt).sum(1), (yt * yt).sum(1)
+    den = E * G - F * F
+    disc = (E - dr * dr) * G - F * F
+    valid = (disc >= 0) & (den > 0)
+    root = np.sqrt(np.maximum(disc, 0.0))
+    cr = np.cross(ys, yt)
+    base = dr * (G[:, None] * ys - F[:, None] * yt)
+    safe = np.where(den > 0, den, 1.0)[:, None]
+    n_p, n_m = (base + cr * root[:, None]) / safe, (base - cr * root[:, None]) / safe
+    n = np.where(((n_p * side).sum(1) >= (n_m * side).sum(1))[:, None], n_p, n_m)
+    return n, valid
+
+
+def _samples(K):
+    return np.linspace(0.0, 1.0, int(K))
+
+
+# ============================================================================ objective
+class Objective:
+    """Residuals and sparse Jacobian of Eq. (18) for least_squares.
+
+    x = [m (P * 3), L?, r1?, r2?].  ``free`` names the tool variables among 'L', 'r1', 'r2'."""
+
+    def __init__(self, mesh, layout, normals, m_ini, r1, r2, L, K, weights, free=(), report=None,
+                 g1_term="envelope", m_start=None):
+        if g1_term not in ("envelope", "paper"):
+            raise ValueError(f"g1_term must be 'envelope' or 'paper', got {g1_term!r}")
+        self.g1_term = g1_term
+        self.mesh, self.lay, self.nrm = mesh, layout, np.asarray(normals, float)
+        self.m_ini = np.asarray(m_ini, float)
+        self.tool0 = {"r1": float(r1), "r2": float(r2), "L": float(L)}
+        self.free = tuple(k for k in ("L", "r1", "r2") if k in free)
+        self.K = int(K)
+        self.s = _samples(K)
+        self.L0 = float(L)
+        w = np.asarray(weights, float)
+        R, P = layout.n_rulings, layout.n_points
+        npair, nfair = len(layout.g1_pairs), len(layout.fair)
+        # paper's normalisations: 1/(NM), 1/(3NMK), 1/(N(M-1)), 1/(3N(M+1)), 1/(3(N-2)(M+1))
+        self.c = np.sqrt(np.maximum(w, 0) / np.maximum([R, 3 * R * self.K, max(npair, 1), 3 * P, 3 * max(nfair, 1)],
+                                                       1))
+        self.report = report
+        self.n_eval = 0
+        self._cache = (None, None)
+        # time derivative of the rails at the rulings: the natural cubic spline's, a linear map of the
+        # rail points for the time parameters of the start (held for this solve)
+        a0, b0 = rails(np.asarray(m_ini if m_start is None else m_start, float), self.nrm, layout, r1, r2)
+        blocks = []
+        for k in range(len(layout.strip_a)):
+            sl = slice(layout.ruling_start[k], layout.ruling_start[k + 1])
+            blocks.append(sp.csr_matrix(rail_derivative_matrix(_time_params(a0[sl], b0[sl]))))
+        self.D = sp.block_diag(blocks, format="csr") if blocks else sp.csr_matrix((0, 0))
+
+    # -------------------------------------------------------------- packing
+    def pack(self, m, tool=None):
+        tool = tool or self.tool0
+        return np.r_[np.asarray(m, float).ravel(), [tool[k] for k in self.free]]
+
+    def unpack(self, x):
+        P = self.lay.n_points
+        m = x[:3 * P].reshape(P, 3)
+        tool = dict(self.tool0)
+        for i, k in enumerate(self.free):
+            tool[k] = float(x[3 * P + i])
+        return m, tool
+
+    # -------------------------------------------------------------- evaluation
+    def _evaluate(self, x):
+        if self._cache[0] is not None and np.array_equal(self._cache[0], x):
+            return self._cache[1]
+        self.n_eval += 1
+        if self.report is not None:
+            self.report(min(self.n_eval / 60.0, 0.99), f"optimising (evaluation {self.n_eval})")
+        lay, nrm, L0, s = self.lay, self.nrm, self.L0, self.s
+        m, tool = self.unpack(x)
+        r1, r2, L = tool["r1"], tool["r2"], tool["L"]
+        P, R, K = lay.n_points, lay.n_rulings, self.K
+        nv = 3 * P + len(self.free)
+        col_of = {k: 3 * P + i for i, k in enumerate(self.free)}
+        na, nb = nrm[lay.ga], nrm[lay.gb]
+        a, b = rails(m, nrm, lay, r1, r2)
+        v = b - a
+        res, rows, cols, vals = [], [], [], []
+        row0 = 0
+
+        def add(r, c, val):
+            rows.append(np.asarray(r, np.int64).ravel()), cols.append(np.asarray(c, np.int64).ravel())
+            vals.append(np.asarray(val, float).ravel())
+
+        def xyz(g):                       # (n,) point rows -> (n, 3) variable columns
+            return 3 * g[:, None] + np.arange(3)[None, :]
+
+        # derivative of a and b with respect to r1 and r2 (Eq. (10), h = (r2 - r1) / 2)
+        da = {"r1": 0.5 * na, "r2": -0.5 * na}
+        db = {"r1": -0.5 * nb, "r2": 0.5 * nb}
+
+        # ---- rigidity, Eq. (12)
+        c1 = self.c[0]
+        vv = (v * v).sum(1)
+        res.append(c1 * (vv - L * L) / L0 ** 2)
+        r_ = row0 + np.arange(R)
+        g = c1 * 2 * v / L0 ** 2
+        add(np.repeat(r_, 3), xyz(lay.gb), g), add(np.repeat(r_, 3), xyz(lay.ga), -g)
+        if "L" in col_of:
+            add(r_, np.full(R, col_of["L"]), np.full(R, -c1 * 2 * L / L0 ** 2))
+        for k in ("r1", "r2"):
+            if k in col_of:
+                add(r_, np.full(R, col_of[k]), (g * (db[k] - da[k])).sum(1))
+        row0 += R
+
+        # ---- approximation, Eqs. (11), (13)
+        c2 = self.c[1]
+        y = (1 - s)[None, :, None] * a[:, None, :] + s[None, :, None] * b[:, None, :]      # (R, K, 3)
+        rk = (1 - s) * r1 + s * r2
+        fp = self.mesh.foot_points(y.reshape(-1, 3))
+        # Eq. (13) literally: distance to the tangent plane at the foot point.  Inside the mesh it is
+        # the signed distance; beyond a boundary edge it extends the surface by that plane instead of
+        # pulling the tool off the patch towards the edge.
+        grad = fp["normal"].reshape(R, K, 3)
+        sd = ((y - fp["foot"].reshape(R, K, 3)) * grad).sum(2)
+        res.append((c2 * (sd - rk[None, :]) / L0).ravel())
+        r_ = row0 + np.arange(R * K).reshape(R, K)
+        ga_cols = np.broadcast_to(xyz(lay.ga)[:, None, :], (R, K, 3))
+        gb_cols = np.broadcast_to(xyz(lay.gb)[:, None, :], (R, K, 3))
+        rr = np.broadcast_to(r_[:, :, None], (R, K, 3))
+        add(rr, ga_cols, c2 / L0 * (1 - s)[None, :, None] * grad)
+        add(rr, gb_cols, c2 / L0 * s[None, :, None] * grad)
+        for k, dr in (("r1", 1 - s), ("r2", s)):
+            if k in col_of:
+                dy = (1 - s)[None, :, None] * da[k][:, None, :] + s[None, :, None] * db[k][:, None, :]
+                add(r_, np.full(R * K, col_of[k]), c2 / L0 * ((grad * dy).sum(2) - dr[None, :]))
+        row0 += R * K
+
+        # ---- G1: envelope normals at the shared boundary, or the paper's Eqs. (15)-(16)
+        c3 = self.c[2]
+        pr = lay.g1_pairs
+        if len(pr) and self.g1_term == "envelope":
+            row0 = self._g1_envelope(a, b, na, nb, r2 - r1, c3, row0, res, add, xyz, col_of, da, db)
+        elif len(pr):
+            i1, i2 = pr[:, 0], pr[:, 1]
+            n_common = nb[i1]                                  # normal at the shared base point
+            v1, v2 = v[i1], v[i2]
+            l1, l2 = np.linalg.norm(v1, axis=1), np.linalg.norm(v2, axis=1)
+            cos1 = (n_common * v1).sum(1) / l1
+            cos2 = (n_common * v2).sum(1) / l2
+            res.append(c3 * (cos1 - cos2))
+            d1 = (n_common - cos1[:, None] * v1 / l1[:, None]) / l1[:, None]      # d cos / d v
+            d2 = (n_common - cos2[:, None] * v2 / l2[:, None]) / l2[:, None]
+            r_ = np.repeat(row0 + np.arange(len(pr)), 3)
+            add(r_, xyz(lay.gb[i1]), c3 * d1), add(r_, xyz(lay.ga[i1]), -c3 * d1)
+            add(r_, xyz(lay.gb[i2]), -c3 * d2), add(r_, xyz(lay.ga[i2]), c3 * d2)
+            for k in ("r1", "r2"):
+                if k in col_of:
+                    dv1, dv2 = db[k][i1] - da[k][i1], db[k][i2] - da[k][i2]
+                    add(row0 + np.arange(len(pr)), np.full(len(pr), col_of[k]),
+                        c3 * ((d1 * dv1).sum(1) - (d2 * dv2).sum(1)))
+            row0 += len(pr)
+
+        # ---- proximity to the start, Eq. (17)
+        c4 = self.c[3]
+        res.append((c4 * (m - self.m_ini) / L0).ravel())
+        add(row0 + np.arange(3 * P), np.arange(3 * P), np.full(3 * P, c4 / L0))
+        row0 += 3 * P
+
+        # ---- fairness in time, Eq. (14)
+        c5 = self.c[4]
+        tr = lay.fair
+        if len(tr):
+            # tangential part (I - n n^T) of the second difference: its normal part is the surface's
+            # own normal curvature along the curve, which Eq. (13) already prescribes
+            nm = nrm[tr[:, 1]]
+            proj = np.eye(3)[None, :, :] - nm[:, :, None] * nm[:, None, :]             # (T, 3, 3)
+            d2m = m[tr[:, 2]] - 2 * m[tr[:, 1]] + m[tr[:, 0]]
+            res.append((c5 * np.einsum("tij,tj->ti", proj, d2m) / L0).ravel())
+            r_ = np.repeat(row0 + np.arange(3 * len(tr)), 3)                            # row (t, i), col j
+            for j, coef in ((0, 1.0), (1, -2.0), (2, 1.0)):
+                cols_ = np.repeat(xyz(tr[:, j])[:, None, :], 3, axis=1)                 # (T, 3, 3)
+                add(r_, cols_, coef * c5 / L0 * proj)
+            row0 += 3 * len(tr)
+
+        f = np.concatenate(res)
+        J = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(row0, nv))
+        self._cache = (x.copy(), (f, J))
+        return f, J
+
+    def _g1_envelope(self, a, b, na, nb, dr, c3, row0, res, add, xyz, col_of, da, db):
+        """G1 residuals n_i(s = 1) - n_(i+1)(s = 0): the unit envelope normals (Eq. (6)) of two
+        neighbouring strips where they meet, at each shared column; |residual| ~ the kink angle.
+
+        The normal n of Eq. (6) solves n . y_s = dr, n . y_t = 0, |n| = 1, so with
+        M = [y_s; y_t; n] its derivatives are dn/dy_s = -M^-1 e1 n^T, dn/dy_t = -M^-1 e2 n^T."""
+        lay, D = self.lay, self.D
+        i1, i2 = lay.g1_pairs[:, 0], lay.g1_pairs[:, 1]
+        side = nb[i1]
+        dB, dA = D @ b, D @ a
+        out = []
+        for idx, ys, yt, sgn in ((i1, b[i1] - a[i1], dB[i1], 1.0), (i2, b[i2] - a[i2], dA[i2], -1.0)):
+            # where (E - dr^2) G - F^2 < 0 there is no envelope; the root is clamped to 0 so the
+            # residual stays continuous there (zeroing it would let the optimiser hide kinks in it)
+            n, _ = envelope_normal(ys, yt, dr, side)
+            ok = np.isfinite(n).all(1)
+            M = np.stack([ys, yt, np.where(ok[:, None], n, side)], axis=1)
+            det = np.linalg.det(M)
+            ok &= np.abs(det) > 1e-12 * (np.linalg.norm(ys, axis=1) ** 2 * np.linalg.norm(yt, axis=1) + 1e-300)
+            Minv = np.linalg.inv(np.where(ok[:, None, None], M, np.eye(3)))
+            Js = -Minv[:, :, 0, None] * n[:, None, :]                  # (P, 3, 3) dn/dy_s
+            Jt = -Minv[:, :, 1, None] * n[:, None, :]                  # dn/dy_t
+            Js[~ok], Jt[~ok] = 0.0, 0.0
+            Jdr = np.where(ok[:, None], Minv[:, :, 0], 0.0)            # dn/d(dr): n . y_s = dr
+            out.append((idx, n, ok, Js, Jt, sgn, Jdr))
+        (_, n1, ok1, _, _, _, _), (_, n2, ok2, _, _, _, _) = out
+        good = ok1 & ok2
+        P = len(i1)
+        res.append((c3 * np.where(good[:, None], n1 - n2, 0.0)).ravel())
+        rows3 = row0 + 3 * np.arange(P)[:, None] + np.arange(3)[None, :]           # (P, 3)
+        g = good.astype(float)[:, None, None]
+        for idx, n, ok, Js, Jt, sgn, Jdr in out:
+            Js, Jt, Jdr = sgn * c3 * Js * g, sgn * c3 * Jt * g, sgn * c3 * Jdr * g[:, :, 0]
+            # y_s = b - a of this ruling
+            rr = np.repeat(rows3[:, :, None], 3, axis=2)
+            add(rr, np.repeat(xyz(lay.gb[idx])[:, None, :], 3, axis=1), Js)
+            add(rr, np.repeat(xyz(lay.ga[idx])[:, None, :], 3, axis=1), -Js)
+            # y_t = D rail: b for the lower strip's base end (sgn +), a for the upper strip's tip end
+            Dsub = D[idx].tocoo()
+            rail = lay.gb if sgn > 0 else lay.ga
+            coef = Dsub.data[:, None, None] * Jt[Dsub.row]                         # (nnz, 3, 3)
+            add(np.repeat(rows3[Dsub.row][:, :, None], 3, axis=2),
+                np.repeat(xyz(rail[Dsub.col])[:, None, :], 3, axis=1), coef)
+            for k in ("r1", "r2"):
+                if k in col_of:
+                    dys = db[k][idx] - da[k][idx]
+                    drail = (db if sgn > 0 else da)[k]
+                    dyt = D[idx] @ drail
+                    add(rows3, np.full(rows3.shape, col_of[k]),
+                        np.einsum("pij,pj->pi", Js, dys) + np.einsum("pij,pj->pi", Jt, dyt)
+                        + (Jdr if k == "r2" else -Jdr))
+        return row0 + 3 * P
+
+    def fun(self, x):
+        return self._evaluate(x)[0]
+
+    def jac(self, x):
+        return self._evaluate(x)[1]
+
+    def terms(self, x):
+        """The five terms of Eq. (18) (unweighted, with the paper's normalisations) at x."""
+        f, _ = self._evaluate(x)
+        lay = self.lay
+        n_g1 = (3 if self.g1_term == "envelope" else 1) * len(lay.g1_pairs)
+        sizes = [lay.n_rulings, lay.n_rulings * self.K, n_g1, 3 * lay.n_points, 3 * len(lay.fair)]
+        counts = [lay.n_rulings, 3 * lay.n_rulings * self.K, max(len(lay.g1_pairs), 1), 3 * lay.n_points,
+                  3 * max(len(lay.fair), 1)]
+        out, o = {}, 0
+        for name, c, n, cnt in zip(WEIGHT_NAMES, self.c, sizes, counts):
+            block = f[o:o + n]
+            # block = c e with c^2 = w / count: the paper's term (1/count) sum e^2 = sum block^2 / w
+            out[name] = float((block ** 2).sum() / (c * c * cnt)) if c > 0 and n else 0.0
+            o += n
+        return out
+
+
+def surface_normals_at(mesh, points, side=1.0):
+    """Unit normals (n, 3) of the surface at the foot points of ``points`` (n, 3), pointing to the
+    points' side when they are off the surface (the gradient of the distance)."""
+    fp = mesh.foot_points(points)
+    return fp["gradient"]
+
+
+def optimize(mesh, layout, m_ini, normals, r1, r2, L, K=30, weights=DEFAULT_WEIGHTS, free=(), rounds=2,
+             max_nfev=60, report=None, g1_term="envelope"):
+    """Minimise Eq. (18) starting from the m-grid ``m_ini`` (P, 3) with surface normals ``normals``
+    (P, 3).  Returns dict(m, normals, tool, terms_initial, terms, nfev, status)."""
+    m = np.asarray(m_ini, float).copy()
+    nrm = np.asarray(normals, float).copy()
+    tool = {"r1": float(r1), "r2": float(r2), "L": float(L)}
+    first, nfev, status = None, 0, 0
+    for rnd in range(max(1, int(rounds))):
+        rep = None if report is None else substage(report, rnd / rounds, (rnd + 1) / rounds)
+        obj = Objective(mesh, layout, nrm, m_ini, tool["r1"], tool["r2"], tool["L"], K, weights, free, rep,
+                        g1_term, m_start=m)
+        x0 = obj.pack(m, tool)
+        if first is None:
+            first = obj.terms(x0)
+        lo = np.full(len(x0), -np.inf)
+        hi = np.full(len(x0), np.inf)
+        P3 = 3 * layout.n_points
+        for i, k in enumerate(obj.free):
+            lo[P3 + i] = 0.0 if k != "L" else 1e-9 * obj.L0
+        sol = least_squares(obj.fun, x0, jac=obj.jac, method="trf", tr_solver="lsmr", x_scale="jac",
+                            bounds=(lo, hi) if obj.free else (-np.inf, np.inf), max_nfev=max_nfev,
+                            xtol=1e-10, ftol=1e-10, gtol=1e-10)
+        nfev += sol.nfev
+        status = sol.status
+        m, tool = obj.unpack(sol.x)
+        last_terms = obj.terms(sol.x)
+        if rnd + 1 < rounds:
+            # Eq. (10)'s normals for the next solve: the surface normals at the m-grid's new foot
+            # points (the rails of the result use the normals they were optimised with)
+            nrm = surface_normals_at(mesh, m)
+    return {"m": m, "normals": nrm, "tool": tool, "terms_initial": first, "terms": last_terms, "nfev": nfev,
+            "status": int(status)}
+
+
+# ============================================================================ envelopes (Eqs. (5)-(6))
+def _time_params(a, b):
+    """Time parameters of a strip's rulings: uniform in [0, 1] (the paper's pseudo-time t).
+
+    The base points are evenly spaced along the guiding curves (step h), so uniform knots follow
+    the motion; unlike chord-length knots they do not move while the optimiser moves the rulings,
+    so the rails' derivative map (:func:`rail_derivative_matrix`) is the same in the optimiser
+    and in every later evaluation of the plan."""
+    return np.linspace(0.0, 1.0, len(a))
+
+
+def envelope(a, b, r1, r2, n_s=9, n_t=None, side_hint=None):
+    """Envelope of the conical tool along a strip's rulings (Eqs. (5)-(6)).
+
+    a, b (N, 3) rulings (tip, base sphere centres) in time order; the rails are C2 cubic splines.
+    Returns dict(points (n_t, n_s, 3), normals (n_t, n_s, 3) unit envelope normals (pointing from
+    the envelope into the tool), s (n_s,), t (n_t,), valid (n_t, n_s) bool) for the branch whose
+    normal agrees with ``side_hint`` (n_t, 3) (e.g. surface normals along the strip; the branch
+    facing the surface).  Where (E - dr^2) G - F^2 < 0 the motion has no real envelope (valid False)."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    N = len(a)
+    if N < 2:
+        raise ValueError(f"a strip needs at least 2 rulings, got {N}")
+    tau = _time_params(a, b)
+    n_t = max(2 * N - 1, 2) if n_t is None else int(n_t)
+    t = np.linspace(0.0, 1.0, n_t)
+    if N >= 3:
+        sa, sb = CubicSpline(tau, a, bc_type="natural"), CubicSpline(tau, b, bc_type="natural")
+        A, B, dA, dB = sa(t), sb(t), sa(t, 1), sb(t, 1)
+    else:
+        A = a[0] + t[:, None] * (a[1] - a[0])
+        B = b[0] + t[:, None] * (b[1] - b[0])
+        dA, dB = np.broadcast_to(a[1] - a[0], A.shape), np.broadcast_to(b[1] - b[0], B.shape)
+    s = np.linspace(0.0, 1.0, int(n_s))
+    y = (1 - s)[None, :, None] * A[:, None, :] + s[None, :, None] * B[:, None, :]
+    ys = np.broadcast_to((B - A)[:, None, :], y.shape)
+    yt = (1 - s)[None, :, None] * dA[:, None, :] + s[None, :, None] * dB[:, None, :]
+    E, F, G = (ys * ys).sum(2), (ys * yt).sum(2), (yt * yt).sum(2)
+    dr = r2 - r1
+    den = E * G - F * F
+    disc = (E - dr * dr) * G - F * F
+    valid = (disc >= 0) & (den > 0)
+    root = np.sqrt(np.maximum(disc, 0.0))
+    cr = np.cross(ys, yt)
+    base = dr * (G[..., None] * ys - F[..., None] * yt)
+    safe = np.where(den > 0, den, 1.0)[..., None]
+    n_plus = (base + cr * root[..., None]) / safe
+    n_minus = (base - cr * root[..., None]) / safe
+    if side_hint is None:
+        side = np.cross(B - A, dA + dB)
+    else:
+        side = np.asarray(side_hint, float)
+    # the branch whose normal points to the tool from the surface side: n . side > 0
+    pick = ((n_plus * side[:, None, :]).sum(2) >= (n_minus * side[:, None, :]).sum(2))
+    n = np.where(pick[..., None], n_plus, n_minus)
+    r = (1 - s) * r1 + s * r2
+    x = y - r[None, :, None] * n
+    return {"points": x, "normals": n, "axis_points": y, "s": s, "t": t, "valid": valid}
+
+
+# ============================================================================ evaluation of a plan
+def strip_rulings(plan_strip):
+    """(a (N, 3), b (N, 3)) of a plan strip's ``rulings``."""
+    R = np.asarray(plan_strip["rulings"], float)
+    return R[:, 0, :], R[:, 1, :]
+
+
+def _side_hint(mesh, a, b, n_t):
+    """Surface normals along a strip (for the envelope branch), at n_t times."""
+    tau = _time_params(a, b)
+    mid = 0.5 * (a + b)
+    nr = mesh.foot_points(mid)["normal"]
+    t = np.linspace(0, 1, n_t)
+    out = np.stack([np.interp(t, tau, nr[:, k]) for k in range(3)], axis=1)
+    return out / np.linalg.norm(out, axis=1, keepdims=True)
+
+
+def strip_envelopes(mesh, strips_ab, r1, r2, n_s=9, n_t=None, exact=True):
+    """Envelope (see :func:`envelope`) and the exact signed distance ``deviation`` (n_t, n_s) of its
+    points to the mesh (+ = material left) for each strip's (a, b)."""
+    out = []
+    for a, b in strips_ab:
+        nt = max(2 * len(a) - 1, 2) if n_t is None else n_t
+        env = envelope(a, b, r1, r2, n_s, nt, _side_hint(mesh, a, b, nt))
+        dev = mesh.foot_points(env["points"].reshape(-1, 3), exact=exact)["distance"].reshape(env["valid"].shape)
+        env["deviation"] = np.where(env["valid"], dev, np.nan)
+        out.append(env)
+    return out
+
+
+def ruling_errors(mesh, a, b, r1, r2, K=30, exact=True):
+    """Eq. (19): sd(y^k) - r^k (N, K) for the ruling samples of a strip (+ = tool too far, material
+    left); the paper's strip error is its maximum."""
+    s = _samples(K)
+    y = (1 - s)[None, :, None] * a[:, None, :] + s[None, :, None] * b[:, None, :]
+    sd = mesh.foot_points(y.reshape(-1, 3), exact=exact)["distance"].reshape(len(a), K)
+    return sd - ((1 - s) * r1 + s * r2)[None, :]
+
+
+def kinks_at_rulings(mesh, strips_ab, columns, r1, r2):
+    """Kink angles along every shared boundary, evaluated exactly at the rulings' times.
+
+    Returns a list (one per pair of neighbouring strips) of dict(points (k, 3), kink_deg (k,),
+    columns (k,))."""
+    out = []
+    for i in range(len(strips_ab) - 1):
+        (a1, b1), (a2, b2) = strips_ab[i], strips_ab[i + 1]
+        common, p, q = np.intersect1d(columns[i], columns[i + 1], return_indices=True)
+        if len(common) == 0:
+            out.append({"points": np.zeros((0, 3)), "kink_deg": np.zeros(0), "columns": common})
+            continue
+        e1 = _envelope_at_rulings(mesh, a1, b1, r1, r2, s_end=1.0)
+        e2 = _envelope_at_rulings(mesh, a2, b2, r1, r2, s_end=0.0)
+        n1, n2 = e1["normals"][p], e2["normals"][q]
+        c = np.clip((n1 * n2).sum(1), -1, 1)
+        ok = e1["valid"][p] & e2["valid"][q]
+        pts = 0.5 * (e1["points"][p] + e2["points"][q])
+        out.append({"points": pts[ok], "kink_deg": np.degrees(np.arccos(c))[ok], "columns": common[ok]})
+    return out
+
+
+def _envelope_at_rulings(mesh, a, b, r1, r2, s_end):
+    """Envelope point and unit normal at axis parameter s_end for each ruling's own time."""
+    tau = _time_params(a, b)
+    N = len(a)
+    if N >= 3:
+        da, db = CubicSpline(tau, a, bc_type="natural")(tau, 1), CubicSpline(tau, b, bc_type="natural")(tau, 1)
+    else:
+        da, db = np.broadcast_to(a[1] - a[0], a.shape), np.broadcast_to(b[1] - b[0], b.shape)
+    y = (1 - s_end) * a + s_end * b
+    ys, yt = b - a, (1 - s_end) * da + s_end * db
+    E, F, G = (ys * ys).sum(1), (ys * yt).sum(1), (yt * yt).sum(1)
+    dr = r2 - r1
+    den = E * G - F * F
+    disc = (E - dr * dr) * G - F * F
+    valid = (disc >= 0) & (den > 0)
+    root = np.sqrt(np.maximum(disc, 0))
+    cr = np.cross(ys, yt)
+    base = dr * (G[:, None] * ys - F[:, None] * yt)
+    safe = np.where(den > 0, den, 1.0)[:, None]
+    n_p, n_m = (base + cr * root[:, None]) / safe, (base - cr * root[:, None]) / safe
+    side = mesh.foot_points(0.5 * (a + b))["normal"]       # surface normal (robust if the axis dips below)
+    n = np.where(((n_p * side).sum(1) >= (n_m * side).sum(1))[:, None], n_p, n_m)
+    r = (1 - s_end) * r1 + s_end * r2
+    return {"points": y - r * n, "normals": n, "valid": valid}
+
+
+def collision_check(mesh, a, b, tool, engaged, clearance=0.0):
+    """Fig. 4 post-check per ruling: the tool's parts that should not touch the surface, i.e. the
+    cone below the engaged part (tip side, when engagement < 1) and the shank along the extended
+    axis beyond b, must keep their radii from the surface.  Returns a bool (N,) array, True =
+    collides (some sample closer than its radius - clearance)."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    u = b - a
+    Le = np.linalg.norm(u, axis=1, keepdims=True)
+    u = u / Le
+    checks = []
+    r1e, r2 = engaged["r1"], tool["r2"]
+    r1 = tool["r1"]
+    tip_len = tool["L"] - engaged["L"]
+    if tip_len > 1e-12 * tool["L"]:
+        s = np.linspace(0.0, 1.0, 6)[:-1]                   # tip .. start of the engaged part
+        # distance below a along the axis, radius of the full cone there
+        back = (1 - s) * tip_len
+        pts = a[:, None, :] - back[None, :, None] * u[:, None, :]
+        rad = r1 + s * (r1e - r1)
+        checks.append((pts, np.broadcast_to(rad, pts.shape[:2])))
+    sl, sr = tool.get("shank_length", 0.0), tool.get("shank_radius", r2)
+    if sl > 0:
+        s = np.linspace(0.0, 1.0, 9)[1:]
+        pts = b[:, None, :] + (s * sl)[None, :, None] * u[:, None, :]
+        checks.append((pts, np.full(pts.shape[:2], sr)))
+    hit = np.zeros(len(a), bool)
+    for pts, rad in checks:
+        d = mesh.foot_points(pts.reshape(-1, 3))["distance"].reshape(rad.shape)
+        hit |= (d < rad - clearance - 1e-9 * tool["L"]).any(1)
+    return hit
+
+
+# ============================================================================ the planner
+def engaged_cone(r1, r2, L, engagement):
+    """The engaged part of the tool (Fig. 18): the upper ``engagement`` fraction of the axis next to
+    the base: (r1_e, r2, L_e)."""
+    e = float(engagement)
+    if not (math.isfinite(e) and 0.05 <= e <= 1.0):
+        raise ValueError(f"tool engagement = {engagement!r} is outside the limits 0.05 .. 1 (fraction of the tool)")
+    return r2 - e * (r2 - r1), r2, e * L
+
+
+def _check_tool(r1, r2, L, shank_radius, shank_length):
+    for name, v in (("r1", r1), ("r2", r2), ("L", L)):
+        if not (isinstance(v, (int, float)) and math.isfinite(v)):
+            raise ValueError(f"tool {name} = {v!r} must be a finite number")
+    if r1 < 0 or r2 < 0:
+        raise ValueError(f"tool radii r1 = {r1}, r2 = {r2} must be >= 0")
+    if r2 < r1:
+        raise ValueError(f"tool radii r1 = {r1} > r2 = {r2}: r1 is the tip radius (s003 Eq. (2) assumes r1 <= r2)")
+    if not L > abs(r2 - r1):
+        raise ValueError(f"tool length L = {L} must exceed r2 - r1 = {r2 - r1} (otherwise no flank exists)")
+    for name, v in (("shank radius", shank_radius), ("shank length", shank_length)):
+        if not (math.isfinite(v) and v >= 0):
+            raise ValueError(f"{name} = {v!r} must be a finite number >= 0")
+
+
+def plan_freeform(vertices, faces, *, direction=None, point=None, field_vectors=None, r1, r2, L,
+                  spacing=None, weights=None, n_ruling_samples=30, n_columns=20, engagement=1.0,
+                  optimize_tool=(), rounds=2, max_nfev=60, shank_radius=None, shank_length=0.0,
+                  length_unit="mm", n_envelope_s=9, progress=None, guiding_options=None):
+    """Plan G1 multi-strip flank milling of a triangle mesh (s003); returns a flank-plan/1 dict.
+
+    vertices (V, 3), faces (F, 3): the surface, tool on the side its normals point to.
+    direction (3,) at point (3,) (default: the mesh centre), or field_vectors (V or F, 3): the
+    guiding direction (§3).  r1 <= r2 tip and base radii, L axis length (Eqs. (1)-(2)).
+    spacing d (default sqrt(L_e^2 - (r2 - r1_e)^2) of the engaged cone), weights w1..w5 of Eq. (18)
+    (default :data:`DEFAULT_WEIGHTS`), K = n_ruling_samples (Eq. (11)), N ~ n_columns rulings per
+    strip (sets the base-point step h; None keeps the paper's 1/100 of the bounding box),
+    engagement: fraction of the tool next to its base that cuts (Fig. 18), optimize_tool: any of
+    'L', 'r1', 'r2' as variables (§7.2).
+    """
+    from .plan import SCHEMA, validate_plan
+    t_start = time.perf_counter()
+    report = reporter(progress)
+    r1, r2, L = float(r1), float(r2), float(L)
+    sr = r2 if shank_radius is None else float(shank_radius)
+    _check_tool(r1, r2, L, sr, float(shank_length))
+    w = np.asarray(DEFAULT_WEIGHTS if weights is None else weights, float)
+    if w.shape != (5,) or not np.isfinite(w).all() or (w < 0).any():
+        raise ValueError(f"weights must be 5 finite numbers >= 0 (w1 rigid, w2 approx, w3 G1, w4 proximity, "
+                         f"w5 fair), got {weights!r}")
+    K = int(n_ruling_samples)
+    if not 2 <= K <= 200:
+        raise ValueError(f"samples per ruling K = {n_ruling_samples!r} is outside the limits 2 .. 200")
+    bad = [k for k in optimize_tool if k not in ("L", "r1", "r2")]
+    if bad:
+        raise ValueError(f"optimize_tool may hold 'L', 'r1', 'r2', got {bad}")
+    r1e, r2e, Le = engaged_cone(r1, r2, L, engagement)
+    mesh = TriangleMesh(vertices, faces)
+    report(0.0, "guiding curves")
+    gopt = dict(guiding_options or {})
+    if n_columns is not None:
+        n_columns = int(n_columns)
+        if not 2 <= n_columns <= 2000:
+            raise ValueError(f"rulings per strip N = {n_columns} is outside the limits 2 .. 2000")
+    gc = _guiding.guiding_curves(mesh.vertices, mesh.faces, direction=direction, point=point,
+                                 field_vectors=field_vectors, r1=r1e, r2=r2e, L=Le, spacing=spacing, **gopt)
+    if n_columns is not None and "step" not in gopt and gc.curves:
+        lengths = [sum(pl.length for pl in c.polylines) for c in gc.curves]
+        step = float(np.median(lengths)) / (n_columns - 1)
+        gc = _guiding.guiding_curves(mesh.vertices, mesh.faces, direction=direction, point=point,
+                                     field_vectors=field_vectors, r1=r1e, r2=r2e, L=Le, spacing=spacing,
+                                     step=step, **gopt)
+    strips = [s for s in gc.strips if len(s.columns) >= 2]
+    if not strips:
+        raise ValueError(f"no strip: the surface holds {len(gc.curves)} guiding curve(s) at spacing "
+                         f"d = {gc.spacing:.6g}; at least 2 sharing 2 base points are needed (a smaller tool "
+                         "or spacing, or a larger surface)")
+    # keep the strips' order; renumber so that neighbours in the list are neighbours on the surface
+    ini = initial_rulings(gc.bases, strips, r1e, r2e, Le)
+    layout = Layout(gc.bases, strips)
+    m0 = np.concatenate(ini.m)
+    n0 = np.concatenate([bc.normals for bc in gc.bases])
+    report(0.1, "optimising")
+    t_opt = time.perf_counter()
+    opt = optimize(mesh, layout, m0, n0, r1e, r2e, Le, K, w, tuple(optimize_tool), rounds, max_nfev,
+                   substage(report, 0.1, 0.85))
+    t_opt = time.perf_counter() - t_opt
+    tool_e = opt["tool"]
+    report(0.85, "envelopes and errors")
+    a_all, b_all = rails(opt["m"], opt["normals"], layout, tool_e["r1"], tool_e["r2"])
+    a_ini, b_ini = rails(m0, n0, layout, r1e, r2e)
+    out_strips, strips_ab, cols = [], [], []
+    full_tool = {"r1": r1 + (tool_e["r1"] - r1e), "r2": tool_e["r2"], "L": tool_e["L"] / engagement,
+                 "shank_radius": sr, "shank_length": float(shank_length)}
+    engaged = {"r1": tool_e["r1"], "r2": tool_e["r2"], "L": tool_e["L"]}
+    for k, st in enumerate(strips):
+        sl = slice(layout.ruling_start[k], layout.ruling_start[k + 1])
+        a, b = a_all[sl], b_all[sl]
+        strips_ab.append((a, b))
+        cols.append(st.columns)
+        err = ruling_errors(mesh, a, b, tool_e["r1"], tool_e["r2"], K)
+        err_ini = ruling_errors(mesh, a_ini[sl], b_ini[sl], r1e, r2e, K)
+        coll = collision_check(mesh, a, b, full_tool, engaged)
+        u = (b - a) / np.linalg.norm(b - a, axis=1, keepdims=True)
+        shank_end = b[0] + u[0] * max(float(shank_length), 0.0)
+        out_strips.append({
+            "axis_start": a[0].tolist(), "axis_end": b[0].tolist(),
+            "rulings": np.stack([a, b], axis=1).tolist(),
+            "radii": [tool_e["r1"], tool_e["r2"]],
+            "columns": st.columns.tolist(),
+            "guiding_curves": [int(st.index), int(st.index) + 1],
+            "shank_start": b[0].tolist(), "shank_end": shank_end.tolist(), "shank_radius": sr,
+            "flank": 0,
+            "reported_max_error": float(np.nanmax(err)), "reported_min_error": float(np.nanmin(err)),
+            "initial_max_error": float(np.nanmax(err_ini)), "initial_min_error": float(np.nanmin(err_ini)),
+            "axis_lengths": np.linalg.norm(b - a, axis=1).tolist(),
+            "initial_axis_lengths": np.linalg.norm(b_ini[sl] - a_ini[sl], axis=1).tolist(),
+            "collision": bool(coll.any()), "colliding_rulings": np.flatnonzero(coll).tolist(),
+        })
+    report(0.93, "kink angles")
+    kinks = kinks_at_rulings(mesh, strips_ab, cols, tool_e["r1"], tool_e["r2"])
+    ini_ab = [(a_ini[slice(layout.ruling_start[k], layout.ruling_start[k + 1])],
+               b_ini[slice(layout.ruling_start[k], layout.ruling_start[k + 1])]) for k in range(len(strips))]
+    kinks_ini = kinks_at_rulings(mesh, ini_ab, cols, r1e, r2e)
+    allk = np.concatenate([k["kink_deg"] for k in kinks]) if kinks else np.zeros(0)
+    allk_ini = np.concatenate([k["kink_deg"] for k in kinks_ini]) if kinks_ini else np.zeros(0)
+    for k, kk in enumerate(kinks):
+        out_strips[k]["kink_to_next_deg"] = kk["kink_deg"].tolist()
+        out_strips[k]["kink_columns"] = kk["columns"].tolist()
+    elapsed = time.perf_counter() - t_start
+    lengths = np.concatenate([s["axis_lengths"] for s in out_strips])
+    plan = {
+        "schema": SCHEMA,
+        "method": METHOD,
+        "length_unit": length_unit,
+        "surface": {"kind": "mesh", "vertices": mesh.vertices.tolist(), "faces": mesh.faces.tolist(),
+                    "tool_side": "normals"},
+        "target_flanks": [],
+        "tool": {"kind": "cone", "r1": full_tool["r1"], "r2": full_tool["r2"], "length": full_tool["L"],
+                 "engagement": float(engagement), "shank_radius": sr, "shank_length": float(shank_length)},
+        "guiding": {
+            "direction": None if direction is None else np.asarray(direction, float).tolist(),
+            "point": None if point is None else np.asarray(point, float).tolist(),
+            "field": field_vectors is not None, "spacing": float(gc.spacing), "step": float(gc.step),
+            "curves": [[pl.points.tolist() for pl in c.polylines] for c in gc.curves],
+        },
+        "optimization": {
+            "weights": dict(zip(WEIGHT_NAMES, w.tolist())), "samples_per_ruling": K,
+            "free_tool_variables": list(optimize_tool), "rounds": int(rounds), "evaluations": int(opt["nfev"]),
+            "terms_initial": opt["terms_initial"], "terms": opt["terms"], "elapsed_s": t_opt,
+            "n_variables": 3 * layout.n_points + len(optimize_tool),
+        },
+        "strips": out_strips,
+    }
+    err_max = max(s["reported_max_error"] for s in out_strips)
+    err_min = min(s["reported_min_error"] for s in out_strips)
+    plan["summary"] = {
+        "max_error": float(err_max), "min_error": float(err_min), "elapsed_s": float(elapsed),
+        "max_kink_deg": float(allk.max()) if len(allk) else 0.0,
+        "mean_kink_deg": float(allk.mean()) if len(allk) else 0.0,
+        "initial_max_kink_deg": float(allk_ini.max()) if len(allk_ini) else 0.0,
+        "initial_mean_kink_deg": float(allk_ini.mean()) if len(allk_ini) else 0.0,
+        "initial_max_error": float(max(s["initial_max_error"] for s in out_strips)),
+        "initial_min_error": float(min(s["initial_min_error"] for s in out_strips)),
+        "axis_length_range": [float(lengths.min()), float(lengths.max())],
+        "strips": len(out_strips), "rulings": int(layout.n_rulings),
+        "colliding_rulings": int(sum(len(s["colliding_rulings"]) for s in out_strips)),
+    }
+    report(1.0, "done")
+    return validate_plan(plan)
+
+
+# ============================================================================ plan readers (Blender, exports)
+def plan_mesh(plan):
+    """TriangleMesh of a free-form plan's surface."""
+    s = plan["surface"]
+    return TriangleMesh(np.asarray(s["vertices"], float), np.asarray(s["faces"], np.int64))
+
+
+def freeform_envelopes(plan, n_s=9, n_t=None, mesh=None):
+    """Per strip: dict(vertices (n_t n_s, 3), faces (m, 4) quads, deviation (n,) signed exact
+    distance to the surface, + = material left; NaN where the motion has no envelope)."""
+    mesh = plan_mesh(plan) if mesh is None else mesh
+    out = []
+    for st in plan["strips"]:
+        a, b = strip_rulings(st)
+        r1, r2 = st["radii"][0], st["radii"][-1]
+        env = strip_envelopes(mesh, [(a, b)], r1, r2, n_s, n_t)[0]
+        nt, ns = env["valid"].shape
+        i, j = np.meshgrid(np.arange(nt - 1), np.arange(ns - 1), indexing="ij")
+        v00 = (i * ns + j).ravel()
+        quads = np.c_[v00, v00 + ns, v00 + ns + 1, v00 + 1]
+        out.append({"vertices": env["points"].reshape(-1, 3), "faces": quads,
+                    "deviation": env["deviation"].ravel(), "normals": env["normals"].reshape(-1, 3)})
+    return out
+
+
+def freeform_kinks(plan, mesh=None):
+    """Per shared boundary: dict(points (k, 3), kink_deg (k,), columns (k,))."""
+    mesh = plan_mesh(plan) if mesh is None else mesh
+    ab = [strip_rulings(st) for st in plan["strips"]]
+    cols = [np.asarray(st["columns"], np.int64) for st in plan["strips"]]
+    r1, r2 = plan["strips"][0]["radii"][0], plan["strips"][0]["radii"][-1]
+    return kinks_at_rulings(mesh, ab, cols, r1, r2)

@@ -1,0 +1,213 @@
+"""Exact foot points and signed distances to a triangle mesh (s003 Eqs. (13), (19)).
+
+s003 measures the tool against the reference surface Phi through foot points: the closest point
+y_perp of a point y on Phi, its tangent plane, and the distance |y - y_perp| with a sign.  Phi is a
+triangle mesh here, so the foot point is the exact closest point over all triangles.
+
+* Candidates: a cKDTree over the vertices gives the ``k`` nearest vertices; the triangles around
+  them are projected exactly (Ericson's region test, vectorised).  For query points near a fair
+  mesh this already finds the closest triangle; ``exact=True`` then certifies every result: any
+  triangle that could be closer has a centroid within d + R_max of the query (R_max = the largest
+  centroid-to-corner distance), and all of those are tested.
+* Sign: positive on the side the face normals point to (the tool's side, air), negative inside
+  the material.  The sign uses the angle-weighted pseudo-normal of the feature the foot point
+  lies on (face, edge or vertex), which is correct on closed meshes and on the interior of open
+  patches (Baerentzen and Aanaes 2005).
+* ``gradient``: the unit vector (y - y_perp) / |y - y_perp| times the sign, i.e. the gradient of
+  the signed distance, which is what the optimiser's analytic Jacobians need.
+"""
+import numpy as np
+from scipy.spatial import cKDTree
+
+FACE, EDGE, VERTEX = 0, 1, 2
+
+
+def closest_on_triangles(P, A, B, C):
+    """Closest points on triangles ABC to points P, all (n, 3); returns (points (n, 3),
+    barycentric (n, 3)).  Region tests of Ericson, Real-Time Collision Detection 5.1.5."""
+    ab, ac, ap = B - A, C - A, P - A
+    d1, d2 = (ab * ap).sum(1), (ac * ap).sum(1)
+    bp = P - B
+    d3, d4 = (ab * bp).sum(1), (ac * bp).sum(1)
+    cp = P - C
+    d5, d6 = (ab * cp).sum(1), (ac * cp).sum(1)
+    va = d3 * d6 - d5 * d4
+    vb = d5 * d2 - d1 * d6
+    vc = d1 * d4 - d3 * d2
+    n = len(P)
+    bary = np.zeros((n, 3))
+    done = np.zeros(n, bool)
+
+    def put(mask, u, v, w):
+        m = mask & ~done
+        bary[m, 0], bary[m, 1], bary[m, 2] = u[m], v[m], w[m]
+        done[m] = True
+
+    one, zero = np.ones(n), np.zeros(n)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        put((d1 <= 0) & (d2 <= 0), one, zero, zero)                                  # vertex A
+        put((d3 >= 0) & (d4 <= d3), zero, one, zero)                                 # vertex B
+        t = d1 / (d1 - d3)
+        put((vc <= 0) & (d1 >= 0) & (d3 <= 0), 1 - t, t, zero)                      # edge AB
+        put((d6 >= 0) & (d5 <= d6), zero, zero, one)                                 # vertex C
+        t = d2 / (d2 - d6)
+        put((vb <= 0) & (d2 >= 0) & (d6 <= 0), 1 - t, zero, t)                      # edge AC
+        t = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+        put((va <= 0) & ((d4 - d3) >= 0) & ((d5 - d6) >= 0), zero, 1 - t, t)       # edge BC
+        den = va + vb + vc
+        v, w = vb / den, vc / den
+        put(np.ones(n, bool), 1 - v - w, v, w)                                       # inside
+    bary = np.nan_to_num(bary)
+    Q = bary[:, :1] * A + bary[:, 1:2] * B + bary[:, 2:] * C
+    return Q, bary
+
+
+class TriangleMesh:
+    """A triangle mesh prepared for foot-point queries.
+
+    vertices (V, 3), faces (F, 3) int.  Degenerate (zero-area) faces are kept for distances but
+    contribute nothing to the pseudo-normals."""
+
+    def __init__(self, vertices, faces, k=4):
+        V = np.ascontiguousarray(vertices, float)
+        F = np.ascontiguousarray(faces, np.int64)
+        if V.ndim != 2 or V.shape[1] != 3 or len(V) < 3 or not np.isfinite(V).all():
+            raise ValueError(f"vertices must be (V >= 3, 3) finite numbers, got shape {V.shape}")
+        if F.ndim != 2 or F.shape[1] != 3 or len(F) < 1 or F.min() < 0 or F.max() >= len(V):
+            raise ValueError(f"faces must be (F >= 1, 3) vertex indices in 0..{len(V) - 1}")
+        self.vertices, self.faces, self.k = V, F, int(min(k, len(V)))
+        A, B, C = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+        cr = np.cross(B - A, C - A)
+        area2 = np.linalg.norm(cr, axis=1)
+        self.face_normals = cr / np.where(area2 > 0, area2, 1.0)[:, None]
+        self.centroids = (A + B + C) / 3
+        self.face_radius = float(np.max(np.linalg.norm(np.stack([A, B, C]) - self.centroids, axis=2)))
+        self._vtree = cKDTree(V)
+        self._ctree = None
+        # vertex -> incident faces, padded with -1
+        order = np.argsort(F.ravel(), kind="stable")
+        vid = F.ravel()[order]
+        counts = np.bincount(vid, minlength=len(V))
+        width = int(counts.max())
+        start = np.r_[0, np.cumsum(counts)[:-1]]
+        slot = np.arange(len(vid)) - start[vid]
+        self.vertex_faces = np.full((len(V), width), -1, np.int64)
+        self.vertex_faces[vid, slot] = order // 3
+        # angle-weighted pseudo-normals of vertices and (sum of the two faces') of edges
+        ang = np.empty((len(F), 3))
+        for c in range(3):
+            p, q, r = V[F[:, c]], V[F[:, (c + 1) % 3]], V[F[:, (c + 2) % 3]]
+            u, w = q - p, r - p
+            ang[:, c] = np.arctan2(np.linalg.norm(np.cross(u, w), axis=1), (u * w).sum(1))
+        vn = np.zeros_like(V)
+        for c in range(3):
+            np.add.at(vn, F[:, c], ang[:, c:c + 1] * self.face_normals)
+        self.vertex_normals = vn / np.maximum(np.linalg.norm(vn, axis=1, keepdims=True), 1e-300)
+        e = np.sort(np.c_[F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]].reshape(-1, 2), axis=1)
+        key = e[:, 0] * len(V) + e[:, 1]
+        uniq, inv = np.unique(key, return_inverse=True)
+        en = np.zeros((len(uniq), 3))
+        np.add.at(en, inv, np.repeat(self.face_normals, 3, axis=0))
+        self._edge_keys = uniq
+        self._edge_normals = en / np.maximum(np.linalg.norm(en, axis=1, keepdims=True), 1e-300)
+        self.size = float(np.linalg.norm(V.max(0) - V.min(0)))
+
+    # ------------------------------------------------------------------ queries
+    def _project(self, P, cand):
+        """Best of candidate faces cand (n, c) (-1 = none) for points P (n, 3)."""
+        n, c = cand.shape
+        F, V = self.faces, self.vertices
+        valid = cand >= 0
+        f = np.where(valid, cand, 0).ravel()
+        Pr = np.repeat(P, c, axis=0)
+        Q, bary = closest_on_triangles(Pr, V[F[f, 0]], V[F[f, 1]], V[F[f, 2]])
+        d2 = ((Pr - Q) ** 2).sum(1).reshape(n, c)
+        d2[~valid] = np.inf
+        j = np.argmin(d2, axis=1)
+        rows = np.arange(n) * c + j
+        return Q[rows], bary[rows], f[rows], d2[np.arange(n), j]
+
+    def _pseudo_normals(self, faces, bary):
+        """Pseudo-normal of the feature (face / edge / vertex) a foot point lies on."""
+        tol = 1e-9
+        on = bary > tol
+        cnt = on.sum(1)
+        out = self.face_normals[faces].copy()
+        F = self.faces[faces]
+        vtx = cnt == 1
+        if vtx.any():
+            c = np.argmax(bary[vtx], axis=1)
+            out[vtx] = self.vertex_normals[F[vtx][np.arange(vtx.sum()), c]]
+        edg = cnt == 2
+        if edg.any():
+            off = np.argmin(bary[edg], axis=1)            # the corner not on the edge
+            Fe = F[edg]
+            r = np.arange(edg.sum())
+            p, q = Fe[r, (off + 1) % 3], Fe[r, (off + 2) % 3]
+            key = np.minimum(p, q) * len(self.vertices) + np.maximum(p, q)
+            out[edg] = self._edge_normals[np.searchsorted(self._edge_keys, key)]
+        return out
+
+    def foot_points(self, points, exact=False, chunk=4096):
+        """Foot points of points (n, 3) on the mesh.
+
+        Returns a dict: ``foot`` (n, 3), ``distance`` (n,) signed (+ on the normals' side),
+        ``gradient`` (n, 3) unit gradient of the signed distance, ``normal`` (n, 3) pseudo-normal
+        at the foot, ``face`` (n,).  exact=True certifies each foot against every triangle that
+        could be closer (slower for points far from the mesh)."""
+        P = np.asarray(points, float).reshape(-1, 3)
+        if not np.isfinite(P).all():
+            raise ValueError("foot_points: query points contain NaN or inf")
+        n = len(P)
+        foot, bary = np.empty((n, 3)), np.empty((n, 3))
+        face, d2 = np.empty(n, np.int64), np.empty(n)
+        for s in range(0, n, chunk):
+            Pc = P[s:s + chunk]
+            _, vi = self._vtree.query(Pc, k=self.k)
+            vi = np.atleast_2d(vi).reshape(len(Pc), -1)
+            cand = np.sort(self.vertex_faces[vi].reshape(len(Pc), -1), axis=1)
+            # drop repeated faces (shared by several of the k vertices) and pack the rest left
+            dup = np.zeros(cand.shape, bool)
+            dup[:, 1:] = cand[:, 1:] == cand[:, :-1]
+            cand = np.where(dup, -1, cand)
+            big = np.iinfo(np.int64).max
+            cand = np.sort(np.where(cand < 0, big, cand), axis=1)
+            width = int((cand < big).sum(1).max())
+            cand = np.where(cand[:, :width] == big, -1, cand[:, :width])
+            foot[s:s + chunk], bary[s:s + chunk], face[s:s + chunk], d2[s:s + chunk] = self._project(Pc, cand)
+        if exact:
+            self._certify(P, foot, bary, face, d2)
+        diff = P - foot
+        dist = np.sqrt(d2)
+        pn = self._pseudo_normals(face, bary)
+        sgn = np.where((diff * pn).sum(1) >= 0, 1.0, -1.0)
+        grad = np.where(dist[:, None] > 1e-12 * max(self.size, 1e-300),
+                        diff / np.where(dist > 0, dist, 1.0)[:, None] * sgn[:, None], pn)
+        return {"foot": foot, "distance": sgn * dist, "gradient": grad, "normal": pn, "face": face}
+
+    def _certify(self, P, foot, bary, face, d2):
+        if self._ctree is None:
+            self._ctree = cKDTree(self.centroids)
+        radius = np.sqrt(d2) + self.face_radius * (1 + 1e-9) + 1e-12 * self.size
+        lists = self._ctree.query_ball_point(P, radius)
+        lens = np.fromiter((len(x) for x in lists), np.int64, len(lists))
+        todo = np.flatnonzero(lens > 0)
+        todo = todo[np.argsort(lens[todo], kind="stable")]
+        # batches of similar candidate counts, each a dense (n, c) array of <= ~200k pairs
+        lo = 0
+        while lo < len(todo):
+            c = int(lens[todo[min(lo + 511, len(todo) - 1)]])
+            idx = todo[lo:lo + max(1, min(512, 200_000 // max(c, 1)))]
+            lo += len(idx)
+            c = int(lens[idx].max())
+            cand = np.full((len(idx), c), -1, np.int64)
+            for r, i in enumerate(idx):
+                cand[r, :lens[i]] = lists[i]
+            Q, b, f, dd = self._project(P[idx], cand)
+            better = dd < d2[idx]
+            w = idx[better]
+            foot[w], bary[w], face[w], d2[w] = Q[better], b[better], f[better], dd[better]
+
+    def signed_distance(self, points, exact=False):
+        """Signed distances (n,) of points (n, 3): + on the normals' side."""
+        return self.foot_points(points, exact=exact)["distance"]
