@@ -1,6 +1,7 @@
 """Command line: ``python -m flank_addon <command> ...`` (public interface, see README)."""
 import argparse
 import json
+import math
 import sys
 import time
 
@@ -100,6 +101,23 @@ def _cmd_verify(args):
     from .verify import verify_plan
 
     plan = read_plan(args.plan)
+    if plan.get("surface") is not None:
+        from .g1_multistrip import verify_freeform
+        res = verify_freeform(plan, tolerance=args.tolerance)
+        if args.json:
+            print(json.dumps(res, indent=1))
+            return 0
+        u = res["length_unit"]
+        print(f"{args.plan}: free-form plan, {len(plan['strips'])} strips, checked in {res['elapsed_s']:.2f} s")
+        print(f"  Eq. (19) at the ruling samples: max {res['eq19_max']:+.6g} {u}, min {res['eq19_min']:+.6g} {u}")
+        print(f"  envelope points (exact distance): max {res['envelope_max']:+.6g} {u}, min "
+              f"{res['envelope_min']:+.6g} {u} ({res['envelope_points']} points)")
+        cov = res["sweep_max_covered"]
+        print(f"  swept tool at {res['vertices']} surface vertices: gouge (min) {res['sweep_min']:+.6g} {u}; "
+              f"{res['vertices_covered']} covered, material left there at most "
+              f"{'n/a' if cov is None else format(cov, '+.6g')} {u}")
+        print(f"  kink max {res['max_kink_deg']:.4g} deg, mean {res['mean_kink_deg']:.4g} deg")
+        return 0
     res = verify_plan(plan, tolerance=args.tolerance)
     if args.json:
         print(json.dumps(res, indent=1))
@@ -209,6 +227,8 @@ def _model_point_to_rotor(text, to_world, option):
 def _cmd_plan(args):
     if args.planner == "single-flank":
         return _cmd_plan_single_flank(args)
+    if args.planner == "freeform":
+        return _cmd_plan_freeform(args)
     from .double_flank import plan_double_flank, valley_of_point
     from .plan import write_plan
 
@@ -239,6 +259,69 @@ def _cmd_plan(args):
         print(f"  flank {j + 1}: tool->rotor max {t2r[0]:.5g} min {t2r[1]:.3g}; rotor->envelope max "
               f"{r2e[0]:.5g} min {r2e[1]:.3g}; Hausdorff ~ {res.hausdorff[j]:.5g}")
     print(f"  time {res.elapsed_s:.2f} s (optimisation {res.optimize_s:.3f} s); wrote {args.out}")
+    return 0
+
+
+def _parse_vector(text, name, n=3):
+    try:
+        v = [float(x) for x in str(text).split(",")]
+    except ValueError:
+        raise ValueError(f"{name} {text!r} must be {n} comma-separated numbers") from None
+    if len(v) != n or not all(math.isfinite(x) for x in v):
+        raise ValueError(f"{name} {text!r} must be {n} finite comma-separated numbers")
+    return v
+
+
+def _cmd_plan_freeform(args):
+    """s003: G1 multi-strip flank milling of a free-form triangle mesh with a conical tool."""
+    from .g1_multistrip import plan_freeform
+    from .mesh_io import read_mesh
+    from .plan import write_plan
+
+    if args.mesh is None:
+        raise ValueError("freeform needs --mesh PATH (the surface to machine, STL/PLY/OBJ)")
+    for name in ("tool_r1", "tool_r2", "tool_length"):
+        if getattr(args, name) is None:
+            raise ValueError(f"freeform needs --{name.replace('_', '-')}")
+        if not math.isfinite(getattr(args, name)):
+            raise ValueError(f"--{name.replace('_', '-')} {getattr(args, name)} is not a finite number")
+    if args.direction is None and args.field is None:
+        raise ValueError("freeform needs a guiding direction: --direction X,Y,Z (at --point) or --field CSV")
+    V, F = read_mesh(args.mesh)
+    direction = _parse_vector(args.direction, "--direction") if args.direction else None
+    point = _parse_vector(args.point, "--point") if args.point else None
+    field = None
+    if args.field:
+        field = np.loadtxt(args.field, delimiter=",", ndmin=2)
+        if field.ndim != 2 or field.shape[1] != 3 or not np.isfinite(field).all():
+            raise ValueError(f"--field {args.field}: needs rows of 3 finite numbers x,y,z, got shape {field.shape}"
+                             + ("" if np.isfinite(field).all() else " with NaN/inf"))
+        if len(field) not in (len(V), len(F)):
+            raise ValueError(f"--field {args.field} has {len(field)} rows; the mesh has {len(V)} vertices and "
+                             f"{len(F)} faces")
+    weights = _parse_vector(args.weights, "--weights", 5) if args.weights else None
+    free = tuple(x.strip() for x in args.optimize_tool.split(",") if x.strip())
+    if args.spacing is not None and not math.isfinite(args.spacing):
+        raise ValueError(f"--spacing {args.spacing} is not a finite number")
+    plan = plan_freeform(V, F, direction=direction, point=point, field_vectors=field, r1=args.tool_r1,
+                         r2=args.tool_r2, L=args.tool_length, spacing=args.spacing, weights=weights,
+                         n_ruling_samples=args.samples, n_columns=args.columns, engagement=args.engagement,
+                         optimize_tool=free, max_nfev=args.max_evaluations, slide=args.slide,
+                         shank_radius=args.shank_radius if args.shank_radius else None,
+                         shank_length=args.shank_length)
+    write_plan(args.out, plan)
+    s = plan["summary"]
+    if args.json:
+        print(json.dumps(dict(s, out=args.out, optimization={k: v for k, v in plan["optimization"].items()})))
+        return 0
+    print(f"{args.mesh}: {len(F)} triangles, {s['strips']} strips, {s['rulings']} rulings x {args.samples} samples")
+    print(f"  error (Eq. 19) max {s['max_error']:+.4g} min {s['min_error']:+.4g} (initial {s['initial_max_error']:+.4g} "
+          f"/ {s['initial_min_error']:+.4g})")
+    print(f"  kink max {s['max_kink_deg']:.3f} deg, mean {s['mean_kink_deg']:.3f} deg (initial "
+          f"{s['initial_max_kink_deg']:.3f} / {s['initial_mean_kink_deg']:.3f})")
+    lo, hi = s["axis_length_range"]
+    print(f"  axis length {lo:.6g} .. {hi:.6g}; colliding rulings {s['colliding_rulings']}; "
+          f"time {s['elapsed_s']:.2f} s; wrote {args.out}")
     return 0
 
 
@@ -539,8 +622,9 @@ def build_parser():
     k.add_argument("--json", action="store_true", help="print a JSON summary (flags, Z ranges, axis pose)")
     k.set_defaults(func=_cmd_cutter)
 
-    pl = sub.add_parser("plan", help="plan a tool path: double-flank (s001) or single-flank (s000)")
-    pl.add_argument("planner", choices=["double-flank", "single-flank"])
+    pl = sub.add_parser("plan", help="plan a tool path: double-flank (s001), single-flank (s000) or free-form "
+                                     "G1 multi-strip (s003)")
+    pl.add_argument("planner", choices=["double-flank", "single-flank", "freeform"])
     src = pl.add_mutually_exclusive_group()
     src.add_argument("--mesh", help="rotor mesh (STL, PLY, OBJ), analysed for axis, pitch and flanks")
     src.add_argument("--builtin", help="built-in rotor NAME (see the builtins command)")
@@ -580,6 +664,27 @@ def build_parser():
                     help="with --g1: strips the smooth cover may add to the minimum (default 2)")
     sf.add_argument("--profile-csv", help="write the machined deviation along the flank profile (u, deviation)")
     sf.add_argument("--json", action="store_true", help="print a JSON summary")
+    ff = pl.add_argument_group("freeform (s003): --mesh is any triangle surface; the tool is on the side its "
+                               "face normals point to; --tool-r1/--tool-r2 are the radii of the spheres "
+                               "inscribed at the tip and base ends of the axis (Eq. (2)), --tool-length the "
+                               "axis length L between their centres")
+    ff.add_argument("--tool-length", type=float, help="freeform: axis length L")
+    gd = ff.add_mutually_exclusive_group()
+    gd.add_argument("--direction", help="freeform: guiding direction X,Y,Z (a tangent vector at --point)")
+    gd.add_argument("--field", help="freeform: CSV of one guiding vector x,y,z per mesh vertex (or face)")
+    ff.add_argument("--point", help="freeform: central point X,Y,Z of the direction (default: mesh centre)")
+    ff.add_argument("--weights", help="freeform: w1,w2,w3,w4,w5 of Eq. (18): rigidity, approximation, G1, "
+                                      "proximity, fairness (default 1,1,0.1,0.0001,0.01)")
+    ff.add_argument("--spacing", type=float, help="freeform: guiding-curve spacing d (default sqrt(L^2 - (r2-r1)^2))")
+    ff.add_argument("--samples", type=int, default=30, help="freeform: samples K per ruling (Eq. (11), default 30)")
+    ff.add_argument("--columns", type=int, default=20, help="freeform: rulings N per strip (default 20)")
+    ff.add_argument("--engagement", type=float, default=1.0,
+                    help="freeform: cutting fraction of the tool next to its base (Fig. 18, default 1 = full)")
+    ff.add_argument("--optimize-tool", default="", help="freeform: tool variables among L,r1,r2 (s003 7.2)")
+    ff.add_argument("--slide", action="store_true",
+                    help="freeform: let the m-grid also slide along the guiding curves (the paper's 3 unknowns "
+                         "per point; default: 2, normal to the curve)")
+    ff.add_argument("--max-evaluations", type=int, default=100, help="freeform: optimiser evaluations (default 100)")
     pl.set_defaults(func=_cmd_plan)
 
     st = sub.add_parser("suggest-tool", help="s000 4: Dupin analysis of a flank and the largest admissible "

@@ -24,6 +24,13 @@ Tool tip T on the axis (a = unit(axis_end - axis_start)):
   axis_start - b a (the lens' lower apex); otherwise axis_start - radii[0] a (the bottom of the tip
   sphere).
 
+Free-form plans (s003, ``surface`` of kind mesh): one ``GOTO`` per ruling in the input model's
+frame, no rotor angle or feed (the tool itself moves); the tip T is the centre of the tool's tip
+circle, s = -(r1 dr / L) along the axis from the tip sphere centre (a cone touching the spheres
+r(s) = r1 + s dr touches each along a circle set back by r dr / L), after stepping back over the
+part of the tool that does not cut (engagement < 1).  The error CSV lists the envelope points with
+their exact signed distance to the surface; strip meshes are the envelopes of Eqs. (5)-(6).
+
 Strip meshes (:func:`strip_mesh`)
 ---------------------------------
 The envelope of one strip's tool under the relative motion of the CL steps: the tool's side is a
@@ -121,8 +128,60 @@ def _tool_text(tool):
                     for k, v in tool.items())
 
 
+def _is_mesh_plan(plan):
+    return plan.get("surface") is not None
+
+
+def freeform_cl_poses(plan, k):
+    """Tool tip points (N, 3) and unit axes (N, 3) of a free-form plan's strip k, one per ruling."""
+    st = plan["strips"][k]
+    R = np.asarray(st["rulings"], float)
+    a, b = R[:, 0], R[:, 1]
+    L_e = np.linalg.norm(b - a, axis=1)
+    if not (L_e > 0).all():
+        raise ValueError(f"strip {k}: a ruling has zero length")
+    u = (b - a) / L_e[:, None]
+    tool = plan.get("tool", {})
+    r1e, r2 = float(st["radii"][0]), float(st["radii"][-1])
+    L_full = float(tool.get("length", float(np.mean(L_e))))
+    r1 = float(tool.get("r1", r1e))
+    back = L_full - L_e                                # the tool part before the engaged cone
+    slope = (r2 - r1) / L_full                         # sin of the cone's half angle
+    tip_sphere = a - back[:, None] * u
+    return tip_sphere - (r1 * slope) * u, u
+
+
+def _cl_data_mesh(plan, strip=None):
+    ks = range(len(plan["strips"])) if strip is None else [_get_strip(plan, strip)[0]]
+    unit = plan["length_unit"]
+    summ = plan["summary"]
+    out = ["$$ Flank Toolpath CL data (export of flank-plan/1, method %s)" % plan.get("method", "?"),
+           "PARTNO/FLANK TOOLPATH",
+           ("UNITS/MM" if unit == "mm" else f"$$ UNITS: {unit}"),
+           f"$$ length unit {unit}",
+           "$$ frame: the input model's frame (free-form surface); one GOTO per ruling of the plan",
+           "$$ GOTO/x,y,z,i,j,k = tool tip (centre of the tip circle) and unit tool axis (tip -> shank)",
+           f"$$ tool: {_tool_text(plan.get('tool', {}))}",
+           f"$$ plan errors max {_fmt(summ['max_error'])} min {_fmt(summ['min_error'])}; kink max "
+           f"{_fmt(summ.get('max_kink_deg', 0.0))} deg mean {_fmt(summ.get('mean_kink_deg', 0.0))} deg",
+           "MULTAX/ON"]
+    for k in ks:
+        s = plan["strips"][k]
+        tips, axes = freeform_cl_poses(plan, k)
+        out.append(f"$$ STRIP {k} reported error max {_fmt(s['reported_max_error'])} "
+                   f"min {_fmt(s['reported_min_error'])} collision {bool(s.get('collision', False))}")
+        for p, a in zip(tips, axes):
+            out.append("GOTO/%s,%s,%s,%s,%s,%s" % (*(_fmt(x) for x in p), *(_fmt(x) for x in a)))
+    out.append("FINI")
+    return "\n".join(out) + "\n"
+
+
 def cl_data(plan, strip=None, steps=DEFAULT_STEPS, z_range=None):
     """APT-style CL text of all strips (``strip`` None) or one strip index (see the module doc)."""
+    if _is_mesh_plan(plan):
+        if z_range is not None:
+            raise ValueError("a z range applies to rotor plans only (this is a free-form plan)")
+        return _cl_data_mesh(plan, strip)
     rot = plan["rotor"]
     v0, hand = float(rot["v0"]), hand_sign(rot["handedness"])
     steps = _steps(steps)
@@ -165,6 +224,15 @@ def error_profile_csv(source, tolerance=None):
     ``source``: a :func:`verify.verify_plan` result, or a plan (then verified here with ``tolerance``,
     default the plan's ``tolerance`` field or verify's default).  An empty deviation field = no tool
     reaches the point within verify's search range."""
+    if _is_mesh_plan(source):
+        from .g1_multistrip import freeform_envelopes
+        rows = ["strip,i_t,j_s,x,y,z,deviation"]
+        for k, env in enumerate(freeform_envelopes(source)):
+            ns = env["shape"][1]
+            for idx, (p, d) in enumerate(zip(env["vertices"], env["deviation"])):
+                rows.append(f"{k},{idx // ns},{idx % ns},{float(p[0])!r},{float(p[1])!r},{float(p[2])!r},"
+                            f"{'' if not math.isfinite(d) else repr(float(d))}")
+        return "\n".join(rows) + "\n"
     if "deviation_profile" not in source:
         from .verify import verify_plan
         tol = tolerance if tolerance is not None else source.get("tolerance")
@@ -330,6 +398,19 @@ def write_strip_meshes(plan, prefix, fmt="stl", strip=None, z_range=None, **kw):
     writer = {"stl": write_stl, "ply": write_ply}[fmt]
     ks = range(len(plan["strips"])) if strip is None else [_get_strip(plan, strip)[0]]
     paths = []
+    if _is_mesh_plan(plan):
+        if z_range is not None:
+            raise ValueError("a z range applies to rotor plans only (this is a free-form plan)")
+        from .g1_multistrip import freeform_envelopes
+        envs = freeform_envelopes(plan)
+        for k in ks:
+            q = envs[k]["faces"]
+            tri = np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]])
+            ok = np.isfinite(envs[k]["deviation"])[tri].all(1)
+            path = f"{prefix}_{k}.{fmt}"
+            writer(path, envs[k]["vertices"], tri[ok])
+            paths.append(path)
+        return paths
     for k in ks:
         v, f = strip_mesh(plan, k, z_range=z_range, **kw)
         if not len(f):

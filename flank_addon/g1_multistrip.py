@@ -379,14 +379,24 @@ def surface_normals_at(mesh, points, side=1.0):
     return fp["gradient"]
 
 
-def optimize(mesh, layout, m_ini, normals, r1, r2, L, K=30, weights=DEFAULT_WEIGHTS, free=(), rounds=2,
-             max_nfev=60, report=None, g1_term="envelope"):
+def optimize(mesh, layout, m_ini, normals, r1, r2, L, K=30, weights=DEFAULT_WEIGHTS, free=(), rounds=1,
+             max_nfev=100, report=None, g1_term="envelope", tangents=None):
     """Minimise Eq. (18) starting from the m-grid ``m_ini`` (P, 3) with surface normals ``normals``
-    (P, 3).  Returns dict(m, normals, tool, terms_initial, terms, nfev, status)."""
+    (P, 3).
+
+    ``tangents`` (P, 3), the guiding curves' unit tangents at the base points: when given, each
+    m-grid point moves only in the normal plane of its guiding curve (2 unknowns: across the curve
+    in the tangent plane, and along the surface normal) instead of freely (3 unknowns, the
+    paper's).  Sliding along the curves only re-times the motion, but the objective barely sees it
+    (Eq. (17) has weight 1e-4), and on curved surfaces the G1 term then drags whole rulings along
+    the curves, off the patch where the tangent-plane model of Eq. (13) is flat; without the slide
+    the result stays on the surface the user gave.
+    Returns dict(m, normals, tool, terms_initial, terms, nfev, status)."""
     m = np.asarray(m_ini, float).copy()
     nrm = np.asarray(normals, float).copy()
     tool = {"r1": float(r1), "r2": float(r2), "L": float(L)}
     first, nfev, status = None, 0, 0
+    P = layout.n_points
     for rnd in range(max(1, int(rounds))):
         rep = None if report is None else substage(report, rnd / rounds, (rnd + 1) / rounds)
         obj = Objective(mesh, layout, nrm, m_ini, tool["r1"], tool["r2"], tool["L"], K, weights, free, rep,
@@ -394,18 +404,41 @@ def optimize(mesh, layout, m_ini, normals, r1, r2, L, K=30, weights=DEFAULT_WEIG
         x0 = obj.pack(m, tool)
         if first is None:
             first = obj.terms(x0)
-        lo = np.full(len(x0), -np.inf)
-        hi = np.full(len(x0), np.inf)
-        P3 = 3 * layout.n_points
+        nt = len(obj.free)
+        if tangents is not None:
+            t = np.asarray(tangents, float)
+            across = np.cross(nrm, t)
+            across /= np.maximum(np.linalg.norm(across, axis=1, keepdims=True), 1e-300)
+            # x = x0 + B z: z = (across, normal) offsets per point, then the tool variables
+            rows = np.r_[(3 * np.arange(P)[:, None] + np.arange(3)).ravel(), (3 * np.arange(P)[:, None] + np.arange(3)).ravel(),
+                         3 * P + np.arange(nt)]
+            cols = np.r_[np.repeat(2 * np.arange(P), 3), np.repeat(2 * np.arange(P) + 1, 3), 2 * P + np.arange(nt)]
+            vals = np.r_[across.ravel(), nrm.ravel(), np.ones(nt)]
+            B = sp.csr_matrix((vals, (rows, cols)), shape=(3 * P + nt, 2 * P + nt))
+            z0 = np.r_[np.zeros(2 * P), x0[3 * P:]]
+            base = np.r_[x0[:3 * P], np.zeros(nt)]
+
+            def to_x(z, B=B, base=base):
+                return base + B @ z
+
+            fun = (lambda z, to_x=to_x, obj=obj: obj.fun(to_x(z)))
+            jac = (lambda z, to_x=to_x, obj=obj, B=B: obj.jac(to_x(z)) @ B)
+            start, tool_at = z0, 2 * P
+        else:
+            to_x = (lambda z: z)
+            fun, jac, start, tool_at = obj.fun, obj.jac, x0, 3 * P
+        lo = np.full(len(start), -np.inf)
+        hi = np.full(len(start), np.inf)
         for i, k in enumerate(obj.free):
-            lo[P3 + i] = 0.0 if k != "L" else 1e-9 * obj.L0
-        sol = least_squares(obj.fun, x0, jac=obj.jac, method="trf", tr_solver="lsmr", x_scale="jac",
+            lo[tool_at + i] = 0.0 if k != "L" else 1e-9 * obj.L0
+        sol = least_squares(fun, start, jac=jac, method="trf", tr_solver="lsmr", x_scale="jac",
                             bounds=(lo, hi) if obj.free else (-np.inf, np.inf), max_nfev=max_nfev,
                             xtol=1e-10, ftol=1e-10, gtol=1e-10)
         nfev += sol.nfev
         status = sol.status
-        m, tool = obj.unpack(sol.x)
-        last_terms = obj.terms(sol.x)
+        x = to_x(sol.x)
+        m, tool = obj.unpack(x)
+        last_terms = obj.terms(x)
         if rnd + 1 < rounds:
             # Eq. (10)'s normals for the next solve: the surface normals at the m-grid's new foot
             # points (the rails of the result use the normals they were optimised with)
@@ -620,7 +653,7 @@ def _check_tool(r1, r2, L, shank_radius, shank_length):
 
 def plan_freeform(vertices, faces, *, direction=None, point=None, field_vectors=None, r1, r2, L,
                   spacing=None, weights=None, n_ruling_samples=30, n_columns=20, engagement=1.0,
-                  optimize_tool=(), rounds=2, max_nfev=60, shank_radius=None, shank_length=0.0,
+                  optimize_tool=(), rounds=1, max_nfev=100, shank_radius=None, shank_length=0.0, slide=False,
                   length_unit="mm", n_envelope_s=9, progress=None, guiding_options=None):
     """Plan G1 multi-strip flank milling of a triangle mesh (s003); returns a flank-plan/1 dict.
 
@@ -677,8 +710,9 @@ def plan_freeform(vertices, faces, *, direction=None, point=None, field_vectors=
     n0 = np.concatenate([bc.normals for bc in gc.bases])
     report(0.1, "optimising")
     t_opt = time.perf_counter()
+    t0 = None if slide else np.concatenate([bc.tangents for bc in gc.bases])
     opt = optimize(mesh, layout, m0, n0, r1e, r2e, Le, K, w, tuple(optimize_tool), rounds, max_nfev,
-                   substage(report, 0.1, 0.85))
+                   substage(report, 0.1, 0.85), tangents=t0)
     t_opt = time.perf_counter() - t_opt
     tool_e = opt["tool"]
     report(0.85, "envelopes and errors")
@@ -741,7 +775,7 @@ def plan_freeform(vertices, faces, *, direction=None, point=None, field_vectors=
         },
         "optimization": {
             "weights": dict(zip(WEIGHT_NAMES, w.tolist())), "samples_per_ruling": K,
-            "free_tool_variables": list(optimize_tool), "rounds": int(rounds), "evaluations": int(opt["nfev"]),
+            "free_tool_variables": list(optimize_tool), "rounds": int(rounds), "slide_along_curves": bool(slide), "evaluations": int(opt["nfev"]),
             "terms_initial": opt["terms_initial"], "terms": opt["terms"], "elapsed_s": t_opt,
             "n_variables": 3 * layout.n_points + len(optimize_tool),
         },
@@ -785,7 +819,7 @@ def freeform_envelopes(plan, n_s=9, n_t=None, mesh=None):
         i, j = np.meshgrid(np.arange(nt - 1), np.arange(ns - 1), indexing="ij")
         v00 = (i * ns + j).ravel()
         quads = np.c_[v00, v00 + ns, v00 + ns + 1, v00 + 1]
-        out.append({"vertices": env["points"].reshape(-1, 3), "faces": quads,
+        out.append({"vertices": env["points"].reshape(-1, 3), "faces": quads, "shape": (nt, ns),
                     "deviation": env["deviation"].ravel(), "normals": env["normals"].reshape(-1, 3)})
     return out
 
@@ -797,3 +831,98 @@ def freeform_kinks(plan, mesh=None):
     cols = [np.asarray(st["columns"], np.int64) for st in plan["strips"]]
     r1, r2 = plan["strips"][0]["radii"][0], plan["strips"][0]["radii"][-1]
     return kinks_at_rulings(mesh, ab, cols, r1, r2)
+
+
+def sweep_deviation(plan, points=None, n_t=None, n_s=40, k=24, mesh=None):
+    """Independent check by sweeping the tool: signed distance (n,) from surface points (default: the
+    mesh vertices) to the union of all tool positions, + = material left, - = gouge.
+
+    The tool at one instant is the union of the spheres of Eq. (2) along the axis; the motion is
+    sampled at n_t instants per strip (default 4 per ruling) on the same spline rails as the
+    envelopes, the axis at n_s points.  Each point's value is min |p - y| - r over the k nearest
+    sphere centres (cKDTree).  Returns (deviation (n,), index of the closest strip (n,), inside (n,)
+    True where the closest sphere is not on the border of the machined region (the first or last
+    instant of a strip, the free tip end of the first strip or base end of the last)."""
+    from scipy.spatial import cKDTree
+    mesh = plan_mesh(plan) if mesh is None else mesh
+    P = mesh.vertices if points is None else np.asarray(points, float)
+    C, Rr, S, E = [], [], [], []
+    s = np.linspace(0.0, 1.0, int(n_s))
+    last = len(plan["strips"]) - 1
+    for j, st in enumerate(plan["strips"]):
+        a, b = strip_rulings(st)
+        r1, r2 = float(st["radii"][0]), float(st["radii"][-1])
+        nt = 4 * len(a) if n_t is None else int(n_t)
+        t = np.linspace(0.0, 1.0, nt)
+        tau = _time_params(a, b)
+        if len(a) >= 3:
+            A, B = CubicSpline(tau, a, bc_type="natural")(t), CubicSpline(tau, b, bc_type="natural")(t)
+        else:
+            A, B = a[0] + t[:, None] * (a[-1] - a[0]), b[0] + t[:, None] * (b[-1] - b[0])
+        y = (1 - s)[None, :, None] * A[:, None, :] + s[None, :, None] * B[:, None, :]
+        C.append(y.reshape(-1, 3))
+        Rr.append(np.broadcast_to((1 - s) * r1 + s * r2, y.shape[:2]).ravel())
+        S.append(np.full(y.shape[0] * y.shape[1], j))
+        # sphere centres on the border of the machined region: first / last instant, and the free
+        # ends of the outermost strips (tip of the first, base of the last)
+        edge = np.zeros(y.shape[:2], bool)
+        edge[[0, -1], :] = True
+        if j == 0:
+            edge[:, 0] = True
+        if j == last:
+            edge[:, -1] = True
+        E.append(edge.ravel())
+    C, Rr, S, E = np.concatenate(C), np.concatenate(Rr), np.concatenate(S), np.concatenate(E)
+    tree = cKDTree(C)
+    d, i = tree.query(P, k=min(int(k), len(C)))
+    d, i = np.atleast_2d(d.T).T, np.atleast_2d(i.T).T
+    val = d - Rr[i]
+    best = np.argmin(val, axis=1)
+    rows = np.arange(len(P))
+    out, idx = val[rows, best], i[rows, best]
+    # the nearest centres need not hold the smallest |p - y| - r (a far, big sphere can reach further):
+    # every centre within (bound + largest radius) is checked
+    lists = tree.query_ball_point(P, out + Rr.max() + 1e-12)
+    for n, cand in enumerate(lists):
+        if len(cand) > int(k):
+            cand = np.asarray(cand)
+            v = np.linalg.norm(C[cand] - P[n], axis=1) - Rr[cand]
+            j = int(np.argmin(v))
+            if v[j] < out[n]:
+                out[n], idx[n] = v[j], cand[j]
+    return out, S[idx], ~E[idx]
+
+
+def verify_freeform(plan, tolerance=None):
+    """Summary of a free-form plan checked three ways: Eq. (19) at the ruling samples, the exact
+    distance of the envelope points (Eqs. (5)-(6)) to the surface, and the tool swept over the
+    surface's vertices (:func:`sweep_deviation`; vertices whose closest tool sphere is on the border
+    of the machined region are counted as not covered).  Lengths in the plan's unit; + = material left."""
+    mesh = plan_mesh(plan)
+    t0 = time.perf_counter()
+    env = freeform_envelopes(plan, mesh=mesh)
+    dev = np.concatenate([e["deviation"] for e in env])
+    eq19 = []
+    K = int(plan.get("optimization", {}).get("samples_per_ruling", 30))
+    for st in plan["strips"]:
+        a, b = strip_rulings(st)
+        eq19.append(ruling_errors(mesh, a, b, st["radii"][0], st["radii"][-1], K))
+    eq19 = np.concatenate([e.ravel() for e in eq19])
+    sweep, _, covered = sweep_deviation(plan, mesh=mesh)
+    kinks = freeform_kinks(plan, mesh=mesh)
+    allk = np.concatenate([k["kink_deg"] for k in kinks]) if kinks else np.zeros(0)
+    tol = tolerance
+    out = {
+        "length_unit": plan["length_unit"],
+        "eq19_max": float(eq19.max()), "eq19_min": float(eq19.min()),
+        "envelope_max": float(np.nanmax(dev)), "envelope_min": float(np.nanmin(dev)),
+        "envelope_points": int(np.isfinite(dev).sum()), "envelope_without_real_points": int(np.isnan(dev).sum()),
+        "sweep_min": float(sweep.min()), "sweep_max_covered": float(sweep[covered].max()) if covered.any() else None,
+        "vertices": int(len(sweep)), "vertices_covered": int(covered.sum()),
+        "max_kink_deg": float(allk.max()) if len(allk) else 0.0, "mean_kink_deg": float(allk.mean()) if len(allk) else 0.0,
+    }
+    if tol is not None:
+        out["tolerance"] = float(tol)
+        out["vertices_within_tolerance"] = int((np.abs(sweep[covered]) <= tol).sum())
+    out["elapsed_s"] = time.perf_counter() - t0
+    return out
