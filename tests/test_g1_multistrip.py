@@ -1,0 +1,287 @@
+"""s003 free-form planner (issue 7): foot points, Jacobian, envelopes, exact cases, plan file, CLI.
+
+References are independent of the code under test: brute force over all triangles, central finite
+differences, closed-form geometry of a cylinder and of a translated cone, the swept-tool check.
+"""
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from flank_addon import guiding
+from flank_addon.freeform_surfaces import bump, cylinder_patch, make_surface, parabolic_blade, plane_patch
+from flank_addon.g1_multistrip import (Layout, Objective, envelope, envelope_normal, freeform_envelopes,
+                                       freeform_kinks, plan_freeform, rail_derivative_matrix, sweep_deviation,
+                                       verify_freeform)
+from flank_addon.initial_rulings import initial_rulings
+from flank_addon.mesh_distance import TriangleMesh, closest_on_triangles
+from flank_addon.plan import PlanError, read_plan, validate_plan, write_plan
+
+
+def brute_distance(V, F, P):
+    out = np.empty(len(P))
+    A, B, C = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+    for i, p in enumerate(P):
+        Q, _ = closest_on_triangles(np.repeat(p[None], len(F), 0), A, B, C)
+        out[i] = np.sqrt(((Q - p) ** 2).sum(1)).min()
+    return out
+
+
+# ============================================================================ foot points
+@pytest.mark.parametrize("name", ["cylinder", "bump", "saddle"])
+def test_foot_points_equal_brute_force_and_sign_follows_the_normals(name):
+    S = make_surface(name, size=1.0, resolution=24)
+    mesh = TriangleMesh(S.vertices, S.faces)
+    rng = np.random.default_rng(3)
+    uv = S.uv[rng.choice(len(S.uv), 300)]
+    h = rng.uniform(-0.08, 0.08, len(uv))
+    P = S.point(uv) + h[:, None] * S.normal(uv)
+    ref = brute_distance(S.vertices, S.faces, P)
+    for exact in (False, True):
+        fp = mesh.foot_points(P, exact=exact)
+        assert np.abs(np.abs(fp["distance"]) - ref).max() < 1e-12
+        assert (np.sign(fp["distance"]) == np.sign(h)).all()
+        # the gradient is the unit vector from the foot point, and the foot lies on the mesh
+        g = fp["gradient"]
+        assert np.allclose(np.linalg.norm(g, axis=1), 1)
+        assert np.allclose(fp["foot"] + fp["distance"][:, None] * g, P, atol=1e-12)
+
+
+def test_exact_mode_finds_faces_the_vertex_candidates_miss():
+    # a thin spike far from most vertices: the k nearest vertices' faces are not the closest face
+    V = np.array([[0, 0, 0], [10, 0, 0], [0, 10, 0], [10, 10, 0], [5, 5, 0.0], [5.01, 5, 3.0]], float)
+    F = np.array([[0, 1, 4], [1, 3, 4], [3, 2, 4], [2, 0, 4], [4, 1, 5]])
+    mesh = TriangleMesh(V, F, k=1)
+    P = np.array([[5.3, 5.0, 1.5], [1.0, 1.0, 2.0]])
+    ref = brute_distance(V, F, P)
+    assert np.allclose(np.abs(mesh.foot_points(P, exact=True)["distance"]), ref, atol=1e-12)
+
+
+def test_bad_queries_and_meshes_are_named():
+    with pytest.raises(ValueError, match="vertices"):
+        TriangleMesh(np.zeros((2, 3)), [[0, 1, 1]])
+    with pytest.raises(ValueError, match="faces"):
+        TriangleMesh(np.eye(3), [[0, 1, 3]])
+    mesh = TriangleMesh(np.eye(3), [[0, 1, 2]])
+    with pytest.raises(ValueError, match="NaN"):
+        mesh.foot_points([[0, np.nan, 0]])
+
+
+# ============================================================================ Jacobian of Eq. (18)
+def small_problem(r1=0.02, r2=0.05, L=0.2):
+    S = bump(size=1.0, resolution=30)
+    gc = guiding.guiding_curves(S.vertices, S.faces, direction=[1.0, 0, 0], point=[0, 0, S.point(np.zeros((1, 2)))[0, 2]],
+                                r1=r1, r2=r2, L=L, step=0.1)
+    strips = [s for s in gc.strips if len(s.columns) >= 2]
+    ini = initial_rulings(gc.bases, strips, r1, r2, L)
+    lay = Layout(gc.bases, strips)
+    return S, TriangleMesh(S.vertices, S.faces), lay, np.concatenate(ini.m), np.concatenate([b.normals for b in gc.bases])
+
+
+@pytest.mark.parametrize("g1_term", ["envelope", "paper"])
+@pytest.mark.parametrize("free", [(), ("L", "r1", "r2")])
+def test_analytic_jacobian_equals_central_differences(g1_term, free):
+    S, mesh, lay, m0, n0 = small_problem()
+    obj = Objective(mesh, lay, n0, m0, 0.02, 0.05, 0.2, 5, [1, 1, 1, 1e-2, 0.1], free, None, g1_term)
+    x = obj.pack(m0 + np.random.default_rng(1).normal(0, 0.003, m0.shape))
+    J = obj.jac(x).toarray()
+    Jn = np.empty_like(J)
+    h = 1e-7
+    for i in range(len(x)):
+        xp, xm = x.copy(), x.copy()
+        xp[i] += h
+        xm[i] -= h
+        Jn[:, i] = (obj.fun(xp) - obj.fun(xm)) / (2 * h)
+    assert np.abs(J - Jn).max() <= 1e-6 * np.abs(Jn).max()
+    assert len(lay.g1_pairs) > 10 and len(x) > 100
+
+
+def test_rail_derivative_matrix_is_the_spline_derivative():
+    tau = np.linspace(0, 1, 7)
+    f = np.c_[np.sin(3 * tau), tau ** 3, np.cos(tau)]
+    from scipy.interpolate import CubicSpline
+    assert np.allclose(rail_derivative_matrix(tau) @ f, CubicSpline(tau, f, bc_type="natural")(tau, 1), atol=1e-12)
+
+
+# ============================================================================ envelopes, Eqs. (5)-(6)
+def test_envelope_of_a_translated_cone_is_its_two_tangent_lines():
+    # cone axis along x from (0,0,r1) to (L,0,r2), translated along y: the envelope is the cone's
+    # contact line with the plane z = 0 (and its mirror); the lower branch must lie in z = 0
+    r1, r2, L = 0.3, 1.0, 2.5
+    N = 6
+    t = np.linspace(0, 1, N)[:, None]
+    dz = r2 - r1
+    ax = np.array([math.sqrt(L * L - dz * dz), 0.0, dz])
+    a = np.c_[np.zeros(N), 4 * t[:, 0], np.full(N, r1)]
+    b = a + ax
+    env = envelope(a, b, r1, r2, n_s=7, n_t=11, side_hint=np.tile([0, 0, 1.0], (11, 1)))
+    assert env["valid"].all()
+    assert np.abs(env["points"][..., 2]).max() < 1e-12
+    assert np.allclose(env["normals"], [0, 0, 1], atol=1e-12)
+    # every envelope point is on its sphere: |x - y(s)| = r(s)
+    s = env["s"]
+    d = np.linalg.norm(env["points"] - env["axis_points"], axis=2)
+    assert np.allclose(d, (1 - s) * r1 + s * r2, atol=1e-12)
+
+
+def test_envelope_normal_satisfies_the_characteristic_conditions():
+    rng = np.random.default_rng(0)
+    ys = rng.normal(size=(50, 3)) * 2
+    yt = rng.normal(size=(50, 3))
+    n, ok = envelope_normal(ys, yt, 0.4, np.tile([0, 0, 1.0], (50, 1)))
+    assert ok.sum() > 30
+    n = n[ok]
+    assert np.allclose(np.linalg.norm(n, axis=1), 1, atol=1e-12)
+    assert np.allclose((n * ys[ok]).sum(1), 0.4, atol=1e-12)
+    assert np.allclose((n * yt[ok]).sum(1), 0, atol=1e-12)
+
+
+# ============================================================================ exact cases
+def test_cylinder_patch_with_a_cylindrical_tool_is_exact():
+    """Tool axes along the rulings (guiding curves = the circles): the plan is exact."""
+    S = cylinder_patch(size=1.0, resolution=60)
+    plan = plan_freeform(S.vertices, S.faces, direction=[0, 1, 0], point=[1, 0, 0], r1=0.05, r2=0.05, L=0.2)
+    s = plan["summary"]
+    size = S.size
+    # Eq. (19) against the mesh
+    assert s["strips"] >= 4
+    assert max(abs(s["max_error"]), abs(s["min_error"])) <= 1e-6 * size
+    assert s["max_kink_deg"] <= 0.01
+    assert abs(s["axis_length_range"][0] - 0.2) < 1e-6 and abs(s["axis_length_range"][1] - 0.2) < 1e-6
+    # against the exact cylinder: sphere centres at radius R + r (less at most the mesh's chord
+    # sagitta h^2 / 8R, h = the arc per mesh cell), axes parallel to z
+    h = (math.pi / 2) / 60
+    for st in plan["strips"]:
+        R = np.asarray(st["rulings"])
+        rad = np.linalg.norm(R[..., :2], axis=2)
+        assert np.abs(rad - 1.05).max() <= 1.01 * h * h / 8
+        assert np.abs(R[:, 1, :2] - R[:, 0, :2]).max() < 1e-6
+    assert s["colliding_rulings"] == 0
+
+
+def test_parabolic_blade_guided_across_its_rulings_is_exact_and_verified_by_the_sweep():
+    S = parabolic_blade(size=1.0, resolution=60)
+    plan = plan_freeform(S.vertices, S.faces, direction=[1, 0, 0], point=[0, 0, 0], r1=0.03, r2=0.1, L=0.25)
+    s = plan["summary"]
+    assert max(abs(s["max_error"]), abs(s["min_error"])) < 5e-5
+    assert s["max_kink_deg"] < 0.1
+    v = verify_freeform(plan, tolerance=1e-3)
+    # the swept tool never gouges the blade by more than the mesh's chord error, and leaves at most
+    # a scallop between instants on the covered vertices
+    assert v["sweep_min"] > -5e-5
+    assert v["sweep_max_covered"] < 2e-3
+    assert v["vertices_covered"] > 0.8 * v["vertices"]
+
+
+def test_optimum_is_a_local_minimum_of_eq_18():
+    S, mesh, lay, m0, n0 = small_problem()
+    from flank_addon.g1_multistrip import optimize
+    t = None
+    res = optimize(mesh, lay, m0, n0, 0.02, 0.05, 0.2, 8, [1, 1, 0.1, 1e-4, 0.01], (), 1, 200, tangents=t)
+    obj = Objective(mesh, lay, res["normals"], m0, 0.02, 0.05, 0.2, 8, [1, 1, 0.1, 1e-4, 0.01])
+    f0 = (obj.fun(obj.pack(res["m"])) ** 2).sum()
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        dm = rng.normal(0, 1e-4, res["m"].shape)
+        assert (obj.fun(obj.pack(res["m"] + dm)) ** 2).sum() >= f0 * (1 - 1e-9)
+    # and the optimiser lowered Eq. (18) from the start
+    assert f0 < (obj.fun(obj.pack(m0)) ** 2).sum()
+
+
+# ============================================================================ G1 against accuracy
+def test_g1_weight_lowers_kinks_on_a_bump():
+    S = bump(size=1.0, resolution=60, height=0.06, width=0.25)
+    common = dict(direction=[1, 0, 0], point=S.point(np.zeros((1, 2)))[0], r1=0.01, r2=0.03, L=0.1, n_columns=12,
+                  n_ruling_samples=12)
+    plain = plan_freeform(S.vertices, S.faces, weights=[1, 1, 0, 1e-4, 0.01], **common)
+    g1 = plan_freeform(S.vertices, S.faces, weights=[1, 1, 1, 1e-4, 0.01], **common)
+    assert g1["summary"]["max_kink_deg"] < 0.8 * plain["summary"]["max_kink_deg"]
+    assert g1["summary"]["mean_kink_deg"] < 0.8 * plain["summary"]["mean_kink_deg"]
+    # the kinks reported are the envelope normals' angles: recompute them from the plan file
+    k = np.concatenate([x["kink_deg"] for x in freeform_kinks(g1)])
+    assert abs(k.max() - g1["summary"]["max_kink_deg"]) < 1e-9
+
+
+# ============================================================================ plan file and CLI
+def test_plan_file_round_trip_and_validation(tmp_path):
+    S = plane_patch(size=1.0, resolution=16)
+    plan = plan_freeform(S.vertices, S.faces, direction=[1, 0, 0], r1=0.02, r2=0.06, L=0.2, n_columns=6,
+                         n_ruling_samples=6)
+    p = tmp_path / "plan.json"
+    write_plan(p, plan)
+    back = read_plan(p)
+    assert back["surface"]["kind"] == "mesh" and back["method"] == "freeform-g1-cone"
+    st = back["strips"][0]
+    assert np.asarray(st["rulings"]).shape[1:] == (2, 3) and len(st["radii"]) == 2
+    assert {"max_kink_deg", "mean_kink_deg"} <= set(back["summary"])
+    # a plane is machined exactly by a cone lying on it
+    assert max(abs(back["summary"]["max_error"]), abs(back["summary"]["min_error"])) < 1e-9
+    bad = json.loads(json.dumps(plan))
+    bad["strips"][0]["rulings"][0][0][1] = float("nan")
+    with pytest.raises(PlanError, match="rulings"):
+        validate_plan(bad)
+    bad = json.loads(json.dumps(plan))
+    bad["surface"]["faces"][0][0] = 10 ** 6
+    with pytest.raises(PlanError, match="faces"):
+        validate_plan(bad)
+    env = freeform_envelopes(back)
+    assert len(env) == len(back["strips"]) and np.isfinite(env[0]["deviation"]).all()
+    dev, strip, inside = sweep_deviation(back)
+    assert dev[inside].min() > -1e-9
+
+
+@pytest.mark.parametrize("kw, msg", [
+    (dict(r1=0.1, r2=0.05, L=0.2), "r1 = 0.1 > r2"),
+    (dict(r1=float("nan"), r2=0.05, L=0.2), "r1"),
+    (dict(r1=0.01, r2=0.05, L=0.03), "L = 0.03 must exceed"),
+    (dict(r1=0.01, r2=0.05, L=0.2, engagement=0.0), "engagement"),
+    (dict(r1=0.01, r2=0.05, L=0.2, weights=[1, 1, -1, 0, 0]), "weights"),
+    (dict(r1=0.01, r2=0.05, L=5.0), "no strip"),
+])
+def test_bad_input_is_named(kw, msg):
+    S = plane_patch(size=1.0, resolution=10)
+    with pytest.raises(ValueError, match=msg):
+        plan_freeform(S.vertices, S.faces, direction=[1, 0, 0], **kw)
+
+
+def test_direction_along_the_normal_is_refused():
+    S = plane_patch(size=1.0, resolution=10)
+    with pytest.raises(ValueError):
+        plan_freeform(S.vertices, S.faces, direction=[0, 0, 1], r1=0.01, r2=0.05, L=0.2)
+
+
+def test_cli_plan_freeform_verify_and_export(tmp_path):
+    from flank_addon.mesh_io import write_stl
+    S = parabolic_blade(size=10.0, resolution=30)
+    mesh = tmp_path / "blade.stl"
+    write_stl(str(mesh), S.vertices, S.faces)
+    out = tmp_path / "plan.json"
+    run = lambda *a: subprocess.run([sys.executable, "-m", "flank_addon", *a], capture_output=True, text=True)  # noqa: E731
+    r = run("plan", "freeform", "--mesh", str(mesh), "--direction", "1,0,0", "--point", "0,0,0", "--tool-r1", "0.3",
+            "--tool-r2", "1", "--tool-length", "2.5", "--weights", "1,1,0.1,0.0001,0.01", "--columns", "10",
+            "--samples", "10", "--out", str(out), "--json")
+    assert r.returncode == 0, r.stderr
+    summary = json.loads(r.stdout)
+    plan = read_plan(out)
+    assert summary["max_kink_deg"] == plan["summary"]["max_kink_deg"]
+    r = run("verify", str(out), "--json")
+    assert r.returncode == 0, r.stderr
+    v = json.loads(r.stdout)
+    assert abs(v["eq19_max"] - plan["summary"]["max_error"]) < 1e-12
+    cl = tmp_path / "p.apt"
+    r = run("export", str(out), "--cl", str(cl))
+    assert r.returncode == 0, r.stderr
+    gotos = [ln for ln in cl.read_text().splitlines() if ln.startswith("GOTO/")]
+    assert len(gotos) == sum(len(s["rulings"]) for s in plan["strips"])
+    # the tip point lies on the axis behind the tip sphere's centre by r1 * (r2 - r1) / L
+    x = np.array([float(v) for v in gotos[0][5:].split(",")])
+    a, b = np.asarray(plan["strips"][0]["rulings"][0])
+    u = (b - a) / np.linalg.norm(b - a)
+    assert np.allclose(x[3:], u, atol=1e-9)
+    assert np.allclose(x[:3], a - 0.3 * 0.7 / 2.5 * u, atol=1e-9)
+    r = run("plan", "freeform", "--mesh", str(mesh), "--direction", "1,0,nan", "--tool-r1", "0.3", "--tool-r2", "1",
+            "--tool-length", "2.5", "--out", str(out))
+    assert r.returncode == 2 and "--direction" in r.stderr and "Traceback" not in r.stderr
