@@ -547,9 +547,15 @@ def _cmd_render(args):
                          "pip install bpy==5.0.1 on Python 3.11)") from None
     w, h = args.resolution
     try:
-        info = render_plan_report(bpy, plan, args.out, width=w, height=h, tolerance=args.tolerance,
-                                  engine=args.engine, title="{}: {}".format(os.path.basename(args.plan),
-                                                                            plan.get("method", "")))
+        if plan.get("surface") is not None:
+            from .freeform_report import freeform_title, render_freeform_report
+            info = render_freeform_report(bpy, plan, args.out, width=w, height=h, tolerance=args.tolerance,
+                                          engine=args.engine,
+                                          title=freeform_title(plan, os.path.basename(args.plan)))
+        else:
+            info = render_plan_report(bpy, plan, args.out, width=w, height=h, tolerance=args.tolerance,
+                                      engine=args.engine, title="{}: {}".format(os.path.basename(args.plan),
+                                                                                plan.get("method", "")))
     except RuntimeError as ex:          # Blender's own failures: one line, no traceback
         raise ValueError(f"rendering failed: {ex}") from None
     if args.json:

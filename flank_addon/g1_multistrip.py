@@ -135,7 +135,7 @@ class Objective:
     x = [m (P * 3), L?, r1?, r2?].  ``free`` names the tool variables among 'L', 'r1', 'r2'."""
 
     def __init__(self, mesh, layout, normals, m_ini, r1, r2, L, K, weights, free=(), report=None,
-                 g1_term="envelope", m_start=None):
+                 g1_term="envelope", m_start=None, scale=None):
         if g1_term not in ("envelope", "paper"):
             raise ValueError(f"g1_term must be 'envelope' or 'paper', got {g1_term!r}")
         self.g1_term = g1_term
@@ -145,7 +145,9 @@ class Objective:
         self.free = tuple(k for k in ("L", "r1", "r2") if k in free)
         self.K = int(K)
         self.s = _samples(K)
-        self.L0 = float(L)
+        # length that makes the terms dimensionless: the tool's axis length, or 1 (the paper's literal
+        # terms in the document's unit, weight_units='length')
+        self.L0 = float(L) if scale is None else float(scale)
         w = np.asarray(weights, float)
         R, P = layout.n_rulings, layout.n_points
         npair, nfair = len(layout.g1_pairs), len(layout.fair)
@@ -380,7 +382,7 @@ def surface_normals_at(mesh, points, side=1.0):
 
 
 def optimize(mesh, layout, m_ini, normals, r1, r2, L, K=30, weights=DEFAULT_WEIGHTS, free=(), rounds=1,
-             max_nfev=100, report=None, g1_term="envelope", tangents=None):
+             max_nfev=100, report=None, g1_term="envelope", tangents=None, scale=None):
     """Minimise Eq. (18) starting from the m-grid ``m_ini`` (P, 3) with surface normals ``normals``
     (P, 3).
 
@@ -400,7 +402,7 @@ def optimize(mesh, layout, m_ini, normals, r1, r2, L, K=30, weights=DEFAULT_WEIG
     for rnd in range(max(1, int(rounds))):
         rep = None if report is None else substage(report, rnd / rounds, (rnd + 1) / rounds)
         obj = Objective(mesh, layout, nrm, m_ini, tool["r1"], tool["r2"], tool["L"], K, weights, free, rep,
-                        g1_term, m_start=m)
+                        g1_term, m_start=m, scale=scale)
         x0 = obj.pack(m, tool)
         if first is None:
             first = obj.terms(x0)
@@ -430,7 +432,7 @@ def optimize(mesh, layout, m_ini, normals, r1, r2, L, K=30, weights=DEFAULT_WEIG
         lo = np.full(len(start), -np.inf)
         hi = np.full(len(start), np.inf)
         for i, k in enumerate(obj.free):
-            lo[tool_at + i] = 0.0 if k != "L" else 1e-9 * obj.L0
+            lo[tool_at + i] = 0.0 if k != "L" else 1e-9 * tool["L"]
         sol = least_squares(fun, start, jac=jac, method="trf", tr_solver="lsmr", x_scale="jac",
                             bounds=(lo, hi) if obj.free else (-np.inf, np.inf), max_nfev=max_nfev,
                             xtol=1e-10, ftol=1e-10, gtol=1e-10)
@@ -642,8 +644,6 @@ def _check_tool(r1, r2, L, shank_radius, shank_length):
             raise ValueError(f"tool {name} = {v!r} must be a finite number")
     if r1 < 0 or r2 < 0:
         raise ValueError(f"tool radii r1 = {r1}, r2 = {r2} must be >= 0")
-    if r2 < r1:
-        raise ValueError(f"tool radii r1 = {r1} > r2 = {r2}: r1 is the tip radius (s003 Eq. (2) assumes r1 <= r2)")
     if not L > abs(r2 - r1):
         raise ValueError(f"tool length L = {L} must exceed r2 - r1 = {r2 - r1} (otherwise no flank exists)")
     for name, v in (("shank radius", shank_radius), ("shank length", shank_length)):
@@ -654,17 +654,23 @@ def _check_tool(r1, r2, L, shank_radius, shank_length):
 def plan_freeform(vertices, faces, *, direction=None, point=None, field_vectors=None, r1, r2, L,
                   spacing=None, weights=None, n_ruling_samples=30, n_columns=20, engagement=1.0,
                   optimize_tool=(), rounds=1, max_nfev=100, shank_radius=None, shank_length=0.0, slide=False,
+                  weight_units="tool", g1_term="envelope",
                   length_unit="mm", n_envelope_s=9, progress=None, guiding_options=None):
     """Plan G1 multi-strip flank milling of a triangle mesh (s003); returns a flank-plan/1 dict.
 
     vertices (V, 3), faces (F, 3): the surface, tool on the side its normals point to.
     direction (3,) at point (3,) (default: the mesh centre), or field_vectors (V or F, 3): the
-    guiding direction (§3).  r1 <= r2 tip and base radii, L axis length (Eqs. (1)-(2)).
+    guiding direction (§3).  r1, r2 tip and base sphere radii (the paper assumes r1 <= r2 but its
+    blisk example, Table 1, has r1 = 1 > r2 = 0.3; both work), L axis length (Eqs. (1)-(2)).
     spacing d (default sqrt(L_e^2 - (r2 - r1_e)^2) of the engaged cone), weights w1..w5 of Eq. (18)
     (default :data:`DEFAULT_WEIGHTS`), K = n_ruling_samples (Eq. (11)), N ~ n_columns rulings per
     strip (sets the base-point step h; None keeps the paper's 1/100 of the bounding box),
     engagement: fraction of the tool next to its base that cuts (Fig. 18), optimize_tool: any of
-    'L', 'r1', 'r2' as variables (§7.2).
+    'L', 'r1', 'r2' as variables (§7.2).  weight_units 'tool' divides every length in Eq. (18) by L
+    (weights independent of the unit), 'length' keeps the paper's literal terms in the document's
+    unit (so the paper's weights, chosen for millimetres, apply as printed to mm data).  g1_term
+    'envelope' (default) compares the envelope normals where strips meet, 'paper' uses
+    Eqs. (15)-(16).
     """
     from .plan import SCHEMA, validate_plan
     t_start = time.perf_counter()
@@ -695,9 +701,14 @@ def plan_freeform(vertices, faces, *, direction=None, point=None, field_vectors=
     if n_columns is not None and "step" not in gopt and gc.curves:
         lengths = [sum(pl.length for pl in c.polylines) for c in gc.curves]
         step = float(np.median(lengths)) / (n_columns - 1)
-        gc = _guiding.guiding_curves(mesh.vertices, mesh.faces, direction=direction, point=point,
-                                     field_vectors=field_vectors, r1=r1e, r2=r2e, L=Le, spacing=spacing,
-                                     step=step, **gopt)
+        for _ in range(4):          # the strips' own lengths set N; a few corrections of h reach it
+            gc = _guiding.guiding_curves(mesh.vertices, mesh.faces, direction=direction, point=point,
+                                         field_vectors=field_vectors, r1=r1e, r2=r2e, L=Le, spacing=spacing,
+                                         step=step, **gopt)
+            got = float(np.median([len(st.columns) for st in gc.strips])) if gc.strips else n_columns
+            if abs(got - n_columns) < 1 or got < 2:
+                break
+            step *= ((got - 1) / (n_columns - 1)) ** (0.9 if got > n_columns else 1.1)
     strips = [s for s in gc.strips if len(s.columns) >= 2]
     if not strips:
         raise ValueError(f"no strip: the surface holds {len(gc.curves)} guiding curve(s) at spacing "
@@ -711,8 +722,12 @@ def plan_freeform(vertices, faces, *, direction=None, point=None, field_vectors=
     report(0.1, "optimising")
     t_opt = time.perf_counter()
     t0 = None if slide else np.concatenate([bc.tangents for bc in gc.bases])
+    if weight_units not in ("tool", "length"):
+        raise ValueError(f"weight_units must be 'tool' (terms divided by the axis length) or 'length' (the paper's "
+                         f"terms in the document's unit), got {weight_units!r}")
     opt = optimize(mesh, layout, m0, n0, r1e, r2e, Le, K, w, tuple(optimize_tool), rounds, max_nfev,
-                   substage(report, 0.1, 0.85), tangents=t0)
+                   substage(report, 0.1, 0.85), g1_term=g1_term, tangents=t0,
+                   scale=None if weight_units == "tool" else 1.0)
     t_opt = time.perf_counter() - t_opt
     tool_e = opt["tool"]
     report(0.85, "envelopes and errors")
@@ -775,7 +790,8 @@ def plan_freeform(vertices, faces, *, direction=None, point=None, field_vectors=
         },
         "optimization": {
             "weights": dict(zip(WEIGHT_NAMES, w.tolist())), "samples_per_ruling": K,
-            "free_tool_variables": list(optimize_tool), "rounds": int(rounds), "slide_along_curves": bool(slide), "evaluations": int(opt["nfev"]),
+            "free_tool_variables": list(optimize_tool), "rounds": int(rounds), "slide_along_curves": bool(slide),
+            "weight_units": weight_units, "g1_term": g1_term, "evaluations": int(opt["nfev"]),
             "terms_initial": opt["terms_initial"], "terms": opt["terms"], "elapsed_s": t_opt,
             "n_variables": 3 * layout.n_points + len(optimize_tool),
         },

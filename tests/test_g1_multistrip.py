@@ -234,7 +234,7 @@ def test_plan_file_round_trip_and_validation(tmp_path):
 
 
 @pytest.mark.parametrize("kw, msg", [
-    (dict(r1=0.1, r2=0.05, L=0.2), "r1 = 0.1 > r2"),
+    (dict(r1=-0.1, r2=0.05, L=0.2), "must be >= 0"),
     (dict(r1=float("nan"), r2=0.05, L=0.2), "r1"),
     (dict(r1=0.01, r2=0.05, L=0.03), "L = 0.03 must exceed"),
     (dict(r1=0.01, r2=0.05, L=0.2, engagement=0.0), "engagement"),
