@@ -285,3 +285,68 @@ def test_cli_plan_freeform_verify_and_export(tmp_path):
     r = run("plan", "freeform", "--mesh", str(mesh), "--direction", "1,0,nan", "--tool-r1", "0.3", "--tool-r2", "1",
             "--tool-length", "2.5", "--out", str(out))
     assert r.returncode == 2 and "--direction" in r.stderr and "Traceback" not in r.stderr
+
+
+# ============================================================================ options of issue 7 item 1 and §7.2
+def test_partial_engagement_plans_narrower_strips_and_checks_the_idle_tip():
+    S = plane_patch(size=1.0, resolution=16)
+    full = plan_freeform(S.vertices, S.faces, direction=[1, 0, 0], r1=0.02, r2=0.06, L=0.2, n_columns=6,
+                         n_ruling_samples=6)
+    half = plan_freeform(S.vertices, S.faces, direction=[1, 0, 0], r1=0.02, r2=0.06, L=0.2, n_columns=6,
+                         n_ruling_samples=6, engagement=0.5)
+    # Fig. 18: the upper half of the tool (r 0.04 .. 0.06 over L/2) cuts, so the spacing halves
+    assert half["guiding"]["spacing"] == pytest.approx(math.sqrt(0.1 ** 2 - 0.02 ** 2), rel=1e-12)
+    assert half["summary"]["strips"] >= 2 * full["summary"]["strips"] - 1
+    assert half["strips"][0]["radii"][0] == pytest.approx(0.04, rel=1e-9)
+    assert half["tool"]["length"] == pytest.approx(0.2, rel=1e-9) and half["tool"]["engagement"] == 0.5
+    # on a plane the idle tip (a cone tapering away from it) never touches it
+    assert half["summary"]["colliding_rulings"] == 0
+
+
+def test_shank_collision_on_a_concave_surface_matches_a_direct_check():
+    """Inside a tube: axes along the tube (a neck thinner than the tool) never collide; axes across it
+    (chords) run their shank straight into the curved wall."""
+    S = cylinder_patch(size=1.0, resolution=40, radius=0.3, angle=math.pi)
+    V, F = S.vertices, S.faces[:, ::-1]                 # normals inwards: the tool is inside the tube
+    mesh = TriangleMesh(V, F)
+    counts = {}
+    for label, direction in (("along", [0, 1, 0]), ("across", [0, 0, 1])):
+        plan = plan_freeform(V, F, direction=direction, point=[0.3, 0, 0], r1=0.02, r2=0.02, L=0.15, n_columns=8,
+                             n_ruling_samples=6, shank_length=0.1, shank_radius=0.015)
+        for st in plan["strips"]:
+            R = np.asarray(st["rulings"])
+            u = (R[:, 1] - R[:, 0]) / np.linalg.norm(R[:, 1] - R[:, 0], axis=1, keepdims=True)
+            pts = R[:, 1][:, None, :] + np.linspace(0, 0.1, 200)[None, 1:, None] * u[:, None, :]
+            d = mesh.foot_points(pts.reshape(-1, 3), exact=True)["distance"].reshape(len(R), -1)
+            direct = np.flatnonzero((d < 0.015 - 1e-6).any(1))
+            assert set(direct) == set(st["colliding_rulings"])
+        counts[label] = plan["summary"]["colliding_rulings"]
+    assert counts["along"] == 0 and counts["across"] > 0
+
+
+def test_tool_length_as_a_variable_makes_the_axes_rigid_at_the_new_length():
+    S = bump(size=1.0, resolution=40, height=0.06, width=0.25)
+    plan = plan_freeform(S.vertices, S.faces, direction=[1, 0, 0], r1=0.01, r2=0.03, L=0.1, n_columns=8,
+                         n_ruling_samples=8, optimize_tool=("L",))
+    L_new = plan["tool"]["length"]
+    lo, hi = plan["summary"]["axis_length_range"]
+    assert hi - lo < 1e-3 * L_new and abs(0.5 * (lo + hi) - L_new) < 1e-3 * L_new
+    assert plan["optimization"]["free_tool_variables"] == ["L"]
+
+
+@pytest.mark.parametrize("name, direction", [("gear_flank", None), ("saddle", [1, 0, 0])])
+def test_gear_flank_and_saddle_plan_with_small_errors(name, direction):
+    S = make_surface(name, size=1.0, resolution=40)
+    c = S.point(S.uv.mean(0, keepdims=True))[0]
+    if direction is None:                        # across the central ruling, in the tangent plane
+        from flank_addon.freeform_surfaces import gear_ruling
+        rul = gear_ruling(S.uv.mean(0, keepdims=True), base_radius=2.0)[0]
+        direction = np.cross(S.normal(S.uv.mean(0, keepdims=True))[0], rul)
+    plan = plan_freeform(S.vertices, S.faces, direction=direction, point=c, r1=0.01, r2=0.03, L=0.12, n_columns=10,
+                         n_ruling_samples=10)
+    s = plan["summary"]
+    assert s["strips"] >= 3
+    assert max(abs(s["max_error"]), abs(s["min_error"])) < 0.01 * 0.12       # within 1 % of the tool length
+    v = verify_freeform(plan)
+    assert v["sweep_min"] > -0.02 * 0.12
+    assert abs(v["eq19_max"] - s["max_error"]) < 1e-12
