@@ -32,6 +32,7 @@ def test_exports_equal_the_core_writers(ea):
     assert x["cl"]["equal"] is True and x["cl"]["gotos"] == x["cl"]["core_gotos"] == 41 * ea["run"]["strips"]
     assert x["cl"]["first"].startswith("GOTO/")
     assert x["cl_strip1"]["equal"] is True
+    print("csv text equal:", x["csv"].get("text_equal"), x["csv"].get("differing_lines"), x["csv"].get("first_difference"))
     assert x["csv"]["equal"] is True and x["csv"]["rows"] > 100 and x["csv"]["header"] == "index,x,y,deviation"
     assert x["stl"]["faces"] == x["stl"]["core_faces"] > 0
     assert x["stl"]["max_diff"] < 1e-5                      # binary STL stores float32
