@@ -13,7 +13,10 @@ Pipeline of :func:`plan_freeform`:
    * approximation, Eq. (13): (sd(y^k) - r^k) / L0 per ruling sample of Eq. (11), sd = signed
      distance to the mesh through the exact foot point (:mod:`.mesh_distance`); its gradient is
      the unit normal at the foot point, which is the tangent-plane model of Eq. (13);
-   * G1, Eqs. (15)-(16): cos theta^1 - cos theta^2 per column shared by two neighbouring strips;
+   * G1: by default n_i - n_(i+1), the unit envelope normals (Eq. (6)) of two neighbouring strips at
+     each column they share (its length is the kink angle in radians); ``g1_term='paper'`` uses
+     Eqs. (15)-(16), cos theta^1 - cos theta^2 of the axes against the surface normal, which on a
+     curved surface can vanish while the envelopes still meet at tens of degrees;
    * proximity to the start, Eq. (17): (m - m_ini) / L0;
    * fairness in time, Eq. (14): the tangential part (I - n n^T)(m_(j+1) - 2 m_j + m_(j-1)) / L0
      along every guiding curve.  The paper takes the whole second difference; its normal part is

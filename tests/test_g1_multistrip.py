@@ -353,3 +353,14 @@ def test_gear_flank_and_saddle_plan_with_small_errors(name, direction, bound):
     v = verify_freeform(plan)
     assert v["sweep_min"] > -2 * bound
     assert abs(v["eq19_max"] - s["max_error"]) < 1e-12
+
+
+def test_a_constant_vector_field_plans_like_the_single_direction():
+    S = plane_patch(size=1.0, resolution=16)
+    kw = dict(r1=0.02, r2=0.06, L=0.2, n_columns=6, n_ruling_samples=6)
+    one = plan_freeform(S.vertices, S.faces, direction=[1, 0, 0], point=[0, 0, 0], **kw)
+    fld = plan_freeform(S.vertices, S.faces, field_vectors=np.tile([1.0, 0, 0], (len(S.vertices), 1)), point=[0, 0, 0],
+                        **kw)
+    assert len(one["strips"]) == len(fld["strips"])
+    for a, b in zip(one["strips"], fld["strips"]):
+        assert np.allclose(a["rulings"], b["rulings"], atol=1e-9)
