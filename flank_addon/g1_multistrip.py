@@ -491,24 +491,14 @@ def envelope(a, b, r1, r2, n_s=9, n_t=None, side_hint=None):
     y = (1 - s)[None, :, None] * A[:, None, :] + s[None, :, None] * B[:, None, :]
     ys = np.broadcast_to((B - A)[:, None, :], y.shape)
     yt = (1 - s)[None, :, None] * dA[:, None, :] + s[None, :, None] * dB[:, None, :]
-    E, F, G = (ys * ys).sum(2), (ys * yt).sum(2), (yt * yt).sum(2)
-    dr = r2 - r1
-    den = E * G - F * F
-    disc = (E - dr * dr) * G - F * F
-    valid = (disc >= 0) & (den > 0)
-    root = np.sqrt(np.maximum(disc, 0.0))
-    cr = np.cross(ys, yt)
-    base = dr * (G[..., None] * ys - F[..., None] * yt)
-    safe = np.where(den > 0, den, 1.0)[..., None]
-    n_plus = (base + cr * root[..., None]) / safe
-    n_minus = (base - cr * root[..., None]) / safe
     if side_hint is None:
         side = np.cross(B - A, dA + dB)
     else:
         side = np.asarray(side_hint, float)
     # the branch whose normal points to the tool from the surface side: n . side > 0
-    pick = ((n_plus * side[:, None, :]).sum(2) >= (n_minus * side[:, None, :]).sum(2))
-    n = np.where(pick[..., None], n_plus, n_minus)
+    n, valid = envelope_normal(ys.reshape(-1, 3), yt.reshape(-1, 3), r2 - r1,
+                               np.repeat(side, len(s), axis=0))
+    n, valid = n.reshape(y.shape), valid.reshape(y.shape[:2])
     r = (1 - s) * r1 + s * r2
     x = y - r[None, :, None] * n
     return {"points": x, "normals": n, "axis_points": y, "s": s, "t": t, "valid": valid}
@@ -577,26 +567,11 @@ def kinks_at_rulings(mesh, strips_ab, columns, r1, r2):
 
 def _envelope_at_rulings(mesh, a, b, r1, r2, s_end):
     """Envelope point and unit normal at axis parameter s_end for each ruling's own time."""
-    tau = _time_params(a, b)
-    N = len(a)
-    if N >= 3:
-        da, db = CubicSpline(tau, a, bc_type="natural")(tau, 1), CubicSpline(tau, b, bc_type="natural")(tau, 1)
-    else:
-        da, db = np.broadcast_to(a[1] - a[0], a.shape), np.broadcast_to(b[1] - b[0], b.shape)
+    D = rail_derivative_matrix(_time_params(a, b))
     y = (1 - s_end) * a + s_end * b
-    ys, yt = b - a, (1 - s_end) * da + s_end * db
-    E, F, G = (ys * ys).sum(1), (ys * yt).sum(1), (yt * yt).sum(1)
-    dr = r2 - r1
-    den = E * G - F * F
-    disc = (E - dr * dr) * G - F * F
-    valid = (disc >= 0) & (den > 0)
-    root = np.sqrt(np.maximum(disc, 0))
-    cr = np.cross(ys, yt)
-    base = dr * (G[:, None] * ys - F[:, None] * yt)
-    safe = np.where(den > 0, den, 1.0)[:, None]
-    n_p, n_m = (base + cr * root[:, None]) / safe, (base - cr * root[:, None]) / safe
+    yt = (1 - s_end) * (D @ a) + s_end * (D @ b)
     side = mesh.foot_points(0.5 * (a + b))["normal"]       # surface normal (robust if the axis dips below)
-    n = np.where(((n_p * side).sum(1) >= (n_m * side).sum(1))[:, None], n_p, n_m)
+    n, valid = envelope_normal(b - a, yt, r2 - r1, side)
     r = (1 - s_end) * r1 + s_end * r2
     return {"points": y - r * n, "normals": n, "valid": valid}
 

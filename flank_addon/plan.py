@@ -196,12 +196,7 @@ def _validate(plan):
     if tool.get("kind") not in TOOL_KINDS:
         raise PlanError(f"tool.kind must be one of {TOOL_KINDS}, got {tool.get('kind')!r}")
     for k, st in enumerate(plan["strips"]):
-        if not isinstance(st, dict):
-            raise PlanError(f"strips[{k}] must be an object")
-        for key in ("axis_start", "axis_end", "shank_start", "shank_end"):
-            if key not in st:
-                raise PlanError(f"missing field strips[{k}].{key}")
-            _vec(st[key], 3, f"strips[{k}].{key}")
+        _check_strip_axes(k, st)
         radii = np.asarray(st.get("radii", []), float)
         if radii.ndim != 1 or len(radii) < 2 or not np.isfinite(radii).all() or (radii < 0).any():
             raise PlanError(f"strips[{k}].radii must hold >= 2 non-negative radii")
@@ -229,6 +224,15 @@ def _validate(plan):
     return plan
 
 
+def _check_strip_axes(k, st):
+    if not isinstance(st, dict):
+        raise PlanError(f"strips[{k}] must be an object")
+    for key in ("axis_start", "axis_end", "shank_start", "shank_end"):
+        if key not in st:
+            raise PlanError(f"missing field strips[{k}].{key}")
+        _vec(st[key], 3, f"strips[{k}].{key}")
+
+
 def _validate_mesh_plan(plan):
     """A free-form (s003) plan: ``surface`` instead of ``rotor``; strips carry ``rulings``."""
     for key in ("method", "length_unit", "surface", "tool", "strips", "summary"):
@@ -252,12 +256,7 @@ def _validate_mesh_plan(plan):
     if not isinstance(plan["strips"], list):
         raise PlanError("strips must be a list")
     for k, st in enumerate(plan["strips"]):
-        if not isinstance(st, dict):
-            raise PlanError(f"strips[{k}] must be an object")
-        for key in ("axis_start", "axis_end", "shank_start", "shank_end"):
-            if key not in st:
-                raise PlanError(f"missing field strips[{k}].{key}")
-            _vec(st[key], 3, f"strips[{k}].{key}")
+        _check_strip_axes(k, st)
         R = np.asarray(st.get("rulings", []), float)
         if R.ndim != 3 or R.shape[1:] != (2, 3) or len(R) < 2 or not np.isfinite(R).all():
             raise PlanError(f"strips[{k}].rulings must be >= 2 finite [axis_start, axis_end] pairs")
