@@ -316,12 +316,18 @@ def _cmd_plan_freeform(args):
         return 0
     print(f"{args.mesh}: {len(F)} triangles, {s['strips']} strips, {s['rulings']} rulings x {args.samples} samples")
     print(f"  error (Eq. 19) max {s['max_error']:+.4g} min {s['min_error']:+.4g} (initial {s['initial_max_error']:+.4g} "
-          f"/ {s['initial_min_error']:+.4g})")
+          f"/ {s['initial_min_error']:+.4g}); {s['overhanging_samples']} of {s['samples']} samples beyond the "
+          f"surface's border (not counted)")
     print(f"  kink max {s['max_kink_deg']:.3f} deg, mean {s['mean_kink_deg']:.3f} deg (initial "
           f"{s['initial_max_kink_deg']:.3f} / {s['initial_mean_kink_deg']:.3f})")
     lo, hi = s["axis_length_range"]
     print(f"  axis length {lo:.6g} .. {hi:.6g}; colliding rulings {s['colliding_rulings']}; "
           f"time {s['elapsed_s']:.2f} s; wrote {args.out}")
+    from .g1_multistrip import axis_length_histogram
+    h = axis_length_histogram(plan)
+    print("  axis lengths (Fig. 11), bin from: initial / optimised rulings")
+    for e, a, b in zip(h["edges"], h["initial"], h["optimised"]):
+        print(f"    {e:12.6g}  {a:5d} / {b:5d}")
     return 0
 
 

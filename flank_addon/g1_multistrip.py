@@ -528,7 +528,8 @@ def strip_envelopes(mesh, strips_ab, r1, r2, n_s=9, n_t=None, exact=True):
     for a, b in strips_ab:
         nt = max(2 * len(a) - 1, 2) if n_t is None else n_t
         env = envelope(a, b, r1, r2, n_s, nt, _side_hint(mesh, a, b, nt))
-        dev = mesh.foot_points(env["points"].reshape(-1, 3), exact=exact)["distance"].reshape(env["valid"].shape)
+        fp = mesh.foot_points(np.nan_to_num(env["points"]).reshape(-1, 3), exact=exact)
+        dev = np.where(fp["off_surface"], np.nan, fp["distance"]).reshape(env["valid"].shape)
         env["deviation"] = np.where(env["valid"], dev, np.nan)
         out.append(env)
     return out
@@ -536,10 +537,12 @@ def strip_envelopes(mesh, strips_ab, r1, r2, n_s=9, n_t=None, exact=True):
 
 def ruling_errors(mesh, a, b, r1, r2, K=30, exact=True):
     """Eq. (19): sd(y^k) - r^k (N, K) for the ruling samples of a strip (+ = tool too far, material
-    left); the paper's strip error is its maximum."""
+    left); the paper's strip error is its maximum.  Samples beyond the border of the surface (the tool
+    overhanging the patch, see TriangleMesh.foot_points) are NaN: there is nothing to machine."""
     s = _samples(K)
     y = (1 - s)[None, :, None] * a[:, None, :] + s[None, :, None] * b[:, None, :]
-    sd = mesh.foot_points(y.reshape(-1, 3), exact=exact)["distance"].reshape(len(a), K)
+    fp = mesh.foot_points(y.reshape(-1, 3), exact=exact)
+    sd = np.where(fp["off_surface"], np.nan, fp["distance"]).reshape(len(a), K)
     return sd - ((1 - s) * r1 + s * r2)[None, :]
 
 
@@ -609,6 +612,12 @@ def collision_check(mesh, a, b, tool, engaged, clearance=0.0):
 
 
 # ============================================================================ the planner
+def _nanext(fn, a):
+    """max / min ignoring NaN (samples beyond the surface); 0.0 if there is none."""
+    a = np.asarray(a, float)
+    return float(fn(a)) if np.isfinite(a).any() else 0.0
+
+
 def engaged_cone(r1, r2, L, engagement):
     """The engaged part of the tool (Fig. 18): the upper ``engagement`` fraction of the axis next to
     the base: (r1_e, r2, L_e)."""
@@ -735,8 +744,9 @@ def plan_freeform(vertices, faces, *, direction=None, point=None, field_vectors=
             "guiding_curves": [int(st.index), int(st.index) + 1],
             "shank_start": b[0].tolist(), "shank_end": shank_end.tolist(), "shank_radius": sr,
             "flank": 0,
-            "reported_max_error": float(np.nanmax(err)), "reported_min_error": float(np.nanmin(err)),
-            "initial_max_error": float(np.nanmax(err_ini)), "initial_min_error": float(np.nanmin(err_ini)),
+            "reported_max_error": _nanext(np.nanmax, err), "reported_min_error": _nanext(np.nanmin, err),
+            "initial_max_error": _nanext(np.nanmax, err_ini), "initial_min_error": _nanext(np.nanmin, err_ini),
+            "overhanging_samples": int(np.isnan(err).sum()),
             "axis_lengths": np.linalg.norm(b - a, axis=1).tolist(),
             "initial_axis_lengths": np.linalg.norm(b_ini[sl] - a_ini[sl], axis=1).tolist(),
             "collision": bool(coll.any()), "colliding_rulings": np.flatnonzero(coll).tolist(),
@@ -790,6 +800,8 @@ def plan_freeform(vertices, faces, *, direction=None, point=None, field_vectors=
         "axis_length_range": [float(lengths.min()), float(lengths.max())],
         "strips": len(out_strips), "rulings": int(layout.n_rulings),
         "colliding_rulings": int(sum(len(s["colliding_rulings"]) for s in out_strips)),
+        "overhanging_samples": int(sum(s["overhanging_samples"] for s in out_strips)),
+        "samples": int(layout.n_rulings * K),
     }
     report(1.0, "done")
     return validate_plan(plan)
@@ -910,7 +922,8 @@ def verify_freeform(plan, tolerance=None):
     tol = tolerance
     out = {
         "length_unit": plan["length_unit"],
-        "eq19_max": float(eq19.max()), "eq19_min": float(eq19.min()),
+        "eq19_max": _nanext(np.nanmax, eq19), "eq19_min": _nanext(np.nanmin, eq19),
+        "eq19_samples_beyond_surface": int(np.isnan(eq19).sum()),
         "envelope_max": float(np.nanmax(dev)), "envelope_min": float(np.nanmin(dev)),
         "envelope_points": int(np.isfinite(dev).sum()), "envelope_without_real_points": int(np.isnan(dev).sum()),
         "sweep_min": float(sweep.min()), "sweep_max_covered": float(sweep[covered].max()) if covered.any() else None,
@@ -922,3 +935,17 @@ def verify_freeform(plan, tolerance=None):
         out["vertices_within_tolerance"] = int((np.abs(sweep[covered]) <= tol).sum())
     out["elapsed_s"] = time.perf_counter() - t0
     return out
+
+
+def axis_length_histogram(plan, bins=8):
+    """Fig. 11: counts of the initial and optimised axis lengths |b - a| over common bins.
+
+    Returns dict(edges (bins + 1,), initial (bins,), optimised (bins,)), lengths in the plan's unit."""
+    ini = np.concatenate([np.asarray(st.get("initial_axis_lengths", []), float) for st in plan["strips"]])
+    opt = np.concatenate([np.asarray(st["axis_lengths"], float) for st in plan["strips"]])
+    both = np.concatenate([ini, opt])
+    lo, hi = float(both.min()), float(both.max())
+    if hi - lo < 1e-12 * max(abs(hi), 1.0):
+        lo, hi = lo - 0.5e-9 * max(abs(hi), 1.0), hi + 0.5e-9 * max(abs(hi), 1.0)
+    edges = np.linspace(lo, hi, int(bins) + 1)
+    return {"edges": edges, "initial": np.histogram(ini, edges)[0], "optimised": np.histogram(opt, edges)[0]}

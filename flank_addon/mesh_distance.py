@@ -13,9 +13,14 @@ triangle mesh here, so the foot point is the exact closest point over all triang
   the material.  The sign uses the angle-weighted pseudo-normal of the feature the foot point
   lies on (face, edge or vertex), which is correct on closed meshes and on the interior of open
   patches (Baerentzen and Aanaes 2005).
+* ``off_surface``: the point lies beyond the border of an open mesh (its foot is on a border edge or
+  vertex and it is more than 10 deg off that feature's normal), where "distance to the surface" is
+  distance to the patch's edge, not an error of the tool.
 * ``gradient``: the unit vector (y - y_perp) / |y - y_perp| times the sign, i.e. the gradient of
   the signed distance, which is what the optimiser's analytic Jacobians need.
 """
+import math
+
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -110,6 +115,12 @@ class TriangleMesh:
         np.add.at(en, inv, np.repeat(self.face_normals, 3, axis=0))
         self._edge_keys = uniq
         self._edge_normals = en / np.maximum(np.linalg.norm(en, axis=1, keepdims=True), 1e-300)
+        # border of an open mesh: edges of one face, and their vertices
+        self._edge_border = np.bincount(inv, minlength=len(uniq)) == 1
+        self.border_vertices = np.zeros(len(V), bool)
+        be = uniq[self._edge_border]
+        self.border_vertices[be // len(V)] = True
+        self.border_vertices[be % len(V)] = True
         self.size = float(np.linalg.norm(V.max(0) - V.min(0)))
 
     # ------------------------------------------------------------------ queries
@@ -128,16 +139,20 @@ class TriangleMesh:
         return Q[rows], bary[rows], f[rows], d2[np.arange(n), j]
 
     def _pseudo_normals(self, faces, bary):
-        """Pseudo-normal of the feature (face / edge / vertex) a foot point lies on."""
+        """Pseudo-normal of the feature (face / edge / vertex) a foot point lies on, and whether that
+        feature is on the mesh's border."""
         tol = 1e-9
         on = bary > tol
         cnt = on.sum(1)
         out = self.face_normals[faces].copy()
+        border = np.zeros(len(faces), bool)
         F = self.faces[faces]
         vtx = cnt == 1
         if vtx.any():
             c = np.argmax(bary[vtx], axis=1)
-            out[vtx] = self.vertex_normals[F[vtx][np.arange(vtx.sum()), c]]
+            vid = F[vtx][np.arange(vtx.sum()), c]
+            out[vtx] = self.vertex_normals[vid]
+            border[vtx] = self.border_vertices[vid]
         edg = cnt == 2
         if edg.any():
             off = np.argmin(bary[edg], axis=1)            # the corner not on the edge
@@ -145,8 +160,10 @@ class TriangleMesh:
             r = np.arange(edg.sum())
             p, q = Fe[r, (off + 1) % 3], Fe[r, (off + 2) % 3]
             key = np.minimum(p, q) * len(self.vertices) + np.maximum(p, q)
-            out[edg] = self._edge_normals[np.searchsorted(self._edge_keys, key)]
-        return out
+            e = np.searchsorted(self._edge_keys, key)
+            out[edg] = self._edge_normals[e]
+            border[edg] = self._edge_border[e]
+        return out, border
 
     def foot_points(self, points, exact=False, chunk=4096):
         """Foot points of points (n, 3) on the mesh.
@@ -179,11 +196,15 @@ class TriangleMesh:
             self._certify(P, foot, bary, face, d2)
         diff = P - foot
         dist = np.sqrt(d2)
-        pn = self._pseudo_normals(face, bary)
+        pn, border = self._pseudo_normals(face, bary)
         sgn = np.where((diff * pn).sum(1) >= 0, 1.0, -1.0)
         grad = np.where(dist[:, None] > 1e-12 * max(self.size, 1e-300),
                         diff / np.where(dist > 0, dist, 1.0)[:, None] * sgn[:, None], pn)
-        return {"foot": foot, "distance": sgn * dist, "gradient": grad, "normal": pn, "face": face}
+        # beyond the border: the foot is on a border edge or vertex and the point is not above it
+        # (more than 10 deg off the pseudo-normal), i.e. it projects outside the patch
+        off = border & ((grad * pn).sum(1) < math.cos(math.radians(10.0)))
+        return {"foot": foot, "distance": sgn * dist, "gradient": grad, "normal": pn, "face": face,
+                "off_surface": off}
 
     def _certify(self, P, foot, bary, face, d2):
         if self._ctree is None:

@@ -364,3 +364,18 @@ def test_a_constant_vector_field_plans_like_the_single_direction():
     assert len(one["strips"]) == len(fld["strips"])
     for a, b in zip(one["strips"], fld["strips"]):
         assert np.allclose(a["rulings"], b["rulings"], atol=1e-9)
+
+
+def test_points_beyond_the_border_are_marked_and_left_out_of_eq_19():
+    S = plane_patch(size=1.0, resolution=8)
+    mesh = TriangleMesh(S.vertices, S.faces)
+    P = np.array([[0.1, 0.2, 0.3], [0.5, 0.0, 0.05], [0.7, 0.2, 0.01], [0.49, 0.49, 0.3]])
+    fp = mesh.foot_points(P)
+    assert fp["off_surface"].tolist() == [False, False, True, False]
+    from flank_addon.g1_multistrip import ruling_errors
+    a = np.array([[0.0, 0.0, 0.05], [0.3, 0.0, 0.05]])
+    b = a + [0.45, 0.0, 0.0]                   # the second axis ends 0.25 beyond the edge x = 0.5
+    e = ruling_errors(mesh, a, b, 0.05, 0.05, K=10)
+    assert np.isfinite(e[0]).all() and np.abs(e[0]).max() < 1e-12
+    x = 0.3 + 0.45 * np.linspace(0, 1, 10)
+    assert (np.isnan(e[1]) == (x > 0.5 + 1e-12)).all()
