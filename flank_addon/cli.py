@@ -308,7 +308,7 @@ def _cmd_plan_freeform(args):
                          n_ruling_samples=args.samples, n_columns=args.columns, engagement=args.engagement,
                          optimize_tool=free, max_nfev=args.max_evaluations, slide=args.slide,
                          shank_radius=args.shank_radius if args.shank_radius else None,
-                         shank_length=args.shank_length)
+                         shank_length=args.shank_length, flip_normals=args.flip_normals)
     write_plan(args.out, plan)
     s = plan["summary"]
     if args.json:
@@ -697,6 +697,8 @@ def build_parser():
                     help="freeform: let the m-grid also slide along the guiding curves (the paper's 3 unknowns "
                          "per point; default: 2, normal to the curve)")
     ff.add_argument("--max-evaluations", type=int, default=100, help="freeform: optimiser evaluations (default 100)")
+    ff.add_argument("--flip-normals", action="store_true",
+                    help="freeform: the tool is on the side opposite to the mesh's face normals")
     pl.set_defaults(func=_cmd_plan)
 
     st = sub.add_parser("suggest-tool", help="s000 4: Dupin analysis of a flank and the largest admissible "

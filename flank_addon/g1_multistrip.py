@@ -643,7 +643,7 @@ def _check_tool(r1, r2, L, shank_radius, shank_length):
 def plan_freeform(vertices, faces, *, direction=None, point=None, field_vectors=None, r1, r2, L,
                   spacing=None, weights=None, n_ruling_samples=30, n_columns=20, engagement=1.0,
                   optimize_tool=(), rounds=1, max_nfev=100, shank_radius=None, shank_length=0.0, slide=False,
-                  weight_units="tool", g1_term="envelope",
+                  weight_units="tool", g1_term="envelope", flip_normals=False,
                   length_unit="mm", n_envelope_s=9, progress=None, guiding_options=None):
     """Plan G1 multi-strip flank milling of a triangle mesh (s003); returns a flank-plan/1 dict.
 
@@ -659,7 +659,8 @@ def plan_freeform(vertices, faces, *, direction=None, point=None, field_vectors=
     (weights independent of the unit), 'length' keeps the paper's literal terms in the document's
     unit (so the paper's weights, chosen for millimetres, apply as printed to mm data).  g1_term
     'envelope' (default) compares the envelope normals where strips meet, 'paper' uses
-    Eqs. (15)-(16).
+    Eqs. (15)-(16).  flip_normals: the tool is on the side opposite to the face normals (the plan
+    stores the flipped faces, so its surface has the tool on its normals' side).
     """
     from .plan import SCHEMA, validate_plan
     t_start = time.perf_counter()
@@ -678,6 +679,9 @@ def plan_freeform(vertices, faces, *, direction=None, point=None, field_vectors=
     if bad:
         raise ValueError(f"optimize_tool may hold 'L', 'r1', 'r2', got {bad}")
     r1e, r2e, Le = engaged_cone(r1, r2, L, engagement)
+    faces = np.asarray(faces)
+    if flip_normals:                      # machine the other side: reverse every triangle
+        faces = faces[:, ::-1]
     mesh = TriangleMesh(vertices, faces)
     report(0.0, "guiding curves")
     gopt = dict(guiding_options or {})

@@ -379,3 +379,17 @@ def test_points_beyond_the_border_are_marked_and_left_out_of_eq_19():
     assert np.isfinite(e[0]).all() and np.abs(e[0]).max() < 1e-12
     x = 0.3 + 0.45 * np.linspace(0, 1, 10)
     assert (np.isnan(e[1]) == (x > 0.5 + 1e-12)).all()
+
+
+def test_flip_normals_machines_the_other_side():
+    S = parabolic_blade(size=1.0, resolution=30)
+    kw = dict(direction=[1, 0, 0], point=[0, 0, 0], r1=0.03, r2=0.1, L=0.25, n_columns=8, n_ruling_samples=8)
+    top = plan_freeform(S.vertices, S.faces, **kw)
+    under = plan_freeform(S.vertices, S.faces, flip_normals=True, **kw)
+    zt = np.asarray(top["strips"][0]["rulings"])[..., 2]
+    zu = np.asarray(under["strips"][0]["rulings"])[..., 2]
+    x = np.asarray(top["strips"][0]["rulings"])[..., 0]
+    surf = x ** 2 / (2 * 0.6)
+    assert (zt > surf).all() and (np.asarray(under["strips"][0]["rulings"])[..., 2]
+                                  < np.asarray(under["strips"][0]["rulings"])[..., 0] ** 2 / 1.2).all()
+    assert zu.mean() < zt.mean()
