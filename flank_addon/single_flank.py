@@ -68,6 +68,7 @@ import numpy as np
 
 from .cone import ConePose, ConeTool
 from .double_flank import FlankFeet
+from .sweep import false_position, illinois_update
 
 OBJECTIVES = ("phi1", "phi3")
 MODES = ("weighted", "hard")
@@ -858,8 +859,7 @@ def _dense_minima(ev, X, n_dense=801, warm_from=None, near=None, iters=40, branc
         act = np.flatnonzero(todo & (b - a > s_tol))
         if not len(act):
             break
-        m = b[act] - hb[act] * (b[act] - a[act]) / (hb[act] - ha[act])
-        m = np.where((m - a[act]) * (m - b[act]) < 0, m, 0.5 * (a[act] + b[act]))
+        m = false_position(a[act], b[act], ha[act], hb[act])
         em, _, inf2 = ev.distances(X[pi[act]], m[:, None], key=None, jac=False,
                                    warm=(fu[act, None], ft[act, None]))
         em = em[:, 0]
@@ -868,12 +868,8 @@ def _dense_minima(ev, X, n_dense=801, warm_from=None, near=None, iters=40, branc
         better = em < best_e[act]
         best_s[act[better]], best_e[act[better]] = m[better], em[better]
         # Illinois on h: keep the sign change bracketed
-        same_b = np.sign(hm) == np.sign(hb[act])
-        a_new = np.where(same_b, a[act], b[act])
-        ha_new = np.where(same_b, np.where(side[act] == 1, 0.5 * ha[act], ha[act]), hb[act])
-        side[act] = np.where(same_b, 1, -1)
-        a[act], ha[act] = a_new, ha_new
-        b[act], hb[act] = m, hm
+        a[act], ha[act], b[act], hb[act], side[act] = illinois_update(a[act], ha[act], b[act], hb[act], m, hm,
+                                                                      side[act])
         todo[act[hm == 0]] = False
     for i in range(N):
         sel = pi == i

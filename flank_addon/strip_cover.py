@@ -40,7 +40,7 @@ import numpy as np
 
 from .screw import screw_motion
 from .sweep import (FrustumPart, RevolvingTool, StackedTools, StripTool, _sphere_chain, helical_distance,
-                    illinois_roots)
+                    illinois_roots, false_position, illinois_update)
 
 _ROW_CHUNK = 4096
 
@@ -674,17 +674,12 @@ def junction_kinks_chain(strips, surface, flank_range=None, n=500, search=None, 
         act = np.flatnonzero(np.abs(b - a) > u_tol)
         if not len(act):
             break
-        m = b[act] - gb[act] * (b[act] - a[act]) / (gb[act] - ga[act])
-        m = np.where((m - a[act]) * (m - b[act]) < 0, m, 0.5 * (a[act] + b[act]))
+        m = false_position(a[act], b[act], ga[act], gb[act])
         gm, _ = gap(m, pair[act])
         bad = ~np.isfinite(gm)
         gm = np.where(bad, 0.0, gm)
-        same_b = np.sign(gm) == np.sign(gb[act])
-        a_new = np.where(same_b, a[act], b[act])
-        ga_new = np.where(same_b, np.where(side[act] == 1, 0.5 * ga[act], ga[act]), gb[act])
-        side[act] = np.where(same_b, 1, -1)
-        a[act], ga[act] = a_new, ga_new
-        b[act], gb[act] = m, gm
+        a[act], ga[act], b[act], gb[act], side[act] = illinois_update(a[act], ga[act], b[act], gb[act], m, gm,
+                                                                      side[act])
         if bad.any():
             a[act[bad]] = b[act[bad]]
     uj = np.concatenate([np.where(np.abs(gb) <= np.abs(ga), b, a)] + [fs.u[e] for e in EX])

@@ -579,6 +579,23 @@ def helical_distance(tool, points, v0, handedness="right", step=None, iters=None
     return out_d, out_t
 
 
+def false_position(lo, hi, f_lo, f_hi):
+    """Regula-falsi points of the brackets [lo, hi] with values f_lo, f_hi (arrays); the midpoint
+    where the secant is flat or leaves the bracket."""
+    m = np.where(f_hi != f_lo, hi - f_hi * (hi - lo) / np.where(f_hi != f_lo, f_hi - f_lo, 1.0), 0.5 * (lo + hi))
+    return np.where((m - lo) * (m - hi) < 0, m, 0.5 * (lo + hi))
+
+
+def illinois_update(lo, f_lo, hi, f_hi, m, f_m, side):
+    """One Illinois bracket update with the new point m, f_m (hi is always replaced by m; lo keeps the
+    sign change, its value halved when it is kept twice in a row).  side (1 / -1 / 0) remembers the
+    last move.  Returns the new (lo, f_lo, hi, f_hi, side)."""
+    same_hi = np.sign(f_m) == np.sign(f_hi)
+    lo_new = np.where(same_hi, lo, hi)
+    f_lo_new = np.where(same_hi, np.where(side == 1, 0.5 * f_lo, f_lo), f_hi)
+    return lo_new, f_lo_new, m, f_m, np.where(same_hi, 1, -1)
+
+
 def illinois_roots(D, lo, hi, f_lo, f_hi, found, tol, slack, cutoff):
     """Illinois (modified regula falsi) on brackets [lo, hi] of D along each row's normal, only for rows
     ``found`` with a sign change and not yet narrower than ``tol``.  D(lam, idx, bound) evaluates the
@@ -591,14 +608,9 @@ def illinois_roots(D, lo, hi, f_lo, f_hi, found, tol, slack, cutoff):
         if not len(idx):
             break
         l, fl, h, fh = lo[idx], f_lo[idx], hi[idx], f_hi[idx]
-        m = np.where(fh != fl, h - fh * (h - l) / np.where(fh != fl, fh - fl, 1.0), 0.5 * (l + h))
-        m = np.where((m - l) * (m - h) < 0, m, 0.5 * (l + h))
+        m = false_position(l, h, fl, fh)
         fm = D(m, idx, np.minimum(np.abs(fh) + np.abs(h - l) + slack, cutoff))
-        same_hi = np.sign(fm) == np.sign(fh)
-        lo[idx] = np.where(same_hi, l, h)
-        f_lo[idx] = np.where(same_hi, np.where(side[idx] == 1, 0.5 * fl, fl), fh)
-        side[idx] = np.where(same_hi, 1, -1)
-        hi[idx], f_hi[idx] = m, fm
+        lo[idx], f_lo[idx], hi[idx], f_hi[idx], side[idx] = illinois_update(l, fl, h, fh, m, fm, side[idx])
     root = np.where(np.abs(f_hi) <= np.abs(f_lo), hi, lo)
     return np.where(f_lo == 0, lo, root)
 
