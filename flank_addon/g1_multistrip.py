@@ -820,7 +820,8 @@ def plan_mesh(plan):
 
 def freeform_envelopes(plan, n_s=9, n_t=None, mesh=None):
     """Per strip: dict(vertices (n_t n_s, 3), faces (m, 4) quads, deviation (n,) signed exact
-    distance to the surface, + = material left; NaN where the motion has no envelope)."""
+    distance to the surface, + = material left; NaN where the motion has no envelope or the point
+    hangs over the surface's border (nothing to machine there), shape (n_t, n_s), normals (n, 3))."""
     mesh = plan_mesh(plan) if mesh is None else mesh
     out = []
     for st in plan["strips"]:
