@@ -546,37 +546,60 @@ def ruling_errors(mesh, a, b, r1, r2, K=30, exact=True):
     return sd - ((1 - s) * r1 + s * r2)[None, :]
 
 
-def kinks_at_rulings(mesh, strips_ab, columns, r1, r2):
-    """Kink angles along every shared boundary, evaluated exactly at the rulings' times.
+def _rails_at(a, b, t):
+    """Rails A, B (n, 3) and their time derivatives at times t (n,) on the strip's splines."""
+    tau = _time_params(a, b)
+    if len(a) >= 3:
+        sa, sb = CubicSpline(tau, a, bc_type="natural"), CubicSpline(tau, b, bc_type="natural")
+        return sa(t), sb(t), sa(t, 1), sb(t, 1)
+    w = (t - tau[0]) / (tau[-1] - tau[0])
+    da, db = (a[-1] - a[0]) / (tau[-1] - tau[0]), (b[-1] - b[0]) / (tau[-1] - tau[0])
+    return (a[0] + w[:, None] * (a[-1] - a[0]), b[0] + w[:, None] * (b[-1] - b[0]),
+            np.broadcast_to(da, (len(t), 3)), np.broadcast_to(db, (len(t), 3)))
 
-    Returns a list (one per pair of neighbouring strips) of dict(points (k, 3), kink_deg (k,),
-    columns (k,))."""
+
+def kinks_at_rulings(mesh, strips_ab, columns, r1, r2, sub=4):
+    """Kink angles along every shared boundary: the angle between strip i's envelope normal at its
+    base edge (s = 1) and strip i + 1's at its tip edge (s = 0), at every shared column and at
+    ``sub`` - 1 times between consecutive shared columns (the rails' splines), so the figure covers
+    the whole boundary and not only the times the optimiser sees.
+
+    Returns a list (one per pair of neighbouring strips) of dict(points (k, 3) midpoints of the two
+    edges, kink_deg (k,), columns (k,) the column id at rulings and interpolated between, at_ruling
+    (k,) bool)."""
     out = []
+    sub = max(1, int(sub))
     for i in range(len(strips_ab) - 1):
         (a1, b1), (a2, b2) = strips_ab[i], strips_ab[i + 1]
         common, p, q = np.intersect1d(columns[i], columns[i + 1], return_indices=True)
         if len(common) == 0:
-            out.append({"points": np.zeros((0, 3)), "kink_deg": np.zeros(0), "columns": common})
+            out.append({"points": np.zeros((0, 3)), "kink_deg": np.zeros(0), "columns": np.zeros(0),
+                        "at_ruling": np.zeros(0, bool)})
             continue
-        e1 = _envelope_at_rulings(mesh, a1, b1, r1, r2, s_end=1.0)
-        e2 = _envelope_at_rulings(mesh, a2, b2, r1, r2, s_end=0.0)
-        n1, n2 = e1["normals"][p], e2["normals"][q]
+        o = np.argsort(p)
+        common, p, q = common[o], p[o], q[o]
+        tau1, tau2 = _time_params(a1, b1), _time_params(a2, b2)
+        t1, t2, col, at = [tau1[p]], [tau2[q]], [common.astype(float)], [np.ones(len(p), bool)]
+        run = np.flatnonzero((np.diff(p) == 1) & (np.diff(q) == 1))     # neighbouring rulings in both strips
+        for f in np.arange(1, sub) / sub:
+            t1.append(tau1[p[run]] + f * (tau1[p[run] + 1] - tau1[p[run]]))
+            t2.append(tau2[q[run]] + f * (tau2[q[run] + 1] - tau2[q[run]]))
+            col.append(common[run] + f * (common[run + 1] - common[run]))
+            at.append(np.zeros(len(run), bool))
+        t1, t2, col, at = (np.concatenate(x) for x in (t1, t2, col, at))
+        o = np.argsort(col, kind="stable")
+        t1, t2, col, at = t1[o], t2[o], col[o], at[o]
+        A1, B1, dA1, dB1 = _rails_at(a1, b1, t1)
+        A2, B2, dA2, dB2 = _rails_at(a2, b2, t2)
+        side = mesh.foot_points(0.5 * (B1 + A2))["normal"]
+        n1, ok1 = envelope_normal(B1 - A1, dB1, r2 - r1, side)
+        n2, ok2 = envelope_normal(B2 - A2, dA2, r2 - r1, side)
         c = np.clip((n1 * n2).sum(1), -1, 1)
-        ok = e1["valid"][p] & e2["valid"][q]
-        pts = 0.5 * (e1["points"][p] + e2["points"][q])
-        out.append({"points": pts[ok], "kink_deg": np.degrees(np.arccos(c))[ok], "columns": common[ok]})
+        ok = ok1 & ok2
+        pts = 0.5 * ((B1 - r2 * n1) + (A2 - r1 * n2))
+        out.append({"points": pts[ok], "kink_deg": np.degrees(np.arccos(c))[ok], "columns": col[ok],
+                    "at_ruling": at[ok]})
     return out
-
-
-def _envelope_at_rulings(mesh, a, b, r1, r2, s_end):
-    """Envelope point and unit normal at axis parameter s_end for each ruling's own time."""
-    D = rail_derivative_matrix(_time_params(a, b))
-    y = (1 - s_end) * a + s_end * b
-    yt = (1 - s_end) * (D @ a) + s_end * (D @ b)
-    side = mesh.foot_points(0.5 * (a + b))["normal"]       # surface normal (robust if the axis dips below)
-    n, valid = envelope_normal(b - a, yt, r2 - r1, side)
-    r = (1 - s_end) * r1 + s_end * r2
-    return {"points": y - r * n, "normals": n, "valid": valid}
 
 
 def collision_check(mesh, a, b, tool, engaged, clearance=0.0):

@@ -393,3 +393,23 @@ def test_flip_normals_machines_the_other_side():
     assert (zt > surf).all() and (np.asarray(under["strips"][0]["rulings"])[..., 2]
                                   < np.asarray(under["strips"][0]["rulings"])[..., 0] ** 2 / 1.2).all()
     assert zu.mean() < zt.mean()
+
+
+def test_measured_kinks_at_the_rulings_are_the_g1_residuals_of_the_optimiser():
+    from flank_addon.g1_multistrip import kinks_at_rulings, rails
+    S, mesh, lay, m0, n0 = small_problem()
+    obj = Objective(mesh, lay, n0, m0, 0.02, 0.05, 0.2, 5, [1, 1, 1, 1e-4, 0.01])
+    f = obj.fun(obj.pack(m0))
+    R, K = lay.n_rulings, 5
+    g1 = f[R + R * K:R + R * K + 3 * len(lay.g1_pairs)].reshape(-1, 3) / obj.c[2]
+    angle = np.degrees(2 * np.arcsin(np.linalg.norm(g1, axis=1) / 2))
+    a, b = rails(m0, n0, lay, 0.02, 0.05)
+    ab = [(a[lay.ruling_start[k]:lay.ruling_start[k + 1]], b[lay.ruling_start[k]:lay.ruling_start[k + 1]])
+          for k in range(len(lay.strip_a))]
+    kinks = kinks_at_rulings(mesh, ab, lay.strip_columns, 0.02, 0.05, sub=3)
+    measured = np.concatenate([k["kink_deg"][k["at_ruling"]] for k in kinks])
+    assert len(measured) == len(angle)
+    assert np.allclose(np.sort(measured), np.sort(angle), atol=1e-7)
+    # between the rulings the boundary is sampled too, and the kink there is of the same size
+    between = np.concatenate([k["kink_deg"][~k["at_ruling"]] for k in kinks])
+    assert len(between) >= len(measured) and between.max() < 2 * measured.max() + 1.0
