@@ -686,7 +686,7 @@ def build_parser():
     gd.add_argument("--field", help="freeform: CSV of one guiding vector x,y,z per mesh vertex (or face)")
     ff.add_argument("--point", help="freeform: central point X,Y,Z of the direction (default: mesh centre)")
     ff.add_argument("--weights", help="freeform: w1,w2,w3,w4,w5 of Eq. (18): rigidity, approximation, G1, "
-                                      "proximity, fairness (default 1,1,0.01,0.0001,0.01)")
+                                      "proximity, fairness (default 1,1,0.01,0.0001,0.001)")
     ff.add_argument("--spacing", type=float, help="freeform: guiding-curve spacing d (default sqrt(L^2 - (r2-r1)^2))")
     ff.add_argument("--samples", type=int, default=30, help="freeform: samples K per ruling (Eq. (11), default 30)")
     ff.add_argument("--columns", type=int, default=20, help="freeform: rulings N per strip (default 20)")
