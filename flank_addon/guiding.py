@@ -713,14 +713,15 @@ def level_set(vertices, faces, values, level, vertex_normals_=None, face_field=N
 
 def level_values(values, spacing, anchor=0.0):
     """Levels anchor + k spacing (all integers k) strictly inside (min G, max G), ascending.
-    The extreme levels are kept at least 1e-9 of the range inside, so no level degenerates into a
-    single boundary vertex."""
+    The extreme levels are kept at least 1 % of the spacing (and 1e-9 of the range) inside: a level
+    closer to an extreme of G touches the border only along a sliver (e.g. a border row that the
+    direction crosses at a tiny angle), whose strip would be a wedge of the surface's edge."""
     G = np.asarray(values, float)
     spacing = float(spacing)
     if not (math.isfinite(spacing) and spacing > 0):
         raise ValueError(f"spacing = {spacing!r} must be a finite number > 0")
     lo, hi = float(G.min()), float(G.max())
-    pad = 1e-9 * (hi - lo)
+    pad = max(1e-9 * (hi - lo), 0.01 * spacing)
     k0 = math.ceil((lo + pad - anchor) / spacing)
     k1 = math.floor((hi - pad - anchor) / spacing)
     if k1 - k0 + 1 > MAX_LEVELS:

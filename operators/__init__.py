@@ -16,7 +16,7 @@ from .formed_cutter import FLANK_OT_formed_cutter
 from .double_flank import FLANK_OT_plan_double_flank
 from .single_flank import FLANK_OT_plan_single_flank
 from .cutter_region import FLANK_OT_cutter_region
-from . import render_report, export, animate, ui_ops
+from . import render_report, export, animate, ui_ops, freeform
 
 classes = (
     FLANK_PG_flank,          # item type of FLANK_PG_settings.flank_list: registered first
@@ -33,6 +33,7 @@ classes = (
     *export.classes,
     *animate.classes,
     *ui_ops.classes,
+    *freeform.classes,
 )
 
 __all__ = ["classes", "FLANK_PG_settings", "FLANK_OT_generate_rotor", "FLANK_OT_analyze_rotor",

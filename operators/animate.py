@@ -90,6 +90,10 @@ class FLANK_OT_animate_strip(bpy.types.Operator):
             self.report({'ERROR'}, "Animate strip: strip = {} does not exist: run '{}' has strips 1..{}".format(
                 int(self.strip), coll.name, n))
             return {'CANCELLED'}
+        from ..flank_addon.plan import is_mesh_plan
+
+        if is_mesh_plan(plan):
+            return self._animate_tool(context, coll, plan, k, fs, fe)
         rotor_name = _run_prop(coll, "rotor")
         rotor_obj = bpy.data.objects.get(str(rotor_name)) if rotor_name is not None else None
         if rotor_obj is None or rotor_obj.type != 'MESH':
@@ -171,6 +175,69 @@ class FLANK_OT_animate_strip(bpy.types.Operator):
                               "({} F-curves); '{}' is hidden (Alt+H shows it){}".format(
                                   k + 1, coll.name, t0, t1, fs, fe, fcurves, rotor_obj.name,
                                   ", replaced the earlier animation" if removed else ""))
+        return {'FINISHED'}
+
+    def _animate_tool(self, context, coll, plan, k, fs, fe):
+        """A free-form (mesh) plan: the surface stays, a linked copy of the strip's tool moves through its rulings
+        (one key per ruling, linear in between; the static tool is hidden meanwhile)."""
+        import numpy as np
+        from mathutils import Matrix
+
+        from .common import frame_along
+
+        tools = [ob for ob in coll.objects if ob.get("flank_ff_role") == "tool" and ob.get("flank_ff_strip") == k]
+        if not tools or tools[0].type != 'MESH':
+            self.report({'ERROR'}, "Animate strip: run '{}' has no tool object for strip {}".format(coll.name, k + 1))
+            return {'CANCELLED'}
+        tool = tools[0]
+        W = np.array(coll.get("flank_ff_to_world", np.eye(4).ravel().tolist()), dtype=np.float64).reshape(4, 4)
+        R = np.asarray(plan["strips"][k]["rulings"], dtype=np.float64)
+        frames = np.rint(np.linspace(fs, fe, len(R))).astype(int)
+        if len(np.unique(frames)) < len(frames):
+            self.report({'ERROR'}, "Animate strip: frames {}..{} are too few for the {} rulings of strip {}".format(
+                fs, fe, len(R), k + 1))
+            return {'CANCELLED'}
+        removed = remove_animation(coll)
+        made, actions = [], []
+        try:
+            ob = bpy.data.objects.new("{} (moving)".format(tool.name), tool.data)     # linked copy: no new mesh
+            made.append(ob)
+            coll.objects.link(ob)
+            ob.color = tool.color
+            ob.rotation_mode = 'QUATERNION'
+            for f, (a, b) in zip(frames, R):
+                rot, _ = frame_along(np, a, b)
+                T = np.eye(4)
+                T[:3, :3], T[:3, 3] = rot, a
+                ob.matrix_world = Matrix((W @ T).tolist())
+                for path in ("location", "rotation_quaternion", "scale"):
+                    ob.keyframe_insert(data_path=path, frame=int(f))
+            act = ob.animation_data.action if ob.animation_data else None
+            if act is not None:
+                actions.append(act)
+                for fcu in iter_fcurves(act):
+                    for kp in fcu.keyframe_points:
+                        kp.interpolation = 'LINEAR'
+            ob[ROLE] = "tool"
+            ob["flank_anim_strip"] = k + 1
+            ob["flank_anim_frames"] = [fs, fe]
+        except Exception as ex:
+            remove_ids(bpy, made, (), ())
+            for act in actions:
+                if act.users == 0:
+                    bpy.data.actions.remove(act)
+            self.report({'ERROR'}, "Animate strip failed: {}: {}".format(type(ex).__name__, ex))
+            return {'CANCELLED'}
+        hid = []
+        try:
+            if not tool.hide_get():
+                tool.hide_set(True)
+                hid.append(tool.name)
+        except RuntimeError:
+            pass
+        ob[HID] = hid
+        self.report({'INFO'}, "Animated strip {} of '{}': the tool moves through its {} rulings over frames {}..{}{}"
+                    .format(k + 1, coll.name, len(R), fs, fe, ", replaced the earlier animation" if removed else ""))
         return {'FINISHED'}
 
 

@@ -280,6 +280,105 @@ def single_flank_props():
     )
 
 
+FF_DIRECTION_ITEMS = (
+    ("VECTOR", "Direction", "One tangent vector (world axes) at Point, carried over the surface (s003 Sec. 3)", 0),
+    ("FIELD", "Vector Attribute", "A tangent vector field: a FLOAT_VECTOR attribute of the mesh on its points or "
+                                  "faces (object axes)", 1),
+)
+FF_FREE_ITEMS = (
+    ("L", "L", "Axis length L is a variable of the optimisation (s003 Sec. 7.2)", 1),
+    ("r1", "r1", "Tip sphere radius r1 is a variable", 2),
+    ("r2", "r2", "Base sphere radius r2 is a variable", 4),
+)
+
+
+def freeform_props():
+    """Fresh property definitions of flank.plan_freeform (s003; also the scene settings, prefixed 'ff_').
+
+    The tool is s003's family of spheres (Eqs. 1-2): tip and base sphere radii r1, r2 with centres L apart; the
+    Run button derives them from the Tool panel's end mill.  Lengths in scene units, directions and points in
+    world axes.  No hard limits: bad values reach the operator's checks and are reported with the limit."""
+    return dict(
+        r1=FloatProperty(name="Tip Sphere r1", description="Radius of the tool's tip sphere (scene units, >= 0)",
+                         default=0.05, soft_min=0.0, soft_max=100.0, precision=4, unit='LENGTH'),
+        r2=FloatProperty(name="Base Sphere r2", description="Radius of the tool's base sphere (scene units, >= 0; "
+                                                            "r1 = r2: cylinder)",
+                         default=0.05, soft_min=0.0, soft_max=100.0, precision=4, unit='LENGTH'),
+        length=FloatProperty(name="Axis Length L", description="Distance of the sphere centres, > |r2 - r1| "
+                                                               "(scene units)",
+                             default=0.3, soft_min=0.0, soft_max=1000.0, precision=4, unit='LENGTH'),
+        shank_radius=FloatProperty(name="Shank Radius", description="Shank beyond the base sphere for the collision "
+                                                                    "check (scene units; 0 = r2)",
+                                   default=0.0, soft_min=0.0, soft_max=100.0, precision=4, unit='LENGTH'),
+        shank_length=FloatProperty(name="Shank Length", description="Shank length (scene units, 0 = no shank)",
+                                   default=0.0, soft_min=0.0, soft_max=1000.0, precision=4, unit='LENGTH'),
+        direction_mode=EnumProperty(name="Guide By", items=FF_DIRECTION_ITEMS, default="VECTOR",
+                                    update=_ff_preview_update),
+        direction=FloatVectorProperty(name="Direction", description="Guiding direction (world axes): the strips "
+                                                                    "run along it", size=3,
+                                      default=(0.0, 1.0, 0.0), subtype='XYZ', update=_ff_preview_update),
+        use_point=BoolProperty(name="At Point", description="Start the direction at Point (else the mesh centre)",
+                               default=False, update=_ff_preview_update),
+        point=FloatVectorProperty(name="Point", description="Where the direction is given (world)", size=3,
+                                  default=(0.0, 0.0, 0.0), subtype='XYZ', unit='LENGTH', update=_ff_preview_update),
+        field_attribute=StringProperty(name="Vector Attribute", description="FLOAT_VECTOR point or face attribute "
+                                                                            "of the mesh holding the guiding field "
+                                                                            "(object axes)",
+                                       default="", update=_ff_preview_update),
+        selected_only=BoolProperty(name="Selected Faces Only", description="Plan on the mesh's selected faces only",
+                                   default=False, update=_ff_preview_update),
+        flip_normals=BoolProperty(name="Tool Behind Normals", description="The tool is on the side opposite to the "
+                                                                          "face normals", default=False,
+                                  update=_ff_preview_update),
+        spacing=FloatProperty(name="Strip Spacing d", description="Distance of the guiding curves (scene units); "
+                                                                  "0 = sqrt(L^2 - (r2 - r1)^2) of the engaged tool "
+                                                                  "(s003 Sec. 5)",
+                              default=0.0, soft_min=0.0, soft_max=1000.0, precision=4, unit='LENGTH',
+                              update=_ff_preview_update),
+        engagement=FloatProperty(name="Engagement", description="Share of the tool next to its base that cuts, "
+                                                                "0.05..1 (s003 Fig. 18)",
+                                 default=1.0, soft_min=0.05, soft_max=1.0, subtype='FACTOR',
+                                 update=_ff_preview_update),
+        w_rigid=FloatProperty(name="Rigidity w1", description="Weight of the constant axis length term (Eq. 18)",
+                              default=1.0, soft_min=0.0, soft_max=100.0, precision=4),
+        w_approx=FloatProperty(name="Approximation w2", description="Weight of the distance to the surface term",
+                               default=1.0, soft_min=0.0, soft_max=100.0, precision=4),
+        w_g1=FloatProperty(name="G1 w3", description="Weight of the tangent continuity of neighbouring strips",
+                           default=0.01, soft_min=0.0, soft_max=100.0, precision=4),
+        w_proximity=FloatProperty(name="Proximity w4", description="Weight keeping the rulings near their start",
+                                  default=1e-4, soft_min=0.0, soft_max=100.0, precision=6),
+        w_fair=FloatProperty(name="Fairness w5", description="Weight of the smooth motion term",
+                             default=1e-3, soft_min=0.0, soft_max=100.0, precision=6),
+        samples=IntProperty(name="Samples per Ruling", description="Points per ruling in the error terms, K "
+                                                                   "(Eq. 11; 2..200)", default=30, soft_min=2,
+                            soft_max=200),
+        columns=IntProperty(name="Rulings per Strip", description="About this many rulings per strip (2..2000)",
+                            default=20, soft_min=2, soft_max=200),
+        max_evaluations=IntProperty(name="Max Evaluations", description="Function evaluations of the "
+                                                                        "least-squares solver (1..10000)",
+                                    default=100, soft_min=1, soft_max=1000),
+        optimize_tool=EnumProperty(name="Free Tool Sizes", items=FF_FREE_ITEMS, options={'ENUM_FLAG'}, default=set()),
+        slide=BoolProperty(name="Slide Along Curves", description="Let the m-grid points move along the guiding "
+                                                                  "curves too (the paper's 3 unknowns per point)",
+                           default=False),
+        tolerance=FloatProperty(name="Tolerance", description="Error band of the colours, > 0 (scene units)",
+                                default=0.001, soft_min=0.0, precision=6, unit='LENGTH'),
+        envelope_samples=IntProperty(name="Envelope Samples", description="Envelope points across a strip "
+                                                                          "(2..200)", default=9, soft_min=2,
+                                     soft_max=100),
+        filepath=StringProperty(name="Plan File", description="Also write the flank-plan/1 JSON; empty = no file",
+                                subtype='FILE_PATH', default=""),
+    )
+
+
+def _ff_preview_update(self, context):
+    """A setting that moves the guiding curves changed: redraw the live preview if the user has one."""
+    if getattr(self, "ff_live_preview", False) and context is not None:
+        from .freeform import refresh_guiding_preview
+
+        refresh_guiding_preview(context)
+
+
 def _prefixed(prefix, props):
     return {prefix + name: prop for name, prop in props.items()}
 
@@ -318,10 +417,12 @@ STRATEGY_ITEMS = (
     ("FORMED", "Formed Disc Cutter", "s004: disc cutter formed to the tooth space, one pass per groove", 'MESH_TORUS',
      3),
     ("GROOVE", "Paraboloid Groove", "s002: groove of a paraboloid end mill moved along a helix", 'SPHERECURVE', 4),
+    ("FREEFORM", "Free-form G1", "s003: any triangle-mesh surface, strips of a conical tool along a guiding "
+                                 "direction, G1 between neighbours", 'MOD_SMOOTH', 5),
 )
 # tool kinds each strategy can use (the first one is taken when the strategy is chosen with another kind)
 STRATEGY_TOOLS = {"SINGLE": ("CONE", "CYLINDER"), "DOUBLE": ("CUSTOM",), "TWO_PATHS": ("CUSTOM",),
-                  "FORMED": ("DISC",), "GROOVE": ("PARABOLOID",)}
+                  "FORMED": ("DISC",), "GROOVE": ("PARABOLOID",), "FREEFORM": ("CONE", "CYLINDER")}
 TOOL_STRATEGY = {"CONE": "SINGLE", "CYLINDER": "SINGLE", "CUSTOM": "DOUBLE", "DISC": "FORMED",
                  "PARABOLOID": "GROOVE"}
 CYLINDER_TAPER = 1e-4      # rad: a cylinder is planned as a cone whose radius grows h * 1e-4 over its flutes
@@ -519,6 +620,9 @@ def ui_props():
                                                                               "made for", default=""),
         ui_show_generate=BoolProperty(name="Built-in Rotor", description="Show the built-in rotor generator",
                                       default=False),
+        ff_live_preview=BoolProperty(name="Live Preview", description="Redraw the guiding-curve preview whenever "
+                                                                      "the direction, spacing or surface settings "
+                                                                      "change", default=False),
         **tool_mm_props(),
     )
 
@@ -527,4 +631,5 @@ class FLANK_PG_settings(bpy.types.PropertyGroup):
     __annotations__ = {**generator_props(), **_prefixed("verify_", verify_props()),
                        **_prefixed("groove_", paraboloid_props()), **_prefixed("cutter_", formed_cutter_props()),
                        **_prefixed("df_", double_flank_props()),
-                       **_prefixed("sf_", single_flank_props()), **results_props(), **ui_props()}
+                       **_prefixed("sf_", single_flank_props()), **_prefixed("ff_", freeform_props()),
+                       **results_props(), **ui_props()}

@@ -9,20 +9,21 @@ from bl_operators.presets import AddPresetBase
 from bpy.props import FloatProperty, IntProperty, StringProperty
 
 from .common import PLAN_JSON_PROP
-from .properties import (CYLINDER_TAPER, double_flank_props, formed_cutter_props, mm_per_scene_unit,
-                         paraboloid_props, single_flank_props)
+from .properties import (CYLINDER_TAPER, double_flank_props, formed_cutter_props, freeform_props,
+                         mm_per_scene_unit, paraboloid_props, single_flank_props)
 
 PRESET_SUBDIR = "flank_tool"
 SHIPPED_PRESETS = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "presets", PRESET_SUBDIR)
 # what a preset holds: kind, shape and the dimensions in mm (converted to scene units when set)
 PRESET_VALUES = ("tool_kind", "sf_shape", "tool_taper_deg", "tool_tip_diameter_mm", "tool_flute_length_mm",
                  "tool_shank_diameter_mm", "tool_shank_length_mm")
-RESULT_ROTOR_KEYS = ("flank_sf_rotor", "flank_df_rotor", "flank_cr_rotor", "flank_cutter_rotor")
+RESULT_ROTOR_KEYS = ("flank_sf_rotor", "flank_df_rotor", "flank_cr_rotor", "flank_cutter_rotor", "flank_ff_source")
 PREVIEW_PROP = "flank_tool_preview"
 PREVIEW_NAME = "Flank Tool Preview"
 PREVIEW_SEGMENTS = 48
 
-__all__ = ["mm_per_scene_unit", "length_text", "run_call", "select_strip", "strip_rows", "workpiece_object"]
+__all__ = ["mm_per_scene_unit", "length_text", "run_call", "freeform_tool", "select_strip", "strip_rows",
+           "workpiece_object"]
 
 
 # ================================================================================================ helpers
@@ -532,18 +533,20 @@ def run_kind(coll):
         return "flank_sf_", "strip"
     if "flank_df_paths" in coll or "flank_df_tolerance" in coll:
         return "flank_df_", "path"
+    if "flank_ff_strips" in coll:
+        return "flank_ff_", "strip"
     return None
 
 
 def _prefix(ob):
-    for pre in ("flank_sf_", "flank_df_"):
+    for pre in ("flank_sf_", "flank_df_", "flank_ff_"):
         if pre + "role" in ob:
             return pre
     return ""
 
 
 def _strip_key(pre):
-    return "strip" if pre == "flank_sf_" else "path"
+    return "path" if pre == "flank_df_" else "strip"
 
 
 def _arc_fraction(np, plan, flank, u_range):
@@ -626,6 +629,12 @@ def strip_rows(coll):
             rows[k] = dict(max=float(st["reported_max_error"]) * scale, min=float(st["reported_min_error"]) * scale,
                            collision=bool(st.get("collision")),
                            covered="{:.0f}–{:.0f} %".format(100.0 * c[0], 100.0 * c[1]) if c else "?")
+    elif pre == "flank_ff_":
+        for k, st in enumerate(strips):
+            kinks = [float(v) for v in st.get("kink_to_next_deg", [])]
+            rows[k] = dict(max=float(st["reported_max_error"]) * scale, min=float(st["reported_min_error"]) * scale,
+                           collision=bool(st.get("collision")),
+                           covered="kink {:.2g}°".format(max(kinks)) if kinks else "last")
     else:
         valley = int(coll.get("flank_df_valley", 0))
         for k, st in enumerate(strips):
@@ -653,7 +662,7 @@ class FLANK_UL_strips(bpy.types.UIList):
         info = strip_rows(data) if hasattr(data, "get") else None
         row_info = info["rows"].get(k) if info else None
         row = layout.row(align=True)
-        row.label(text="{} {}".format("Strip" if pre == "flank_sf_" else "Path", k + 1), icon='MOD_SCREW')
+        row.label(text="{} {}".format("Path" if pre == "flank_df_" else "Strip", k + 1), icon='MOD_SCREW')
         if row_info is None:
             errs = list(item.get(pre + "strip_errors", [])) or [float("nan"), float("nan")]
             row.label(text="{:.3g} / {:.3g}".format(errs[0], errs[1]))
@@ -757,6 +766,7 @@ PLANNERS = {
     "TWO_PATHS": ("flank.plan_double_flank", "df_", double_flank_props),
     "FORMED": ("flank.formed_cutter", "cutter_", formed_cutter_props),
     "GROOVE": ("flank.paraboloid_groove", "groove_", paraboloid_props),
+    "FREEFORM": ("flank.plan_freeform", "ff_", freeform_props),
 }
 _NAMES = {}
 
@@ -777,7 +787,7 @@ def run_call(settings):
     kw = {}
     for name in _planner_names(strategy):
         v = getattr(settings, pre + name)
-        kw[name] = tuple(v) if hasattr(v, "__len__") and not isinstance(v, str) else v
+        kw[name] = tuple(v) if hasattr(v, "__len__") and not isinstance(v, (str, set)) else v
     if strategy == "SINGLE" and settings.tool_kind == "CYLINDER":
         h = float(settings.sf_length)
         kw.update(shape="alpha", alpha=CYLINDER_TAPER, r2=float(settings.sf_r1) + h * math.tan(CYLINDER_TAPER))
@@ -785,7 +795,39 @@ def run_call(settings):
         kw["two_paths"] = False
     elif strategy == "TWO_PATHS":
         kw.update(two_paths=True, tool="custom")
+    elif strategy == "FREEFORM":
+        t = freeform_tool(settings)
+        kw.update(r1=t.r1, r2=t.r2, length=t.length, shank_radius=t.shank_radius, shank_length=t.shank_length)
     return idname, kw
+
+
+def freeform_tool(settings):
+    """The Tool panel's end mill as s003's sphere family (scene units): namespace(r1, r2, length, shank_radius,
+    shank_length) -- a cone's circles r1c < r2c become the inscribed spheres r / cos(alpha), the flute length h the
+    distance of their centres h + (r2c - r1c) tan(alpha) (s000 Eqs. 2, 6); a cylinder is itself.  Values that
+    make no cone pass through unchanged, for the planner to report."""
+    import math
+    import types
+
+    r1, r2, h = float(settings.sf_r1), float(settings.sf_r2), float(settings.sf_length)
+    out = types.SimpleNamespace(r1=r1, r2=r2, length=h, shank_radius=float(settings.sf_shank_radius),
+                                shank_length=float(settings.sf_shank_length))
+    if settings.tool_kind == "CYLINDER":
+        out.r2 = r1
+        return out
+    alpha = float(settings.sf_alpha)
+    try:
+        if settings.sf_shape == "alpha":
+            h = (r2 - r1) / math.tan(alpha)
+        else:
+            alpha = math.atan2(r2 - r1, h)
+        if not (0.0 < alpha < 0.5 * math.pi and h > 0.0 and math.isfinite(h)):
+            return out
+        c = math.cos(alpha)
+        out.r1, out.r2, out.length = r1 / c, r2 / c, h + (r2 - r1) * math.tan(alpha)
+    except (ValueError, ZeroDivisionError, OverflowError):
+        pass
+    return out
 
 
 classes = (FLANK_UL_flanks, FLANK_OT_refresh_flanks, FLANK_OT_pick_flank_cursor, FLANK_OT_pick_flank_faces,

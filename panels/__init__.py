@@ -9,6 +9,7 @@ from .single_flank import FLANK_PT_single_flank
 from .double_flank import FLANK_PT_double_flank
 from .formed_cutter import FLANK_PT_formed_cutter
 from .paraboloid import FLANK_PT_paraboloid
+from .freeform import FLANK_PT_freeform
 from .results import FLANK_PT_results
 from .verify import FLANK_PT_verify
 
@@ -20,6 +21,7 @@ classes = (
     FLANK_PT_double_flank,
     FLANK_PT_formed_cutter,
     FLANK_PT_paraboloid,
+    FLANK_PT_freeform,
     FLANK_PT_run,
     FLANK_PT_results,
     FLANK_PT_verify,
@@ -27,4 +29,4 @@ classes = (
 
 __all__ = ["classes", "FLANK_PT_workpiece", "FLANK_PT_tool", "FLANK_PT_strategy", "FLANK_PT_run",
            "FLANK_PT_single_flank", "FLANK_PT_double_flank", "FLANK_PT_formed_cutter", "FLANK_PT_paraboloid",
-           "FLANK_PT_results", "FLANK_PT_verify"]
+           "FLANK_PT_freeform", "FLANK_PT_results", "FLANK_PT_verify"]

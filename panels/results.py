@@ -59,12 +59,16 @@ class FLANK_PT_results(bpy.types.Panel):
         mx, mn = coll.get(pre + "max_error"), coll.get(pre + "min_error")
         if mx is not None and mn is not None:
             box.label(text="Run: max {}  min {}".format(ln(float(mx)), ln(float(mn))))
+        if pre == "flank_ff_":
+            box.label(text="Kinks between strips: max {:.3g}°, mean {:.3g}°".format(
+                float(coll.get(pre + "max_kink_deg", 0.0)), float(coll.get(pre + "mean_kink_deg", 0.0))),
+                icon='MOD_SMOOTH')
         col = layout.column(align=True)
         op = col.operator("flank.animate_strip", icon='PLAY')
         op.collection = coll.name
         idx = int(settings.results_strip_index) if settings is not None else -1
         ob = coll.objects[idx] if 0 <= idx < len(coll.objects) else None
-        key = pre + ("strip" if pre == "flank_sf_" else "path")
+        key = pre + ("path" if pre == "flank_df_" else "strip")
         op.strip = int(ob.get(key, 0)) + 1 if ob is not None else 1
         row = col.row(align=True)
         for fmt, label in (("CL", "CL"), ("PLAN", "Plan"), ("CSV", "CSV"), ("STL", "STL")):

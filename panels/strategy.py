@@ -7,7 +7,7 @@ from .common import CATEGORY, REGION, SPACE
 
 STRATEGY_TOOL_TEXT = {"SINGLE": "a tapered or cylindrical end mill", "DOUBLE": "the custom (double-flank) tool",
                       "TWO_PATHS": "the custom (double-flank) tool", "FORMED": "a formed disc cutter",
-                      "GROOVE": "a paraboloid end mill"}
+                      "GROOVE": "a paraboloid end mill", "FREEFORM": "a tapered or cylindrical end mill"}
 
 
 class FLANK_PT_strategy(bpy.types.Panel):
@@ -27,9 +27,6 @@ class FLANK_PT_strategy(bpy.types.Panel):
             return
         col = layout.column(align=True)
         col.prop(settings, "strategy", expand=True)
-        sub = col.row(align=True)
-        sub.enabled = False                     # no free-form planner yet
-        sub.label(text="Free-form G1 (planned)", icon='MOD_SMOOTH')
         if settings.tool_kind not in STRATEGY_TOOLS.get(settings.strategy, ()):
             row = layout.row()
             row.alert = True
@@ -62,6 +59,13 @@ class FLANK_PT_run(bpy.types.Panel):
                     "flank at the point" if settings.strategy == "SINGLE" else "valley {}".format(kw["valley"]))
             col.label(text="{} of '{}'".format(what, rotor.name) if rotor is not None else "Select a rotor",
                       icon='OBJECT_DATA' if rotor is not None else 'ERROR')
+        elif settings.strategy == "FREEFORM":
+            from ..operators.freeform import _source_object
+
+            obj = _source_object(context)
+            ok = obj is not None and obj.type == 'MESH'
+            col.label(text="{}'{}'".format("selected faces of " if kw["selected_only"] else "", obj.name) if ok
+                      else "Select the surface mesh", icon='OBJECT_DATA' if ok else 'ERROR')
         row = col.row()
         row.scale_y = 1.8
         row.enabled = settings.tool_kind in STRATEGY_TOOLS.get(settings.strategy, ())

@@ -22,9 +22,10 @@ MODULE = "bl_ext.{}.{}".format(REPO, EXT_ID)
 CLASS_NAMES = ("FLANK_OT_generate_rotor", "FLANK_OT_analyze_rotor", "FLANK_OT_verify_plan",
                "FLANK_OT_paraboloid_groove", "FLANK_OT_formed_cutter", "FLANK_PT_workpiece", "FLANK_PT_verify",
                "FLANK_PT_paraboloid", "FLANK_PT_formed_cutter", "FLANK_OT_plan_double_flank", "FLANK_PT_double_flank",
-               "FLANK_OT_plan_single_flank", "FLANK_PT_single_flank", "FLANK_OT_cutter_region")
+               "FLANK_OT_plan_single_flank", "FLANK_PT_single_flank", "FLANK_OT_cutter_region",
+               "FLANK_OT_plan_freeform", "FLANK_PT_freeform")
 PANEL_NAMES = ("FLANK_PT_workpiece", "FLANK_PT_verify", "FLANK_PT_paraboloid", "FLANK_PT_formed_cutter",
-               "FLANK_PT_double_flank", "FLANK_PT_single_flank", "FLANK_PT_results")
+               "FLANK_PT_double_flank", "FLANK_PT_single_flank", "FLANK_PT_results", "FLANK_PT_freeform")
 
 
 def install_extension(bpy, zip_path):

@@ -643,7 +643,7 @@ def scenario(bpy, res, args):
     # ---------------------------------------------------------------- every panel, every strategy, real layouts
     _select_only(bpy, rotor)
     by_strategy = {}
-    for strategy in ("SINGLE", "DOUBLE", "TWO_PATHS", "FORMED", "GROOVE"):
+    for strategy in ("SINGLE", "DOUBLE", "TWO_PATHS", "FORMED", "GROOVE", "FREEFORM"):
         s.strategy = strategy
         by_strategy[strategy] = dict(tool_kind=s.tool_kind, call=ui_ops.run_call(s)[0], panels=ui.draw_all(panels))
     res["by_strategy"] = by_strategy

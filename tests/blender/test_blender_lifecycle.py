@@ -37,8 +37,8 @@ def test_sidebar_panel_in_flank_tab(lifecycle):
 
 def test_all_panels_in_flank_tab(lifecycle):
     panels = lifecycle["panels"]
-    assert sorted(panels) == ["FLANK_PT_double_flank", "FLANK_PT_formed_cutter", "FLANK_PT_paraboloid",
-                              "FLANK_PT_results", "FLANK_PT_single_flank", "FLANK_PT_verify", "FLANK_PT_workpiece"]
+    assert sorted(panels) == ["FLANK_PT_double_flank", "FLANK_PT_formed_cutter", "FLANK_PT_freeform",
+                              "FLANK_PT_paraboloid", "FLANK_PT_results", "FLANK_PT_single_flank", "FLANK_PT_verify", "FLANK_PT_workpiece"]
     for name, panel in panels.items():
         assert (panel["bl_category"], panel["bl_space_type"], panel["bl_region_type"]) == ("Flank", "VIEW_3D", "UI")
 

@@ -15,7 +15,7 @@ FLOW = ["FLANK_PT_workpiece", "FLANK_PT_tool", "FLANK_PT_strategy", "FLANK_PT_ru
         "FLANK_PT_verify"]
 STRATEGY_PANELS = {"SINGLE": "FLANK_PT_single_flank", "DOUBLE": "FLANK_PT_double_flank",
                    "TWO_PATHS": "FLANK_PT_double_flank", "FORMED": "FLANK_PT_formed_cutter",
-                   "GROOVE": "FLANK_PT_paraboloid"}
+                   "GROOVE": "FLANK_PT_paraboloid", "FREEFORM": "FLANK_PT_freeform"}
 UNIT_MM = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "inch": 25.4, "none": 1.0}   # mm per scene unit
 
 
@@ -48,7 +48,7 @@ def test_every_panel_draws_into_a_real_layout_in_every_state(sb):
     states = [sb["draw_empty"], sb["draw_edit_mode"], sb["draw_result_active"]] + \
         [v["panels"] for v in sb["by_strategy"].values()]
     for state in states:
-        assert len(state) == 10
+        assert len(state) == 11
         for name, drawn in state.items():
             assert isinstance(drawn, dict), (name, drawn)
     # the recording stub of driver.py (other scenarios) accepts the panels of its list as well
@@ -60,8 +60,9 @@ def test_every_panel_draws_into_a_real_layout_in_every_state(sb):
 def test_each_strategy_shows_only_its_own_options_and_runs_its_planner(sb):
     planners = {"SINGLE": "flank.plan_single_flank", "DOUBLE": "flank.plan_double_flank",
                 "TWO_PATHS": "flank.plan_double_flank", "FORMED": "flank.formed_cutter",
-                "GROOVE": "flank.paraboloid_groove"}
-    kinds = {"SINGLE": "CONE", "DOUBLE": "CUSTOM", "TWO_PATHS": "CUSTOM", "FORMED": "DISC", "GROOVE": "PARABOLOID"}
+                "GROOVE": "flank.paraboloid_groove", "FREEFORM": "flank.plan_freeform"}
+    kinds = {"SINGLE": "CONE", "DOUBLE": "CUSTOM", "TWO_PATHS": "CUSTOM", "FORMED": "DISC", "GROOVE": "PARABOLOID",
+             "FREEFORM": "CONE"}
     for strategy, v in sb["by_strategy"].items():
         polled = {name for name in set(STRATEGY_PANELS.values()) if v["panels"][name]["poll"]}
         assert polled == {STRATEGY_PANELS[strategy]}, (strategy, polled)
@@ -71,8 +72,8 @@ def test_each_strategy_shows_only_its_own_options_and_runs_its_planner(sb):
         assert len(ops) == 1 and ops[0][1] == planners[strategy], ops
         assert ["set", "operator_context", "INVOKE_DEFAULT"] in run
         strat = _calls(v["panels"]["FLANK_PT_strategy"])
-        assert ["prop", "strategy"] in strat and ["label", "Free-form G1 (planned)", "MOD_SMOOTH"] in strat
-        assert ["set", "enabled", False] in strat
+        assert ["prop", "strategy"] in strat
+        assert not any(c[0] == "label" and "planned" in str(c[1]) for c in strat)   # every strategy is real now
     single = _calls(sb["by_strategy"]["SINGLE"]["panels"]["FLANK_PT_single_flank"])
     props = {c[1] for c in single if c[0] == "prop"}
     assert {"sf_flank", "sf_tolerance", "sf_overcut_tolerance", "sf_seeds", "sf_g1", "sf_filepath"} <= props
