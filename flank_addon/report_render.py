@@ -41,21 +41,25 @@ def format_length(x, unit):
 
 
 def plan_scale(plan):
-    """Scene units per plan unit: the uniform scale of the plan's ``rotor.to_world``."""
+    """Scene units per plan unit: the uniform scale of the plan's ``rotor.to_world`` (1 for a mesh plan, whose
+    points are the model's own)."""
+    if "rotor" not in plan:
+        return 1.0
     A = np.asarray(plan["rotor"]["to_world"], float)[:3, :3]
     return float(np.cbrt(np.linalg.det(A)))
 
 
-def display_units(plan, unit_system=None, scale_length=1.0):
+def display_units(plan, unit_system=None, scale_length=1.0, scale=None):
     """(factor, unit): a plan length x is shown as ``format_length(x * factor, unit)``.
 
     Without a unit system (the command line, or a Blender scene whose unit system is 'NONE') lengths are
     shown in the plan's own unit.  In a metric or imperial Blender scene they are shown in the scene's
     units: plan unit -> scene unit (the uniform scale of ``rotor.to_world``) -> metres (``scale_length``) ->
-    mm (µm below 1 mm) or inches."""
+    mm (µm below 1 mm) or inches.  ``scale`` (scene units per plan unit) overrides :func:`plan_scale` (a mesh
+    plan's object scale is known only to the scene)."""
     if unit_system in ("METRIC", "IMPERIAL"):
         sl = float(scale_length) if scale_length and math.isfinite(scale_length) and scale_length > 0 else 1.0
-        metres = plan_scale(plan) * sl
+        metres = (plan_scale(plan) if scale is None else float(scale)) * sl
         return (1000.0 * metres, "mm") if unit_system == "METRIC" else (metres / 0.0254, "in")
     return 1.0, plan.get("length_unit", "R")
 

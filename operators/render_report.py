@@ -41,6 +41,7 @@ class FLANK_OT_render_report(bpy.types.Operator):
     def execute(self, context):
         import os
 
+        from ..flank_addon.plan import is_mesh_plan
         from ..flank_addon.report_render import display_units, render_plan_report
 
         found = run_plan(context, self.collection)
@@ -56,10 +57,19 @@ class FLANK_OT_render_report(bpy.types.Operator):
             path += ".png"
         us = context.scene.unit_settings
         try:
-            units = display_units(plan, us.system, us.scale_length)
-            info = render_plan_report(bpy, plan, path, width=int(self.width), height=int(self.height),
-                                      engine=self.engine, units=units,
-                                      title="{}: {}".format(coll.name, plan.get("method", "")))
+            if is_mesh_plan(plan):
+                from ..flank_addon.freeform_report import freeform_title, render_freeform_report
+
+                units = display_units(plan, us.system, us.scale_length,
+                                      scale=float(coll.get("flank_ff_length_scale", 1.0) or 1.0))
+                info = render_freeform_report(bpy, plan, path, width=int(self.width), height=int(self.height),
+                                              engine=self.engine, units=units,
+                                              title=freeform_title(plan, coll.name))
+            else:
+                units = display_units(plan, us.system, us.scale_length)
+                info = render_plan_report(bpy, plan, path, width=int(self.width), height=int(self.height),
+                                          engine=self.engine, units=units,
+                                          title="{}: {}".format(coll.name, plan.get("method", "")))
         except Exception as ex:                     # reported, never a traceback; nothing is left behind
             self.report({'ERROR'}, "Render report of '{}' failed: {}".format(coll.name, ex))
             return {'CANCELLED'}

@@ -214,6 +214,16 @@ def scenario(bpy, res, args):
         scene.frame_set(1)
         out["animate"].update(moving=mv.name, checks=checks, rulings=len(R),
                               static_hidden=bpy.data.objects["FF Tool 2"].hide_get())
+    png = "{}/ff_report.png".format(tmp)
+    out["report"] = _call(bpy, bpy.ops.flank.render_report, collection=coll.name, filepath=png, width=240, height=160)
+    import os
+    if os.path.isfile(png):
+        img = bpy.data.images.load(png)
+        px = np.empty(img.size[0] * img.size[1] * 4, dtype=np.float32)
+        img.pixels.foreach_get(px)
+        px = px.reshape(-1, 4)[:, :3]
+        out["report"].update(size=list(img.size), colors=len(np.unique(np.round(px, 2), axis=0)))
+        bpy.data.images.remove(img)
     out["animate_again"] = _call(bpy, bpy.ops.flank.animate_strip, collection=coll.name, strip=2)
 
     # ---------------------------------------------------------------- guiding preview (scene settings + Tool panel)

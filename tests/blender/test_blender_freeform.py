@@ -134,6 +134,9 @@ def test_exports_and_animation_of_a_mesh_run(ff):
     for chk in an["checks"]:                # at its key frames the moving tool stands on the ruling
         assert chk["origin_err"] < 1e-5 and chk["axis_dot"] > 1 - 1e-9
     assert ff["animate_again"]["result"] == ["FINISHED"] and ff["animate_again"]["new"] == NOTHING
+    rp = ff["report"]
+    assert rp["result"] == ["FINISHED"], rp["error"]
+    assert rp["size"] == [240, 160] and rp["colors"] > 8 and rp["new"] == NOTHING
 
 
 def test_guiding_preview_equals_the_core_curves_and_follows_the_settings(ff):
