@@ -54,8 +54,8 @@ class FLANK_OT_formed_cutter(bpy.types.Operator):
     along the helix to mid-length; the contact points (edge mesh, ``cutter_flags``); with Animate, an empty
     "Cutter Motion" parented to the rotor with linear keys on its rotation about and translation along the
     rotor axis (the inverse of the rotor's screw motion relative to the cutter, exact at every frame) and
-    a moving cutter as its child.  The rotor mesh gets ``machined_deviation`` (FLOAT, > 0 material left,
-    < 0 overcut, 1e9 off the tooth / not reached) and ``machined_deviation_color`` as flank.verify_plan."""
+    a moving cutter as its child.  The rotor mesh gets ``machined_deviation`` (FLOAT, scene units, > 0 material
+    left, < 0 overcut, 1e9 off the tooth / not reached) and ``machined_deviation_color`` as flank.verify_plan."""
 
     bl_idname = "flank.formed_cutter"
     bl_label = "Formed Cutter"
@@ -163,7 +163,6 @@ class FLANK_OT_formed_cutter(bpy.types.Operator):
                                    "outer radius = {:g}".format(A, 1000.0 * r0))
             return {'CANCELLED'}
         eps_b = eps_b_in if eps_b_in > 0.0 else None
-        tol = tol_in if tol_in > 0.0 else 1e-5 * r0
         planes = int(self.planes)
 
         # ---- the core: cutter profile with flags, dense meridian for the simulation
@@ -232,8 +231,12 @@ class FLANK_OT_formed_cutter(bpy.types.Operator):
             self.report({'ERROR'}, "Formed cutter: could not map the deviation onto the rotor: {}: {}".format(
                 type(ex).__name__, ex))
             return {'CANCELLED'}
+        # scene units per rotor unit (the rotor object's uniform scale; 1 for the Table-1 rotor built here): the
+        # tolerance is typed and the deviation shown in scene units
+        scale = float(np.cbrt(abs(np.linalg.det(rotor_world[:3, :3])))) or 1.0
+        tol = tol_in / scale if tol_in > 0.0 else 1e-5 * r0
         reached = np.isfinite(values)
-        stored = np.where(reached, values, UNTOUCHED)
+        stored = np.where(reached, values * scale, UNTOUCHED)
         rgba = deviation_colors(values, tol)
 
         # ---- set-up moved along the helix to the rotor's mid-length (the rotor is screw-invariant)
@@ -337,10 +340,10 @@ class FLANK_OT_formed_cutter(bpy.types.Operator):
             flag_counts={k: int(v) for k, v in flag_counts.items()}, flagged_planes=n_flagged,
             uncut=len(cp.uncut), axis_point=[float(v) for v in setup.axis_point],
             axis_direction=[float(v) for v in setup.axis_direction], setup_t=float(t_mid),
-            tolerance=float(tol), sample_points=int(n_s), reached_points=int(fin.sum()),
-            max_abs_deviation=float(np.abs(dev_t).max()) if len(dev_t) else float("nan"),
-            max_overcut=float(max(0.0, -dev_t.min())) if len(dev_t) else 0.0,
-            max_undercut=float(max(0.0, dev_t.max())) if len(dev_t) else 0.0,
+            tolerance=float(tol * scale), length_scale=scale, sample_points=int(n_s), reached_points=int(fin.sum()),
+            max_abs_deviation=float(np.abs(dev_t).max() * scale) if len(dev_t) else float("nan"),
+            max_overcut=float(max(0.0, -dev_t.min()) * scale) if len(dev_t) else 0.0,
+            max_undercut=float(max(0.0, dev_t.max()) * scale) if len(dev_t) else 0.0,
             tooth_vertices=int(on_tooth.sum()), elapsed=float(cp.elapsed_s), sim_elapsed=float(t_sim),
             total_elapsed=float(elapsed), summary=json.dumps(dict(summary, deviation_tooth_u=u_s.tolist(),
                                                                   deviation_tooth=[None if not math.isfinite(d)

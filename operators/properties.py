@@ -124,9 +124,9 @@ def formed_cutter_props():
         eps_b=FloatProperty(name="eps_b", description="Subdivision threshold of the radius search, "
                                                       "0 = default (1e-4 x outer radius)",
                             default=0.0, min=0.0, precision=5),
-        tolerance=FloatProperty(name="Tolerance", description="Deviation colour band (green within), "
-                                                              "0 = default (1e-5 x outer radius)",
-                                default=0.0, min=0.0, precision=6),
+        tolerance=FloatProperty(name="Tolerance", description="Deviation colour band (green within) in scene "
+                                                              "units, 0 = default (1e-5 x outer radius)",
+                                default=0.0, min=0.0, precision=6, unit='LENGTH'),
         sample_points=IntProperty(name="Tooth Points", description="Tooth points simulated by the sweep "
                                                                    "(about 10 ms each)",
                                   default=161, min=8, soft_max=2000),
