@@ -1,0 +1,174 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""flank.error_plot -- the signed machining error along the flank profile of a planning run as an image.
+
+The data are the verify engine's deviation on the run's target flanks (the numbers of the error-profile CSV
+export: ``flank_addon.profile_plot.error_profile``), drawn by ``flank_addon.profile_plot`` (numpy only) into
+the image "Flank Error Plot (<run>)" -- packed into the .blend, kept with a fake user, replaced in place by
+the next plot of the same run -- and shown in an Image Editor when the screen has one."""
+import bpy
+from bpy.props import BoolProperty, IntProperty, StringProperty
+
+from .export import run_plan
+
+IMAGE_PREFIX = "Flank Error Plot"
+RUN_PROP = "flank_plot_run"            # image custom property: the run (collection name) the plot shows
+PROP_PREFIX = "flank_plot_"
+TOLERANCE_PROPS = ("flank_sf_tolerance", "flank_df_tolerance")   # run collection, scene units
+
+
+def image_name(run_name):
+    return "{} ({})".format(IMAGE_PREFIX, run_name)
+
+
+def plot_image(run_name):
+    """The image an earlier plot of the run made (found by its custom property, else by its name), or None."""
+    for img in bpy.data.images:
+        if img.get(RUN_PROP) == run_name:
+            return img
+    return bpy.data.images.get(image_name(run_name))
+
+
+def run_tolerance(coll, plan):
+    """The run's tolerance in plan units (the planner's, kept on the collection in scene units), or None
+    (then the plan's own ``tolerance`` field or verify's default)."""
+    import math
+
+    from ..flank_addon.report_render import plan_scale
+
+    for key in TOLERANCE_PROPS:
+        v = coll.get(key)
+        try:
+            v = float(v)
+        except (TypeError, ValueError):
+            continue
+        if math.isfinite(v) and v > 0.0:
+            return v / plan_scale(plan)
+    return None
+
+
+def show_in_image_editor(context, img):
+    """Show ``img`` in the first Image Editor of the active window, else of any window; the area or None."""
+    wm = context.window_manager
+    windows = [context.window] if context.window is not None else []
+    windows += [w for w in wm.windows if w not in windows]
+    for win in windows:
+        screen = win.screen
+        if screen is None:
+            continue
+        for area in screen.areas:
+            if area.type == 'IMAGE_EDITOR':
+                area.spaces.active.image = img
+                area.tag_redraw()
+                return area
+    return None
+
+
+class FLANK_OT_error_plot(bpy.types.Operator):
+    """Plot the signed error along the target flank profile of a planning run (simulated by the verify
+    engine from the run's plan; + = material left, - = overcut) with the tolerance band, one curve per strip,
+    into an image shown in an Image Editor"""
+
+    bl_idname = "flank.error_plot"
+    bl_label = "Error Plot"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    # a dict, not class annotations: the same properties, and pyflakes does not read their strings as types
+    __annotations__ = dict(
+        collection=StringProperty(name="Run", description="Result collection; empty = the run of the active "
+                                                          "object, else the newest run", default=""),
+        width=IntProperty(name="Width", description="Image width in pixels", default=960, min=320, max=4096),
+        height=IntProperty(name="Height", description="Image height in pixels", default=540, min=200, max=4096),
+        per_strip=BoolProperty(name="Per Strip", description="One curve per strip, broken where the next strip "
+                                                             "forms the surface; off: one combined curve",
+                               default=True),
+        fit_data=BoolProperty(name="Fit Errors", description="Scale the error axis to the errors alone (the "
+                                                             "tolerance band may leave the chart)", default=False),
+        filepath=StringProperty(name="PNG File", description="Also write the plot to this PNG (empty: no file)",
+                                subtype='FILE_PATH', default=""),
+    )
+
+    def execute(self, context):
+        import os
+        import time
+
+        from ..flank_addon.profile_plot import plan_error_plot, to_blender_pixels, to_png_bytes
+        from ..flank_addon.report_render import display_units, write_png
+
+        t0 = time.perf_counter()
+        w, h = int(self.width), int(self.height)
+        if not (320 <= w <= 4096 and 200 <= h <= 4096):
+            self.report({'ERROR'}, "Error plot: size {} x {} is outside 320 x 200 .. 4096 x 4096".format(w, h))
+            return {'CANCELLED'}
+        found = run_plan(context, self.collection)
+        if isinstance(found, str):
+            self.report({'ERROR'}, "Error plot: " + found)
+            return {'CANCELLED'}
+        coll, plan = found
+        if "rotor" not in plan:
+            self.report({'ERROR'}, "Error plot: '{}' is a free-form run: it has no flank profile to plot the "
+                                   "error along (export its error CSV instead)".format(coll.name))
+            return {'CANCELLED'}
+        path = None
+        if self.filepath:
+            path = bpy.path.abspath(self.filepath)
+            if not path.lower().endswith(".png"):
+                path += ".png"
+            folder = os.path.dirname(path) or "."
+            if not os.path.isdir(folder):
+                self.report({'ERROR'}, "Error plot: the folder '{}' does not exist".format(folder))
+                return {'CANCELLED'}
+        us = context.scene.unit_settings
+        try:
+            units = display_units(plan, us.system, us.scale_length)
+            rgba, info = plan_error_plot(plan, units=units, width=w, height=h, per_strip=bool(self.per_strip),
+                                         tolerance=run_tolerance(coll, plan), fit_data=bool(self.fit_data),
+                                         title="Error along profile: {}".format(coll.name))
+        except Exception as ex:             # core ValueError (no finite error, ...): reported, never a traceback
+            self.report({'ERROR'}, "Error plot of '{}' failed: {}".format(coll.name, ex))
+            return {'CANCELLED'}
+
+        wrote = False
+        img = plot_image(coll.name)
+        created = img is None
+        try:
+            if path is not None:
+                write_png(path, to_png_bytes(rgba))
+                wrote = True
+            if created:
+                img = bpy.data.images.new(image_name(coll.name), w, h, alpha=True)
+            elif tuple(img.size) != (w, h):
+                img.scale(w, h)
+            img.pixels.foreach_set(to_blender_pixels(rgba))
+            img.update()
+            img.pack()                     # generated pixels survive saving the file only when packed
+            img.use_fake_user = True
+            lay = info["layout"]
+            props = dict(run=coll.name, unit=info["unit"], tolerance=float(info["tolerance"]),
+                         max_error=float(info["max_error"]), min_error=float(info["min_error"]),
+                         points=int(info["points"]), finite_points=int(info["finite_points"]),
+                         curves=int(info["curves"]), per_strip=bool(self.per_strip),
+                         box=[int(v) for v in lay["box"]], x_range=[float(v) for v in lay["x_range"]],
+                         y_range=[float(v) for v in lay["y_range"]], y_factor=float(lay["y_factor"]))
+            for key, value in props.items():
+                img[PROP_PREFIX + key] = value
+        except Exception as ex:
+            if created and img is not None:
+                bpy.data.images.remove(img)
+            if wrote:
+                try:
+                    os.remove(path)
+                except OSError:
+                    pass
+            self.report({'ERROR'}, "Error plot of '{}' failed: {}: {}".format(coll.name, type(ex).__name__, ex))
+            return {'CANCELLED'}
+
+        area = show_in_image_editor(context, img)
+        where = ("shown in the Image Editor" if area is not None else
+                 "open an Image Editor and pick the image '{}'".format(img.name))
+        self.report({'INFO'}, "Error plot of '{}' ({} x {} px, {}): {}; tolerance ±{:.3g} {}; {}{} ({:.2f} s)".format(
+            coll.name, w, h, "{} curve(s)".format(info["curves"]), info["note"], info["tolerance"], info["unit"],
+            where, ", wrote {}".format(os.path.basename(path)) if wrote else "", time.perf_counter() - t0))
+        return {'FINISHED'}
+
+
+classes = (FLANK_OT_error_plot,)
