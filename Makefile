@@ -92,6 +92,9 @@ test-compat: $(COMPAT42_STAMP)
 
 figures: $(STAMP)
 	$(PY) tools/render_figures.py
+	PYTHONPATH=. $(PY) tools/freeform_figures.py --out docs
+	@[ -f out/demo_plan.json ] || $(PY) tools/demo.py
+	PYTHONPATH=. $(PY) -m flank_addon render out/demo_plan.json --out docs/report.png --resolution 960 600
 
 bench: $(STAMP)
 	@shopt -s nullglob; files=(bench/*.py); \

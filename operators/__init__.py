@@ -16,7 +16,7 @@ from .formed_cutter import FLANK_OT_formed_cutter
 from .double_flank import FLANK_OT_plan_double_flank
 from .single_flank import FLANK_OT_plan_single_flank
 from .cutter_region import FLANK_OT_cutter_region
-from . import render_report, export, animate, ui_ops, freeform
+from . import render_report, export, animate, ui_ops, freeform, profile_plot
 
 classes = (
     FLANK_PG_flank,          # item type of FLANK_PG_settings.flank_list: registered first
@@ -34,6 +34,7 @@ classes = (
     *animate.classes,
     *ui_ops.classes,
     *freeform.classes,
+    *profile_plot.classes,
 )
 
 __all__ = ["classes", "FLANK_PG_settings", "FLANK_OT_generate_rotor", "FLANK_OT_analyze_rotor",

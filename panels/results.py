@@ -75,3 +75,5 @@ class FLANK_PT_results(bpy.types.Panel):
             e = row.operator("flank.export_results", text=label, icon='EXPORT' if fmt == "CL" else 'NONE')
             e.format, e.collection = fmt, coll.name
         col.operator("flank.render_report", icon='RENDER_STILL').collection = coll.name
+        if pre != "flank_ff_":                  # a free-form run has no flank profile
+            col.operator("flank.error_plot", icon='GRAPH').collection = coll.name

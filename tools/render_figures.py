@@ -13,6 +13,9 @@
                                cutter of flank.formed_cutter at its set-up (seen along the disc plane, sitting
                                in the groove), the rotor painted with the machined deviation of the sweep
                                simulation (green: within the tolerance on the cut tooth; grey: not cut).
+    docs/walkthrough.png       issue 6's path through the panels: an STL of the asymmetric female rotor (R 50 mm)
+                               imported and analysed (curvature colours), a single-flank run with a tapered end
+                               mill (strips by signed error), the animation of strip 1 with the tool, CL export.
     docs/double_flank.png      s001 built-in asymmetric male rotor, valley 0: the custom tool of
                                flank.plan_double_flank (min radial function) half-way along its screw motion,
                                the envelope strips coloured by their error (green within 1e-3 R, blue stock),
@@ -529,11 +532,139 @@ def figure_double_flank(bpy, np, out, width, height):
                 max_error=p["flank_df_tool_to_rotor_max"])
 
 
+def figure_walkthrough(bpy, np, out, width, height, core):
+    """Issue 6's path through the panels, headless: an STL of a rotor -> Analyze -> tool -> Run (single flank) ->
+    coloured strips -> Animate -> CL export; three pictures side by side in docs/walkthrough.png."""
+    import importlib
+    import tempfile
+
+    from mathutils import Vector
+
+    pkg = core("rotors").__name__.rsplit(".", 2)[0]
+    ui_ops = importlib.import_module(pkg + ".operators.ui_ops")
+    scene = reset_scene(bpy, width, height)
+    us = scene.unit_settings
+    us.system, us.scale_length, us.length_unit = 'METRIC', 0.001, 'MILLIMETERS'
+    tmp = Path(tempfile.mkdtemp(prefix="flank-walkthrough-"))
+    rotor_core = core("rotors").builtin_by_name("asymmetric-female", scale=50.0)
+    v, f = rotor_core.mesh(n_profile=1440, n_axial=96)
+    core("mesh_io").write_stl(str(tmp / "rotor.stl"), v, f)
+    facts = {}
+    t0 = time.perf_counter()
+    # 1. Workpiece: Blender's STL importer, Analyze Rotor, List Flanks, pick flank 1
+    if "FINISHED" not in bpy.ops.wm.stl_import(filepath=str(tmp / "rotor.stl")):
+        sys.exit("[figures] STL import failed")
+    rotor = bpy.context.active_object
+    for op in (bpy.ops.flank.analyze_rotor, bpy.ops.flank.refresh_flanks):
+        if op() != {'FINISHED'}:
+            sys.exit("[figures] {} failed".format(op))
+    s = scene.flank_settings
+    s.flank_index = next(i for i, row in enumerate(s.flank_list) if row.flank == 1)
+    facts["analysis"] = dict(v0=float(rotor["flank_v0"]), residual=float(rotor["flank_residual"]),
+                             flanks=int(rotor["flank_flank_count"]))
+    co = np.empty(3 * len(rotor.data.vertices))
+    rotor.data.vertices.foreach_get("co", co)
+    mw = np.array(rotor.matrix_world)
+    world = co.reshape(-1, 3) @ mw[:3, :3].T + mw[:3, 3]
+    mid = world.mean(axis=0)
+    r_out = float(np.linalg.norm(world[:, :2] - mid[:2], axis=1).max())
+    cam = add_camera(bpy, Vector(mid) + Vector((1.0, -1.0, 0.35)).normalized() * 9.0 * r_out, Vector(mid), lens=50.0)
+    ink = (0.12, 0.12, 0.12, 1.0)
+
+    def caption(lines):
+        return [add_label(bpy, np, cam, t, -0.96, 0.54 - 0.075 * k, 0.16, ink, distance=1.0)
+                for k, t in enumerate(lines)]
+
+    def drop(objs):
+        for ob in objs:
+            me = ob.data
+            bpy.data.objects.remove(ob)
+            bpy.data.meshes.remove(me)
+    labels = caption(["1  Import STL, Analyze Rotor", "curvature: blue hyperbolic, orange elliptic",
+                      "v0 {:.3f} mm, residual {:.1e} mm, {} flanks".format(
+                          facts["analysis"]["v0"], facts["analysis"]["residual"], facts["analysis"]["flanks"])])
+    paths = [tmp / "w1.png"]
+    render(bpy, np, paths[-1], cam)
+    drop(labels)
+    # 2. Tool panel in mm (the demo's tapered end mill), Strategy single flank, Run
+    s.tool_kind = 'CONE'
+    s.sf_shape = 'alpha'
+    s.tool_tip_diameter_mm, s.tool_taper_deg, s.tool_flute_length_mm = 5.0, math.degrees(math.asin(0.1)), 15.0
+    s.tool_shank_diameter_mm, s.tool_shank_length_mm = 4.0, 30.0
+    s.strategy = "SINGLE"
+    s.sf_tolerance = 0.05                                  # mm (scene units)
+    s.sf_animate = False
+    idname, kw = ui_ops.run_call(s)
+    t1 = time.perf_counter()
+    ret = getattr(bpy.ops.flank, idname.split(".")[1])(**kw)
+    facts["plan_s"] = round(time.perf_counter() - t1, 2)
+    if ret != {'FINISHED'}:
+        sys.exit("[figures] {} returned {}".format(idname, ret))
+    tool = bpy.context.active_object
+    coll = tool.users_collection[0]
+    paint(bpy, np, rotor, (0.62, 0.64, 0.67, 1.0))
+    for ob in coll.objects:
+        role = ob.get("flank_sf_role")
+        if role == "tool":
+            paint(bpy, np, ob, (0.90, 0.72, 0.20, 1.0))
+        elif role != "envelope":
+            ob.hide_render = True
+    env = [ob for ob in coll.objects if ob.get("flank_sf_role") == "envelope"]
+    pts = np.vstack([np.array([ob.matrix_world @ p.co for p in ob.data.vertices]) for ob in env])
+    nrm = np.vstack([np.array([ob.matrix_world.to_3x3() @ p.normal for p in ob.data.polygons]) for ob in env])
+    target = pts.mean(axis=0)
+    n = nrm.mean(axis=0)
+    n /= np.linalg.norm(n)
+    cam.location = Vector(target) + Vector(n) * 5.0 * r_out
+    cam.rotation_euler = (Vector(target) - cam.location).to_track_quat('-Z', 'Y').to_euler()
+    facts["run"] = dict(strips=int(coll["flank_sf_strips"]), max_error_mm=float(coll["flank_sf_max_error"]),
+                        min_error_mm=float(coll["flank_sf_min_error"]), tolerance_mm=0.05)
+    labels = caption(["2  Tool: tapered D5, 5.7 deg, flutes 15 mm; Run Single Flank",
+                      "{} strips; error {:+.1f} .. {:+.1f} um (tolerance 50 um)".format(
+                          facts["run"]["strips"], 1000 * facts["run"]["min_error_mm"],
+                          1000 * facts["run"]["max_error_mm"]),
+                      "green within tolerance, blue material left, red overcut"])
+    paths.append(tmp / "w2.png")
+    render(bpy, np, paths[-1], cam)
+    drop(labels)
+    # 3. Animate strip 1 (the rotor screws past the fixed tool), export CL data
+    if bpy.ops.flank.animate_strip(strip=1, frame_start=1, frame_end=100) != {'FINISHED'}:
+        sys.exit("[figures] animate_strip failed")
+    for ob in coll.objects:
+        if ob.get("flank_anim_role") == "rotor":
+            paint(bpy, np, ob, (0.62, 0.64, 0.67, 1.0))
+        if ob.get("flank_sf_role") == "tool" and ob.get("flank_sf_strip") != 0:
+            ob.hide_render = True
+    scene.frame_set(50)
+    t1w = next(ob for ob in coll.objects if ob.get("flank_sf_role") == "tool" and ob.get("flank_sf_strip") == 0)
+    aim = t1w.matrix_world.translation + t1w.matrix_world.to_3x3() @ Vector((0.0, 0.0, 7.5))
+    radial = Vector((aim.x - mid[0], aim.y - mid[1], 0.0)).normalized()
+    cam.location = aim + (radial + Vector((0.0, 0.0, 0.3))).normalized() * 3.5 * r_out
+    cam.rotation_euler = (aim - cam.location).to_track_quat('-Z', 'Y').to_euler()
+    cl = tmp / "rotor.apt"
+    if bpy.ops.flank.export_results(format='CL', filepath=str(cl), steps=120) != {'FINISHED'}:
+        sys.exit("[figures] export failed")
+    gotos = [ln for ln in cl.read_text().splitlines() if ln.startswith("GOTO/")]
+    facts["cl_steps"] = len(gotos)
+    labels = caption(["3  Animate strip 1 (frame 50 of 100), Export CL",
+                      "{} GOTO steps, e.g.".format(len(gotos)), gotos[0][:58]])
+    paths.append(tmp / "w3.png")
+    render(bpy, np, paths[-1], cam)
+    drop(labels)
+    parts = [load_rgba(bpy, np, p) for p in paths]
+    path = out / "walkthrough.png"
+    save_rgba(bpy, np, np.concatenate(parts, axis=1), path)
+    shutil.rmtree(tmp, ignore_errors=True)
+    us.system, us.scale_length = 'NONE', 1.0
+    facts.update(path=str(path), total_s=round(time.perf_counter() - t0, 2))
+    return facts
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description="Render the README figures (Workbench, headless)")
     ap.add_argument("--out", default=str(ROOT / "docs"))
     ap.add_argument("--size", default="960x540")
-    ap.add_argument("--only", choices=("groove", "deviation", "cutter", "double_flank"))
+    ap.add_argument("--only", choices=("groove", "deviation", "cutter", "double_flank", "walkthrough"))
     src = ap.add_mutually_exclusive_group()
     src.add_argument("--zip", help="install this extension zip with Blender's installer")
     src.add_argument("--source", action="store_true", help="register the source tree (default)")
@@ -570,6 +701,9 @@ def main(argv=None):
         if args.only in (None, "double_flank"):
             results["double_flank"] = figure_double_flank(bpy, np, out, width, height)
             log("double_flank: {}".format(json.dumps(results["double_flank"])))
+        if args.only in (None, "walkthrough"):
+            results["walkthrough"] = figure_walkthrough(bpy, np, out, 2 * width // 3, 2 * width // 5, core)
+            log("walkthrough: {}".format(json.dumps(results["walkthrough"])))
         results["extension"] = installed
     finally:
         shutil.rmtree(user_dir, ignore_errors=True)
