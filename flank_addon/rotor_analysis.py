@@ -369,7 +369,8 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD):
     # helical body: inlier vertices whose normals are not perpendicular to the axis (excludes shafts)
     body = keep & (np.abs(normals @ d) > 0.05)
     if not body.any():
-        raise NotHelicalError("no helical faces with an axial normal component found")
+        raise NotHelicalError(f"not a helical rotor: no face that fits the screw motion has a normal with an axial "
+                              f"component above 0.05 (only shafts or planes; {quote})")
     zc = (verts[body] - axis_point) @ d
     z0, z1 = float(zc.min()), float(zc.max())
     origin = axis_point + z0 * d
