@@ -1,0 +1,151 @@
+"""How far a G1 weight can lower the kinks of conical strips on a curved surface (s003 §7.2).
+
+Why the trade-off exists.  On strip i the envelope normal n of a cone (axis direction u_i, half
+angle beta) satisfies n . u_i = sin(beta) everywhere (Eq. (6): n . y_s = dr with |y_s| = L), so
+along a characteristic the normal can only turn *about* the axis.  Across the strips the axis lies
+in the section plane, so to first order the envelope's section across a strip is a straight
+segment: the surface's turning across the strips has to be taken by the kinks between them.
+(A turn about the axis tilts the normal towards the feed direction and bends the section only to
+second order in that tilt.)  Kinks below the section's own turning therefore cost accuracy,
+whatever the optimiser: s003 makes the same remark for convex patches.
+
+The bound.  Take a section z(y) of the surface across the strips (a graph over its chord, slopes
+small).  A machined section made of straight pieces whose slope jumps at most theta at each of
+n_junctions junctions has total slope variation T <= n_junctions * theta.  Relaxing "jumps at
+n_junctions free places" to "total variation at most T anywhere" gives a linear programme whose
+optimum is a lower bound on the largest |error| of *any* such plan (:func:`min_max_error`), and
+the dual question, the least turning a plan within a tolerance needs (:func:`min_turning`).
+
+Both are solved with ``scipy.optimize.linprog`` (HiGHS) on the section's samples: unknowns p_k
+(machined heights), the slope jumps split as s+ - s- >= 0, and the error bound E.
+"""
+import numpy as np
+import scipy.sparse as sp
+from scipy.optimize import linprog
+
+
+def _section(y, z):
+    y = np.asarray(y, float)
+    z = np.asarray(z, float)
+    if y.ndim != 1 or y.shape != z.shape or len(y) < 3:
+        raise ValueError(f"a section needs y and z of the same length >= 3, got shapes {y.shape} and {z.shape}")
+    if not (np.isfinite(y).all() and np.isfinite(z).all()):
+        raise ValueError("the section holds NaN or inf")
+    if not (np.diff(y) > 0).all():
+        raise ValueError("section abscissae y must increase strictly")
+    return y, z
+
+
+def _slope_jumps(y):
+    """(n-2, n) sparse map from heights p to the slope jump at every interior sample."""
+    h = np.diff(y)
+    m = len(y) - 2
+    rows = np.repeat(np.arange(m), 3)
+    cols = (np.arange(m)[:, None] + np.arange(3)).ravel()
+    vals = np.column_stack([1.0 / h[:-1], -1.0 / h[:-1] - 1.0 / h[1:], 1.0 / h[1:]]).ravel()
+    return sp.csr_matrix((vals, (rows, cols)), shape=(m, len(y)))
+
+
+def turning(y, z):
+    """Total slope variation of the section (radians, small-slope model): sum |jump of dz/dy|."""
+    y, z = _section(y, z)
+    return float(np.abs(_slope_jumps(y) @ z).sum())
+
+
+def _solve(y, z, *, total_turning=None, max_error=None):
+    n, m = len(y), len(y) - 2
+    D = _slope_jumps(y)
+    # unknowns x = [p (n), s+ (m), s- (m), E or T (1)]
+    nv = n + 2 * m + 1
+    eye_n, ones_n = sp.eye(n), sp.csr_matrix(np.ones((n, 1)))
+    zeros_nm = sp.csr_matrix((n, 2 * m))
+    a_eq = sp.hstack([D, -sp.eye(m), sp.eye(m), sp.csr_matrix((m, 1))]).tocsr()
+    jumps_row = sp.hstack([sp.csr_matrix((1, n)), sp.csr_matrix(np.ones((1, 2 * m))), sp.csr_matrix((1, 1))])
+    c = np.zeros(nv)
+    c[-1] = 1.0
+    if total_turning is not None:          # minimise E: |p - z| <= E, sum|jumps| <= T
+        a_ub = sp.vstack([sp.hstack([eye_n, zeros_nm, -ones_n]), sp.hstack([-eye_n, zeros_nm, -ones_n]),
+                          jumps_row]).tocsr()
+        b_ub = np.concatenate([z, -z, [total_turning]])
+    else:                                   # minimise T: |p - z| <= E, sum|jumps| <= T
+        zero_col = sp.csr_matrix((n, 1))
+        turn_row = sp.hstack([sp.csr_matrix((1, n)), sp.csr_matrix(np.ones((1, 2 * m))), sp.csr_matrix([[-1.0]])])
+        a_ub = sp.vstack([sp.hstack([eye_n, zeros_nm, zero_col]), sp.hstack([-eye_n, zeros_nm, zero_col]),
+                          turn_row]).tocsr()
+        b_ub = np.concatenate([z + max_error, -(z - max_error), [0.0]])
+    bounds = [(None, None)] * n + [(0, None)] * (2 * m + 1)
+    res = linprog(c, A_ub=a_ub, b_ub=b_ub, A_eq=a_eq, b_eq=np.zeros(m), bounds=bounds, method="highs")
+    if res.status != 0:
+        raise RuntimeError(f"the bound's linear programme did not solve: {res.message}")
+    return float(res.x[-1]), res.x[:n]
+
+
+def min_max_error(y, z, total_turning):
+    """Least possible max |z - p| over machined sections p whose slope jumps add up to at most
+    ``total_turning`` (radians).  y, z (n,): the surface section, y increasing.  -> (E, p (n,))."""
+    y, z = _section(y, z)
+    if not (np.isfinite(total_turning) and total_turning >= 0):
+        raise ValueError(f"total turning must be a finite angle >= 0, got {total_turning!r}")
+    return _solve(y, z, total_turning=float(total_turning))
+
+
+def min_turning(y, z, max_error):
+    """Least total slope variation (radians) of a machined section within ``max_error`` of z(y)."""
+    y, z = _section(y, z)
+    if not (np.isfinite(max_error) and max_error >= 0):
+        raise ValueError(f"max error must be a finite length >= 0, got {max_error!r}")
+    return _solve(y, z, max_error=float(max_error))[0]
+
+
+def kink_error_bound(y, z, max_kink_deg, n_junctions):
+    """Lower bound on the max |error| of any conical multi-strip plan whose section z(y) crosses
+    ``n_junctions`` strip boundaries, each kinked by at most ``max_kink_deg`` degrees."""
+    if int(n_junctions) != n_junctions or n_junctions < 0:
+        raise ValueError(f"n_junctions must be a whole number >= 0, got {n_junctions!r}")
+    return min_max_error(y, z, np.radians(max_kink_deg) * int(n_junctions))[0]
+
+
+def kink_floor_deg(y, z, max_error, n_junctions):
+    """Least possible max kink (degrees) of a plan within ``max_error`` over ``n_junctions``
+    junctions of the section: its least turning shared evenly."""
+    if int(n_junctions) != n_junctions or n_junctions < 1:
+        raise ValueError(f"n_junctions must be a whole number >= 1, got {n_junctions!r}")
+    return float(np.degrees(min_turning(y, z, max_error) / int(n_junctions)))
+
+
+def fixed_junction_error(y, z, junctions, max_kink_deg):
+    """Least max |z - p| over continuous sections p that are straight between the given junction
+    abscissae (the strips' boundaries, first and last = the section's ends) and bend at most
+    ``max_kink_deg`` at each inner one: what straight strips on fixed boundaries can reach.
+
+    Unlike :func:`kink_error_bound` this is not a bound for every plan (junctions may move, strips
+    may overlap), but it is reachable in the section model, so it tells how close an optimiser's
+    trade-off comes.  -> (E, heights at the junctions)."""
+    y, z = _section(y, z)
+    knots = np.asarray(junctions, float)
+    if knots.ndim != 1 or len(knots) < 2 or not (np.diff(knots) > 0).all():
+        raise ValueError("junctions must be at least 2 strictly increasing abscissae")
+    if knots[0] > y[0] or knots[-1] < y[-1]:
+        raise ValueError(f"junctions span {knots[0]:.6g} .. {knots[-1]:.6g} but the section spans "
+                         f"{y[0]:.6g} .. {y[-1]:.6g}")
+    if not (np.isfinite(max_kink_deg) and max_kink_deg >= 0):
+        raise ValueError(f"max kink must be a finite angle >= 0, got {max_kink_deg!r}")
+    k = len(knots)
+    seg = np.clip(np.searchsorted(knots, y, side="right") - 1, 0, k - 2)
+    t = (y - knots[seg]) / (knots[seg + 1] - knots[seg])
+    rows = np.arange(len(y))
+    interp = sp.csr_matrix((np.concatenate([1.0 - t, t]), (np.concatenate([rows, rows]), np.concatenate([seg, seg + 1]))),
+                           shape=(len(y), k))
+    jumps = _slope_jumps(knots)
+    ones = sp.csr_matrix(np.ones((len(y), 1)))
+    zero = sp.csr_matrix((jumps.shape[0], 1))
+    a_ub = sp.vstack([sp.hstack([interp, -ones]), sp.hstack([-interp, -ones]),
+                      sp.hstack([jumps, zero]), sp.hstack([-jumps, zero])]).tocsr()
+    theta = np.radians(float(max_kink_deg))
+    b_ub = np.concatenate([z, -z, np.full(2 * jumps.shape[0], theta)])
+    c = np.zeros(k + 1)
+    c[-1] = 1.0
+    res = linprog(c, A_ub=a_ub, b_ub=b_ub, bounds=[(None, None)] * k + [(0, None)], method="highs")
+    if res.status != 0:
+        raise RuntimeError(f"the section's linear programme did not solve: {res.message}")
+    return float(res.x[-1]), res.x[:k]
