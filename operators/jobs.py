@@ -51,7 +51,12 @@ class PlannerJob:
         self.elapsed = time.perf_counter() - self.started
 
     def cancel(self):
-        self._cancel.set()
+        """Ask the planner to stop.  A result that is already there is dropped too: after ESC the operator
+        never builds, however the race between the worker's end and the key press went."""
+        with self._lock:
+            self._cancel.set()
+            if self.state == "finished":
+                self.state, self.result = "cancelled", None
 
     def poll(self):
         """(state, fraction, message) -- safe to call from the UI thread at any time."""

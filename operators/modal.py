@@ -53,6 +53,14 @@ class ModalPlannerMixin:
     def invoke(self, context, event):
         if bpy.app.background or context.window_manager is None or context.window is None:
             return self.execute(context)
+        return self._start_modal(context)
+
+    def _start_modal(self, context):
+        """Prepare on the main thread, start the worker, the timer, the progress and the modal handler.
+
+        Everything it needs from ``context`` is ``window_manager`` (event_timer_add/remove, progress_begin/
+        update/end, modal_handler_add), ``window`` and ``workspace`` (status_text_set) besides what
+        ``_prepare`` reads -- so tests drive this and :meth:`modal` headless with a stand-in for those."""
         from ..flank_addon.progress import Cancelled
 
         job = self._prepare(context)
