@@ -45,7 +45,7 @@ help:
 	@echo "make demo         generate + analyze the built-in asymmetric female rotor -> out/"
 	@echo "make test         core tests (tests/*.py) + Blender tests (tests/blender/)"
 	@echo "make extension    build + validate installable zips into dist/ (PLATFORMS=all|linux-x64,...)"
-	@echo "make test-compat  Blender tests against bpy 4.2 LTS and bpy 5.2 (needs Python 3.13)"
+	@echo "make test-compat  Blender tests against bpy 4.2 LTS, 5.0 and 5.2 (5.2 only if Python 3.13 is found)"
 	@echo "make bench        run bench/*.py"
 	@echo "make figures      render the README pictures into docs/ (headless Workbench)"
 	@echo "make clean        remove build outputs (distclean also removes venvs and wheels/)"
@@ -76,18 +76,28 @@ $(COMPAT42_STAMP):
 $(COMPAT5X_STAMP):
 	$(call make_venv,$(PYTHON313),$(COMPAT5X_VENV),$(COMPAT5X_PINS))
 
-# Both runs always happen; the target fails at the end if either failed.
-test-compat: $(COMPAT42_STAMP)
-	@status=0; \
-	echo "=== Blender tests with $(COMPAT42_PINS) ==="; \
-	$(COMPAT42_VENV)/bin/python -m pytest -p no:cacheprovider tests/blender || status=1; \
+# bpy 4.2 LTS, bpy 5.0 (the dev venv) and bpy 5.2 (only when Python 3.13 is found): every leg always runs,
+# a summary line per leg (pytest's counts, wall seconds) comes last, and the target fails at the end if any
+# leg failed or its venv could not be made.
+test-compat:
+	@set -o pipefail; status=0; summary=""; log=$$(mktemp); \
+	leg() { \
+	  echo "=== Blender tests with $$1 ($$2) ==="; t0=$$(date +%s); \
+	  if "$$2" -m pytest -p no:cacheprovider tests/blender 2>&1 | tee "$$log"; then r=ok; else r=FAILED; status=1; fi; \
+	  summary="$${summary}$$1: $$(tail -n 1 "$$log" | tr -d '=' | sed 's/^ *//; s/ *$$//') [$$r, wall $$(( $$(date +%s) - t0 )) s]\n"; \
+	}; \
+	novenv() { status=1; summary="$${summary}$$1: FAILED, the venv $$2 could not be made\n"; }; \
+	if $(MAKE) --no-print-directory $(COMPAT42_STAMP); then leg "$(firstword $(COMPAT42_PINS))" $(COMPAT42_VENV)/bin/python; \
+	else novenv "$(firstword $(COMPAT42_PINS))" $(COMPAT42_VENV); fi; \
+	if $(MAKE) --no-print-directory $(STAMP); then leg "$(firstword $(PINS))" $(PY); \
+	else novenv "$(firstword $(PINS))" $(VENV); fi; \
 	if [ -z "$(strip $(PYTHON313))" ]; then \
 	  echo "SKIP: bpy 5.x compatibility tests -- no Python 3.13 found (~/.pyenv/versions/3.13*/bin/python3.13 or python3.13 on PATH)"; \
-	else \
-	  $(MAKE) --no-print-directory $(COMPAT5X_STAMP) || exit 1; \
-	  echo "=== Blender tests with $(COMPAT5X_PINS) ($(PYTHON313)) ==="; \
-	  $(COMPAT5X_VENV)/bin/python -m pytest -p no:cacheprovider tests/blender || status=1; \
-	fi; \
+	  summary="$${summary}$(firstword $(COMPAT5X_PINS)): SKIPPED, no Python 3.13 found\n"; \
+	elif $(MAKE) --no-print-directory $(COMPAT5X_STAMP); then leg "$(firstword $(COMPAT5X_PINS))" $(COMPAT5X_VENV)/bin/python; \
+	else novenv "$(firstword $(COMPAT5X_PINS))" $(COMPAT5X_VENV); fi; \
+	rm -f "$$log"; \
+	echo "=== test-compat summary ==="; printf '%b' "$$summary"; \
 	exit $$status
 
 figures: $(STAMP)
