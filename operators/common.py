@@ -348,3 +348,187 @@ def count_limit_error(label, value, lo, hi):
     if lo <= v <= hi:
         return None
     return "{} = {} is outside the limits {}..{}".format(label, v, lo, hi)
+
+
+# ---------------------------------------------------------------------------------------- result runs
+def remove_result_collection(bpy, coll):
+    """Remove a result collection of an earlier run with its objects, their meshes, curves and actions (when
+    no longer used elsewhere), its empty child collections, and the shared attribute material once nothing
+    uses it any more; an animation of the run (flank.animate_strip) is removed first, showing again what it
+    hid."""
+    from .animate import remove_animation
+
+    remove_animation(coll)
+    objs = list(coll.all_objects)
+    meshes = {ob.data for ob in objs if ob.type == 'MESH' and ob.data is not None}
+    curves = {ob.data for ob in objs if ob.type == 'CURVE' and ob.data is not None}
+    actions = {ob.animation_data.action for ob in objs if ob.animation_data and ob.animation_data.action}
+    for ob in objs:
+        bpy.data.objects.remove(ob)
+    for me in meshes:
+        if me.users == 0:
+            bpy.data.meshes.remove(me)
+    for cu in curves:
+        if cu.users == 0:
+            bpy.data.curves.remove(cu)
+    for act in actions:
+        if act.users == 0:
+            bpy.data.actions.remove(act)
+    for child in list(coll.children):
+        if not child.all_objects:
+            bpy.data.collections.remove(child)
+    bpy.data.collections.remove(coll)
+    release_attribute_material(bpy)
+
+
+def replace_run(bpy, parent, coll, key_prop, key, name, names=()):
+    """Finish a new run's collection ``coll`` (complete, linked under ``parent``): remove the collections of
+    earlier runs under ``parent`` with the same ``key`` (custom property ``key_prop``), then give ``coll`` its
+    ``name`` and key and the objects / meshes their wanted names, ``names`` = [(ID, name)] (made unique while
+    the earlier run existed).  Returns the number of runs replaced."""
+    replaced = 0
+    for old in [c for c in parent.children if c != coll and c.get(key_prop) == key]:
+        remove_result_collection(bpy, old)
+        replaced += 1
+    coll.name = name
+    coll[key_prop] = key
+    for id_, wanted in names:
+        if id_.name != wanted:
+            id_.name = wanted
+    return replaced
+
+
+# ---------------------------------------------------------------------------------------- attribute colours
+ATTRIBUTE_MATERIAL = "Flank Attribute Colour"
+ATTRIBUTE_MATERIAL_PROP = "flank_attribute_material"   # marks the material made here (found again if renamed)
+
+
+def _find_attribute_material(bpy):
+    for mat in bpy.data.materials:
+        if mat.get(ATTRIBUTE_MATERIAL_PROP) is not None and mat.library is None:
+            return mat
+    return None
+
+
+def attribute_material(bpy):
+    """The one shared material of the result objects -> (material, created): it shows the mesh's render colour
+    attribute (a Color Attribute node with no name, into the Principled BSDF's base and emission colour) in
+    Material Preview, Rendered and Cycles.  A created material has no users yet: the caller assigns it
+    (:func:`assign_attribute_material`) or removes it again (:func:`release_attribute_material`)."""
+    mat = _find_attribute_material(bpy)
+    if mat is not None:
+        return mat, False
+    mat = bpy.data.materials.new(ATTRIBUTE_MATERIAL)
+    try:
+        if getattr(mat, "node_tree", None) is None or bpy.app.version < (5, 0, 0):
+            mat.use_nodes = True                 # Blender 4.x; 5.x materials always have a node tree
+        nt = mat.node_tree
+        nt.nodes.clear()
+        out = nt.nodes.new("ShaderNodeOutputMaterial")
+        out.location = (300.0, 0.0)
+        bsdf = nt.nodes.new("ShaderNodeBsdfPrincipled")
+        bsdf.location = (0.0, 0.0)
+        col = nt.nodes.new("ShaderNodeVertexColor")      # "Color Attribute"; no name = the render colour
+        col.location = (-300.0, 0.0)
+        col.layer_name = ""
+        nt.links.new(col.outputs["Color"], bsdf.inputs["Base Color"])
+        emit = bsdf.inputs.get("Emission Color") or bsdf.inputs.get("Emission")
+        strength = bsdf.inputs.get("Emission Strength")
+        if emit is not None and strength is not None:    # a little glow: the colours read in a dim scene
+            nt.links.new(col.outputs["Color"], emit)
+            strength.default_value = 0.25
+        rough = bsdf.inputs.get("Roughness")
+        if rough is not None:
+            rough.default_value = 0.6
+        nt.links.new(bsdf.outputs["BSDF"], out.inputs["Surface"])
+        mat.diffuse_color = (0.8, 0.8, 0.8, 1.0)
+        mat[ATTRIBUTE_MATERIAL_PROP] = 1
+    except Exception:
+        bpy.data.materials.remove(mat)
+        raise
+    return mat, True
+
+
+def assign_attribute_material(mesh, mat, only_if_none=False):
+    """Put the shared attribute material in slot 0 of ``mesh`` (``only_if_none``: only when the mesh has no
+    material yet, for a user's own mesh).  Returns True when the mesh was changed."""
+    mats = mesh.materials
+    if len(mats) == 0:
+        mats.append(mat)
+        return True
+    if only_if_none and any(m is not None for m in mats):
+        return False
+    if mats[0] != mat:
+        mats[0] = mat
+        return True
+    return False
+
+
+def release_attribute_material(bpy, mat=None):
+    """Remove the shared attribute material when nothing uses it any more (no orphan data is left)."""
+    if mat is None:
+        mat = _find_attribute_material(bpy)
+    try:
+        if mat is not None and mat.users == 0:
+            bpy.data.materials.remove(mat)
+    except ReferenceError:
+        pass
+
+
+_SHADING_SWITCHED = set()     # View3D shading settings switched to Attribute colours once (never again)
+
+
+def show_attribute_colors(bpy, context):
+    """After a successful run: 3D Viewports in Solid mode colouring by Material (the default) switch to
+    Attribute colours once each, so the strips' error colours show.  Nothing happens in background mode, and
+    a viewport the user switched back keeps the user's choice."""
+    if bpy.app.background:
+        return 0
+    switched = 0
+    wm = getattr(context, "window_manager", None)
+    screens = []
+    for win in (getattr(wm, "windows", None) or ()):
+        if win.screen is not None and win.screen not in screens:
+            screens.append(win.screen)
+    if getattr(context, "screen", None) is not None and context.screen not in screens:
+        screens.append(context.screen)
+    for screen in screens:
+        for area in screen.areas:
+            if area.type != 'VIEW_3D':
+                continue
+            for space in area.spaces:
+                if space.type != 'VIEW_3D':
+                    continue
+                shading = getattr(space, "shading", None)
+                if shading is None:
+                    continue
+                ptr = shading.as_pointer()
+                if ptr in _SHADING_SWITCHED:
+                    continue
+                _SHADING_SWITCHED.add(ptr)
+                try:
+                    if shading.color_type == 'MATERIAL':
+                        shading.color_type = 'VERTEX'
+                        switched += 1
+                except (AttributeError, TypeError, RuntimeError):
+                    pass
+    return switched
+
+
+class RunMaterial:
+    """The shared attribute material for one run, fetched or made on first use: ``assign(mesh)`` puts it on a
+    result mesh; ``discard()`` (a failed run, after its meshes are removed) removes it again if this run made
+    it, so nothing is left behind."""
+
+    def __init__(self, bpy):
+        self.bpy, self.mat, self.created = bpy, None, False
+
+    def assign(self, mesh, only_if_none=False):
+        if self.mat is None:
+            self.mat, self.created = attribute_material(self.bpy)
+        return assign_attribute_material(mesh, self.mat, only_if_none)
+
+    def discard(self):
+        if self.created and self.mat is not None:
+            release_attribute_material(self.bpy, self.mat)
+        self.mat, self.created = None, False

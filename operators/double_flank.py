@@ -2,8 +2,9 @@
 """flank.plan_double_flank -- s001: double-flank milling of one rotor valley with a custom-shaped or conical tool."""
 import bpy
 
-from .common import (PLAN_JSON_PROP, edge_mesh, frame_along, key_screw_motion, new_mesh_from_arrays, remove_ids,
-                     results_parent, rotor_source, screw_matrix, select_only, set_color_attr, set_float_attr)
+from .common import (PLAN_JSON_PROP, RunMaterial, edge_mesh, frame_along, key_screw_motion, new_mesh_from_arrays,
+                     remove_ids, replace_run, results_parent, rotor_source, select_only, set_color_attr,
+                     set_float_attr, show_attribute_colors)
 from .modal import ModalPlannerMixin
 from .properties import double_flank_props
 
@@ -52,10 +53,11 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
 
     Rotor: the active rotor made by Generate Rotor (rebuilt exactly from its custom properties; the mesh's
     local frame is the rotor frame) or an analyzed mesh (analysed again here, as the command line does with
-    --mesh; the rotor frame is the analysis's to_world, in scene units).  Objects in a new collection under
-    "Flank Results": per tool path the tool (revolved meridian + shank, origin at the tip, local z along its
-    axis), the two envelope strips with the point attributes ``deviation`` (FLOAT, signed, scene units =
-    rotor units x object scale, > 0 material left) and ``error_color``, the error along the axis (s001
+    --mesh; the rotor frame is the analysis's to_world, in scene units).  Objects in a collection under
+    "Flank Results" (an earlier run on the same rotor and valley is replaced): per tool path the tool (revolved
+    meridian + shank, origin at the tip, local z along its axis), the two envelope strips with the point
+    attributes ``deviation`` (FLOAT, signed, scene units = rotor units x object scale, > 0 material left) and
+    ``error_color`` (shown by the shared material "Flank Attribute Colour"), the error along the axis (s001
     Figs. 12/14/17) as an edge-mesh chart beside the tool (x offset = error x flank_df_error_scale), and
     with Animate a "Tool Motion" empty parented to the rotor with linear keys along the screw motion and a
     moving tool.  Custom properties flank_df_* (alpha, delta, phi, Phi, iterations, errors, Hausdorff,
@@ -188,20 +190,25 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
         r_tool = max(float(np.nanmax(p.radii)) for p in res.paths)
         err_scale = 0.5 * r_tool / e_max if e_max > 1e-12 * R else 1.0
 
-        objects, meshes, colls, actions, files = [], [], [], [], []
+        objects, meshes, colls, actions, files, names = [], [], [], [], [], []
         parent, parent_created = None, False
         dev_ranges = []
+        key = "{}|{}".format(rotor_obj.name, k_valley)
+        base_name = "Double Flank ({}, valley {})".format(rotor_obj.name, k_valley)
+        run_mat = RunMaterial(bpy)
         try:
             parent, parent_created = results_parent(bpy, context)
-            coll = bpy.data.collections.new("Double Flank ({}, valley {})".format(rotor_obj.name, k_valley))
+            coll = bpy.data.collections.new(base_name + " new")
             colls.append(coll)
             parent.children.link(coll)
 
             def add(obj_name, data, color=None, role=None, k=None):
                 if data is not None and data not in meshes:
                     meshes.append(data)
+                    names.append((data, obj_name))
                 ob = bpy.data.objects.new(obj_name, data)
                 objects.append(ob)
+                names.append((ob, obj_name))
                 if color is not None:
                     ob.color = color
                 coll.objects.link(ob)
@@ -239,6 +246,7 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
                     fin = np.isfinite(dev)
                     set_float_attr(np, em, DEVIATION_ATTR, np.where(fin, dev, UNTOUCHED))
                     set_color_attr(np, em, DEVIATION_COLOR_ATTR, deviation_colors(dev, tol))
+                    run_mat.assign(em)
                     em.update()
                     rng = [float(dev[fin].min()), float(dev[fin].max())] if fin.any() else [float("nan")] * 2
                     eo[PROP_PREFIX + "deviation_range"] = rng
@@ -266,6 +274,7 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
                 set_float_attr(np, cm, ERROR_ATTR, np.concatenate(err_v))
                 set_float_attr(np, cm, FLANK_ATTR, fv.astype(np.float64))
                 set_color_attr(np, cm, CHART_COLOR_ATTR, np.array([CHART_COLORS[int(v)] for v in fv]))
+                run_mat.assign(cm)
                 co[PROP_PREFIX + "error_scale"] = float(err_scale)
                 co[PROP_PREFIX + "chart_offset"] = float(x0 * s)
                 co[PROP_PREFIX + "max_abs_error"] = float(np.nanmax(np.abs(np.r_[e1, e2]))) * s \
@@ -311,6 +320,9 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
                     files.append(p)
                     df.write_tool_csv(p, res.paths[k])
                     csv_paths.append(p)
+
+            # replace the collection of an earlier run on this rotor and valley (only once this one is complete)
+            replaced = replace_run(bpy, parent, coll, PROP_PREFIX + "key", key, base_name, names)
         except Exception as ex:
             for act in actions:
                 try:
@@ -318,6 +330,7 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
                 except (ReferenceError, RuntimeError):
                     pass
             remove_ids(bpy, objects, meshes, colls + ([parent] if parent_created else []))
+            run_mat.discard()
             for p in files:
                 try:
                     os.remove(p)
@@ -363,6 +376,7 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
         # the run's plan (flank-plan/1) travels with its collection: exports and reports read it from there
         coll[PLAN_JSON_PROP] = json.dumps(res.plan)
         select_only(context, tool_objs[0])
+        show_attribute_colors(bpy, context)
 
         f0 = fits[0]
         unit = "scene units"
@@ -377,7 +391,7 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
         sim = ("; rotor->envelope max F1/F2 {} min {}; Hausdorff {} {}".format(
             pair(props["rotor_to_envelope_max"]), pair(props["rotor_to_envelope_min"]), pair(props["hausdorff"]),
             unit) if self.simulate else "; not simulated")
-        files_note = ""
+        files_note = ", replaced the earlier run" if replaced else ""
         if plan_path:
             files_note += ", wrote {}".format(os.path.basename(plan_path))
         if csv_paths:

@@ -2,12 +2,13 @@
 """flank.formed_cutter -- s004: formed disc cutter for one tooth of a rotor, its set-up, motion and result."""
 import bpy
 
-from .common import (builtin_from_props, edge_mesh, key_screw_motion, new_mesh_from_arrays, remove_ids, revolved_mesh, screw_matrix,
-                     select_only, set_color_attr, set_float_attr)
+from .common import (RunMaterial, builtin_from_props, edge_mesh, key_screw_motion, new_mesh_from_arrays, remove_ids,
+                     replace_run, results_parent, revolved_mesh, screw_matrix, select_only, set_color_attr,
+                     set_float_attr, show_attribute_colors)
 from .properties import formed_cutter_props
 from .verify import DEVIATION_ATTR, DEVIATION_COLOR_ATTR, UNTOUCHED
 
-COLLECTION = "Formed Cutter"
+COLLECTION = "Formed Cutter"           # run collection "Formed Cutter (<rotor>)" under "Flank Results"
 TABLE1_ROTOR = "Arc Tooth Rotor (s004)"
 TABLE1_SOURCE = "s004_table1"          # flank_source of the Table-1 rotor objects made here
 CUTTER = "Formed Cutter"
@@ -49,13 +50,17 @@ class FLANK_OT_formed_cutter(bpy.types.Operator):
     Rotor: the paper's Table-1 arc-tooth rotor (built here, 0 <= z <= 2/3 lead, centred on the world
     origin) or the active rotor made by Generate Rotor (profile rebuilt from its custom properties; the
     mesh's local frame is the rotor frame).  The tooth cut is the valley facing +x (all teeth alike).
-    Objects in a new "Formed Cutter" collection: the cutter (revolved meridian, one ring per plane, point
-    attributes ``cutter_flags`` (FLOAT bit mask) and ``cutter_flags_color``), placed at its set-up moved
-    along the helix to mid-length; the contact points (edge mesh, ``cutter_flags``); with Animate, an empty
-    "Cutter Motion" parented to the rotor with linear keys on its rotation about and translation along the
-    rotor axis (the inverse of the rotor's screw motion relative to the cutter, exact at every frame) and
-    a moving cutter as its child.  The rotor mesh gets ``machined_deviation`` (FLOAT, scene units, > 0 material
-    left, < 0 overcut, 1e9 off the tooth / not reached) and ``machined_deviation_color`` as flank.verify_plan."""
+    Objects in a collection "Formed Cutter (<rotor>)" under "Flank Results" (an earlier run on the same
+    rotor is replaced; the Table-1 rotor built here belongs to its run): the cutter (revolved meridian, one
+    ring per plane, point attributes ``cutter_flags`` (FLOAT bit mask) and ``cutter_flags_color``), placed
+    at its set-up moved along the helix to mid-length; the contact points (edge mesh, ``cutter_flags``);
+    with Animate, an empty "Cutter Motion" parented to the rotor with linear keys on its rotation about and
+    translation along the rotor axis (the inverse of the rotor's screw motion relative to the cutter, exact
+    at every frame) and a moving cutter as its child.  The rotor mesh gets ``machined_deviation`` (FLOAT,
+    scene units, > 0 material left, < 0 overcut, 1e9 off the tooth / not reached) and
+    ``machined_deviation_color`` as flank.verify_plan.  The cutter and the rotor show their colour attribute
+    through the shared material "Flank Attribute Colour" (a user's rotor only gets it when it has no material
+    of its own)."""
 
     bl_idname = "flank.formed_cutter"
     bl_label = "Formed Cutter"
@@ -250,19 +255,28 @@ class FLANK_OT_formed_cutter(bpy.types.Operator):
         r_max = float(r.max())
         s_m = (0.5 * length + r_max) / v0                 # the cutter starts and ends clear of the rotor
 
-        objects, meshes, colls, actions = [], [], [], []
-        touched_rotor = False
+        objects, meshes, colls, actions, names = [], [], [], [], []
+        touched_rotor = rotor_mat_added = False
         csv_path = ""
+        parent, parent_created = None, False
+        run_mat = RunMaterial(bpy)
+        # one run per rotor: the Table-1 rotor built here belongs to its run (key "table1"), a user's rotor
+        # stays when its run is replaced
+        run_key = "table1" if rotor_obj is None else "rotor:" + rotor_obj.name
+        base_name = "{} ({})".format(COLLECTION, src["name"])
         try:
-            coll = bpy.data.collections.new(COLLECTION)
+            parent, parent_created = results_parent(bpy, context)
+            coll = bpy.data.collections.new(base_name + " new")
             colls.append(coll)
-            context.scene.collection.children.link(coll)
+            parent.children.link(coll)
 
             def add(name, data, color=None):
                 if data is not None and data not in meshes:
                     meshes.append(data)
+                    names.append((data, name))
                 ob = bpy.data.objects.new(name, data)
                 objects.append(ob)
+                names.append((ob, name))
                 if color is not None:
                     ob.color = color
                 coll.objects.link(ob)
@@ -282,6 +296,7 @@ class FLANK_OT_formed_cutter(bpy.types.Operator):
             cutter = add(CUTTER, cutter_mesh, (0.62, 0.66, 0.72, 1.0))
             set_float_attr(np, cutter_mesh, FLAGS_ATTR, ring_flags)
             set_color_attr(np, cutter_mesh, FLAGS_COLOR_ATTR, _ring_colors(np, fc, ring_flags))
+            run_mat.assign(cutter_mesh)
             cutter.matrix_world = Matrix((rotor_world @ C).tolist())
 
             contact_mesh = edge_mesh(bpy, np, CONTACT, [(contact, False)])
@@ -308,23 +323,30 @@ class FLANK_OT_formed_cutter(bpy.types.Operator):
             touched_rotor = True
             set_float_attr(np, mesh, DEVIATION_ATTR, stored)
             set_color_attr(np, mesh, DEVIATION_COLOR_ATTR, rgba)
+            # the shared attribute material: always on the rotor built here, on a user's rotor only when it
+            # has no material of its own
+            rotor_mat_added = run_mat.assign(mesh, only_if_none=src["obj"] is not None)
             mesh.update()
 
             if self.filepath:
                 csv_path = bpy.path.abspath(self.filepath)
                 np.savetxt(csv_path, cp.meridian, delimiter=",", header="z,r", comments="", fmt="%.12g")
+            replaced = replace_run(bpy, parent, coll, PROP_PREFIX + "key", run_key, base_name, names)
         except Exception as ex:
             if touched_rotor and src["obj"] is not None:  # the user's rotor: no half-written attributes
                 for name in (DEVIATION_ATTR, DEVIATION_COLOR_ATTR):
                     attr = src["obj"].data.attributes.get(name)
                     if attr is not None:
                         src["obj"].data.attributes.remove(attr)
+                if rotor_mat_added:
+                    src["obj"].data.materials.clear()
             for act in actions:
                 try:
                     bpy.data.actions.remove(act)
                 except (ReferenceError, RuntimeError):
                     pass
-            remove_ids(bpy, objects, meshes, colls)
+            remove_ids(bpy, objects, meshes, colls + ([parent] if parent_created else []))
+            run_mat.discard()
             self.report({'ERROR'}, "Could not build the formed cutter objects: {}: {}".format(type(ex).__name__, ex))
             return {'CANCELLED'}
 
@@ -358,15 +380,20 @@ class FLANK_OT_formed_cutter(bpy.types.Operator):
         for target in (cutter, coll, rotor_obj):
             for key, value in props.items():
                 target[PROP_PREFIX + key] = value
-        select_only(context, cutter)
+        try:
+            select_only(context, cutter)
+        except RuntimeError:             # the results collection is excluded from the view layer
+            pass
+        show_attribute_colors(bpy, context)
 
         flagged = ", ".join("{} {}".format(k, v) for k, v in flag_counts.items() if v) or "none"
         self.report({'INFO'}, "Formed cutter for {} (A = {:.6g}, swivel {:.6g} deg, lead {:.6g}, {}-handed): {} planes, "
                               "R {:.6g}..{:.6g}, Z {:.6g}..{:.6g}; flagged planes: {}; uncut tooth ranges {}; "
                               "sweep: max |deviation| {:.3g} on {}/{} tooth points (max overcut {:.3g}, max stock "
-                              "{:.3g}); cutter {:.2f}s, simulation {:.2f}s, total {:.2f}s{}".format(
+                              "{:.3g}); cutter {:.2f}s, simulation {:.2f}s, total {:.2f}s{}{}".format(
                                   rotor_obj.name, A, swivel, lead, hand, len(z), r.min(), r_max, z[0], z[-1],
                                   flagged, len(cp.uncut), props["max_abs_deviation"], int(fin.sum()), n_s,
                                   props["max_overcut"], props["max_undercut"], cp.elapsed_s, t_sim, elapsed,
-                                  ", wrote {}".format(os.path.basename(csv_path)) if csv_path else ""))
+                                  ", wrote {}".format(os.path.basename(csv_path)) if csv_path else "",
+                                  ", replaced the earlier run" if replaced else ""))
         return {'FINISHED'}

@@ -8,8 +8,9 @@ divided by that scale for the core)."""
 import bpy
 from bpy.props import EnumProperty, FloatProperty, IntProperty, StringProperty
 
-from .common import (PLAN_JSON_PROP, edge_mesh, frame_along, new_mesh_from_arrays, remove_ids, results_parent,
-                     revolved_mesh, select_only, set_color_attr, set_float_attr, similarity_parts)
+from .common import (PLAN_JSON_PROP, RunMaterial, edge_mesh, frame_along, new_mesh_from_arrays, remove_ids,
+                     replace_run, results_parent, revolved_mesh, select_only, set_color_attr, set_float_attr,
+                     show_attribute_colors, similarity_parts)
 from .modal import ModalPlannerMixin
 from .properties import freeform_props
 
@@ -542,16 +543,6 @@ class FLANK_MT_test_surfaces(bpy.types.Menu):
 
 
 # ================================================================================================ planner
-def _remove_run(coll):
-    from .single_flank import _remove_result_collection
-
-    curves = {ob.data for ob in coll.all_objects if ob.type == 'CURVE' and ob.data is not None}
-    _remove_result_collection(coll)
-    for cu in curves:
-        if cu.users == 0:
-            bpy.data.curves.remove(cu)
-
-
 class FLANK_OT_plan_freeform(ModalPlannerMixin, bpy.types.Operator):
     """s003: plan G1-continuous multi-strip flank milling of the active mesh (or its selected faces) with a conical
     tool along a guiding direction, and show the result.
@@ -560,9 +551,10 @@ class FLANK_OT_plan_freeform(ModalPlannerMixin, bpy.types.Operator):
     or a vector attribute.  Objects in a new collection under "Flank Results" (an earlier run on the same object
     is replaced): per strip its envelope with the point attributes ``deviation`` (FLOAT, signed exact distance to
     the mesh in scene units, > 0 material left, NaN where the tool hangs over the surface's border) and
-    ``error_color``, and the tool at its first ruling; per shared boundary a polyline with the ``kink_deg`` point
-    and edge attributes (angle between the neighbouring strips' normals); the guiding curves.  The plan
-    (flank-plan/1, surface kind "mesh", model coordinates) is stored on the collection."""
+    ``error_color`` (shown by the shared material "Flank Attribute Colour"), and the tool at its first ruling;
+    per shared boundary a polyline with the ``kink_deg`` point and edge attributes (angle between the
+    neighbouring strips' normals); the guiding curves.  The plan (flank-plan/1, surface kind "mesh", model
+    coordinates) is stored on the collection."""
 
     bl_idname = "flank.plan_freeform"
     bl_label = "Plan Free-form (G1)"
@@ -682,6 +674,7 @@ class FLANK_OT_plan_freeform(ModalPlannerMixin, bpy.types.Operator):
         key = src_obj.name
         objects, meshes, colls, files, names = [], [], [], [], []
         parent, parent_created = None, False
+        run_mat = RunMaterial(bpy)
         try:
             parent, parent_created = results_parent(bpy, context)
             coll = bpy.data.collections.new(base_name + " new")
@@ -724,6 +717,7 @@ class FLANK_OT_plan_freeform(ModalPlannerMixin, bpy.types.Operator):
                 dev = np.asarray(env["deviation"], dtype=np.float64)[used] * s
                 set_float_attr(np, me, DEVIATION_ATTR, dev)
                 set_color_attr(np, me, DEVIATION_COLOR_ATTR, deviation_colors(dev, tol_in))
+                run_mat.assign(me)
                 me.update()
                 fin = dev[np.isfinite(dev)]
                 eo[PROP_PREFIX + "deviation_range"] = [float(fin.min()), float(fin.max())] if len(fin) else []
@@ -755,14 +749,8 @@ class FLANK_OT_plan_freeform(ModalPlannerMixin, bpy.types.Operator):
                 files.append(path)
                 write_plan(path, plan)
 
-            for old in [c for c in parent.children if c != coll and c.get(PROP_PREFIX + "key") == key]:
-                _remove_run(old)
-            coll.name = base_name
-            for id_, wanted in names:
-                if id_.name != wanted:
-                    id_.name = wanted
+            replace_run(bpy, parent, coll, PROP_PREFIX + "key", key, base_name, names)
             c = coll
-            c[PROP_PREFIX + "key"] = key
             c[PROP_PREFIX + "source"] = src_obj.name
             c[PROP_PREFIX + "strips"] = len(plan["strips"])
             c[PROP_PREFIX + "max_error"] = float(summary["max_error"]) * s
@@ -781,6 +769,7 @@ class FLANK_OT_plan_freeform(ModalPlannerMixin, bpy.types.Operator):
             c[PLAN_JSON_PROP] = json.dumps(plan)
         except Exception as ex:
             remove_ids(bpy, objects, meshes, colls + ([parent] if parent_created else []))
+            run_mat.discard()
             for p in files:
                 try:
                     os.remove(p)
@@ -793,6 +782,7 @@ class FLANK_OT_plan_freeform(ModalPlannerMixin, bpy.types.Operator):
                 select_only(context, first_tool)
             except RuntimeError:             # the results collection is excluded from the view layer
                 pass
+        show_attribute_colors(bpy, context)
         from .ui_ops import length_text
 
         def L(v):

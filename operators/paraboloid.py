@@ -2,11 +2,13 @@
 """flank.paraboloid_groove -- s002: helical groove of a paraboloid end mill, its section and overcut."""
 import bpy
 
-from .common import (edge_mesh, iter_fcurves, new_mesh_from_arrays, remove_ids, revolved_mesh, select_only, set_color_attr,
-                     set_float_attr)
+from .common import (RunMaterial, edge_mesh, iter_fcurves, new_mesh_from_arrays, remove_ids, replace_run,
+                     results_parent, revolved_mesh, select_only, set_color_attr, set_float_attr, show_attribute_colors)
 from .properties import paraboloid_props
 
-COLLECTION = "Paraboloid Groove"
+COLLECTION = "Paraboloid Groove"     # the run's collection under "Flank Results" (a re-run replaces it)
+RUN_KEY_PROP = "flank_groove_key"
+RUN_KEY = "groove"
 OVERCUT_ATTR = "overcut"
 OVERCUT_COLOR_ATTR = "overcut_color"
 # overcut colour ramp: 0 -> pale yellow, max -> red
@@ -45,7 +47,8 @@ class FLANK_OT_paraboloid_groove(bpy.types.Operator):
 
     Rotor frame (Blender world, screw axis = z): the paper frame (x, y, z) maps to (x, -z, y), a
     right-handed helix of v0 = p / 2 pi with the tool centre at (-R, 0, 0) for phi = pi; the section
-    plane of the paper (z = 0) is the plane Y = 0 here, the section lies on its x < 0 side."""
+    plane of the paper (z = 0) is the plane Y = 0 here, the section lies on its x < 0 side.  The objects are
+    in the collection "Paraboloid Groove" under "Flank Results"; a re-run replaces the earlier groove."""
 
     bl_idname = "flank.paraboloid_groove"
     bl_label = "Paraboloid Groove"
@@ -116,16 +119,23 @@ class FLANK_OT_paraboloid_groove(bpy.types.Operator):
         band_oc = np.tile(np.r_[overcut, overcut], 2)
         scale = max_overcut if max_overcut > 0 else 1.0
 
-        objects, meshes, colls = [], [], []
+        objects, meshes, colls, names = [], [], [], []
+        parent, parent_created = None, False
+        run_mat = RunMaterial(bpy)
+        moving = None
         try:
-            coll = bpy.data.collections.new(COLLECTION)
+            parent, parent_created = results_parent(bpy, context)
+            coll = bpy.data.collections.new(COLLECTION + " new")
             colls.append(coll)
-            context.scene.collection.children.link(coll)
+            parent.children.link(coll)
 
             def add(name, mesh, color):
-                meshes.append(mesh)
+                if mesh not in meshes:
+                    meshes.append(mesh)
+                    names.append((mesh, name))
                 ob = bpy.data.objects.new(name, mesh)
                 objects.append(ob)
+                names.append((ob, name))
                 ob.color = color
                 coll.objects.link(ob)
                 return ob
@@ -147,11 +157,11 @@ class FLANK_OT_paraboloid_groove(bpy.types.Operator):
                        (0.95, 0.45, 0.10, 1.0))
             set_float_attr(np, band.data, OVERCUT_ATTR, band_oc)
             set_color_attr(np, band.data, OVERCUT_COLOR_ATTR, _ramp(np, band_oc / scale))
+            run_mat.assign(band.data)
 
             # the tool moving along its helix: the lens is a solid of revolution whose axis stays parallel
             # to the screw axis, so a pure translation along the helix is the exact motion
-            moving = add("Paraboloid Tool (moving)", lens_mesh, (0.90, 0.72, 0.20, 1.0))
-            meshes.pop()  # lens_mesh is shared, listed once
+            moving = add("Paraboloid Tool (moving)", lens_mesh, (0.90, 0.72, 0.20, 1.0))   # shares the mesh
             scene = context.scene
             fs, fe = int(scene.frame_start), int(scene.frame_end)
             if fe <= fs:
@@ -177,17 +187,31 @@ class FLANK_OT_paraboloid_groove(bpy.types.Operator):
             for target in (groove, coll):
                 for key, value in props.items():
                     target[key] = value
-            select_only(context, groove)
+            replaced = replace_run(bpy, parent, coll, RUN_KEY_PROP, RUN_KEY, COLLECTION, names)
         except Exception as ex:
-            remove_ids(bpy, objects, meshes, colls)
+            ad = getattr(moving, "animation_data", None) if moving is not None else None
+            action = ad.action if ad is not None else None
+            remove_ids(bpy, objects, meshes, colls + ([parent] if parent_created else []))
+            if action is not None:
+                try:
+                    if action.users == 0:
+                        bpy.data.actions.remove(action)
+                except ReferenceError:
+                    pass
+            run_mat.discard()
             self.report({'ERROR'}, "Could not build the paraboloid groove objects: {}: {}".format(
                 type(ex).__name__, ex))
             return {'CANCELLED'}
 
+        try:
+            select_only(context, groove)
+        except RuntimeError:             # the results collection is excluded from the view layer
+            pass
+        show_attribute_colors(bpy, context)
         dt = time.perf_counter() - t0
         self.report({'INFO'}, "Paraboloid groove R={:.6g}, a={:.6g}, b={:.6g}, p={:.6g}: equator radius {:.6g}, "
                               "section intercepts x = {:.6g} and {:.6g}, max overcut {:.4g} at x = {:.6g} ({}), "
-                              "{} keyframes, in {:.2f}s".format(
+                              "{} keyframes{}, in {:.2f}s".format(
                                   R, a, b, p, rho, intercepts[0], intercepts[1], max_overcut, float(x[k_max]),
-                                  self.part, len(frames), dt))
+                                  self.part, len(frames), ", replaced the earlier groove" if replaced else "", dt))
         return {'FINISHED'}

@@ -2,8 +2,9 @@
 """flank.plan_single_flank -- s000: multi-strip single-flank milling of one rotor flank with a conical tool."""
 import bpy
 
-from .common import (PLAN_JSON_PROP, edge_mesh, frame_along, key_screw_motion, new_mesh_from_arrays, remove_ids,
-                     results_parent, revolved_mesh, rotor_source, select_only, set_color_attr, set_float_attr)
+from .common import (PLAN_JSON_PROP, RunMaterial, edge_mesh, frame_along, key_screw_motion, new_mesh_from_arrays,
+                     remove_ids, remove_result_collection, replace_run, results_parent, revolved_mesh, rotor_source,
+                     select_only, set_color_attr, set_float_attr, show_attribute_colors)
 from .modal import ModalPlannerMixin
 from .properties import single_flank_props
 
@@ -68,26 +69,8 @@ def tool_meridian(np, tool):
 
 
 def _remove_result_collection(coll):
-    """Remove a result collection of an earlier run with its objects, their meshes and actions (if no
-    longer used elsewhere)."""
-    from .animate import remove_animation
-
-    remove_animation(coll)      # shows the rotor again that an animation of this run hid
-    objs = list(coll.all_objects)
-    meshes = {ob.data for ob in objs if ob.type == 'MESH' and ob.data is not None}
-    actions = {ob.animation_data.action for ob in objs if ob.animation_data and ob.animation_data.action}
-    for ob in objs:
-        bpy.data.objects.remove(ob)
-    for me in meshes:
-        if me.users == 0:
-            bpy.data.meshes.remove(me)
-    for act in actions:
-        if act.users == 0:
-            bpy.data.actions.remove(act)
-    for child in list(coll.children):
-        if not child.all_objects:
-            bpy.data.collections.remove(child)
-    bpy.data.collections.remove(coll)
+    """Remove a result collection of an earlier run (common.remove_result_collection; used by cutter_region)."""
+    remove_result_collection(bpy, coll)
 
 
 class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
@@ -98,9 +81,10 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
     mesh (analysed again).  Tool lengths and tolerances are in scene units.  Objects in a new collection under
     "Flank Results" (a collection of an earlier run on the same rotor and flank is replaced): per chosen strip
     its envelope strip with the point attributes ``deviation`` (FLOAT, signed, scene units, > 0 material left)
-    and ``error_color``, and its tool (cone + shank, origin at the tip sphere centre, local z along the axis);
-    the error along the flank profile (s000 Fig. 11c) as an edge mesh in the rotor's start plane (offset along
-    the profile normal = error x flank_sf_error_scale); with Animate a "Tool Motion" empty with the moving
+    and ``error_color`` (shown by the shared material "Flank Attribute Colour"), and its tool (cone + shank,
+    origin at the tip sphere centre, local z along the axis); the error along the flank profile (s000 Fig. 11c)
+    as an edge mesh in the rotor's start plane (offset along the profile normal = error x flank_sf_error_scale);
+    with Animate a "Tool Motion" empty with the moving
     tools.  Custom properties flank_sf_* (strips, candidates, errors, uncovered ranges, collisions, kinks,
     times) on the collection, the tools and the rotor."""
 
@@ -333,6 +317,7 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
         tag = "SF F{} ".format(k_flank)          # object name prefix: flank k's results
         parent, parent_created = None, False
         strip_rows = res.plan["strips"]
+        run_mat = RunMaterial(bpy)
         try:
             parent, parent_created = results_parent(bpy, context)
             coll = bpy.data.collections.new(base_name + " new")
@@ -380,6 +365,7 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
                 dev = np.asarray(ed, dtype=np.float64) * s
                 set_float_attr(np, em, DEVIATION_ATTR, dev)
                 set_color_attr(np, em, DEVIATION_COLOR_ATTR, deviation_colors(dev, tol_in))
+                run_mat.assign(em)
                 em.update()
                 rng = [float(dev.min()), float(dev.max())]
                 eo[PROP_PREFIX + "deviation_range"] = rng
@@ -410,6 +396,7 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
             cols = deviation_colors(errs, tol_in)
             cols[curves == 0] = COLOR_BASELINE
             set_color_attr(np, cm, DEVIATION_COLOR_ATTR, cols)
+            run_mat.assign(cm)
             co[PROP_PREFIX + "error_scale"] = float(err_scale)
             co[PROP_PREFIX + "max_abs_error"] = e_max * s
 
@@ -445,15 +432,7 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
                 write_plan(plan_path, res.plan)
 
             # replace the collection of an earlier run on this rotor and flank (only once this one is complete)
-            replaced = 0
-            for old in [c for c in parent.children if c != coll and c.get(PROP_PREFIX + "key") == key]:
-                _remove_result_collection(old)
-                replaced += 1
-            coll.name = base_name
-            coll[PROP_PREFIX + "key"] = key
-            for id_, wanted in names:          # the names the earlier run held (made unique while it existed)
-                if id_.name != wanted:
-                    id_.name = wanted
+            replaced = replace_run(bpy, parent, coll, PROP_PREFIX + "key", key, base_name, names)
         except Exception as ex:
             for act in actions:
                 try:
@@ -461,6 +440,7 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
                 except (ReferenceError, RuntimeError):
                     pass
             remove_ids(bpy, objects, meshes, colls + ([parent] if parent_created else []))
+            run_mat.discard()
             for p in files:
                 try:
                     os.remove(p)
@@ -522,6 +502,7 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
         # the run's plan (flank-plan/1) travels with its collection: exports and reports read it from there
         coll[PLAN_JSON_PROP] = json.dumps(res.plan)
         select_only(context, tool_objs[0])
+        show_attribute_colors(bpy, context)
 
         unit = "scene units"
         unc = ("complete" if res.complete else "uncovered {}".format(", ".join(

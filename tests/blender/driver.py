@@ -513,7 +513,9 @@ def scenario_paraboloid(bpy, res, args):
                new=[s1[i] - s0[i] for i in range(3)])
     coll = bpy.data.collections.get("Paraboloid Groove")
     out["objects"] = sorted(o.name for o in coll.objects) if coll else []
-    out["in_scene"] = bool(coll is not None and coll.name in scene.collection.children)
+    results = bpy.data.collections.get("Flank Results")     # the run's collection lives under "Flank Results"
+    out["in_scene"] = bool(coll is not None and results is not None and coll.name in results.children
+                           and results.name in scene.collection.children)
     groove = bpy.data.objects.get("Groove Surface")
     out["active"] = bpy.context.active_object.name if bpy.context.active_object else None
     out["props"] = _obj_props(groove) if groove else {}
@@ -626,7 +628,10 @@ def _cutter_run(bpy, np, fc, screw, **kw):
         return out, None
     cutter = bpy.context.active_object
     coll = cutter.users_collection[0]
-    out.update(active=cutter.name, collection=coll.name, in_scene=coll.name in bpy.context.scene.collection.children,
+    results = bpy.data.collections.get("Flank Results")     # the run's collection lives under "Flank Results"
+    out.update(active=cutter.name, collection=coll.name,
+               in_scene=bool(results is not None and coll.name in results.children
+                             and results.name in bpy.context.scene.collection.children),
                objects=sorted(o.name for o in coll.objects), props=_obj_props(cutter),
                coll_props=sorted(k for k in coll.keys() if k.startswith("flank_cutter_")))
     props = out["props"]

@@ -17,9 +17,12 @@ def cut(extension_zip, tmp_path_factory):
 def test_table1_creates_collection_with_all_objects(cut):
     t = cut["table1"]
     assert t["result"] == ["FINISHED"], t["error"]
-    assert t["objects"] == T1_OBJECTS and t["in_scene"] and t["collection"] == "Formed Cutter"
-    # 5 objects (the motion empty has no data), 3 meshes (the two cutters share one), 1 collection, 1 action
-    assert t["new"] == [5, 3, 1, 1]
+    # the run's collection under "Flank Results", named after its rotor
+    assert t["objects"] == T1_OBJECTS and t["in_scene"]
+    assert t["collection"] == "Formed Cutter (Arc Tooth Rotor (s004))"
+    # 5 objects (the motion empty has no data), 3 meshes (the two cutters share one), 2 collections ("Flank
+    # Results" and the run's), 1 action
+    assert t["new"] == [5, 3, 2, 1]
     assert t["active"] == "Formed Cutter"
     assert t["rotor"]["in_collection"]
     assert {"flank_source", "flank_v0", "flank_lead", "flank_handedness", "flank_length"} <= set(t["rotor"]["props"])
@@ -93,7 +96,9 @@ def test_animation_keys_follow_the_screw(cut):
 def test_flagged_setup_highlights_rings(cut):
     f = cut["flagged"]
     assert f["result"] == ["FINISHED"], f["error"]
-    assert f["new"] == [3, 3, 1, 0]          # no animation: no empty, no moving cutter, no action
+    # a re-run on the Table-1 rotor replaces the Table-1 run: 3 objects, 3 meshes, no action instead of 5, 3, 1
+    assert f["new"] == [-2, 0, 0, -1]
+    assert f["collection"] == "Formed Cutter (Arc Tooth Rotor (s004))"
     p = f["props"]
     assert p["flank_cutter_flag_counts"] == f["expected_flag_counts"]
     assert sum(p["flank_cutter_flag_counts"].values()) > 0

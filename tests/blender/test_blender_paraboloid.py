@@ -19,7 +19,8 @@ def test_creates_collection_with_all_objects(par):
     p = par["paper"]
     assert p["result"] == ["FINISHED"], p["error"]
     assert p["objects"] == OBJECTS and p["in_scene"]
-    assert p["new"] == [6, 5, 1]  # 6 objects, 5 meshes (the two tools share one), 1 collection
+    # 6 objects, 5 meshes (the two tools share one), 2 collections ("Flank Results" and the run's under it)
+    assert p["new"] == [6, 5, 2]
     assert p["active"] == "Groove Surface"
 
 
@@ -87,7 +88,7 @@ def test_external_part(par):
     assert e["props"]["flank_groove_part"] == "external"
     assert e["props"]["flank_groove_max_overcut"] == pytest.approx(e["expected_max_overcut"], abs=1e-12)
     assert e["props"]["flank_groove_intercepts"] == pytest.approx([-32.0, -8.0], abs=1e-12)
-    assert e["collection"][0].startswith("Paraboloid Groove.")  # a second run gets its own collection
+    assert e["collection"] == ["Paraboloid Groove"]  # a second run replaces the first (under "Flank Results")
 
 
 @pytest.mark.parametrize("case,words", [
