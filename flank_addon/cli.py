@@ -320,6 +320,9 @@ def _cmd_plan_freeform(args):
           f"surface's border (not counted)")
     print(f"  kink max {s['max_kink_deg']:.3f} deg, mean {s['mean_kink_deg']:.3f} deg (initial "
           f"{s['initial_max_kink_deg']:.3f} / {s['initial_mean_kink_deg']:.3f})")
+    if s.get("kink_floor_deg") is not None:
+        print(f"  straight strips on this surface: within this error no plan has a max kink below "
+              f"{s['kink_floor_deg']:.3f} deg; at this max kink none has an error below {s['error_bound_at_kink']:.4g}")
     lo, hi = s["axis_length_range"]
     print(f"  axis length {lo:.6g} .. {hi:.6g}; colliding rulings {s['colliding_rulings']}; "
           f"time {s['elapsed_s']:.2f} s; wrote {args.out}")

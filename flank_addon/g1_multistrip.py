@@ -832,8 +832,39 @@ def plan_freeform(vertices, faces, *, direction=None, point=None, field_vectors=
         "overhanging_samples": int(sum(s["overhanging_samples"] for s in out_strips)),
         "samples": int(layout.n_rulings * K),
     }
+    # how far any G1 weight could go on this surface with straight strips (s003 §7.2, kink_bound)
+    from .kink_bound import plan_section_bounds
+    bounds = plan_section_bounds(mesh_sections(mesh, gc.bases), plan["summary"]["max_kink_deg"],
+                                 max(abs(float(err_max)), abs(float(err_min))))
+    plan["summary"]["kink_floor_deg"] = bounds["kink_floor_deg"]
+    plan["summary"]["error_bound_at_kink"] = bounds["error_bound"]
     report(1.0, "done")
     return validate_plan(plan)
+
+
+def mesh_sections(mesh, bases, n_sections=3, per_strip=40):
+    """Sections of the surface across the strips for :mod:`.kink_bound`: at up to ``n_sections``
+    columns that every guiding curve holds (quartiles of them), the base points of all curves
+    joined by ``per_strip`` foot points of their chords.  -> list of (y, z, n_junctions)."""
+    from .kink_bound import section_graph
+    if len(bases) < 3:
+        return []
+    common = bases[0].columns
+    for bc in bases[1:]:
+        common = np.intersect1d(common, bc.columns)
+    if len(common) == 0:
+        return []
+    picks = np.unique(common[np.round(np.linspace(0.25, 0.75, n_sections) * (len(common) - 1)).astype(int)])
+    t = np.linspace(0.0, 1.0, per_strip, endpoint=False)
+    out = []
+    for c in picks:
+        g = np.array([bc.points[np.flatnonzero(bc.columns == c)[0]] for bc in bases])
+        chord = (g[:-1, None, :] * (1 - t)[None, :, None] + g[1:, None, :] * t[None, :, None]).reshape(-1, 3)
+        fp = mesh.foot_points(np.vstack([chord, g[-1:]]))
+        sec = section_graph(fp["foot"], fp["normal"])
+        if sec is not None:
+            out.append((sec[0], sec[1], len(bases) - 2))
+    return out
 
 
 # ============================================================================ plan readers (Blender, exports)

@@ -77,7 +77,7 @@ def _solve(y, z, *, total_turning=None, max_error=None):
     res = linprog(c, A_ub=a_ub, b_ub=b_ub, A_eq=a_eq, b_eq=np.zeros(m), bounds=bounds, method="highs")
     if res.status != 0:
         raise RuntimeError(f"the bound's linear programme did not solve: {res.message}")
-    return float(res.x[-1]), res.x[:n]
+    return max(float(res.x[-1]), 0.0), res.x[:n]          # no -0.0 from the solver
 
 
 def min_max_error(y, z, total_turning):
@@ -149,3 +149,41 @@ def fixed_junction_error(y, z, junctions, max_kink_deg):
     if res.status != 0:
         raise RuntimeError(f"the section's linear programme did not solve: {res.message}")
     return float(res.x[-1]), res.x[:k]
+
+
+def section_graph(points, normals):
+    """A section of a surface, (n, 3) points in order across the strips with their unit surface
+    normals (n, 3), as a graph z(y) over its chord in the plane of the chord and the mean normal.
+    -> (y (n,), z (n,)), or None where the section folds back over its chord (the small-slope
+    model of the bound does not hold there)."""
+    P = np.asarray(points, float)
+    N = np.asarray(normals, float)
+    chord = P[-1] - P[0]
+    length = np.linalg.norm(chord)
+    if length <= 0:
+        return None
+    e1 = chord / length
+    up = N.mean(axis=0)
+    up = up - (up @ e1) * e1
+    if np.linalg.norm(up) < 1e-9:
+        return None
+    e2 = up / np.linalg.norm(up)
+    y, z = (P - P[0]) @ e1, (P - P[0]) @ e2
+    if not (np.diff(y) > 0).all():
+        return None
+    return y, z
+
+
+def plan_section_bounds(sections, max_kink_deg, max_error):
+    """Bounds of a plan over its sections across the strips.
+
+    sections: list of (y (n,), z (n,), n_junctions).  -> dict with ``error_bound`` (the largest
+    over the sections of the least max |error| possible at ``max_kink_deg``) and
+    ``kink_floor_deg`` (the largest least max kink possible within ``max_error``), None without
+    a section."""
+    usable = [(y, z, nj) for y, z, nj in sections if nj >= 1]
+    if not usable:
+        return {"error_bound": None, "kink_floor_deg": None, "sections": 0}
+    return {"error_bound": max(kink_error_bound(y, z, max_kink_deg, nj) for y, z, nj in usable),
+            "kink_floor_deg": max(kink_floor_deg(y, z, max_error, nj) for y, z, nj in usable),
+            "sections": len(usable)}

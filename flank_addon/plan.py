@@ -37,7 +37,10 @@ Free-form plans (s003, method "freeform-g1-cone") have ``surface`` instead of ``
                      centres, start = tip end), radii [r1_sphere, r2_sphere], axis_start/axis_end
                      (= the first ruling), shank_*, collision, reported_max/min_error (Eq. (19)),
                      columns, kink_to_next_deg, axis_lengths, ...}, ...]
-    summary        adds max_kink_deg, mean_kink_deg (and the initial values)
+    summary        adds max_kink_deg, mean_kink_deg (and the initial values), kink_floor_deg and
+                     error_bound_at_kink (kink_bound: the least max kink any plan within this
+                     max |error| can have, the least max |error| at this max kink; null
+                     without a section across 3+ guiding curves)
 
 Rotor frame: helical axis = z through the origin; the rotor surface is the
 union over t of S_t(profile).  A strip's tool is fixed in the rotor frame

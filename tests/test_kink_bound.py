@@ -108,3 +108,10 @@ def test_bump_g1_plan_is_near_the_bound_and_the_issue_target_is_out_of_reach():
     assert 0.95 * bound <= e1 <= 1.25 * bound              # near the best any plan can do at that kink
     assert kink_error_bound(y, z, k0 / 5, nj) > 5 * e0     # kink / 5 costs at least 5x the error ...
     assert kink_floor_deg(y, z, 2 * e0, nj) > k0 / 4       # ... and twice the error allows at best kink / 3
+    # the plans carry the same bounds, from sections of the mesh at three columns: never above what
+    # the plans themselves reach (each plan is a witness), and the section x = 0 is among them
+    for plan, k, e in ((plain, k0, e0), (g1, k1, e1)):
+        s = plan["summary"]
+        assert s["error_bound_at_kink"] <= e and s["kink_floor_deg"] <= k
+    assert g1["summary"]["error_bound_at_kink"] == pytest.approx(bound, rel=0.05)
+    assert plain["summary"]["kink_floor_deg"] == pytest.approx(kink_floor_deg(y, z, e0, nj), rel=0.05)
