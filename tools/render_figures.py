@@ -534,7 +534,9 @@ def figure_double_flank(bpy, np, out, width, height):
 
 def figure_walkthrough(bpy, np, out, width, height, core):
     """Issue 6's path through the panels, headless: an STL of a rotor -> Analyze -> tool -> Run (single flank) ->
-    coloured strips -> Animate -> CL export; three pictures side by side in docs/walkthrough.png."""
+    coloured strips -> Error Plot -> Animate -> Render Report -> CL export.  Six captioned panels of
+    ``width`` x ``height`` in a 2 x 3 grid, docs/walkthrough.png; every step calls the operator the panel's
+    button calls, with the values the panel passes."""
     import importlib
     import tempfile
 
@@ -542,6 +544,7 @@ def figure_walkthrough(bpy, np, out, width, height, core):
 
     pkg = core("rotors").__name__.rsplit(".", 2)[0]
     ui_ops = importlib.import_module(pkg + ".operators.ui_ops")
+    plot = core("profile_plot")
     scene = reset_scene(bpy, width, height)
     us = scene.unit_settings
     us.system, us.scale_length, us.length_unit = 'METRIC', 0.001, 'MILLIMETERS'
@@ -550,7 +553,13 @@ def figure_walkthrough(bpy, np, out, width, height, core):
     v, f = rotor_core.mesh(n_profile=1440, n_axial=96)
     core("mesh_io").write_stl(str(tmp / "rotor.stl"), v, f)
     facts = {}
+    panels = []                                  # (top-row-first float RGBA, caption lines)
     t0 = time.perf_counter()
+
+    def rendered(path):
+        render(bpy, np, path, cam)
+        return load_rgba(bpy, np, path)[::-1]
+
     # 1. Workpiece: Blender's STL importer, Analyze Rotor, List Flanks, pick flank 1
     if "FINISHED" not in bpy.ops.wm.stl_import(filepath=str(tmp / "rotor.stl")):
         sys.exit("[figures] STL import failed")
@@ -568,24 +577,11 @@ def figure_walkthrough(bpy, np, out, width, height, core):
     world = co.reshape(-1, 3) @ mw[:3, :3].T + mw[:3, 3]
     mid = world.mean(axis=0)
     r_out = float(np.linalg.norm(world[:, :2] - mid[:2], axis=1).max())
-    cam = add_camera(bpy, Vector(mid) + Vector((1.0, -1.0, 0.35)).normalized() * 9.0 * r_out, Vector(mid), lens=50.0)
-    ink = (0.12, 0.12, 0.12, 1.0)
-
-    def caption(lines):
-        return [add_label(bpy, np, cam, t, -0.96, 0.54 - 0.075 * k, 0.16, ink, distance=1.0)
-                for k, t in enumerate(lines)]
-
-    def drop(objs):
-        for ob in objs:
-            me = ob.data
-            bpy.data.objects.remove(ob)
-            bpy.data.meshes.remove(me)
-    labels = caption(["1  Import STL, Analyze Rotor", "curvature: blue hyperbolic, orange elliptic",
-                      "v0 {:.3f} mm, residual {:.1e} mm, {} flanks".format(
-                          facts["analysis"]["v0"], facts["analysis"]["residual"], facts["analysis"]["flanks"])])
-    paths = [tmp / "w1.png"]
-    render(bpy, np, paths[-1], cam)
-    drop(labels)
+    cam = add_camera(bpy, Vector(mid) + Vector((1.0, -1.0, 0.35)).normalized() * 10.0 * r_out, Vector(mid), lens=50.0)
+    panels.append((rendered(tmp / "w1.png"),
+                   ["1 Import STL, Analyze, pick flank 1",
+                    "v0 {:.3f} mm, residual {:.1e} mm, {} flanks".format(
+                        facts["analysis"]["v0"], facts["analysis"]["residual"], facts["analysis"]["flanks"])]))
     # 2. Tool panel in mm (the demo's tapered end mill), Strategy single flank, Run
     s.tool_kind = 'CONE'
     s.sf_shape = 'alpha'
@@ -615,19 +611,21 @@ def figure_walkthrough(bpy, np, out, width, height, core):
     target = pts.mean(axis=0)
     n = nrm.mean(axis=0)
     n /= np.linalg.norm(n)
-    cam.location = Vector(target) + Vector(n) * 5.0 * r_out
+    cam.location = Vector(target) + Vector(n) * 4.2 * r_out
     cam.rotation_euler = (Vector(target) - cam.location).to_track_quat('-Z', 'Y').to_euler()
     facts["run"] = dict(strips=int(coll["flank_sf_strips"]), max_error_mm=float(coll["flank_sf_max_error"]),
                         min_error_mm=float(coll["flank_sf_min_error"]), tolerance_mm=0.05)
-    labels = caption(["2  Tool: tapered D5, 5.7 deg, flutes 15 mm; Run Single Flank",
-                      "{} strips; error {:+.1f} .. {:+.1f} um (tolerance 50 um)".format(
-                          facts["run"]["strips"], 1000 * facts["run"]["min_error_mm"],
-                          1000 * facts["run"]["max_error_mm"]),
-                      "green within tolerance, blue material left, red overcut"])
-    paths.append(tmp / "w2.png")
-    render(bpy, np, paths[-1], cam)
-    drop(labels)
-    # 3. Animate strip 1 (the rotor screws past the fixed tool), export CL data
+    panels.append((rendered(tmp / "w2.png"),
+                   ["2 Tool D5, 5.7 deg; Single Flank; Run",
+                    "tolerance 50 um: {} strips, error {:+.1f} .. {:+.1f} um (green)".format(
+                        facts["run"]["strips"], 1000 * facts["run"]["min_error_mm"],
+                        1000 * facts["run"]["max_error_mm"])]))
+    # 3. Results: Error Plot (the verified error along the flank, one curve per strip)
+    if bpy.ops.flank.error_plot(width=width, height=height, filepath=str(tmp / "plot.png")) != {'FINISHED'}:
+        sys.exit("[figures] error_plot failed")
+    panels.append((load_rgba(bpy, np, tmp / "plot.png")[::-1],
+                   ["3 Results: Error Plot along the flank", "verified by the sweep simulation, in um"]))
+    # 4. Animate strip 1 (the rotor screws past the fixed tool)
     if bpy.ops.flank.animate_strip(strip=1, frame_start=1, frame_end=100) != {'FINISHED'}:
         sys.exit("[figures] animate_strip failed")
     for ob in coll.objects:
@@ -641,19 +639,50 @@ def figure_walkthrough(bpy, np, out, width, height, core):
     radial = Vector((aim.x - mid[0], aim.y - mid[1], 0.0)).normalized()
     cam.location = aim + (radial + Vector((0.0, 0.0, 0.3))).normalized() * 3.5 * r_out
     cam.rotation_euler = (aim - cam.location).to_track_quat('-Z', 'Y').to_euler()
+    panels.append((rendered(tmp / "w4.png"),
+                   ["4 Animate Strip 1 (frame 50 of 100)", "the rotor screws past the fixed tool"]))
+    scene.frame_set(1)
+    # 5. Render Report (its own temporary scene): strips by signed error, legend, title
+    if bpy.ops.flank.render_report(filepath=str(tmp / "report.png"), width=width, height=height) != {'FINISHED'}:
+        sys.exit("[figures] render_report failed")
+    panels.append((load_rgba(bpy, np, tmp / "report.png")[::-1],
+                   ["5 Render Report: legend in um, title", "rendered headless, no window needed"]))
+    # 6. Export CL data
     cl = tmp / "rotor.apt"
     if bpy.ops.flank.export_results(format='CL', filepath=str(cl), steps=120) != {'FINISHED'}:
         sys.exit("[figures] export failed")
-    gotos = [ln for ln in cl.read_text().splitlines() if ln.startswith("GOTO/")]
+    lines = cl.read_text().splitlines()
+    gotos = [ln for ln in lines if ln.startswith("GOTO/")]
     facts["cl_steps"] = len(gotos)
-    labels = caption(["3  Animate strip 1 (frame 50 of 100), Export CL",
-                      "{} GOTO steps, e.g.".format(len(gotos)), gotos[0][:58]])
-    paths.append(tmp / "w3.png")
-    render(bpy, np, paths[-1], cam)
-    drop(labels)
-    parts = [load_rgba(bpy, np, p) for p in paths]
+    page = np.ones((height, width, 4), np.float32)
+    fit = (width - 20) // (2 * plot.ADVANCE)               # characters per line at scale 2
+    shown = [ln if len(ln) <= fit else ln[:fit - 3] + "..." for ln in
+             [ln for ln in lines if not ln.startswith("GOTO/")][:6] + gotos[:11]] + ["..."]
+    scale = 2
+    for k, ln in enumerate(shown):
+        plot.draw_text(page, ln, 10, 12 + k * (plot.GLYPH_H + 4) * scale, (0.1, 0.1, 0.1, 1.0), scale=scale)
+    panels.append((page, ["6 Export CL: {} GOTO steps (APT)".format(len(gotos)),
+                          "tool tip and axis per step, rotor frame, mm"]))
+
+    # captions in a band above every panel; 2 columns x 3 rows
+    cap_scale = 3
+    band = 2 * (plot.GLYPH_H + 3) * cap_scale + 14
+    tiles = []
+    for img, caption in panels:
+        tile = np.ones((band + height, width, 4), np.float32)
+        tile[band:, :, :] = img[:height, :width]
+        for k, text in enumerate(caption):
+            plot.draw_text(tile, text, 10, 8 + k * (plot.GLYPH_H + 3) * cap_scale, (0.1, 0.1, 0.1, 1.0),
+                           scale=cap_scale if k == 0 else cap_scale - 1)
+        tile[band - 2:band, :, :3] = 0.7
+        tiles.append(tile)
+    gap = np.ones((band + height, 8, 4), np.float32)
+    rows = [np.concatenate([tiles[i], gap, tiles[i + 1]], axis=1) for i in range(0, len(tiles), 2)]
+    hgap = np.ones((8, rows[0].shape[1], 4), np.float32)
+    grid = np.concatenate(sum(([r, hgap] for r in rows), [])[:-1], axis=0)
     path = out / "walkthrough.png"
-    save_rgba(bpy, np, np.concatenate(parts, axis=1), path)
+    # the project's own PNG writer ('Up' filter rows): 25 % smaller than Blender's save of this picture
+    core("report_render").write_png(str(path), (np.clip(grid, 0.0, 1.0) * 255 + 0.5).astype(np.uint8))
     shutil.rmtree(tmp, ignore_errors=True)
     us.system, us.scale_length = 'NONE', 1.0
     facts.update(path=str(path), total_s=round(time.perf_counter() - t0, 2))
@@ -702,7 +731,7 @@ def main(argv=None):
             results["double_flank"] = figure_double_flank(bpy, np, out, width, height)
             log("double_flank: {}".format(json.dumps(results["double_flank"])))
         if args.only in (None, "walkthrough"):
-            results["walkthrough"] = figure_walkthrough(bpy, np, out, 2 * width // 3, 2 * width // 5, core)
+            results["walkthrough"] = figure_walkthrough(bpy, np, out, 800, 450, core)
             log("walkthrough: {}".format(json.dumps(results["walkthrough"])))
         results["extension"] = installed
     finally:
