@@ -71,7 +71,7 @@ class FLANK_PT_results(bpy.types.Panel):
         key = pre + ("path" if pre == "flank_df_" else "strip")
         op.strip = int(ob.get(key, 0)) + 1 if ob is not None else 1
         row = col.row(align=True)
-        for fmt, label in (("CL", "CL"), ("PLAN", "Plan"), ("CSV", "CSV"), ("STL", "STL")):
+        for fmt, label in (("CL", "CL"), ("PLAN", "Plan"), ("CSV", "CSV"), ("STL", "STL"), ("PLY", "PLY")):
             e = row.operator("flank.export_results", text=label, icon='EXPORT' if fmt == "CL" else 'NONE')
             e.format, e.collection = fmt, coll.name
         col.operator("flank.render_report", icon='RENDER_STILL').collection = coll.name

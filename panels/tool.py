@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Tool panel: presets of real end mills, the tool kind and its dimensions (scene units), a preview mesh
-beside the rotor and the admissibility check of a cone."""
+beside the rotor and the admissibility check of a cone (a cylinder is checked as the cone of taper CYLINDER_TAPER
+that the single-flank planner plans it as)."""
 import math
 
 import bpy
@@ -101,3 +102,7 @@ class FLANK_PT_tool(bpy.types.Panel):
         row.operator("flank.preview_tool", icon='HIDE_OFF')
         if kind == "CONE":                      # s000 Sec. 4: flank and cone from the sf_* settings
             row.operator("flank.cutter_region", text="Check Tool", icon='CHECKMARK')
+        elif kind == "CYLINDER":                # checked as the cone it is planned as (see ui_ops.run_call)
+            op = row.operator("flank.cutter_region", text="Check Tool", icon='CHECKMARK')
+            r, h = settings.sf_r1, settings.sf_length
+            op.r1, op.r2, op.alpha = r, r + h * math.tan(CYLINDER_TAPER), CYLINDER_TAPER
