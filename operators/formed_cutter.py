@@ -5,6 +5,7 @@ import bpy
 from .common import (RunMaterial, builtin_from_props, edge_mesh, key_screw_motion, new_mesh_from_arrays, remove_ids,
                      replace_run, results_parent, revolved_mesh, screw_matrix, select_only, set_color_attr,
                      set_float_attr, show_attribute_colors)
+from .modal import ModalPlannerMixin
 from .properties import formed_cutter_props
 from .verify import DEVIATION_ATTR, DEVIATION_COLOR_ATTR, UNTOUCHED
 
@@ -43,9 +44,15 @@ def _ring_colors(np, fc, flags):
     return rgba
 
 
-class FLANK_OT_formed_cutter(bpy.types.Operator):
+class _StageError(Exception):
+    """A failed stage of the cutter's computation; its message is reported as it is."""
+
+
+class FLANK_OT_formed_cutter(ModalPlannerMixin, bpy.types.Operator):
     """s004: axial profile of a formed disc cutter for one tooth, placed at its set-up on the rotor, with
     the machinability flags, the helical motion and the machined-vs-design deviation of a sweep simulation.
+    From the UI it runs modal (progress, status text, Esc cancels and changes nothing); in scripts and in
+    background mode synchronously.
 
     Rotor: the paper's Table-1 arc-tooth rotor (built here, 0 <= z <= 2/3 lead, centred on the world
     origin) or the active rotor made by Generate Rotor (profile rebuilt from its custom properties; the
@@ -65,6 +72,7 @@ class FLANK_OT_formed_cutter(bpy.types.Operator):
     bl_idname = "flank.formed_cutter"
     bl_label = "Formed Cutter"
     bl_options = {'REGISTER', 'UNDO'}
+    _title = "Formed cutter"
 
     __annotations__ = formed_cutter_props()
 
@@ -116,21 +124,21 @@ class FLANK_OT_formed_cutter(bpy.types.Operator):
 
     # ------------------------------------------------------------------ run
 
-    def execute(self, context):
-        import json
+    def _compute_failed(self, ex):
+        """Message for an exception of _compute: a stage's own message (_StageError) as it is."""
+        if isinstance(ex, _StageError):
+            return str(ex)
+        return ModalPlannerMixin._compute_failed(self, ex)
+
+    def _prepare(self, context):
+        """Main thread: properties, rotor (its mesh read here) -> job dict, or None (error reported)."""
         import math
-        import os
         import time
 
         import numpy as np
-        from mathutils import Matrix
-        from scipy.spatial import cKDTree
 
         from ..flank_addon import formed_cutter as fc
         from ..flank_addon import rotors
-        from ..flank_addon.screw import hand_sign, screw_motion, screw_to_plane
-        from ..flank_addon.sweep import MeridianPart, RevolvingTool, machined_deviation
-        from ..flank_addon.verify import deviation_colors
 
         t0 = time.perf_counter()
         lead_in, A_in, swivel, eps_b_in, tol_in = (_decimal(v) for v in (
@@ -139,11 +147,11 @@ class FLANK_OT_formed_cutter(bpy.types.Operator):
                              ("eps_b", eps_b_in), ("tolerance", tol_in)):
             if not math.isfinite(value):
                 self.report({'ERROR'}, "Formed cutter: {} = {} is not a finite number".format(label, value))
-                return {'CANCELLED'}
+                return None
         if not 0.0 < abs(swivel) < 90.0:
             self.report({'ERROR'}, "Formed cutter: swivel = {:g} deg must satisfy 0 < |swivel| < 90 deg (0: cutter "
                                    "axis parallel to the rotor axis, 90: perpendicular to it)".format(swivel))
-            return {'CANCELLED'}
+            return None
         from .common import count_limit_error
 
         msg = (count_limit_error("planes", self.planes, 2, 20000)
@@ -151,75 +159,99 @@ class FLANK_OT_formed_cutter(bpy.types.Operator):
                or count_limit_error("resolution", self.resolution, 24, 65536))
         if msg is not None:
             self.report({'ERROR'}, "Formed cutter: " + msg)
-            return {'CANCELLED'}
+            return None
         fs, fe = int(self.frame_start), int(self.frame_end)
         if self.animate and fe <= fs:
             self.report({'ERROR'}, "Formed cutter: end frame {} must be after the start frame {}".format(fe, fs))
-            return {'CANCELLED'}
+            return None
         src = self._source(context, np, fc, rotors, lead_in)
         if isinstance(src, str):
             self.report({'ERROR'}, "Formed cutter: " + src)
-            return {'CANCELLED'}
-        profile, tooth, lead, hand = src["profile"], src["tooth"], src["lead"], src["hand"]
-        r0 = src["r0"]
+            return None
         A = A_in if A_in != 0.0 else src["A_auto"]
-        if abs(A) > 1000.0 * r0:
+        if abs(A) > 1000.0 * src["r0"]:
             self.report({'ERROR'}, "Formed cutter: centre distance A = {:g} exceeds the limit 1000 x the rotor's "
-                                   "outer radius = {:g}".format(A, 1000.0 * r0))
-            return {'CANCELLED'}
-        eps_b = eps_b_in if eps_b_in > 0.0 else None
-        planes = int(self.planes)
+                                   "outer radius = {:g}".format(A, 1000.0 * src["r0"]))
+            return None
+        rotor_obj = src.pop("obj")            # the worker sees plain values only: the rotor's mesh is read here
+        rotor_verts = rotor_world = None
+        if rotor_obj is not None:
+            me = rotor_obj.data
+            rotor_verts = np.empty(len(me.vertices) * 3)
+            me.vertices.foreach_get("co", rotor_verts)
+            rotor_verts = rotor_verts.reshape(-1, 3)
+            rotor_world = np.array(rotor_obj.matrix_world, dtype=np.float64)
+        return dict(t0=t0, src=src, rotor_name=None if rotor_obj is None else rotor_obj.name,
+                    rotor_verts=rotor_verts, rotor_world=rotor_world, A=A, swivel=swivel,
+                    eps_b=eps_b_in if eps_b_in > 0.0 else None, tol_in=tol_in, planes=int(self.planes),
+                    n_s=int(self.sample_points), resolution=int(self.resolution), fs=fs, fe=fe,
+                    animate=bool(self.animate))
+
+    @staticmethod
+    def _compute(job, progress):
+        """Cutter profile, sweep simulation, deviation per rotor vertex and the meshes (numpy / scipy only: the
+        worker thread when invoked)."""
+        import math
+        import time
+
+        import numpy as np
+        from scipy.spatial import cKDTree
+
+        from ..flank_addon import formed_cutter as fc
+        from ..flank_addon import rotors
+        from ..flank_addon.progress import Cancelled, reporter
+        from ..flank_addon.screw import hand_sign, screw_motion, screw_to_plane
+        from ..flank_addon.sweep import MeridianPart, RevolvingTool, machined_deviation
+        from ..flank_addon.verify import deviation_colors
+
+        report = reporter(progress)
+        src = job["src"]
+        profile, tooth, lead, hand, r0 = src["profile"], src["tooth"], src["lead"], src["hand"], src["r0"]
+        A, swivel, eps_b = job["A"], job["swivel"], job["eps_b"]
 
         # ---- the core: cutter profile with flags, dense meridian for the simulation
-        try:
-            cp = fc.cutter_profile(profile, lead, A, swivel, handedness=hand, tooth=tooth, planes=planes,
-                                   eps_b=eps_b)
-            Zd, Rd, setup = fc.cutter_meridian(profile, lead, A, swivel, planes=SIM_PLANES, handedness=hand,
-                                               tooth=tooth, eps_b=eps_b, phase=cp.setup.phase)
-        except fc.FormedCutterError as ex:
-            self.report({'ERROR'}, "Formed cutter: {}".format(ex))
-            return {'CANCELLED'}
-        except Exception as ex:
-            self.report({'ERROR'}, "Formed cutter failed: {}: {}".format(type(ex).__name__, ex))
-            return {'CANCELLED'}
-        summary = cp.summary()
+        report(0.0, "cutter profile")
+        cp = fc.cutter_profile(profile, lead, A, swivel, handedness=hand, tooth=tooth, planes=job["planes"],
+                               eps_b=eps_b)     # FormedCutterError (a ValueError): "Formed cutter: <message>"
+        # the core has no progress hook: Esc takes effect once a stage is done (the dense meridian is the
+        # longest, ~2 s for a generated rotor)
+        report(0.15, "dense meridian for the simulation")
+        Zd, Rd, setup = fc.cutter_meridian(profile, lead, A, swivel, planes=SIM_PLANES, handedness=hand,
+                                           tooth=tooth, eps_b=eps_b, phase=cp.setup.phase)
         v0 = lead / (2.0 * math.pi)
         eps = hand_sign(hand)
         period = float(profile.period)
 
         # ---- sweep simulation on tooth points (exclusive of the tooth's end corners: no normal there)
+        report(0.4, "sweep simulation")
         t1 = time.perf_counter()
         a_t, b_t = float(tooth[0]), float(tooth[1])
         if b_t <= a_t:
             b_t += period
-        n_s = int(self.sample_points)
+        n_s = job["n_s"]
         u_s = np.linspace(a_t, b_t, n_s + 2)[1:-1]
         try:
             tool = RevolvingTool([MeridianPart(setup.axis_point, setup.axis_direction, np.c_[Zd, Rd])])
             dev = machined_deviation([tool], profile.eval(u_s % period), profile.outward_normal(u_s % period),
                                      v0, hand, max_deviation=0.1 * r0)
+        except Cancelled:
+            raise
         except Exception as ex:
-            self.report({'ERROR'}, "Formed cutter: sweep simulation failed: {}: {}".format(type(ex).__name__, ex))
-            return {'CANCELLED'}
+            raise _StageError("Formed cutter: sweep simulation failed: {}: {}".format(type(ex).__name__, ex))
         t_sim = time.perf_counter() - t1
         fin = np.isfinite(dev)
 
         # ---- rotor mesh (Table 1: built here) and the deviation per rotor vertex
+        report(0.8, "deviation on the rotor")
         length = float(src["length"])
-        rotor_obj = src["obj"]
+        r_verts, r_faces, rotor_world = job["rotor_verts"], None, job["rotor_world"]
         try:
-            if rotor_obj is None:
+            if r_verts is None:
                 r_verts, r_faces = rotors.helical_body_mesh(profile, v0, hand, length,
-                                                            n_profile=int(self.resolution),
+                                                            n_profile=job["resolution"],
                                                             n_axial=TABLE1_AXIAL_RINGS)
                 rotor_world = np.eye(4)
                 rotor_world[2, 3] = -0.5 * length
-            else:
-                me = rotor_obj.data
-                r_verts = np.empty(len(me.vertices) * 3)
-                me.vertices.foreach_get("co", r_verts)
-                r_verts = r_verts.reshape(-1, 3)
-                rotor_world = np.array(rotor_obj.matrix_world, dtype=np.float64)
             if len(r_verts) == 0:
                 raise ValueError("the rotor mesh has no vertices")
             # each vertex: along its helix into z = 0, nearest point of a dense profile sample
@@ -232,28 +264,64 @@ class FLANK_OT_formed_cutter(bpy.types.Operator):
             dev_n = np.where(fin, dev, np.nan)
             values = np.interp(s_v, u_s - a_t, dev_n)     # constant beyond the first / last sample
             values = np.where(on_tooth, values, np.nan)
+        except Cancelled:
+            raise
         except Exception as ex:
-            self.report({'ERROR'}, "Formed cutter: could not map the deviation onto the rotor: {}: {}".format(
+            raise _StageError("Formed cutter: could not map the deviation onto the rotor: {}: {}".format(
                 type(ex).__name__, ex))
-            return {'CANCELLED'}
         # scene units per rotor unit (the rotor object's uniform scale; 1 for the Table-1 rotor built here): the
         # tolerance is typed and the deviation shown in scene units
         scale = float(np.cbrt(abs(np.linalg.det(rotor_world[:3, :3])))) or 1.0
+        tol_in = job["tol_in"]
         tol = tol_in / scale if tol_in > 0.0 else 1e-5 * r0
         reached = np.isfinite(values)
-        stored = np.where(reached, values * scale, UNTOUCHED)
-        rgba = deviation_colors(values, tol)
 
         # ---- set-up moved along the helix to the rotor's mid-length (the rotor is screw-invariant)
+        report(0.95, "meshes")
         t_mid = 0.5 * length / v0
         C = screw_matrix(np, t_mid, v0, eps) @ np.asarray(setup.cutter_to_rotor)
         z, r, flags = np.asarray(cp.z), np.asarray(cp.r), np.asarray(cp.flags, dtype=np.int64)
         rh = np.vstack([[0.0, z[-1]], np.c_[r[::-1], z[::-1]], [0.0, z[0]]])
         c_verts, c_faces = revolved_mesh(np, rh, RING_SEGMENTS)
         ring_flags = np.r_[np.repeat(flags[::-1], RING_SEGMENTS), 0, 0]
-        contact = screw_motion(np.asarray(cp.contact), t_mid, v0, hand)
         r_max = float(r.max())
-        s_m = (0.5 * length + r_max) / v0                 # the cutter starts and ends clear of the rotor
+        report(1.0, "done")
+        return dict(cp=cp, summary=cp.summary(), setup=setup, dev=dev, fin=fin, u_s=u_s, t_sim=t_sim, v0=v0,
+                    eps=eps, length=length, r_verts=r_verts, r_faces=r_faces, rotor_world=rotor_world,
+                    on_tooth=on_tooth, stored=np.where(reached, values * scale, UNTOUCHED),
+                    rgba=deviation_colors(values, tol), scale=scale, tol=tol, t_mid=t_mid, C=C, z=z, r=r,
+                    flags=flags, c_verts=c_verts, c_faces=c_faces, ring_flags=ring_flags,
+                    ring_colors=_ring_colors(np, fc, ring_flags),
+                    contact=screw_motion(np.asarray(cp.contact), t_mid, v0, hand), r_max=r_max,
+                    s_m=(0.5 * length + r_max) / v0)      # the cutter starts and ends clear of the rotor
+
+    def _build(self, context, job, out):
+        """Main thread: the run's collection, objects, the rotor's attributes and properties."""
+        import json
+        import math
+        import os
+        import time
+
+        import numpy as np
+        from mathutils import Matrix
+
+        from ..flank_addon import formed_cutter as fc
+
+        src, fs, fe = job["src"], job["fs"], job["fe"]
+        rotor_obj = None
+        if job["rotor_name"] is not None:
+            rotor_obj = bpy.data.objects.get(job["rotor_name"])
+            if rotor_obj is None or rotor_obj.type != 'MESH' or len(rotor_obj.data.vertices) != len(out["stored"]):
+                self.report({'ERROR'}, "Formed cutter: the rotor '{}' was removed or changed while planning".format(
+                    job["rotor_name"]))
+                return {'CANCELLED'}
+        tooth, lead, hand, r0 = src["tooth"], src["lead"], src["hand"], src["r0"]
+        A, swivel = job["A"], job["swivel"]
+        cp, summary, setup, dev, fin, u_s = out["cp"], out["summary"], out["setup"], out["dev"], out["fin"], out["u_s"]
+        v0, eps, length, rotor_world, scale, tol = (out[k] for k in ("v0", "eps", "length", "rotor_world", "scale",
+                                                                     "tol"))
+        z, r, flags, r_max, s_m, C = out["z"], out["r"], out["flags"], out["r_max"], out["s_m"], out["C"]
+        n_s, t_sim, t_mid = job["n_s"], out["t_sim"], out["t_mid"]
 
         objects, meshes, colls, actions, names = [], [], [], [], []
         touched_rotor = rotor_mat_added = False
@@ -283,8 +351,8 @@ class FLANK_OT_formed_cutter(bpy.types.Operator):
                 return ob
 
             if rotor_obj is None:
-                rotor_obj = add(TABLE1_ROTOR, new_mesh_from_arrays(bpy, np, TABLE1_ROTOR, r_verts, r_faces),
-                                (0.70, 0.72, 0.75, 1.0))
+                rotor_obj = add(TABLE1_ROTOR, new_mesh_from_arrays(bpy, np, TABLE1_ROTOR, out["r_verts"],
+                                                                   out["r_faces"]), (0.70, 0.72, 0.75, 1.0))
                 rotor_obj.matrix_world = Matrix(rotor_world.tolist())
                 for key, value in dict(flank_source=TABLE1_SOURCE, flank_kind="arc_tooth", flank_part="male",
                                        flank_lobes=int(fc.TABLE1["teeth"]), flank_scale=float(fc.TABLE1["R2"]),
@@ -292,19 +360,19 @@ class FLANK_OT_formed_cutter(bpy.types.Operator):
                                        flank_length=length, flank_v0=v0, flank_handedness=hand,
                                        flank_axis_point=(0.0, 0.0, 0.0), flank_axis=(0.0, 0.0, 1.0)).items():
                     rotor_obj[key] = value
-            cutter_mesh = new_mesh_from_arrays(bpy, np, CUTTER, c_verts, c_faces)
+            cutter_mesh = new_mesh_from_arrays(bpy, np, CUTTER, out["c_verts"], out["c_faces"])
             cutter = add(CUTTER, cutter_mesh, (0.62, 0.66, 0.72, 1.0))
-            set_float_attr(np, cutter_mesh, FLAGS_ATTR, ring_flags)
-            set_color_attr(np, cutter_mesh, FLAGS_COLOR_ATTR, _ring_colors(np, fc, ring_flags))
+            set_float_attr(np, cutter_mesh, FLAGS_ATTR, out["ring_flags"])
+            set_color_attr(np, cutter_mesh, FLAGS_COLOR_ATTR, out["ring_colors"])
             run_mat.assign(cutter_mesh)
             cutter.matrix_world = Matrix((rotor_world @ C).tolist())
 
-            contact_mesh = edge_mesh(bpy, np, CONTACT, [(contact, False)])
+            contact_mesh = edge_mesh(bpy, np, CONTACT, [(out["contact"], False)])
             contact_obj = add(CONTACT, contact_mesh, (0.10, 0.10, 0.10, 1.0))
             set_float_attr(np, contact_mesh, FLAGS_ATTR, flags)
             contact_obj.matrix_world = Matrix(rotor_world.tolist())
 
-            if self.animate:
+            if job["animate"]:
                 motion = add(MOTION, None)
                 motion.empty_display_type = 'ARROWS'
                 motion.empty_display_size = 0.25 * r0
@@ -321,11 +389,11 @@ class FLANK_OT_formed_cutter(bpy.types.Operator):
 
             mesh = rotor_obj.data
             touched_rotor = True
-            set_float_attr(np, mesh, DEVIATION_ATTR, stored)
-            set_color_attr(np, mesh, DEVIATION_COLOR_ATTR, rgba)
+            set_float_attr(np, mesh, DEVIATION_ATTR, out["stored"])
+            set_color_attr(np, mesh, DEVIATION_COLOR_ATTR, out["rgba"])
             # the shared attribute material: always on the rotor built here, on a user's rotor only when it
             # has no material of its own
-            rotor_mat_added = run_mat.assign(mesh, only_if_none=src["obj"] is not None)
+            rotor_mat_added = run_mat.assign(mesh, only_if_none=job["rotor_name"] is not None)
             mesh.update()
 
             if self.filepath:
@@ -333,13 +401,14 @@ class FLANK_OT_formed_cutter(bpy.types.Operator):
                 np.savetxt(csv_path, cp.meridian, delimiter=",", header="z,r", comments="", fmt="%.12g")
             replaced = replace_run(bpy, parent, coll, PROP_PREFIX + "key", run_key, base_name, names)
         except Exception as ex:
-            if touched_rotor and src["obj"] is not None:  # the user's rotor: no half-written attributes
+            user_rotor = bpy.data.objects.get(job["rotor_name"]) if job["rotor_name"] is not None else None
+            if touched_rotor and user_rotor is not None:  # the user's rotor: no half-written attributes
                 for name in (DEVIATION_ATTR, DEVIATION_COLOR_ATTR):
-                    attr = src["obj"].data.attributes.get(name)
+                    attr = user_rotor.data.attributes.get(name)
                     if attr is not None:
-                        src["obj"].data.attributes.remove(attr)
+                        user_rotor.data.attributes.remove(attr)
                 if rotor_mat_added:
-                    src["obj"].data.materials.clear()
+                    user_rotor.data.materials.clear()
             for act in actions:
                 try:
                     bpy.data.actions.remove(act)
@@ -353,7 +422,8 @@ class FLANK_OT_formed_cutter(bpy.types.Operator):
         dev_t = dev[fin]
         flag_counts = summary["flag_counts"]
         n_flagged = int(np.count_nonzero(flags))
-        elapsed = time.perf_counter() - t0
+        on_tooth = out["on_tooth"]
+        elapsed = time.perf_counter() - job["t0"]
         props = dict(
             rotor=rotor_obj.name, source=src["kind"], lead=float(lead), centre_distance=float(A),
             swivel=float(swivel), handedness=hand, planes=int(len(z)), eps_b=float(cp.eps_b),
@@ -371,7 +441,7 @@ class FLANK_OT_formed_cutter(bpy.types.Operator):
                                                                   deviation_tooth=[None if not math.isfinite(d)
                                                                                    else float(d) for d in dev])),
         )
-        if self.animate:
+        if job["animate"]:
             props.update(frames=[fs, fe], motion=[-float(s_m), float(s_m)])
         if csv_path:
             props["csv"] = csv_path

@@ -25,6 +25,7 @@ COLOR_TOOL = (0.90, 0.72, 0.20, 1.0)
 COLOR_GUIDING = (0.20, 0.75, 0.95, 1.0)
 COLOR_BOUNDARY = (0.95, 0.35, 0.85, 1.0)
 MAX_VERTICES = 2_000_000
+MAX_WEIGHT = 1.0e6                      # the objective's weights (only their ratios matter; the panel offers 0..100)
 
 _preview_state = {"message": ""}        # the live preview's last outcome (shown in the panel)
 
@@ -139,6 +140,8 @@ def check_tool(math, props):
             return "{} = {} must be a finite number >= 0".format(label, v)
     if not math.isfinite(L) or not L > abs(r2 - r1):
         return "axis length L = {} must exceed |r2 - r1| = {:.7g}".format(L, abs(r2 - r1))
+    if not max(r1, r2) > 0.0:
+        return "tip sphere radius r1 = 0 and base sphere radius r2 = 0: the tool needs a radius > 0"
     for label, v in (("shank radius", props.shank_radius), ("shank length", props.shank_length),
                      ("strip spacing", props.spacing)):
         v = _decimal(v)
@@ -572,6 +575,8 @@ class FLANK_OT_plan_freeform(ModalPlannerMixin, bpy.types.Operator):
             v = _decimal(v)
             if not math.isfinite(v) or v < 0.0:
                 return "weight {} = {} must be a finite number >= 0".format(label, v)
+            if v > MAX_WEIGHT:      # infinity typed is FLT_MAX: the optimiser would crawl for minutes
+                return "weight {} = {:g} exceeds the limit {:g}".format(label, v, MAX_WEIGHT)
         tol = _decimal(self.tolerance)
         if not math.isfinite(tol) or tol <= 0.0:
             return "tolerance = {} must be > 0 (scene units)".format(tol)
@@ -601,6 +606,12 @@ class FLANK_OT_plan_freeform(ModalPlannerMixin, bpy.types.Operator):
         msg = size_check(np, self, src)
         if msg is not None:
             self.report({'ERROR'}, "Free-form: " + msg)
+            return None
+        V = src["V"]
+        half_diag = 0.5 * float(np.linalg.norm(V.max(axis=0) - V.min(axis=0))) * src["scale"]
+        if not _decimal(self.tolerance) < half_diag:
+            self.report({'ERROR'}, "Free-form: tolerance = {:g} must be below half the surface's diagonal, {:.6g} "
+                                   "(scene units)".format(_decimal(self.tolerance), half_diag))
             return None
         gi = guiding_inputs(np, self, src)
         if isinstance(gi, str):

@@ -9,6 +9,7 @@ from .properties import paraboloid_props
 COLLECTION = "Paraboloid Groove"     # the run's collection under "Flank Results" (a re-run replaces it)
 RUN_KEY_PROP = "flank_groove_key"
 RUN_KEY = "groove"
+A_LIMIT = 1.0e30                       # |a| of the lens |h| <= b + a rho^2 (a = -1e6 is a tiny but real lens)
 OVERCUT_ATTR = "overcut"
 OVERCUT_COLOR_ATTR = "overcut_color"
 # overcut colour ramp: 0 -> pale yellow, max -> red
@@ -74,6 +75,8 @@ class FLANK_OT_paraboloid_groove(bpy.types.Operator):
         msg = count_limit_error("resolution", n, 16, 100000)
         if msg is None and not (math.isfinite(turns) and 0.0 < turns <= 1000.0):
             msg = "turns = {} is outside the limits (0, 1000]".format(turns)
+        if msg is None and math.isfinite(a) and abs(a) >= A_LIMIT:   # infinity typed is held as -3.4e38
+            msg = "constant a = {:g} is out of range (|a| < {:g}): the lens would have no width".format(a, A_LIMIT)
         if msg is not None:
             self.report({'ERROR'}, "Paraboloid groove: " + msg)
             return {'CANCELLED'}
