@@ -11,6 +11,7 @@ leaves no material with 0 users."""
 import time
 
 import driver
+from scenario_freeform import _select_only
 
 CENSUS_KINDS = ("objects", "meshes", "collections", "materials", "actions", "curves", "images")
 MATERIAL = "Flank Attribute Colour"
@@ -32,14 +33,6 @@ _BASELINE = set()     # 0-user materials of the startup file (e.g. Grease Pencil
 
 def _zero_user_materials(bpy):
     return sorted(m.name for m in bpy.data.materials if m.users == 0 and m.name not in _BASELINE)
-
-
-def _select_only(bpy, ob):
-    for o in bpy.context.view_layer.objects:
-        o.select_set(False)
-    if ob is not None:
-        ob.select_set(True)
-    bpy.context.view_layer.objects.active = ob
 
 
 def _node_tree(mat):
