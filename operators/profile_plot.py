@@ -16,8 +16,22 @@ PROP_PREFIX = "flank_plot_"
 TOLERANCE_PROPS = ("flank_sf_tolerance", "flank_df_tolerance")   # run collection, scene units
 
 
+MAX_NAME_BYTES = 63                   # longest ID name of bpy 4.2 (5.x allows 255): the same name everywhere
+
+
 def image_name(run_name):
-    return "{} ({})".format(IMAGE_PREFIX, run_name)
+    """'Flank Error Plot (<run>)'; a run name too long for an ID name is shortened in its middle ('…')."""
+    name = "{} ({})".format(IMAGE_PREFIX, run_name)
+    if len(name.encode("utf-8")) <= MAX_NAME_BYTES:
+        return name
+    room = MAX_NAME_BYTES - len("{} (…)".format(IMAGE_PREFIX).encode("utf-8"))
+    head, tail = run_name[:(room + 1) // 2], run_name[len(run_name) - room // 2:]
+    while len("{} ({}…{})".format(IMAGE_PREFIX, head, tail).encode("utf-8")) > MAX_NAME_BYTES:
+        if len(head) >= len(tail):
+            head = head[:-1]
+        else:
+            tail = tail[1:]
+    return "{} ({}…{})".format(IMAGE_PREFIX, head, tail)
 
 
 def plot_image(run_name):

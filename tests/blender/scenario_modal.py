@@ -277,13 +277,23 @@ def census(bpy, np):
                                for c in d.collections}
     out["material_state"] = {m.name: dict(users=m.users, props=_idprops(m)) for m in d.materials}
     out["image_state"] = {i.name: dict(users=i.users, size=list(i.size), props=_idprops(i)) for i in d.images}
+    # the settings first: on bpy 4.2 the first RNA read of scene.flank_settings creates its (empty) ID property
+    # group, which the scene's custom properties then show -- a read, not a change of the run
+    out["flank_settings"] = _rna_values(scene.flank_settings)
     out["scene_props"] = _idprops(scene)
     out["scene_root"] = sorted(c.name for c in scene.collection.children)
-    out["flank_settings"] = _rna_values(scene.flank_settings)
     out["active"] = bpy.context.view_layer.objects.active.name if bpy.context.view_layer.objects.active else None
     out["frame"] = [scene.frame_current, scene.frame_start, scene.frame_end]
     out["cursor"] = [repr(x) for x in scene.cursor.location]
     return out
+
+
+def _brief(x, y):
+    """What differs between two census values, short."""
+    if isinstance(x, dict) and isinstance(y, dict):
+        return {k: [repr(x.get(k))[:80], repr(y.get(k))[:80]] for k in sorted(set(x) | set(y))
+                if x.get(k) != y.get(k)}
+    return [repr(x)[:160], repr(y)[:160]]
 
 
 def _census_diff(a, b):
@@ -292,7 +302,7 @@ def _census_diff(a, b):
         if a.get(k) != b.get(k):
             if isinstance(a.get(k), dict) and isinstance(b.get(k), dict):
                 sub = [kk for kk in sorted(set(a[k]) | set(b[k])) if a[k].get(kk) != b[k].get(kk)]
-                diff.append([k, sub[:20]])
+                diff.append([k, [[kk, _brief(a[k].get(kk), b[k].get(kk))] for kk in sub[:20]]])
             else:
                 diff.append([k, None])
     return diff
