@@ -56,6 +56,7 @@ class RotorAnalysis:
     body_z: tuple                # axial extent of the helical body in the rotor frame
     tangency_residual: float = 0.0   # RMS sin(angle) between screw velocity and vertex normals
     surface: object = field(repr=False, default=None)
+    mesh_repairs: dict = field(default_factory=dict)   # what :func:`weld_mesh` merged, dropped or found
 
     def to_dict(self):
         return {
@@ -73,6 +74,7 @@ class RotorAnalysis:
             "lobes": self.lobes,
             "flanks": self.flanks,
             "flank_count": len(self.flanks),
+            "mesh_repairs": dict(self.mesh_repairs),
             "helical_area_fraction": self.helical_area_fraction,
             "body_z": list(self.body_z),
             "profile_points": len(self.profile),
@@ -99,6 +101,23 @@ class RotorAnalysis:
         K = self.surface.curvatures(us)["K"][idx]
         cls = self.surface.classify(us)[idx]
         return K, cls
+
+
+def weld_mesh(verts, faces):
+    """Merge vertices at exactly the same position (an STL stores every triangle with its own three)
+    and drop faces that collapse or have no area; count edges shared by more than two faces.
+
+    verts (N, 3), faces (M, 3) -> (verts (N', 3), faces (M', 3), repairs dict with
+    ``merged_vertices``, ``dropped_faces`` and ``nonmanifold_edges``)."""
+    v, inverse = np.unique(verts, axis=0, return_inverse=True)
+    f = inverse.reshape(-1)[faces]
+    cr = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2]) & (np.linalg.norm(cr, axis=1) > 0)
+    f = f[keep]
+    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(e, axis=0, return_counts=True)
+    return v, f, {"merged_vertices": int(len(verts) - len(v)), "dropped_faces": int((~keep).sum()),
+                  "nonmanifold_edges": int((counts > 2).sum())}
 
 
 def vertex_normals(verts, faces):
@@ -313,6 +332,11 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD):
         raise NotHelicalError(f"mesh needs triangles (M x 3) and at least 4 of them, got shape {faces.shape}")
     if not np.isfinite(verts).all():
         raise NotHelicalError("mesh vertices contain NaN or inf")
+    if faces.min() < 0 or faces.max() >= len(verts):
+        raise NotHelicalError(f"face indices must lie in 0 .. {len(verts) - 1}, got {faces.min()} .. {faces.max()}")
+    verts, faces, repairs = weld_mesh(verts, faces)
+    if len(faces) < 4:
+        raise NotHelicalError(f"mesh has {len(faces)} triangles with an area after welding; at least 4 are needed")
     normals, areas = vertex_normals(verts, faces)
     if areas.sum() <= 0:
         raise NotHelicalError("mesh has no area")
@@ -453,4 +477,5 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD):
                          residual=residual, threshold=threshold, tangency_residual=tangency,
                          to_world=T, profile=prof, flanks=flanks,
                          outer_radius=float(np.max(np.linalg.norm(prof, axis=1))), lobes=lobes,
-                         helical_area_fraction=frac, body_z=(0.0, z1 - z0), surface=surface)
+                         helical_area_fraction=frac, body_z=(0.0, z1 - z0), surface=surface,
+                         mesh_repairs=repairs)

