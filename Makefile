@@ -109,7 +109,7 @@ figures: $(STAMP)
 bench: $(STAMP)
 	@shopt -s nullglob; files=(bench/*.py); \
 	if [ $${#files[@]} -eq 0 ]; then echo "no bench/*.py yet"; exit 0; fi; \
-	for f in "$${files[@]}"; do echo "=== $$f"; $(PY) "$$f" || exit 1; done
+	for f in "$${files[@]}"; do echo "=== $$f"; PYTHONPATH=. $(PY) "$$f" || exit 1; done
 
 clean:
 	rm -rf dist out build .pytest_cache
