@@ -51,8 +51,11 @@ def test_summary_equals_the_core_plan(sfl):
     assert (p["flank_sf_strips"], p["flank_sf_candidates"], p["flank_sf_collisions"]) == \
         (c["strips"], c["candidates"], c["collisions"])
     assert p["flank_sf_candidates"] > p["flank_sf_strips"]
-    assert p["flank_sf_kinks_deg"] == pytest.approx(c["kinks"], abs=1e-12)
-    assert p["flank_sf_kink_max_deg"] == pytest.approx(max(c["kinks"]), abs=1e-12)
+    # a kink sits where two nearly tangent deviation curves cross: that crossing is ill-conditioned, and two runs
+    # in one process whose deviations differ in the last bits moved it by 1.7e-6 deg (bpy 5.0, under load) while
+    # the errors above agreed to 1e-12
+    assert p["flank_sf_kinks_deg"] == pytest.approx(c["kinks"], abs=1e-4)
+    assert p["flank_sf_kink_max_deg"] == pytest.approx(max(c["kinks"]), abs=1e-4)
     assert p["flank_sf_profile_max_error"] == pytest.approx(S * c["dev_max"], rel=1e-12)
     # uncovered ranges: the core's, merged (it may list a range both as a gap and as uncovered)
     merged = []
