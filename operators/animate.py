@@ -4,7 +4,7 @@ about its axis past the tool, which stays where it is."""
 import bpy
 from bpy.props import IntProperty, StringProperty
 
-from .common import iter_fcurves, key_screw_motion, remove_ids
+from .common import iter_fcurves, key_screw_motion, remove_ids, remove_objects
 from .export import run_plan
 
 ROLE = "flank_anim_role"       # objects made here: "frame", "motion", "rotor", "strip"
@@ -38,12 +38,7 @@ def remove_animation(coll):
     Returns the number of objects removed."""
     objs = [ob for ob in coll.objects if ROLE in ob]
     hid = [str(name) for ob in objs for name in ob.get(HID, ())]
-    actions = [ob.animation_data.action for ob in objs if ob.animation_data and ob.animation_data.action]
-    for ob in objs:
-        bpy.data.objects.remove(ob)
-    for act in actions:
-        if act.users == 0:
-            bpy.data.actions.remove(act)
+    remove_objects(bpy, objs)
     for name in hid:
         ob = bpy.data.objects.get(name)
         if ob is not None:

@@ -351,6 +351,20 @@ def count_limit_error(label, value, lo, hi):
 
 
 # ---------------------------------------------------------------------------------------- result runs
+def remove_objects(bpy, objs):
+    """Remove objects, then their meshes, curves and actions that nothing else uses any more (linked copies
+    keep their shared data)."""
+    meshes = {ob.data for ob in objs if ob.type == 'MESH' and ob.data is not None}
+    curves = {ob.data for ob in objs if ob.type == 'CURVE' and ob.data is not None}
+    actions = {ob.animation_data.action for ob in objs if ob.animation_data and ob.animation_data.action}
+    for ob in objs:
+        bpy.data.objects.remove(ob)
+    for ids, blocks in ((meshes, bpy.data.meshes), (curves, bpy.data.curves), (actions, bpy.data.actions)):
+        for block in ids:
+            if block.users == 0:
+                blocks.remove(block)
+
+
 def remove_result_collection(bpy, coll):
     """Remove a result collection of an earlier run with its objects, their meshes, curves and actions (when
     no longer used elsewhere), its empty child collections, and the shared attribute material once nothing
@@ -359,21 +373,7 @@ def remove_result_collection(bpy, coll):
     from .animate import remove_animation
 
     remove_animation(coll)
-    objs = list(coll.all_objects)
-    meshes = {ob.data for ob in objs if ob.type == 'MESH' and ob.data is not None}
-    curves = {ob.data for ob in objs if ob.type == 'CURVE' and ob.data is not None}
-    actions = {ob.animation_data.action for ob in objs if ob.animation_data and ob.animation_data.action}
-    for ob in objs:
-        bpy.data.objects.remove(ob)
-    for me in meshes:
-        if me.users == 0:
-            bpy.data.meshes.remove(me)
-    for cu in curves:
-        if cu.users == 0:
-            bpy.data.curves.remove(cu)
-    for act in actions:
-        if act.users == 0:
-            bpy.data.actions.remove(act)
+    remove_objects(bpy, list(coll.all_objects))
     for child in list(coll.children):
         if not child.all_objects:
             bpy.data.collections.remove(child)

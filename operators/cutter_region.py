@@ -4,9 +4,8 @@ whether the user's cone is one of them."""
 import bpy
 from bpy.props import FloatProperty, IntProperty, IntVectorProperty
 
-from .common import new_mesh_from_arrays, remove_ids, results_parent, rotor_source, select_only, \
+from .common import new_mesh_from_arrays, remove_ids, results_parent, rotor_source, replace_run, select_only, \
     set_color_attr, set_float_attr
-from .single_flank import _remove_result_collection
 
 PROP_PREFIX = "flank_cr_"
 ADMISSIBLE_ATTR = "admissible"          # FLOAT point attribute of the cloud and the marker: 1 admissible, 0 not
@@ -231,15 +230,7 @@ class FLANK_OT_cutter_region(bpy.types.Operator):
             names += [(me, cloud_name), (cloud, cloud_name), (mme, marker_name), (marker, marker_name)]
 
             # replace the collection of an earlier check of this rotor and flank (only once this one is built)
-            replaced = 0
-            for old in [c for c in parent.children if c != coll and c.get(PROP_PREFIX + "key") == key]:
-                _remove_result_collection(old)
-                replaced += 1
-            coll.name = coll_name
-            coll[PROP_PREFIX + "key"] = key
-            for id_, wanted in names:
-                if id_.name != wanted:
-                    id_.name = wanted
+            replaced = replace_run(bpy, parent, coll, PROP_PREFIX + "key", key, coll_name, names)
         except Exception as ex:
             remove_ids(bpy, objects, meshes, colls + ([parent] if parent_created else []))
             self.report({'ERROR'}, "Could not build the cutter region: {}: {}".format(type(ex).__name__, ex))

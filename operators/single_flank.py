@@ -3,7 +3,7 @@
 import bpy
 
 from .common import (PLAN_JSON_PROP, RunMaterial, edge_mesh, frame_along, key_screw_motion, new_mesh_from_arrays,
-                     remove_ids, remove_result_collection, replace_run, results_parent, revolved_mesh, rotor_source,
+                     remove_ids, replace_run, results_parent, revolved_mesh, rotor_source,
                      select_only, set_color_attr, set_float_attr, show_attribute_colors)
 from .modal import ModalPlannerMixin
 from .properties import single_flank_props
@@ -66,11 +66,6 @@ def tool_meridian(np, tool):
     if out[-1][0] != 0.0:
         out.append((0.0, z1))
     return np.array(out, dtype=np.float64)
-
-
-def _remove_result_collection(coll):
-    """Remove a result collection of an earlier run (common.remove_result_collection; used by cutter_region)."""
-    remove_result_collection(bpy, coll)
 
 
 class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):

@@ -9,83 +9,30 @@ import os
 import types
 
 import driver
+from scenario_freeform import _select_only
+from scenario_sidebar import _UI
 
 SF_KW = dict(shape="alpha", alpha=math.asin(0.1), r1=0.05, r2=0.08, shank_radius=0.04, shank_length=0.6,
              tolerance=1e-3, envelope_rings=8, seeds=6, rounds=2, flank=1)
 
 
-class _OpRec:
-    """The OperatorProperties a button returns: forwards and records what the panel sets."""
-
-    def __init__(self, props, rec):
-        object.__setattr__(self, "_props", props)
-        object.__setattr__(self, "_rec", rec)
-
-    def __setattr__(self, name, value):
-        setattr(self._props, name, value)            # raises for a property the operator does not have
-        self._rec[name] = getattr(self._props, name)
-
-    def __getattr__(self, name):
-        return getattr(self._props, name)
-
-
-class _Rec:
-    """A real UILayout that records the operator buttons (idname, text, properties set)."""
-
-    def __init__(self, layout, log):
-        object.__setattr__(self, "_real", layout)
-        object.__setattr__(self, "_log", log)
-
-    def __setattr__(self, name, value):
-        setattr(self._real, name, value)
-
-    def __getattr__(self, name):
-        import bpy
-
-        attr = getattr(self._real, name)
-        if not callable(attr):
-            return attr
-
-        def call(*a, **kw):
-            out = attr(*a, **kw)
-            if name == "operator":
-                rec = {}
-                self._log.append(dict(idname=a[0], text=kw.get("text"), props=rec))
-                return _OpRec(out, rec)
-            if isinstance(out, bpy.types.UILayout):
-                return _Rec(out, self._log)
-            return out
-        return call
-
-
 def _draw(bpy, cls):
-    """[buttons] of a panel drawn into a real layout (a popup menu that is never shown), or an error string."""
-    import traceback
-
-    screen = bpy.context.screen
-    area = next(a for a in screen.areas if a.type == 'VIEW_3D')
-    region = next(r for r in area.regions if r.type == 'UI')
-    log = []
-    try:
-        with bpy.context.temp_override(area=area, region=region):
-            layout = bpy.context.window_manager.popmenu_begin__internal(cls.bl_label, icon='NONE').layout
-            cls.draw(types.SimpleNamespace(layout=_Rec(layout, log)), bpy.context)
-    except Exception:
-        return traceback.format_exc()
-    return [dict(b, props={k: (list(v) if hasattr(v, "__len__") and not isinstance(v, str) else v)
-                           for k, v in b["props"].items()}) for b in log]
+    """[buttons] (idname, text, properties set) of a panel drawn into a real layout by scenario_sidebar's
+    recorder, or an error string."""
+    drawn = _UI(bpy).draw(cls)
+    if isinstance(drawn, str):
+        return drawn
+    buttons = []
+    for call in drawn["calls"]:
+        if call[0] == "operator":
+            buttons.append(dict(idname=call[1], text=call[2], props={}))
+        elif call[0] == "opset":                      # a property set on the button just made
+            next(bt for bt in reversed(buttons) if bt["idname"] == call[1])["props"][call[2]] = call[3]
+    return buttons
 
 
 def _plain(v):
     return v.to_list() if hasattr(v, "to_list") else v.to_dict() if hasattr(v, "to_dict") else v
-
-
-def _select(bpy, ob):
-    for o in bpy.context.view_layer.objects:
-        o.select_set(False)
-    if ob is not None:
-        ob.select_set(True)
-    bpy.context.view_layer.objects.active = ob
 
 
 def _check_tool(bpy, res, rotor):
@@ -96,7 +43,7 @@ def _check_tool(bpy, res, rotor):
     for kind in ("CONE", "CYLINDER"):
         s.tool_kind = kind
         s.sf_r1, s.sf_r2, s.sf_length, s.sf_flank = 0.05, 0.08, 0.2, 1
-        _select(bpy, rotor)
+        _select_only(bpy, rotor)
         buttons = _draw(bpy, panels.FLANK_PT_tool)
         k = dict(draw_error=buttons if isinstance(buttons, str) else None)
         if not isinstance(buttons, str):
@@ -178,12 +125,12 @@ def scenario(bpy, res, args):
     rotor = bpy.context.active_object
     _check_tool(bpy, res, rotor)
     res["window_after_draw"] = bpy.context.window is not None
-    _select(bpy, rotor)
+    _select_only(bpy, rotor)
     ret, err = driver._run_op(bpy.ops.flank.plan_single_flank, **SF_KW)
     res["plan"] = dict(result=ret, error=err)
     coll = next((c for c in bpy.data.collections if c.get("flank_sf_key")), None)
     if coll is None:
         return
-    _select(bpy, bpy.context.active_object)
+    _select_only(bpy, bpy.context.active_object)
     _results_buttons(bpy, res, coll, tmp)
     _error_plot(bpy, res, coll)
