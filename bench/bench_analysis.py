@@ -19,8 +19,8 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
 import numpy as np  # noqa: E402
 from scipy.spatial.transform import Rotation  # noqa: E402
 
-from flank_addon.rotor_analysis import analyze_mesh  # noqa: E402
-from flank_addon.rotors import BUILTIN_NAMES, builtin_by_name  # noqa: E402
+from flank_addon.geometry.rotor_analysis import analyze_mesh  # noqa: E402
+from flank_addon.geometry.rotors import BUILTIN_NAMES, builtin_by_name  # noqa: E402
 from helpers import cad_like, irregular_mesh, profile_hausdorff  # noqa: E402
 
 

@@ -15,8 +15,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from flank_addon.double_flank import plan_double_flank  # noqa: E402
-from flank_addon.rotors import builtin_by_name  # noqa: E402
+from flank_addon.methods.double_flank.planner import plan_double_flank  # noqa: E402
+from flank_addon.geometry.rotors import builtin_by_name  # noqa: E402
 
 PAPER = {
     ("male", "custom-min"): "N 0.00362 / 0.00358; SRM D 0.00556 / 0.00606",
@@ -59,7 +59,7 @@ def main():
                 line = (f"{name:18s} {label:19s} {x[0]:+8.4f} {x[1]:+8.4f} {x[2]:+8.4f} {fit.iterations:4d} "
                         f"{e1:9.5f} {e2:9.5f} {min(m1, m2):+9.2e} {res.optimize_s:6.3f} {dt:7.2f}")
                 if args.verify:
-                    from flank_addon.verify import verify_plan
+                    from flank_addon.simulation.verify import verify_plan
                     v = verify_plan(res.plan)
                     line += f" {v['max_undercut']:10.3e} {v['max_overcut']:+9.1e} {len(v['gouge_points']):6d}"
                 paper = PAPER.get((part, label), "")

@@ -20,8 +20,8 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 import numpy as np  # noqa: E402
 from scipy.spatial import cKDTree  # noqa: E402
 
-from flank_addon.rotors import builtin_by_name  # noqa: E402
-from flank_addon.screw import screw_motion, screw_to_plane  # noqa: E402
+from flank_addon.geometry.rotors import builtin_by_name  # noqa: E402
+from flank_addon.geometry.screw import screw_motion, screw_to_plane  # noqa: E402
 
 
 def main():

@@ -13,8 +13,8 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
 import numpy as np  # noqa: E402
 
-from flank_addon.formed_cutter import TABLE1, arc_tooth_section, cutter_profile, format_table2, table2  # noqa: E402
-from flank_addon.rotors import builtin_by_name  # noqa: E402
+from flank_addon.methods.formed_cutter.cutter_profile import TABLE1, arc_tooth_section, cutter_profile, format_table2, table2  # noqa: E402
+from flank_addon.geometry.rotors import builtin_by_name  # noqa: E402
 
 PAPER_TIME_S = 1.213   # s004 Table 4, Matlab, numerical method, 119-point tooth
 

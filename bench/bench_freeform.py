@@ -12,11 +12,11 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import least_squares
 
-from flank_addon import guiding
-from flank_addon.freeform_surfaces import bump
-from flank_addon.g1_multistrip import DEFAULT_WEIGHTS, Layout, Objective, plan_freeform
-from flank_addon.initial_rulings import initial_rulings
-from flank_addon.mesh_distance import TriangleMesh
+from flank_addon.methods.freeform_g1 import guiding
+from flank_addon.geometry.freeform_surfaces import bump
+from flank_addon.methods.freeform_g1.planner import DEFAULT_WEIGHTS, Layout, Objective, plan_freeform
+from flank_addon.methods.freeform_g1.initial_rulings import initial_rulings
+from flank_addon.geometry.mesh_distance import TriangleMesh
 
 R1, R2, L = 0.01, 0.03, 0.09            # spacing d = sqrt(L^2 - (r2 - r1)^2): 11 strips on the unit bump
 D = (L * L - (R2 - R1) ** 2) ** 0.5     # the central curve half a spacing off the bump's top: 12 curves

@@ -18,8 +18,8 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 import numpy as np  # noqa: E402
 from scipy.spatial import cKDTree  # noqa: E402
 
-from flank_addon import freeform_surfaces as fs  # noqa: E402
-from flank_addon import guiding as g  # noqa: E402
+from flank_addon.geometry import freeform_surfaces as fs  # noqa: E402
+from flank_addon.methods.freeform_g1 import guiding as g  # noqa: E402
 
 REPEAT = 3
 D = 0.1

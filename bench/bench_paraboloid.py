@@ -14,8 +14,8 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
 import numpy as np  # noqa: E402
 
-from flank_addon.paraboloid import groove_section  # noqa: E402
-from flank_addon.sweep import ParaboloidPart, RevolvingTool, machined_deviation  # noqa: E402
+from flank_addon.methods.paraboloid_groove.groove import groove_section  # noqa: E402
+from flank_addon.simulation.sweep import ParaboloidPart, RevolvingTool, machined_deviation  # noqa: E402
 
 PAPER_CAD_SECONDS = 558.0
 

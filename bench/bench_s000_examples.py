@@ -17,9 +17,9 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from flank_addon.cone import ConeTool  # noqa: E402
-from flank_addon.multi_strip import plan_single_flank  # noqa: E402
-from flank_addon.rotors import builtin_by_name  # noqa: E402
+from flank_addon.tooling.cone import ConeTool  # noqa: E402
+from flank_addon.methods.single_flank.planner import plan_single_flank  # noqa: E402
+from flank_addon.geometry.rotors import builtin_by_name  # noqa: E402
 
 # name: (rotor, flank, alpha, r1c, r2c, tolerance, paper row)
 CASES = {

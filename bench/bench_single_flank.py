@@ -33,9 +33,10 @@ import time
 
 import numpy as np
 
-from flank_addon import multi_strip, single_flank as sf
-from flank_addon.cone import ConeTool
-from flank_addon.rotors import builtin_by_name
+from flank_addon.methods.single_flank import planner as multi_strip
+from flank_addon.methods.single_flank import poses as sf
+from flank_addon.tooling.cone import ConeTool
+from flank_addon.geometry.rotors import builtin_by_name
 
 TOOL = ConeTool(math.asin(0.1), 0.05, 0.08, 0.04, 0.6)
 

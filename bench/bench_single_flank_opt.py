@@ -9,9 +9,9 @@ import time
 
 import numpy as np
 
-from flank_addon import single_flank as sf
-from flank_addon.cone import ConeTool
-from flank_addon.rotors import builtin_by_name
+from flank_addon.methods.single_flank import poses as sf
+from flank_addon.tooling.cone import ConeTool
+from flank_addon.geometry.rotors import builtin_by_name
 
 
 def main(name="asymmetric-female", flank=0, n_seeds=18):

@@ -19,10 +19,10 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
 import numpy as np  # noqa: E402
 
-from flank_addon import sweep  # noqa: E402
-from flank_addon.plan import new_plan, rotor_section  # noqa: E402
-from flank_addon.rotors import builtin_rotor  # noqa: E402
-from flank_addon.verify import verify_plan  # noqa: E402
+from flank_addon.simulation import sweep  # noqa: E402
+from flank_addon.io.plan import new_plan, rotor_section  # noqa: E402
+from flank_addon.geometry.rotors import builtin_rotor  # noqa: E402
+from flank_addon.simulation.verify import verify_plan  # noqa: E402
 
 
 def strip(c1, c2, r1, r2, shank_len=0.3):

@@ -9,10 +9,9 @@ import numpy as np
 
 
 def _cmd_rotor(args):
-    from .mesh_io import write_mesh
-    from .profile import load_profile_csv
-    from .rotors import builtin_rotor, helical_body_mesh
-    from .screw import hand_sign
+    from .io.mesh_files import write_mesh
+    from .geometry.profile import load_profile_csv
+    from .geometry.rotors import builtin_rotor, helical_body_mesh
 
     t0 = time.perf_counter()
     if args.profile_csv:
@@ -44,8 +43,8 @@ def _cmd_rotor(args):
 
 
 def _cmd_analyze(args):
-    from .mesh_io import read_mesh
-    from .rotor_analysis import analyze_mesh
+    from .io.mesh_files import read_mesh
+    from .geometry.rotor_analysis import analyze_mesh
 
     if args.profile_points < 720:
         raise ValueError(f"--profile-points {args.profile_points} is below the minimum 720 of flank-plan/1")
@@ -73,7 +72,7 @@ def _cmd_analyze(args):
 
 
 def _cmd_check_plan(args):
-    from .plan import read_plan
+    from .io.plan import read_plan
 
     plan = read_plan(args.path)
     s = plan["summary"]
@@ -83,7 +82,7 @@ def _cmd_check_plan(args):
 
 
 def _cmd_paraboloid(args):
-    from .paraboloid import groove_section
+    from .methods.paraboloid_groove.groove import groove_section
 
     part = "full" if args.full else ("internal" if args.internal else "external")
     t0 = time.perf_counter()
@@ -97,12 +96,12 @@ def _cmd_paraboloid(args):
 
 
 def _cmd_verify(args):
-    from .plan import read_plan
-    from .verify import verify_plan
+    from .io.plan import read_plan
+    from .simulation.verify import verify_plan
 
     plan = read_plan(args.plan)
     if plan.get("surface") is not None:
-        from .g1_multistrip import verify_freeform
+        from .methods.freeform_g1.planner import verify_freeform
         res = verify_freeform(plan, tolerance=args.tolerance)
         if args.json:
             print(json.dumps(res, indent=1))
@@ -134,9 +133,9 @@ def _cmd_verify(args):
 
 
 def _cmd_cutter(args):
-    from .formed_cutter import FLAG_NAMES, cutter_profile
-    from .profile import load_profile_csv
-    from .rotors import builtin_by_name
+    from .methods.formed_cutter.cutter_profile import cutter_profile
+    from .geometry.profile import load_profile_csv
+    from .geometry.rotors import builtin_by_name
 
     if (args.profile is None) == (args.builtin is None):
         raise ValueError("give exactly one of --profile CSV or --builtin NAME")
@@ -193,23 +192,23 @@ def _load_rotor(args):
     to_world = None
     unit = "R"
     if args.builtin:
-        from .rotors import builtin_by_name
+        from .geometry.rotors import builtin_by_name
 
         rotor = builtin_by_name(args.builtin)
         surface, flanks = rotor.surface(), rotor.flanks
         src = args.builtin
     else:
-        from .double_flank import _flank_u_ranges
-        from .helical_surface import HelicalSurface
-        from .mesh_io import read_mesh
-        from .profile import SplineProfile
-        from .rotor_analysis import analyze_mesh
+        from .geometry.flank_feet import flank_u_ranges
+        from .geometry.helical_surface import HelicalSurface
+        from .io.mesh_files import read_mesh
+        from .geometry.profile import SplineProfile
+        from .geometry.rotor_analysis import analyze_mesh
 
         verts, faces = read_mesh(args.mesh)
         a = analyze_mesh(verts, faces)
         prof = SplineProfile(a.profile)
         surface = HelicalSurface(prof, a.v0, a.handedness)
-        flanks = _flank_u_ranges(prof, [(int(i), int(j)) for i, j in a.flanks])
+        flanks = flank_u_ranges(prof, [(int(i), int(j)) for i, j in a.flanks])
         to_world = a.to_world
         unit = "mm"
         src = str(args.mesh)
@@ -229,8 +228,8 @@ def _cmd_plan(args):
         return _cmd_plan_single_flank(args)
     if args.planner == "freeform":
         return _cmd_plan_freeform(args)
-    from .double_flank import plan_double_flank, valley_of_point
-    from .plan import write_plan
+    from .methods.double_flank.planner import plan_double_flank, valley_of_point
+    from .io.plan import write_plan
 
     if (args.valley is None) == (args.valley_point is None):
         raise ValueError("give exactly one of --valley K or --valley-point X,Y,Z")
@@ -249,7 +248,7 @@ def _cmd_plan(args):
                             length_unit=unit)
     write_plan(args.out, res.plan)
     if args.tool_csv:
-        from .double_flank import write_tool_csv
+        from .methods.double_flank.planner import write_tool_csv
         write_tool_csv(args.tool_csv, res.paths[0])
     print(f"{src}: valley {k}, {res.plan['method']} ({args.variant}), {len(res.paths)} strip(s)")
     for j, f in enumerate(res.fits):
@@ -274,9 +273,9 @@ def _parse_vector(text, name, n=3):
 
 def _cmd_plan_freeform(args):
     """s003: G1 multi-strip flank milling of a free-form triangle mesh with a conical tool."""
-    from .g1_multistrip import plan_freeform
-    from .mesh_io import read_mesh
-    from .plan import write_plan
+    from .methods.freeform_g1.planner import plan_freeform
+    from .io.mesh_files import read_mesh
+    from .io.plan import write_plan
 
     if args.mesh is None:
         raise ValueError("freeform needs --mesh PATH (the surface to machine, STL/PLY/OBJ)")
@@ -326,7 +325,7 @@ def _cmd_plan_freeform(args):
     lo, hi = s["axis_length_range"]
     print(f"  axis length {lo:.6g} .. {hi:.6g}; colliding rulings {s['colliding_rulings']}; "
           f"time {s['elapsed_s']:.2f} s; wrote {args.out}")
-    from .g1_multistrip import axis_length_histogram
+    from .methods.freeform_g1.planner import axis_length_histogram
     h = axis_length_histogram(plan)
     print("  axis lengths (Fig. 11), bin from: initial / optimised rulings")
     for e, a, b in zip(h["edges"], h["initial"], h["optimised"]):
@@ -339,9 +338,9 @@ def _cmd_plan_single_flank(args):
     import json
     import math
 
-    from .cone import ConeTool
-    from .multi_strip import flank_of_point, plan_single_flank
-    from .plan import write_plan
+    from .tooling.cone import ConeTool
+    from .methods.single_flank.planner import flank_of_point, plan_single_flank
+    from .io.plan import write_plan
 
     if (args.flank is None) == (args.flank_point is None):
         raise ValueError("give exactly one of --flank K or --flank-point X,Y,Z")
@@ -426,44 +425,47 @@ SUGGEST_DEFAULT_R_MM = 50.0
 
 def _cmd_suggest_tool(args):
     """s000 §4: Dupin analysis of one flank, Eqs. (18)-(21) and the largest admissible catalogue tool."""
-    from . import cutter_selection as cs
+    from .methods.double_flank.planner import custom_tool_bounds
+    from .tooling import catalogue as cat
+    from .tooling import cutter_selection as cs
 
     if (args.mesh is None) == (args.builtin is None):
         raise ValueError("give exactly one of --mesh PATH or --builtin NAME")
     if args.builtin:
-        from .rotors import builtin_by_name
+        from .geometry.rotors import builtin_by_name
 
         rotor = builtin_by_name(args.builtin)
         surface, flanks, src, unit = rotor.surface(), rotor.flanks, args.builtin, "R"
         r_mm = args.outer_radius_mm
         if not (np.isfinite(r_mm) and r_mm > 0):
             raise ValueError(f"--outer-radius-mm {r_mm} must be a finite number > 0")
-        catalogue = cs.catalogue_tools(r_mm)
+        catalogue = cat.catalogue_tools(r_mm)
     else:
         if args.outer_radius_mm != SUGGEST_DEFAULT_R_MM:
             raise ValueError("--outer-radius-mm applies to --builtin only (a mesh is read in mm)")
-        from .double_flank import _flank_u_ranges
-        from .helical_surface import HelicalSurface
-        from .mesh_io import read_mesh
-        from .profile import SplineProfile
-        from .rotor_analysis import analyze_mesh
+        from .geometry.flank_feet import flank_u_ranges
+        from .geometry.helical_surface import HelicalSurface
+        from .io.mesh_files import read_mesh
+        from .geometry.profile import SplineProfile
+        from .geometry.rotor_analysis import analyze_mesh
 
         a = analyze_mesh(*read_mesh(args.mesh))
         prof = SplineProfile(a.profile)
         surface = HelicalSurface(prof, a.v0, a.handedness)
-        flanks = _flank_u_ranges(prof, [(int(i), int(j)) for i, j in a.flanks])
+        flanks = flank_u_ranges(prof, [(int(i), int(j)) for i, j in a.flanks])
         src, unit, r_mm = str(args.mesh), "mm", 1.0
-        catalogue = cs.catalogue_tools()
+        catalogue = cat.catalogue_tools()
     if not 0 <= args.flank < len(flanks):
         raise ValueError(f"--flank {args.flank} is outside 0..{len(flanks) - 1} (this rotor has {len(flanks)} flanks)")
     t0 = time.perf_counter()
-    dup, bounds, region, sug = cs.select_cutter(surface, flanks, args.flank, catalogue, n=args.samples)
+    bounds = custom_tool_bounds(surface, flanks, args.flank // 2)
+    dup, bounds, region, sug = cs.select_cutter(surface, flanks, args.flank, catalogue, bounds, n=args.samples)
     dt = time.perf_counter() - t0
     d = {"source": src, "unit": unit, "unit_mm": r_mm, "flank": args.flank, "valley": args.flank // 2,
          "dupin": dup.summary(), "bounds": bounds.as_dict(),
          "region": None if region is None else region.summary(),
          "suggested": None if sug.index is None else {"name": sug.entry.name, "tool": sug.tool.as_dict(),
-                                                      "tool_mm": cs.scale_tool(sug.tool, r_mm).as_dict()},
+                                                      "tool_mm": cat.scale_tool(sug.tool, r_mm).as_dict()},
          "catalogue": [{"name": e.name, "ok": r.ok, "failures": [f.message for f in r.failures]}
                        for e, r in zip(catalogue, sug.results)],
          "elapsed_s": dt}
@@ -492,7 +494,7 @@ def _cmd_suggest_tool(args):
         print(f"  suggested: none of the {len(catalogue)} catalogue tools is admissible; largest "
               f"({catalogue[big].name}) {sug.results[big].message}")
     else:
-        t = cs.scale_tool(sug.tool, r_mm)
+        t = cat.scale_tool(sug.tool, r_mm)
         print(f"  suggested: {sug.entry.name} (alpha {np.degrees(t.alpha):.2f} deg, r1c {t.r1c:.3f} mm, "
               f"r2c {t.r2c:.3f} mm, h {t.h:.2f} mm); {n_ok} of {len(catalogue)} catalogue tools admissible")
     print(f"  time {dt:.2f} s")
@@ -500,7 +502,7 @@ def _cmd_suggest_tool(args):
 
 
 def _cmd_builtins(args):
-    from .rotors import BUILTIN_NAMES
+    from .geometry.rotors import BUILTIN_NAMES
 
     print("\n".join(BUILTIN_NAMES))
     return 0
@@ -508,7 +510,7 @@ def _cmd_builtins(args):
 
 def _cmd_export(args):
     from . import exports
-    from .plan import read_plan
+    from .io.plan import read_plan
 
     plan = read_plan(args.plan)
     z_range = None
@@ -542,29 +544,49 @@ def _cmd_export(args):
     return 0
 
 
+def report_scene():
+    """The extension's report scene builder (``operators/report_scene.py``), which runs Blender.
+
+    Inside Blender the planner is a subpackage of the installed extension and the builder is its sibling.
+    From a source tree the tree's root is made the package ``flank_toolpath`` without running its
+    ``__init__`` (which only registers classes), so that the builder's relative imports resolve."""
+    import importlib
+    import importlib.util
+    import os
+
+    parent = (__package__ or "").rpartition(".")[0]
+    if not parent:
+        parent = "flank_toolpath"
+        if parent not in sys.modules:
+            root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+            spec = importlib.util.spec_from_file_location(parent, os.path.join(root, "__init__.py"),
+                                                          submodule_search_locations=[root])
+            sys.modules[parent] = importlib.util.module_from_spec(spec)
+    try:
+        return importlib.import_module(parent + ".operators.report_scene")
+    except ImportError as ex:
+        raise ValueError(f"render needs Blender as a Python module ({ex}); the virtualenv that `make demo` "
+                         "creates has it") from None
+
+
 def _cmd_render(args):
     import os
 
-    from .plan import read_plan
-    from .report_render import render_plan_report
+    from .io.plan import read_plan
 
     plan = read_plan(args.plan)
-    try:
-        import bpy
-    except ImportError:
-        raise ValueError("render needs Blender's Python module bpy (the venv of `make demo` has it: "
-                         "pip install bpy==5.0.1 on Python 3.11)") from None
+    scene = report_scene()
     w, h = args.resolution
     try:
         if plan.get("surface") is not None:
-            from .freeform_report import freeform_title, render_freeform_report
-            info = render_freeform_report(bpy, plan, args.out, width=w, height=h, tolerance=args.tolerance,
-                                          engine=args.engine,
-                                          title=freeform_title(plan, os.path.basename(args.plan)))
+            from .report.freeform_geometry import freeform_title
+            info = scene.render_freeform_report(plan, args.out, width=w, height=h, tolerance=args.tolerance,
+                                                engine=args.engine,
+                                                title=freeform_title(plan, os.path.basename(args.plan)))
         else:
-            info = render_plan_report(bpy, plan, args.out, width=w, height=h, tolerance=args.tolerance,
-                                      engine=args.engine, title="{}: {}".format(os.path.basename(args.plan),
-                                                                                plan.get("method", "")))
+            info = scene.render_plan_report(plan, args.out, width=w, height=h, tolerance=args.tolerance,
+                                            engine=args.engine, title="{}: {}".format(os.path.basename(args.plan),
+                                                                                      plan.get("method", "")))
     except RuntimeError as ex:          # Blender's own failures: one line, no traceback
         raise ValueError(f"rendering failed: {ex}") from None
     if args.json:
@@ -729,7 +751,7 @@ def build_parser():
     ex.set_defaults(func=_cmd_export)
 
     rr = sub.add_parser("render", help="render a report picture of a plan (rotor, strips by signed error, legend; "
-                                       "needs bpy)")
+                                       "needs Blender as a Python module)")
     rr.add_argument("plan", help="flank-plan/1 JSON")
     rr.add_argument("--out", required=True, metavar="OUT.png")
     rr.add_argument("--resolution", type=int, nargs=2, default=(1280, 800), metavar=("W", "H"))

@@ -40,7 +40,7 @@ class FLANK_OT_analyze_rotor(bpy.types.Operator):
 
         import numpy as np
 
-        from ..flank_addon import rotor_analysis
+        from ..flank_addon.geometry import rotor_analysis
 
         obj = context.active_object
         if obj is None or obj.type != 'MESH':

@@ -85,7 +85,7 @@ class FLANK_OT_animate_strip(bpy.types.Operator):
             self.report({'ERROR'}, "Animate strip: strip = {} does not exist: run '{}' has strips 1..{}".format(
                 int(self.strip), coll.name, n))
             return {'CANCELLED'}
-        from ..flank_addon.plan import is_mesh_plan
+        from ..flank_addon.io.plan import is_mesh_plan
 
         if is_mesh_plan(plan):
             return self._animate_tool(context, coll, plan, k, fs, fe)

@@ -284,7 +284,7 @@ def rotor_source(bpy, context, np, prop_prefix):
     """The rotor a planning operator works on -> dict (obj, surface, flanks, display, to_world, scale,
     z_range, unit, kind), or an error message (str).  The active object may be a generated rotor, an
     analysed mesh, or a result object whose ``<prop_prefix>rotor`` names its rotor."""
-    from ..flank_addon import rotors
+    from ..flank_addon.geometry import rotors
 
     obj = context.active_object
     if obj is not None and prop_prefix + "rotor" in obj and obj.get("flank_source") is None:
@@ -312,17 +312,17 @@ def rotor_source(bpy, context, np, prop_prefix):
                     unit="R" if float(obj["flank_scale"]) == 1.0 else "mm",
                     kind="{}-{}".format(rotor.kind, rotor.part))
     if src == "analyzed":
-        from ..flank_addon import double_flank as df
-        from ..flank_addon.helical_surface import HelicalSurface
-        from ..flank_addon.profile import SplineProfile
-        from ..flank_addon.rotor_analysis import NotHelicalError, analyze_mesh
+        from ..flank_addon.geometry.flank_feet import flank_u_ranges
+        from ..flank_addon.geometry.helical_surface import HelicalSurface
+        from ..flank_addon.geometry.profile import SplineProfile
+        from ..flank_addon.geometry.rotor_analysis import NotHelicalError, analyze_mesh
 
         try:
             verts, faces = mesh_world_arrays(np, obj)
             a = analyze_mesh(verts, faces)
             prof = SplineProfile(a.profile)
             surface = HelicalSurface(prof, a.v0, a.handedness)
-            flanks = df._flank_u_ranges(prof, [(int(i), int(j)) for i, j in a.flanks])
+            flanks = flank_u_ranges(prof, [(int(i), int(j)) for i, j in a.flanks])
             to_world = np.asarray(a.to_world, dtype=np.float64)
         except NotHelicalError as ex:
             return "'{}' is not a helical rotor: {}".format(obj.name, ex)

@@ -105,10 +105,10 @@ class FLANK_OT_cutter_region(bpy.types.Operator):
             return "outer radius = {} mm must be a finite number >= 0 (0 = from the scene units)".format(o)
         return None
 
-    def _catalogue(self, context, cs, src, R):
+    def _catalogue(self, context, cat, src, R):
         """(catalogue in rotor units, description): mm for mm rotors, units of R for built-ins in R."""
         if src["unit"] != "R":
-            return cs.catalogue_tools(None), "mm"
+            return cat.catalogue_tools(None), "mm"
         r_mm = _decimal(self.outer_radius_mm)
         if not r_mm > 0.0:
             us = context.scene.unit_settings
@@ -117,7 +117,7 @@ class FLANK_OT_cutter_region(bpy.types.Operator):
                 r_mm = R * s                                     # no unit system: one scene unit = 1 mm
             else:
                 r_mm = R * s * float(us.scale_length) * 1000.0   # scene unit = scale_length metres
-        return cs.catalogue_tools(r_mm), "R (outer radius {:.6g} mm)".format(r_mm)
+        return cat.catalogue_tools(r_mm), "R (outer radius {:.6g} mm)".format(r_mm)
 
     # ------------------------------------------------------------------ run
 
@@ -148,8 +148,10 @@ class FLANK_OT_cutter_region(bpy.types.Operator):
                 k, len(flanks) - 1, rotor_obj.name, len(flanks)))
             return {'CANCELLED'}
 
-        from ..flank_addon import cutter_selection as cs
-        from ..flank_addon.cone import ConeTool
+        from ..flank_addon.methods.double_flank.planner import custom_tool_bounds
+        from ..flank_addon.tooling import catalogue as cat
+        from ..flank_addon.tooling import cutter_selection as cs
+        from ..flank_addon.tooling.cone import ConeTool
 
         grid = tuple(int(v) for v in self.grid)
         try:
@@ -157,11 +159,11 @@ class FLANK_OT_cutter_region(bpy.types.Operator):
             t_core = time.perf_counter()
             dup = cs.flank_dupin(surface, flanks, k, n=int(self.samples))
             t_dupin = time.perf_counter()
-            bounds = cs.custom_tool_bounds(surface, flanks, k // 2)
+            bounds = custom_tool_bounds(surface, flanks, k // 2)
             t_bounds = time.perf_counter()
             region = cs.admissible_region(dup, bounds, n=grid)
             adm = cs.is_admissible(tool, dup, bounds)
-            catalogue, cat_unit = self._catalogue(context, cs, src, R)
+            catalogue, cat_unit = self._catalogue(context, cat, src, R)
             sugg = cs.suggest_tool(catalogue, dup, bounds)
             t_region = time.perf_counter()
         except ValueError as ex:

@@ -10,7 +10,7 @@ from .properties import double_flank_props
 
 PROP_PREFIX = "flank_df_"
 DEVIATION_ATTR = "deviation"           # FLOAT point attribute of the envelope strips (scene units, + = stock)
-DEVIATION_COLOR_ATTR = "error_color"   # FLOAT_COLOR of the envelope strips (flank_addon.verify.deviation_colors)
+DEVIATION_COLOR_ATTR = "error_color"   # FLOAT_COLOR of the envelope strips (flank_addon.simulation.verify.deviation_colors)
 ERROR_ATTR = "error"                   # FLOAT point attribute of the error chart (scene units, unscaled)
 FLANK_ATTR = "flank"                   # FLOAT point attribute of the error chart: 1, 2 (0 = baseline)
 CHART_COLOR_ATTR = "flank_color"
@@ -140,7 +140,7 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
         """The planner, envelopes, tool meshes and charts (numpy only: the worker thread when invoked)."""
         import numpy as np
 
-        from ..flank_addon import double_flank as df
+        from ..flank_addon.methods.double_flank import planner as df
 
         res = df.plan_double_flank(job["surface"], job["flanks"], valley=job["k_valley"], variant=job["variant"],
                                    tool=job["tool"], two_paths=job["two_paths"], m=job["m"], rim=job["rim"],
@@ -162,8 +162,8 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
         import numpy as np
         from mathutils import Matrix
 
-        from ..flank_addon import double_flank as df
-        from ..flank_addon.verify import deviation_colors
+        from ..flank_addon.methods.double_flank import planner as df
+        from ..flank_addon.simulation.verify import deviation_colors
 
         rotor_obj = bpy.data.objects.get(job["rotor_name"])
         if rotor_obj is None:
@@ -305,7 +305,7 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
 
             plan_path = csv_paths = None
             if self.filepath:
-                from ..flank_addon.plan import write_plan
+                from ..flank_addon.io.plan import write_plan
 
                 plan_path = bpy.path.abspath(self.filepath)
                 files.append(plan_path)

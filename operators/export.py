@@ -53,7 +53,7 @@ def run_plan(context, name=""):
     """(collection, plan dict) of the run :func:`find_run` picks, or an error message (str)."""
     import json
 
-    from ..flank_addon.plan import PlanError, validate_plan
+    from ..flank_addon.io.plan import PlanError, validate_plan
 
     coll = find_run(context, name)
     if isinstance(coll, str):

@@ -137,8 +137,8 @@ class FLANK_OT_formed_cutter(ModalPlannerMixin, bpy.types.Operator):
 
         import numpy as np
 
-        from ..flank_addon import formed_cutter as fc
-        from ..flank_addon import rotors
+        from ..flank_addon.methods.formed_cutter import cutter_profile as fc
+        from ..flank_addon.geometry import rotors
 
         t0 = time.perf_counter()
         lead_in, A_in, swivel, eps_b_in, tol_in = (_decimal(v) for v in (
@@ -197,12 +197,12 @@ class FLANK_OT_formed_cutter(ModalPlannerMixin, bpy.types.Operator):
         import numpy as np
         from scipy.spatial import cKDTree
 
-        from ..flank_addon import formed_cutter as fc
-        from ..flank_addon import rotors
+        from ..flank_addon.methods.formed_cutter import cutter_profile as fc
+        from ..flank_addon.geometry import rotors
         from ..flank_addon.progress import Cancelled, reporter
-        from ..flank_addon.screw import hand_sign, screw_motion, screw_to_plane
-        from ..flank_addon.sweep import MeridianPart, RevolvingTool, machined_deviation
-        from ..flank_addon.verify import deviation_colors
+        from ..flank_addon.geometry.screw import hand_sign, screw_motion, screw_to_plane
+        from ..flank_addon.simulation.sweep import MeridianPart, RevolvingTool, machined_deviation
+        from ..flank_addon.simulation.verify import deviation_colors
 
         report = reporter(progress)
         src = job["src"]
@@ -305,7 +305,7 @@ class FLANK_OT_formed_cutter(ModalPlannerMixin, bpy.types.Operator):
         import numpy as np
         from mathutils import Matrix
 
-        from ..flank_addon import formed_cutter as fc
+        from ..flank_addon.methods.formed_cutter import cutter_profile as fc
 
         src, fs, fe = job["src"], job["fs"], job["fe"]
         rotor_obj = None

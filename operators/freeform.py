@@ -168,30 +168,6 @@ def size_check(np, props, src):
     return None
 
 
-def sphere_cone_meridian(np, r1, r2, L, below=0.0, shank_radius=0.0, shank_length=0.0):
-    """(K, 2) meridian (radius, height) of s003's tool, top pole to tip pole, in the frame whose origin is the
-    centre of the sphere of radius r1 and whose z runs to the sphere r2 at height L: the cone touching the spheres
-    (circles of radius r cos(a) at height z - r sin(a), sin(a) = (r2 - r1) / L), continued ``below`` the first
-    sphere's centre (the part of the tool that does not cut), and the shank beyond the base."""
-    sa = (r2 - r1) / L
-    ca = np.sqrt(max(1.0 - sa * sa, 0.0))
-    r0 = r1 - sa * below                       # radius of the tip sphere of the whole tool
-    z_tip, z_top = -below - r0 * sa, L - r2 * sa
-    rh = []
-    if shank_radius > 0.0 and shank_length > 0.0:
-        rh += [(0.0, z_top + shank_length), (shank_radius, z_top + shank_length), (shank_radius, z_top)]
-    else:
-        rh += [(0.0, z_top)]
-    rh += [(r2 * ca, z_top), (max(r0, 0.0) * ca, z_tip), (0.0, z_tip)]
-    out = [rh[0]]
-    for p in rh[1:]:
-        if abs(p[0] - out[-1][0]) > 1e-12 or abs(p[1] - out[-1][1]) > 1e-12:
-            out.append(p)
-    if out[-1][0] != 0.0:
-        out.append((0.0, z_tip))
-    return np.array(out, dtype=np.float64)
-
-
 def quad_triangles(np, quads, valid_vertices):
     """Triangles (two per quad) of the quads whose four corners are valid."""
     q = np.asarray(quads, dtype=np.int64)
@@ -221,8 +197,8 @@ def build_guiding_preview(context, props, run_tool):
     import numpy as np
     from mathutils import Matrix
 
-    from ..flank_addon.g1_multistrip import engaged_cone
-    from ..flank_addon.guiding import guiding_curves
+    from ..flank_addon.methods.freeform_g1.planner import engaged_cone
+    from ..flank_addon.methods.freeform_g1.guiding import guiding_curves
 
     import types
 
@@ -502,7 +478,7 @@ class FLANK_OT_add_test_surface(bpy.types.Operator):
         import numpy as np
         from mathutils import Matrix
 
-        from ..flank_addon.freeform_surfaces import make_surface
+        from ..flank_addon.geometry.freeform_surfaces import make_surface
 
         size = _decimal(self.size)
         if not (math.isfinite(size) and 1e-6 <= size <= 1e6):
@@ -637,8 +613,9 @@ class FLANK_OT_plan_freeform(ModalPlannerMixin, bpy.types.Operator):
         """The planner, envelopes, kinks and tool meshes (numpy only: the worker thread when invoked)."""
         import numpy as np
 
-        from ..flank_addon import g1_multistrip as g1
+        from ..flank_addon.methods.freeform_g1 import planner as g1
         from ..flank_addon.progress import reporter, substage
+        from ..flank_addon.tooling.meridian import sphere_cone_outline
 
         report = reporter(progress)
         plan = g1.plan_freeform(job["V"], job["F"], progress=substage(report, 0.0, 0.9), **job["core"])
@@ -654,8 +631,7 @@ class FLANK_OT_plan_freeform(ModalPlannerMixin, bpy.types.Operator):
             r1e, r2e = float(st["radii"][0]), float(st["radii"][-1])
             Le = float(np.linalg.norm(b[0] - a[0]))
             below = max(float(tool["length"]) - Le, 0.0)
-            rh = sphere_cone_meridian(np, r1e, r2e, Le, below, float(tool["shank_radius"]),
-                                      float(tool["shank_length"]))
+            rh = sphere_cone_outline(r1e, r2e, Le, below, float(tool["shank_radius"]), float(tool["shank_length"]))
             rot, _ = frame_along(np, a[0], b[0])
             T = np.eye(4)
             T[:3, :3] = rot
@@ -672,7 +648,7 @@ class FLANK_OT_plan_freeform(ModalPlannerMixin, bpy.types.Operator):
         import numpy as np
         from mathutils import Matrix
 
-        from ..flank_addon.verify import deviation_colors
+        from ..flank_addon.simulation.verify import deviation_colors
 
         src_obj = bpy.data.objects.get(job["obj_name"])
         if src_obj is None:
@@ -754,7 +730,7 @@ class FLANK_OT_plan_freeform(ModalPlannerMixin, bpy.types.Operator):
                 go.matrix_world = to_world
 
             if self.filepath:
-                from ..flank_addon.plan import write_plan
+                from ..flank_addon.io.plan import write_plan
 
                 path = bpy.path.abspath(self.filepath)
                 files.append(path)

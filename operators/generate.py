@@ -20,7 +20,7 @@ class FLANK_OT_generate_rotor(bpy.types.Operator):
 
         import numpy as np
 
-        from ..flank_addon import rotors
+        from ..flank_addon.geometry import rotors
 
         t0 = time.perf_counter()
         from .common import count_limit_error

@@ -63,7 +63,7 @@ class FLANK_OT_paraboloid_groove(bpy.types.Operator):
 
         import numpy as np
 
-        from ..flank_addon.paraboloid import ParaboloidError, groove_section, groove_surface
+        from ..flank_addon.methods.paraboloid_groove.groove import ParaboloidError, groove_section, groove_surface
 
         t0 = time.perf_counter()
         # Blender float properties are single precision: recover the decimal value that was typed

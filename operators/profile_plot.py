@@ -2,7 +2,7 @@
 """flank.error_plot -- the signed machining error along the flank profile of a planning run as an image.
 
 The data are the verify engine's deviation on the run's target flanks (the numbers of the error-profile CSV
-export: ``flank_addon.profile_plot.error_profile``), drawn by ``flank_addon.profile_plot`` (numpy only) into
+export: ``flank_addon.report.error_chart.error_profile``), drawn by ``flank_addon.report.error_chart`` (numpy only) into
 the image "Flank Error Plot (<run>)" -- packed into the .blend, kept with a fake user, replaced in place by
 the next plot of the same run -- and shown in an Image Editor when the screen has one."""
 import bpy
@@ -47,7 +47,7 @@ def run_tolerance(coll, plan):
     (then the plan's own ``tolerance`` field or verify's default)."""
     import math
 
-    from ..flank_addon.report_render import plan_scale
+    from ..flank_addon.report.report_geometry import plan_scale
 
     for key in TOLERANCE_PROPS:
         v = coll.get(key)
@@ -105,8 +105,9 @@ class FLANK_OT_error_plot(bpy.types.Operator):
         import os
         import time
 
-        from ..flank_addon.profile_plot import plan_error_plot, to_blender_pixels, to_png_bytes
-        from ..flank_addon.report_render import display_units, write_png
+        from ..flank_addon.report.error_chart import plan_error_plot, to_blender_pixels, to_png_bytes
+        from ..flank_addon.io.png import write_png
+        from ..flank_addon.report.report_geometry import display_units
 
         t0 = time.perf_counter()
         w, h = int(self.width), int(self.height)

@@ -556,11 +556,11 @@ _LEGEND_RGB = {}
 
 
 def legend_rgb(key):
-    """Linear RGB of the legend swatch ``key``: flank_addon.verify.deviation_colors at LEGEND_STEPS[key] x
+    """Linear RGB of the legend swatch ``key``: flank_addon.simulation.verify.deviation_colors at LEGEND_STEPS[key] x
     tolerance (the colours do not depend on the tolerance itself, only on deviation / tolerance)."""
     rgb = _LEGEND_RGB.get(key)
     if rgb is None:
-        from ..flank_addon.verify import deviation_colors
+        from ..flank_addon.simulation.verify import deviation_colors
 
         t = dict(LEGEND_STEPS)[key]
         rgb = _LEGEND_RGB[key] = tuple(float(c) for c in deviation_colors([t], 1.0)[0][:3])

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """flank.render_report -- a report picture (rotor, strips coloured by signed error, legend, title) of a
 planning run, rendered headless from the run's stored plan by the same code as ``python -m flank_addon
-render`` (``flank_addon.report_render``).  The render happens in a temporary scene that is removed again:
+render`` (``flank_addon.report.report_geometry``).  The render happens in a temporary scene that is removed again:
 the file gains no data-block and the user's scenes are not touched."""
 import bpy
 from bpy.props import EnumProperty, IntProperty, StringProperty
@@ -41,8 +41,9 @@ class FLANK_OT_render_report(bpy.types.Operator):
     def execute(self, context):
         import os
 
-        from ..flank_addon.plan import is_mesh_plan
-        from ..flank_addon.report_render import display_units, render_plan_report
+        from ..flank_addon.io.plan import is_mesh_plan
+        from ..flank_addon.report.report_geometry import display_units
+        from .report_scene import render_freeform_report, render_plan_report
 
         found = run_plan(context, self.collection)
         if isinstance(found, str):
@@ -58,16 +59,16 @@ class FLANK_OT_render_report(bpy.types.Operator):
         us = context.scene.unit_settings
         try:
             if is_mesh_plan(plan):
-                from ..flank_addon.freeform_report import freeform_title, render_freeform_report
+                from ..flank_addon.report.freeform_geometry import freeform_title
 
                 units = display_units(plan, us.system, us.scale_length,
                                       scale=float(coll.get("flank_ff_length_scale", 1.0) or 1.0))
-                info = render_freeform_report(bpy, plan, path, width=int(self.width), height=int(self.height),
+                info = render_freeform_report(plan, path, width=int(self.width), height=int(self.height),
                                               engine=self.engine, units=units,
                                               title=freeform_title(plan, coll.name))
             else:
                 units = display_units(plan, us.system, us.scale_length)
-                info = render_plan_report(bpy, plan, path, width=int(self.width), height=int(self.height),
+                info = render_plan_report(plan, path, width=int(self.width), height=int(self.height),
                                           engine=self.engine, units=units,
                                           title="{}: {}".format(coll.name, plan.get("method", "")))
         except Exception as ex:                     # reported, never a traceback; nothing is left behind

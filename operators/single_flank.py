@@ -46,28 +46,6 @@ def _merge_ranges(ranges):
     return [tuple(r) for r in out]
 
 
-def tool_meridian(np, tool):
-    """(K, 2) meridian (radius, height) of the cone tool + shank from the top pole to the tip pole, in its
-    frame: origin at the tip sphere centre x1S, z along the axis (flat tip at the circle c1)."""
-    import math
-
-    z1 = -tool.r1c * math.tan(tool.alpha)          # tip circle c1 (s000 Eq. 2)
-    z2 = z1 + tool.h                              # top circle c2
-    rh = []
-    if tool.shank_radius > 0.0 and tool.shank_length > 0.0:
-        rh += [(0.0, z2 + tool.shank_length), (tool.shank_radius, z2 + tool.shank_length), (tool.shank_radius, z2)]
-    else:
-        rh += [(0.0, z2)]
-    rh += [(tool.r2c, z2), (tool.r1c, z1), (0.0, z1)]
-    out = [rh[0]]
-    for p in rh[1:]:                                # no repeated rings (degenerate faces)
-        if abs(p[0] - out[-1][0]) > 1e-12 or abs(p[1] - out[-1][1]) > 1e-12:
-            out.append(p)
-    if out[-1][0] != 0.0:
-        out.append((0.0, z1))
-    return np.array(out, dtype=np.float64)
-
-
 class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
     """s000: plan multi-strip single-flank milling of one flank of the active rotor with a truncated-cone tool
     (optimised strips, global collision filter, minimum strip cover to a tolerance) and show the result.
@@ -174,8 +152,8 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
                                        "{:.6g} (scene units)".format(label, _decimal(v), k, rotor_obj.name, k * R * s))
                 return None
 
-        from ..flank_addon import multi_strip as ms
-        from ..flank_addon.cone import ConeTool
+        from ..flank_addon.methods.single_flank import planner as ms
+        from ..flank_addon.tooling.cone import ConeTool
 
         # ---- the flank
         point_rotor = None
@@ -231,7 +209,8 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
 
         import numpy as np
 
-        from ..flank_addon import multi_strip as ms
+        from ..flank_addon.methods.single_flank import planner as ms
+        from ..flank_addon.tooling.meridian import cone_tool_outline
 
         surface, flanks, k_flank, u_range = job["surface"], job["flanks"], job["k_flank"], job["u_range"]
         tool, z0, z1, n_t = job["tool"], job["z0"], job["z1"], job["n_t"]
@@ -262,7 +241,7 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
             T[:3, :3] = rot
             T[:3, 3] = c.pose.tip
             frames.append(T)
-        tool_verts, tool_faces = revolved_mesh(np, tool_meridian(np, tool), TOOL_SEGMENTS)
+        tool_verts, tool_faces = revolved_mesh(np, cone_tool_outline(tool), TOOL_SEGMENTS)
         return dict(res=res, envs=envs, sweeps=sweeps, env_elapsed=env_elapsed, frames=frames,
                     tool_verts=tool_verts, tool_faces=tool_faces)
 
@@ -275,8 +254,8 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
         import numpy as np
         from mathutils import Matrix
 
-        from ..flank_addon.screw import screw_motion
-        from ..flank_addon.verify import deviation_colors
+        from ..flank_addon.geometry.screw import screw_motion
+        from ..flank_addon.simulation.verify import deviation_colors
 
         rotor_obj = bpy.data.objects.get(job["rotor_name"])
         if rotor_obj is None:
@@ -420,7 +399,7 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
 
             plan_path = None
             if self.filepath:
-                from ..flank_addon.plan import write_plan
+                from ..flank_addon.io.plan import write_plan
 
                 plan_path = bpy.path.abspath(self.filepath)
                 files.append(plan_path)

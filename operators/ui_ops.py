@@ -30,7 +30,7 @@ __all__ = ["mm_per_scene_unit", "length_text", "run_call", "freeform_tool", "sel
 def length_text(value, scene, unit="mm", scale=1.0, signed=False):
     """A length held in scene units, as people read it: µm below 1 mm, else mm in metric scenes; inches in
     imperial ones; in a unit-less scene the run's own unit (``value / scale`` in ``unit``, 'mm' or 'R') --
-    the conventions of the report picture (flank_addon.report_render.display_units)."""
+    the conventions of the report picture (flank_addon.report.report_geometry.display_units)."""
     import math
 
     try:
@@ -111,7 +111,7 @@ def _to_rotor(np, display, points_world):
 def _profile_distance(np, surface, p_rotor):
     """Distance (rotor units) of a rotor-frame point from the rotor surface, measured in its transverse section
     after screwing it into z = 0."""
-    from ..flank_addon.screw import screw_to_plane
+    from ..flank_addon.geometry.screw import screw_to_plane
 
     q0 = screw_to_plane(np.asarray(p_rotor, float).reshape(1, 3), surface.v0, surface.hand)[0]
     prof = surface.profile
@@ -143,7 +143,7 @@ class FLANK_OT_refresh_flanks(bpy.types.Operator):
     def execute(self, context):
         import numpy as np
 
-        from ..flank_addon.cutter_selection import flank_dupin
+        from ..flank_addon.tooling.cutter_selection import flank_dupin
         from .common import count_limit_error
 
         settings = getattr(context.scene, "flank_settings", None)
@@ -198,7 +198,7 @@ class FLANK_OT_pick_flank_cursor(bpy.types.Operator):
     def execute(self, context):
         import numpy as np
 
-        from ..flank_addon.multi_strip import flank_of_point
+        from ..flank_addon.methods.single_flank.planner import flank_of_point
 
         settings = getattr(context.scene, "flank_settings", None)
         if settings is None:
@@ -241,7 +241,7 @@ class FLANK_OT_pick_flank_faces(bpy.types.Operator):
         import bmesh
         import numpy as np
 
-        from ..flank_addon.multi_strip import flank_of_point
+        from ..flank_addon.methods.single_flank.planner import flank_of_point
 
         settings = getattr(context.scene, "flank_settings", None)
         if settings is None:
@@ -287,22 +287,6 @@ class FLANK_OT_pick_flank_faces(bpy.types.Operator):
 
 
 # ================================================================================================ tool preview
-def _cone_meridian(r1, r2, h, shank_radius, shank_length):
-    """(radius, height) meridian of a truncated cone (tip circle r1 at z = 0, r2 at z = h) and its shank, from
-    the top pole to the tip pole (common.revolved_mesh)."""
-    rh = []
-    if shank_radius > 0.0 and shank_length > 0.0:
-        rh += [(0.0, h + shank_length), (shank_radius, h + shank_length), (shank_radius, h)]
-    else:
-        rh += [(0.0, h)]
-    rh += [(r2, h), (r1, 0.0), (0.0, 0.0)]
-    out = [rh[0]]
-    for p in rh[1:]:
-        if abs(p[0] - out[-1][0]) > 1e-12 or abs(p[1] - out[-1][1]) > 1e-12:
-            out.append(p)
-    return out
-
-
 def _newest(objects):
     return objects[-1] if objects else None
 
@@ -319,6 +303,8 @@ def _result_tool(kind):
 def tool_shape(settings):
     """(meridian [(radius, height)] in scene units, label) of the tool settings, or (None, message)."""
     import math
+
+    from ..flank_addon.tooling.meridian import cone_outline
 
     kind = settings.tool_kind
     vals = [float(getattr(settings, n)) for n in ("sf_r1", "sf_r2", "sf_alpha", "sf_length", "sf_shank_radius",
@@ -339,11 +325,12 @@ def tool_shape(settings):
             h = length
         if not h > 0.0:
             return None, "cone length h = {:g} must be > 0".format(h)
-        return _cone_meridian(r1, r2, h, shank_r, shank_l), "cone"
+        return cone_outline(r1, r2, 0.0, h, shank_r, shank_l).tolist(), "cone"
     if kind == "CYLINDER":
         if not (r1 > 0.0 and length > 0.0):
             return None, "cylinder radius {:g} and flute length {:g} must be > 0".format(r1, length)
-        return _cone_meridian(r1, r1 + length * math.tan(CYLINDER_TAPER), length, shank_r, shank_l), "cylinder"
+        return (cone_outline(r1, r1 + length * math.tan(CYLINDER_TAPER), 0.0, length, shank_r, shank_l).tolist(),
+                "cylinder")
     if kind == "PARABOLOID":
         if not (pa < 0.0 < pb):
             return None, "the paraboloid needs a < 0 < b (a = {:g}, b = {:g})".format(pa, pb)

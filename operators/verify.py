@@ -112,9 +112,9 @@ class FLANK_OT_verify_plan(bpy.types.Operator):
         import numpy as np
         from scipy.spatial import cKDTree
 
-        from ..flank_addon.plan import PlanError, read_plan
-        from ..flank_addon.screw import screw_to_plane
-        from ..flank_addon.verify import deviation_colors, values_on_rotor, verify_plan, world_to_rotor
+        from ..flank_addon.io.plan import PlanError, read_plan
+        from ..flank_addon.geometry.screw import screw_to_plane
+        from ..flank_addon.simulation.verify import deviation_colors, values_on_rotor, verify_plan, world_to_rotor
 
         obj = context.active_object
         if obj is None or obj.type != 'MESH':

@@ -2,7 +2,7 @@
 a cone tangent to a helical flank at a profile point, its ruling along an asymptotic direction."""
 import numpy as np
 
-from flank_addon.cone import ConePose
+from flank_addon.tooling.cone import ConePose
 
 
 def surface_frame(S, u):
@@ -50,7 +50,7 @@ def tangent_pose(S, tool, u, direction, lift=0.0):
 def lifted_poses(S, tool, flank_range, us, which=0, eps=1e-4, rounds=3):
     """Asymptotic-direction tangent poses at parameters ``us``, each lifted along its normal until it
     no longer overcuts the flank by more than ``eps`` (uses strip_cover.covered_intervals)."""
-    from flank_addon.strip_cover import covered_intervals
+    from flank_addon.methods.single_flank.strip_cover import covered_intervals
 
     dirs = [asymptotic_directions(S, u)[which] for u in us]
     lifts = np.zeros(len(us))

@@ -2,8 +2,8 @@
 import numpy as np
 from scipy.spatial import cKDTree
 
-from flank_addon.profile import Arc, Line, SegmentProfile, SplineProfile
-from flank_addon.screw import screw_motion, screw_to_plane
+from flank_addon.geometry.profile import Arc, Line, SegmentProfile, SplineProfile
+from flank_addon.geometry.screw import screw_motion, screw_to_plane
 
 
 def wavy_profile(lobes=4, r0=0.72, amp=0.22, n=480):
@@ -73,7 +73,7 @@ def profile_hausdorff(analysis, rotor, to_model):
     ``to_model``, then into the analysis' rotor frame and screwed into its
     plane z = 0, so axis, pitch and profile errors all count.
     """
-    from flank_addon.rotor_analysis import _order_along
+    from flank_addon.geometry.rotor_analysis import _order_along
 
     u = rotor.profile.params(20000)
     truth = to_model(np.c_[rotor.profile.eval(u), np.zeros(len(u))])

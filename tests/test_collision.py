@@ -8,13 +8,13 @@ import pytest
 from scipy.spatial import cKDTree
 
 from cone_poses import surface_frame, tangent_pose
-from flank_addon.collision import (ProfileSolid, check_collisions, check_rotor_collisions, rotor_profile,
+from flank_addon.simulation.collision import (ProfileSolid, check_rotor_collisions, rotor_profile,
                                    sd_flat_cone)
-from flank_addon.cone import ConePose, ConeTool
-from flank_addon.profile import points_in_polygon
-from flank_addon.rotors import builtin_by_name, helical_body_mesh
-from flank_addon.screw import screw_motion
-from flank_addon.strip_cover import covered_intervals
+from flank_addon.tooling.cone import ConePose, ConeTool
+from flank_addon.geometry.profile import points_in_polygon
+from flank_addon.geometry.rotors import builtin_by_name, helical_body_mesh
+from flank_addon.geometry.screw import screw_motion
+from flank_addon.methods.single_flank.strip_cover import covered_intervals
 
 TOOL = ConeTool(math.asin(0.1), 0.05, 0.08, 0.04, 0.6)
 
@@ -232,7 +232,7 @@ def test_depth_agrees_with_dense_time_sampling(female):
     pose = shank_through_lobe(r, 2)
     rep = check_rotor_collisions([pose], r)[0]
     sh0, sh1, rad = pose.shank
-    from flank_addon.sweep import sd_cylinder
+    from flank_addon.simulation.sweep import sd_cylinder
     P, _ = rotor_profile(r)
     for c in rep.collisions:
         p = np.r_[P[c["profile_index"]], 0.0]

@@ -8,10 +8,11 @@ import math
 import numpy as np
 import pytest
 
-from flank_addon import cutter_selection as cs
+from flank_addon.tooling import catalogue
+from flank_addon.tooling import cutter_selection as cs
 from flank_addon.cli import main
-from flank_addon.cone import ConeTool
-from flank_addon.rotors import builtin_by_name
+from flank_addon.tooling.cone import ConeTool
+from flank_addon.geometry.rotors import builtin_by_name
 
 
 @pytest.fixture(scope="module")
@@ -22,11 +23,11 @@ def female():
 
 @pytest.fixture(scope="module")
 def female_bounds(female):
-    from flank_addon.double_flank import plan_double_flank
+    from flank_addon.methods.double_flank.planner import custom_tool_bounds, plan_double_flank
 
     r, s = female
     res = plan_double_flank(s, r.flanks, valley=0, simulate=False, m=50)
-    return res, cs.custom_tool_bounds(s, r.flanks, 0, result=res)
+    return res, custom_tool_bounds(s, r.flanks, 0, result=res)
 
 
 # ---------------------------------------------------------------------------- independent references
@@ -268,15 +269,15 @@ def test_admissible_region_matches_pointwise_checks(female, female_bounds):
 
 # ---------------------------------------------------------------------------- catalogue
 def test_catalogue_data_and_scaling():
-    mm = cs.catalogue_tools()
-    assert len(mm) == len(cs.TAPERED_END_MILLS_MM) >= 15
+    mm = catalogue.catalogue_tools()
+    assert len(mm) == len(catalogue.TAPERED_END_MILLS_MM) >= 15
     degs = {round(math.degrees(c.tool.alpha), 6) for c in mm}
     assert {1.0, 1.5, 2.0, 3.0, 5.0} <= degs
-    for c, row in zip(mm, cs.TAPERED_END_MILLS_MM):
+    for c, row in zip(mm, catalogue.TAPERED_END_MILLS_MM):
         _, taper, tip_d, flute, shank_d, overall = row
         assert c.tool.r1c == pytest.approx(tip_d / 2) and c.tool.h == pytest.approx(flute)
         assert c.tool.shank_radius >= c.tool.r2c and c.tool.shank_length == pytest.approx(overall - flute)
-    unit = cs.catalogue_tools(40.0)
+    unit = catalogue.catalogue_tools(40.0)
     for a, b in zip(mm, unit):
         assert b.unit == "R" and b.tool.alpha == a.tool.alpha
         for k in ("r1c", "r2c", "shank_radius", "shank_length", "h"):
@@ -288,7 +289,7 @@ def test_suggest_tool_is_largest_admissible_by_brute_force(female, female_bounds
     r, s = female
     _, b = female_bounds
     d = cs.flank_dupin(s, r.flanks, 1)
-    cat = cs.catalogue_tools(r_mm)
+    cat = catalogue.catalogue_tools(r_mm)
     sug = cs.suggest_tool(cat, d, b)
     ok = [i for i, c in enumerate(cat) if conditions_by_hand(c.tool, d.a_min, b)]
     assert 0 < len(ok) < len(cat)            # the case can distinguish right from wrong
@@ -350,7 +351,7 @@ def test_degenerate_inputs_raise_clear_errors(female):
     with pytest.raises(ValueError, match="catalogue entry 1"):
         cs.suggest_tool([ConeTool(0.1, 0.01, 0.02), "end mill"], 1.0, b)
     with pytest.raises(ValueError, match="outer_radius_mm"):
-        cs.catalogue_tools(0.0)
+        catalogue.catalogue_tools(0.0)
     with pytest.raises(ValueError, match="fewer than two"):
         p = type("P", (), {})()
         p.points, p.radii, p.counted = np.zeros((3, 3)), np.ones(3), np.zeros((2, 3), bool)
@@ -366,7 +367,7 @@ def test_cli_suggest_tool_builtin(capsys):
     assert d["dupin"]["a_min"] == pytest.approx(dup.a_min)
     assert d["dupin"]["hyperbolic_fraction"] == pytest.approx(dup.hyperbolic_fraction)
     b = cs.ValleyBounds(**{k: d["bounds"][k] for k in ("d_min", "d_max", "d_depth", "c", "d_angle")})
-    cat = cs.catalogue_tools(50.0)
+    cat = catalogue.catalogue_tools(50.0)
     ok = [c.name for c in cat if conditions_by_hand(c.tool, dup.a_min, b)]
     assert [c["name"] for c in d["catalogue"] if c["ok"]] == ok
     assert d["suggested"]["name"] == max((c for c in cat if c.name in ok), key=lambda c: cs.tool_size_key(c.tool)).name
@@ -410,7 +411,7 @@ def test_largest_cone_matches_brute_force_grid(a_min, bounds):
 
 
 def test_cli_suggest_tool_mesh_in_mm(tmp_path, capsys):
-    from flank_addon.mesh_io import write_mesh
+    from flank_addon.io.mesh_files import write_mesh
 
     r50 = builtin_by_name("asymmetric-female", scale=50.0)
     path = tmp_path / "female.stl"
@@ -424,7 +425,7 @@ def test_cli_suggest_tool_mesh_in_mm(tmp_path, capsys):
     ref = cs.flank_dupin(r1.surface(), r1.flanks, 1).a_min ** 2
     assert d["dupin"]["rho_min"] == pytest.approx(50.0 * ref, rel=5e-3)
     b = cs.ValleyBounds(**{k: d["bounds"][k] for k in ("d_min", "d_max", "d_depth", "c", "d_angle")})
-    cat = cs.catalogue_tools()
+    cat = catalogue.catalogue_tools()
     ok = [c.name for c in cat if conditions_by_hand(c.tool, d["dupin"]["a_min"], b)]
     assert [c["name"] for c in d["catalogue"] if c["ok"]] == ok and ok
     assert d["suggested"]["tool_mm"] == d["suggested"]["tool"]

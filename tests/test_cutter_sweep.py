@@ -4,8 +4,8 @@ flagged, show the flagged (uncut) regions, and never overcut."""
 import numpy as np
 import pytest
 
-from flank_addon import formed_cutter as fc
-from flank_addon.sweep import MeridianPart, RevolvingTool, machined_deviation
+from flank_addon.methods.formed_cutter import cutter_profile as fc
+from flank_addon.simulation.sweep import MeridianPart, RevolvingTool, machined_deviation
 
 LEAD, A = 450.0, 200.0
 UM = 1e-3   # mm

@@ -1,17 +1,15 @@
 """s001 double-flank milling: restricted feet, symmetric exactness, optimum, variants, plans, CLI."""
-import json
 
 import numpy as np
 import pytest
 
 from flank_addon.cli import main
-from flank_addon.double_flank import (AxisEvaluator, Valley, build_path, optimize_axis, phi_value,
-                                      plan_double_flank, radial_function, tool_extent, tool_mesh,
-                                      write_tool_csv)
-from flank_addon.plan import read_plan
-from flank_addon.rotors import builtin_by_name
-from flank_addon.screw import screw_motion, screw_to_plane
-from flank_addon.verify import verify_plan
+from flank_addon.methods.double_flank.planner import (AxisEvaluator, Valley, build_path, optimize_axis, phi_value,
+                                      plan_double_flank, radial_function, write_tool_csv)
+from flank_addon.io.plan import read_plan
+from flank_addon.geometry.rotors import builtin_by_name
+from flank_addon.geometry.screw import screw_motion, screw_to_plane
+from flank_addon.simulation.verify import verify_plan
 
 
 def _valley(name, k=0):
@@ -216,8 +214,8 @@ def test_cli_round_trip_and_errors(tmp_path, capsys):
 def test_cli_mesh_input(tmp_path, capsys):
     """--mesh: the rotor is analysed from a mesh file (axis, pitch, flanks), the plan is in the mesh's
     frame and unit, and a valley point picks the valley."""
-    from flank_addon.mesh_io import write_mesh
-    from flank_addon.rotors import builtin_rotor
+    from flank_addon.io.mesh_files import write_mesh
+    from flank_addon.geometry.rotors import builtin_rotor
 
     rot = builtin_rotor("nilson", "male")
     v, f = rot.mesh()

@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 
 from flank_addon.cli import main
-from flank_addon.cone import ConeTool
+from flank_addon.tooling.cone import ConeTool
 from flank_addon.exports import cl_data, error_profile_csv, strip_mesh, write_strip_meshes
-from flank_addon.mesh_io import read_ply, read_stl
-from flank_addon.rotors import builtin_by_name
-from flank_addon.screw import screw_motion, screw_to_plane
-from flank_addon.sweep import StripTool, helical_distance
-from flank_addon.verify import verify_plan
+from flank_addon.io.mesh_files import read_ply, read_stl
+from flank_addon.geometry.rotors import builtin_by_name
+from flank_addon.geometry.screw import screw_motion, screw_to_plane
+from flank_addon.simulation.sweep import StripTool, helical_distance
+from flank_addon.simulation.verify import verify_plan
 
 CONE = ConeTool(math.asin(0.1), 0.05, 0.08, 0.04, 0.6)
 GOTO = re.compile(r"^GOTO/([^ ]+) \$\$ A=([^ ]+) FEED=([^ ]+)$")
@@ -20,7 +20,7 @@ GOTO = re.compile(r"^GOTO/([^ ]+) \$\$ A=([^ ]+) FEED=([^ ]+)$")
 
 @pytest.fixture(scope="module")
 def single():
-    from flank_addon.multi_strip import plan_single_flank
+    from flank_addon.methods.single_flank.planner import plan_single_flank
 
     r = builtin_by_name("asymmetric-female")
     return plan_single_flank(r.surface(), r.flanks, 1, CONE, 2e-3, n_seeds=6, max_rounds=1).plan
@@ -28,7 +28,7 @@ def single():
 
 @pytest.fixture(scope="module")
 def double():
-    from flank_addon.double_flank import plan_double_flank
+    from flank_addon.methods.double_flank.planner import plan_double_flank
 
     r = builtin_by_name("nilson-male")
     return plan_double_flank(r.surface(), r.flanks, m=100, simulate=False).plan

@@ -7,14 +7,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flank_addon.formed_cutter import (FLAG_CONTACT_JUMP, FLAG_MAXIMUM_POINT, TABLE1, CutterSetup,
+from flank_addon.methods.formed_cutter.cutter_profile import (FLAG_CONTACT_JUMP, FLAG_MAXIMUM_POINT, TABLE1, CutterSetup,
                                        FormedCutterError, Section, arc_tooth_profile, arc_tooth_section,
                                        contact_equation_profile, cutter_meridian, cutter_profile,
                                        section_from_profile, table2,
                                        _first_hits)
-from flank_addon.profile import SplineProfile
-from flank_addon.rotors import builtin_by_name
-from flank_addon.screw import screw_to_plane
+from flank_addon.geometry.profile import SplineProfile
+from flank_addon.geometry.rotors import builtin_by_name
+from flank_addon.geometry.screw import screw_to_plane
 
 T = TABLE1
 ROOT = Path(__file__).resolve().parents[1]
@@ -140,7 +140,7 @@ def test_swept_cutter_never_overcuts_the_tooth(swivel):
     """Independent check by the sweep simulation: the 2000-plane meridian swept along the helix,
     deviation of tooth points along their normals (> 0 material left, < 0 overcut).  Points crowd
     towards the tooth's edges, where the 50 deg cutter used to cut 0.44 mm into the groove (u ~ 0.35)."""
-    from flank_addon.sweep import MeridianPart, RevolvingTool, machined_deviation
+    from flank_addon.simulation.sweep import MeridianPart, RevolvingTool, machined_deviation
     prof, tooth, _ = arc_tooth_profile()
     Z, R, setup = cutter_meridian(prof, T["lead"], T["centre_distance"], swivel, planes=2000, tooth=tooth)
     tool = RevolvingTool([MeridianPart(setup.axis_point, setup.axis_direction, np.c_[Z, R])])
@@ -167,7 +167,7 @@ def test_corners_of_sections():
 def test_multi_start_search_finds_a_narrow_deeper_minimum():
     """Two minima: a wide one whose grid samples are lowest and a narrow, deeper one between grid
     samples; the plain search (one start) refines the wrong one."""
-    from flank_addon.formed_cutter import _search, _subdivide
+    from flank_addon.methods.formed_cutter.cutter_profile import _search, _subdivide
 
     def f(Y, Z=None):
         return np.minimum(10 + 0.01 * (Y + 30) ** 2, 9.0 + 40.0 * np.abs(Y - 31.3))
@@ -259,7 +259,7 @@ def test_spline_tooth_close_to_exact_and_line_spline_newton():
     # crossings of a closed spline circle vs the exact line-circle intersection
     th = np.linspace(0, 2 * np.pi, 400, endpoint=False)
     prof = SplineProfile(np.c_[np.cos(th), np.sin(th)] * 10)
-    from flank_addon.formed_cutter import section_from_profile
+    from flank_addon.methods.formed_cutter.cutter_profile import section_from_profile
     sec = section_from_profile(prof)
     q = np.c_[np.zeros(7), np.linspace(-9, 9, 7)]
     d = np.tile([1.0, 0.0], (7, 1))

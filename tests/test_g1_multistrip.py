@@ -11,14 +11,14 @@ import sys
 import numpy as np
 import pytest
 
-from flank_addon import guiding
-from flank_addon.freeform_surfaces import bump, cylinder_patch, make_surface, parabolic_blade, plane_patch
-from flank_addon.g1_multistrip import (Layout, Objective, envelope, envelope_normal, freeform_envelopes,
+from flank_addon.methods.freeform_g1 import guiding
+from flank_addon.geometry.freeform_surfaces import bump, cylinder_patch, make_surface, parabolic_blade, plane_patch
+from flank_addon.methods.freeform_g1.planner import (Layout, Objective, envelope, envelope_normal, freeform_envelopes,
                                        freeform_kinks, plan_freeform, rail_derivative_matrix, sweep_deviation,
                                        verify_freeform)
-from flank_addon.initial_rulings import initial_rulings
-from flank_addon.mesh_distance import TriangleMesh, closest_on_triangles
-from flank_addon.plan import PlanError, read_plan, validate_plan, write_plan
+from flank_addon.methods.freeform_g1.initial_rulings import initial_rulings
+from flank_addon.geometry.mesh_distance import TriangleMesh, closest_on_triangles
+from flank_addon.io.plan import PlanError, read_plan, validate_plan, write_plan
 
 
 def brute_distance(V, F, P):
@@ -178,7 +178,7 @@ def test_parabolic_blade_guided_across_its_rulings_is_exact_and_verified_by_the_
 
 def test_optimum_is_a_local_minimum_of_eq_18():
     S, mesh, lay, m0, n0 = small_problem()
-    from flank_addon.g1_multistrip import optimize
+    from flank_addon.methods.freeform_g1.planner import optimize
     t = None
     res = optimize(mesh, lay, m0, n0, 0.02, 0.05, 0.2, 8, [1, 1, 0.1, 1e-4, 0.01], (), 1, 200, tangents=t)
     obj = Objective(mesh, lay, res["normals"], m0, 0.02, 0.05, 0.2, 8, [1, 1, 0.1, 1e-4, 0.01])
@@ -254,7 +254,7 @@ def test_direction_along_the_normal_is_refused():
 
 
 def test_cli_plan_freeform_verify_and_export(tmp_path):
-    from flank_addon.mesh_io import write_stl
+    from flank_addon.io.mesh_files import write_stl
     S = parabolic_blade(size=10.0, resolution=30)
     mesh = tmp_path / "blade.stl"
     write_stl(str(mesh), S.vertices, S.faces)
@@ -342,7 +342,7 @@ def test_gear_flank_and_saddle_plan_with_small_errors(name, direction, bound):
     S = make_surface(name, size=1.0, resolution=40)
     c = S.point(S.uv.mean(0, keepdims=True))[0]
     if direction is None:                        # across the central ruling, in the tangent plane
-        from flank_addon.freeform_surfaces import gear_ruling
+        from flank_addon.geometry.freeform_surfaces import gear_ruling
         rul = gear_ruling(S.uv.mean(0, keepdims=True), base_radius=2.0)[0]
         direction = np.cross(S.normal(S.uv.mean(0, keepdims=True))[0], rul)
     plan = plan_freeform(S.vertices, S.faces, direction=direction, point=c, r1=0.01, r2=0.03, L=0.12, n_columns=10,
@@ -372,7 +372,7 @@ def test_points_beyond_the_border_are_marked_and_left_out_of_eq_19():
     P = np.array([[0.1, 0.2, 0.3], [0.5, 0.0, 0.05], [0.7, 0.2, 0.01], [0.49, 0.49, 0.3]])
     fp = mesh.foot_points(P)
     assert fp["off_surface"].tolist() == [False, False, True, False]
-    from flank_addon.g1_multistrip import ruling_errors
+    from flank_addon.methods.freeform_g1.planner import ruling_errors
     a = np.array([[0.0, 0.0, 0.05], [0.3, 0.0, 0.05]])
     b = a + [0.45, 0.0, 0.0]                   # the second axis ends 0.25 beyond the edge x = 0.5
     e = ruling_errors(mesh, a, b, 0.05, 0.05, K=10)
@@ -396,7 +396,7 @@ def test_flip_normals_machines_the_other_side():
 
 
 def test_measured_kinks_at_the_rulings_are_the_g1_residuals_of_the_optimiser():
-    from flank_addon.g1_multistrip import kinks_at_rulings, rails
+    from flank_addon.methods.freeform_g1.planner import kinks_at_rulings, rails
     S, mesh, lay, m0, n0 = small_problem()
     obj = Objective(mesh, lay, n0, m0, 0.02, 0.05, 0.2, 5, [1, 1, 1, 1e-4, 0.01])
     f = obj.fun(obj.pack(m0))

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from flank_addon import freeform_surfaces as fs
-from flank_addon import guiding as g
+from flank_addon.geometry import freeform_surfaces as fs
+from flank_addon.methods.freeform_g1 import guiding as g
 
 D = 0.1   # guiding-curve spacing used on the unit-size surfaces
 

@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
 
-from flank_addon.helical_surface import HelicalSurface
-from flank_addon.profile import SplineProfile
-from flank_addon.screw import screw_motion, screw_to_plane
+from flank_addon.geometry.helical_surface import HelicalSurface
+from flank_addon.geometry.profile import SplineProfile
+from flank_addon.geometry.screw import screw_motion, screw_to_plane
 from helpers import brute_force_distance, half_disk_profile, wavy_profile
 
 
@@ -121,7 +121,7 @@ def test_rejects_bad_input():
 
 def test_builtin_female_rotor_thin_lobe_tips_match_brute_force():
     """Queries just inside thin lobe tips, where global-foot basins are narrower than the seed table."""
-    from flank_addon.rotors import builtin_by_name
+    from flank_addon.geometry.rotors import builtin_by_name
 
     rotor = builtin_by_name("asymmetric-female")
     surf = rotor.surface()
@@ -150,6 +150,6 @@ def test_surface_from_meridian_contains_the_meridian(hand):
     assert surf.contains(np.array([[0.7, 0.0, 0.0], [0.75, 0.0, 0.1]])).all()
     assert not surf.contains(np.array([[0.95, 0.0, 0.0], [0.7, 0.0, 0.3]])).any()
     # and the whole helical tube: the same points screwed by any t stay on the surface
-    from flank_addon.screw import screw_motion
+    from flank_addon.geometry.screw import screw_motion
     moved = screw_motion(on[::20], 1.3, v0, hand)
     assert np.max(np.abs(surf.signed_distance(moved))) < 1e-8

@@ -4,9 +4,9 @@ import math
 import numpy as np
 import pytest
 
-from flank_addon import freeform_surfaces as fs
-from flank_addon import guiding as g
-from flank_addon.initial_rulings import initial_rulings, rails_from_m, ruling_samples
+from flank_addon.geometry import freeform_surfaces as fs
+from flank_addon.methods.freeform_g1 import guiding as g
+from flank_addon.methods.freeform_g1.initial_rulings import initial_rulings, rails_from_m, ruling_samples
 
 R1, R2, L = 0.03, 0.1, 0.15
 

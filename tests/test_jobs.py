@@ -6,10 +6,10 @@ from pathlib import Path
 
 import pytest
 
-from flank_addon.cone import ConeTool
-from flank_addon.multi_strip import plan_single_flank
+from flank_addon.tooling.cone import ConeTool
+from flank_addon.methods.single_flank.planner import plan_single_flank
 from flank_addon.progress import Cancelled
-from flank_addon.rotors import builtin_by_name
+from flank_addon.geometry.rotors import builtin_by_name
 
 _spec = importlib.util.spec_from_file_location("flank_jobs", Path(__file__).resolve().parents[1] / "operators" / "jobs.py")
 jobs = importlib.util.module_from_spec(_spec)

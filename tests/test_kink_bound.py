@@ -6,9 +6,9 @@ checked point by point, random feasible sections, and the planner on the README'
 import numpy as np
 import pytest
 
-from flank_addon.freeform_surfaces import bump
-from flank_addon.g1_multistrip import plan_freeform
-from flank_addon.kink_bound import (fixed_junction_error, kink_error_bound, kink_floor_deg, min_max_error,
+from flank_addon.geometry.freeform_surfaces import bump
+from flank_addon.methods.freeform_g1.planner import plan_freeform
+from flank_addon.methods.freeform_g1.kink_bound import (fixed_junction_error, kink_error_bound, kink_floor_deg, min_max_error,
                                     min_turning, turning)
 
 KAPPA, ELL = 0.1, 10.0

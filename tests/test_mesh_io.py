@@ -3,8 +3,8 @@ import struct
 import numpy as np
 import pytest
 
-from flank_addon import mesh_io
-from flank_addon.mesh_io import MeshFormatError, read_mesh, write_mesh
+from flank_addon.io import mesh_files as mesh_io
+from flank_addon.io.mesh_files import MeshFormatError, read_mesh, write_mesh
 
 
 def _tetra():
@@ -38,7 +38,7 @@ def test_round_trip(tmp_path, ext):
 
 
 def test_ply_ascii_round_trip_and_rotor_mesh(tmp_path):
-    from flank_addon.rotors import builtin_rotor
+    from flank_addon.geometry.rotors import builtin_rotor
     v, f = builtin_rotor("srm_a", "female").mesh(n_profile=120, n_axial=6)
     p = tmp_path / "r.ply"
     mesh_io.write_ply(p, v, f, binary=False)

@@ -4,11 +4,11 @@ import math
 import numpy as np
 import pytest
 
-from flank_addon.cone import ConeTool
-from flank_addon.multi_strip import plan_single_flank
-from flank_addon.plan import validate_plan
-from flank_addon.rotors import builtin_by_name
-from flank_addon.verify import verify_plan
+from flank_addon.tooling.cone import ConeTool
+from flank_addon.methods.single_flank.planner import plan_single_flank
+from flank_addon.io.plan import validate_plan
+from flank_addon.geometry.rotors import builtin_by_name
+from flank_addon.simulation.verify import verify_plan
 
 TOOL = ConeTool(math.asin(0.1), 0.05, 0.08, 0.04, 0.6)
 
@@ -92,7 +92,7 @@ def test_cli_plan_single_flank_round_trip(tmp_path, capsys):
     import json
 
     from flank_addon.cli import main
-    from flank_addon.plan import read_plan
+    from flank_addon.io.plan import read_plan
 
     out, csv = tmp_path / "sf.json", tmp_path / "dev.csv"
     args = ["plan", "single-flank", "--builtin", "asymmetric-female", "--tool-r1", "0.05", "--tool-r2", "0.08",
@@ -141,8 +141,8 @@ def test_cli_single_flank_errors(tmp_path, capsys, extra, msg):
 def test_junction_normals_and_their_exact_derivatives():
     """The envelope normals the G1 term compares are unit vectors, and their analytic derivatives
     (characteristic derivative chained through the screw into z = 0) equal central differences."""
-    from flank_addon.multi_strip import _junction_normals
-    from flank_addon.single_flank import PoseEvaluator, candidate_strips
+    from flank_addon.methods.single_flank.planner import _junction_normals
+    from flank_addon.methods.single_flank.poses import PoseEvaluator, candidate_strips
 
     r = builtin_by_name("asymmetric-female")
     s = r.surface()

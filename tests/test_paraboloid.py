@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize_scalar
 
-from flank_addon.paraboloid import ParaboloidError, groove_section, groove_surface, section_y
+from flank_addon.methods.paraboloid_groove.groove import ParaboloidError, groove_section, groove_surface, section_y
 
 PAPER = dict(R=20.0, a=-0.05, b=7.2, p=20.0)   # s002 Table 1, mm
 
@@ -103,7 +103,7 @@ def test_sweep_simulation_reproduces_the_analytic_section(params):
     Paper frame -> rotor frame: (x, y, z) -> (x, -z, y) is a proper rotation taking the tool centre's
     helix (R cos phi, p/2 - p phi / 2pi, R sin phi) to a right-handed helix of v0 = p / 2pi about z;
     at phi = pi the centre sits at (-R, 0, 0) and the section plane z = 0 becomes y = 0."""
-    from flank_addon.sweep import ParaboloidPart, RevolvingTool, machined_deviation
+    from flank_addon.simulation.sweep import ParaboloidPart, RevolvingTool, machined_deviation
 
     R, a, b, p = params["R"], params["a"], params["b"], params["p"]
     sec = groove_section(R, a, b, p, n=301)
@@ -126,7 +126,7 @@ def test_sweep_simulation_reproduces_the_analytic_section(params):
 
 
 def test_paraboloid_lens_distance_matches_dense_sampling():
-    from flank_addon.sweep import ParaboloidPart
+    from flank_addon.simulation.sweep import ParaboloidPart
 
     a, b = -0.05, 7.2
     part = ParaboloidPart([1.0, 2.0, 3.0], [0.3, -0.2, 1.0], a, b)

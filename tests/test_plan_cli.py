@@ -6,8 +6,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flank_addon.plan import PlanError, new_plan, read_plan, rotor_section, validate_plan, write_plan
-from flank_addon.rotors import builtin_by_name
+from flank_addon.io.plan import PlanError, new_plan, read_plan, rotor_section, validate_plan, write_plan
+from flank_addon.geometry.rotors import builtin_by_name
 
 ROOT = Path(__file__).resolve().parents[1]
 

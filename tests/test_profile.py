@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from flank_addon.profile import (Arc, Line, ProfileError, SegmentProfile, SplineProfile, load_profile_csv,
+from flank_addon.geometry.profile import (Arc, Line, ProfileError, SegmentProfile, SplineProfile, load_profile_csv,
                                  points_in_polygon, segments_intersect_count)
 
 

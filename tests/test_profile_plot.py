@@ -1,4 +1,4 @@
-"""The error-along-profile chart (flank_addon.profile_plot): font, axes, pixel positions and colours of the
+"""The error-along-profile chart (flank_addon.report.error_chart): font, axes, pixel positions and colours of the
 curve, the tolerance band, NaN gaps, strips, degenerate input, and the data of a real single-flank plan
 against the error-profile CSV export."""
 import math
@@ -6,10 +6,10 @@ import math
 import numpy as np
 import pytest
 
-from flank_addon.profile_plot import (FONT, ADVANCE, axis_unit, draw_text, error_profile, nice_step,
+from flank_addon.report.error_chart import (FONT, ADVANCE, axis_unit, draw_text, error_profile, nice_step,
                                       plan_error_plot, plot_layout, render_error_plot, srgb, text_width,
                                       tick_text, tick_values, to_blender_pixels, to_png_bytes, _target_runs)
-from flank_addon.verify import DEVIATION_COLORS, deviation_colors
+from flank_addon.simulation.verify import DEVIATION_COLORS, deviation_colors
 
 TOL = 1.0e-3
 OK = srgb(np.array(DEVIATION_COLORS["ok"]))
@@ -147,7 +147,7 @@ def test_tolerance_band_rows_and_zero_line():
     W, H = 960, 540
     lay = plot_layout(x, y, TOL, W, H, unit="R")
     img = render_error_plot(x, y, TOL, W, H, unit="R")
-    from flank_addon.profile_plot import band_colors
+    from flank_addon.report.error_chart import band_colors
 
     fill, edge = (srgb(np.array(c)) for c in band_colors())
     r_top, r_bot, r_zero = expected_row(lay, TOL), expected_row(lay, -TOL), expected_row(lay, 0.0)
@@ -209,7 +209,7 @@ def test_groups_are_separate_curves_and_lone_points_are_dots():
                               group_labels={0: "S1", 1: "S2"})
     assert is_color(joined[between], OK).sum() > 20                # one curve: the jump is drawn
     assert not is_color(split[between], OK).any()                  # two curves: it is not
-    from flank_addon.profile_plot import SEPARATOR
+    from flank_addon.report.error_chart import SEPARATOR
 
     sep = srgb(np.array(SEPARATOR))
     c_mid = int(round(0.5 * (lay.col(49.0) + lay.col(50.0))))
@@ -282,9 +282,9 @@ def test_target_runs_follow_the_profile_through_index_zero():
 
 @pytest.fixture(scope="module")
 def single():
-    from flank_addon.cone import ConeTool
-    from flank_addon.multi_strip import plan_single_flank
-    from flank_addon.rotors import builtin_by_name
+    from flank_addon.tooling.cone import ConeTool
+    from flank_addon.methods.single_flank.planner import plan_single_flank
+    from flank_addon.geometry.rotors import builtin_by_name
 
     r = builtin_by_name("asymmetric-female")
     tool = ConeTool(math.asin(0.1), 0.05, 0.08, 0.04, 0.6)

@@ -3,11 +3,11 @@ import math
 
 import pytest
 
-from flank_addon.cone import ConeTool
-from flank_addon.double_flank import plan_double_flank
-from flank_addon.multi_strip import plan_single_flank
+from flank_addon.tooling.cone import ConeTool
+from flank_addon.methods.double_flank.planner import plan_double_flank
+from flank_addon.methods.single_flank.planner import plan_single_flank
 from flank_addon.progress import Cancelled, reporter, substage
-from flank_addon.rotors import builtin_by_name
+from flank_addon.geometry.rotors import builtin_by_name
 
 TOOL = ConeTool(math.asin(0.1), 0.05, 0.08)
 

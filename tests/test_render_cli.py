@@ -1,4 +1,4 @@
-"""python -m flank_addon render: the report PNG of a plan (needs bpy; the project venv has it)."""
+"""python -m flank_addon render: the report PNG of a plan (needs Blender as a Python module; the project venv has it)."""
 import json
 import math
 
@@ -6,15 +6,16 @@ import numpy as np
 import pytest
 
 from flank_addon.cli import main
-from flank_addon.cone import ConeTool
-from flank_addon.multi_strip import plan_single_flank
-from flank_addon.plan import write_plan
-from flank_addon.report_render import (BAR_SPLIT, REPORT_KEY, air_limit, bar_colors, bar_deviations,
-                                       choose_view, display_strip, display_units, format_length, legend_colors,
-                                       legend_layout, read_png, read_png_text, report_geometry, srgb_bytes,
-                                       strip_part, write_png)
-from flank_addon.rotors import builtin_by_name
-from flank_addon.verify import DEVIATION_COLORS, deviation_colors
+from flank_addon.tooling.cone import ConeTool
+from flank_addon.methods.single_flank.planner import plan_single_flank
+from flank_addon.io.plan import write_plan
+from flank_addon.io.png import read_png, read_png_text, write_png
+from flank_addon.report.report_geometry import (BAR_SPLIT, REPORT_KEY, air_limit, bar_colors, bar_deviations,
+                                                choose_view, display_strip, display_units, format_length,
+                                                legend_colors, legend_layout, report_geometry, srgb_bytes,
+                                                strip_part)
+from flank_addon.geometry.rotors import builtin_by_name
+from flank_addon.simulation.verify import DEVIATION_COLORS, deviation_colors
 
 
 @pytest.fixture(scope="module")
@@ -80,7 +81,7 @@ def test_report_geometry_errors_are_signed_distances(plan_file, geo):
     assert geo["tolerance"] == plan["tolerance"] and geo["max_error"] == plan["summary"]["max_error"]
     # drawn strips: on the surface (never inside), 0.2 % R above it
     v, f, d, n = geo["strips"][0]
-    from flank_addon.plan import plan_surface
+    from flank_addon.io.plan import plan_surface
 
     shown = plan_surface(plan).foot_points(display_strip(v, d, n, 1.0)[:300]).distance
     assert np.allclose(shown, np.maximum(d[:300], 0.0) + 2e-3, atol=1e-6)

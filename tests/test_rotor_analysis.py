@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from flank_addon.rotor_analysis import NotHelicalError, analyze_mesh
-from flank_addon.rotors import BUILTIN_NAMES, builtin_by_name
+from flank_addon.geometry.rotor_analysis import NotHelicalError, analyze_mesh
+from flank_addon.geometry.rotors import BUILTIN_NAMES, builtin_by_name
 from helpers import cad_like, irregular_mesh, profile_hausdorff
 
 
@@ -102,7 +102,7 @@ def test_rings_smaller_than_profile_sampling(n_profile, n_axial):
 
 def test_irregular_vertices_without_rings():
     """Every side vertex slid along its own helix by a random amount: still exact, but no ring structure."""
-    from flank_addon.screw import screw_motion
+    from flank_addon.geometry.screw import screw_motion
 
     rotor = builtin_by_name("srm_a-male")
     v, f = rotor.mesh(n_profile=6000, n_axial=60)

@@ -4,9 +4,9 @@ import math
 import numpy as np
 import pytest
 
-from flank_addon import rotors
-from flank_addon.profile import segments_intersect_count, signed_area
-from flank_addon.screw import screw_to_plane
+from flank_addon.geometry import rotors
+from flank_addon.geometry.profile import segments_intersect_count, signed_area
+from flank_addon.geometry.screw import screw_to_plane
 
 KINDS = sorted(rotors.KINDS)
 
@@ -178,7 +178,7 @@ def test_triangulate_non_star_polygon():
 
 
 def test_surface_is_helical_surface_of_the_rotor():
-    hs = pytest.importorskip("flank_addon.helical_surface")
+    hs = pytest.importorskip("flank_addon.geometry.helical_surface")
     r = rotors.builtin_rotor("nilson", "male")
     s = r.surface()
     assert isinstance(s, hs.HelicalSurface)

@@ -4,14 +4,14 @@ import math
 import numpy as np
 import pytest
 
-from flank_addon import single_flank as sf
-from flank_addon.cone import ConePose, ConeTool
-from flank_addon.helical_surface import HelicalSurface
-from flank_addon.plan import validate_plan
-from flank_addon.profile import SplineProfile
-from flank_addon.rotors import builtin_by_name
-from flank_addon.screw import screw_to_plane
-from flank_addon.verify import verify_plan
+from flank_addon.methods.single_flank import poses as sf
+from flank_addon.tooling.cone import ConePose, ConeTool
+from flank_addon.geometry.helical_surface import HelicalSurface
+from flank_addon.io.plan import validate_plan
+from flank_addon.geometry.profile import SplineProfile
+from flank_addon.geometry.rotors import builtin_by_name
+from flank_addon.geometry.screw import screw_to_plane
+from flank_addon.simulation.verify import verify_plan
 
 EX62_TOOL = ConeTool(math.asin(0.3), 0.1, 0.18)         # s000 Ex. 6.2 (female X1)
 

@@ -7,15 +7,15 @@ import numpy as np
 import pytest
 
 from cone_poses import surface_frame, tangent_pose
-from flank_addon.cone import ConePose, ConeTool
-from flank_addon.helical_surface import HelicalSurface
-from flank_addon.profile import Line, SegmentProfile
-from flank_addon.rotors import builtin_by_name
-from flank_addon.screw import screw_motion
-from flank_addon.strip_cover import (FlankSamples, adaptive_cover, coverage_of, covered_intervals, crossing_kinks,
-                                     smooth_cover, envelope_normals, flank_samples,
-                                     junction_kinks, minimum_interval_cover, pose_deviations, tool_of)
-from flank_addon.sweep import machined_deviation
+from flank_addon.tooling.cone import ConePose, ConeTool
+from flank_addon.geometry.helical_surface import HelicalSurface
+from flank_addon.geometry.profile import Line, SegmentProfile
+from flank_addon.geometry.rotors import builtin_by_name
+from flank_addon.methods.single_flank.strip_cover import (FlankSamples, adaptive_cover, coverage_of,
+                                                           covered_intervals, crossing_kinks, envelope_normals,
+                                                           flank_samples, junction_kinks, minimum_interval_cover,
+                                                           pose_deviations, smooth_cover)
+from flank_addon.simulation.sweep import machined_deviation, tool_of
 
 EPS = 1e-3
 TOOL = ConeTool(math.asin(0.1), 0.05, 0.08, 0.04, 0.6)
@@ -289,8 +289,8 @@ def test_envelope_normal_is_tool_normal_at_contact():
 def test_cap_safe_bounds_cover_the_end_caps():
     """A helix that passes only through the top sphere's cap beyond c2: sweep.FrustumPart's bounding
     spheres miss it under a finite cutoff; the cap-safe tool used here does not."""
-    from flank_addon.strip_cover import cap_safe
-    from flank_addon.sweep import StripTool, helical_distance
+    from flank_addon.simulation.sweep import cap_safe
+    from flank_addon.simulation.sweep import StripTool, helical_distance
     raw = StripTool([0.5, 0.0, 0.0], [0.5, 0.3, 0.0], [0.05, 0.08])
     x = np.array([[0.5, 0.3 + 0.079, 0.0], [0.5, -0.045, 0.0]])
     exact = helical_distance(raw, x, 1e6, "right")[0]          # no cutoff: no culling
@@ -302,7 +302,7 @@ def test_cap_safe_bounds_cover_the_end_caps():
 def test_junction_kinks_chain_and_precomputed_deviations_match_pairwise(female, mid_poses):
     """junction_kinks_chain (all neighbouring pairs refined together) and junction_kinks with the
     deviations of the cover stage give the same junctions as the pairwise default."""
-    from flank_addon.strip_cover import junction_kinks_chain
+    from flank_addon.methods.single_flank.strip_cover import junction_kinks_chain
     r, S = female
     fr, poses = mid_poses
     fs = flank_samples(S, fr, 200)

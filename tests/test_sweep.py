@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize
 
-from flank_addon.screw import hand_sign, screw_motion
-from flank_addon.sweep import StripTool, helical_distance, machined_deviation, sd_sphere_frustum
+from flank_addon.geometry.screw import hand_sign, screw_motion
+from flank_addon.simulation.sweep import StripTool, helical_distance, machined_deviation, sd_sphere_frustum
 
 
 def ray_intervals(p, n, c1, r1, c2, r2, v0, hand, t, s):
@@ -112,7 +112,7 @@ def test_overcut_is_negative_and_uncut_is_inf():
 
 def test_meridian_part_is_exact_for_a_polyline_solid():
     """A rectangle meridian is a flat-ended cylinder; a trapezoid one a flat-ended cone frustum."""
-    from flank_addon.sweep import MeridianPart, sd_cylinder
+    from flank_addon.simulation.sweep import MeridianPart, sd_cylinder
 
     rng = np.random.default_rng(5)
     o, axis = np.array([0.2, -0.1, 0.3]), np.array([1.0, 2.0, 0.5])
@@ -141,7 +141,7 @@ def test_meridian_part_is_exact_for_a_polyline_solid():
 def test_meridian_tool_deviation_matches_dense_point_in_solid_brute_force():
     """Meridian (flat-ended cone) tool, left hand: the root of the simulation is where a dense
     point-in-solid sweep (fine t, points along the ray) first finds removed material."""
-    from flank_addon.sweep import MeridianPart, RevolvingTool
+    from flank_addon.simulation.sweep import MeridianPart, RevolvingTool
 
     v0, hand = 0.45, "left"
     c1 = np.array([0.62, 0.05, -0.05])
@@ -176,7 +176,7 @@ def test_meridian_tool_deviation_matches_dense_point_in_solid_brute_force():
 def test_meridian_part_is_exact_with_clustered_vertices():
     """Tiny segments next to long ones (e.g. a graded tool tip): the nearest vertices need not touch
     the nearest edge; the distance must still be exact."""
-    from flank_addon.sweep import MeridianPart
+    from flank_addon.simulation.sweep import MeridianPart
 
     h = np.r_[np.linspace(0.0, 0.01, 60), 0.5, 1.0]
     r = np.r_[0.02 + 0.3 * h[:60], 0.4, 0.05]
@@ -200,7 +200,7 @@ def test_cutoff_sees_helices_through_the_end_caps_only():
     """A helix that meets only a rounded end cap of a frustum (beyond the sphere centres) must not
     be pruned by the bounding spheres when a cutoff is given (it was: the cutoff came back)."""
     import numpy as np
-    from flank_addon.sweep import StripTool, helical_distance
+    from flank_addon.simulation.sweep import StripTool, helical_distance
 
     tool = StripTool([0.5, 0.0, 0.0], [0.5, 0.3, 0.0], [0.05, 0.08])
     pts = np.array([[0.5, 0.379, 0.0], [0.5, -0.045, 0.0]])     # inside the top / tip caps only

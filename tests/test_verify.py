@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flank_addon.plan import new_plan, write_plan
-from flank_addon.verify import verify_plan
+from flank_addon.io.plan import new_plan, write_plan
+from flank_addon.simulation.verify import verify_plan
 
 RC = 0.8   # cylinder rotor radius
 
@@ -66,8 +66,8 @@ def test_cli_verify_json(tmp_path):
 
 
 def test_all_points_colours_and_transfer_to_3d():
-    from flank_addon.screw import screw_motion
-    from flank_addon.verify import deviation_colors, values_on_rotor, world_to_rotor
+    from flank_addon.geometry.screw import screw_motion
+    from flank_addon.simulation.verify import deviation_colors, values_on_rotor, world_to_rotor
 
     plan = ball_plan(0.003)
     res = verify_plan(plan, tolerance=1e-3, all_points=True)

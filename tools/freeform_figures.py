@@ -20,10 +20,10 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from flank_addon.freeform_report import render_freeform_report  # noqa: E402
-from flank_addon.freeform_surfaces import bump, parabolic_blade  # noqa: E402
-from flank_addon.g1_multistrip import plan_freeform  # noqa: E402
-from flank_addon.report_render import read_png, write_png  # noqa: E402
+from flank_addon.cli import report_scene  # noqa: E402
+from flank_addon.geometry.freeform_surfaces import bump, parabolic_blade  # noqa: E402
+from flank_addon.methods.freeform_g1.planner import plan_freeform  # noqa: E402
+from flank_addon.io.png import read_png, write_png  # noqa: E402
 
 BLADE_DIRECTIONS = (("vertical", (1.0, 0.0, 0.0)), ("horizontal", (0.0, 1.0, 0.0)),
                     ("diagonal", (1.0, 1.0, 0.0)))
@@ -61,7 +61,7 @@ def main():
     ap.add_argument("--width", type=int, default=640)
     ap.add_argument("--height", type=int, default=560)
     args = ap.parse_args()
-    import bpy
+    render_freeform_report = report_scene().render_freeform_report
 
     os.makedirs(args.out, exist_ok=True)
     rows = ["| example | L | r1 | r2 | N x M x K | error max / min (mm) | kink max initial / optimised (deg) | "
@@ -76,7 +76,7 @@ def main():
                              n_ruling_samples=30)
         rows.append(row("blade, " + name, plan, mesh_mm))
         p = os.path.join(args.out, "_blade_{}.png".format(name))
-        render_freeform_report(bpy, plan, p, args.width, args.height, tolerance=0.025,
+        render_freeform_report(plan, p, args.width, args.height, tolerance=0.025,
                                title="{}: {} strips, kink max {:.2f}°".format(name, len(plan["strips"]),
                                                                              plan["summary"]["max_kink_deg"]))
         parts.append(p)
@@ -91,7 +91,7 @@ def main():
         rows.append(row("bump, w3 = {:g}, w2 = 0.005".format(w3), plan,
                         " x ".join("{:.0f}".format(e) for e in sorted(np.ptp(S.vertices, axis=0)))))
         p = os.path.join(args.out, "_bump_{}.png".format(int(w3)))
-        render_freeform_report(bpy, plan, p, args.width, args.height, tolerance=0.05,
+        render_freeform_report(plan, p, args.width, args.height, tolerance=0.05,
                                title="w3 = {:g}: kink max {:.2f}°, mean {:.2f}°".format(
                                    w3, plan["summary"]["max_kink_deg"], plan["summary"]["mean_kink_deg"]))
         parts.append(p)

@@ -3,8 +3,8 @@
 Plans the 100 mm bump (6 mm high, width 25 mm) with the tool r1 = 1, r2 = 3, L = 10 mm for a row
 of G1 weights w3 at w2 = 0.005 and prints, per plan, the max kink, the max |error| and the least
 max |error| any conical plan with that max kink can have across the bump's central section
-(:func:`flank_addon.kink_bound.kink_error_bound`), the max |error| straight strips on the plan's
-own boundaries reach at that kink (:func:`flank_addon.kink_bound.fixed_junction_error`), and the
+(:func:`flank_addon.methods.freeform_g1.kink_bound.kink_error_bound`), the max |error| straight strips on the plan's
+own boundaries reach at that kink (:func:`flank_addon.methods.freeform_g1.kink_bound.fixed_junction_error`), and the
 least max kink possible within twice the w3 = 0 error.
 
     PYTHONPATH=. .venv/bin/python tools/g1_tradeoff.py [--w3 0,0.001,0.01,0.1,1]
@@ -18,9 +18,9 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from flank_addon.freeform_surfaces import bump  # noqa: E402
-from flank_addon.g1_multistrip import plan_freeform  # noqa: E402
-from flank_addon.kink_bound import fixed_junction_error, kink_error_bound, kink_floor_deg  # noqa: E402
+from flank_addon.geometry.freeform_surfaces import bump  # noqa: E402
+from flank_addon.methods.freeform_g1.planner import plan_freeform  # noqa: E402
+from flank_addon.methods.freeform_g1.kink_bound import fixed_junction_error, kink_error_bound, kink_floor_deg  # noqa: E402
 
 BUMP = dict(size=100.0, resolution=100, height=6.0, width=25.0)
 TOOL = dict(r1=1.0, r2=3.0, L=10.0)

@@ -29,7 +29,6 @@ By default the source tree is registered directly (fast; needs numpy + scipy in 
 import argparse
 import json
 import math
-import os
 import shutil
 import sys
 import time
@@ -302,13 +301,13 @@ def ball_strip(np, point, normal, radius, depth, flank):
 
 def deviation_plan(np, core, n):
     """Ball strips along flanks 0 and 1 of the built-in asymmetric female rotor: gouge / ok / stock."""
-    plan_mod, rotors, profile_mod = core("plan"), core("rotors"), core("profile")
+    plan_mod, rotors, profile_mod = core("io.plan"), core("geometry.rotors"), core("geometry.profile")
     rotor = rotors.builtin_rotor("asymmetric", "female")
     section = plan_mod.rotor_section(rotor.profile, rotor.v0, rotor.handedness, rotor.flanks, n_profile=n)
     prof = np.asarray(section["profile"])
     spline = profile_mod.SplineProfile(prof)
     normals = spline.outward_normal(spline.knots[:-1])
-    verify = core("verify")
+    verify = core("simulation.verify")
     strips = []
     # flank 0: a dense row of balls just touching the design surface, one of them 0.006 too deep (gouge);
     # flank 1: a sparse row (stock left between the contact lines); plan unit R, tolerance 1e-3.
@@ -340,7 +339,7 @@ def figure_deviation(bpy, np, out, width, height, core):
     tmp = out / ".figures_tmp"
     tmp.mkdir(exist_ok=True)
     plan_path = tmp / "figure_plan.json"
-    core("plan").write_plan(str(plan_path), plan)
+    core("io.plan").write_plan(str(plan_path), plan)
     t0 = time.perf_counter()
     ret = bpy.ops.flank.verify_plan(filepath=str(plan_path), show_tools=True)
     t_op = time.perf_counter() - t0
@@ -371,7 +370,7 @@ def figure_deviation(bpy, np, out, width, height, core):
     data.shift_y = -0.07  # rotor in the upper part of the frame, legend below it
     cam.location = centre + view * size * 2.0
     cam.rotation_euler = (centre - cam.location).to_track_quat('-Z', 'X').to_euler()
-    colours = core("verify").DEVIATION_COLORS
+    colours = core("simulation.verify").DEVIATION_COLORS
     lines = (("flank.verify_plan: ball strips on two flanks of the built-in asymmetric female rotor",
               (0.12, 0.12, 0.12, 1.0)),
              ("red: gouge (deeper than the tolerance {:g} R)".format(summary["flank_verify_tolerance"]),
@@ -542,16 +541,16 @@ def figure_walkthrough(bpy, np, out, width, height, core):
 
     from mathutils import Vector
 
-    pkg = core("rotors").__name__.rsplit(".", 2)[0]
+    pkg = core("geometry.rotors").__name__.rsplit(".", 2)[0]
     ui_ops = importlib.import_module(pkg + ".operators.ui_ops")
-    plot = core("profile_plot")
+    plot = core("report.error_chart")
     scene = reset_scene(bpy, width, height)
     us = scene.unit_settings
     us.system, us.scale_length, us.length_unit = 'METRIC', 0.001, 'MILLIMETERS'
     tmp = Path(tempfile.mkdtemp(prefix="flank-walkthrough-"))
-    rotor_core = core("rotors").builtin_by_name("asymmetric-female", scale=50.0)
+    rotor_core = core("geometry.rotors").builtin_by_name("asymmetric-female", scale=50.0)
     v, f = rotor_core.mesh(n_profile=1440, n_axial=96)
-    core("mesh_io").write_stl(str(tmp / "rotor.stl"), v, f)
+    core("io.mesh_files").write_stl(str(tmp / "rotor.stl"), v, f)
     facts = {}
     panels = []                                  # (top-row-first float RGBA, caption lines)
     t0 = time.perf_counter()
@@ -682,7 +681,7 @@ def figure_walkthrough(bpy, np, out, width, height, core):
     grid = np.concatenate(sum(([r, hgap] for r in rows), [])[:-1], axis=0)
     path = out / "walkthrough.png"
     # the project's own PNG writer ('Up' filter rows): 25 % smaller than Blender's save of this picture
-    core("report_render").write_png(str(path), (np.clip(grid, 0.0, 1.0) * 255 + 0.5).astype(np.uint8))
+    core("io.png").write_png(str(path), (np.clip(grid, 0.0, 1.0) * 255 + 0.5).astype(np.uint8))
     shutil.rmtree(tmp, ignore_errors=True)
     us.system, us.scale_length = 'NONE', 1.0
     facts.update(path=str(path), total_s=round(time.perf_counter() - t0, 2))

@@ -264,8 +264,8 @@ def scenario_verify(bpy, res, args):
     """flank.verify_plan on a generated rotor with a plan built here from the installed planner."""
     import numpy as np
 
-    plan_mod, verify_mod, rotors = _core("plan"), _core("verify"), _core("rotors")
-    profile_mod = _core("profile")
+    plan_mod, verify_mod, rotors = _core("io.plan"), _core("simulation.verify"), _core("geometry.rotors")
+    profile_mod = _core("geometry.profile")
     tmp = os.path.abspath(os.getcwd())
     n = 1440           # the plan's profile = the mesh's profile samples (exact comparison per vertex)
     depth, stock, radius = 0.01, 0.02, 0.03
@@ -498,7 +498,7 @@ def scenario_paraboloid(bpy, res, args):
     import numpy as np
     from scipy.spatial import cKDTree
 
-    par, screw = _core("paraboloid"), _core("screw")
+    par, screw = _core("methods.paraboloid_groove.groove"), _core("geometry.screw")
     scene = bpy.context.scene
     R, a, b, p = 20.0, -0.05, 7.2, 20.0
 
@@ -656,7 +656,7 @@ def scenario_formed_cutter(bpy, res, args):
     """flank.formed_cutter: the s004 Table-1 set-up, a flagged set-up, the active rotor, bad input."""
     import numpy as np
 
-    fc, screw = _core("formed_cutter"), _core("screw")
+    fc, screw = _core("methods.formed_cutter.cutter_profile"), _core("geometry.screw")
     scene = bpy.context.scene
     tmp = os.path.abspath(os.getcwd())
     T = fc.TABLE1
@@ -829,7 +829,7 @@ def _df_run(bpy, np, **kw):
 
 def _df_compare(bpy, np, out, objs, res, rotor_world, scale, z_range, n_t, tol):
     """Compare the Blender objects of one run against the core's result ``res`` (rotor frame)."""
-    verify = _core("verify")
+    verify = _core("simulation.verify")
     coll = objs["coll"]
     by_role = {}
     for ob in coll.objects:
@@ -899,7 +899,7 @@ def scenario_double_flank(bpy, res, args):
     import numpy as np
     from mathutils import Matrix
 
-    df, rotors, plan_mod = _core("double_flank"), _core("rotors"), _core("plan")
+    df, rotors, plan_mod = _core("methods.double_flank.planner"), _core("geometry.rotors"), _core("io.plan")
     scene = bpy.context.scene
     tmp = os.path.abspath(os.getcwd())
     M_RADII, N_T = 40, 12
@@ -1064,7 +1064,7 @@ def scenario_double_flank(bpy, res, args):
 
         nil = rotors.builtin_rotor("nilson", "male")
         local = co - np.array(mesh_rotor.location)
-        q = _core("screw").screw_to_plane(local, nil.v0, nil.handedness)
+        q = _core("geometry.screw").screw_to_plane(local, nil.v0, nil.handedness)
         dense = nil.profile.sample(200000)
         d, _ = cKDTree(dense).query(q)
         out["envelope_to_profile"] = dict(median=float(np.median(d)), max=float(d.max()),
@@ -1123,13 +1123,12 @@ def scenario_single_flank(bpy, res, args):
     """flank.plan_single_flank: asymmetric-female flank 1 (moved, rotated, scaled x2; tool asin(0.1), 0.05,
     0.08 R, tolerance 1e-3 R) vs the core run here; a re-run from a point replaces the collection; undo; bad
     input creates nothing."""
-    import types
 
     import numpy as np
     from mathutils import Matrix
 
-    ms, cone, rotors, verify = _core("multi_strip"), _core("cone"), _core("rotors"), _core("verify")
-    plan_mod, screw = _core("plan"), _core("screw")
+    ms, cone, rotors, verify = _core("methods.single_flank.planner"), _core("tooling.cone"), _core("geometry.rotors"), _core("simulation.verify")
+    plan_mod, screw = _core("io.plan"), _core("geometry.screw")
     scene = bpy.context.scene
     tmp = os.path.abspath(os.getcwd())
     S = 2.0                                       # object scale: scene units per rotor unit
@@ -1426,13 +1425,14 @@ def scenario_cutter_region(bpy, res, args):
 
     import numpy as np
 
-    cs, cone, rotors = _core("cutter_selection"), _core("cone"), _core("rotors")
+    cs, cone, rotors = _core("tooling.cutter_selection"), _core("tooling.cone"), _core("geometry.rotors")
+    double_flank = _core("methods.double_flank.planner")
     ret, err = _run_op(bpy.ops.flank.generate_rotor, kind="asymmetric", part="female", resolution=360, axial=24)
     rotor_obj = bpy.context.active_object
     r = rotors.builtin_by_name("asymmetric-female")
     t0 = time.perf_counter()
     dup = cs.flank_dupin(r.surface(), r.flanks, 1)
-    bounds = cs.custom_tool_bounds(r.surface(), r.flanks, 0)
+    bounds = double_flank.custom_tool_bounds(r.surface(), r.flanks, 0)
     region = cs.admissible_region(dup, bounds)
     core_seconds = time.perf_counter() - t0
     core_points = region.points()

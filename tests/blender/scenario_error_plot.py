@@ -52,7 +52,7 @@ def _check_image(bpy, np, img, coll, plan, pp, units, tol_plan, w, h):
     # every finite profile point: the curve colour (verify.deviation_colors at its error) within 1 px of the
     # row its error maps to, found from the image's own stored axes
     data = pp.error_profile(plan, tolerance=tol_plan)
-    verify = driver._core("verify")
+    verify = driver._core("simulation.verify")
     x0, y0, x1, y1 = img["flank_plot_box"]
     xa, xb = img["flank_plot_x_range"]
     ya, yb = img["flank_plot_y_range"]
@@ -86,8 +86,9 @@ def scenario(bpy, res, args):
     res["registered_by_addon"] = hasattr(bpy.types, "FLANK_OT_error_plot")
     if not res["registered_by_addon"]:
         bpy.utils.register_class(mod.FLANK_OT_error_plot)
-    pp = driver._core("profile_plot")
-    rr = driver._core("report_render")
+    pp = driver._core("report.error_chart")
+    rr = driver._core("report.report_geometry")
+    png_io = driver._core("io.png")
     tmp = os.path.abspath(os.getcwd())
     scene = bpy.context.scene
 
@@ -136,7 +137,7 @@ def scenario(bpy, res, args):
     first.update(_check_image(bpy, np, img, coll, plan, pp, units, tol_plan, 640, 360))
     first["units"] = list(units)
     if os.path.exists(png):
-        from_png = rr.read_png(png).astype(np.float32) / 255.0
+        from_png = png_io.read_png(png).astype(np.float32) / 255.0
         first["png_shape"] = list(from_png.shape)
         first["png_vs_image"] = float(np.abs(from_png - _pixels(np, img)).max())
 

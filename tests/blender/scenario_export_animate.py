@@ -18,7 +18,7 @@ def scenario(bpy, res, args):
     import numpy as np
     from mathutils import Matrix
 
-    exports, plan_mod, screw, mesh_io = (driver._core(m) for m in ("exports", "plan", "screw", "mesh_io"))
+    exports, plan_mod, screw, mesh_io = (driver._core(m) for m in ("exports", "io.plan", "geometry.screw", "io.mesh_files"))
     tmp = os.path.abspath(os.getcwd())
     run_op = driver._run_op
 
@@ -110,7 +110,7 @@ def scenario(bpy, res, args):
     ui = {}
     ui["panels"] = driver._draw_panels(bpy, bpy.context.active_object)
     settings = bpy.context.scene.flank_settings
-    verify = driver._core("verify")
+    verify = driver._core("simulation.verify")
     ui["legend_diff"] = max(abs(a - b) for key in ("gouge", "ok", "stock")
                             for a, b in zip(getattr(settings, "legend_" + key), verify.DEVIATION_COLORS[key]))
     idx = next(i for i, ob in enumerate(coll.objects) if ob.get("flank_sf_role") == "tool"
@@ -125,7 +125,7 @@ def scenario(bpy, res, args):
     us = bpy.context.scene.unit_settings
     us.system, us.scale_length = 'METRIC', 0.001
     import glob
-    shipped = sorted(glob.glob(os.path.join(os.path.dirname(os.path.dirname(driver._core("plan").__file__)),
+    shipped = sorted(glob.glob(os.path.join(os.path.dirname(os.path.dirname(driver._core("io.plan").__file__)),
                                             "presets", "flank_tool", "*.py")))
     ui["shipped"] = [os.path.basename(p) for p in shipped]
     pre = [p for p in shipped if os.path.basename(p) == "Tapered 3deg D6 L30.py"]
@@ -143,7 +143,8 @@ def scenario(bpy, res, args):
     res["ui"] = ui
 
     # ---------------------------------------------------------------- report picture (nothing left behind)
-    rr = driver._core("report_render")
+    rr = driver._core("report.report_geometry")
+    png_io = driver._core("io.png")
 
     def blocks():
         return {k: len(getattr(bpy.data, k)) for k in ("objects", "meshes", "curves", "cameras", "worlds", "images",
@@ -153,7 +154,7 @@ def scenario(bpy, res, args):
     ret, err = run_op(bpy.ops.flank.render_report, filepath=p, width=640, height=400)
     rep = dict(result=ret, error=err, new={k: v - b0[k] for k, v in blocks().items()})
     if os.path.exists(p):
-        px = rr.read_png(p)
+        px = png_io.read_png(p)
         flat = px[..., :3].reshape(-1, 3)
         rep.update(shape=list(px.shape), swatches={k: int((flat == c).all(axis=1).sum())
                                                    for k, c in rr.legend_colors().items()})

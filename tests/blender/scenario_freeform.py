@@ -115,8 +115,8 @@ def scenario(bpy, res, args):
     import numpy as np
     from mathutils import Matrix
 
-    g1 = driver._core("g1_multistrip")
-    plan_mod = driver._core("plan")
+    g1 = driver._core("methods.freeform_g1.planner")
+    plan_mod = driver._core("io.plan")
     ff = __import__(driver.MODULE + ".operators.freeform", fromlist=["x"])
     ui_ops = __import__(driver.MODULE + ".operators.ui_ops", fromlist=["x"])
     scene = bpy.context.scene
@@ -241,7 +241,7 @@ def scenario(bpy, res, args):
 
     def preview_points(p):
         return [[list(pt.co)[:3] for pt in sp.points] for sp in p.data.splines]
-    guid = driver._core("guiding")
+    guid = driver._core("methods.freeform_g1.guiding")
     gc = guid.guiding_curves(V, F, direction=plan["guiding"]["direction"], r1=TOOL["r1"] / S, r2=TOOL["r1"] / S,
                              L=TOOL["length"] / S)
     core_pls = [pl.points.tolist() for c in gc.curves for pl in c.polylines if len(pl.points) >= 2]

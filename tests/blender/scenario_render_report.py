@@ -34,8 +34,9 @@ def diff(before, after):
 
 def png_facts(np, rr, path, bar_tol):
     """Size, exactness of the legend bar, pixels of the strip colour families outside the legend."""
-    px = rr.read_png(path)
-    meta = json.loads(rr.read_png_text(path)[rr.REPORT_KEY])
+    png_io = driver._core("io.png")
+    px = png_io.read_png(path)
+    meta = json.loads(png_io.read_png_text(path)[rr.REPORT_KEY])
     x0, y0, x1, y1 = meta["legend"]["bar"]
     bar = px[y0:y1, x0:x1, :3].astype(int)
     want = rr.bar_colors(x1 - x0, bar_tol).astype(int)
@@ -53,7 +54,7 @@ def png_facts(np, rr, path, bar_tol):
 def scenario(bpy, res, args):
     import numpy as np
 
-    rr = driver._core("report_render")
+    rr = driver._core("report.report_geometry")
     run_op = driver._run_op
     tmp = os.path.abspath(os.getcwd())
     scene = bpy.context.scene

@@ -143,7 +143,7 @@ def scenario(bpy, res, args):
     from mathutils import Matrix
 
     exports, plan_mod, ms, cone, rotors, mesh_io, screw = (driver._core(m) for m in (
-        "exports", "plan", "multi_strip", "cone", "rotors", "mesh_io", "screw"))
+        "exports", "io.plan", "methods.single_flank.planner", "tooling.cone", "geometry.rotors", "io.mesh_files", "geometry.screw"))
     tmp = os.path.abspath(os.getcwd())
     run_op = driver._run_op
     ex_op, an_op = bpy.ops.flank.export_results, bpy.ops.flank.animate_strip

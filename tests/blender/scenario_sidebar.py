@@ -180,7 +180,7 @@ def scenario(bpy, res, args):
     props = importlib.import_module(mod + ".operators.properties")
     panels = importlib.import_module(mod + ".panels")
     ms, rotors, verify, cs, screw, mesh_io = (driver._core(m) for m in (
-        "multi_strip", "rotors", "verify", "cutter_selection", "screw", "mesh_io"))
+        "methods.single_flank.planner", "geometry.rotors", "simulation.verify", "tooling.cutter_selection", "geometry.screw", "io.mesh_files"))
     run_op = driver._run_op
     scene = bpy.context.scene
     s = scene.flank_settings
@@ -379,7 +379,8 @@ def scenario(bpy, res, args):
     imp["refresh"] = run_op(bpy.ops.flank.refresh_flanks)
     imp["listed"] = [s.flank_list_rotor == imported.name, len(s.flank_list)]
     # the core on the same mesh (what common.rotor_source does for analysed meshes)
-    ra, df, prof_mod, hs = (driver._core(m) for m in ("rotor_analysis", "double_flank", "profile", "helical_surface"))
+    ra, feet_mod, prof_mod, hs = (driver._core(m) for m in (
+        "geometry.rotor_analysis", "geometry.flank_feet", "geometry.profile", "geometry.helical_surface"))
     mw = np.array(imported.matrix_world)
     co = np.empty(len(imported.data.vertices) * 3)
     imported.data.vertices.foreach_get("co", co)
@@ -390,7 +391,7 @@ def scenario(bpy, res, args):
     an = ra.analyze_mesh(wv, tri.reshape(-1, 3))
     sp = prof_mod.SplineProfile(an.profile)
     a_surf = hs.HelicalSurface(sp, an.v0, an.handedness)
-    a_flanks = df._flank_u_ranges(sp, [(int(i), int(j)) for i, j in an.flanks])
+    a_flanks = feet_mod.flank_u_ranges(sp, [(int(i), int(j)) for i, j in an.flanks])
     Tw = np.asarray(an.to_world, dtype=np.float64)
     a_picks = []
     for vi in (0, 37, 211, 503, 1000, 1777):

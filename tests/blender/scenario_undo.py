@@ -256,7 +256,7 @@ def scenario(bpy, res, args):
 
     common = __import__(driver.MODULE + ".operators.common", fromlist=["iter_fcurves"])
     fcurves = common.iter_fcurves
-    rotors, screw = driver._core("rotors"), driver._core("screw")
+    rotors, screw = driver._core("geometry.rotors"), driver._core("geometry.screw")
     tmp = os.path.abspath(os.getcwd())
     t_start = time.perf_counter()
 

@@ -5,7 +5,7 @@ max / min errors in the scene's unit, and no call leaves a data-block behind (or
 import pytest
 
 from blender_harness import run_scenario
-from flank_addon.report_render import BAR_SPLIT, format_length
+from flank_addon.report.report_geometry import BAR_SPLIT, format_length
 
 
 @pytest.fixture(scope="module")

@@ -62,7 +62,7 @@ This module builds that part of the method on a mesh, with scipy.sparse througho
    own lengths N_i.
 
 Everything is plain numpy / scipy (sparse, sparse.linalg.splu, sparse.csgraph,
-spatial.cKDTree); nothing imports bpy.
+spatial.cKDTree).
 """
 import math
 from dataclasses import dataclass, field as dataclass_field

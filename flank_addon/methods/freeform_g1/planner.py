@@ -48,8 +48,8 @@ from scipy.optimize import least_squares
 
 from . import guiding as _guiding
 from .initial_rulings import initial_rulings
-from .mesh_distance import TriangleMesh
-from .progress import reporter, substage
+from ...geometry.mesh_distance import TriangleMesh
+from ...progress import reporter, substage
 
 METHOD = "freeform-g1-cone"
 # w1 rigid, w2 approx, w3 G1, w4 proximity, w5 fair.  w1 = 1, w4 = 1e-4 as Remark 4; G1 at 1/100 of the
@@ -687,7 +687,7 @@ def plan_freeform(vertices, faces, *, direction=None, point=None, field_vectors=
     Eqs. (15)-(16).  flip_normals: the tool is on the side opposite to the face normals (the plan
     stores the flipped faces, so its surface has the tool on its normals' side).
     """
-    from .plan import SCHEMA, validate_plan
+    from ...io.plan import SCHEMA, validate_plan
     t_start = time.perf_counter()
     report = reporter(progress)
     r1, r2, L = float(r1), float(r2), float(L)

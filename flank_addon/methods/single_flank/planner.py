@@ -21,9 +21,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .cone import ConeTool
-from .progress import reporter
-from .single_flank import PoseEvaluator, candidate_strips, initial_positions, single_flank_plan
+from ...tooling.cone import ConeTool
+from ...progress import reporter
+from .poses import PoseEvaluator, candidate_strips, initial_positions, single_flank_plan
 
 
 @dataclass
@@ -90,9 +90,9 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
     the paper's gradient descent).  ``progress``: None or ``progress(fraction, message)``; returning
     False cancels (:class:`progress.Cancelled` is raised, nothing is returned).  Returns
     :class:`SingleFlankResult`."""
-    from .collision import check_collisions as collide
+    from ...simulation.collision import check_collisions as collide
     from .strip_cover import adaptive_cover, junction_kinks_chain
-    from .verify import verify_plan
+    from ...simulation.verify import verify_plan
 
     t0 = time.perf_counter()
     if not isinstance(tool, ConeTool):
@@ -210,7 +210,7 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
         if vs["max_error"] is not None:
             st["reported_max_error"], st["reported_min_error"] = vs["max_error"], vs["min_error"]
         st["collision"] = bool(vs["collision"])
-    from .plan import summarize
+    from ...io.plan import summarize
     timings["total"] = time.perf_counter() - t0
     plan["summary"] = summarize(plan["strips"], timings["total"])
     fin = ver["max_undercut"], ver["max_overcut"]
@@ -236,7 +236,7 @@ def envelope_strip(candidate, surface, u_range, z_range=(0.0, 1.0), n_s=60, n_t=
     Returns (verts (K*n_t, 3), faces (F, 3) int, deviation (K*n_t,)): K <= n_s characteristic points
     where the characteristic is real, their signed distance to the flank (+ = material left, in the
     rotor's length unit; constant along each helix, so exact at every vertex)."""
-    from .screw import screw_motion
+    from ...geometry.screw import screw_motion
 
     ev = evaluator or PoseEvaluator(surface, u_range, candidate.pose.tool)
     X = np.atleast_2d(candidate.params)
@@ -259,7 +259,7 @@ def envelope_strip(candidate, surface, u_range, z_range=(0.0, 1.0), n_s=60, n_t=
 def flank_of_point(surface, flank_ranges, point):
     """Index of the flank holding the profile point nearest to a 3D point (rotor frame): the point
     is screwed into z = 0 first (every flank is invariant under the screw)."""
-    from .screw import screw_to_plane
+    from ...geometry.screw import screw_to_plane
 
     p = np.asarray(point, float).reshape(3)
     if not np.isfinite(p).all():
@@ -337,8 +337,9 @@ def _apply_g1(chosen, junctions, ev, samples, surface, tol, eps_over, weight, ki
     report)."""
     from dataclasses import replace
 
-    from .single_flank import params_pose
-    from .strip_cover import pose_deviations, tool_of
+    from .poses import params_pose
+    from ...simulation.sweep import tool_of
+    from .strip_cover import pose_deviations
 
     def worst(js):
         return max((j["kink_deg"] for jj in js for j in jj), default=0.0)
@@ -385,7 +386,7 @@ def _junction_normals(ev, X, branch, s_star):
     The characteristic point is c = m + r n on the sphere (m, r) of the sample, so n = (c - m) / r
     and dn/dx = (dc/dx - dm/dx) / r (c and dc/dx from PoseEvaluator.characteristic).  Screwing by
     t = -c_z / v0 turns n by hand * t about z."""
-    from .single_flank import axis_and_jacobian
+    from .poses import axis_and_jacobian
 
     X = np.atleast_2d(X)
     s = np.atleast_1d(np.asarray(s_star, float))
@@ -436,7 +437,7 @@ def refine_g1(candidates, ev, junction_u, weight=1.0, maxiter=40):
     normals, characteristic derivatives); SLSQP.  Returns the new parameter rows (M, 4)."""
     from scipy.optimize import minimize
 
-    from .single_flank import mid_radius
+    from .poses import mid_radius
 
     X0 = np.array([c.params for c in candidates], float)
     M = len(X0)

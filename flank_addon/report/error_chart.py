@@ -168,7 +168,7 @@ def draw_text(img, text, x, y, rgba, scale=1, align="left"):
 # ------------------------------------------------------------------------------------------- colours
 def srgb(rgba):
     """Linear RGBA (..., 4) -> the sRGB-encoded RGBA an 8-bit image stores, as floats k / 255 (alpha kept)."""
-    from .report_render import srgb_bytes
+    from .report_geometry import srgb_bytes
 
     c = np.asarray(rgba, dtype=float)
     out = np.empty(c.shape, dtype=np.float32)
@@ -191,7 +191,7 @@ SEPARATOR = (0.45, 0.45, 0.48, 1.0)
 def band_colors():
     """Linear RGBA of the tolerance band's fill and dashed edges: verify's 'within tolerance' colour, lighter
     (so that a curve running along an edge stays visible)."""
-    from .verify import DEVIATION_COLORS
+    from ..simulation.verify import DEVIATION_COLORS
 
     ok = DEVIATION_COLORS["ok"]
     return _mix(WHITE, ok, 0.12), _mix(WHITE, ok, 0.6)
@@ -199,7 +199,7 @@ def band_colors():
 
 def curve_colors(values, tolerance):
     """sRGB-encoded RGBA (N, 4) float32 of curve pixels whose error is ``values`` (verify.deviation_colors)."""
-    from .verify import deviation_colors
+    from ..simulation.verify import deviation_colors
 
     return srgb(deviation_colors(values, tolerance))
 
@@ -453,7 +453,7 @@ def render_error_plot(x, y, tolerance, width=960, height=540, unit="", title="",
     cx = lay.col(x)
     cy = lay.row(y * fy)
     # where the profile has no error value: grey ticks along the bottom of the chart
-    from .verify import DEVIATION_COLORS
+    from ..simulation.verify import DEVIATION_COLORS
 
     # (a bar over each run of such points, reaching half-way to the neighbouring points)
     has_x = np.isfinite(cx)
@@ -526,7 +526,7 @@ def render_error_plot(x, y, tolerance, width=960, height=540, unit="", title="",
             t = t[:-4] + "..."
         draw_text(img, t, pad, pad, ink, ts)
     if legend:
-        from .verify import DEVIATION_COLORS
+        from ..simulation.verify import DEVIATION_COLORS
 
         tol_txt = "{:.3g} {}".format(tol, lay.y_unit).strip()
         items = [(DEVIATION_COLORS["gouge"], "overcut"), (DEVIATION_COLORS["ok"], "within ±" + tol_txt),
@@ -583,7 +583,7 @@ def error_profile(plan, tolerance=None, verification=None):
         raise ValueError("a free-form plan has no flank profile to plot the error along (its error is per "
                          "strip on the surface mesh: export the error profile CSV)")
     if verification is None:
-        from .verify import verify_plan
+        from ..simulation.verify import verify_plan
 
         tol = tolerance if tolerance is not None else plan.get("tolerance")
         verification = verify_plan(plan, tolerance=tol)

@@ -1,16 +1,16 @@
 """Report picture of a free-form (s003) plan: the surface, the envelope strips coloured by their exact
 signed distance to it, legend and title with the kink angles.
 
-The picture itself is :func:`report_render.render_plan_report` (one code path with the rotor
-reports); this module only supplies its geometry from a ``surface`` plan (numpy only, no bpy).
+The picture itself is rendered by the extension's report scene (one code path with the rotor reports); this
+module only supplies its geometry from a ``surface`` plan.
 """
 import numpy as np
 
-from .g1_multistrip import freeform_envelopes, plan_mesh
+from ..methods.freeform_g1.planner import freeform_envelopes, plan_mesh
 
 
 def freeform_geometry(plan, tolerance=None, n_s=9):
-    """The ``geometry`` dict of :func:`report_render.render_plan_report` for a free-form plan.
+    """The ``geometry`` dict of the report scene's ``render_plan_report`` for a free-form plan.
 
     strips: per strip (verts, triangles, deviation, surface normal at the foot point); tolerance:
     the given one, else the plan's ``tolerance``, else 1e-3 of the surface's bounding-box diagonal."""
@@ -42,13 +42,3 @@ def freeform_title(plan, name=None):
     head = name or "Free-form G1 plan"
     return "{}: {} strips, max kink {:.3g}°, mean {:.3g}°".format(head, len(plan["strips"]), s.get("max_kink_deg", 0.0),
                                                                s.get("mean_kink_deg", 0.0))
-
-
-def render_freeform_report(bpy, plan, path, width=1280, height=800, tolerance=None, title=None, engine="WORKBENCH",
-                           units=None):
-    """Render the report of a free-form plan to the PNG ``path`` (see render_plan_report)."""
-    from .report_render import render_plan_report
-
-    geo = freeform_geometry(plan, tolerance)
-    return render_plan_report(bpy, plan, path, width=width, height=height, tolerance=tolerance,
-                              title=title or freeform_title(plan), geometry=geo, engine=engine, units=units)

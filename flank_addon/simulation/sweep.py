@@ -29,7 +29,7 @@ of the tool cost nothing.
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .screw import hand_sign, screw_motion
+from ..geometry.screw import hand_sign, screw_motion
 
 GOLDEN = 0.5 * (3.0 - np.sqrt(5.0))
 
@@ -686,3 +686,30 @@ def machined_deviation(tools, points, normals, v0, handedness="right", max_devia
     found = (np.sign(f_hi) != np.sign(f_lo)) | (f_lo == 0)
     root = illinois_roots(D, lo, hi, f_lo, f_hi, found, tol, 1e-9 * scale, cutoff)
     return np.where(found, root, np.inf)
+
+
+def cap_safe(tool):
+    """The same tool with bounding spheres that also cover the spherical end caps of its
+    :class:`sweep.FrustumPart` pieces.  sweep.FrustumPart bounds only the segment c1-c2 (radius
+    sqrt(rmax^2 + half^2)), so a helix passing only through the cap beyond c1 or c2 (up to r1 / r2
+    past the centres) is culled by the time windows whenever a finite cutoff is used, and
+    helical_distance then returns the cutoff instead of a negative distance."""
+    parts = []
+    for p in tool.parts:
+        if isinstance(p, FrustumPart):
+            q = FrustumPart(p.c1, p.r1, p.c2, p.r2)
+            d = q.c2 - q.c1
+            L = float(np.linalg.norm(d))
+            u = d / L if L > 0 else np.array([0.0, 0.0, 1.0])
+            rmax = max(q.r1, q.r2)
+            q.bounds = _sphere_chain(q.c1 - q.r1 * u, q.c2 + q.r2 * u, lambda s, ds: rmax, max(rmax, 1e-9))
+            p = q
+        parts.append(p)
+    return RevolvingTool(parts)
+
+
+def tool_of(pose, with_shank=False):
+    """The revolving tool of a :class:`cone.ConePose` or of a flank-plan/1 strip dict (end caps
+    bounded, :func:`cap_safe`)."""
+    strip = pose if isinstance(pose, dict) else pose.strip(0)
+    return cap_safe(StripTool.from_strip(strip, with_shank=with_shank))

@@ -17,7 +17,7 @@ screwed into this normal form before it is optimised (:func:`pose_params`).
 Distances and errors
 --------------------
 d_i is the distance from the axis sample o(s_i) to the flank {S_t(p(u), 0): u_start <= u <= u_end}
-(the flank as a closed patch, :class:`double_flank.FlankFeet`), signed negative when the sample is
+(the flank as a closed patch, :class:`geometry.flank_feet.FlankFeet`), signed negative when the sample is
 inside the rotor material over the open flank; e_i = d_i - r(s_i) is the tool-surface error of
 Eq. (27) (> 0 material left, < 0 the sphere of the sample cuts into the flank).  Its gradient with
 respect to the sample point is the unit vector from the foot to the point, chained through
@@ -66,9 +66,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .cone import ConePose, ConeTool
-from .double_flank import FlankFeet
-from .sweep import false_position, illinois_update
+from ...tooling.cone import ConePose, ConeTool
+from ...geometry.flank_feet import FlankFeet
+from ...simulation.sweep import false_position, illinois_update
 
 OBJECTIVES = ("phi1", "phi3")
 MODES = ("weighted", "hard")
@@ -1140,7 +1140,7 @@ def single_flank_plan(surface, flank_ranges, flank, strips, tool, to_world=None,
                       method=None, n_profile=2048, elapsed_s=0.0):
     """flank-plan/1 dict with the given :class:`CandidateStrip` list on target flank ``flank``
     (reported errors = the axis errors; verify with :func:`verify.verify_plan`)."""
-    from .plan import new_plan, rotor_section
+    from ...io.plan import new_plan, rotor_section
 
     rot = rotor_section(surface.profile, surface.v0, surface.handedness, flank_ranges, to_world=to_world,
                         n_profile=n_profile)

@@ -128,7 +128,7 @@ def groove_surface(R, a, b, p, n=401, handedness="right"):
     frame with the axis renamed z that is a left-handed screw unless mirrored.  Pass the hand of the
     real machine set-up; the section itself does not depend on it.
     """
-    from .helical_surface import HelicalSurface
+    from ...geometry.helical_surface import HelicalSurface
 
     if p <= 0:
         raise ParaboloidError("a groove surface needs a pitch p > 0")

@@ -302,8 +302,8 @@ def read_plan(path):
 
 def plan_surface(plan):
     """HelicalSurface of the plan's rotor (rotor frame, plan units)."""
-    from .helical_surface import HelicalSurface
-    from .profile import SplineProfile
+    from ..geometry.helical_surface import HelicalSurface
+    from ..geometry.profile import SplineProfile
 
     r = plan["rotor"]
     return HelicalSurface(SplineProfile(r["profile"]), r["v0"], r["handedness"])

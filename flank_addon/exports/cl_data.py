@@ -1,4 +1,4 @@
-"""Exports of a flank-plan/1 plan: APT-style CL data, the error profile as CSV, strip envelopes as meshes.
+"""APT-style CL data of a flank-plan/1 plan.
 
 CL data (:func:`cl_data`)
 -------------------------
@@ -30,21 +30,13 @@ circle, s = -(r1 dr / L) along the axis from the tip sphere centre (a cone touch
 r(s) = r1 + s dr touches each along a circle set back by r dr / L), after stepping back over the
 part of the tool that does not cut (engagement < 1).  The error CSV lists the envelope points with
 their exact signed distance to the surface; strip meshes are the envelopes of Eqs. (5)-(6).
-
-Strip meshes (:func:`strip_mesh`)
----------------------------------
-The envelope of one strip's tool under the relative motion of the CL steps: the tool's side is a
-surface of revolution (meridian (h, R(h)) about the axis); its characteristic points under the screw
-are where the surface normal is orthogonal to the screw velocity (for the inscribed-sphere form of
-s001: c = m + r n with n . V(m) = 0 and n . a = -dr/dl), swept by S_{-t} over the CL time range.
 """
 import math
 
 import numpy as np
 
-from .screw import hand_sign, screw_motion
-
-__all__ = ["cl_data", "cl_steps", "strip_tip", "error_profile_csv", "strip_mesh", "write_strip_meshes"]
+from ..geometry.screw import hand_sign, screw_motion
+from ..io.plan import is_mesh_plan
 
 DEFAULT_STEPS = 360
 
@@ -128,10 +120,6 @@ def _tool_text(tool):
                     for k, v in tool.items())
 
 
-def _is_mesh_plan(plan):
-    return plan.get("surface") is not None
-
-
 def freeform_cl_poses(plan, k):
     """Tool tip points (N, 3) and unit axes (N, 3) of a free-form plan's strip k, one per ruling."""
     st = plan["strips"][k]
@@ -178,7 +166,7 @@ def _cl_data_mesh(plan, strip=None):
 
 def cl_data(plan, strip=None, steps=DEFAULT_STEPS, z_range=None):
     """APT-style CL text of all strips (``strip`` None) or one strip index (see the module doc)."""
-    if _is_mesh_plan(plan):
+    if is_mesh_plan(plan):
         if z_range is not None:
             raise ValueError("a z range applies to rotor plans only (this is a free-form plan)")
         return _cl_data_mesh(plan, strip)
@@ -216,206 +204,3 @@ def cl_data(plan, strip=None, steps=DEFAULT_STEPS, z_range=None):
                                                                    _fmt(ang), _fmt(f)))
     out.append("FINI")
     return "\n".join(out) + "\n"
-
-
-def error_profile_csv(source, tolerance=None):
-    """CSV text ``index,x,y,deviation`` per target-flank profile point (verify's ``deviation_profile``).
-
-    ``source``: a :func:`verify.verify_plan` result, or a plan (then verified here with ``tolerance``,
-    default the plan's ``tolerance`` field or verify's default).  An empty deviation field = no tool
-    reaches the point within verify's search range."""
-    if _is_mesh_plan(source):
-        from .g1_multistrip import freeform_envelopes
-        rows = ["strip,i_t,j_s,x,y,z,deviation"]
-        for k, env in enumerate(freeform_envelopes(source)):
-            ns = env["shape"][1]
-            for idx, (p, d) in enumerate(zip(env["vertices"], env["deviation"])):
-                rows.append(f"{k},{idx // ns},{idx % ns},{float(p[0])!r},{float(p[1])!r},{float(p[2])!r},"
-                            f"{'' if not math.isfinite(d) else repr(float(d))}")
-        return "\n".join(rows) + "\n"
-    if "deviation_profile" not in source:
-        from .verify import verify_plan
-        tol = tolerance if tolerance is not None else source.get("tolerance")
-        source = verify_plan(source, tolerance=tol)
-    rows = ["index,x,y,deviation"]
-    for i, x, y, d in source["deviation_profile"]:
-        rows.append(f"{int(i)},{float(x)!r},{float(y)!r},{'' if d is None else repr(float(d))}")
-    return "\n".join(rows) + "\n"
-
-
-# --------------------------------------------------------------------------- strip envelopes
-
-def _chain_meridian(radii, L, n):
-    """Side of a chain of sphere frustums (inscribed spheres of ``radii`` equally spaced over L):
-    n samples (h, R, unit tangent dh, dR) of the outer boundary R(h) = max over the frustums."""
-    r = np.asarray(radii, float)
-    m = len(r) - 1
-    ell = np.linspace(0.0, L, m + 1)
-    sb = np.diff(r) / (L / m)
-    if np.any(np.abs(sb) >= 1):
-        raise ValueError("strip radii change faster than the axis length: no tangent cone")
-    cb = np.sqrt(1 - sb * sb)
-    ha, hb = ell[:-1] - r[:-1] * sb, ell[1:] - r[1:] * sb           # tangency points of each cone piece
-    h = np.linspace(ha[0], hb[-1], n)
-    H = h[:, None]
-    # candidates: cone lines (n, m) and sphere arcs (n, m + 1)
-    Rl = np.where((H >= ha - 1e-12) & (H <= hb + 1e-12), r[:-1] * cb + (H - ha) * sb / cb, -np.inf)
-    dh_ = H - ell
-    Rs = np.sqrt(np.maximum(r * r - dh_ ** 2, 0.0))
-    Rs = np.where(np.abs(dh_) < r, Rs, -np.inf)
-    cand = np.concatenate([Rl, Rs], axis=1)
-    j = np.argmax(cand, axis=1)
-    R = cand[np.arange(n), j]
-    line = j < m
-    jl, js = np.minimum(j, m - 1), np.maximum(j - m, 0)
-    dh = np.where(line, cb[jl], R / np.maximum(r[js], 1e-300))
-    dR = np.where(line, sb[jl], -(h - ell[js]) / np.maximum(r[js], 1e-300))
-    return h, R, dh, dR
-
-
-def _polyline_meridian(mer, n):
-    mer = np.asarray(mer, float)
-    seg = np.diff(mer, axis=0)
-    ln = np.linalg.norm(seg, axis=1)
-    cum = np.r_[0.0, np.cumsum(ln)]
-    s = np.linspace(0.0, cum[-1], n)
-    k = np.clip(np.searchsorted(cum, s, side="right") - 1, 0, len(seg) - 1)
-    w = (s - cum[k]) / np.maximum(ln[k], 1e-300)
-    p = mer[k] + w[:, None] * seg[k]
-    tang = seg[k] / np.maximum(ln[k], 1e-300)[:, None]
-    return p[:, 0], p[:, 1], tang[:, 0], tang[:, 1]
-
-
-def _paraboloid_meridian(a, b, n):
-    """The lens |h| <= b + a rho^2: lower half h = -(b + a rho^2) with rho 0 -> rho_e, upper half back."""
-    rho_e = math.sqrt(-b / a)
-    k = n // 2
-    rho = np.linspace(0.0, rho_e, k)
-    lo = (-(b + a * rho * rho), rho, -2 * a * rho, np.ones(k))
-    rr = rho[::-1]
-    hi = (b + a * rr * rr, rr, -2 * a * rr, -np.ones(k))
-    h, R, dh, dR = (np.r_[x, y] for x, y in zip(lo, hi))
-    nt = np.hypot(dh, dR)
-    return h, R, dh / nt, dR / nt
-
-
-def characteristic(p0, a, h, R, dh, dR, v0, hand):
-    """Characteristic points of a surface of revolution (axis p0 + h a, meridian samples (h, R) with
-    unit tangents (dh, dR)) under the screw motion: (c (2, n, 3) for the two branches, real (n,))."""
-    a = _unit(a)
-    m = np.asarray(p0, float) + np.asarray(h, float)[:, None] * a
-    V = np.c_[-hand * m[:, 1], hand * m[:, 0], np.full(len(m), v0)]
-    va = V @ a
-    Vp = V - va[:, None] * a
-    axz = np.cross(a, [0.0, 0.0, 1.0])
-    W = dh[:, None] * Vp - (hand * R * dR)[:, None] * axz
-    wn = np.linalg.norm(W, axis=1)
-    cth = dR * va / np.maximum(wn, 1e-300)
-    real = (wn > 1e-12) & (np.abs(cth) <= 1.0)
-    cth = np.clip(cth, -1.0, 1.0)
-    sth = np.sqrt(1.0 - cth * cth)
-    e1 = W / np.maximum(wn, 1e-300)[:, None]
-    e2 = np.cross(a, e1)
-    c = np.stack([m + R[:, None] * (cth[:, None] * e1 + sg * sth[:, None] * e2) for sg in (1.0, -1.0)])
-    return c, real
-
-
-def _profile_distance(plan, pts):
-    """Distance of rotor-frame points (N, 3) to the rotor profile polygon's vertices (via the helix)."""
-    from .screw import screw_to_plane
-    rot = plan["rotor"]
-    q = screw_to_plane(pts, float(rot["v0"]), rot["handedness"])
-    prof = np.asarray(rot["profile"], float)
-    best = np.full(len(q), np.inf)
-    for ch in np.array_split(np.arange(len(prof)), max(1, len(prof) // 512)):
-        d = np.linalg.norm(q[:, None, :] - prof[None, ch, :], axis=-1).min(axis=1)
-        best = np.minimum(best, d)
-    return best
-
-
-def strip_mesh(plan, strip, n_s=80, n_t=97, z_range=None, branch="auto"):
-    """Envelope (verts (K, 3), faces (F, 3)) of strip index ``strip`` in the rotor frame, swept over the
-    CL time range of ``z_range`` (see :func:`cl_steps`) with ``n_t`` time samples.
-
-    branch: +1 / -1 (one side of the characteristic), "both", or "auto" (the branches lying on the
-    rotor: the lower quartile of their distances to the rotor profile below a tenth of the mean tool
-    radius, so both sides of a double-flank tool; if neither, the nearer).
-    """
-    k, s = _get_strip(plan, strip)
-    if not (isinstance(n_s, (int, np.integer)) and 2 <= n_s <= 100_000) or \
-            not (isinstance(n_t, (int, np.integer)) and 2 <= n_t <= 100_000):
-        raise ValueError(f"mesh samples n_s = {n_s!r}, n_t = {n_t!r} must be integers in 2..100000")
-    rot = plan["rotor"]
-    v0, hand = float(rot["v0"]), hand_sign(rot["handedness"])
-    p0 = np.asarray(s["axis_start"], float)
-    axis = np.subtract(s["axis_end"], p0)
-    a = _unit(axis)
-    if s.get("meridian") is not None:
-        h, R, dh, dR = _polyline_meridian(s["meridian"], n_s)
-    elif s.get("paraboloid") is not None:
-        h, R, dh, dR = _paraboloid_meridian(float(s["paraboloid"]["a"]), float(s["paraboloid"]["b"]), n_s)
-    else:
-        h, R, dh, dR = _chain_meridian(s["radii"], float(np.linalg.norm(axis)), n_s)
-    c, real = characteristic(p0, a, h, R, dh, dR, v0, hand)
-    if branch == "both":
-        keep = [0, 1]
-    elif branch in (1, -1):
-        keep = [0 if branch == 1 else 1]
-    elif branch == "auto":
-        if not real.any():
-            keep = []
-        else:
-            med = [float(np.quantile(_profile_distance(plan, c[b][real]), 0.25)) for b in (0, 1)]
-            keep = [b for b in (0, 1) if med[b] <= 0.1 * float(np.mean(R))] or [int(np.argmin(med))]
-    else:
-        raise ValueError(f"branch {branch!r} is not one of auto, both, 1, -1")
-    st_t = cl_steps(plan, k, n_t - 1, z_range)["t"]
-    verts, faces, base = [], [], 0
-    idx = np.flatnonzero(real)
-    for b in keep:
-        pts = c[b][idx]
-        if len(pts) < 2:
-            continue
-        V = screw_motion(pts[:, None, :], -st_t[None, :], v0, hand)          # (K, n_t, 3)
-        K = len(pts)
-        q = np.arange(K - 1)[:, None] * n_t + np.arange(n_t - 1)[None, :]
-        ok = np.diff(idx) == 1                                                # no faces across gaps
-        q = q[ok]
-        f = np.concatenate([np.stack([q, q + n_t, q + n_t + 1], -1).reshape(-1, 3),
-                            np.stack([q, q + n_t + 1, q + 1], -1).reshape(-1, 3)])
-        verts.append(V.reshape(-1, 3))
-        faces.append(f + base)
-        base += K * n_t
-    if not verts:
-        return np.zeros((0, 3)), np.zeros((0, 3), np.int64)
-    return np.concatenate(verts), np.concatenate(faces).astype(np.int64)
-
-
-def write_strip_meshes(plan, prefix, fmt="stl", strip=None, z_range=None, **kw):
-    """Write each strip's envelope (or one strip's) to PREFIX_<k>.stl|.ply; returns the paths."""
-    from .mesh_io import write_ply, write_stl
-
-    writer = {"stl": write_stl, "ply": write_ply}[fmt]
-    ks = range(len(plan["strips"])) if strip is None else [_get_strip(plan, strip)[0]]
-    paths = []
-    if _is_mesh_plan(plan):
-        if z_range is not None:
-            raise ValueError("a z range applies to rotor plans only (this is a free-form plan)")
-        from .g1_multistrip import freeform_envelopes
-        envs = freeform_envelopes(plan)
-        for k in ks:
-            q = envs[k]["faces"]
-            tri = np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]])
-            ok = np.isfinite(envs[k]["deviation"])[tri].all(1)
-            path = f"{prefix}_{k}.{fmt}"
-            writer(path, envs[k]["vertices"], tri[ok])
-            paths.append(path)
-        return paths
-    for k in ks:
-        v, f = strip_mesh(plan, k, z_range=z_range, **kw)
-        if not len(f):
-            raise ValueError(f"strip {k}: the tool has no real characteristic under the screw motion")
-        path = f"{prefix}_{k}.{fmt}"
-        writer(path, v, f)
-        paths.append(path)
-    return paths

@@ -49,161 +49,14 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.spatial import cKDTree
 
-from .helical_surface import HelicalSurface, shifted_newton_step
-from .screw import hand_sign, hand_name, screw_to_plane
+from ...geometry.flank_feet import FlankFeet
+from ...geometry.screw import screw_to_plane
 
 VARIANTS = ("min", "avg", "one-sided-1", "one-sided-2")
 
 
-# ============================================================================ restricted feet
-@dataclass
-class Feet:
-    """Foot points of N query points on one flank (restricted to its parameter range)."""
-    u: np.ndarray          # (N,) profile parameter in [u_start, u_end]
-    t: np.ndarray          # (N,) screw parameter: foot = S_t(p(u), 0)
-    point: np.ndarray      # (N, 3)
-    distance: np.ndarray   # (N,) unsigned distance
-    direction: np.ndarray  # (N, 3) unit (query - foot) / distance = gradient of the distance
-    interior: np.ndarray   # (N,) bool: foot strictly inside the parameter range
-    tau: np.ndarray        # (N,) reduced screw parameter (query screwed into z = 0)
-
-
-class FlankFeet:
-    """Exact foot points on one flank {S_t(p(u), 0): u_start <= u <= u_end, t real} of a helical surface.
-
-    The reduction of :mod:`helical_surface` makes every query planar (q0 = the query screwed into
-    z = 0); the minimum of f(u, tau) over the strip u in [u_start, u_end] is found by projected
-    Newton: a full (Hessian-shifted) Newton step where the foot is interior, a step in tau alone
-    where u sits on a bound and the gradient pushes outwards, backtracking so f never increases.
-    Seeds: the k nearest samples of a dense (u, tau) table of the flank around z = 0 plus any warm
-    start the caller passes (e.g. the previous optimisation step); the best result is kept.
-    """
-
-    def __init__(self, surface, u_start, u_end, n_u=None, reach=None):
-        if not u_start < u_end <= u_start + surface.profile.period + 1e-12:
-            raise ValueError(f"flank range must satisfy u_start < u_end <= u_start + period, "
-                             f"got ({u_start}, {u_end})")
-        self.surface = surface
-        self.lo, self.hi = float(u_start), float(u_end)
-        R = surface.outer_radius
-        self.eps_u = 1e-7 * (self.hi - self.lo)
-        reach = 1.5 * R if reach is None else float(reach)
-        n_u = n_u or 160
-        us = np.linspace(self.lo, self.hi, n_u)
-        # |tau| <= d / v0 for a foot at distance d; queries of interest are within ``reach``
-        tmax = reach / surface.v0
-        dt = 0.01 * R / max(R, surface.v0)
-        n_t = int(min(max(9, 2 * tmax / dt + 1), 241))
-        ts = np.linspace(-tmax, tmax, n_t)
-        U, T = np.meshgrid(us, ts, indexing="ij")
-        pts = surface.evaluate(U.ravel(), T.ravel())
-        self._tree = cKDTree(pts)
-        self._U, self._T = U.ravel(), T.ravel()
-
-    def _newton(self, u, tau, q0, iters=40):
-        s = self.surface
-        lo, hi = self.lo, self.hi
-        u = np.clip(np.array(u, float), lo, hi)
-        tau = np.array(tau, float)
-        f = s._f_and_derivs(u, tau, q0, order=0)
-        active = np.ones(len(u), bool)
-        span = hi - lo
-        for _ in range(iters):
-            ia = np.flatnonzero(active)
-            if not len(ia):
-                break
-            ua, ta, qa = u[ia], tau[ia], q0[ia]
-            fa, gu, gt, huu, hut, htt = s._f_and_derivs(ua, ta, qa)
-            du, dt, scale = shifted_newton_step(gu, gt, huu, hut, htt)
-            # on a bound with the gradient pointing out of the box: move in tau only
-            pinned = ((ua <= lo) & (gu > 0)) | ((ua >= hi) & (gu < 0))
-            t_only = -gt / np.maximum(htt, 1e-8 * scale)
-            du = np.where(pinned, 0.0, du)
-            dt = np.where(pinned, t_only, dt)
-            norm = np.maximum(np.abs(du) / (0.25 * span), np.abs(dt) / (np.pi / 2))
-            k = 1.0 / np.maximum(norm, 1.0)
-            du, dt = du * k, dt * k
-            f_tol = fa + 1e-14 * (np.einsum("ij,ij->i", qa, qa) + s.outer_radius ** 2)
-            alpha = np.ones_like(du)
-            accepted = np.zeros(len(du), bool)
-            f_new = fa.copy()
-            nu, nt = ua.copy(), ta.copy()
-            for _ls in range(14):
-                todo = np.flatnonzero(~accepted)
-                if not len(todo):
-                    break
-                cu = np.clip(ua[todo] + alpha[todo] * du[todo], lo, hi)
-                ct = ta[todo] + alpha[todo] * dt[todo]
-                cf = s._f_and_derivs(cu, ct, qa[todo], order=0)
-                ok = cf <= f_tol[todo]
-                good = todo[ok]
-                accepted[good] = True
-                f_new[good], nu[good], nt[good] = cf[ok], cu[ok], ct[ok]
-                alpha[todo[~ok]] *= 0.5
-            step_u, step_t = np.abs(nu - ua), np.abs(nt - ta)
-            u[ia], tau[ia], f[ia] = nu, nt, np.minimum(f_new, fa)
-            small = (step_u <= 1e-11 * span) & (step_t <= 1e-11)
-            active[ia[small | ~accepted]] = False
-        return u, tau, f
-
-    def __call__(self, points, warm=None, k=2):
-        """Feet of 3D points (N, 3); ``warm`` = (u, tau) of a previous solve (same queries) as an extra seed."""
-        q = np.atleast_2d(np.asarray(points, float))
-        s = self.surface
-        q0 = screw_to_plane(q, s.v0, s.hand)
-        Q = np.c_[q0, np.zeros(len(q0))]
-        if warm is not None:
-            # the warm start carries the basin.  Guard against a jump to another basin: a rough table
-            # seed (approximate nearest neighbour, 4x cheaper than the exact query) that is already
-            # nearer than the warm foot starts a second Newton run for that query only
-            u, tau, f = self._newton(warm[0], warm[1], q0)
-            _, idx = self._tree.query(Q, k=1, eps=2.0)
-            su, st = self._U[idx], self._T[idx]
-            fs = s._f_and_derivs(su, st, q0, order=0)
-            jump = np.flatnonzero(fs < f)
-            if len(jump):
-                ju, jt, jf = self._newton(su[jump], st[jump], q0[jump])
-                better = jf < f[jump]
-                b = jump[better]
-                u[b], tau[b], f[b] = ju[better], jt[better], jf[better]
-        else:
-            _, idx = self._tree.query(Q, k=k)
-            idx = idx.reshape(len(q0), -1)
-            # all seeds in one vectorised Newton run, then the best per query
-            m = idx.shape[1]
-            U, T, F = self._newton(self._U[idx.T.ravel()], self._T[idx.T.ravel()], np.tile(q0, (m, 1)))
-            j = np.argmin(F.reshape(m, -1), axis=0)
-            rows = j * len(q0) + np.arange(len(q0))
-            u, tau, f = U[rows], T[rows], F[rows]
-        t = tau + q[:, 2] / s.v0
-        foot = s.evaluate(u, t)
-        diff = q - foot
-        d = np.linalg.norm(diff, axis=1)
-        direction = diff / np.maximum(d, 1e-300)[:, None]
-        # a query inside the rotor solid has no business in a tool axis: it never counts as interior
-        outside = np.einsum("ij,ij->i", diff, s.normal(u, t)) > 0
-        interior = (u > self.lo + self.eps_u) & (u < self.hi - self.eps_u) & outside
-        return Feet(u=u, t=t, point=foot, distance=d, direction=direction, interior=interior, tau=tau)
-
-
 # ============================================================================ valleys
-def _flank_u_ranges(profile, flanks):
-    """Flank parameter ranges (u_start, u_end): pass through (u, u) pairs of floats, or convert
-    inclusive index ranges [i, j] into a SplineProfile's knots (j may exceed the point count: wrap)."""
-    out = []
-    for a, b in flanks:
-        if isinstance(a, (int, np.integer)) and isinstance(b, (int, np.integer)) and hasattr(profile, "knots"):
-            n = len(profile.knots) - 1
-            ua = profile.knots[a % n] + profile.period * (a // n)
-            ub = profile.knots[b % n] + profile.period * (b // n)
-            out.append((float(ua), float(ub)))
-        else:
-            out.append((float(a), float(b)))
-    return out
-
-
 def _rim_param(profile, u_from, u_to, rho, n=4000):
     """First parameter walking from ``u_from`` (valley bottom) towards ``u_to`` at which |p(u)| = rho."""
     us = np.linspace(u_from, u_to, n)
@@ -1140,7 +993,7 @@ def envelope_meshes(path, surface, z_range=(0.0, 1.0), n_t=48):
     over ``z_range``.  Returns [(verts (N*n_t, 3), faces, deviation (N*n_t,)) per flank]; the
     per-vertex deviation is the tool-to-rotor error e_k of its axis node (constant along helices,
     s001 §4.2), nan where the node does not mill that flank."""
-    from .screw import screw_motion
+    from ...geometry.screw import screw_motion
 
     out = []
     for k in (0, 1):
@@ -1227,8 +1080,8 @@ def simulate_plan_errors(plan, search=None):
     """Rotor-to-envelope deviations of a plan's target flank points by the sweep simulation
     (:mod:`sweep`, signed: + material left, - overcut), each point owned by the strip that cuts
     deepest there.  Returns (indices, deviation, owner, per-strip (max, min))."""
-    from .profile import SplineProfile
-    from .sweep import StripTool, machined_deviation
+    from ...geometry.profile import SplineProfile
+    from ...simulation.sweep import StripTool, machined_deviation
 
     rot = plan["rotor"]
     prof = np.asarray(rot["profile"], float)
@@ -1305,8 +1158,8 @@ def plan_double_flank(surface, flank_ranges, valley=0, variant="min", tool="cust
     ``progress``: None or ``progress(fraction, message)``; returning False cancels
     (:class:`progress.Cancelled` is raised, nothing is returned).
     """
-    from .plan import new_plan, rotor_section
-    from .progress import reporter
+    from ...io.plan import new_plan, rotor_section
+    from ...progress import reporter
 
     report = reporter(progress)
 
@@ -1415,9 +1268,25 @@ def plan_double_flank(surface, flank_ranges, valley=0, variant="min", tool="cust
         for st, p in zip(plan["strips"], paths):
             e = p.errors[np.isfinite(p.errors)]
             st["reported_max_error"], st["reported_min_error"] = float(e.max()), float(e.min())
-    from .plan import summarize
+    from ...io.plan import summarize
     plan["summary"] = summarize(plan["strips"], time.perf_counter() - t0)
     report(1.0, "done")
     return DoubleFlankResult(plan=plan, paths=paths, fits=fits, valley=v, tool_to_rotor=t2r,
                              rotor_to_envelope=r2e, hausdorff=haus, elapsed_s=time.perf_counter() - t0,
                              optimize_s=t_opt)
+
+
+def custom_tool_bounds(surface, flank_ranges, valley, c=None, d_angle=None, result=None, **plan_kw):
+    """The bounds of Bizzarri, Bo & Bartoň, Eqs. (19)-(21), that the custom tool of valley ``valley`` sets
+    for a conical cutter (:class:`tooling.cutter_selection.ValleyBounds`).  ``result``: a
+    :class:`DoubleFlankResult` (or :class:`ToolPath`) already planned for this valley; otherwise
+    :func:`plan_double_flank` runs without the sweep simulation (``plan_kw`` go to it)."""
+    from ...tooling.cutter_selection import DEFAULT_C, DEFAULT_D_ANGLE, bounds_from_tool_path
+
+    if result is None:
+        kw = {"simulate": False, "m": 50}
+        kw.update(plan_kw)
+        result = plan_double_flank(surface, flank_ranges, valley=valley, **kw)
+    path = result.paths[0] if hasattr(result, "paths") else result
+    return bounds_from_tool_path(path, c=DEFAULT_C if c is None else c,
+                                 d_angle=DEFAULT_D_ANGLE if d_angle is None else d_angle, valley=valley)

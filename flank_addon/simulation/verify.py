@@ -9,8 +9,8 @@ import time
 
 import numpy as np
 
-from .plan import validate_plan
-from .profile import SplineProfile
+from ..io.plan import validate_plan
+from ..geometry.profile import SplineProfile
 from .sweep import StripTool, machined_deviation, tool_distances
 
 
@@ -167,7 +167,7 @@ def values_on_rotor(plan, points, values):
     (the deviation of a helical motion is the same along every helix)."""
     from scipy.spatial import cKDTree
 
-    from .screw import screw_to_plane
+    from ..geometry.screw import screw_to_plane
 
     r = plan["rotor"]
     xy = screw_to_plane(np.asarray(points, float), float(r["v0"]), r["handedness"])

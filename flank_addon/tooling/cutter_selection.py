@@ -52,8 +52,8 @@ conditions with their values and limits; :func:`suggest_tool` returns the larges
 a catalogue.  "Largest" orders tools by r2c, then r1c, then h (the biggest cross-section first: the
 stiffest tool that removes the most material per pass; equal shapes then prefer longer flutes).
 
-:data:`TAPERED_END_MILLS_MM` is a small built-in catalogue of common tapered end mills (mm);
-:func:`catalogue_tools` turns it into ConeTools in mm or, given the rotor's outer radius in mm, in
+:data:`catalogue.TAPERED_END_MILLS_MM` is a small built-in catalogue of common tapered end mills (mm);
+:func:`catalogue.catalogue_tools` turns it into ConeTools in mm or, given the rotor's outer radius in mm, in
 units of R (the built-in rotors have R = 1).
 """
 import dataclasses
@@ -62,6 +62,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .catalogue import CatalogueTool
 from .cone import ConeTool
 
 DEFAULT_C = 0.9                  # Eq. (19) buffer factor (s000 §4.2)
@@ -265,21 +266,6 @@ def bounds_from_tool_path(path, c=DEFAULT_C, d_angle=DEFAULT_D_ANGLE, valley=Non
                         c=c, d_angle=d_angle, valley=valley, source="custom tool (s001)")
 
 
-def custom_tool_bounds(surface, flank_ranges, valley, c=DEFAULT_C, d_angle=DEFAULT_D_ANGLE, result=None,
-                       **plan_kw):
-    """:class:`ValleyBounds` of valley ``valley`` from its custom double-flank tool.  ``result``: a
-    :class:`double_flank.DoubleFlankResult` (or ToolPath) already planned for this valley; otherwise
-    :func:`double_flank.plan_double_flank` runs (without the sweep simulation; ``plan_kw`` go to it)."""
-    if result is None:
-        from .double_flank import plan_double_flank
-
-        kw = {"simulate": False, "m": 50}
-        kw.update(plan_kw)
-        result = plan_double_flank(surface, flank_ranges, valley=valley, **kw)
-    path = result.paths[0] if hasattr(result, "paths") else result
-    return bounds_from_tool_path(path, c=c, d_angle=d_angle, valley=valley)
-
-
 # ============================================================================ conditions (Eqs. 18-21)
 def _a_min_of(dupin_or_a):
     if isinstance(dupin_or_a, DupinAnalysis):
@@ -476,76 +462,6 @@ def largest_cone(dupin_or_a_min, bounds, n_alpha=4001):
     return float(al[i]), float(r1[i]), float(r2[i])
 
 
-# ============================================================================ catalogue
-@dataclass(frozen=True)
-class CatalogueTool:
-    """A named catalogue cutter (its :class:`cone.ConeTool` in some length unit)."""
-    name: str
-    tool: ConeTool
-    unit: str = "mm"
-
-
-# Common solid-carbide tapered end mills (taper per side, tip diameter, flute length, shank diameter,
-# overall length; mm).  The cone: r1c = tip diameter / 2, h = flute length, r2c = r1c + h tan(taper);
-# the shank cylinder carries on from the top circle for (overall - flute) length.
-TAPERED_END_MILLS_MM = (
-    # name,                       taper_deg, tip_d, flute_l, shank_d, overall_l
-    ("taper 1.0deg D1.0 L10",       1.0,     1.0,   10.0,     4.0,    50.0),
-    ("taper 1.0deg D2.0 L20",       1.0,     2.0,   20.0,     4.0,    60.0),
-    ("taper 1.0deg D3.0 L30",       1.0,     3.0,   30.0,     6.0,    75.0),
-    ("taper 1.0deg D6.0 L40",       1.0,     6.0,   40.0,     8.0,    90.0),
-    ("taper 1.5deg D1.0 L15",       1.5,     1.0,   15.0,     4.0,    55.0),
-    ("taper 1.5deg D2.0 L20",       1.5,     2.0,   20.0,     4.0,    60.0),
-    ("taper 1.5deg D3.0 L30",       1.5,     3.0,   30.0,     6.0,    75.0),
-    ("taper 1.5deg D4.0 L40",       1.5,     4.0,   40.0,     8.0,    90.0),
-    ("taper 2.0deg D1.0 L10",       2.0,     1.0,   10.0,     4.0,    50.0),
-    ("taper 2.0deg D2.0 L15",       2.0,     2.0,   15.0,     4.0,    55.0),
-    ("taper 2.0deg D3.0 L25",       2.0,     3.0,   25.0,     6.0,    70.0),
-    ("taper 2.0deg D6.0 L35",       2.0,     6.0,   35.0,    10.0,    90.0),
-    ("taper 3.0deg D1.0 L10",       3.0,     1.0,   10.0,     4.0,    50.0),
-    ("taper 3.0deg D2.0 L15",       3.0,     2.0,   15.0,     6.0,    55.0),
-    ("taper 3.0deg D4.0 L20",       3.0,     4.0,   20.0,     8.0,    65.0),
-    ("taper 3.0deg D6.0 L30",       3.0,     6.0,   30.0,    10.0,    80.0),
-    ("taper 5.0deg D1.0 L8",        5.0,     1.0,    8.0,     4.0,    50.0),
-    ("taper 5.0deg D2.0 L12",       5.0,     2.0,   12.0,     6.0,    55.0),
-    ("taper 5.0deg D4.0 L16",       5.0,     4.0,   16.0,     8.0,    60.0),
-    ("taper 5.0deg D6.0 L20",       5.0,     6.0,   20.0,    10.0,    70.0),
-)
-
-
-def catalogue_tools(outer_radius_mm=None, table=TAPERED_END_MILLS_MM):
-    """The catalogue as :class:`CatalogueTool` s: in mm, or in units of R when the rotor's outer
-    radius ``outer_radius_mm`` (mm) is given (every length divided by it; angles unchanged)."""
-    out = []
-    for name, taper_deg, tip_d, flute, shank_d, overall in table:
-        al = math.radians(taper_deg)
-        r1 = 0.5 * tip_d
-        t = ConeTool(al, r1, r1 + flute * math.tan(al), shank_radius=0.5 * shank_d,
-                     shank_length=overall - flute)
-        out.append(CatalogueTool(name, t, "mm"))
-    if outer_radius_mm is None:
-        return out
-    return [CatalogueTool(c.name, scale_tool(c.tool, 1.0 / _positive(outer_radius_mm, "outer_radius_mm")), "R")
-            for c in out]
-
-
-def _positive(v, name):
-    try:
-        f = float(v)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} = {v!r} is not a number") from None
-    if not (math.isfinite(f) and f > 0):
-        raise ValueError(f"{name} = {v!r} must be a finite number > 0")
-    return f
-
-
-def scale_tool(tool, factor):
-    """The cone ``tool`` with every length multiplied by ``factor`` (> 0); alpha is unchanged."""
-    k = _positive(factor, "scale factor")
-    return dataclasses.replace(tool, r1c=tool.r1c * k, r2c=tool.r2c * k, shank_radius=tool.shank_radius * k,
-                               shank_length=tool.shank_length * k)
-
-
 def tool_size_key(tool):
     """Sort key of "largest": r2c, then r1c, then the length h (module docstring)."""
     return (tool.r2c, tool.r1c, tool.h)
@@ -587,14 +503,12 @@ def suggest_tool(catalogue, dupin_or_a_min, bounds):
     return Suggestion(best, entries[best], tools[best], results)
 
 
-def select_cutter(surface, flank_ranges, flank, catalogue, n=400, c=DEFAULT_C, d_angle=DEFAULT_D_ANGLE,
-                  custom=None, grid=(24, 40, 40)):
-    """The whole §4 procedure for one flank: Dupin analysis, the valley's custom-tool bounds (valley
-    flank // 2; ``custom``: an already planned DoubleFlankResult of it), the sampled admissible region
-    and the suggested catalogue tool.  Returns (DupinAnalysis, ValleyBounds, AdmissibleRegion,
-    Suggestion)."""
+def select_cutter(surface, flank_ranges, flank, catalogue, bounds, n=400, grid=(24, 40, 40)):
+    """The whole §4 procedure for one flank: Dupin analysis, the sampled admissible region and the
+    suggested catalogue tool.  ``bounds``: the :class:`ValleyBounds` of the flank's valley (flank // 2),
+    from its custom double-flank tool (:func:`bounds_from_tool_path`).  Returns (DupinAnalysis,
+    ValleyBounds, AdmissibleRegion, Suggestion)."""
     dup = flank_dupin(surface, flank_ranges, flank, n=n)
-    bounds = custom_tool_bounds(surface, flank_ranges, flank // 2, c=c, d_angle=d_angle, result=custom)
     if dup.hyperbolic.any():
         region = admissible_region(dup, bounds, n=grid)
     else:

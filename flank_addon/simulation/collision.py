@@ -40,7 +40,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .screw import screw_motion, screw_to_plane
+from ..geometry.screw import screw_motion, screw_to_plane
 from .sweep import CylinderPart, FrustumPart, RevolvingTool, _sphere_chain, helical_distance, tool_distances
 
 
@@ -125,7 +125,7 @@ def pose_parts(pose, model="cone"):
     if model == "cone":
         cone = FlatConePart(c1, c2, t.r1c, t.r2c)
     elif model == "spheres":
-        from .strip_cover import cap_safe
+        from .sweep import cap_safe
         cone = cap_safe(RevolvingTool([FrustumPart(pose.tip, t.r1s, pose.top, t.r2s)])).parts[0]
     else:
         raise ValueError(f"model {model!r} is not 'cone' or 'spheres'")

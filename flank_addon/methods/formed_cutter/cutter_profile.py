@@ -71,8 +71,8 @@ import math
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from .profile import Arc, Line, SegmentProfile, SplineProfile
-from .screw import hand_name, hand_sign
+from ...geometry.profile import Arc, Line, SegmentProfile, SplineProfile
+from ...geometry.screw import hand_name, hand_sign
 
 __all__ = ["FormedCutterError", "Section", "CutterSetup", "CutterProfile", "FLAG_NAMES",
            "section_from_profile", "arc_tooth_profile", "arc_tooth_section", "default_tooth",

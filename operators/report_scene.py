@@ -1,0 +1,314 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The Blender scene of a report picture: rotor, envelope strips by signed error, camera, labels and legend.
+
+Everything the picture shows is computed by the core without Blender (``flank_addon.report.report_geometry``:
+the geometry, the camera, the legend's layout, labels and exact colours); this module only turns it into a
+temporary scene, renders it (Workbench by default, or Cycles on the CPU), paints the legend bar into the
+pixels and removes every data-block it made, whatever happens.  ``flank.render_report`` and the command
+``python -m flank_addon render`` both call :func:`render_plan_report`.
+"""
+import json
+import math
+import os
+import time
+
+import bpy
+import numpy as np
+from mathutils import Matrix
+
+from ..flank_addon.io.png import check_output, write_png
+from ..flank_addon.report import report_geometry as rg
+from ..flank_addon.simulation.verify import deviation_colors
+
+_KINDS = ("objects", "meshes", "cameras", "lights", "materials", "worlds", "images", "scenes")
+
+
+def _paint(me, rgba):
+    col = np.asarray(rgba, np.float32)
+    if col.ndim == 1:
+        col = np.tile(col, (len(me.vertices), 1))
+    attr = me.color_attributes.new("report_color", 'FLOAT_COLOR', 'POINT')
+    attr.data.foreach_set("color", col.ravel())
+    me.color_attributes.active_color = attr
+    try:
+        me.color_attributes.render_color_index = me.color_attributes.active_color_index
+    except (AttributeError, TypeError):
+        pass
+
+
+def _link(sc, made, name, data, material=None):
+    if material is not None:
+        data.materials.append(material)
+    ob = bpy.data.objects.new(name, data)
+    made["objects"].append(ob)
+    sc.collection.objects.link(ob)
+    return ob
+
+
+def _mesh_object(sc, made, name, verts, faces, rgba, material=None, smooth=False):
+    me = bpy.data.meshes.new(name)
+    made["meshes"].append(me)
+    me.vertices.add(len(verts))
+    me.vertices.foreach_set("co", np.asarray(verts, np.float32).ravel())
+    me.loops.add(3 * len(faces))
+    me.loops.foreach_set("vertex_index", np.asarray(faces, np.int32).ravel())
+    me.polygons.add(len(faces))
+    me.polygons.foreach_set("loop_start", np.arange(0, 3 * len(faces), 3, dtype=np.int32))
+    if smooth:
+        me.polygons.foreach_set("use_smooth", np.ones(len(faces), bool))
+    me.update()
+    _paint(me, rgba)
+    return _link(sc, made, name, me, material)
+
+
+def _text(sc, made, to_world, body, size, align='LEFT', material=None):
+    """A text mesh of height ``size`` in the plane of the 4x4 ``to_world`` (baseline at its origin): Blender's
+    own font, converted to a mesh so that Workbench and Cycles draw it like any other object."""
+    cu = bpy.data.curves.new("Report Label", 'FONT')
+    cu.body = body
+    cu.size = size
+    cu.align_x = align
+    tmp = bpy.data.objects.new("Report Label", cu)
+    try:
+        sc.collection.objects.link(tmp)
+        me = bpy.data.meshes.new_from_object(tmp)
+    finally:
+        bpy.data.objects.remove(tmp)
+        bpy.data.curves.remove(cu)
+    made["meshes"].append(me)
+    _paint(me, rg.TEXT_RGBA)
+    ob = _link(sc, made, "Report Label", me, material)
+    for ray in ("diffuse", "glossy", "transmission", "volume_scatter", "shadow"):   # Cycles: camera only
+        if hasattr(ob, "visible_" + ray):
+            setattr(ob, "visible_" + ray, False)
+    ob.matrix_world = Matrix(np.asarray(to_world, float).tolist())
+    return ob
+
+
+def _attribute_material(made, name, emission):
+    """Cycles: a material showing the 'report_color' attribute (lit, or as emission for the labels)."""
+    mat = bpy.data.materials.new(name)
+    made["materials"].append(mat)
+    if mat.node_tree is None:
+        mat.use_nodes = True
+    nt = mat.node_tree
+    for node in list(nt.nodes):
+        nt.nodes.remove(node)
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    attr = nt.nodes.new("ShaderNodeAttribute")
+    attr.attribute_name = "report_color"
+    if emission:
+        sh = nt.nodes.new("ShaderNodeEmission")
+        nt.links.new(attr.outputs["Color"], sh.inputs["Color"])
+    else:
+        sh = nt.nodes.new("ShaderNodeBsdfPrincipled")
+        nt.links.new(attr.outputs["Color"], sh.inputs["Base Color"])
+        sh.inputs["Roughness"].default_value = 0.5
+    nt.links.new(sh.outputs[0], out.inputs["Surface"])
+    return mat
+
+
+def _cycles_world(world):
+    """Cycles: the light grey background for camera rays, a dimmer ambient light for the shading."""
+    if world.node_tree is None:
+        world.use_nodes = True
+    nt = world.node_tree
+    for node in list(nt.nodes):
+        nt.nodes.remove(node)
+    out = nt.nodes.new("ShaderNodeOutputWorld")
+    seen, light = nt.nodes.new("ShaderNodeBackground"), nt.nodes.new("ShaderNodeBackground")
+    seen.inputs["Color"].default_value = (0.93, 0.93, 0.94, 1.0)
+    seen.inputs["Strength"].default_value = 1.0
+    light.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    light.inputs["Strength"].default_value = 0.35
+    path, mix = nt.nodes.new("ShaderNodeLightPath"), nt.nodes.new("ShaderNodeMixShader")
+    nt.links.new(path.outputs["Is Camera Ray"], mix.inputs[0])
+    nt.links.new(light.outputs[0], mix.inputs[1])
+    nt.links.new(seen.outputs[0], mix.inputs[2])
+    nt.links.new(mix.outputs[0], out.inputs["Surface"])
+
+
+def _new_scene(made, width, height, engine):
+    """The temporary scene with its render settings and world -> (scene, surface material, label material);
+    the materials are None for Workbench, which shows the colour attribute directly."""
+    sc = bpy.data.scenes.new("Flank Report (temporary)")
+    made["scenes"].append(sc)
+    r = sc.render
+    r.resolution_x, r.resolution_y, r.resolution_percentage = width, height, 100
+    r.image_settings.file_format = 'PNG'
+    r.image_settings.color_mode = 'RGBA'
+    r.film_transparent = False
+    r.dither_intensity = 0.0           # no noise: exact flat colours, small PNGs
+    sc.view_settings.view_transform = 'Standard'
+    world = bpy.data.worlds.new("Flank Report World")
+    made["worlds"].append(world)
+    world.color = (0.93, 0.93, 0.94)
+    sc.world = world
+    if engine == "WORKBENCH":
+        r.engine = 'BLENDER_WORKBENCH'
+        sh = sc.display.shading
+        sh.light, sh.color_type = 'STUDIO', 'VERTEX'
+        sh.show_cavity = sh.show_object_outline = False
+        sc.display.render_aa = 'FXAA'      # as smooth as 8 samples here, at less than half the time
+        return sc, None, None
+    r.engine = 'CYCLES'
+    if not hasattr(sc, "cycles"):
+        raise ValueError("Cycles is not available in this Blender")
+    sc.cycles.device = 'CPU'
+    sc.cycles.samples = 16
+    sc.cycles.use_denoising = True
+    _cycles_world(world)
+    return (sc, _attribute_material(made, "Flank Report Surface", emission=False),
+            _attribute_material(made, "Flank Report Label", emission=True))
+
+
+def _add_geometry(sc, made, geo, surface_mat):
+    """Rotor and drawn strip parts -> (strip parts, points the camera must frame)."""
+    tol, R = geo["tolerance"], geo["outer_radius"]
+    rv, rf = geo["rotor"]
+    _mesh_object(sc, made, "Report Rotor", rv, rf, (0.62, 0.62, 0.64, 1.0), surface_mat)
+    pts = [np.asarray(rv)[::7]]
+    limit = rg.air_limit(tol, R)
+    parts = [rg.strip_part(v, f, d, n, limit) for v, f, d, n in geo["strips"]]
+    for k, (v, f, d, n) in enumerate(parts):
+        if len(f):
+            dv = rg.display_strip(v, d, n, R)
+            _mesh_object(sc, made, "Report Strip {}".format(k + 1), dv, f, deviation_colors(d, tol), surface_mat,
+                         smooth=True)
+            pts.append(dv)
+    return parts, np.concatenate(pts), limit
+
+
+def _add_camera(sc, made, M, ortho, clip_end, R):
+    camd = bpy.data.cameras.new("Report Camera")
+    made["cameras"].append(camd)
+    camd.type = 'ORTHO'
+    camd.sensor_fit = 'AUTO'
+    camd.ortho_scale = ortho
+    camd.clip_start, camd.clip_end = 0.01 * R, clip_end
+    cam = _link(sc, made, "Report Camera", camd)
+    cam.matrix_world = Matrix(M.tolist())
+    sc.camera = cam
+
+
+def _add_sun(sc, made, M):
+    """Cycles: a sun from above-left of the camera."""
+    ld = bpy.data.lights.new("Flank Report Light", type='SUN')
+    made["lights"].append(ld)
+    ld.energy = 3.0
+    lamp = _link(sc, made, "Flank Report Light", ld)
+    turn = Matrix.Rotation(math.radians(25.0), 3, 'Y') @ Matrix.Rotation(math.radians(-30.0), 3, 'X')
+    L = Matrix(M.tolist())
+    L = Matrix.Translation(L.translation) @ (L.to_3x3() @ turn).to_4x4()
+    lamp.matrix_world = L
+
+
+def _add_labels(sc, made, lay, lines, legend, at, ppu, width, label_mat):
+    fs = lay["fs"]
+    mx = lay["margin"][0]
+    _, ticks, tick_text, names = legend
+    _text(sc, made, at(mx, lay["title"][0]), lines[0], 1.5 * fs / ppu, material=label_mat)
+    _text(sc, made, at(mx, lay["title"][1]), lines[1], fs / ppu, material=label_mat)
+    for (x, _), txt in zip(ticks, tick_text):
+        _text(sc, made, at(x, lay["tick_base"]), txt, 0.85 * fs / ppu, 'CENTER', label_mat)
+    for x, txt in names:
+        _text(sc, made, at(x, lay["names_base"]), txt, 0.9 * fs / ppu, 'CENTER', label_mat)
+    caption = "signed distance strip - rotor"
+    bx0, by0, bx1, by1 = lay["bar"]
+    if bx1 + 1.5 * fs + 0.5 * fs * len(caption) < width - mx:
+        _text(sc, made, at(bx1 + 1.5 * fs, 0.5 * (by0 + by1) + 0.35 * fs), caption, 0.85 * fs / ppu,
+              material=label_mat)
+
+
+def _render_pixels(sc, made, tmp_png, width, height):
+    """Render the scene -> (H, W, 4) uint8, top row first, read back from the saved PNG."""
+    bpy.ops.render.render(write_still=False, scene=sc.name)
+    img = bpy.data.images.get("Render Result")
+    if img is None:
+        raise RuntimeError("the render produced no image")
+    img.save_render(filepath=tmp_png, scene=sc)
+    loaded = bpy.data.images.load(tmp_png, check_existing=False)
+    made["images"].append(loaded)
+    iw, ih = loaded.size
+    if (iw, ih) != (width, height):
+        raise RuntimeError(f"the render is {iw} x {ih}, not {width} x {height}")
+    px = np.empty(iw * ih * 4, np.float32)
+    loaded.pixels.foreach_get(px)
+    rgba = np.round(255.0 * px.reshape(ih, iw, 4)[::-1]).astype(np.uint8)
+    rgba[..., 3] = 255
+    return rgba
+
+
+def _remove_made(made, fonts_before, had_render_result, tmp_png):
+    for key in _KINDS:
+        coll = getattr(bpy.data, key)
+        for block in made[key]:
+            try:
+                coll.remove(block)
+            except (ReferenceError, RuntimeError):
+                pass
+    for font in list(bpy.data.fonts):           # the builtin font the labels loaded
+        if font.as_pointer() not in fonts_before and font.users == 0:
+            bpy.data.fonts.remove(font)
+    if not had_render_result:
+        img = bpy.data.images.get("Render Result")
+        if img is not None:
+            try:
+                bpy.data.images.remove(img)
+            except (ReferenceError, RuntimeError):
+                pass
+    if os.path.exists(tmp_png):
+        os.remove(tmp_png)
+
+
+def render_plan_report(plan, path, width=1280, height=800, tolerance=None, title=None, geometry=None,
+                       engine="WORKBENCH", units=None):
+    """Render the report picture of ``plan`` to the PNG ``path``.
+
+    engine: 'WORKBENCH' (default) or 'CYCLES' (CPU, 16 samples); units: (factor, unit) from
+    ``report_geometry.display_units`` (default: the plan's unit).  Nothing stays behind in Blender: a temporary
+    scene with its objects, meshes, camera, world (and for Cycles materials and a light) is made, rendered and
+    removed, and so is the builtin font if the file had none.  Returns dict(seconds, width, height, engine,
+    legend (bar box [x0, y0, x1, y1) top-left origin, tick labels and positions, band names), title (two
+    lines), max_error, min_error, tolerance (plan units), units); the same dict is stored in the PNG."""
+    engine = rg.check_render_args(width, height, tolerance, engine)
+    path = check_output(path)
+    t0 = time.perf_counter()
+    geo = geometry if geometry is not None else rg.report_geometry(plan, tolerance=tolerance)
+    units = tuple(units) if units is not None else (1.0, geo["unit"])
+    tol, R = geo["tolerance"], geo["outer_radius"]
+    lay = rg.legend_layout(width, height)
+    lines = rg.title_lines(geo, units, title, len(geo["strips"]))
+    legend = rg.legend_labels(lay, tol, units)
+    made = {k: [] for k in _KINDS}
+    fonts_before = {f.as_pointer() for f in bpy.data.fonts}
+    had_render_result = bpy.data.images.get("Render Result") is not None
+    tmp_png = "{}.render{}.png".format(path, os.getpid())
+    try:
+        sc, surface_mat, label_mat = _new_scene(made, width, height, engine)
+        parts, pts, limit = _add_geometry(sc, made, geo, surface_mat)
+        w = rg.choose_view(parts, R, geo.get("occluders"), limit)
+        M, ppu, ortho, clip_end = rg.camera_frame(pts, w, width, height, lay["region"], R)
+        _add_camera(sc, made, M, ortho, clip_end, R)
+        if engine == "CYCLES":
+            _add_sun(sc, made, M)
+        _add_labels(sc, made, lay, lines, legend, lambda px, py: rg.at_pixel(M, ppu, width, height, R, px, py),
+                    ppu, width, label_mat)
+        rgba = rg.paint_legend(_render_pixels(sc, made, tmp_png, width, height), lay, tol, legend[0], legend[1])
+        info = rg.report_info(geo, lay, width, height, engine, lines, units, legend)
+        write_png(path, rgba, {rg.REPORT_KEY: json.dumps(info, ensure_ascii=False)})
+    finally:
+        _remove_made(made, fonts_before, had_render_result, tmp_png)
+    info["seconds"] = time.perf_counter() - t0
+    return info
+
+
+def render_freeform_report(plan, path, width=1280, height=800, tolerance=None, title=None, engine="WORKBENCH",
+                           units=None):
+    """Render the report of a free-form plan to the PNG ``path`` (see :func:`render_plan_report`): the surface,
+    the envelope strips by their exact signed distance to it, and the kink angles in the title."""
+    from ..flank_addon.report.freeform_geometry import freeform_geometry, freeform_title
+
+    geo = freeform_geometry(plan, tolerance)
+    return render_plan_report(plan, path, width=width, height=height, tolerance=tolerance,
+                              title=title or freeform_title(plan), geometry=geo, engine=engine, units=units)
