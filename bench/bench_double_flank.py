@@ -1,4 +1,4 @@
-"""s001 double-flank milling on the built-in rotors: iterations, max errors on both flanks, time.
+"""Bizzarri & Bartoň 2021 double-flank milling on the built-in rotors: iterations, max errors on both flanks, time.
 
     python bench/bench_double_flank.py [--verify]
 

@@ -1,4 +1,4 @@
-"""s004 formed cutter: time for 119 planes beside the paper's Matlab figure, and Table 2 beside the paper's.
+"""Hu, Zhou & Li 2025 formed cutter: time for 119 planes beside the paper's Matlab figure, and Table 2 beside the paper's.
 
     .venv/bin/python bench/bench_formed_cutter.py [--repeat 7]
 """
@@ -16,7 +16,7 @@ import numpy as np  # noqa: E402
 from flank_addon.methods.formed_cutter.cutter_profile import TABLE1, arc_tooth_section, cutter_profile, format_table2, table2  # noqa: E402
 from flank_addon.geometry.rotors import builtin_by_name  # noqa: E402
 
-PAPER_TIME_S = 1.213   # s004 Table 4, Matlab, numerical method, 119-point tooth
+PAPER_TIME_S = 1.213   # Hu, Zhou & Li 2025 Table 4, Matlab, numerical method, 119-point tooth
 
 
 def best_time(fn, repeat):

@@ -1,4 +1,4 @@
-"""s003 free-form planner: time of the issue-7 size (11 strips x 20 rulings x 30 samples on a
+"""Rajain et al. 2023 free-form planner: time of the 11 x 20 x 30 size (11 strips x 20 rulings x 30 samples on a
 20k-triangle surface), ours (analytic sparse Jacobian) beside a baseline run of the same problem
 with scipy's finite-difference Jacobian (same sparsity pattern, '2-point'), and the paper's
 figure (Table 1 sizes took "around 30 minutes", 65 min at worst, §7.1).
@@ -67,7 +67,7 @@ def main():
             base = dt / sol.nfev
         else:
             print(f"  ratio finite differences / analytic per iteration: {dt / sol.nfev / base:.1f}x")
-    print(f"paper (s003 7.1, Python + TensorFlow, laptop): about 30 min per example, 65 min at worst -> "
+    print(f"paper (Rajain et al. 2023 7.1, Python + TensorFlow, laptop): about 30 min per example, 65 min at worst -> "
           f"{30 * 60 / min(times):.0f}x the paper's typical time")
 
 

@@ -1,4 +1,4 @@
-"""s003 §5 guiding curves: time per stage on ~20k-triangle test surfaces, and accuracy.
+"""Rajain et al. 2023 §5 guiding curves: time per stage on ~20k-triangle test surfaces, and accuracy.
 
 For each surface: the guiding field from one tangent vector at the centre (vector-heat transport),
 the guiding function G (sparse least squares), the level sets at spacing d = 0.1 (unit-size

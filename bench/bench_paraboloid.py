@@ -1,7 +1,7 @@
-"""s002 groove section: time per profile beside the paper's figure, and agreement with the sweep.
+"""Doğrusadık groove section: time per profile beside the paper's figure, and agreement with the sweep.
 
 The paper reports 558 s to obtain the section in a CAD system (by superimposing the tool's
-instantaneous sections).  The issue's budget is 10 ms per profile.  The sweep simulation of part 1
+instantaneous sections).  The budget is 10 ms per profile.  The sweep simulation of part 1
 (knowing only the lens and the helix) is run on the same section as the independent reference.
 
     .venv/bin/python bench/bench_paraboloid.py
@@ -43,7 +43,7 @@ def main():
     dev = machined_deviation([tool], pts, nrm3, p / (2 * np.pi), "right", max_deviation=1.0)
     dt = time.perf_counter() - t0
     print(f"sweep simulation of the same 401 points: {dt:.2f} s; "
-          f"max |analytic - simulated| = {np.abs(dev).max() * 1e3:.2e} um (issue: <= 0.1 um)")
+          f"max |analytic - simulated| = {np.abs(dev).max() * 1e3:.2e} um (target: <= 0.1 um)")
 
 
 if __name__ == "__main__":

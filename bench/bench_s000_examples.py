@@ -1,4 +1,4 @@
-"""s000 Examples 6.2-6.6 analogues: multi-strip single-flank plans on the built-in asymmetric rotors.
+"""Bizzarri, Bo & Bartoň Examples 6.2-6.6 analogues: multi-strip single-flank plans on the built-in asymmetric rotors.
 
     python bench/bench_s000_examples.py [--seeds 18] [--cases NAME,...]
 

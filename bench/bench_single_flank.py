@@ -1,6 +1,6 @@
 """Full single-flank pipeline (multi_strip.plan_single_flank: seeds, optimised candidates, global
 collision, adaptive cover, junction kinks, verify) with our optimiser vs the same pipeline with the
-paper's optimiser (s000 Remark 5.1: finite-difference gradient descent on the weighted Phi1, w = 100).
+paper's optimiser (Bizzarri, Bo & Bartoň Remark 5.1: finite-difference gradient descent on the weighted Phi1, w = 100).
 
     PYTHONPATH=. .venv/bin/python bench/bench_single_flank.py [repeats] [rotor] [flank] [n_seeds]
 

@@ -1,4 +1,4 @@
-"""Single-flank pose optimisation (s000 §5.1-5.2): exact-Jacobian SLSQP + LP polish vs the paper's
+"""Single-flank pose optimisation (Bizzarri, Bo & Bartoň §5.1-5.2): exact-Jacobian SLSQP + LP polish vs the paper's
 finite-difference gradient descent (Remark 5.1) on the same seeds.
 
     PYTHONPATH=. .venv/bin/python bench/bench_single_flank_opt.py [rotor] [flank] [n_seeds]
@@ -18,7 +18,7 @@ def main(name="asymmetric-female", flank=0, n_seeds=18):
     r = builtin_by_name(name)
     s = r.surface()
     ur = r.flanks[flank]
-    tool = ConeTool(math.asin(0.3), 0.1, 0.18)          # s000 Ex. 6.2
+    tool = ConeTool(math.asin(0.3), 0.1, 0.18)          # Bizzarri, Bo & Bartoň Ex. 6.2
     t0 = time.perf_counter()
     ev = sf.PoseEvaluator(s, ur, tool)
     per = sf.initial_positions(s, ur, tool, n_seeds, feet=ev.feet)

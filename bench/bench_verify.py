@@ -1,4 +1,4 @@
-"""Plan verification time (issue 3 budget: 15 strips against a 2,000-point profile in <= 1 s).
+"""Plan verification time (budget: 15 strips against a 2,000-point profile in <= 1 s).
 
 Two plans, each with 15 cone strips and shanks, on a 2,000-point profile:
 - "cylinder": cones tangent to a cylindrical rotor; every cone's sweep reaches every target point

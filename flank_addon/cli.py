@@ -272,7 +272,7 @@ def _parse_vector(text, name, n=3):
 
 
 def _cmd_plan_freeform(args):
-    """s003: G1 multi-strip flank milling of a free-form triangle mesh with a conical tool."""
+    """Rajain et al. 2023: G1 multi-strip flank milling of a free-form triangle mesh with a conical tool."""
     from .methods.freeform_g1.planner import plan_freeform
     from .io.mesh_files import read_mesh
     from .io.plan import write_plan
@@ -334,7 +334,7 @@ def _cmd_plan_freeform(args):
 
 
 def _cmd_plan_single_flank(args):
-    """s000: multi-strip single-flank milling of one flank with a given cone, to a tolerance."""
+    """Bizzarri, Bo & Bartoň: multi-strip single-flank milling of one flank with a given cone, to a tolerance."""
     import json
     import math
 
@@ -424,7 +424,7 @@ SUGGEST_DEFAULT_R_MM = 50.0
 
 
 def _cmd_suggest_tool(args):
-    """s000 §4: Dupin analysis of one flank, Eqs. (18)-(21) and the largest admissible catalogue tool."""
+    """Bizzarri, Bo & Bartoň §4: Dupin analysis of one flank, Eqs. (18)-(21) and the largest admissible catalogue tool."""
     from .methods.double_flank.planner import custom_tool_bounds
     from .tooling import catalogue as cat
     from .tooling import cutter_selection as cs
@@ -626,7 +626,7 @@ def build_parser():
     c.add_argument("path")
     c.set_defaults(func=_cmd_check_plan)
 
-    g = sub.add_parser("paraboloid", help="s002: section of the groove a paraboloid end mill cuts on a helix")
+    g = sub.add_parser("paraboloid", help="Doğrusadık: section of the groove a paraboloid end mill cuts on a helix")
     g.add_argument("--radius", type=float, required=True, help="helix radius R")
     g.add_argument("--a", type=float, required=True, help="paraboloid constant a (< 0)")
     g.add_argument("--b", type=float, required=True, help="paraboloid constant b (> 0)")
@@ -644,7 +644,7 @@ def build_parser():
     v.add_argument("--json", action="store_true")
     v.set_defaults(func=_cmd_verify)
 
-    k = sub.add_parser("cutter", help="s004: axial profile of a formed disc cutter for one tooth of a rotor")
+    k = sub.add_parser("cutter", help="Hu, Zhou & Li 2025: axial profile of a formed disc cutter for one tooth of a rotor")
     src = k.add_mutually_exclusive_group()
     src.add_argument("--profile", help="closed transverse profile as x,y CSV rows (rotor axis at the origin)")
     src.add_argument("--builtin", help="built-in rotor NAME (see the builtins command)")
@@ -659,8 +659,8 @@ def build_parser():
     k.add_argument("--json", action="store_true", help="print a JSON summary (flags, Z ranges, axis pose)")
     k.set_defaults(func=_cmd_cutter)
 
-    pl = sub.add_parser("plan", help="plan a tool path: double-flank (s001), single-flank (s000) or free-form "
-                                     "G1 multi-strip (s003)")
+    pl = sub.add_parser("plan", help="plan a tool path: double-flank (Bizzarri & Bartoň 2021), single-flank (Bizzarri, Bo & Bartoň) or free-form "
+                                     "G1 multi-strip (Rajain et al. 2023)")
     pl.add_argument("planner", choices=["double-flank", "single-flank", "freeform"])
     src = pl.add_mutually_exclusive_group()
     src.add_argument("--mesh", help="rotor mesh (STL, PLY, OBJ), analysed for axis, pitch and flanks")
@@ -670,12 +670,12 @@ def build_parser():
     val.add_argument("--valley-point", help="a point X,Y,Z (model frame) near the valley")
     pl.add_argument("--variant", default="min", choices=["min", "avg", "one-sided-1", "one-sided-2"])
     pl.add_argument("--tool", default="custom", help="custom | cone | cones:K")
-    pl.add_argument("--two-paths", action="store_true", help="one custom tool on two axes (s001 4.3)")
+    pl.add_argument("--two-paths", action="store_true", help="one custom tool on two axes (Bizzarri & Bartoň 2021 4.3)")
     pl.add_argument("--radii", type=int, default=400, help="radii intervals per strip (default 400)")
     pl.add_argument("--rim", type=float, default=0.85, help="targeted fraction of the valley depth")
     pl.add_argument("--tool-csv", help="write the tool profile (axial position, radius) as CSV")
     pl.add_argument("--out", required=True, help="PLAN.json")
-    sf = pl.add_argument_group("single-flank (s000)")
+    sf = pl.add_argument_group("single-flank (Bizzarri, Bo & Bartoň)")
     fsel = sf.add_mutually_exclusive_group()
     fsel.add_argument("--flank", type=int, help="flank index K")
     fsel.add_argument("--flank-point", help="a point X,Y,Z (model frame) near the flank")
@@ -701,7 +701,7 @@ def build_parser():
                     help="with --g1: strips the smooth cover may add to the minimum (default 2)")
     sf.add_argument("--profile-csv", help="write the machined deviation along the flank profile (u, deviation)")
     sf.add_argument("--json", action="store_true", help="print a JSON summary")
-    ff = pl.add_argument_group("freeform (s003): --mesh is any triangle surface; the tool is on the side its "
+    ff = pl.add_argument_group("freeform (Rajain et al. 2023): --mesh is any triangle surface; the tool is on the side its "
                                "face normals point to; --tool-r1/--tool-r2 are the radii of the spheres "
                                "inscribed at the tip and base ends of the axis (Eq. (2)), --tool-length the "
                                "axis length L between their centres")
@@ -717,7 +717,7 @@ def build_parser():
     ff.add_argument("--columns", type=int, default=20, help="freeform: rulings N per strip (default 20)")
     ff.add_argument("--engagement", type=float, default=1.0,
                     help="freeform: cutting fraction of the tool next to its base (Fig. 18, default 1 = full)")
-    ff.add_argument("--optimize-tool", default="", help="freeform: tool variables among L,r1,r2 (s003 7.2)")
+    ff.add_argument("--optimize-tool", default="", help="freeform: tool variables among L,r1,r2 (Rajain et al. 2023 7.2)")
     ff.add_argument("--slide", action="store_true",
                     help="freeform: let the m-grid also slide along the guiding curves (the paper's 3 unknowns "
                          "per point; default: 2, normal to the curve)")
@@ -726,7 +726,7 @@ def build_parser():
                     help="freeform: the tool is on the side opposite to the mesh's face normals")
     pl.set_defaults(func=_cmd_plan)
 
-    st = sub.add_parser("suggest-tool", help="s000 4: Dupin analysis of a flank and the largest admissible "
+    st = sub.add_parser("suggest-tool", help="Bizzarri, Bo & Bartoň 4: Dupin analysis of a flank and the largest admissible "
                                              "catalogue cone")
     src = st.add_mutually_exclusive_group()
     src.add_argument("--mesh", help="rotor mesh (STL, PLY, OBJ) in mm, analysed for axis, pitch and flanks")

@@ -1,4 +1,4 @@
-"""Tests of cutter_selection (s000 §4): Dupin indicatrix along flanks, Eqs. (18)-(21), admissible
+"""Tests of cutter_selection (Bizzarri, Bo & Bartoň §4): Dupin indicatrix along flanks, Eqs. (18)-(21), admissible
 region, catalogue suggestion and the suggest-tool CLI.  References are computed independently here:
 finite differences of surface.evaluate, brute-force support functions, the catalogue checked entry by
 entry with the conditions written out again."""
@@ -159,7 +159,7 @@ def test_symmetric_rotor_has_mirror_flanks():
 
 
 def test_female_flanks_are_mostly_hyperbolic_male_flanks_mostly_not(female):
-    # s000 Fig. 3: the female rotor is mainly hyperbolic, the male only near its valley bottom
+    # Bizzarri, Bo & Bartoň Fig. 3: the female rotor is mainly hyperbolic, the male only near its valley bottom
     r, s = female
     m = builtin_by_name("asymmetric-male")
     fem = [cs.flank_dupin(s, r.flanks, k).hyperbolic_fraction for k in (0, 1)]

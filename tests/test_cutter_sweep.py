@@ -1,4 +1,4 @@
-"""s004 cutter verified by the independent sweep simulation (part 1 engine): the disc cutter, swept
+"""Hu, Zhou & Li 2025 cutter verified by the independent sweep simulation (part 1 engine): the disc cutter, swept
 along the helix relative to the rotor, must reproduce the design tooth where no interference is
 flagged, show the flagged (uncut) regions, and never overcut."""
 import numpy as np

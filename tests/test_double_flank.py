@@ -1,4 +1,4 @@
-"""s001 double-flank milling: restricted feet, symmetric exactness, optimum, variants, plans, CLI."""
+"""Bizzarri & Bartoň 2021 double-flank milling: restricted feet, symmetric exactness, optimum, variants, plans, CLI."""
 
 import numpy as np
 import pytest
@@ -71,7 +71,7 @@ def test_symmetric_profile_is_exact(name):
 
 @pytest.mark.parametrize("name", ["nilson-male", "nilson-female", "srm_a-male", "srm_a-female"])
 def test_symmetric_plan_is_exact_by_verify(name):
-    """Issue 4 acceptance 1: the plan's custom tool mills both flanks within 1e-9 R, as the
+    """the plan's custom tool mills both flanks within 1e-9 R, as the
     independent sweep simulation sees it (rotor -> envelope at every design point of both flanks),
     and the reported errors are what verify finds."""
     r = builtin_by_name(name)
@@ -254,7 +254,7 @@ def test_cli_two_paths(tmp_path, capsys):
 
 
 def test_two_paths_beat_one_axis_on_asymmetric_female():
-    """s001 §4.3: one tool on two axes mills the asymmetric female valley better than the
+    """Bizzarri & Bartoň 2021 §4.3: one tool on two axes mills the asymmetric female valley better than the
     double-flank axis; its plan's reported errors are the simulated ones (rotor -> envelope)."""
     r = builtin_by_name("asymmetric-female")
     one = plan_double_flank(r.surface(), r.flanks, m=200, simulate=False)

@@ -53,7 +53,7 @@ def parse_cl(text):
 
 
 def expected_tip(plan, strip):
-    """Independent tip: the cone's tip circle centre (s000 Eq. 2), or the meridian's first row."""
+    """Independent tip: the cone's tip circle centre (Bizzarri, Bo & Bartoň Eq. 2), or the meridian's first row."""
     p0, p1 = np.array(strip["axis_start"]), np.array(strip["axis_end"])
     a = (p1 - p0) / np.linalg.norm(p1 - p0)
     if strip.get("meridian") is not None:
@@ -195,7 +195,7 @@ def test_cli_export(single, tmp_path, capsys):
 
 
 def test_paraboloid_strip_envelope_and_tip(single):
-    """A paraboloid lens (s002) on a radial axis: envelope on the swept lens, tip at the lower apex."""
+    """A paraboloid lens (Doğrusadık) on a radial axis: envelope on the swept lens, tip at the lower apex."""
     import copy
 
     plan = copy.deepcopy(single)

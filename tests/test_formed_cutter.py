@@ -1,4 +1,4 @@
-"""s004 formed cutter: numerical method vs the contact equation, vs a brute-force plane section, flags, CLI."""
+"""Hu, Zhou & Li 2025 formed cutter: numerical method vs the contact equation, vs a brute-force plane section, flags, CLI."""
 import math
 import subprocess
 import sys
@@ -182,7 +182,7 @@ def test_multi_start_search_finds_a_narrow_deeper_minimum():
 
 
 def test_s3_matches_contact_equation_within_a_nanometre():
-    """s004 Table 2, S3 at eps_b = 0.01 mm: the exact-intersection variant deviates <= 0.001 um."""
+    """Hu, Zhou & Li 2025 Table 2, S3 at eps_b = 0.01 mm: the exact-intersection variant deviates <= 0.001 um."""
     prof, tooth, t_e = arc_tooth_profile()
     setup = CutterSetup(T["centre_distance"], math.radians(T["swivel_deg"]), T["lead"])
     t = np.linspace(-t_e, t_e, 223)

@@ -1,4 +1,4 @@
-"""s003 free-form planner (issue 7): foot points, Jacobian, envelopes, exact cases, plan file, CLI.
+"""Rajain et al. 2023 free-form planner: foot points, Jacobian, envelopes, exact cases, plan file, CLI.
 
 References are independent of the code under test: brute force over all triangles, central finite
 differences, closed-form geometry of a cylinder and of a translated cone, the swept-tool check.
@@ -287,7 +287,7 @@ def test_cli_plan_freeform_verify_and_export(tmp_path):
     assert r.returncode == 2 and "--direction" in r.stderr and "Traceback" not in r.stderr
 
 
-# ============================================================================ options of issue 7 item 1 and §7.2
+# ============================================================================ planner options and §7.2
 def test_partial_engagement_plans_narrower_strips_and_checks_the_idle_tip():
     S = plane_patch(size=1.0, resolution=16)
     full = plan_freeform(S.vertices, S.faces, direction=[1, 0, 0], r1=0.02, r2=0.06, L=0.2, n_columns=6,

@@ -1,4 +1,4 @@
-"""guiding (s003 §5): mesh operators against linear functions, the transported guiding field,
+"""guiding (Rajain et al. 2023 §5): mesh operators against linear functions, the transported guiding field,
 the guiding function's level sets on surfaces with known answers (plane, cylinder, parabolic
 blade, gear flank, circles), spacing on curved surfaces (bump, saddle), base points (Fig. 10,
 Remarks 1 and 3), the test surfaces themselves, and input validation."""

@@ -13,7 +13,7 @@ def test_screw_motion_matches_eq1_both_hands():
     right = screw_motion(p, t, v0, "right")
     left = screw_motion(p, t, v0, "left")
     c, s = np.cos(t), np.sin(t)
-    # s000 Eq. (1): right-handed turns by +t; left-handed is the proper motion turning by -t
+    # Bizzarri, Bo & Bartoň Eq. (1): right-handed turns by +t; left-handed is the proper motion turning by -t
     assert np.allclose(right, [p[0] * c - p[1] * s, p[0] * s + p[1] * c, t * v0 + p[2]], atol=1e-15)
     assert np.allclose(left, [p[0] * c + p[1] * s, -p[0] * s + p[1] * c, t * v0 + p[2]], atol=1e-15)
     # one full turn advances by the pitch 2*pi*v0
@@ -76,7 +76,7 @@ def test_foot_is_a_minimum_under_perturbation():
 
 
 def test_global_not_local_minimum():
-    """A query whose nearest point on its own valley is only a local minimum (s004 §3.2 failure mode)."""
+    """A query whose nearest point on its own valley is only a local minimum (Hu, Zhou & Li 2025 §3.2 failure mode)."""
     surf = HelicalSurface(wavy_profile(), 0.5, "right")
     # on the axis every valley bottom is nearly equidistant; a slight offset makes one valley win
     q = np.array([[0.02, 0.0, 0.0], [0.0, 0.03, 0.4], [-0.01, -0.02, -0.7]])
@@ -107,7 +107,7 @@ def test_helicoid_and_cylinder_curvature():
 def test_wavy_profile_has_elliptic_and_hyperbolic_parts():
     surf = HelicalSurface(wavy_profile(), 0.5, "right")
     cls = surf.classify(surf.profile.params(2000))
-    # convex lobe tips are elliptic, concave valleys hyperbolic (s000 Fig. 3)
+    # convex lobe tips are elliptic, concave valleys hyperbolic (Bizzarri, Bo & Bartoň Fig. 3)
     assert (cls == 1).mean() > 0.1 and (cls == -1).mean() > 0.1
 
 

@@ -1,4 +1,4 @@
-"""initial_rulings (s003 Eqs. (7)-(11), Remark 2) on guiding curves of the test surfaces."""
+"""initial_rulings (Rajain et al. 2023 Eqs. (7)-(11), Remark 2) on guiding curves of the test surfaces."""
 import math
 
 import numpy as np

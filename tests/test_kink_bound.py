@@ -1,4 +1,4 @@
-"""Kinks against accuracy (issue 7, s003 §7.2): the section bound and what the G1 weight reaches.
+"""Kinks against accuracy (Rajain et al. 2023, §7.2): the section bound and what the G1 weight reaches.
 
 References: the Chebyshev line of a parabola (kappa l^2 / 16), the bound's own dual, sections
 checked point by point, random feasible sections, and the planner on the README's bump.
@@ -79,7 +79,7 @@ def test_bad_sections_are_refused():
 def test_bump_g1_plan_is_near_the_bound_and_the_issue_target_is_out_of_reach():
     """README bump (100 mm, 6 mm high, width 25 mm; tool 1/3/10 mm): w3 = 0 against w3 = 1 at
     w2 = 0.005.  The G1 plan lowers the max kink far more than 5x and its error sits just above the
-    least error any conical plan with its kink can have across the central section.  The issue's
+    least error any conical plan with its kink can have across the central section.  The requested
     target (kink / 5 at most twice the error) lies below that bound: no plan can reach it."""
     S = bump(size=100.0, resolution=100, height=6.0, width=25.0)
     common = dict(direction=[1, 0, 0], point=S.point(np.zeros((1, 2)))[0], r1=1.0, r2=3.0, L=10.0, n_columns=20,

@@ -1,4 +1,4 @@
-"""s000 multi-strip single-flank planning: cover to a tolerance, collisions, plan = verify."""
+"""Bizzarri, Bo & Bartoň multi-strip single-flank planning: cover to a tolerance, collisions, plan = verify."""
 import math
 
 import numpy as np

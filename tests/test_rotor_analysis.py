@@ -87,7 +87,7 @@ def test_vertex_curvature_classes_match_the_true_surface():
     assert clear.mean() > 0.7 and agree > 0.995, f"{agree:.2%} of clearly curved vertices agree"
     close = np.abs(K[side][clear] - true_K[clear]) <= 0.05 * np.abs(true_K[clear])
     assert close.mean() > 0.98, f"Gaussian curvature within 5 % at only {close.mean():.1%} of vertices"
-    # s000 §3.1: the female flanks consist mainly of hyperbolic points
+    # Bizzarri, Bo & Bartoň §3.1: the female flanks consist mainly of hyperbolic points
     assert np.mean(true_cls == -1) > 0.5
 
 

@@ -137,7 +137,7 @@ def test_mesh_closed_outward_and_on_the_helical_surface(name):
     assert v[:, 2].min() == pytest.approx(0.0) and v[:, 2].max() == pytest.approx(2.0)
     area = signed_area(r.profile.sample(300))
     assert _volume(v, f) == pytest.approx(area * 2.0, rel=2e-3)  # positive: outward
-    # every side vertex screws back onto the profile (s000 Eq. 1)
+    # every side vertex screws back onto the profile (Bizzarri, Bo & Bartoň Eq. 1)
     side = v[np.linalg.norm(v[:, :2], axis=1) > 0.3]
     back = screw_to_plane(side, r.v0, r.handedness)
     prof = r.profile.sample(300)

@@ -1,4 +1,4 @@
-"""s000 single-flank conical milling: seeds, pose optimisation, hard mode, tool shape (Phi2)."""
+"""Bizzarri, Bo & Bartoň single-flank conical milling: seeds, pose optimisation, hard mode, tool shape (Phi2)."""
 import math
 
 import numpy as np
@@ -13,12 +13,12 @@ from flank_addon.geometry.rotors import builtin_by_name
 from flank_addon.geometry.screw import screw_to_plane
 from flank_addon.simulation.verify import verify_plan
 
-EX62_TOOL = ConeTool(math.asin(0.3), 0.1, 0.18)         # s000 Ex. 6.2 (female X1)
+EX62_TOOL = ConeTool(math.asin(0.3), 0.1, 0.18)         # Bizzarri, Bo & Bartoň Ex. 6.2 (female X1)
 
 
 # ------------------------------------------------------------------ an exact envelope as the flank
 def eq11_characteristic(tip, a, tool, s, v0, hand, side):
-    """s000 Eq. (11) at t = 0, written independently of the module: the envelope point of the sphere
+    """Bizzarri, Bo & Bartoň Eq. (11) at t = 0, written independently of the module: the envelope point of the sphere
     family (y(s), r(s)) on the axis under the screw (first parameter along the axis, second the screw)."""
     L = tool.L
     y = tip + (L * s)[:, None] * a

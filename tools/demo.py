@@ -250,7 +250,7 @@ def main(argv=None):
             engine_used, dt = render_png(bpy, png, "cycles")
             timings["render_s"] += dt
 
-        # the core job: single-flank strips on flank 1 (s000 tool of the benchmark), CL data, report picture
+        # the core job: single-flank strips on flank 1 (Bizzarri, Bo & Bartoň tool of the benchmark), CL data, report picture
         sc = float(generated.get("flank_scale", 1.0))
         bpy.context.view_layer.objects.active = obj
         t0 = time.perf_counter()

@@ -1,11 +1,11 @@
-"""README pictures and numbers of the free-form planner (s003, issue 7), rendered headless.
+"""README pictures and numbers of the free-form planner (Rajain et al. 2023, ), rendered headless.
 
-* s003 Fig. 19 analogue: a blade close to a parabolic cylinder (47 x 37 mm, 12 mm deep, like the
+* Rajain et al. 2023 Fig. 19 analogue: a blade close to a parabolic cylinder (47 x 37 mm, 12 mm deep, like the
   paper's blisk blade of Table 1) machined along three guiding directions -- vertical (across the
   rulings), horizontal (along them) and diagonal -- with the paper's tool (r1 = 1, r2 = 0.3 mm,
   L = 2.46 mm), N = 10 rulings per strip, K = 30 samples, default weights (the paper's w2 = 0.001,
   w3 = 1 of Fig. 19 trade millimetres of error for the kinks with our measured kink, see README).
-* s003 Figs. 15-17 analogue: a bump planned with w3 = 0 and with w3 = 1, w2 = 0.005.
+* Rajain et al. 2023 Figs. 15-17 analogue: a bump planned with w3 = 0 and with w3 = 1, w2 = 0.005.
 
 Writes docs/freeform_blade.png, docs/freeform_bump.png and prints a Markdown table.
 

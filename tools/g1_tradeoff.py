@@ -1,4 +1,4 @@
-"""Kinks against accuracy on the README's bump (s003 Figs. 15-17, issue 7), beside the lower bound.
+"""Kinks against accuracy on the README's bump (Rajain et al. 2023 Figs. 15-17, ), beside the lower bound.
 
 Plans the 100 mm bump (6 mm high, width 25 mm) with the tool r1 = 1, r2 = 3, L = 10 mm for a row
 of G1 weights w3 at w2 = 0.005 and prints, per plan, the max kink, the max |error| and the least
@@ -69,7 +69,7 @@ def main():
               f"{time.perf_counter() - t:.1f} |", flush=True)
         if w3 == 0.0:
             print(f"<!-- section x = 0: {nj} junctions; least max kink within 2 x {e:.3g} mm: "
-                  f"{kink_floor_deg(y, z, 2 * e, nj):.3g} deg; the issue's 1/5 of {s['max_kink_deg']:.3g} deg "
+                  f"{kink_floor_deg(y, z, 2 * e, nj):.3g} deg; the target 1/5 of {s['max_kink_deg']:.3g} deg "
                   f"needs >= {kink_error_bound(y, z, s['max_kink_deg'] / 5, nj):.3g} mm -->", flush=True)
 
 

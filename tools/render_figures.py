@@ -2,21 +2,21 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Render the README figures headless through the extension's operators (bpy as a module, Workbench).
 
-    docs/groove_overcut.png    s002 paper case (R 20, a -0.05, b 7.2, p 20): the groove cut open along the
+    docs/groove_overcut.png    Doğrusadık paper case (R 20, a -0.05, b 7.2, p 20): the groove cut open along the
                                section plane through the screw axis, the lens tool at phi = pi, the swept
                                section (red) vs the tool's own section (blue), the overcut band between them
                                (yellow -> red), with a zoomed inset where the overcut is largest.
     docs/verify_deviation.png  built-in asymmetric female rotor painted by flank.verify_plan for a plan of
                                ball strips that gouge (red), cut within tolerance (green) and leave stock
                                (blue); grey = untouched.
-    docs/formed_cutter.png     s004 Table-1 arc-tooth rotor (A 200, swivel 31 deg, lead 450) with the formed disc
+    docs/formed_cutter.png     Hu, Zhou & Li 2025 Table-1 arc-tooth rotor (A 200, swivel 31 deg, lead 450) with the formed disc
                                cutter of flank.formed_cutter at its set-up (seen along the disc plane, sitting
                                in the groove), the rotor painted with the machined deviation of the sweep
                                simulation (green: within the tolerance on the cut tooth; grey: not cut).
-    docs/walkthrough.png       issue 6's path through the panels: an STL of the asymmetric female rotor (R 50 mm)
+    docs/walkthrough.png       's path through the panels: an STL of the asymmetric female rotor (R 50 mm)
                                imported and analysed (curvature colours), a single-flank run with a tapered end
                                mill (strips by signed error), the animation of strip 1 with the tool, CL export.
-    docs/double_flank.png      s001 built-in asymmetric male rotor, valley 0: the custom tool of
+    docs/double_flank.png      Bizzarri & Bartoň 2021 built-in asymmetric male rotor, valley 0: the custom tool of
                                flank.plan_double_flank (min radial function) half-way along its screw motion,
                                the envelope strips coloured by their error (green within 1e-3 R, blue stock),
                                the error along the tool axis (flank 1 red, flank 2 blue) beside the tool.
@@ -256,7 +256,7 @@ def figure_groove(bpy, np, out, width, height):
     tmp.mkdir(exist_ok=True)
     main_cam = add_camera(bpy, (-24.0, -84.0, 15.0), (-9.5, 0.0, -3.0), lens=50.0)
     dark = (0.12, 0.12, 0.12, 1.0)
-    lines = ("s002: paraboloid end mill on a helix, R = 20, a = -0.05, b = 7.2, p = 20",
+    lines = ("Doğrusadık: paraboloid end mill on a helix, R = 20, a = -0.05, b = 7.2, p = 20",
              "groove and tool cut open along the section plane through the screw axis",
              "red: swept section   blue: tool section   band: overcut, max {:.3f} at x = {:.2f}".format(
                  props["flank_groove_max_overcut"], props["flank_groove_max_overcut_x"]))
@@ -415,7 +415,7 @@ def figure_formed_cutter(bpy, np, out, width, height):
     cam.data.shift_y = -0.09
     colours = (0.12, 0.12, 0.12, 1.0)
     green = (0.15, 0.55, 0.20, 1.0)
-    lines = (("s004 formed disc cutter, Table-1 arc-tooth rotor: A = {:g}, swivel {:g} deg, lead {:g} mm".format(
+    lines = (("Hu, Zhou & Li 2025 formed disc cutter, Table-1 arc-tooth rotor: A = {:g}, swivel {:g} deg, lead {:g} mm".format(
                  p["flank_cutter_centre_distance"], p["flank_cutter_swivel"], p["flank_cutter_lead"]), colours),
              ("cutter radius {:.2f} .. {:.2f} mm over {} planes, no flagged plane".format(
                  p["flank_cutter_r_range"][0], p["flank_cutter_r_range"][1], p["flank_cutter_planes"]), colours),
@@ -432,7 +432,7 @@ def figure_formed_cutter(bpy, np, out, width, height):
 
 
 def figure_double_flank(bpy, np, out, width, height):
-    """s001: asymmetric male rotor, valley 0, custom tool (min radial function) of flank.plan_double_flank."""
+    """Bizzarri & Bartoň 2021: asymmetric male rotor, valley 0, custom tool (min radial function) of flank.plan_double_flank."""
     from mathutils import Matrix, Vector
 
     scene = reset_scene(bpy, width, height)
@@ -512,7 +512,7 @@ def figure_double_flank(bpy, np, out, width, height):
     cam.data.shift_x = -0.14   # the scene to the right, the labels top left
     ink = (0.12, 0.12, 0.12, 1.0)
     deg = math.degrees
-    lines = (("s001 double-flank milling, built-in asymmetric male rotor, valley 0: custom tool, min radial function",
+    lines = (("Bizzarri & Bartoň 2021 double-flank milling, built-in asymmetric male rotor, valley 0: custom tool, min radial function",
               ink),
              ("axis alpha {:+.3f} deg, delta {:+.4f} R, phi {:+.3f} deg (Phi {:.3g} R, {} iterations)".format(
                  deg(p["flank_df_alpha"][0]), p["flank_df_delta"][0], deg(p["flank_df_phi"][0]), p["flank_df_Phi"][0],
@@ -532,7 +532,7 @@ def figure_double_flank(bpy, np, out, width, height):
 
 
 def figure_walkthrough(bpy, np, out, width, height, core):
-    """Issue 6's path through the panels, headless: an STL of a rotor -> Analyze -> tool -> Run (single flank) ->
+    """'s path through the panels, headless: an STL of a rotor -> Analyze -> tool -> Run (single flank) ->
     coloured strips -> Error Plot -> Animate -> Render Report -> CL export.  Six captioned panels of
     ``width`` x ``height`` in a 2 x 3 grid, docs/walkthrough.png; every step calls the operator the panel's
     button calls, with the values the panel passes."""

@@ -20,11 +20,11 @@ default one lead [0, 2 pi v0]) in N equal steps, so FEED = (Z1 - Z0) / N.
 
 Tool tip T on the axis (a = unit(axis_end - axis_start)):
   cone tool (plan tool kind "cone"): the tip circle centre x1c = axis_start - r1c tan(alpha) a
-  (s000 Eq. 2); meridian strips: axis_start + h_0 a (first meridian row); paraboloid strips:
+  (Bizzarri, Bo & Bartoň Eq. 2); meridian strips: axis_start + h_0 a (first meridian row); paraboloid strips:
   axis_start - b a (the lens' lower apex); otherwise axis_start - radii[0] a (the bottom of the tip
   sphere).
 
-Free-form plans (s003, ``surface`` of kind mesh): one ``GOTO`` per ruling in the input model's
+Free-form plans (Rajain et al. 2023, ``surface`` of kind mesh): one ``GOTO`` per ruling in the input model's
 frame, no rotor angle or feed (the tool itself moves); the tip T is the centre of the tool's tip
 circle, s = -(r1 dr / L) along the axis from the tip sphere centre (a cone touching the spheres
 r(s) = r1 + s dr touches each along a circle set back by r dr / L), after stepping back over the

@@ -5,7 +5,7 @@ Strip meshes (:func:`strip_mesh`)
 The envelope of one strip's tool under the relative motion of the CL steps: the tool's side is a
 surface of revolution (meridian (h, R(h)) about the axis); its characteristic points under the screw
 are where the surface normal is orthogonal to the screw velocity (for the inscribed-sphere form of
-s001: c = m + r n with n . V(m) = 0 and n . a = -dr/dl), swept by S_{-t} over the CL time range.
+Bizzarri & Bartoň 2021: c = m + r n with n . V(m) = 0 and n . a = -dr/dl), swept by S_{-t} over the CL time range.
 """
 import numpy as np
 

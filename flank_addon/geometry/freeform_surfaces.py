@@ -1,6 +1,6 @@
-"""Synthetic free-form test surfaces for the s003 planner, as triangle meshes with exact geometry.
+"""Synthetic free-form test surfaces for the Rajain et al. 2023 planner, as triangle meshes with exact geometry.
 
-s003 §7 demonstrates its method on gear flanks, a blisk blade "close to a parabolic cylinder",
+Rajain et al. 2023 §7 demonstrates its method on gear flanks, a blisk blade "close to a parabolic cylinder",
 and free-form and convex/concave bump surfaces.  Those data sets are not public, so the tests
 build stand-ins here, each a regular parameter grid triangulated into a mesh together with the
 exact surface behind it:
@@ -180,7 +180,7 @@ def cylinder_patch(size=1.0, resolution=40, radius=None, angle=math.pi / 2):
 
 def parabolic_blade(size=1.0, resolution=40, rho=None, span=None):
     """Parabolic cylinder z = x^2 / (2 rho), x in [-size/2, size/2], y in [-span/2, span/2]
-    (a stand-in for s003 Fig. 19's blisk blade, "close to a parabolic cylinder").
+    (a stand-in for Rajain et al. 2023 Fig. 19's blisk blade, "close to a parabolic cylinder").
 
     rho (radius of curvature at x = 0) defaults to 0.6 size, span to 1.5 size.  uv = (x, y);
     rulings are parallel to y; the normal points to +z at x = 0.  ``closest`` is exact: the

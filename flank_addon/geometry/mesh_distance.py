@@ -1,6 +1,6 @@
-"""Exact foot points and signed distances to a triangle mesh (s003 Eqs. (13), (19)).
+"""Exact foot points and signed distances to a triangle mesh (Rajain et al. 2023 Eqs. (13), (19)).
 
-s003 measures the tool against the reference surface Phi through foot points: the closest point
+Rajain et al. 2023 measures the tool against the reference surface Phi through foot points: the closest point
 y_perp of a point y on Phi, its tangent plane, and the distance |y - y_perp| with a sign.  Phi is a
 triangle mesh here, so the foot point is the exact closest point over all triangles.
 

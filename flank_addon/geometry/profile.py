@@ -6,8 +6,8 @@ to arc length) and evaluated with derivatives so that foot-point Newton
 iterations and curvature formulas get exact p, p', p''.
 
 Two kinds: :class:`SplineProfile` (closed periodic cubic spline through
-points, s004 style point data) and :class:`SegmentProfile` (exact lines and
-circular arcs, e.g. the Nilson profile of s001 Ex. 3.3).
+points, Hu, Zhou & Li 2025 style point data) and :class:`SegmentProfile` (exact lines and
+circular arcs, e.g. the Nilson profile of Bizzarri & Bartoň 2021 Ex. 3.3).
 """
 import csv
 import math

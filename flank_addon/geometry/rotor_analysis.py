@@ -9,7 +9,7 @@ v(p) = cbar + c x p of that motion is tangent to the surface everywhere:
 With |c| = 1 this is a smallest-eigenvalue problem in R^6 (solved on the
 3x3 Schur complement after eliminating cbar).  The motion gives the axis
 direction d = c, the axis point c x cbar and the signed parameter
-k = c . cbar: |k| = v0 and sign(k) is the handedness (s000 Eq. (1): right
+k = c . cbar: |k| = v0 and sign(k) is the handedness (Bizzarri, Bo & Bartoň Eq. (1): right
 turns +t about d while advancing +v0 t along d).  Planar end faces and
 other non-helical parts (k != 0 is impossible for them) are removed by
 iterative trimming; coaxial shaft cylinders fit every coaxial screw and

@@ -15,7 +15,7 @@ so each rack point maps to exactly one male point and one female point.
 Male and female are both conjugate to the same rack at the same pitch
 point, hence conjugate to each other.
 
-``nilson`` is *male generated* (s001 Ex. 3.3, "symmetric profile consisting
+``nilson`` is *male generated* (Bizzarri & Bartoň 2021 Ex. 3.3, "symmetric profile consisting
 of four circular arcs"): every male lobe is four tangent-continuous exact
 circular arcs -- a convex tip arc centred on the male pitch circle at
 (r1, 0) with radius 1 - r1 = 0.36 (half angle 40 deg about its centre), a
@@ -160,7 +160,7 @@ def _arc_male_design(z1, z2, A, tip_half_angle_deg):
 
 
 KINDS = {
-    # Nilson-type symmetric profile of four circular arcs per male lobe (s001
+    # Nilson-type symmetric profile of four circular arcs per male lobe (Bizzarri & Bartoň 2021
     # Ex. 3.3): convex tip arc, two convex flank arcs, concave root arc; the
     # female is the envelope of the male.
     "nilson": _arc_male_design(4, 6, 1.6, tip_half_angle_deg=40.0),

@@ -1,4 +1,4 @@
-"""Screw (helical) motion about the z-axis, s000 Eq. (1).
+"""Screw (helical) motion about the z-axis, Bizzarri, Bo & Bartoň Eq. (1).
 
 A right-handed screw turns a point by +t about z and advances it by v0*t;
 a left-handed screw turns by -t and advances by v0*t.  ``v0`` is the axial
@@ -35,7 +35,7 @@ def rotate2d(xy, angle):
 
 
 def screw_motion(points, t, v0, handedness="right"):
-    """Apply S_t of s000 Eq. (1) to 3D points (..., 3); ``t`` broadcasts."""
+    """Apply S_t of Bizzarri, Bo & Bartoň Eq. (1) to 3D points (..., 3); ``t`` broadcasts."""
     h = hand_sign(handedness)
     p = np.asarray(points, dtype=float)
     t = np.asarray(t, dtype=float)

@@ -9,7 +9,7 @@ it.  Fields (more are welcome, none may be removed or change meaning):
     rotor
       to_world      4x4 row-major, rotor frame -> input model frame
       v0            axial advance per radian (> 0); pitch = 2 pi v0
-      handedness    "right" | "left"  (s000 Eq. (1))
+      handedness    "right" | "left"  (Bizzarri, Bo & Bartoň Eq. (1))
       profile       [[x, y], ...] closed transverse section z = 0 of the whole rotor, CCW, >= 720 points
       flanks        [[i_start, i_end], ...] inclusive profile index ranges, i_start < i_end,
                     indices taken modulo len(profile) (a flank may run through index 0)
@@ -24,10 +24,10 @@ it.  Fields (more are welcome, none may be removed or change meaning):
                        meridian    [[h, R], ...] revolved polyline, h from axis_start towards
                                    axis_end strictly increasing, R >= 0 (formed disc cutters)
                        paraboloid  {a, b}: the lens |h| <= b + a rho^2 (a < 0 < b) centred
-                                   at axis_start (s002)}, ...]
+                                   at axis_start (Doğrusadık)}, ...]
     summary        {max_error, min_error, elapsed_s}
 
-Free-form plans (s003, method "freeform-g1-cone") have ``surface`` instead of ``rotor``:
+Free-form plans (Rajain et al. 2023, method "freeform-g1-cone") have ``surface`` instead of ``rotor``:
 
     surface        {kind: "mesh", vertices [[x, y, z], ...], faces [[i, j, k], ...]} in the input
                    model's coordinates; the tool is on the side the face normals point to
@@ -237,7 +237,7 @@ def _check_strip_axes(k, st):
 
 
 def _validate_mesh_plan(plan):
-    """A free-form (s003) plan: ``surface`` instead of ``rotor``; strips carry ``rulings``."""
+    """A free-form (Rajain et al. 2023) plan: ``surface`` instead of ``rotor``; strips carry ``rulings``."""
     for key in ("method", "length_unit", "surface", "tool", "strips", "summary"):
         if key not in plan:
             raise PlanError(f"missing field {key!r}")
@@ -281,7 +281,7 @@ def _validate_mesh_plan(plan):
 
 
 def is_mesh_plan(plan):
-    """True for a free-form plan (``surface`` of kind mesh, s003) rather than a helical rotor plan."""
+    """True for a free-form plan (``surface`` of kind mesh, Rajain et al. 2023) rather than a helical rotor plan."""
     return isinstance(plan, dict) and plan.get("surface") is not None
 
 

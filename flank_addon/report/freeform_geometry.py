@@ -1,4 +1,4 @@
-"""Report picture of a free-form (s003) plan: the surface, the envelope strips coloured by their exact
+"""Report picture of a free-form (Rajain et al. 2023) plan: the surface, the envelope strips coloured by their exact
 signed distance to it, legend and title with the kink angles.
 
 The picture itself is rendered by the extension's report scene (one code path with the rotor reports); this

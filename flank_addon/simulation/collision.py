@@ -1,8 +1,8 @@
-"""Global collision of a conical tool and its cylindrical shank with the whole rotor (s000 §5.5).
+"""Global collision of a conical tool and its cylindrical shank with the whole rotor (Bizzarri, Bo & Bartoň §5.5).
 
-s000 samples the tool axis and compares foot-point distances with the inscribed-sphere radii.  Here
+Bizzarri, Bo & Bartoň samples the tool axis and compares foot-point distances with the inscribed-sphere radii.  Here
 the test is exact for the helical motion, by screw invariance: the infinite rotor solid B is
-invariant under its own screw motion S_t (s000 Eq. (1)), so a tool fixed in the rotor frame meets
+invariant under its own screw motion S_t (Bizzarri, Bo & Bartoň Eq. (1)), so a tool fixed in the rotor frame meets
 S_t(B) at some instant t iff it meets B at t = 0.  B is the set of points whose screwed image in the
 plane z = 0 lies inside the profile polygon.
 
@@ -13,7 +13,7 @@ Two complementary checks, both on all lobes:
    the signed distance of that helix to a tool part.  D(p) < 0 means the helix enters the part, by
    depth -D(p) (the deepest point of the helix inside the part, measured from the part's surface);
    it is reported at S_t*(p).  Tool parts: the truncated cone T with flat ends at its circles c1, c2
-   (s000 Eqs. (2)-(5); ``model="spheres"`` uses the hull of the inscribed spheres S1, S2 instead, the
+   (Bizzarri, Bo & Bartoň Eqs. (2)-(5); ``model="spheres"`` uses the hull of the inscribed spheres S1, S2 instead, the
    solid a flank-plan/1 cone strip and :mod:`verify` use) and the flat-ended shank cylinder that
    continues the axis beyond c2.
 2. Tool inside the rotor without the rotor surface entering it (the tool buried in the material,
@@ -85,7 +85,7 @@ def sd_flat_cone(q, c1, c2, r1, r2):
 
 
 class FlatConePart:
-    """Truncated cone with flat end faces (s000 §3.2's T): circles (c1, r1) and (c2, r2)."""
+    """Truncated cone with flat end faces (Bizzarri, Bo & Bartoň §3.2's T): circles (c1, r1) and (c2, r2)."""
 
     stack_fields = ("c1", "c2", "r1", "r2")
     sd_rows = staticmethod(sd_flat_cone)
@@ -118,7 +118,7 @@ def pose_parts(pose, model="cone"):
     """{"cone": part, "shank": part or None} of a :class:`cone.ConePose`.
 
     model "cone": the flat-ended truncated cone between c1 and c2 (x_ic = x_iS - r_ic tan(alpha) a,
-    s000 Eq. (2)); "spheres": the hull of the boundary inscribed spheres (the plan strip's solid)."""
+    Bizzarri, Bo & Bartoň Eq. (2)); "spheres": the hull of the boundary inscribed spheres (the plan strip's solid)."""
     t, a = pose.tool, pose.axis
     c1 = pose.tip - t.c1_offset * a
     c2 = pose.top - t.r2c * math.tan(t.alpha) * a
@@ -311,7 +311,7 @@ def check_collisions(poses, profile_points, v0, handedness, flanks=None, target_
     Args:
         poses: :class:`cone.ConePose` list (one tool each, with its shank).
         profile_points: (K, 2) closed CCW transverse profile of the whole rotor (all lobes).
-        v0, handedness: the rotor's screw motion (s000 Eq. (1)).
+        v0, handedness: the rotor's screw motion (Bizzarri, Bo & Bartoň Eq. (1)).
         flanks: inclusive index ranges [(a, b), ...] (modulo K) naming the flanks; target_flanks: the
             indices of the flanks the cone mills (its contact there within ``tolerance`` is allowed).
         tolerance: allowed cone penetration into target flanks; clearance: any other penetration

@@ -1,7 +1,7 @@
 """Independent machining simulation of revolving tools on a helical relative motion.
 
 Plan convention (flank-plan/1): a strip's tool is fixed in the rotor frame while the rotor screws by
-S_t (s000 Eq. (1)).  A rotor point x is removed iff its helix S_t(x) enters the tool for some t, so
+S_t (Bizzarri, Bo & Bartoň Eq. (1)).  A rotor point x is removed iff its helix S_t(x) enters the tool for some t, so
 
     D(x) = min_t  sd_tool(S_t(x))
 
@@ -18,7 +18,7 @@ reduces to a 2D distance in its meridian half-plane (h along the axis, rho from 
                          spheres at equally spaced axis points give a chain of these);
 - :class:`CylinderPart`  flat-ended cylinder (the shank);
 - :class:`MeridianPart`  any meridian rho = R(h) given as a polyline (formed disc cutters, custom tools);
-- :class:`ParaboloidPart` the lens |h| <= b + a rho^2 of s002 Eq. (1), exact.
+- :class:`ParaboloidPart` the lens |h| <= b + a rho^2 of Doğrusadık Eq. (1), exact.
 
 Speed: only times t at which the helix of x comes near the tool can matter.  Every part is covered by
 bounding spheres; the helix stays on its cylinder of radius |x_xy|, so the times it passes within
@@ -153,7 +153,7 @@ class MeridianPart:
     Args:
         origin, direction: axis point (h = 0) and axis direction.
         meridian: (K, 2) rows (h, R) with h strictly increasing and R >= 0 (e.g. the axial profile
-            (Z_u, R_u) of a formed disc cutter, s004).
+            (Z_u, R_u) of a formed disc cutter, Hu, Zhou & Li 2025).
     The 2D distance is exact: the boundary is resampled so no edge is longer than ``spacing``
     (default: 1/400 of the meridian's extent or twice the median edge, the smaller), the nearest
     foot lies on an edge next to a vertex within sqrt(d^2 + spacing^2 / 4) of the query, and rows
@@ -243,7 +243,7 @@ class MeridianPart:
 
 
 class ParaboloidPart:
-    """s002 Eq. (1) tool: the lens |h| <= b + a rho^2 (a < 0 < b), centre on the axis at ``centre``.
+    """Doğrusadık Eq. (1) tool: the lens |h| <= b + a rho^2 (a < 0 < b), centre on the axis at ``centre``.
 
     The 2D distance to the parabola arc h = b + a u^2, u in [0, rho_e] solves the foot-point cubic
     2 a^2 u^3 + (1 + 2 a (b - |h|)) u - rho = 0 in closed form (all real roots, plus the arc ends).

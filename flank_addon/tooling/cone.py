@@ -1,4 +1,4 @@
-"""Truncated-cone tools and their poses (s000 §3.2, Eqs. 2-10): the shared model of the
+"""Truncated-cone tools and their poses (Bizzarri, Bo & Bartoň §3.2, Eqs. 2-10): the shared model of the
 single-flank conical planner, its cutter selection, collision test and plan strips.
 
 A tapered end mill is the truncated cone T with boundary circles c1 (tip) and c2 of radii
@@ -15,7 +15,7 @@ import numpy as np
 
 @dataclass(frozen=True)
 class ConeTool:
-    """Truncated cone (alpha, r1c, r2c) (s000's independent shape triplet) plus a cylindrical shank.
+    """Truncated cone (alpha, r1c, r2c) (Bizzarri, Bo & Bartoň's independent shape triplet) plus a cylindrical shank.
 
     alpha: opening angle (rad), 0 < alpha < pi/2; r1c < r2c radii of the tip and top circles;
     shank_radius / shank_length: the holder cylinder that continues the axis beyond c2

@@ -1,13 +1,13 @@
-"""Local analysis of a helical flank and the choice of a conical cutter for it (s000 §4).
+"""Local analysis of a helical flank and the choice of a conical cutter for it (Bizzarri, Bo & Bartoň §4).
 
-Dupin indicatrix along a flank (s000 §4.1)
+Dupin indicatrix along a flank (Bizzarri, Bo & Bartoň §4.1)
 ------------------------------------------
 The flank is sampled along its transverse profile at the centres of n cells of equal arc length
 (the helical surface is screw invariant, so one profile curve carries all the local geometry).
 At each sample we take the principal curvatures k1 >= k2 of :meth:`HelicalSurface.curvatures`
 (outward normal n: positive = the surface bends towards the air side, where the tool is) and the
 principal directions of :meth:`HelicalSurface.principal_directions`.  The class (hyperbolic K < 0,
-elliptic K > 0, parabolic) is :meth:`HelicalSurface.classify`'s (s000 Fig. 3).
+elliptic K > 0, parabolic) is :meth:`HelicalSurface.classify`'s (Bizzarri, Bo & Bartoň Fig. 3).
 
 At a hyperbolic point k1 > 0 > k2.  The machining-side indicatrix is the hyperbola
 II(x) = k1 x1^2 + k2 x2^2 = 1 in the principal frame (Remark 4.1: of the pair of conics we keep
@@ -29,9 +29,9 @@ hyperbola takes every value in [0, a]), hence Eq. (18) on the middle circle of t
 
 Note the units: a is the square root of a length (sqrt(R) for the built-in rotors).
 
-Valley bounds (s000 §4.2, Eqs. 19-21)
+Valley bounds (Bizzarri, Bo & Bartoň §4.2, Eqs. 19-21)
 -------------------------------------
-The custom double-flank tool of the valley (s001, :func:`double_flank.plan_double_flank`) is the
+The custom double-flank tool of the valley (Bizzarri & Bartoň 2021, :func:`double_flank.plan_double_flank`) is the
 largest revolving tool that fits the valley.  We bound it by the truncated cone (Fig. 5b, yellow)
 whose boundary spheres are the custom tool's spheres at the two ends of the part of its axis where
 they touch *both* flanks (the one-flank tails do not measure the valley's width): with their radii
@@ -65,7 +65,7 @@ import numpy as np
 from .catalogue import CatalogueTool
 from .cone import ConeTool
 
-DEFAULT_C = 0.9                  # Eq. (19) buffer factor (s000 §4.2)
+DEFAULT_C = 0.9                  # Eq. (19) buffer factor (Bizzarri, Bo & Bartoň §4.2)
 DEFAULT_D_ANGLE = 0.25 * math.pi  # Eq. (21) limit of the opening angle
 CONDITIONS = ("omega1", "r1", "r2", "omega2", "angle")
 EQUATIONS = {"omega1": "Eq. (18)", "r1": "Eq. (19)", "r2": "Eq. (19)", "omega2": "Eq. (20)",
@@ -76,7 +76,7 @@ _REL_TOL = 1e-12   # equality in the conditions (<=) up to roundoff
 # ============================================================================ Dupin indicatrix (§4.1)
 @dataclass
 class DupinAnalysis:
-    """Dupin indicatrices at n samples of a flank's profile (s000 §4.1, Fig. 5a).
+    """Dupin indicatrices at n samples of a flank's profile (Bizzarri, Bo & Bartoň §4.1, Fig. 5a).
 
     u, s: profile parameters and arc length from the flank start (samples at the centres of equal
     arc-length cells); point, normal (n, 3): profile point (t = 0) and unit outward normal;
@@ -154,7 +154,7 @@ class DupinAnalysis:
 
 def flank_arc_samples(surface, u_start, u_end, n, n_fine=4001):
     """(u (n,), s (n,), length): profile parameters at the centres of n equal arc-length cells of
-    [u_start, u_end] (s000 §4.1: uniformly arc-length distributed samples)."""
+    [u_start, u_end] (Bizzarri, Bo & Bartoň §4.1: uniformly arc-length distributed samples)."""
     uf = np.linspace(u_start, u_end, n_fine)
     sp = np.linalg.norm(surface.profile.eval(uf, 1), axis=1)
     arc = np.r_[0.0, np.cumsum(0.5 * (sp[1:] + sp[:-1]) * np.diff(uf))]
@@ -263,7 +263,7 @@ def bounds_from_tool_path(path, c=DEFAULT_C, d_angle=DEFAULT_D_ANGLE, valley=Non
     cos_a = math.sqrt(1.0 - sin_a * sin_a)
     return ValleyBounds(d_min=r1s * cos_a, d_max=r2s * cos_a,          # Eq. (2)
                         d_depth=L - (r2s - r1s) * sin_a,               # Eq. (7): h = L - (r2S - r1S) sin
-                        c=c, d_angle=d_angle, valley=valley, source="custom tool (s001)")
+                        c=c, d_angle=d_angle, valley=valley, source="custom tool (Bizzarri & Bartoň 2021)")
 
 
 # ============================================================================ conditions (Eqs. 18-21)
@@ -404,7 +404,7 @@ class AdmissibleRegion:
 
 
 def admissible_region(dupin_or_a_min, bounds, n=(24, 40, 40), alpha_max=None, r1_max=None, r2_max=None):
-    """Sample the admissible region of Eqs. (18)-(21) (s000 Fig. 5c) on an n = (n_alpha, n_r1, n_r2)
+    """Sample the admissible region of Eqs. (18)-(21) (Bizzarri, Bo & Bartoň Fig. 5c) on an n = (n_alpha, n_r1, n_r2)
     grid of alpha in (0, alpha_max], r1c in [0, r1_max], r2c in (0, r2_max].  The defaults reach 10 %
     beyond the box of Eqs. (19) and (21) so that the trimming faces show.  Returns
     :class:`AdmissibleRegion`."""

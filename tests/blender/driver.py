@@ -494,7 +494,7 @@ def _fcurve_keys(action):
 
 
 def scenario_paraboloid(bpy, res, args):
-    """flank.paraboloid_groove: the s002 paper case, its section and the tool motion."""
+    """flank.paraboloid_groove: the Doğrusadık paper case, its section and the tool motion."""
     import numpy as np
     from scipy.spatial import cKDTree
 
@@ -653,7 +653,7 @@ def _cutter_run(bpy, np, fc, screw, **kw):
 
 
 def scenario_formed_cutter(bpy, res, args):
-    """flank.formed_cutter: the s004 Table-1 set-up, a flagged set-up, the active rotor, bad input."""
+    """flank.formed_cutter: the Hu, Zhou & Li 2025 Table-1 set-up, a flagged set-up, the active rotor, bad input."""
     import numpy as np
 
     fc, screw = _core("methods.formed_cutter.cutter_profile"), _core("geometry.screw")
@@ -797,7 +797,7 @@ def scenario_formed_cutter(bpy, res, args):
         res["bad"][name] = dict(result=ret, error=err, new=[s1[i] - s0[i] for i in range(4)])
 
 
-# --------------------------------------------------------------------------- double flank (s001)
+# --------------------------------------------------------------------------- double flank (Bizzarri & Bartoň 2021)
 
 def _snapshot4(bpy):
     return (len(bpy.data.objects), len(bpy.data.meshes), len(bpy.data.collections), len(bpy.data.actions))
@@ -1086,7 +1086,7 @@ def scenario_double_flank(bpy, res, args):
             out["moving_diff"] = float(np.abs(np.array(moving[0].matrix_world, dtype=np.float64) - expect).max())
 
 
-# --------------------------------------------------------------------------- single flank (s000)
+# --------------------------------------------------------------------------- single flank (Bizzarri, Bo & Bartoň)
 
 SF_ASIN = 0.1001674211615598          # asin(0.1)
 

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""flank.plan_freeform and its helpers (s003) through the installed extension, for test_blender_freeform.py.
+"""flank.plan_freeform and its helpers (Rajain et al. 2023) through the installed extension, for test_blender_freeform.py.
 
 A parabolic blade (the built-in test surface) is moved, rotated 90 deg about z and scaled x2; the guiding
 direction is given in world axes.  The run is compared with the core planner on the very same local

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""UI items of issue 6 beside the modal run, for test_blender_modal_ui.py: the Tool panel's Check Tool button for a
+"""UI items  beside the modal run, for test_blender_modal_ui.py: the Tool panel's Check Tool button for a
 cylinder (drawn into a real layout, then run with the properties the button carries), the Results panel's export
 buttons (PLY included), and flank.error_plot's Image Editor hand-over without an Image Editor and with one made
 in the background screen."""

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The sidebar (issue 6) against the installed zip: every panel drawn into a *real* UILayout (a popup menu's
+"""The sidebar against the installed zip: every panel drawn into a *real* UILayout (a popup menu's
 layout, opened headless under a VIEW_3D / UI region override and never shown; a proxy records what each draw
 asks for), the tool presets (shipped files in mm, user presets through AddPresetBase) in several scene units,
 the flank list against the core's Dupin analysis, flank picking by 3D cursor and by selected faces against
@@ -593,7 +593,7 @@ def scenario(bpy, res, args):
     src_tool = [o for o in bpy.data.objects if o.get("flank_df_role") == "tool" and o.get("flank_df_path") == 0]
     runs["custom_preview"]["vertices"] = [len(prev.data.vertices) if prev else 0,
                                           len(src_tool[-1].data.vertices) if src_tool else -1]
-    # Run with the formed disc cutter (the s004 Table-1 rotor) and the paraboloid groove, then the DISC preview
+    # Run with the formed disc cutter (the Hu, Zhou & Li 2025 Table-1 rotor) and the paraboloid groove, then the DISC preview
     t0 = time.perf_counter()
     for strategy, extra in (("FORMED", dict(cutter_source="TABLE1", cutter_planes=40, cutter_sample_points=16,
                                             cutter_resolution=240, cutter_animate=False)),

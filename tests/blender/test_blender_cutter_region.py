@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""flank.cutter_region through the installed extension (s000 §4): the admissible-cone cloud and the tool marker
+"""flank.cutter_region through the installed extension (Bizzarri, Bo & Bartoň §4): the admissible-cone cloud and the tool marker
 against the core run in the same process (built-in asymmetric female, flank 1, default (24, 40, 40) grid);
 flank and cone from the Single Flank settings; a too-large cone is a WARNING with the core's message; object
 scale; bad input creates nothing."""

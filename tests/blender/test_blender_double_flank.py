@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""flank.plan_double_flank through the installed extension (s001): nilson-male (symmetric: alpha = delta =
+"""flank.plan_double_flank through the installed extension (Bizzarri & Bartoň 2021): nilson-male (symmetric: alpha = delta =
 phi = 0, errors ~ 0), asymmetric-male (moved, rotated, scaled x2: the core's axis, deviations in scene
 units), two cones, and bad input (nothing created)."""
 import math

@@ -1,11 +1,11 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""flank.formed_cutter through the installed extension: s004 Table-1 set-up (A 200, swivel 31 deg, lead 450),
+"""flank.formed_cutter through the installed extension: Hu, Zhou & Li 2025 Table-1 set-up (A 200, swivel 31 deg, lead 450),
 a flagged set-up (swivel 50 deg), the active generated rotor, and bad input."""
 import pytest
 
 from blender_harness import run_scenario
 
-T1_OBJECTS = ["Arc Tooth Rotor (s004)", "Contact Points", "Cutter Motion", "Formed Cutter", "Formed Cutter (moving)"]
+T1_OBJECTS = ["Arc Tooth Rotor (Hu, Zhou & Li 2025)", "Contact Points", "Cutter Motion", "Formed Cutter", "Formed Cutter (moving)"]
 FLAG_NAMES = ["contact_jump", "maximum_point", "off_tooth", "overcut", "self_occlusion"]
 
 
@@ -19,7 +19,7 @@ def test_table1_creates_collection_with_all_objects(cut):
     assert t["result"] == ["FINISHED"], t["error"]
     # the run's collection under "Flank Results", named after its rotor
     assert t["objects"] == T1_OBJECTS and t["in_scene"]
-    assert t["collection"] == "Formed Cutter (Arc Tooth Rotor (s004))"
+    assert t["collection"] == "Formed Cutter (Arc Tooth Rotor (Hu, Zhou & Li 2025))"
     # 5 objects (the motion empty has no data), 3 meshes (the two cutters share one), 2 collections ("Flank
     # Results" and the run's), 1 action
     assert t["new"] == [5, 3, 2, 1]
@@ -81,7 +81,7 @@ def test_table1_profile_csv(cut):
 def test_animation_keys_follow_the_screw(cut):
     a = cut["table1"]["anim"]
     assert a["has_action"] and a["shares_mesh"]
-    assert a["parent"] == ["Arc Tooth Rotor (s004)", "Cutter Motion"]
+    assert a["parent"] == ["Arc Tooth Rotor (Hu, Zhou & Li 2025)", "Cutter Motion"]
     assert a["fcurves"] == {"location[2]": {"keys": 2, "interpolation": ["LINEAR"]},
                             "rotation_euler[2]": {"keys": 2, "interpolation": ["LINEAR"]}}
     for smp in a["samples"]:
@@ -98,7 +98,7 @@ def test_flagged_setup_highlights_rings(cut):
     assert f["result"] == ["FINISHED"], f["error"]
     # a re-run on the Table-1 rotor replaces the Table-1 run: 3 objects, 3 meshes, no action instead of 5, 3, 1
     assert f["new"] == [-2, 0, 0, -1]
-    assert f["collection"] == "Formed Cutter (Arc Tooth Rotor (s004))"
+    assert f["collection"] == "Formed Cutter (Arc Tooth Rotor (Hu, Zhou & Li 2025))"
     p = f["props"]
     assert p["flank_cutter_flag_counts"] == f["expected_flag_counts"]
     assert sum(p["flank_cutter_flag_counts"].values()) > 0

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""flank.plan_freeform (s003) and its helpers through the installed extension (scenario_freeform.py): a parabolic
+"""flank.plan_freeform (Rajain et al. 2023) and its helpers through the installed extension (scenario_freeform.py): a parabolic
 blade moved, rotated 90 deg and scaled x2, a cylindrical tool along the blade's rulings (exact), compared number for
 number with the core run on the same local vertices; re-run, results list, exports, animation, the guiding-curve
 preview (and its live update), direction picking, a vector-attribute field, selected faces and bad input."""
@@ -42,7 +42,7 @@ def test_plan_is_the_core_plan_in_model_coordinates(ff):
 
 
 def test_cylinder_along_the_rulings_is_exact_in_blender_too(ff):
-    """s003 developable case: error <= 1e-6 of the patch size (1.5 model units, 3 scene units), kink <= 0.01 deg."""
+    """Rajain et al. 2023 developable case: error <= 1e-6 of the patch size (1.5 model units, 3 scene units), kink <= 0.01 deg."""
     pr = ff["state"]["props"]
     size = 1.5 * S
     assert max(abs(pr["flank_ff_max_error"]), abs(pr["flank_ff_min_error"])) <= 1e-6 * size

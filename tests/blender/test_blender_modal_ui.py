@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""UI items of issue 6 beside the modal run (scenario_modal_ui.py): Check Tool for a cylinder, the Results panel's
+"""UI items  beside the modal run (scenario_modal_ui.py): Check Tool for a cylinder, the Results panel's
 PLY export button, and the error plot's hand-over to an Image Editor with and without one (background)."""
 import math
 

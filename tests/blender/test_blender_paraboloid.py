@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""flank.paraboloid_groove through the installed extension: the s002 paper case (R 20, a -0.05, b 7.2, p 20)."""
+"""flank.paraboloid_groove through the installed extension: the Doğrusadık paper case (R 20, a -0.05, b 7.2, p 20)."""
 import math
 
 import pytest

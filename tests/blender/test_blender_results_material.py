@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Issue 6: result strips carry ``deviation`` / ``error_color`` and one shared material that shows the colour in
+"""result strips carry ``deviation`` / ``error_color`` and one shared material that shows the colour in
 Material Preview / Rendered / Cycles; one collection per run under "Flank Results", a re-run replaces that run
 and leaves no orphan data (single flank, double flank, free-form, formed cutter, paraboloid groove)."""
 import pytest
@@ -50,7 +50,7 @@ def test_rerun_replaces_the_run_without_orphans(mat, planner):
     ("double", ["Double Flank (Rotor_nilson_male, valley 0)"]),
     ("freeform", ["Free-form (Parabolic Blade)"]),
     ("formed_active", ["Formed Cutter (Rotor_srm_a_male)"]),
-    ("formed_table1", ["Formed Cutter (Arc Tooth Rotor (s004))"]),
+    ("formed_table1", ["Formed Cutter (Arc Tooth Rotor (Hu, Zhou & Li 2025))"]),
     ("groove", ["Paraboloid Groove"]),
 ])
 def test_run_collection_names(mat, planner, names):
@@ -94,7 +94,7 @@ def test_formed_cutter_and_groove_colour_objects_get_the_material(mat):
         by_name = {s["name"].split(".")[0]: s for s in mat[planner]["state"]}
         assert by_name[name]["materials"] == [MATERIAL], by_name[name]
     t1 = {s["name"]: s for s in mat["formed_table1"]["state"]}
-    assert t1["Arc Tooth Rotor (s004)"]["materials"] == [MATERIAL]     # the rotor built in the run
+    assert t1["Arc Tooth Rotor (Hu, Zhou & Li 2025)"]["materials"] == [MATERIAL]     # the rotor built in the run
     assert mat["formed_active"]["rotor_materials"] == [MATERIAL]        # the user's rotor had none
 
 

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The sidebar in workflow order (issue 6), headless against the installed zip (scenario_sidebar.py).
+"""The sidebar in workflow order, headless against the installed zip (scenario_sidebar.py).
 
 Panels are drawn into real ``bpy.types.UILayout`` objects: the layout of a popup menu that is opened under a
 VIEW_3D / UI region override and never shown (headless Blender has a window and a screen, but draws nothing).

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""flank.plan_single_flank through the installed extension (s000): flank 1 of the asymmetric female (moved,
+"""flank.plan_single_flank through the installed extension (Bizzarri, Bo & Bartoň): flank 1 of the asymmetric female (moved,
 rotated, scaled x2; cone alpha = asin(0.1), r1 = 0.05 R, r2 = 0.08 R, tolerance 1e-3 R) against the core run
 in the same process, a re-run from a point that replaces the collection, undo/redo, and bad input (nothing
 created).  One driver scenario; every test reads its JSON facts."""

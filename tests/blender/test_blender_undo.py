@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Undo and redo of every data-changing flank.* operator (issue 6: "All data-changing operators support undo
-(bl_options REGISTER UNDO); tests call them and undo").
+"""Undo and redo of every data-changing flank.* operator (all declare REGISTER and UNDO; the tests call them and
+undo).
 
 One scenario (scenario_undo.py) runs every operator of the installed extension on a small scene, pushing undo
 steps around it as the UI does, and records snapshots of the data before the run, after it, after ``ed.undo``

@@ -1,13 +1,13 @@
-"""Double-flank milling of screw-rotor valleys with custom-shaped and conical tools (s001).
+"""Double-flank milling of screw-rotor valleys with custom-shaped and conical tools (Bizzarri & Bartoň 2021).
 
 One revolving tool, fixed in the rotor frame while the rotor screws, touches *both* flanks of a
-valley (s001 §1).  The tool is an envelope of spheres centred on its axis o' (s001 §3): it is known
+valley (Bizzarri & Bartoň 2021 §1).  The tool is an envelope of spheres centred on its axis o' (Bizzarri & Bartoň 2021 §3): it is known
 once the axis and the radial function r along it are known.
 
 Frames and units
 ----------------
 Everything is in the rotor frame of :mod:`screw` (helical axis = z, profile in z = 0) and in the
-rotor's length unit.  The tool axis of a valley follows s001 Eq. (10), turned about z so that the
+rotor's length unit.  The tool axis of a valley follows Bizzarri & Bartoň 2021 Eq. (10), turned about z so that the
 start point (alpha, delta, phi) = (0, 0, 0) is the valley's reference line (the radial line through
 the valley's mid direction; for a symmetric profile its symmetry line, Prop. 3.1):
 
@@ -24,12 +24,12 @@ r_k(a) is the distance from an axis point a to flank k of the valley (a profile 
 [u_start, u_end] screwed about z), found by :class:`FlankFeet`: the reduction of
 :mod:`helical_surface` (f(u, tau) = |R(h tau) p(u) - q0|^2 + v0^2 tau^2) minimised by projected
 Newton with the box u_start <= u <= u_end, seeded by a dense table of the flank and by warm starts.
-A foot in the open range is an ordinary foot point (s001 Eq. (2)); a foot on u = u_start or
+A foot in the open range is an ordinary foot point (Bizzarri & Bartoň 2021 Eq. (2)); a foot on u = u_start or
 u = u_end lies on the flank's boundary helix (the characteristic has run off that flank, end of
-s001 §4.2).  In both cases grad_a r_k = (a - b_k) / r_k, so for axis parameters x
+Bizzarri & Bartoň 2021 §4.2).  In both cases grad_a r_k = (a - b_k) / r_k, so for axis parameters x
 dr_k/dx = ((a - b_k) / r_k) . da/dx exactly (no finite differences).
 
-Optimisation (s001 §4.2)
+Optimisation (Bizzarri & Bartoň 2021 §4.2)
 ------------------------
 Phi(alpha, delta, phi) = max_i |r1_i - r2_i| (Eq. (11)) over the axis samples whose feet are
 interior on both flanks.  We minimise its epigraph form, minimise s subject to
@@ -39,10 +39,10 @@ overcuts), average (Eq. (16)), one-sided (Eq. (17)); errors e_k = r_k - r (Eq. (
 Samples whose foot on one flank lies on that flank's boundary count only for the other flank (the
 tail of the tool that mills one flank alone).
 
-Two paths with one tool (s001 §4.3, Eqs. (18)-(19)) and conical tools (s001 §5, Eqs. (20)-(21),
+Two paths with one tool (Bizzarri & Bartoň 2021 §4.3, Eqs. (18)-(19)) and conical tools (Bizzarri & Bartoň 2021 §5, Eqs. (20)-(21),
 Remark 5.3) are built on the same evaluator.  The errors a planner reports are checked against the
 independent sweep simulation (:mod:`sweep`, :func:`verify.verify_plan`), the rotor-to-envelope
-direction of s001 Remark 4.5.
+direction of Bizzarri & Bartoň 2021 Remark 4.5.
 """
 import math
 import time
@@ -88,7 +88,7 @@ class Valley:
         rim: fraction of the valley depth (from the bottom radius to the outer radius) up to which the
             flanks are targeted.  Above it the lobe top turns away from every axis in the valley (its
             normals no longer meet the axis helicoid), so no sphere on the axis can touch it; the
-            trimmed flank ends there (the "boundary of X_k" of s001 §4.2).
+            trimmed flank ends there (the "boundary of X_k" of Bizzarri & Bartoň 2021 §4.2).
     """
 
     def __init__(self, surface, flank_ranges, k, rim=0.85):
@@ -141,7 +141,7 @@ def valley_of_point(surface, flank_ranges, point):
     raise ValueError(f"valley point {point} is not near any flank of the rotor")
 
 
-# ============================================================================ axis (s001 Eq. (10))
+# ============================================================================ axis (Bizzarri & Bartoň 2021 Eq. (10))
 def axis_points(x, lam, theta, R=1.0):
     """Points a(lam) of the axis with parameters x = (alpha, delta, phi) (delta in units of R), and
     da/dx (N, 3, 3) (columns: d/dalpha, d/ddelta (per unit of delta/R), d/dphi).  Eq. (10) turned
@@ -242,7 +242,7 @@ def _slsqp(fun_jac, y0, bounds, n_ineq, objective):
 
 
 def default_starts(valley):
-    """(0, 0, 0) as in s001 Ex. 4.3 plus a small symmetric set around it (alpha, delta/R, phi)."""
+    """(0, 0, 0) as in Bizzarri & Bartoň 2021 Ex. 4.3 plus a small symmetric set around it (alpha, delta/R, phi)."""
     return [(0.0, 0.0, 0.0), (0.1, 0.0, 0.0), (-0.1, 0.0, 0.0), (0.0, 0.1, 0.1), (0.0, -0.1, -0.1)]
 
 
@@ -320,7 +320,7 @@ class ToolPath:
 
     lam (m+1,) equally spaced axis parameters from the tip (lam[0]) to the shank end; points (m+1, 3)
     the axis nodes (rotor frame); radii (m+1,) the radial function r at the nodes (sphere radii of
-    the envelope, s001 §3); r (2, m+1) distances to the two trimmed flanks; counted (2, m+1) whether
+    the envelope, Bizzarri & Bartoň 2021 §3); r (2, m+1) distances to the two trimmed flanks; counted (2, m+1) whether
     the node's foot on that flank is interior; errors (2, m+1) e_k = r_k - r (Eq. (15)), nan where the
     node does not count for flank k.
     """
@@ -382,7 +382,7 @@ def radial_function(r, counted, variant="min", cap=None):
     """Radii at axis nodes from the distances r (2, N) to the two flanks.
 
     variant: 'min' Eq. (14), 'avg' Eq. (16), 'one-sided-1' / 'one-sided-2' Eq. (17).  Where a node
-    counts for one flank only (the tail, end of s001 §4.2) it takes that flank's distance; where it
+    counts for one flank only (the tail, end of Bizzarri & Bartoň 2021 §4.2) it takes that flank's distance; where it
     counts for none it takes min(r1, r2).  ``cap`` (N,) (distance to the untrimmed flanks) bounds
     every radius that is not meant to overcut: all of them for 'min', the tail nodes otherwise.
     """
@@ -529,7 +529,7 @@ def sphere_union_meridian(s, r, tol=2e-10, dr=None, end_tol=None, grade=None):
     """Meridian (h, R) of the union of spheres centred at axial positions s (increasing) with radii r.
 
     The boundary of a union of spheres on an axis is R(h) = max_j sqrt(r_j^2 - (h - s_j)^2).  Where r
-    is smooth it is the envelope (contact circle h = s - r r', R = r sqrt(1 - r'^2), s001 §3); at
+    is smooth it is the envelope (contact circle h = s - r r', R = r sqrt(1 - r'^2), Bizzarri & Bartoň 2021 §3); at
     kinks of r it is a spherical zone (concave kink) or a crease (convex kink), and the end caps are
     sphere caps.  Candidates: the contact points of every sphere (``dr`` = r' if known exactly, else
     finite differences), the exposed parts of the two end caps (from the tip to the first sphere's
@@ -720,7 +720,7 @@ def eval_at_tool_coordinate(ev, x, t, solvers=None, tag=0):
 
 
 def _two_path_terms(ev, y, t):
-    """Errors of one tool on two axes (s001 §4.3) at tool coordinates t, as rows e >= 0 with their
+    """Errors of one tool on two axes (Bizzarri & Bartoň 2021 §4.3) at tool coordinates t, as rows e >= 0 with their
     gradients d e / d (x1, x2) (M, 6) and the counted masks.
 
     Axis p mills its flank (own_p: distance to the trimmed flank p, counted where the foot is
@@ -757,7 +757,7 @@ def _coverage_gap(valley, k, feet):
 
 
 def optimize_two_paths(valley, n=100, x0=None, evaluator=None, starts=None, rounds=4, n_dense=3000):
-    """s001 §4.3: one tool, two axes.  Minimise the largest error of the shared tool on either axis
+    """Bizzarri & Bartoň 2021 §4.3: one tool, two axes.  Minimise the largest error of the shared tool on either axis
     (Eq. (18) plus the one-flank tails and the other-flank clearance, see :func:`_two_path_terms`)
     over (x1, x2) by SLSQP on the epigraph form with exact gradients, from the double-flank optimum
     ``x0`` on both axes and a few starts that move the two axes apart in delta and phi (the paper
@@ -853,7 +853,7 @@ def optimize_two_paths(valley, n=100, x0=None, evaluator=None, starts=None, roun
 
 
 def optimize_cone_axis(valley, lam, x0=None, evaluator=None):
-    """s001 Eq. (20): Phi = max|r1 - r2| + (1/(n-2)) (sum |D2 r1| + sum |D2 r2|) (D2 = second
+    """Bizzarri & Bartoň 2021 Eq. (20): Phi = max|r1 - r2| + (1/(n-2)) (sum |D2 r1| + sum |D2 r2|) (D2 = second
     differences along the axis samples ``lam``), minimised by SLSQP on its epigraph form with slack
     variables for the absolute values; gradients exact (D2 is linear in r)."""
     t0 = time.perf_counter()
@@ -908,7 +908,7 @@ def optimize_cone_axis(valley, lam, x0=None, evaluator=None):
 
 
 def fit_cone_below(t, rmin):
-    """s001 Eq. (21) with the overcut set I2 empty by construction: the line r(t) = a + b t with
+    """Bizzarri & Bartoň 2021 Eq. (21) with the overcut set I2 empty by construction: the line r(t) = a + b t with
     r(t_i) <= rmin_i maximising sum r(t_i) (= minimising sum of rmin_i - r(t_i)), by linprog."""
     from scipy.optimize import linprog
 
@@ -988,11 +988,11 @@ def tool_mesh(path, n_around=48, max_rings=400, shank=None):
 
 
 def envelope_meshes(path, surface, z_range=(0.0, 1.0), n_t=48):
-    """The two branches of the tool's envelope (s001 Eqs. (5)-(9)): the characteristic points
+    """The two branches of the tool's envelope (Bizzarri & Bartoň 2021 Eqs. (5)-(9)): the characteristic points
     c_k = a + r (b_k - a)/|b_k - a| on the tool toward the feet b_k, screwed by the helical motion
     over ``z_range``.  Returns [(verts (N*n_t, 3), faces, deviation (N*n_t,)) per flank]; the
     per-vertex deviation is the tool-to-rotor error e_k of its axis node (constant along helices,
-    s001 §4.2), nan where the node does not mill that flank."""
+    Bizzarri & Bartoň 2021 §4.2), nan where the node does not mill that flank."""
     from ...geometry.screw import screw_motion
 
     out = []
@@ -1036,7 +1036,7 @@ def write_tool_csv(path_or_file, tool_path, max_rows=4000):
 @dataclass
 class DoubleFlankResult:
     """Everything an operator needs: the plan dict, the tool paths (axis nodes, radii, errors along
-    the axis), the axis fits and the one-sided distances of s001 Remark 4.5 per target flank."""
+    the axis), the axis fits and the one-sided distances of Bizzarri & Bartoň 2021 Remark 4.5 per target flank."""
     plan: dict
     paths: list
     fits: list
@@ -1146,12 +1146,12 @@ def _two_paths(ev, f1, f2, m, n_dense=3001, tol=2e-8):
 
 def plan_double_flank(surface, flank_ranges, valley=0, variant="min", tool="custom", two_paths=False, m=400,
                       rim=0.85, n=100, to_world=None, length_unit="R", simulate=True, starts=None, progress=None):
-    """Plan double-flank milling of one valley (s001).  Returns :class:`DoubleFlankResult`.
+    """Plan double-flank milling of one valley (Bizzarri & Bartoň 2021).  Returns :class:`DoubleFlankResult`.
 
     surface: :class:`HelicalSurface` (rotor frame); flank_ranges: the rotor's flank parameter ranges
     (``Rotor.flanks``); valley: valley index; variant: 'min' | 'avg' | 'one-sided-1' | 'one-sided-2'
     (custom tool); tool: 'custom' | 'cone' | 'cones:K'; two_paths: one custom tool on two axes
-    (s001 §4.3); m: the plan's strip carries m + 1 radii; rim: targeted fraction of the valley depth.
+    (Bizzarri & Bartoň 2021 §4.3); m: the plan's strip carries m + 1 radii; rim: targeted fraction of the valley depth.
     The plan's rotor section lists the rotor's flanks followed by the valley's two trimmed flanks,
     which are the plan's target flanks.  With ``simulate`` the strips' reported errors are the
     sweep simulation's (what verify_plan finds); otherwise they are the tool-to-rotor errors.
@@ -1180,7 +1180,7 @@ def plan_double_flank(surface, flank_ranges, valley=0, variant="min", tool="cust
     elif tool not in ("custom", "cone"):
         raise ValueError(f"tool {tool!r} is not one of custom, cone, cones:K")
     if two_paths and kind != "custom":
-        raise ValueError("--two-paths needs the custom tool (s001 §4.3)")
+        raise ValueError("--two-paths needs the custom tool (Bizzarri & Bartoň 2021 §4.3)")
     report(0.0, "preparing the valley")
     v = Valley(surface, flank_ranges, valley, rim=rim)
     ev = AxisEvaluator(v)

@@ -1,14 +1,14 @@
-"""s004: axial profile of a formed disc cutter for a helical surface, with machinability flags.
+"""Hu, Zhou & Li 2025: axial profile of a formed disc cutter for a helical surface, with machinability flags.
 
 Frames and conventions
 ----------------------
 Rotor frame: the helical axis is z through the origin; the surface is the union over t of
 S_t(profile) with the screw motion of :mod:`.screw` (hand ``eps = +1`` right, ``-1`` left,
 ``v0 = lead / (2 pi)``).  Internally the profile is first turned about z by ``-phase`` so that the
-tooth being cut faces +x (the *working frame*, s004 Fig. 2); every pose returned is converted back
+tooth being cut faces +x (the *working frame*, Hu, Zhou & Li 2025 Fig. 2); every pose returned is converted back
 to the caller's rotor frame.
 
-Cutter frame (s004 §2.2, Eq. 2): origin ``O`` on the cutter axis at the foot of the common
+Cutter frame (Hu, Zhou & Li 2025 §2.2, Eq. 2): origin ``O`` on the cutter axis at the foot of the common
 perpendicular with the rotor axis, ``e_x`` from the rotor axis towards the cutter axis, ``e_z``
 along the cutter axis, ``e_y = e_z x e_x``.  In the working frame
 
@@ -20,7 +20,7 @@ swivel turns the disc plane towards the helix: the disc is tangent to the helice
 ``v0 / tan(phi)``.  The cutter meridian is ``R(Z)``: the cutter is the solid
 ``{Z_u in [Z_0, Z_1], sqrt(X_u^2 + Y_u^2) <= R(Z_u)}``.  Lengths are in the profile's unit.
 
-Numerical method (s004 §2.3-2.6)
+Numerical method (Hu, Zhou & Li 2025 §2.3-2.6)
 --------------------------------
 Planes Gamma_m: Z_u = const.  In a plane, each line Y_u = const (parallel to X_u) is followed from the
 cutter axis towards the rotor; its first crossing with the rotor section at the line's height z is the
@@ -84,7 +84,7 @@ class FormedCutterError(ValueError):
     """Invalid cutter set-up or profile; the message names the value and the limit."""
 
 
-# per-plane flags (bit mask), s004 §4
+# per-plane flags (bit mask), Hu, Zhou & Li 2025 §4
 FLAG_SELF_OCCLUSION = 1   # a line of the plane meets the tooth again behind material (Fig. 10c,d)
 FLAG_MAXIMUM_POINT = 2    # the distance curve has two separated minima with a maximum between (Fig. 10e,f)
 FLAG_OFF_TOOTH = 4        # the nearest material of the plane is not on the tooth (blank, other teeth)
@@ -93,7 +93,7 @@ FLAG_OVERCUT = 16         # a cutter following the tooth alone would enter other
 FLAG_NAMES = {FLAG_SELF_OCCLUSION: "self_occlusion", FLAG_MAXIMUM_POINT: "maximum_point",
               FLAG_OFF_TOOTH: "off_tooth", FLAG_CONTACT_JUMP: "contact_jump", FLAG_OVERCUT: "overcut"}
 
-# s004 Table 1 (arc tooth) and Table 2 (maximum deviation in micrometres)
+# Hu, Zhou & Li 2025 Table 1 (arc tooth) and Table 2 (maximum deviation in micrometres)
 TABLE1 = dict(R1=55.1, R2=111.69, G=125.0, lead=450.0, teeth=4, swivel_deg=31.0, centre_distance=200.0)
 PAPER_TABLE2 = {
     "eps_b": (0.8, 0.4, 0.1, 0.04, 0.01),
@@ -252,7 +252,7 @@ class Section:
         parameter is then taken on the tooth side.  Smooth joins (spline knots, tangent arcs) are
         not corners.  The first-crossing distance of a plane is discontinuous or kinked at the lines
         through a corner's helix, so the subdivision search cannot locate a minimum there to better
-        than its spacing (or at all, s004 §2.4): :func:`cutter_profile` adds the corners exactly."""
+        than its spacing (or at all, Hu, Zhou & Li 2025 §2.4): :func:`cutter_profile` adds the corners exactly."""
         cached = getattr(self, "_corner_cache", None)
         key = (id(self.cubic_c), id(self.arc_c), len(self.cubic_h), len(self.arc_r))
         if cached is not None and cached[0] == key:
@@ -315,7 +315,7 @@ class Section:
         rel = np.mod((ang - self.arc_a0[idx]) * np.sign(sw) + 1e-12, 2 * np.pi) - 1e-12
         return rel
 
-    # ---------------------------------------------------------------- line intersection (s004 §2.5)
+    # ---------------------------------------------------------------- line intersection (Hu, Zhou & Li 2025 §2.5)
 
     def crossings(self, q, d, eps_a=1e-10, s_min=None, chunk=1 << 20):
         """All crossings of lines q + s d (unit d) with the section, with s >= s_min (per line).
@@ -325,7 +325,7 @@ class Section:
         along -d the line enters the rotor there).  Cubic pieces: blocks of spans whose bounding
         circle the line misses (or that lie wholly below s_min) are skipped; in the others a sign
         change of the signed distance at a span's ends marks a crossing, refined by Newton safeguarded
-        by bisection until |dx| < eps_a (s004 §2.5; a line touching a span twice without a sign change
+        by bisection until |dx| < eps_a (Hu, Zhou & Li 2025 §2.5; a line touching a span twice without a sign change
         is a tangency and is ignored).  Arcs: the quadratic in closed form.
         """
         q = np.asarray(q, float)
@@ -518,7 +518,7 @@ def default_tooth(profile, n=8192):
     return float(u0 % profile.period), float(u1 if u1 == profile.period else u1 % profile.period)
 
 
-# --------------------------------------------------------------------------- the arc tooth (s004 §3.1)
+# --------------------------------------------------------------------------- the arc tooth (Hu, Zhou & Li 2025 §3.1)
 
 def _arc_tooth_half_angle(R1, R2, G):
     c = (G * G + R1 * R1 - R2 * R2) / (2 * G * R1)
@@ -529,7 +529,7 @@ def _arc_tooth_half_angle(R1, R2, G):
 
 
 def arc_tooth_profile(R1=TABLE1["R1"], R2=TABLE1["R2"], G=TABLE1["G"], teeth=TABLE1["teeth"]):
-    """Exact rotor of s004 §3.1 / Table 1: ``teeth`` grooves x = G - R1 cos t, y = R1 sin t (Eq. 16) cut
+    """Exact rotor of Hu, Zhou & Li 2025 §3.1 / Table 1: ``teeth`` grooves x = G - R1 cos t, y = R1 sin t (Eq. 16) cut
     into a blank cylinder of radius R2.  Returns ``(profile, tooth, t_e)``: a :class:`SegmentProfile`
     (groove arc of the tooth facing +x first, parameter = arc length, so t = u / R1 - t_e on it), the
     tooth range ``(0, 2 R1 t_e)`` and the half angle ``t_e`` of the groove arc.
@@ -549,7 +549,7 @@ def arc_tooth_profile(R1=TABLE1["R1"], R2=TABLE1["R2"], G=TABLE1["G"], teeth=TAB
 
 def arc_tooth_section(scheme="S3", dt=None, R1=TABLE1["R1"], R2=TABLE1["R2"], G=TABLE1["G"],
                       teeth=TABLE1["teeth"]):
-    """Section of the Table-1 rotor for the schemes of s004 §3.1.
+    """Section of the Table-1 rotor for the schemes of Hu, Zhou & Li 2025 §3.1.
 
     ``S3``: everything exact (line-circle intersection, no interpolation).  ``S1`` / ``S2``: the tooth
     is replaced by a cubic B-spline (multiple end knots, not-a-knot interpolation,
@@ -585,11 +585,11 @@ def arc_tooth_section(scheme="S3", dt=None, R1=TABLE1["R1"], R2=TABLE1["R2"], G=
     return spl + rest
 
 
-# --------------------------------------------------------------------------- set-up (s004 §2.2)
+# --------------------------------------------------------------------------- set-up (Hu, Zhou & Li 2025 §2.2)
 
 @dataclass
 class CutterSetup:
-    """Cutter pose relative to the rotor (s004 Eq. 2), see the module docstring for the frames.
+    """Cutter pose relative to the rotor (Hu, Zhou & Li 2025 Eq. 2), see the module docstring for the frames.
 
     ``phase``: angle (rad) by which the caller's rotor frame is turned relative to the working frame
     (the tooth faces the direction ``phase``).  All public poses are in the caller's rotor frame.
@@ -708,7 +708,7 @@ def _first_hits(section, setup, Y, Z, eps_a, reach=None):
 
 
 def _subdivide(fun, Yb, eps_b, grid, Lg, start=None):
-    """Subdivision search of s004 §2.4 for the minimum of fun(Y) per row on [-Yb, Yb].
+    """Subdivision search of Hu, Zhou & Li 2025 §2.4 for the minimum of fun(Y) per row on [-Yb, Yb].
 
     ``grid`` (M, n_init + 1): the initial equally spaced Y_u of each row, ``Lg`` the distances
     there; ``fun(Y)`` maps an (M, 2) array to distances.  Step (5)-(6): around the best sample (or
@@ -778,7 +778,7 @@ def _search(fun, z, Yb, eps_b, grid, Lg, max_starts=4):
 
 
 def _boundary_z(section_pts, setup):
-    """s004 §2.6: Z_u where the helix of each point crosses the cutter's axial plane Y_u = 0,
+    """Hu, Zhou & Li 2025 §2.6: Z_u where the helix of each point crosses the cutter's axial plane Y_u = 0,
     taking the crossing nearest the cutter (point turned towards +x)."""
     c, s, e, v0 = math.cos(setup.swivel), math.sin(setup.swivel), setup.eps, setup.v0
     out = []
@@ -943,7 +943,7 @@ def _tooth_ends(section):
 
 @dataclass
 class CutterProfile:
-    """Result of :func:`cutter_profile` (s004 §2.3-2.6 and §4).  Per plane m (arrays of length M):
+    """Result of :func:`cutter_profile` (Hu, Zhou & Li 2025 §2.3-2.6 and §4).  Per plane m (arrays of length M):
 
     ``z``, ``r``: the cutter meridian (Z_u, R_u), Z_u increasing, cutter frame, profile units.
     ``y``: Y_u of the contact point; ``contact``: contact point D* in the rotor frame (M, 3);
@@ -1008,7 +1008,7 @@ def _as_section(profile, tooth):
 
 def cutter_profile(profile, lead, centre_distance, swivel_deg, handedness="right", tooth=None, planes=119,
                    z=None, eps_b=None, eps_a=None, n_init=64, phase=None, analyse=True):
-    """Formed-cutter axial profile by the numerical method of s004 §2.3-2.6, with the §4 analysis.
+    """Formed-cutter axial profile by the numerical method of Hu, Zhou & Li 2025 §2.3-2.6, with the §4 analysis.
 
     Args:
         profile: closed :class:`SplineProfile` / :class:`SegmentProfile` in the rotor frame, or a
@@ -1135,7 +1135,7 @@ def _local_minima(Lg, rel_tol):
 
 
 def _analyse(work, setup, z, rb, hit, grid, full, Yb, eps_b, eps_a, reach, r_corner_tooth):
-    """Machinability flags of s004 §4 per plane, and the uncut tooth ranges (``full``: the first-hit
+    """Machinability flags of Hu, Zhou & Li 2025 §4 per plane, and the uncut tooth ranges (``full``: the first-hit
     data on the initial grid of every plane; ``r_corner_tooth``: the nearest crossing of a tooth
     corner's or tooth end point's helix with each plane)."""
     M = len(z)
@@ -1213,7 +1213,7 @@ def cutter_meridian(profile, lead, centre_distance, swivel_deg, planes=2000, **k
 # --------------------------------------------------------------------------- contact-equation method
 
 def contact_equation_profile(profile, setup, u, window=0.5 * math.pi, n_scan=721, tol=1e-14):
-    """Classical envelope method: cutter profile from the contact equation (for comparison with s004).
+    """Classical envelope method: cutter profile from the contact equation (for comparison with Hu, Zhou & Li 2025).
 
     For each profile parameter ``u`` the screw angle theta of the contact is the root of
 
@@ -1222,7 +1222,7 @@ def contact_equation_profile(profile, setup, u, window=0.5 * math.pi, n_scan=721
     i.e. the surface normal meets the cutter axis.  Roots are bracketed on a scan of
     ``theta_c +- window`` (theta_c turns the point towards the cutter) and refined by bisection to
     ``tol``; of several roots the one nearest the cutter origin O is taken (the classical method finds
-    one local solution and cannot tell whether the cutter really touches there, see s004 §3.2).
+    one local solution and cannot tell whether the cutter really touches there, see Hu, Zhou & Li 2025 §3.2).
 
     ``profile``: object with ``eval(u, der)`` in the rotor frame (exact SegmentProfile or a spline);
     ``setup``: :class:`CutterSetup` (its phase is honoured).  Returns (Z_u, R_u, theta, ok) arrays;
@@ -1274,10 +1274,10 @@ def contact_equation_profile(profile, setup, u, window=0.5 * math.pi, n_scan=721
     return Z, R, np.where(ok, th, np.nan), ok
 
 
-# --------------------------------------------------------------------------- s004 Table 2
+# --------------------------------------------------------------------------- Hu, Zhou & Li 2025 Table 2
 
 def table2(eps_b_values=PAPER_TABLE2["eps_b"], schemes=("S1", "S2", "S3"), dt_ref=0.01, n_init=64):
-    """Reproduce s004 Table 2 on the Table-1 arc tooth.
+    """Reproduce Hu, Zhou & Li 2025 Table 2 on the Table-1 arc tooth.
 
     Reference: the exact (error-free) cutter profile of the contact-equation method on the exact arc,
     at tooth angles t spaced ``dt_ref`` over the whole groove arc.  For each scheme and threshold
@@ -1308,7 +1308,7 @@ def table2(eps_b_values=PAPER_TABLE2["eps_b"], schemes=("S1", "S2", "S3"), dt_re
 def format_table2(tab):
     """Text table: ours beside the paper's (um)."""
     eb = tab["eps_b"]
-    lines = ["max |R_num - R_analytic| (um) on the s004 Table-1 arc tooth, "
+    lines = ["max |R_num - R_analytic| (um) on the Hu, Zhou & Li 2025 Table-1 arc tooth, "
              f"{tab['planes']} planes; ours / paper",
              "eps_b (mm)  " + "".join(f"{x:>20g}" for x in eb)]
     for sch in ("S1", "S2", "S3"):

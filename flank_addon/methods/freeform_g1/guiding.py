@@ -1,6 +1,6 @@
-"""Guiding curves on a free-form triangle-mesh surface (s003 §5, Figs. 5, 9, 10, Remarks 1 and 3).
+"""Guiding curves on a free-form triangle-mesh surface (Rajain et al. 2023 §5, Figs. 5, 9, 10, Remarks 1 and 3).
 
-s003 plans a family of M strips of a conical tool.  The strips meet along *guiding curves*
+Rajain et al. 2023 plans a family of M strips of a conical tool.  The strips meet along *guiding curves*
 g_1 .. g_(M+1) on the surface Phi: the tool tip of strip i and the tool base of strip i - 1 both
 follow g_i (Eq. (7) offsets them by r1 and r2 along the surface normal).  The guiding curves are
 level sets of one scalar function G on Phi that is fair, has a gradient orthogonal to the
@@ -13,7 +13,7 @@ This module builds that part of the method on a mesh, with scipy.sparse througho
 1. **Mesh operators** (:func:`gradient_matrix`, :func:`cotan_laplacian`, :func:`vertex_areas`,
    :func:`vertex_normals`): piecewise-linear hat functions; the gradient of a vertex function is
    constant per face; the cotangent Laplacian is the stiffness matrix grad^T diag(area) grad.
-2. **Guiding field** X, a unit tangent field (s003 §3 input options):
+2. **Guiding field** X, a unit tangent field (Rajain et al. 2023 §3 input options):
    (i) given by the user as vectors per vertex or per face (:func:`field_from_vectors`: projected
    into the tangent planes, normalised); or (ii) one tangent vector at a central point,
    propagated over the surface (:func:`propagate_direction`).  The paper does not say how it
@@ -195,7 +195,7 @@ def _check_direction(name, d):
 
 
 def default_spacing(r1, r2, L):
-    """Distance d = sqrt(L^2 - (r2 - r1)^2) between neighbouring guiding curves (s003 §5, §7.2):
+    """Distance d = sqrt(L^2 - (r2 - r1)^2) between neighbouring guiding curves (Rajain et al. 2023 §5, §7.2):
     the width of the strip a cone with axis length L and end radii r1, r2 mills on a plane it
     touches at both ends."""
     vals = {}
@@ -443,7 +443,7 @@ def _tilt_check(name, vectors, normals, where, labels=None):
 
 
 def propagate_direction(vertices, faces, direction, point=None, method="transport", diffusion_time=None):
-    """Guiding field from a single tangent vector at a central point (s003 §3 option (ii), Fig. 5).
+    """Guiding field from a single tangent vector at a central point (Rajain et al. 2023 §3 option (ii), Fig. 5).
 
     direction (3,) is projected into the tangent plane of the central vertex (the vertex nearest
     ``point``, default the area centroid's nearest vertex).  method:
@@ -487,7 +487,7 @@ def propagate_direction(vertices, faces, direction, point=None, method="transpor
 
 
 def field_from_vectors(vertices, faces, vectors, location="auto"):
-    """Guiding field from user vectors (s003 §3 option (i)): vectors (V, 3) per vertex or (F, 3) per
+    """Guiding field from user vectors (Rajain et al. 2023 §3 option (i)): vectors (V, 3) per vertex or (F, 3) per
     face (``location`` 'vertex' / 'face', or 'auto' by the row count).  Each vector is projected
     into its tangent plane and normalised; per-face input gets vertex vectors as the
     area-weighted mean of the incident faces'."""
@@ -537,7 +537,7 @@ class GuidingFunction:
 
 
 def guiding_function(vertices, faces, face_field, source, w_orth=1.0, w_unit=1.0, w_fair=1e-3, scaling="mean"):
-    """The fair scalar function G whose level sets follow the guiding field (s003 §5, after [10]).
+    """The fair scalar function G whose level sets follow the guiding field (Rajain et al. 2023 §5, after [10]).
 
     Minimises, over piecewise-linear G with G[source] = 0 (see the module docstring),
       w_orth sum A_f (grad G . X_f)^2 + w_unit sum A_f (grad G . Y_f - 1)^2
@@ -763,7 +763,7 @@ class GuidingCurve:
 
 @dataclass
 class BaseCurve:
-    """Base points of one guiding curve (s003 Fig. 10), in order along each piece: points (N, 3),
+    """Base points of one guiding curve (Rajain et al. 2023 Fig. 10), in order along each piece: points (N, 3),
     unit surface normals (N, 3) (the n_(i,j) of Eq. (7)), unit curve tangents (N, 3), column ids
     (N,), piece index (N,) into the curve's polylines, arc length on that piece (N,), and
     ``added`` (N,) True where the point was not a normal-plane intersection (Remark 1)."""
@@ -825,7 +825,7 @@ def _seed_curve(curve, step, next_col):
 
 
 def normal_plane_hits(points, tangents, polyline):
-    """Intersections of the normal planes {x : (x - p_j) . t_j = 0} with a polyline (s003 Fig. 10).
+    """Intersections of the normal planes {x : (x - p_j) . t_j = 0} with a polyline (Rajain et al. 2023 Fig. 10).
 
     points, tangents (N, 3); returns (j (k,), arc length on the polyline (k,), hit points (k, 3)),
     one row per crossing of plane j with a segment (a plane may cross a curved polyline more than
@@ -884,7 +884,7 @@ def _transfer(base, curve, step, max_gap, next_col):
 
 
 def base_points(curves, step, max_gap, start=0):
-    """Base points on all guiding curves and the strips between them (s003 §5, Fig. 10, Remarks 1, 3).
+    """Base points on all guiding curves and the strips between them (Rajain et al. 2023 §5, Fig. 10, Remarks 1, 3).
 
     curves: list of :class:`GuidingCurve` in order; step: h, the arc-length step of the base points
     on the start curve (and of added points); max_gap: farthest accepted normal-plane intersection
@@ -941,7 +941,7 @@ class GuidingCurves:
 def guiding_curves(vertices, faces, *, direction=None, point=None, field_vectors=None, r1=None, r2=None, L=None,
                    spacing=None, step=None, max_gap=None, method="transport", diffusion_time=None,
                    w_orth=1.0, w_unit=1.0, w_fair=1e-3, scaling="mean", start=0):
-    """Guiding curves and base points of s003 §5 on a triangle mesh.
+    """Guiding curves and base points of Rajain et al. 2023 §5 on a triangle mesh.
 
     Give the guiding direction either as ``direction`` (3,) at ``point`` (3,) (default: the mesh's
     centre) or as ``field_vectors`` per vertex / per face.  The spacing is ``spacing`` or, from the

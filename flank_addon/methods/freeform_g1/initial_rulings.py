@@ -1,4 +1,4 @@
-"""Initial tool axes of s003 from the guiding curves: rails (Eq. (7)), the m-grid (Eqs. (8)-(10)),
+"""Initial tool axes of Rajain et al. 2023 from the guiding curves: rails (Eq. (7)), the m-grid (Eqs. (8)-(10)),
 ruling samples (Eq. (11)) and the rigidity defect of the start (Remark 2, Fig. 11).
 
 Input are the base points of :func:`guiding.guiding_curves`: per guiding curve g_i the points

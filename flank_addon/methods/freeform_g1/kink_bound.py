@@ -1,4 +1,4 @@
-"""How far a G1 weight can lower the kinks of conical strips on a curved surface (s003 §7.2).
+"""How far a G1 weight can lower the kinks of conical strips on a curved surface (Rajain et al. 2023 §7.2).
 
 Why the trade-off exists.  On strip i the envelope normal n of a cone (axis direction u_i, half
 angle beta) satisfies n . u_i = sin(beta) everywhere (Eq. (6): n . y_s = dr with |y_s| = L), so
@@ -7,7 +7,7 @@ in the section plane, so to first order the envelope's section across a strip is
 segment: the surface's turning across the strips has to be taken by the kinks between them.
 (A turn about the axis tilts the normal towards the feed direction and bends the section only to
 second order in that tilt.)  Kinks below the section's own turning therefore cost accuracy,
-whatever the optimiser: s003 makes the same remark for convex patches.
+whatever the optimiser: Rajain et al. 2023 makes the same remark for convex patches.
 
 The bound.  Take a section z(y) of the surface across the strips (a graph over its chord, slopes
 small).  A machined section made of straight pieces whose slope jumps at most theta at each of

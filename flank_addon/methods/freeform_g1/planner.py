@@ -1,8 +1,8 @@
-"""G1-continuous multi-strip flank milling of a free-form mesh with a conical tool (s003 §4-§7).
+"""G1-continuous multi-strip flank milling of a free-form mesh with a conical tool (Rajain et al. 2023 §4-§7).
 
 Pipeline of :func:`plan_freeform`:
 
-1. Guiding curves and base points (:mod:`.guiding`, s003 §5) from a guiding direction (one tangent
+1. Guiding curves and base points (:mod:`.guiding`, Rajain et al. 2023 §5) from a guiding direction (one tangent
    vector at a central point, or a vector field), spaced d = sqrt(L^2 - dr^2) apart.
 2. Initial rails and m-grid (:mod:`.initial_rulings`, Eqs. (7)-(10)).
 3. The optimisation of Eq. (18) over the m-grid (and optionally r1, r2, L, §7.2) with
@@ -670,7 +670,7 @@ def plan_freeform(vertices, faces, *, direction=None, point=None, field_vectors=
                   optimize_tool=(), rounds=1, max_nfev=100, shank_radius=None, shank_length=0.0, slide=False,
                   weight_units="tool", g1_term="envelope", flip_normals=False,
                   length_unit="mm", n_envelope_s=9, progress=None, guiding_options=None):
-    """Plan G1 multi-strip flank milling of a triangle mesh (s003); returns a flank-plan/1 dict.
+    """Plan G1 multi-strip flank milling of a triangle mesh (Rajain et al. 2023); returns a flank-plan/1 dict.
 
     vertices (V, 3), faces (F, 3): the surface, tool on the side its normals point to.
     direction (3,) at point (3,) (default: the mesh centre), or field_vectors (V or F, 3): the
@@ -832,7 +832,7 @@ def plan_freeform(vertices, faces, *, direction=None, point=None, field_vectors=
         "overhanging_samples": int(sum(s["overhanging_samples"] for s in out_strips)),
         "samples": int(layout.n_rulings * K),
     }
-    # how far any G1 weight could go on this surface with straight strips (s003 §7.2, kink_bound)
+    # how far any G1 weight could go on this surface with straight strips (Rajain et al. 2023 §7.2, kink_bound)
     from .kink_bound import plan_section_bounds
     bounds = plan_section_bounds(mesh_sections(mesh, gc.bases), plan["summary"]["max_kink_deg"],
                                  max(abs(float(err_max)), abs(float(err_min))))

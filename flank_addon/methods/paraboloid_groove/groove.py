@@ -1,9 +1,9 @@
-"""s002: swept cross-section of a circular paraboloid end mill moving on a helix.
+"""Doğrusadık: swept cross-section of a circular paraboloid end mill moving on a helix.
 
 Paper frame: the screw axis is y, the section plane is z = 0 (a plane through the axis).
 The tool is a lens of two circular paraboloids with its axis parallel to y; its upper half is
 
-    y - y0 = a ((x - x0)^2 + (z - z0)^2) + b,   a < 0 < b,   y >= y0          (s002 Eq. 1)
+    y - y0 = a ((x - x0)^2 + (z - z0)^2) + b,   a < 0 < b,   y >= y0          (Doğrusadık Eq. 1)
 
 (equator radius rho = sqrt(-b / a)).  Its centre runs on the helix of radius R and pitch p:
 x0 = R cos(phi), z0 = R sin(phi), y0 = p/2 - p phi / (2 pi)  (Eqs. 2-4).  In z = 0 the
@@ -38,7 +38,7 @@ class GrooveSection:
 
     @property
     def overcut(self):
-        """Material removed beyond the tool's own section, caused by the helical path (s002 Fig. 5)."""
+        """Material removed beyond the tool's own section, caused by the helical path (Doğrusadık Fig. 5)."""
         return self.y - self.tool_y
 
 
@@ -57,17 +57,17 @@ def _check(R, a, b, p):
 
 
 def section_y(x, phi, R, a, b, p):
-    """s002 Eq. (6): y of the tool's upper paraboloid in z = 0 for tool angle phi."""
+    """Doğrusadık Eq. (6): y of the tool's upper paraboloid in z = 0 for tool angle phi."""
     return a * x ** 2 - 2 * a * x * R * np.cos(phi) + a * R ** 2 + b + p / 2 - p * phi / (2 * np.pi)
 
 
 def centre_y(phi, p):
-    """s002 Eq. (7): height of the tool's equator plane."""
+    """Doğrusadık Eq. (7): height of the tool's equator plane."""
     return p / 2 - p * phi / (2 * np.pi)
 
 
 def envelope_branch(x, R, a, b, p):
-    """s002 Eqs. (9)-(10): (y, phi, admissible) of the envelope of the upper paraboloids."""
+    """Doğrusadık Eqs. (9)-(10): (y, phi, admissible) of the envelope of the upper paraboloids."""
     x = np.asarray(x, float)
     s = p / (4 * np.pi * a * R * x)
     ok = np.abs(s) <= 1
@@ -80,7 +80,7 @@ def envelope_branch(x, R, a, b, p):
 
 
 def equator_branch(x, R, a, b, p):
-    """s002 Eq. (12): path of the equator's intersection with z = 0 (phi from Eq. 11)."""
+    """Doğrusadık Eq. (12): path of the equator's intersection with z = 0 (phi from Eq. 11)."""
     x = np.asarray(x, float)
     c = -(a * x ** 2 + a * R ** 2 + b) / (2 * a * x * R)
     ok = np.abs(c) <= 1 + 1e-12

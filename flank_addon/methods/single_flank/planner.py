@@ -1,5 +1,5 @@
 """Multi-strip single-flank milling of one helical flank with a given cone, to a tolerance
-(s000 §5-6: optimised candidate strips, envelope coverage, minimum strip set, global collisions).
+(Bizzarri, Bo & Bartoň §5-6: optimised candidate strips, envelope coverage, minimum strip set, global collisions).
 
 Pipeline of :func:`plan_single_flank`:
 
@@ -9,11 +9,11 @@ Pipeline of :func:`plan_single_flank`:
 2. global collision (§5.5, :mod:`collision`): tool and shank against every lobe of the rotor;
    colliding candidates are dropped and listed with where they collide;
 3. coverage (:mod:`strip_cover`): the flank interval each candidate's envelope holds within
-   [-eps_over, eps], a minimum-cardinality interval cover, new seeds in the gaps (s000 §6.1) until
+   [-eps_over, eps], a minimum-cardinality interval cover, new seeds in the gaps (Bizzarri, Bo & Bartoň §6.1) until
    the flank is covered or the rounds run out; what stays uncovered is reported as ranges;
 4. the plan (flank-plan/1) of the chosen strips, simulated with the :mod:`verify` engine so the
    reported errors are the machined ones, and the kink angles at the junctions of neighbouring
-   strips (s000 §7, s003's G1 idea).
+   strips (Bizzarri, Bo & Bartoň §7, Rajain et al. 2023's G1 idea).
 """
 import math
 import time
@@ -32,7 +32,7 @@ class SingleFlankResult:
     order; candidates: every optimised candidate (collision-free or not); collisions: per colliding
     candidate {"u", "collisions": [...]}; uncovered: flank parameter ranges outside the tolerance
     band; junctions: per neighbouring pair the kink angles (degrees) where their envelopes meet;
-    deviation: (u (N,), deviation (N,)) of the chosen strips along the flank profile (s000 Fig. 11c);
+    deviation: (u (N,), deviation (N,)) of the chosen strips along the flank profile (Bizzarri, Bo & Bartoň Fig. 11c);
     verify: the sweep simulation of the plan (:func:`verify.verify_plan`); timings in seconds."""
     plan: dict
     strips: list
@@ -229,7 +229,7 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
 
 
 def envelope_strip(candidate, surface, u_range, z_range=(0.0, 1.0), n_s=60, n_t=48, evaluator=None):
-    """The envelope strip of one strip's cone (s000 Eqs. 11-14): the characteristic curve of the
+    """The envelope strip of one strip's cone (Bizzarri, Bo & Bartoň Eqs. 11-14): the characteristic curve of the
     pose under the rotor's screw motion, swept over ``z_range`` (rotor frame).
 
     candidate: :class:`single_flank.CandidateStrip` (or anything with ``params`` and ``pose``).
@@ -424,7 +424,7 @@ def _junction_sample(ev, x, branch, u_j, n=201):
 
 
 def refine_g1(candidates, ev, junction_u, weight=1.0, maxiter=40):
-    """s003's G1 idea for helical strips: re-optimise the chosen poses together so neighbouring
+    """Rajain et al. 2023's G1 idea for helical strips: re-optimise the chosen poses together so neighbouring
     envelopes share their normal at each junction, while no sphere of any tool enters the flank
     (hard mode, e >= 0 at the axis samples) and every pose keeps its depth on the flank (the cover
     stays a cover, as in :func:`single_flank.optimize_poses`).

@@ -1,4 +1,4 @@
-"""Single-flank milling of a helical flank by a given conical tool (s000 §5): initial poses,
+"""Single-flank milling of a helical flank by a given conical tool (Bizzarri, Bo & Bartoň §5): initial poses,
 pose optimisation and the candidate strips a cover / collision stage chooses from.
 
 Frames, units, tool
@@ -303,7 +303,7 @@ def movability(feet_fn, tips, axes, L, surface, n=25):
 
 def initial_positions(surface, u_range, tool, n_samples=18, along="profile", feet=None, u=None,
                       keep="admissible", n_rank=33, w=W_OVERCUT):
-    """Initial poses of the given cone on one flank (s000 §5.1, closed form, see module doc).
+    """Initial poses of the given cone on one flank (Bizzarri, Bo & Bartoň §5.1, closed form, see module doc).
 
     surface: :class:`HelicalSurface`; u_range: the flank (u_start, u_end); tool: :class:`ConeTool`;
     n_samples flank samples (``along`` 'profile' or 'orthogonal', or explicit profile parameters

@@ -1,9 +1,9 @@
 """Which part of a flank each candidate tool pose mills within tolerance, the fewest poses that
 mill all of it, adaptive seeding of the gaps, and the kink between neighbouring envelopes.
 
-Coverage (s000 §3.3, §6.1 "Gaps between strips")
+Coverage (Bizzarri, Bo & Bartoň §3.3, §6.1 "Gaps between strips")
 -------------------------------------------------
-A pose's tool is fixed in the rotor frame while the rotor screws (s000 Eq. (1)); its envelope is
+A pose's tool is fixed in the rotor frame while the rotor screws (Bizzarri, Bo & Bartoň Eq. (1)); its envelope is
 a helical surface of the same screw motion as the flank, so the rotor-to-envelope deviation of a
 flank point depends only on its profile point in z = 0: a 2D problem along the profile.  The
 deviation of profile point p with outward normal n is the root lambda of D(p + lambda n) = 0,
@@ -23,14 +23,14 @@ The per-pose evaluation is vectorised over poses and points: every (pose, point)
 the rows' tools are stacked (:class:`sweep.StackedTools`) and the same sphere tracing + Illinois
 root finding as :func:`sweep.machined_deviation` runs on all rows at once.
 
-Junctions (s000 §7, s003 Eq. (16))
+Junctions (Bizzarri, Bo & Bartoň §7, Rajain et al. 2023 Eq. (16))
 ----------------------------------
 Where two envelopes overlap, the machined surface switches from one to the other at the profile
 point where their deviation curves cross.  Both envelopes pass through the machined point x
 there; the kink angle is the angle between their normals at x.  The normal of an envelope at x
 is the tool's surface normal at the contact: with t* the minimising time of D(x),
 grad D(x) = R(t*)^T grad sd_tool(S_t*(x)) (envelope theorem), a 3D vector; the envelope is a
-helical surface, so this is its normal along the whole helix through x.  s003 measures G1 by the
+helical surface, so this is its normal along the whole helix through x.  Rajain et al. 2023 measures G1 by the
 angles of the tool axes with the reference normal (its Eq. (16)); here the kink itself is measured.
 """
 import math
@@ -332,7 +332,7 @@ class SmoothCover:
 
 def smooth_cover(coverage, samples, extra=2):
     """A cover of the whole flank by at most ``extra`` more poses than the minimum that makes the
-    junctions as smooth as it can (s000 §7 / s003's G1 goal as a selection problem).
+    junctions as smooth as it can (Bizzarri, Bo & Bartoň §7 / Rajain et al. 2023's G1 goal as a selection problem).
 
     Every covered interval is a node; an edge a -> b joins intervals that overlap (b starts within
     a and reaches further) and costs the square of the largest estimated kink where the two poses'
@@ -451,7 +451,7 @@ def _gap_seeds(gap, tries):
 def adaptive_cover(make_candidates, surface, flank_range, eps_under, eps_over, seeds=None, n_seeds=5,
                    max_rounds=6, n=500, search=None, with_shank=False):
     """Cover a flank with candidate poses, seeding new candidates where it is not yet covered
-    (s000 §6.1: start coarse, insert samples where the error is worst).
+    (Bizzarri, Bo & Bartoň §6.1: start coarse, insert samples where the error is worst).
 
     make_candidates(param_values) -> poses: a callback (e.g. the single-flank optimiser) that turns
     profile parameters of the flank into candidate poses (any number; None entries are skipped).
