@@ -2,10 +2,49 @@
 import argparse
 import json
 import math
+import re
 import sys
 import time
 
 import numpy as np
+
+
+class CommaList:
+    """argparse type of a comma-separated list of ``n`` finite numbers, e.g. ``X,Y,Z``: returns a tuple of
+    floats, or names the value and what it must be.  :func:`main` lets such a value start with a minus sign
+    without ``=`` (``--flank-point -10,2,3``)."""
+
+    def __init__(self, n, what):
+        self.n, self.what = int(n), what
+
+    def __call__(self, text):
+        try:
+            vals = tuple(float(x) for x in str(text).split(","))
+        except ValueError:
+            vals = ()
+        if len(vals) != self.n or not all(math.isfinite(v) for v in vals):
+            count = {2: "two", 3: "three", 5: "five"}.get(self.n, str(self.n))
+            raise argparse.ArgumentTypeError(f"{text!r} must be {count} finite numbers {self.what}")
+        return vals
+
+    def __repr__(self):                      # argparse names the type in some messages
+        return f"{self.n} numbers {self.what}"
+
+
+_NUMBER_LIST = re.compile(r"^-[0-9.][0-9.eE+-]*(,[-+0-9.eE]*)+$")
+
+
+def attach_negative_lists(argv):
+    """``--option -1,2,3`` -> ``--option=-1,2,3``.  argparse reads a token that starts with '-' as an option
+    unless it is a single negative number; a comma list of numbers is always the value of the option before
+    it, and ``--option=value`` means the same to argparse."""
+    out = []
+    for tok in argv:
+        if out and _NUMBER_LIST.match(tok) and out[-1].startswith("--") and "=" not in out[-1]:
+            out[-1] = out[-1] + "=" + tok
+        else:
+            out.append(tok)
+    return out
 
 
 def _cmd_rotor(args):
@@ -175,16 +214,6 @@ def _cmd_cutter(args):
     return 0
 
 
-def _parse_point(text, option="--valley-point"):
-    try:
-        vals = [float(x) for x in text.split(",")]
-    except ValueError:
-        vals = []
-    if len(vals) != 3 or not np.all(np.isfinite(vals)):
-        raise ValueError(f"{option} {text!r} must be three finite numbers X,Y,Z")
-    return np.array(vals)
-
-
 def _load_rotor(args):
     """(surface, flank parameter ranges, to_world, length unit, source name) from --builtin / --mesh."""
     if (args.mesh is None) == (args.builtin is None):
@@ -215,8 +244,9 @@ def _load_rotor(args):
     return surface, flanks, to_world, unit, src
 
 
-def _model_point_to_rotor(text, to_world, option):
-    pt = _parse_point(text, option)
+def _model_point_to_rotor(point, to_world):
+    """A model-frame point (the mesh's frame) in the rotor frame of the analysis."""
+    pt = np.asarray(point, float)
     if to_world is not None:
         inv = np.linalg.inv(np.asarray(to_world, float))
         pt = pt @ inv[:3, :3].T + inv[:3, 3]
@@ -240,7 +270,7 @@ def _cmd_plan(args):
             raise ValueError(f"--valley {args.valley} is outside 0..{nv - 1} (this rotor has {nv} valleys)")
         k = args.valley
     else:
-        k = valley_of_point(surface, flanks, _model_point_to_rotor(args.valley_point, to_world, "--valley-point"))
+        k = valley_of_point(surface, flanks, _model_point_to_rotor(args.valley_point, to_world))
     if not 0.2 <= args.rim <= 0.98:
         raise ValueError(f"--rim {args.rim} is outside the limits 0.2..0.98")
     res = plan_double_flank(surface, flanks, valley=k, variant=args.variant, tool=args.tool,
@@ -261,16 +291,6 @@ def _cmd_plan(args):
     return 0
 
 
-def _parse_vector(text, name, n=3):
-    try:
-        v = [float(x) for x in str(text).split(",")]
-    except ValueError:
-        raise ValueError(f"{name} {text!r} must be {n} comma-separated numbers") from None
-    if len(v) != n or not all(math.isfinite(x) for x in v):
-        raise ValueError(f"{name} {text!r} must be {n} finite comma-separated numbers")
-    return v
-
-
 def _cmd_plan_freeform(args):
     """Rajain et al. 2023: G1 multi-strip flank milling of a free-form triangle mesh with a conical tool."""
     from .methods.freeform_g1.planner import plan_freeform
@@ -287,8 +307,8 @@ def _cmd_plan_freeform(args):
     if args.direction is None and args.field is None:
         raise ValueError("freeform needs a guiding direction: --direction X,Y,Z (at --point) or --field CSV")
     V, F = read_mesh(args.mesh)
-    direction = _parse_vector(args.direction, "--direction") if args.direction else None
-    point = _parse_vector(args.point, "--point") if args.point else None
+    direction = list(args.direction) if args.direction else None
+    point = list(args.point) if args.point else None
     field = None
     if args.field:
         field = np.loadtxt(args.field, delimiter=",", ndmin=2)
@@ -298,7 +318,7 @@ def _cmd_plan_freeform(args):
         if len(field) not in (len(V), len(F)):
             raise ValueError(f"--field {args.field} has {len(field)} rows; the mesh has {len(V)} vertices and "
                              f"{len(F)} faces")
-    weights = _parse_vector(args.weights, "--weights", 5) if args.weights else None
+    weights = list(args.weights) if args.weights else None
     free = tuple(x.strip() for x in args.optimize_tool.split(",") if x.strip())
     if args.spacing is not None and not math.isfinite(args.spacing):
         raise ValueError(f"--spacing {args.spacing} is not a finite number")
@@ -361,7 +381,7 @@ def _cmd_plan_single_flank(args):
                              f"{len(flanks)} flanks)")
         k = args.flank
     else:
-        k = flank_of_point(surface, flanks, _model_point_to_rotor(args.flank_point, to_world, "--flank-point"))
+        k = flank_of_point(surface, flanks, _model_point_to_rotor(args.flank_point, to_world))
     shank = dict(shank_radius=args.shank_radius, shank_length=args.shank_length)
     if args.tool_alpha is not None:
         tool = ConeTool(args.tool_alpha, args.tool_r1, args.tool_r2, **shank)
@@ -513,14 +533,7 @@ def _cmd_export(args):
     from .io.plan import read_plan
 
     plan = read_plan(args.plan)
-    z_range = None
-    if args.z_range is not None:
-        try:
-            z_range = tuple(float(v) for v in args.z_range.split(","))
-        except ValueError:
-            z_range = ()
-        if len(z_range) != 2:
-            raise ValueError(f"--z-range {args.z_range!r} must be Z0,Z1 (two numbers)")
+    z_range = args.z_range
     if args.strip is not None:
         exports.strip_tip(plan, args.strip)          # names a missing strip before any work
     t0 = time.perf_counter()
@@ -599,7 +612,9 @@ def _cmd_render(args):
 
 def build_parser():
     p = argparse.ArgumentParser(prog="python -m flank_addon",
-                                description="5-axis flank-milling planner for helical surfaces")
+                                description="5-axis flank-milling planner for screw rotors and free-form surfaces: single-flank conical, "
+                                            "double-flank custom tool, paraboloid groove, formed disc cutter and free-form G1 "
+                                            "(references: docs/references.md)")
     sub = p.add_subparsers(dest="command", required=True)
 
     r = sub.add_parser("rotor", help="write a built-in rotor (or a rotor from a CSV profile) as a mesh")
@@ -626,7 +641,7 @@ def build_parser():
     c.add_argument("path")
     c.set_defaults(func=_cmd_check_plan)
 
-    g = sub.add_parser("paraboloid", help="Doğrusadık: section of the groove a paraboloid end mill cuts on a helix")
+    g = sub.add_parser("paraboloid", help="paraboloid groove: the section a paraboloid end mill cuts along a helix (Doğrusadık)")
     g.add_argument("--radius", type=float, required=True, help="helix radius R")
     g.add_argument("--a", type=float, required=True, help="paraboloid constant a (< 0)")
     g.add_argument("--b", type=float, required=True, help="paraboloid constant b (> 0)")
@@ -644,7 +659,7 @@ def build_parser():
     v.add_argument("--json", action="store_true")
     v.set_defaults(func=_cmd_verify)
 
-    k = sub.add_parser("cutter", help="Hu, Zhou & Li 2025: axial profile of a formed disc cutter for one tooth of a rotor")
+    k = sub.add_parser("cutter", help="formed disc cutter: the axial profile for one tooth of a rotor (Hu, Zhou & Li 2025)")
     src = k.add_mutually_exclusive_group()
     src.add_argument("--profile", help="closed transverse profile as x,y CSV rows (rotor axis at the origin)")
     src.add_argument("--builtin", help="built-in rotor NAME (see the builtins command)")
@@ -659,26 +674,26 @@ def build_parser():
     k.add_argument("--json", action="store_true", help="print a JSON summary (flags, Z ranges, axis pose)")
     k.set_defaults(func=_cmd_cutter)
 
-    pl = sub.add_parser("plan", help="plan a tool path: double-flank (Bizzarri & Bartoň 2021), single-flank (Bizzarri, Bo & Bartoň) or free-form "
-                                     "G1 multi-strip (Rajain et al. 2023)")
+    pl = sub.add_parser("plan", help="plan a tool path: double-flank custom tool, single-flank conical or free-form G1 "
+                                     "multi-strip")
     pl.add_argument("planner", choices=["double-flank", "single-flank", "freeform"])
     src = pl.add_mutually_exclusive_group()
     src.add_argument("--mesh", help="rotor mesh (STL, PLY, OBJ), analysed for axis, pitch and flanks")
     src.add_argument("--builtin", help="built-in rotor NAME (see the builtins command)")
     val = pl.add_mutually_exclusive_group()
     val.add_argument("--valley", type=int, help="valley index K (flanks 2K and 2K+1)")
-    val.add_argument("--valley-point", help="a point X,Y,Z (model frame) near the valley")
+    val.add_argument("--valley-point", metavar="X,Y,Z", type=CommaList(3, "X,Y,Z"), help="a point X,Y,Z (model frame) near the valley")
     pl.add_argument("--variant", default="min", choices=["min", "avg", "one-sided-1", "one-sided-2"])
     pl.add_argument("--tool", default="custom", help="custom | cone | cones:K")
-    pl.add_argument("--two-paths", action="store_true", help="one custom tool on two axes (Bizzarri & Bartoň 2021 4.3)")
+    pl.add_argument("--two-paths", action="store_true", help="one custom tool on two axes (Bizzarri & Bartoň 2021, Section 4.3)")
     pl.add_argument("--radii", type=int, default=400, help="radii intervals per strip (default 400)")
     pl.add_argument("--rim", type=float, default=0.85, help="targeted fraction of the valley depth")
     pl.add_argument("--tool-csv", help="write the tool profile (axial position, radius) as CSV")
     pl.add_argument("--out", required=True, help="PLAN.json")
-    sf = pl.add_argument_group("single-flank (Bizzarri, Bo & Bartoň)")
+    sf = pl.add_argument_group("single-flank conical (Bizzarri, Bo & Bartoň)")
     fsel = sf.add_mutually_exclusive_group()
     fsel.add_argument("--flank", type=int, help="flank index K")
-    fsel.add_argument("--flank-point", help="a point X,Y,Z (model frame) near the flank")
+    fsel.add_argument("--flank-point", metavar="X,Y,Z", type=CommaList(3, "X,Y,Z"), help="a point X,Y,Z (model frame) near the flank")
     sf.add_argument("--tool-r1", type=float, help="cone: tip circle radius")
     sf.add_argument("--tool-r2", type=float, help="cone: top circle radius (> r1)")
     sf.add_argument("--tool-alpha", type=float, help="cone: opening angle (rad)")
@@ -701,23 +716,23 @@ def build_parser():
                     help="with --g1: strips the smooth cover may add to the minimum (default 2)")
     sf.add_argument("--profile-csv", help="write the machined deviation along the flank profile (u, deviation)")
     sf.add_argument("--json", action="store_true", help="print a JSON summary")
-    ff = pl.add_argument_group("freeform (Rajain et al. 2023): --mesh is any triangle surface; the tool is on the side its "
+    ff = pl.add_argument_group("free-form G1 (Rajain et al. 2023): --mesh is any triangle surface; the tool is on the side its "
                                "face normals point to; --tool-r1/--tool-r2 are the radii of the spheres "
                                "inscribed at the tip and base ends of the axis (Eq. (2)), --tool-length the "
                                "axis length L between their centres")
     ff.add_argument("--tool-length", type=float, help="freeform: axis length L")
     gd = ff.add_mutually_exclusive_group()
-    gd.add_argument("--direction", help="freeform: guiding direction X,Y,Z (a tangent vector at --point)")
+    gd.add_argument("--direction", metavar="X,Y,Z", type=CommaList(3, "X,Y,Z"), help="freeform: guiding direction X,Y,Z (a tangent vector at --point)")
     gd.add_argument("--field", help="freeform: CSV of one guiding vector x,y,z per mesh vertex (or face)")
-    ff.add_argument("--point", help="freeform: central point X,Y,Z of the direction (default: mesh centre)")
-    ff.add_argument("--weights", help="freeform: w1,w2,w3,w4,w5 of Eq. (18): rigidity, approximation, G1, "
+    ff.add_argument("--point", metavar="X,Y,Z", type=CommaList(3, "X,Y,Z"), help="freeform: central point X,Y,Z of the direction (default: mesh centre)")
+    ff.add_argument("--weights", metavar="W1,...,W5", type=CommaList(5, "w1,w2,w3,w4,w5"), help="freeform: w1,w2,w3,w4,w5 of Eq. (18): rigidity, approximation, G1, "
                                       "proximity, fairness (default 1,1,0.01,0.0001,0.001)")
     ff.add_argument("--spacing", type=float, help="freeform: guiding-curve spacing d (default sqrt(L^2 - (r2-r1)^2))")
     ff.add_argument("--samples", type=int, default=30, help="freeform: samples K per ruling (Eq. (11), default 30)")
     ff.add_argument("--columns", type=int, default=20, help="freeform: rulings N per strip (default 20)")
     ff.add_argument("--engagement", type=float, default=1.0,
                     help="freeform: cutting fraction of the tool next to its base (Fig. 18, default 1 = full)")
-    ff.add_argument("--optimize-tool", default="", help="freeform: tool variables among L,r1,r2 (Rajain et al. 2023 7.2)")
+    ff.add_argument("--optimize-tool", default="", help="freeform: tool variables among L,r1,r2 (Rajain et al. 2023, Section 7.2)")
     ff.add_argument("--slide", action="store_true",
                     help="freeform: let the m-grid also slide along the guiding curves (the paper's 3 unknowns "
                          "per point; default: 2, normal to the curve)")
@@ -726,7 +741,7 @@ def build_parser():
                     help="freeform: the tool is on the side opposite to the mesh's face normals")
     pl.set_defaults(func=_cmd_plan)
 
-    st = sub.add_parser("suggest-tool", help="Bizzarri, Bo & Bartoň 4: Dupin analysis of a flank and the largest admissible "
+    st = sub.add_parser("suggest-tool", help="single-flank conical: Dupin analysis of a flank and the largest admissible "
                                              "catalogue cone")
     src = st.add_mutually_exclusive_group()
     src.add_argument("--mesh", help="rotor mesh (STL, PLY, OBJ) in mm, analysed for axis, pitch and flanks")
@@ -747,7 +762,7 @@ def build_parser():
     out.add_argument("--strips-ply", metavar="PREFIX", help="strip envelopes as PREFIX_<k>.ply")
     ex.add_argument("--strip", type=int, help="only strip K (default: all)")
     ex.add_argument("--steps", type=int, default=360, help="steps over the z range (default 360)")
-    ex.add_argument("--z-range", help="Z0,Z1 rotor-frame range of the tool tip (default 0,lead)")
+    ex.add_argument("--z-range", metavar="Z0,Z1", type=CommaList(2, "Z0,Z1"), help="Z0,Z1 rotor-frame range of the tool tip (default 0,lead)")
     ex.set_defaults(func=_cmd_export)
 
     rr = sub.add_parser("render", help="render a report picture of a plan (rotor, strips by signed error, legend; "
@@ -767,7 +782,10 @@ def build_parser():
 
 
 def main(argv=None):
-    args = build_parser().parse_args(argv)
+    try:
+        args = build_parser().parse_args(attach_negative_lists(sys.argv[1:] if argv is None else list(argv)))
+    except SystemExit as ex:            # --help, or a usage error argparse has printed: its exit code
+        return ex.code
     try:
         return args.func(args)
     except OSError as e:  # missing or unreadable files: say which and why

@@ -39,8 +39,8 @@ Objectives (all with the asymmetric weight w of Remark 5.1 on the overcutting sa
   along the axis (e >= -1e-12 R at the refined minima).
 
 All poses are optimised together, with one foot-point solve per evaluation round for all of them:
-stage 1 is scipy's SLSQP (quasi-Newton SQP, exact Jacobians) driven in lockstep on every pose
-(:func:`_slsqp_lockstep`, the same iterates as one ``scipy.optimize.minimize`` call per pose); the
+stage 1 is scipy's SLSQP (quasi-Newton SQP, exact Jacobians), one ``scipy.optimize.minimize`` per pose,
+run side by side in threads whose evaluations are batched (:func:`_slsqp_lockstep`); the
 dense checks run on all poses in one call (:func:`_dense_minima`); the weighted objectives are
 piecewise linear in the errors and are polished exactly by sequential LP in a trust region
 (:func:`_slp_weighted_l1`, one sparse block LP for all poses per step).  The paper's own method
@@ -61,6 +61,7 @@ satisfy Eq. (24) (tip nearer to z than the top) and ranked by their own Phi1; th
 F of Eq. (23) is reported but vanishes identically for a helical surface (see :class:`SeedPose`).
 """
 import math
+import threading
 import time
 from dataclasses import dataclass, field
 
@@ -669,144 +670,119 @@ def _slp_weighted_l1(fun, X0, w=W_OVERCUT, max_iter=40, delta0=0.05, scale=1.0, 
     return X, iters, evals, hist, converged
 
 
-def _slsqp_solve(ev, x0, objective, constrain, branch, s, i=0, maxiter=60, anchor=None):
-    """SLSQP for one pose: minimise mean(e) (Phi1) or mean(f) (Phi3) subject to ``constrain`` >= 0 at
-    the samples s (``constrain`` 'e': the tool spheres, Eq. (30); 'f': the characteristic points).
-    Exact gradients; the foot points are warm-started per pose."""
-    from scipy.optimize import minimize
+class _Lockstep:
+    """Batches the evaluations of N optimisations that run side by side, one thread each.
 
-    cache = {}
-    n = len(s)
-    count = [0]
+    Every run asks for the values at its next point and waits; when every run that is still going
+    has asked, the calling thread evaluates all the points together by ``batch(X (k, n), ids (k,))``
+    and the runs go on.  So N independent SLSQP runs cost one vectorised foot-point call per round
+    instead of N, and each run's iterates are exactly those of its own ``scipy.optimize.minimize``
+    call."""
 
-    def get(x):
-        k = x.tobytes()
-        if k not in cache:
-            cache.clear()
-            X = x[None, :]
-            count[0] += 1
-            e, de, _ = ev.distances(X, s, key="slsqp", idx=[i])
-            e, de = e[0], de[0]
-            if objective == "phi3":
-                f, df, _ = ev.char_distances(X, np.atleast_1d(branch), s, key="slsqp-f", idx=[i])
-                real = np.isfinite(f[0])
-                f0, df0 = np.where(real, f[0], 0.0), np.where(real[:, None], df[0], 0.0)
-                val, grad = f0.sum() / n, df0.sum(axis=0) / n
-            else:
-                val, grad = e.sum() / n, de.sum(axis=0) / n
-            if constrain == "f" and objective == "phi3":
-                g, dg = np.where(real, f0, 1.0), df0
-            else:
-                g, dg = e, de
-            cache[k] = (val, grad, g, dg)
-        return cache[k]
+    def __init__(self, batch, n_runs):
+        self.batch = batch
+        self.running = n_runs
+        self.asked = {}
+        self.answers = {}
+        self.error = None
+        self.evaluations = 0
+        self.cv = threading.Condition()
 
-    cons = [{"type": "ineq", "fun": lambda x: get(x)[2], "jac": lambda x: get(x)[3]}]
-    if anchor is not None:
-        cons.append({"type": "eq", "fun": lambda x: mid_radius(x, ev.L)[0] - anchor,
-                     "jac": lambda x: mid_radius(x, ev.L)[1]})
-    res = minimize(lambda x: get(x)[0], np.asarray(x0, float), jac=lambda x: get(x)[1], method="SLSQP",
-                   constraints=cons, options={"maxiter": maxiter, "ftol": 1e-13})
-    res.evaluations = count[0]
-    return res
+    def values(self, i, x):
+        """Called by run ``i``: its values at ``x`` once the round is evaluated."""
+        with self.cv:
+            self.asked[i] = np.array(x, float)
+            self.cv.notify_all()
+            while i not in self.answers and self.error is None:
+                self.cv.wait()
+            if self.error is not None:
+                raise self.error
+            return self.answers.pop(i)
 
+    def finished(self):
+        with self.cv:
+            self.running -= 1
+            self.cv.notify_all()
 
-try:                                      # the reverse-communication core of scipy's SLSQP (scipy >= 1.16)
-    from scipy.optimize._slsqplib import slsqp as _slsqp_core
-except ImportError:                       # pragma: no cover - older scipy: per-pose scipy.optimize.minimize
-    _slsqp_core = None
-
-_SLSQP_MESSAGES = {0: "Optimization terminated successfully", 2: "More equality constraints than independent variables",
-                   3: "More than 3*n iterations in LSQ subproblem", 4: "Inequality constraints incompatible",
-                   5: "Singular matrix E in LSQ subproblem", 6: "Singular matrix C in LSQ subproblem",
-                   7: "Rank-deficient equality constraint subproblem HFTI",
-                   8: "Positive directional derivative for linesearch", 9: "Iteration limit reached"}
-
-
-class _SlsqpRun:
-    """One SLSQP instance driven by reverse communication (the state and work arrays that
-    scipy.optimize._minimize_slsqp allocates, same sizes and settings)."""
-
-    def __init__(self, x0, m, meq, maxiter, ftol):
-        n = len(x0)
-        self.x = np.array(x0, float)
-        self.m, self.meq = m, meq
-        self.state = {"acc": ftol, "alpha": 0.0, "f0": 0.0, "gs": 0.0, "h1": 0.0, "h2": 0.0, "h3": 0.0,
-                      "h4": 0.0, "t": 0.0, "t0": 0.0, "tol": 10.0 * ftol, "exact": 0, "inconsistent": 0,
-                      "reset": 0, "iter": 0, "itermax": int(maxiter), "line": 0, "m": m, "meq": meq,
-                      "mode": 0, "n": n}
-        size = n * (n + 1) // 2 + 3 * m * n - (m + 5 * n + 7) * meq + 9 * m + 8 * n * n + 35 * n + meq * meq + 28
-        if m - meq == 0:
-            size += 2 * n * (n + 1)
-        self.buffer = np.zeros(max(size, 1))
-        self.indices = np.zeros(max(m + 2 * n + 2, 1), dtype=np.int32)
-        self.mult = np.zeros(max(1, m + 2 * n + 2))
-        self.C = np.zeros((max(1, m), n), order="F")
-        self.d = np.zeros(max(1, m))
-        self.xl = np.full(n, np.nan)
-        self.xu = np.full(n, np.nan)
-        self.fx, self.g = 0.0, np.zeros(n)
-        self.evals = 0
-
-    def set(self, fx, g, c, C, fun=True, grad=True):
-        if fun:
-            self.fx = float(fx)
-            self.d[:len(c)] = c
-        if grad:
-            self.g[:] = g
-            self.C[:len(c)] = C
-
-    def step(self):
-        _slsqp_core(self.state, self.fx, self.g, self.C, self.d, self.x, self.mult, self.xl, self.xu,
-                    self.buffer, self.indices)
-        return self.state["mode"]
+    def serve(self):
+        """Evaluate rounds until every run has finished (in the calling thread, so that all numerics run
+        where a single-pose call would)."""
+        while True:
+            with self.cv:
+                while self.running and len(self.asked) < self.running:
+                    self.cv.wait()
+                if not self.running:
+                    return
+                ids = np.array(sorted(self.asked))
+                X = np.array([self.asked[i] for i in ids])
+                self.asked = {}
+            try:
+                f, g, c, dc = self.batch(X, ids)
+            except BaseException as ex:       # every waiting run stops with the same error
+                with self.cv:
+                    self.error = ex
+                    self.cv.notify_all()
+                return
+            with self.cv:
+                self.evaluations += 1
+                for k, i in enumerate(ids):
+                    self.answers[int(i)] = (f[k], g[k], c[k], dc[k])
+                self.cv.notify_all()
 
 
 def _slsqp_lockstep(batch, X0, m, meq, maxiter=60, ftol=1e-13):
-    """SLSQP (scipy's algorithm, step for step) on N independent problems at once: every round, the
+    """``scipy.optimize.minimize(method="SLSQP")`` on N independent problems at once: every round, the
     poses that ask for an evaluation are evaluated together by ``batch(X (k, 4), ids (k,))`` ->
     (f (k,), grad (k, 4), cons (k, m), dcons (k, m, 4)) (the first ``meq`` constraints are equalities,
-    the rest must be >= 0), so the foot points of all poses are solved in one vectorised call.
-    m: constraint count per pose (int or (N,)).  Returns X, iterations (N,), evaluations, exit modes (N,)."""
+    the rest must be >= 0), so the foot points of all poses are solved in one vectorised call
+    (:class:`_Lockstep`).  m: constraint count per pose (int or (N,)).  Returns X, iterations (N,),
+    evaluation rounds, exit statuses (N,) (scipy's SLSQP exit modes: 0 = converged) and messages."""
+    from scipy.optimize import minimize
+
     X0 = np.atleast_2d(np.asarray(X0, float))
     N = len(X0)
     ms = np.broadcast_to(np.asarray(m, int), (N,))
-    runs = [_SlsqpRun(X0[i], int(ms[i]), meq, maxiter, ftol) for i in range(N)]
-    ids = np.arange(N)
-    f, g, c, dc = batch(X0, ids)
-    last = {}
-    for i in range(N):
-        runs[i].set(f[i], g[i], c[i][:ms[i]], dc[i][:ms[i]])
-        last[i] = (X0[i].copy(), f[i], g[i], c[i][:ms[i]], dc[i][:ms[i]])
-    evals = 1
-    pending = list(range(N))
-    while pending:
-        want = []
-        for i in pending:
-            r = runs[i]
-            while True:
-                mode = r.step()
-                if mode == -1 and np.array_equal(last[i][0], r.x):   # gradient at the last evaluated x
-                    _, fi, gi, ci, Ci = last[i]
-                    r.set(fi, gi, ci, Ci, fun=False)
-                    continue
-                break
-            if abs(mode) == 1:
-                want.append((i, mode))
-        pending = [i for i, _ in want]
-        if not want:
-            break
-        ib = np.array(pending)
-        Xb = np.array([runs[i].x for i in pending])
-        f, g, c, dc = batch(Xb, ib)
-        evals += 1
-        for k, (i, mode) in enumerate(want):
-            mi = ms[i]
-            runs[i].set(f[k], g[k], c[k][:mi], dc[k][:mi], fun=mode == 1, grad=mode == -1)
-            last[i] = (Xb[k].copy(), f[k], g[k], c[k][:mi], dc[k][:mi])
-            runs[i].evals += 1
-    X = np.array([r.x for r in runs])
-    return X, np.array([r.state["iter"] for r in runs]), evals, np.array([r.state["mode"] for r in runs])
+    step = _Lockstep(batch, N)
+    results, errors = [None] * N, []
+
+    def run(i):
+        mi = int(ms[i])
+        last = {}
+
+        def get(x):
+            key = x.tobytes()
+            if key not in last:
+                last.clear()
+                f, g, c, dc = step.values(i, x)
+                last[key] = (f, g, np.asarray(c[:mi], float), np.asarray(dc[:mi], float))
+            return last[key]
+
+        cons = []
+        if meq:
+            cons.append({"type": "eq", "fun": lambda x: get(x)[2][:meq], "jac": lambda x: get(x)[3][:meq]})
+        if mi > meq:
+            cons.append({"type": "ineq", "fun": lambda x: get(x)[2][meq:], "jac": lambda x: get(x)[3][meq:]})
+        try:
+            results[i] = minimize(lambda x: get(x)[0], X0[i].copy(), jac=lambda x: get(x)[1], method="SLSQP",
+                                  constraints=cons, options={"maxiter": int(maxiter), "ftol": ftol})
+        except BaseException as ex:
+            errors.append(ex)
+        finally:
+            step.finished()
+
+    threads = [threading.Thread(target=run, args=(i,), daemon=True) for i in range(N)]
+    for t in threads:
+        t.start()
+    step.serve()
+    for t in threads:
+        t.join()
+    if step.error is not None:
+        raise step.error
+    if errors:
+        raise errors[0]
+    X = np.array([r.x for r in results])
+    return (X, np.array([r.nit for r in results]), step.evaluations, np.array([r.status for r in results]),
+            [str(r.message) for r in results])
 
 
 def _dense_minima(ev, X, n_dense=801, warm_from=None, near=None, iters=40, branch=None):
@@ -999,18 +975,8 @@ def optimize_poses(ev, X0, objective="phi1", mode="weighted", w=W_OVERCUT, max_i
     conv = np.zeros(N, bool)
     # stage 1 (both modes): SLSQP on the smooth constrained form, which follows the curved valley of
     # Phi (a pose that rolls along the flank) with its quasi-Newton Hessian
-    if _slsqp_core is not None:
-        X, nit, evals, modes = _slsqp_lockstep(batch, X0, n + meq, meq, maxiter=60, ftol=1e-13)
-        msgs = [_SLSQP_MESSAGES.get(int(m), f"exit mode {int(m)}") for m in modes]
-        ok = modes == 0
-    else:                                         # pragma: no cover - scipy without the SLSQP core
-        X, nit, msgs, ok, evals = X0.copy(), np.zeros(N, int), [""] * N, np.zeros(N, bool), 0
-        for i in range(N):
-            res = _slsqp_solve(ev, X0[i], objective, constrain, None if branch is None else branch[i], ev.s, i,
-                               anchor=None if rho0 is None else rho0[i])
-            X[i] = res.x if np.all(np.isfinite(res.x)) else X0[i]
-            nit[i], msgs[i], ok[i] = res.nit, str(res.message), res.success
-            evals += res.evaluations
+    X, nit, evals, modes, msgs = _slsqp_lockstep(batch, X0, n + meq, meq, maxiter=60, ftol=1e-13)
+    ok = modes == 0
     bad_x = ~np.all(np.isfinite(X), axis=1)
     X[bad_x] = X0[bad_x]
     iters += nit
@@ -1040,9 +1006,9 @@ def optimize_poses(ev, X0, objective="phi1", mode="weighted", w=W_OVERCUT, max_i
                 break
             active = active[dipping]
             ids = active
-            if rnd < exchange_rounds and _slsqp_core is not None:
+            if rnd < exchange_rounds:
                 ms = [n + meq + len(extra[i]) for i in ids]
-                Xs, nit2, ev2, modes2 = _slsqp_lockstep(lambda Xb, kk: batch(Xb, ids[kk]), X[ids], ms, meq,
+                Xs, nit2, ev2, _, _ = _slsqp_lockstep(lambda Xb, kk: batch(Xb, ids[kk]), X[ids], ms, meq,
                                                         maxiter=60, ftol=1e-13)
                 good = np.all(np.isfinite(Xs), axis=1)
                 X[ids[good]] = Xs[good]
@@ -1340,7 +1306,6 @@ def fd_gradient_descent_poses(ev, X0, objective="phi1", mode="weighted", w=W_OVE
     with the signature and result of :func:`optimize_poses`, for ``candidate_strips(optimizer=...)``.
     ``mode`` is ignored (the paper's objective has no hard constraint; its weight w = 100 is the only
     guard against overcuts); ``anchor`` keeps each pose's mid radius (delta eliminated)."""
-    t0 = time.perf_counter()
     X0 = np.atleast_2d(np.asarray(X0, float))
     branch = ev.branch(X0) if objective == "phi3" else None
     rho0 = mid_radius(X0, ev.L)[0] if anchor else None
