@@ -541,7 +541,7 @@ def figure_walkthrough(bpy, np, out, width, height, core):
 
     from mathutils import Vector
 
-    pkg = core("geometry.rotors").__name__.rsplit(".", 2)[0]
+    pkg = core("geometry.rotors").__name__.rsplit(".", 3)[0]
     ui_ops = importlib.import_module(pkg + ".operators.ui_ops")
     plot = core("report.error_chart")
     scene = reset_scene(bpy, width, height)
