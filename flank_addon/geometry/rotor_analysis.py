@@ -57,6 +57,13 @@ class RotorAnalysis:
     tangency_residual: float = 0.0   # RMS sin(angle) between screw velocity and vertex normals
     surface: object = field(repr=False, default=None)
     mesh_repairs: dict = field(default_factory=dict)   # what :func:`weld_mesh` merged, dropped or found
+    shafts: list = field(default_factory=list)   # [{"z_range": [a, b], "radius": r}] beyond the body (rotor frame)
+
+    def extent(self):
+        """The finite rotor in its rotor frame, as flank-plan/1's optional ``rotor.extent``: the helical
+        body's z range (:attr:`body_z`) and the coaxial shafts beyond its end faces (:func:`shaft_cylinders`)."""
+        return {"z_range": [float(self.body_z[0]), float(self.body_z[1])],
+                "shafts": [{"z_range": list(s["z_range"]), "radius": s["radius"]} for s in self.shafts]}
 
     def to_dict(self):
         return {
@@ -77,6 +84,7 @@ class RotorAnalysis:
             "mesh_repairs": dict(self.mesh_repairs),
             "helical_area_fraction": self.helical_area_fraction,
             "body_z": list(self.body_z),
+            "shafts": [dict(s) for s in self.shafts],
             "profile_points": len(self.profile),
         }
 
@@ -314,6 +322,53 @@ def split_flanks(profile, min_prominence=0.05):
     return flanks, len(tips)
 
 
+def body_extent(profile, points, v0, hand, interior, tol):
+    """Axial extent (z0, z1) of the helical body: the z range of the vertices that lie on the helical surface.
+
+    The screw fit trims the vertices of the end rings (their normals lean towards the end faces), so the
+    fitted vertices' range ``interior`` stops short of the end faces; a vertex's position is exact, though,
+    so every vertex within ``tol`` of the surface (screwed into z = 0, its distance to ``profile``) counts,
+    as long as the candidates continue the interior range without a gap wider than 3x the widest gap
+    inside it (a shaft vertex that happens to lie on the surface further out does not extend the body)."""
+    p = np.asarray(points, float)
+    poly = profile.sample(max(20000, 8 * len(profile.points)))
+    _, _, dist = _order_along(poly, screw_to_plane(p, v0, hand))
+    z = np.sort(p[dist <= tol, 2])
+    lo, hi = float(interior[0]), float(interior[1])
+    inside = z[(z >= lo) & (z <= hi)]
+    gap = 3.0 * float(np.max(np.diff(inside))) if len(inside) > 1 else 0.0
+    gap = max(gap, 1e-6 * float(np.max(np.hypot(p[:, 0], p[:, 1]))))
+    for k in range(np.searchsorted(z, lo) - 1, -1, -1):
+        if lo - z[k] > gap:
+            break
+        lo = float(z[k])
+    for k in range(np.searchsorted(z, hi, side="right"), len(z)):
+        if z[k] - hi > gap:
+            break
+        hi = float(z[k])
+    return lo, hi
+
+
+def shaft_cylinders(points, z0, z1, tol):
+    """Coaxial cylinders bounding the mesh beyond the helical body's end faces (journals, stubs, couplings).
+
+    points: (N, 3) vertices in the rotor frame; z0 < z1: the body's extent.  Every vertex farther than
+    ``tol`` beyond an end face belongs to that end's shaft; each end gives one cylinder from the farthest
+    such vertex to the end face, with the largest distance from the axis as its radius (a stepped shaft is
+    bounded by its largest step).  Returns [{"z_range": [a, b], "radius": r}, ...] (below z0, then above z1).
+    """
+    p = np.asarray(points, float)
+    rho = np.hypot(p[:, 0], p[:, 1])
+    out = []
+    for side in (p[:, 2] < z0 - tol, p[:, 2] > z1 + tol):
+        if not side.any() or not rho[side].max() > tol:
+            continue
+        z = p[side, 2]
+        a, b = (float(z.min()), float(z0)) if z.max() < z0 else (float(z1), float(z.max()))
+        out.append({"z_range": [a, b], "radius": float(rho[side].max())})
+    return out
+
+
 def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD):
     """Estimate the helical motion of a rotor mesh and extract its profile and flanks.
 
@@ -471,11 +526,13 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD):
         prof = np.roll(prof, -start, axis=0)
         flanks = [[a - start, b - start] for a, b in flanks]
     final = SplineProfile(prof)
+    bz = body_extent(final, va, v0, hand, (0.0, z1 - z0), max(50.0 * residual, 2e-4) * outer)
+    shafts = shaft_cylinders(va, bz[0], bz[1], 1e-6 * outer)
     from .helical_surface import HelicalSurface
     surface = HelicalSurface(final, v0, hand)
     return RotorAnalysis(axis_point=origin, axis_direction=d, v0=v0, handedness=hand_name(hand),
                          residual=residual, threshold=threshold, tangency_residual=tangency,
                          to_world=T, profile=prof, flanks=flanks,
                          outer_radius=float(np.max(np.linalg.norm(prof, axis=1))), lobes=lobes,
-                         helical_area_fraction=frac, body_z=(0.0, z1 - z0), surface=surface,
-                         mesh_repairs=repairs)
+                         helical_area_fraction=frac, body_z=bz, surface=surface,
+                         mesh_repairs=repairs, shafts=shafts)

@@ -483,6 +483,11 @@ class Rotor:
     def profile_points(self, n=2048):
         return self.profile.sample(n)
 
+    def extent(self):
+        """The finite rotor for flank-plan/1's optional ``rotor.extent``: the body z in [0, length] of
+        :meth:`mesh`, no shafts (a generated rotor has plain end faces)."""
+        return {"z_range": [0.0, float(self.length)], "shafts": []}
+
     def mesh(self, n_profile=720, n_axial=None):
         """Closed, watertight, outward oriented triangle mesh of the body 0 <= z <= length."""
         return helical_body_mesh(self.profile, self.v0, self.handedness, self.length,

@@ -14,6 +14,10 @@ it.  Fields (more are welcome, none may be removed or change meaning):
       flanks        [[i_start, i_end], ...] inclusive profile index ranges, i_start < i_end,
                     indices taken modulo len(profile) (a flank may run through index 0)
       outer_radius  float
+      extent        optional: the finite rotor in the rotor frame, {"z_range": [z0, z1] axial extent of the
+                    helical body, "shafts": [{"z_range": [a, b], "radius": r}, ...] coaxial cylinders
+                    (journals, stubs) beyond it}; written by the planners when the rotor is known (a mesh's
+                    analysis or a built-in); plans without it stay valid
     target_flanks  [int, ...] indices into rotor.flanks
     tool           {"kind": "cone" | "revolved" | "disc" | "paraboloid", ...shape parameters...}
     strips         [{axis_start, axis_end (rotor frame, inscribed-sphere centres, start = tip end),
@@ -103,6 +107,38 @@ def rotor_section(profile, v0, handedness, flanks, to_world=None, n_profile=2048
     }
 
 
+def rotor_extent(z_range, shafts=()):
+    """The optional ``rotor.extent`` field: body z range (z0 < z1) and coaxial shafts
+    [(z_a, z_b, radius), ...] or [{"z_range": [a, b], "radius": r}, ...] in the plan's length unit."""
+    out = []
+    for sh in shafts:
+        if isinstance(sh, dict):
+            (a, b), r = sh["z_range"], sh["radius"]
+        else:
+            a, b, r = sh
+        out.append({"z_range": [float(a), float(b)], "radius": float(r)})
+    ext = {"z_range": [float(z_range[0]), float(z_range[1])], "shafts": out}
+    _check_extent(ext)
+    return ext
+
+
+def _check_extent(ext):
+    if not isinstance(ext, dict):
+        raise PlanError(f"rotor.extent must be an object, got {ext!r}")
+    zr = ext.get("z_range")
+    if not (isinstance(zr, list) and len(zr) == 2 and all(_is_num(z) for z in zr) and zr[0] < zr[1]):
+        raise PlanError(f"rotor.extent.z_range must be [z0, z1] with z0 < z1, got {zr!r}")
+    shafts = ext.get("shafts", [])
+    if not isinstance(shafts, list):
+        raise PlanError(f"rotor.extent.shafts must be a list, got {shafts!r}")
+    for k, sh in enumerate(shafts):
+        zs = sh.get("z_range") if isinstance(sh, dict) else None
+        if not (isinstance(zs, list) and len(zs) == 2 and all(_is_num(z) for z in zs) and zs[0] < zs[1]):
+            raise PlanError(f"rotor.extent.shafts[{k}].z_range must be [a, b] with a < b, got {zs!r}")
+        if not (_is_num(sh.get("radius")) and sh["radius"] > 0):
+            raise PlanError(f"rotor.extent.shafts[{k}].radius must be a number > 0, got {sh.get('radius')!r}")
+
+
 def new_plan(method, rotor, tool, length_unit="R", target_flanks=(), strips=(), elapsed_s=0.0):
     plan = {
         "schema": SCHEMA,
@@ -176,6 +212,8 @@ def _validate(plan):
         raise PlanError(f"rotor.handedness must be 'right' or 'left', got {rotor['handedness']!r}")
     if not (_is_num(rotor["outer_radius"]) and rotor["outer_radius"] > 0):
         raise PlanError(f"rotor.outer_radius must be a number > 0, got {rotor['outer_radius']!r}")
+    if rotor.get("extent") is not None:
+        _check_extent(rotor["extent"])
     prof = np.asarray(rotor["profile"], float)
     if prof.ndim != 2 or prof.shape[1] != 2 or not np.isfinite(prof).all():
         raise PlanError("rotor.profile must be a list of finite [x, y] pairs")
