@@ -138,6 +138,14 @@ def _cmd_verify(args):
     from .io.plan import read_plan
     from .simulation.verify import verify_plan
 
+    if args.program:
+        return _cmd_verify_program(args)
+    if len(args.plans) != 1:
+        raise ValueError("verify takes one plan (several only with --program)")
+    for opt in ("machine", "post", "mesh", "outer_radius_mm", "lobes"):
+        if getattr(args, opt) is not None:
+            raise ValueError(f"--{opt.replace('_', '-')} applies to verify --program only")
+    args.plan = args.plans[0]
     plan = read_plan(args.plan)
     if plan.get("surface") is not None:
         from .methods.freeform_g1.planner import verify_freeform
@@ -203,6 +211,8 @@ def _cmd_cutter(args):
                         eps_b=args.eps_b)
     np.savetxt(args.out, cp.meridian, delimiter=",", header="z,r", comments="", fmt="%.12g")
     s = cp.summary()
+    if args.plan_out:
+        s["plan"] = _write_cutter_plan(args, prof, lead, hand, cp, rotor if args.builtin else None)
     if args.json:
         s.update({"source": src, "out": str(args.out), "handedness": hand, "lead": lead})
         print(json.dumps(s, indent=1))
@@ -211,7 +221,33 @@ def _cmd_cutter(args):
     print(f"{src}: {s['planes']} planes, Z_u in [{s['z_range'][0]:.6g}, {s['z_range'][1]:.6g}], "
           f"R_u in [{s['r_range'][0]:.6g}, {s['r_range'][1]:.6g}]; flagged planes: {flagged}; "
           f"uncut tooth ranges {len(cp.uncut)}; {cp.elapsed_s * 1e3:.1f} ms; wrote {args.out}")
+    if args.plan_out:
+        p = s["plan"]
+        print(f"  plan: formed disc cutter on flanks {p['target_flanks']}, machined deviation max "
+              f"{p['max_error']:.4g} min {p['min_error']:.4g} {p['length_unit']}; wrote {args.plan_out}")
     return 0
+
+
+def _write_cutter_plan(args, prof, lead, hand, cp, rotor):
+    """--plan-out: the cutter as a flank-plan/1 plan (one strip, the disc's meridian) with the rotor's extent
+    when it is a built-in."""
+    from .geometry.rotor_analysis import split_flanks
+    from .io.plan import write_plan
+    from .machining.disc_cutter_plan import disc_cutter_plan
+
+    unit = args.length_unit or ("R" if args.builtin and args.scale == 1.0 else "mm")
+    if rotor is not None:
+        flanks, extent = rotor.flanks, rotor.extent()
+    else:
+        n = 4096
+        idx, _ = split_flanks(prof.sample(n))
+        flanks = [(a * prof.period / n, b * prof.period / n) for a, b in idx]
+        extent = None
+    plan = disc_cutter_plan(prof, lead / (2 * np.pi), hand, flanks, cp, length_unit=unit, extent=extent)
+    write_plan(args.plan_out, plan)
+    return {"out": str(args.plan_out), "target_flanks": plan["target_flanks"], "length_unit": unit,
+            "max_error": plan["summary"]["max_error"], "min_error": plan["summary"]["min_error"],
+            "extent": extent}
 
 
 def _load_rotor(args):
@@ -226,6 +262,7 @@ def _load_rotor(args):
         rotor = builtin_by_name(args.builtin)
         surface, flanks = rotor.surface(), rotor.flanks
         src = args.builtin
+        args.rotor_extent = rotor.extent()
     else:
         from .geometry.flank_feet import flank_u_ranges
         from .geometry.helical_surface import HelicalSurface
@@ -241,7 +278,16 @@ def _load_rotor(args):
         to_world = a.to_world
         unit = "mm"
         src = str(args.mesh)
+        args.rotor_extent = a.extent()
     return surface, flanks, to_world, unit, src
+
+
+def _with_extent(plan, args):
+    """The plan with the rotor's axial extent (rotor.extent) when the planner knew the rotor."""
+    ext = getattr(args, "rotor_extent", None)
+    if ext is not None and plan.get("rotor") is not None:
+        plan["rotor"]["extent"] = ext
+    return plan
 
 
 def _model_point_to_rotor(point, to_world):
@@ -276,7 +322,7 @@ def _cmd_plan(args):
     res = plan_double_flank(surface, flanks, valley=k, variant=args.variant, tool=args.tool,
                             two_paths=args.two_paths, m=args.radii, rim=args.rim, to_world=to_world,
                             length_unit=unit)
-    write_plan(args.out, res.plan)
+    write_plan(args.out, _with_extent(res.plan, args))
     if args.tool_csv:
         from .methods.double_flank.planner import write_tool_csv
         write_tool_csv(args.tool_csv, res.paths[0])
@@ -392,7 +438,7 @@ def _cmd_plan_single_flank(args):
                             max_rounds=args.rounds, to_world=to_world, length_unit=unit,
                             check_collisions=not args.no_collisions, g1=args.g1,
                             g1_extra_strips=args.g1_extra_strips)
-    write_plan(args.out, res.plan)
+    write_plan(args.out, _with_extent(res.plan, args))
     if args.profile_csv:
         u, dev = res.deviation
         with open(args.profile_csv, "w") as fh:
@@ -557,6 +603,160 @@ def _cmd_export(args):
     return 0
 
 
+# ---------------------------------------------------------------------------------------------- machining
+def lobe_list(text):
+    """argparse type of --lobes: 'all' or comma-separated lobe indices."""
+    if str(text).strip().lower() == "all":
+        return None
+    try:
+        vals = [int(x) for x in str(text).split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} must be 'all' or lobe indices like 0,2,4") from None
+    if any(v < 0 for v in vals):
+        raise argparse.ArgumentTypeError(f"{text!r}: lobe indices are >= 0")
+    return vals
+
+
+def _machining_inputs(args):
+    """(plans in mm, rotor body) of --plans, --outer-radius-mm and --mesh."""
+    from .io.plan import read_plan
+    from .machining.rotor_body import extent_from_analysis, rotor_body, scale_plan
+
+    plans = []
+    for path in args.plans:
+        plan = read_plan(path)
+        if plan.get("surface") is not None:
+            raise ValueError(f"{path} is a free-form plan: whole-rotor programs are made from rotor plans")
+        if plan["length_unit"] == "R":
+            if args.outer_radius_mm is None:
+                raise ValueError(f"{path} is in units of the outer radius R: pass --outer-radius-mm MM")
+            plan = scale_plan(plan, args.outer_radius_mm / plan["rotor"]["outer_radius"])
+        elif args.outer_radius_mm is not None:
+            raise ValueError(f"--outer-radius-mm applies to plans in units of R; {path} is in mm")
+        plans.append(plan)
+    extent = None
+    if args.mesh:
+        from .geometry.rotor_analysis import analyze_mesh
+        from .io.mesh_files import read_mesh
+
+        extent = extent_from_analysis(plans[0], analyze_mesh(*read_mesh(args.mesh)))
+    return plans, rotor_body(plans[0], extent)
+
+
+def _cutting_data(args):
+    """One CuttingData for every tool from --cutting-data / --flutes / --vc / --fz / --max-rpm, or None."""
+    import dataclasses
+
+    from .machining.feeds import DEFAULT_END_MILL, preset_cutting_data
+
+    base = preset_cutting_data(args.cutting_data) if args.cutting_data else None
+    over = {k: v for k, v in (("flutes", args.flutes), ("vc_m_min", args.vc), ("fz_mm", args.fz),
+                              ("max_rpm", args.max_rpm)) if v is not None}
+    if over:
+        base = dataclasses.replace(base or DEFAULT_END_MILL, source="command line", **over)
+    return base
+
+
+def _cmd_post(args):
+    from .machining.machine import load_machine
+    from .machining.operation import build_operation
+    from .machining.toolpath import build_program
+    from .machining.cycle_time import cycle_time
+    from .posts import get_post, write_program
+
+    t0 = time.perf_counter()
+    post = get_post(args.post)
+    machine = load_machine(args.machine)
+    plans, rotor = _machining_inputs(args)
+    op = build_operation(plans, rotor, lobes=args.lobes, clearance=args.clearance, cutting_data=_cutting_data(args))
+    prog = build_program(op, machine, direction=args.direction, chord_tolerance=args.chord_tolerance)
+    text = write_program(prog, post, args.out)
+    read = post.read(text, machine)
+    times = cycle_time(read, machine, {t.number: t.gauge_length for t in op.tools})
+    times.pop("block_minutes")
+    out = {"out": str(args.out), "post": post.name, "machine": machine.name, "passes": len(prog.passes),
+           "blocks": len(read.moves), "lines": text.count("\n"), "lobes": op.lobes, **times,
+           "cutting_length_mm": sum(p["cutting_length_mm"] for p in prog.passes),
+           "tools": [{"number": t.number, "name": t.name, "rpm": t.rpm, "gauge_length_mm": t.gauge_length,
+                      "cutting_data": t.data.as_dict()} for t in op.tools],
+           "rotor": rotor.describe(), "per_pass": prog.passes, "elapsed_s": time.perf_counter() - t0}
+    if args.json:
+        print(json.dumps(out, indent=1))
+        return 0
+    print(f"wrote {args.out}: {post.name} for {machine.name}, {len(prog.passes)} passes on lobes "
+          f"{','.join(map(str, op.lobes))}, {len(op.tools)} tool(s), {len(read.moves)} moves")
+    for t in op.tools:
+        mine = [p for p in prog.passes if p["tool"] == t.number]
+        chip = [x for p in mine for x in p["chip_load_mm"]]
+        vc = [x for p in mine for x in p["surface_speed_m_min"]]
+        print(f"  T{t.number}: S{t.rpm:.0f}, vc {min(vc):.4g}..{max(vc):.4g} m/min along the edge, chip load "
+              f"{min(chip):.3g}..{max(chip):.3g} mm ({t.data.source})")
+    print(f"  cutting {out['cutting_time_s']:.1f} s ({out['cutting_length_mm']:.0f} mm), rapid "
+          f"{out['rapid_time_s']:.1f} s, tool changes {out['tool_change_time_s']:.0f} s, total "
+          f"{out['total_time_s']:.1f} s; {out['elapsed_s']:.2f} s")
+    return 0
+
+
+def _cmd_verify_program(args):
+    from .machining.machine import load_machine
+    from .posts import get_post, post_for_file
+    from .posts.readback import verify_program
+
+    if args.machine is None:
+        raise ValueError("verify --program needs --machine NAME|FILE (the machine it was posted for)")
+    post = get_post(args.post) if args.post else post_for_file(args.program)
+    if post is None:
+        raise ValueError(f"cannot tell the dialect of {args.program} from its extension: pass --post")
+    machine = load_machine(args.machine)
+    plans, rotor = _machining_inputs(args)
+    with open(args.program, encoding="ascii", errors="replace") as fh:
+        text = fh.read()
+    res = verify_program(text, post, machine, plans, rotor, lobes=args.lobes)
+    res["program"] = str(args.program)
+    if args.json:
+        print(json.dumps(res, indent=1))
+        return 0
+    print(f"{args.program}: {post.name} for {machine.name}, {res['moves']} moves, {res['passes']} passes "
+          f"({res['matched_passes']} matched to plan strips), lobes {','.join(map(str, res['lobes_cut']))}")
+    if res["missing_strips"] or res["repeated_strips"] or res["unmatched_passes"]:
+        print(f"  missing strips {res['missing_strips']}, repeated {res['repeated_strips']}, unmatched passes "
+              f"{[u['line'] for u in res['unmatched_passes']]}")
+    print(f"  poses: screw error {res['screw_error_mm']:.3g} mm, interpolation error "
+          f"{res['interpolation_error_mm']:.3g} mm")
+    for pl in res["plans"]:
+        print(f"  plan {pl['plan']}: plan deviation max {pl['plan_max_undercut_mm']:.4g} min "
+              f"{pl['plan_max_overcut_mm']:.4g} mm")
+        for lo in pl["lobes"]:
+            print(f"    lobe {lo['lobe']}: {lo['passes']} passes, deviation differs by at most "
+                  f"{lo['max_deviation_difference_mm']:.3g} mm, gouge points {lo['gouge_points']}")
+    ro = res["run_out"]
+    print(f"  run-out beyond the end faces: start >= {ro['min_start_clearance_mm']:.3g} mm, end >= "
+          f"{ro['min_end_clearance_mm']:.3g} mm; links: {res['links']['moves_checked']} checked, deepest "
+          f"intrusion into stock or shafts {res['links']['max_intrusion_mm']:.3g} mm")
+    print(f"  cutting {res['cutting_time_s']:.1f} s, rapid {res['rapid_time_s']:.1f} s, total "
+          f"{res['total_time_s']:.1f} s")
+    return 0
+
+
+def _cmd_machines(args):
+    from .machining.machine import builtin_machines, load_machine
+    from .posts import POSTS
+
+    for name in builtin_machines():
+        m = load_machine(name)
+        print(f"{name}: {' '.join(m.axis_names)}, spin {m.spin}, tilt {m.tilt}, "
+              f"{'TCP' if m.tcp else 'no TCP'} -- {m.description}")
+    print("posts: " + ", ".join(f"{p.name} ({p.description})" for p in POSTS.values()))
+    return 0
+
+
+def _add_machining_inputs(p):
+    p.add_argument("--mesh", help="the rotor mesh the plans were made on: its axial extent and shafts (for plans "
+                                  "that do not record rotor.extent)")
+    p.add_argument("--outer-radius-mm", type=float, help="plans in units of R: the rotor's outer radius in mm")
+    p.add_argument("--lobes", type=lobe_list, help="lobes to cut: all (default) or indices like 0,2,4")
+
+
 def report_scene():
     """The extension's report scene builder (``operators/report_scene.py``), which runs Blender.
 
@@ -653,10 +853,17 @@ def build_parser():
     g.add_argument("--out", required=True, help="CSV of x,y rows (paper frame: screw axis y, plane z = 0)")
     g.set_defaults(func=_cmd_paraboloid)
 
-    v = sub.add_parser("verify", help="simulate a plan's tool motion and report the machined deviation")
-    v.add_argument("plan", help="flank-plan/1 JSON")
+    v = sub.add_parser("verify", help="simulate a plan's tool motion and report the machined deviation; with --program: "
+                                      "read a posted program back and check it against its plans")
+    v.add_argument("plans", nargs="+", metavar="PLAN", help="flank-plan/1 JSON (with --program: the plans it was "
+                                                            "posted from, in the same order)")
     v.add_argument("--tolerance", type=float, help="in the plan's length unit (default 1e-3 x outer radius)")
     v.add_argument("--json", action="store_true")
+    v.add_argument("--program", help="a program written by the post command: read it back, map it through the "
+                                     "machine's kinematics and sweep it")
+    v.add_argument("--machine", help="with --program: built-in machine NAME or machine FILE")
+    v.add_argument("--post", help="with --program: linuxcnc | fanuc | heidenhain (default: from the extension)")
+    _add_machining_inputs(v)
     v.set_defaults(func=_cmd_verify)
 
     k = sub.add_parser("cutter", help="formed disc cutter: the axial profile for one tooth of a rotor (Hu, Zhou & Li 2025)")
@@ -672,6 +879,11 @@ def build_parser():
     k.add_argument("--eps-b", type=float, help="subdivision threshold (default 1e-4 x outer radius)")
     k.add_argument("--out", required=True, help="CSV of z,r rows (cutter frame)")
     k.add_argument("--json", action="store_true", help="print a JSON summary (flags, Z ranges, axis pose)")
+    k.add_argument("--plan-out", metavar="PLAN.json",
+                   help="also write the cutter as a flank-plan/1 plan (one strip: the disc on its axis while the "
+                        "rotor screws), for post and verify")
+    k.add_argument("--length-unit", choices=["mm", "R"],
+                   help="the plan's length unit (default: R for a built-in at scale 1, else mm)")
     k.set_defaults(func=_cmd_cutter)
 
     pl = sub.add_parser("plan", help="plan a tool path: double-flank custom tool, single-flank conical or free-form G1 "
@@ -775,6 +987,32 @@ def build_parser():
                     help="Workbench (default, fast) or Cycles on the CPU; neither needs a GPU")
     rr.add_argument("--json", action="store_true", help="print the report's numbers and legend layout as JSON")
     rr.set_defaults(func=_cmd_render)
+
+    po = sub.add_parser("post", help="whole-rotor machine program from plans: every strip on every lobe, run out past "
+                                     "the body, collision-free links, feeds and speeds, cycle time")
+    po.add_argument("plans", nargs="+", metavar="PLAN", help="flank-plan/1 JSON of one rotor (rotor plans)")
+    po.add_argument("--machine", required=True, help="built-in machine NAME (see the machines command) or FILE")
+    po.add_argument("--post", required=True, help="linuxcnc | fanuc | heidenhain")
+    po.add_argument("-o", "--out", required=True, help="program file to write")
+    _add_machining_inputs(po)
+    po.add_argument("--clearance", type=float, default=5.0,
+                    help="run-out beyond the end faces and margin of every link, mm (default 5)")
+    po.add_argument("--direction", choices=["forward", "reverse", "zigzag"], default="forward",
+                    help="pass direction: forward (tool from above the body down, as the CL data), reverse, or "
+                         "zigzag (whichever start is nearer)")
+    po.add_argument("--chord-tolerance", type=float, default=1e-3,
+                    help="TCP machines: chord sagitta of the tip's helix, mm (default 0.001)")
+    po.add_argument("--cutting-data", metavar="PRESET", help="cutting data of a tool preset for every tool "
+                                                              "(default: the preset matching each plan's tool)")
+    po.add_argument("--flutes", type=int, help="override: flutes")
+    po.add_argument("--vc", type=float, help="override: cutting speed, m/min")
+    po.add_argument("--fz", type=float, help="override: feed per tooth, mm")
+    po.add_argument("--max-rpm", type=float, help="override: the tool's top spindle speed")
+    po.add_argument("--json", action="store_true", help="print passes, times, tools and per-pass cutting data")
+    po.set_defaults(func=_cmd_post)
+
+    mc = sub.add_parser("machines", help="list the built-in machines and the posts")
+    mc.set_defaults(func=_cmd_machines)
 
     b = sub.add_parser("builtins", help="list built-in rotor names (KIND-PART)")
     b.set_defaults(func=_cmd_builtins)

@@ -1,0 +1,170 @@
+"""Whole-rotor operation: every planned strip on every (chosen) lobe, each pass run out past the body.
+
+A plan's strip k is a tool pose (T, a) (tip and axis, :func:`..exports.cl_data.strip_tip`) fixed in the
+rotor frame while the rotor screws; relative to the rotor the tool is at S_-t(T, a) at screw parameter t.
+On lobe j the pose is turned by 2 pi j / lobes about z (the same strip on the next lobe's flank).
+
+Run-out (why a pass starts and ends clear of the body): at parameter t a tool point q (rotor frame at t = 0)
+is at height q_z - v0 t.  With z_lo / z_hi the lowest / highest point of the tool and its shank and the body
+z0 <= z <= z1, the pass runs over
+
+    t_a = (z_lo - z1 - c) / v0  ...  t_b = (z_hi - z0 + c) / v0      (c: clearance)
+
+so at t_a the whole tool is c above the body's end face z1 and at t_b c below z0: the pass is extended
+along the screw motion past the body's axial extent by the tool's reach + clearance, and every body point
+meets the tool exactly as in the infinite sweep of the plan's verification.  Beyond the body only the shafts
+can be met: a tool point at distance rho from the axis whose height over the pass overlaps a shaft's z range
+must stay outside it (rho >= shaft radius); otherwise the pass is refused by name.
+"""
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .tool_shape import ToolShape, place_points
+
+
+class OperationError(ValueError):
+    """The plans cannot make one operation (different rotors, a pass into a shaft, bad lobes)."""
+
+
+@dataclass
+class ToolEntry:
+    number: int
+    shape: ToolShape
+    data: object                   # feeds.CuttingData
+    name: str
+    gauge_length: float            # tip to the end of the shank (or of the cutting part)
+    rpm: float = 0.0
+
+
+@dataclass
+class Pass:
+    plan: int
+    strip: int
+    lobe: int
+    flank: int                     # the rotor flank this pass cuts (the strip's flank turned to the lobe)
+    tool: int                      # tool number
+    tip: np.ndarray                # pose at t = 0, rotor frame
+    axis: np.ndarray
+    t_range: tuple                 # (t_a, t_b), t_a < t_b: tool above the body at t_a, below it at t_b
+    shaft_margin: float = math.inf  # smallest distance of the tool from a shaft it passes over
+    reverse: bool = False          # run from t_b to t_a
+
+    @property
+    def label(self):
+        return f"plan {self.plan} strip {self.strip} lobe {self.lobe}"
+
+    @property
+    def t_start(self):
+        return self.t_range[1] if self.reverse else self.t_range[0]
+
+    @property
+    def t_end(self):
+        return self.t_range[0] if self.reverse else self.t_range[1]
+
+
+@dataclass
+class Operation:
+    rotor: object                  # rotor_body.RotorBody
+    tools: list
+    passes: list
+    clearance: float
+    lobes: list
+    plans: list = field(default_factory=list)
+
+    def tool(self, number):
+        return self.tools[number - 1]
+
+
+def _same_rotor(plans):
+    ref = plans[0]["rotor"]
+    for i, p in enumerate(plans[1:], 1):
+        r = p["rotor"]
+        if (r["handedness"] != ref["handedness"] or abs(r["v0"] / ref["v0"] - 1) > 1e-9
+                or abs(r["outer_radius"] / ref["outer_radius"] - 1) > 1e-9
+                or not np.allclose(r["to_world"], ref["to_world"], atol=1e-9 * ref["outer_radius"])):
+            raise OperationError(f"plan {i} is made for another rotor than plan 0 (pitch, hand, outer radius or "
+                                 "placement differ): one operation needs plans of one rotor")
+
+
+def flank_on_lobe(plan, flank, turn):
+    """Index of the plan's rotor flank that flank ``flank`` turned by ``turn`` (rad) about z lands on."""
+    from ..geometry.screw import rotate2d
+    from ..simulation.collision import ProfileSolid
+
+    rot = plan["rotor"]
+    prof = np.asarray(rot["profile"], float)
+    a, b = rot["flanks"][flank]
+    mid = prof[((a + b) // 2) % len(prof)]
+    solid = ProfileSolid(prof, rot["flanks"])
+    _, idx = solid.nearest(rotate2d(mid[None], turn))
+    return int(solid.flank_of[idx[0]])
+
+
+def run_out(shape, tip, axis, rotor, clearance, spacing=1.0):
+    """(t_a, t_b, shaft margin) of the pose (module doc); margin = smallest rho - shaft radius over the tool
+    points that pass over a shaft (inf without shafts)."""
+    pts = place_points(shape.local_points(spacing), tip, axis)[0]
+    z0, z1 = rotor.z_range
+    t_a = (pts[:, 2].min() - z1 - clearance) / rotor.v0
+    t_b = (pts[:, 2].max() - z0 + clearance) / rotor.v0
+    margin = math.inf
+    rho = np.hypot(pts[:, 0], pts[:, 1])
+    lo, hi = pts[:, 2] - rotor.v0 * t_b, pts[:, 2] - rotor.v0 * t_a     # each point's heights over the pass
+    for a, b, r in rotor.shafts:
+        over = (hi >= a) & (lo <= b)
+        if over.any():
+            margin = min(margin, float((rho[over] - r).min()))
+    return float(t_a), float(t_b), margin
+
+
+def build_operation(plans, rotor, lobes=None, clearance=5.0, cutting_data=None):
+    """The :class:`Operation` of rotor ``plans`` (mm) on ``rotor`` (:class:`RotorBody`).
+
+    lobes: lobe indices to cut (default all); clearance: run-out beyond the body's end faces and the
+    margin of every link (mm); cutting_data: one :class:`feeds.CuttingData` for every tool (default: per
+    tool, :func:`feeds.cutting_data_for`)."""
+    from .feeds import cutting_data_for
+
+    if not plans:
+        raise OperationError("no plan given")
+    _same_rotor(plans)
+    if not (isinstance(clearance, (int, float)) and math.isfinite(clearance) and clearance > 0):
+        raise OperationError(f"clearance {clearance!r} must be a finite number > 0 (mm)")
+    lobes = list(range(rotor.lobes)) if lobes is None else sorted(set(int(k) for k in lobes))
+    bad = [k for k in lobes if not 0 <= k < rotor.lobes]
+    if bad or not lobes:
+        raise OperationError(f"lobes {bad or lobes} are not lobes of this rotor (0..{rotor.lobes - 1})")
+    from ..exports.cl_data import strip_tip
+    from ..geometry.screw import screw_motion
+
+    tools, by_sig, passes = [], {}, []
+    for p, plan in enumerate(plans):
+        if not plan["strips"]:
+            raise OperationError(f"plan {p} has no strips")
+        for s in range(len(plan["strips"])):
+            shape = ToolShape.from_strip(plan, s)
+            sig = shape.signature()
+            if sig not in by_sig:
+                lo, hi = shape.h_range()
+                data = cutting_data if cutting_data is not None else cutting_data_for(plan["tool"])
+                shape.name = f"T{len(tools) + 1} {plan['tool'].get('kind', 'tool')} ({plan.get('method', '?')})"
+                tools.append(ToolEntry(len(tools) + 1, shape, data, shape.name, hi - lo))
+                by_sig[sig] = len(tools)
+            number = by_sig[sig]
+            T, a, _ = strip_tip(plan, s)
+            for k in lobes:
+                turn = rotor.lobe_angle(k)
+                tip = screw_motion(T, turn, 0.0, "right")
+                axis = screw_motion(a, turn, 0.0, "right")
+                t_a, t_b, margin = run_out(tools[number - 1].shape, tip, axis, rotor, clearance)
+                ps = Pass(p, s, k, flank_on_lobe(plan, plan["strips"][s]["flank"], turn), number, tip, axis,
+                          (t_a, t_b), margin)
+                if margin < 0:
+                    raise OperationError(f"pass {ps.label}: running out past the body the tool enters a shaft by "
+                                         f"{-margin:.3g} mm (it comes closer to the rotor axis than the shaft's "
+                                         "radius); such a strip cannot run out beyond the end faces")
+                passes.append(ps)
+    return Operation(rotor=rotor, tools=tools, passes=passes, clearance=float(clearance), lobes=lobes,
+                     plans=list(plans))

@@ -1,0 +1,175 @@
+"""The interface every post (dialect) implements: a writer from a :class:`machining.toolpath.Program` to text
+and a reader from text back to moves, plus what they share (number formats, the write loop, atomic files).
+
+Writer: the program's rows are rounded to the dialect's resolution *before* feeds are computed, so the feed
+of a block describes the block the controller really runs.  Axis words are modal: a block names the axes
+that change (all of them after a tool change).
+
+Reader: a :class:`ReadProgram` of :class:`Move` s with full program rows at both ends, the feed mode and value
+as written, the active tool, spindle speed and TCP state, and the last comment before the move.
+Anything the reader does not know is refused with the line number (:class:`PostError`).
+"""
+import math
+import os
+import tempfile
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+class PostError(ValueError):
+    """An unknown post, a program the reader cannot follow (line named) or an output that cannot be written."""
+
+
+@dataclass
+class Move:
+    kind: str                 # "rapid" | "feed"
+    start: np.ndarray         # program row (X, Y, Z, rotaries) before the move
+    end: np.ndarray
+    feed_mode: str            # "inverse_time" | "per_minute" | "combined" | "tip_speed" ("" for rapids)
+    feed: float
+    line: int
+    tool: int
+    rpm: float
+    tcp: bool
+    comment: str = ""
+
+
+@dataclass
+class ReadProgram:
+    moves: list = field(default_factory=list)
+    tool_changes: list = field(default_factory=list)     # (tool number, line)
+    comments: list = field(default_factory=list)
+    axes: list = field(default_factory=list)
+
+
+def fixed(x, decimals):
+    """``x`` with ``decimals`` decimals, never exponent notation, no negative zero."""
+    s = f"{float(x):.{decimals}f}"
+    return s[1:] if s.startswith("-") and float(s) == 0 else s
+
+
+def feed_text(F, significant=7, max_decimals=6):
+    """A positive feed with about ``significant`` digits in plain decimal notation."""
+    F = float(F)
+    if not (math.isfinite(F) and F > 0):
+        raise PostError(f"feed {F!r} must be a finite number > 0")
+    dec = min(max_decimals, max(0, significant - 1 - int(math.floor(math.log10(F)))))
+    return fixed(F, dec)
+
+
+class Post:
+    """One controller dialect.  Subclasses set ``name``, ``extension``, ``description``, the resolutions and
+    implement the ``_header`` / ``_tool`` / ``_rapid`` / ``_feed`` / ... hooks and :meth:`read`."""
+    name = ""
+    extension = ""
+    description = ""
+    linear_decimals = 4
+    rotary_decimals = 4
+
+    # ------------------------------------------------------------------ writing
+    def round_row(self, row, machine):
+        r = np.asarray(row, float).copy()
+        r[:3] = np.round(r[:3], self.linear_decimals)
+        r[3:] = np.round(r[3:], self.rotary_decimals)
+        return r + 0.0
+
+    def words(self, names, row, prev, force):
+        out = []
+        for i, n in enumerate(names):
+            if force or prev is None or row[i] != prev[i]:
+                out.append((n, row[i], self.linear_decimals if i < 3 else self.rotary_decimals))
+        return out
+
+    def write(self, program):
+        """The program text (the dialect's conventions, docs/posts.md)."""
+        m = program.machine
+        names = m.axis_names
+        self.lines, self.state = [], {"mode": None, "first_move": True, "tool": None}
+        self._header(program)
+        cur, force = None, True
+        for op in program.ops:
+            kind = op["op"]
+            if kind == "comment":
+                self._comment(op["text"])
+            elif kind == "tool":
+                self._tool(op, program)
+                force = True
+                self.state["tool"] = op["number"]
+            elif kind == "tcp":
+                self._tcp(op["on"], program)
+            elif kind in ("rapid", "feed"):
+                row = self.round_row(op["row"], m)
+                words = self.words(names, row, cur, force)
+                if not words and not force:
+                    continue
+                if kind == "rapid":
+                    self._rapid(words, program)
+                else:
+                    self._feed(words, self.feed_value(cur, row, op["time_min"], m), program)
+                cur, force = row, False
+            elif kind == "end":
+                self._footer(program)
+        return "\n".join(self.lines) + "\n"
+
+    def feed_value(self, start, end, time_min, machine):
+        """The F word of a feed block taking ``time_min`` (default: inverse time, 1 / minutes)."""
+        return 1.0 / time_min
+
+    # hooks
+    def _header(self, program):
+        raise NotImplementedError
+
+    def _footer(self, program):
+        raise NotImplementedError
+
+    def _comment(self, text):
+        raise NotImplementedError
+
+    def _tool(self, op, program):
+        raise NotImplementedError
+
+    def _tcp(self, on, program):
+        raise NotImplementedError
+
+    def _rapid(self, words, program):
+        raise NotImplementedError
+
+    def _feed(self, words, F, program):
+        raise NotImplementedError
+
+    # ------------------------------------------------------------------ reading
+    def read(self, text, machine):
+        raise NotImplementedError
+
+
+def header_lines(program, post):
+    """Comment lines every dialect starts with (plain text; the dialect wraps them)."""
+    m, op = program.machine, program.operation
+    rb = op.rotor
+    return [f"Flank Toolpath program, post {post.name}, machine {m.name} version {m.version}"
+            + (" with TCP" if m.tcp else ""),
+            "units mm and degrees; program zero = the plan's rotor-frame origin",
+            f"rotor: {'right' if rb.hand > 0 else 'left'}-handed, v0 {rb.v0:.6f} mm/rad, lobes {rb.lobes}, "
+            f"outer radius {rb.outer_radius:.4f}, body z {rb.z_range[0]:.4f}..{rb.z_range[1]:.4f}"]
+
+
+def atomic_write(path, text):
+    """Write ``text`` to ``path`` through a temporary file in the same directory and os.replace, so the file
+    is either the old one or the complete new one; :class:`PostError` with the reason when it cannot be."""
+    path = os.fspath(path)
+    folder = os.path.dirname(os.path.abspath(path))
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".flank-", suffix=".tmp", dir=folder)
+    except OSError as e:
+        raise PostError(f"cannot write {path}: {e.strerror or e}") from None
+    try:
+        with os.fdopen(fd, "w", encoding="ascii", newline="\n") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except (OSError, UnicodeEncodeError) as e:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise PostError(f"cannot write {path}: {getattr(e, 'strerror', None) or e}") from None

@@ -1,0 +1,67 @@
+"""Fanuc-style ISO post: writer and reader.
+
+Program: ``%``, ``O1000``; G21 G17 G40 G49 G80 G90 G94; per tool ``T<n> M06``, ``S<rpm> M03``, ``M08``;
+the first positioning block of a tool carries the length compensation, ``G43 H<n>`` or, on a TCP machine,
+``G43.4 H<n>`` (tool centre point control type 1: programmed X Y Z = tool tip in work coordinates, rotary
+axes as positions); passes under ``G93`` (inverse time, F = 1 / block minutes in every block), ``G94``
+after them; ``M05 M09 G49 M30 %``.  Coordinates always carry a decimal point (X12.3456), comments are
+upper case in parentheses.
+
+Rapids are written as straight G00 moves; the link checks assume the control interpolates them linearly
+(Fanuc parameter 1401#1 LRP = 1), otherwise each axis runs at its own rapid and the tool may leave the
+checked path (docs/posts.md).
+"""
+from .base import Post, feed_text, fixed, header_lines
+from .gcode import read_gcode
+
+
+class FanucPost(Post):
+    name = "fanuc"
+    extension = ".nc"
+    description = "Fanuc-style ISO, inverse-time feed (G93), G43.4 on TCP machines"
+
+    def _header(self, program):
+        self.lines += ["%", "O1000 (FLANK TOOLPATH)"]
+        for t in header_lines(program, self):
+            self._comment(t)
+        self._comment("rapids assume linear interpolation positioning, parameter 1401 bit 1 LRP = 1")
+        self.lines.append("G21 G17 G40 G49 G80 G90 G94")
+
+    def _footer(self, program):
+        self.lines += ["G94", "M05", "M09", "G49", "M30", "%"]
+
+    def _comment(self, text):
+        self.lines.append("(" + str(text).upper().replace("(", "[").replace(")", "]") + ")")
+
+    def _tool(self, op, program):
+        self._mode("per_minute")
+        self._comment(op["text"])
+        self.lines += [f"T{op['number']} M06", f"S{fixed(op['rpm'], 0)} M03", "M08"]
+        self.state["comp"] = op["number"]
+
+    def _tcp(self, on, program):
+        pass                               # G43.4 comes with the first positioning block, G49 at the end
+
+    def _mode(self, mode):
+        if self.state["mode"] != mode:
+            if self.state["mode"] is not None or mode == "inverse_time":
+                self.lines.append("G93" if mode == "inverse_time" else "G94")
+            self.state["mode"] = mode
+
+    def _axes(self, words):
+        return " ".join(f"{n}{fixed(v, d)}" for n, v, d in words)
+
+    def _rapid(self, words, program):
+        self._mode("per_minute")
+        comp = ""
+        if self.state.get("comp"):
+            comp = ("G43.4" if program.machine.tcp else "G43") + f" H{self.state['comp']} "
+            self.state["comp"] = None
+        self.lines.append("G00 " + comp + self._axes(words))
+
+    def _feed(self, words, F, program):
+        self._mode("inverse_time")
+        self.lines.append("G01 " + self._axes(words) + " F" + feed_text(F))
+
+    def read(self, text, machine):
+        return read_gcode(text, machine, semicolon_comments=False, tcp_codes=True)

@@ -1,0 +1,119 @@
+"""What the ISO G-code dialects (LinuxCNC rs274ngc, Fanuc) share: the block reader.
+
+The reader follows the modal state a controller keeps (motion G0/G1, feed mode G93/G94, axis values, F, tool,
+spindle speed, TCP G43.4/G43.5 ... G49) and turns every block that moves into a :class:`base.Move`.  It knows
+the words the posts write and the usual preamble codes; anything else (incremental G91, inch G20, arcs,
+canned cycles, subprograms, expressions) is refused with its line number.
+"""
+import re
+
+import numpy as np
+
+from .base import Move, PostError, ReadProgram
+
+WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
+IGNORED_G = {"17", "21", "40", "49", "54", "55", "56", "57", "58", "59", "61", "61.1", "64", "80", "90", "43"}
+IGNORED_M = {"0", "1", "2", "8", "9", "30"}
+
+
+def strip_comments(line, semicolon):
+    comments = re.findall(r"\(([^)]*)\)", line)
+    code = re.sub(r"\([^)]*\)", " ", line)
+    if semicolon and ";" in code:
+        code, rest = code.split(";", 1)
+        comments.append(rest.strip())
+    return code, [c.strip() for c in comments]
+
+
+def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
+    """:class:`ReadProgram` of ISO G-code ``text`` for ``machine`` (rows in its axis order).  With
+    ``tcp_codes`` G43.4 / G43.5 switch TCP on and G49 off (Fanuc); otherwise TCP is the machine's."""
+    names = machine.axis_names
+    out = ReadProgram(axes=list(names))
+    row = np.full(len(names), np.nan)
+    motion, mode, F, tool, rpm = None, "per_minute", None, 0, 0.0
+    tcp = machine.tcp and not tcp_codes
+    comment = ""
+    started = False
+    for no, raw in enumerate(text.splitlines(), 1):
+        line = raw.strip()
+        if line.startswith("%"):
+            if started:
+                break
+            started = True
+            continue
+        code, comments = strip_comments(line, semicolon_comments)
+        for c in comments:
+            out.comments.append((no, c))
+            comment = c
+        code = code.upper().replace(" ", "")
+        if not code:
+            continue
+        if code.startswith("O") or code.startswith(":"):
+            continue
+        pos, words = 0, []
+        for mt in WORD.finditer(code):
+            if mt.start() != pos:
+                raise PostError(f"line {no}: cannot read {code[pos:mt.start()]!r} in {raw.strip()!r}")
+            words.append((mt.group(1), mt.group(2)))
+            pos = mt.end()
+        if pos != len(code):
+            raise PostError(f"line {no}: cannot read {code[pos:]!r} in {raw.strip()!r}")
+        new = row.copy()
+        moved, f_here, tool_change = False, None, False
+        for letter, value in words:
+            if letter == "G":
+                g = value.lstrip("0") or "0"
+                g = g[:-2] if g.endswith(".0") else g
+                if g in ("0", "1"):
+                    motion = int(g)
+                elif g == "93":
+                    mode = "inverse_time"
+                elif g == "94":
+                    mode = "per_minute"
+                elif g in ("43.4", "43.5") and tcp_codes:
+                    tcp = True
+                elif g == "49" and tcp_codes:
+                    tcp = False
+                elif g not in IGNORED_G:
+                    raise PostError(f"line {no}: G{value} is not supported by the reader")
+            elif letter in names:
+                new[names.index(letter)] = float(value)
+                moved = True
+            elif letter == "F":
+                f_here = float(value)
+            elif letter == "T":
+                tool = int(float(value))
+            elif letter == "S":
+                rpm = float(value)
+            elif letter == "M":
+                mcode = value.lstrip("0") or "0"
+                if mcode == "6":
+                    tool_change = True
+                elif mcode in ("3", "4"):
+                    pass
+                elif mcode == "5":
+                    pass
+                elif mcode not in IGNORED_M:
+                    raise PostError(f"line {no}: M{value} is not supported by the reader")
+            elif letter in ("N", "H", "P", "Q", "D"):
+                pass
+            else:
+                raise PostError(f"line {no}: word {letter}{value} is not supported by the reader"
+                                f" (axes of machine {machine.name}: {' '.join(names)})")
+        if f_here is not None:
+            F = f_here
+        if tool_change:
+            out.tool_changes.append((tool, no))
+        if moved:
+            if motion is None:
+                raise PostError(f"line {no}: axis words without G0 or G1")
+            if motion == 1:
+                if mode == "inverse_time" and f_here is None:
+                    raise PostError(f"line {no}: a G93 (inverse time) block needs its own F word")
+                if F is None or not F > 0:
+                    raise PostError(f"line {no}: G1 without a feed (F)")
+            out.moves.append(Move("rapid" if motion == 0 else "feed", row.copy(), new.copy(),
+                                  "" if motion == 0 else mode, 0.0 if motion == 0 else F, no, tool, rpm, tcp, comment))
+            row = new
+    return out

@@ -1,0 +1,158 @@
+"""Heidenhain conversational (Klartext) post: writer and reader.
+
+Program: numbered blocks ``0 BEGIN PGM FLANK MM`` ... ``END PGM FLANK MM``; comments ``; text``; a BLK FORM
+around the stock; per tool ``TOOL CALL <n> Z S<rpm>``; straight moves ``L X+.. Y+.. A+.. R0 FMAX`` (rapid)
+or ``L ... F<feed>``; signed coordinates with 4 decimals; the first move of a tool switches the spindle and
+coolant on (``M13``); ``M5 M9``, ``M30`` at the end.
+
+Feed of simultaneous moves: Klartext has no inverse-time mode.  Without M116 the TNC reads F in a block that
+moves linear and rotary axes as the feed along the combined axis vector, degrees counted like millimetres;
+the post writes F = sqrt(sum dlinear^2 + sum drotary^2) / block minutes, so the block takes exactly its
+planned time (what CAM posts call the DPM-combination feed).  On a TCP machine
+``FUNCTION TCPM F TCP AXIS POS PATHCTRL AXIS`` is switched on (tool tip programmed in work coordinates, rotary
+axes as positions, F the speed of the tool tip relative to the workpiece, the axes interpolated linearly)
+and F = |d tip| / block minutes; ``FUNCTION RESET TCPM`` at the end.  The rotor's spin axis must count
+continuously (no modulo display, M126 off).
+"""
+import math
+import re
+
+import numpy as np
+
+from .base import Move, Post, PostError, ReadProgram, feed_text, fixed, header_lines
+
+NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)"
+
+
+class HeidenhainPost(Post):
+    name = "heidenhain"
+    extension = ".h"
+    description = "Heidenhain Klartext, combined-vector feed (no M116), FUNCTION TCPM on TCP machines"
+
+    def _line(self, text):
+        self.lines.append(f"{len(self.lines)} {text}")
+
+    def _header(self, program):
+        self._line("BEGIN PGM FLANK MM")
+        for t in header_lines(program, self):
+            self._comment(t)
+        self._comment("F of simultaneous blocks: combined axis vector, degrees counted as mm (no M116)")
+        rb = program.operation.rotor
+        m = program.machine
+        ext = np.array([[rb.outer_radius, rb.outer_radius, rb.z_range[1]],
+                        [-rb.outer_radius, -rb.outer_radius, rb.z_range[0]]])
+        corners = np.array([[x, y, z] for x in ext[:, 0] for y in ext[:, 1] for z in ext[:, 2]]) @ m.mount.T
+        lo, hi = corners.min(axis=0), corners.max(axis=0)
+        self._line("BLK FORM 0.1 Z " + " ".join(f"{n}{self._num(v, 4)}" for n, v in zip("XYZ", lo)))
+        self._line("BLK FORM 0.2 " + " ".join(f"{n}{self._num(v, 4)}" for n, v in zip("XYZ", hi)))
+
+    def _footer(self, program):
+        self._line("M5")
+        self._line("M9")
+        self._line("M30")
+        self._line("END PGM FLANK MM")
+
+    def _comment(self, text):
+        self._line("; " + str(text).replace(";", ","))
+
+    def _num(self, v, d):
+        s = fixed(v, d)
+        return s if s.startswith("-") else "+" + s
+
+    def _tool(self, op, program):
+        self._comment(op["text"])
+        self._line(f"TOOL CALL {op['number']} Z S{fixed(op['rpm'], 0)}")
+        self.state["spindle_on"] = True
+
+    def _tcp(self, on, program):
+        self._line("FUNCTION TCPM F TCP AXIS POS PATHCTRL AXIS" if on else "FUNCTION RESET TCPM")
+
+    def _axes(self, words):
+        return " ".join(f"{n}{self._num(v, d)}" for n, v, d in words)
+
+    def _rapid(self, words, program):
+        m = " M13" if self.state.pop("spindle_on", False) else ""
+        self._line("L " + self._axes(words) + " R0 FMAX" + m)
+
+    def _feed(self, words, F, program):
+        self._line("L " + self._axes(words) + " F" + feed_text(F, 8, 4))
+
+    def feed_value(self, start, end, time_min, machine):
+        d = np.abs(np.subtract(end, start))
+        if machine.tcp:
+            dist = float(np.linalg.norm(d[:3])) or float(np.linalg.norm(d[3:]))
+        else:
+            dist = float(np.linalg.norm(d))
+        return dist / time_min
+
+    # ------------------------------------------------------------------ reading
+    def read(self, text, machine):
+        names = machine.axis_names
+        out = ReadProgram(axes=list(names))
+        row = np.full(len(names), np.nan)
+        F, tool, rpm, tcp, comment = None, 0, 0.0, False, ""
+        axis_word = re.compile(r"^([XYZABC])(" + NUMBER + r")$")
+        for no, raw in enumerate(text.splitlines(), 1):
+            line = raw.strip()
+            if not line:
+                continue
+            m = re.match(r"^(\d+)\s*(.*)$", line)
+            if not m:
+                raise PostError(f"line {no}: a Klartext block starts with its number: {line!r}")
+            body = m.group(2).strip()
+            if body.startswith(";"):
+                comment = body[1:].strip()
+                out.comments.append((no, comment))
+                continue
+            if ";" in body:
+                body, c = body.split(";", 1)
+                comment = c.strip()
+                out.comments.append((no, comment))
+            toks = body.split()
+            if not toks:
+                continue
+            if toks[:2] in (["BEGIN", "PGM"], ["END", "PGM"]) or toks[:2] == ["BLK", "FORM"]:
+                if toks[2:3] and toks[0] == "BEGIN" and toks[-1] != "MM":
+                    raise PostError(f"line {no}: only MM programs are read, got {toks[-1]!r}")
+                continue
+            if toks[:2] == ["TOOL", "CALL"]:
+                tool = int(toks[2])
+                for t in toks[3:]:
+                    if t.startswith("S"):
+                        rpm = float(t[1:])
+                out.tool_changes.append((tool, no))
+                continue
+            if toks[:2] == ["FUNCTION", "TCPM"]:
+                tcp = True
+                continue
+            if toks[:3] == ["FUNCTION", "RESET", "TCPM"]:
+                tcp = False
+                continue
+            if toks[0] != "L":
+                if all(re.fullmatch(r"M\d+", t) for t in toks):
+                    continue
+                raise PostError(f"line {no}: {toks[0]!r} blocks are not supported by the reader")
+            new, rapid, moved = row.copy(), False, False
+            for t in toks[1:]:
+                am = axis_word.match(t)
+                if am and am.group(1) in names:
+                    new[names.index(am.group(1))] = float(am.group(2))
+                    moved = True
+                elif t == "FMAX":
+                    rapid = True
+                elif re.fullmatch(r"F" + NUMBER, t):
+                    F = float(t[1:])
+                elif t in ("R0",) or re.fullmatch(r"M\d+", t):
+                    pass
+                else:
+                    raise PostError(f"line {no}: {t!r} is not supported by the reader"
+                                    f" (axes of machine {machine.name}: {' '.join(names)})")
+            if not moved:
+                continue
+            if not rapid and not (F is not None and F > 0):
+                raise PostError(f"line {no}: L block without a feed (F or FMAX)")
+            mode = "" if rapid else ("tip_speed" if tcp else "combined")
+            out.moves.append(Move("rapid" if rapid else "feed", row.copy(), new.copy(), mode,
+                                  0.0 if rapid else F, no, tool, rpm, tcp, comment))
+            row = new
+        return out

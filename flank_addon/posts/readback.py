@@ -1,0 +1,232 @@
+"""Read a posted program back and check it against its plans: poses, deviation, clearance, cycle time.
+
+1. The dialect's reader (:meth:`base.Post.read`) turns the text into moves; the machine's forward kinematics
+   (:meth:`machining.machine.Machine.forward`) turns every program row into a rotor-frame tool pose (tip P,
+   axis a).
+2. Passes are the runs of consecutive feed moves.  A pass is a screw motion when every pose maps back onto
+   the first one: with dt_k = (P_0,z - P_k,z) / v0, S_dt_k(P_k) = P_0 and Rz(hand dt_k) a_k = a_0
+   (``screw_error``, the program's rounding); between the block ends the controller's interpolation is
+   sampled the same way (``interpolation_error``: 0 for joint-linear passes, the chord sagitta with TCP).
+3. Each pass is matched to the plan strip and lobe whose pose it is, modulo the screw (no comment is
+   trusted); every strip must appear once per lobe with the tool number the post gave its solid.
+4. Deviation: for every plan and lobe, the lobe's passes are turned back by -2 pi lobe / lobes and the plan
+   is verified with them instead of its own strips (:func:`..simulation.verify.verify_plan`, the sweep
+   simulation); the difference to the plan's own verified deviation, point by point, is what the program
+   changes.  The sweep is the infinite screw motion, valid because the pass runs out beyond the body (4).
+5. Run-out: at its first and last pose the whole tool (and shank) must be beyond the body's end faces.
+6. Every other move (rapids, links) is checked against the stock cylinder and the shafts
+   (:func:`machining.toolpath.segment_intrusion`); the first move (from the unknown tool-change position)
+   is not.
+7. Cycle time from the moves as the controller times them (:mod:`machining.cycle_time`).
+"""
+import math
+import time
+
+import numpy as np
+
+from ..geometry.screw import screw_motion
+from ..machining.cycle_time import cycle_time
+from ..machining.tool_shape import ToolShape
+from ..machining.toolpath import segment_intrusion
+from ..machining.tool_shape import place_points
+from ..simulation.verify import verify_plan
+
+
+def tool_table(plans):
+    """{number: ToolShape} numbered as :func:`machining.operation.build_operation` numbers them, and
+    {(plan, strip): number}."""
+    table, by_sig, of_strip = {}, {}, {}
+    for p, plan in enumerate(plans):
+        for s in range(len(plan["strips"])):
+            shape = ToolShape.from_strip(plan, s)
+            sig = shape.signature()
+            if sig not in by_sig:
+                by_sig[sig] = len(by_sig) + 1
+                table[by_sig[sig]] = shape
+            of_strip[p, s] = by_sig[sig]
+    return table, of_strip
+
+
+def _map_to_level(P, a, z, v0, hand):
+    """The pose (P, a) screwed along the rotor's screw until its tip is at height z."""
+    t = (z - P[..., 2]) / v0
+    return screw_motion(P, t, v0, hand), screw_motion(a, t, 0.0, hand)
+
+
+def read_passes(read, machine, tools, rotor, samples=8):
+    """Passes of a read-back program: dicts with rows, poses, tool, line, screw and interpolation error."""
+    passes, cur = [], []
+    for mv in read.moves + [None]:
+        if mv is not None and mv.kind == "feed" and (not cur or cur[-1].tool == mv.tool):
+            cur.append(mv)
+            continue
+        if cur:
+            passes.append(cur)
+        cur = [mv] if mv is not None and mv.kind == "feed" else []
+    out = []
+    for group in passes:
+        tool = group[0].tool
+        if tool not in tools:
+            raise ValueError(f"line {group[0].line}: tool T{tool} is not a tool of these plans "
+                             f"(T{', T'.join(map(str, sorted(tools)))})")
+        shape = tools[tool]
+        gauge = shape.h_range()[1] - shape.h_range()[0]
+        rows = np.array([group[0].start] + [mv.end for mv in group])
+        if not np.isfinite(rows).all():
+            raise ValueError(f"line {group[0].line}: a feed move starts from an unknown position")
+        P, A = machine.forward(rows, gauge)
+        reach = max(abs(shape.h_range()[0]), abs(shape.h_range()[1]))
+        Q, B = _map_to_level(P, A, P[0, 2], rotor.v0, rotor.hand)
+        screw_err = float(np.max(np.linalg.norm(Q - P[0], axis=1) + reach * np.linalg.norm(B - A[0], axis=1)))
+        f = (np.arange(1, samples + 1) / (samples + 1))[:, None, None]
+        inner = ((1 - f) * rows[None, :-1] + f * rows[None, 1:]).reshape(-1, rows.shape[1])
+        Pi, Ai = machine.forward(inner, gauge)
+        Qi, Bi = _map_to_level(Pi, Ai, P[0, 2], rotor.v0, rotor.hand)
+        interp_err = float(np.max(np.linalg.norm(Qi - P[0], axis=1) + reach * np.linalg.norm(Bi - A[0], axis=1)))
+        out.append({"tool": tool, "line": group[0].line, "rows": rows, "tip": P[0], "axis": A[0],
+                    "t_span": float((P[0, 2] - P[-1, 2]) / rotor.v0), "ends": (P[[0, -1]], A[[0, -1]]),
+                    "screw_error": screw_err, "interpolation_error": interp_err, "moves": group})
+    return out
+
+
+def _reference_poses(plans, rotor):
+    from ..exports.cl_data import strip_tip
+
+    refs = []
+    for p, plan in enumerate(plans):
+        for s in range(len(plan["strips"])):
+            T, a, _ = strip_tip(plan, s)
+            for k in range(rotor.lobes):
+                turn = rotor.lobe_angle(k)
+                refs.append((p, s, k, screw_motion(T, turn, 0.0, "right"), screw_motion(a, turn, 0.0, "right")))
+    return refs
+
+
+def match_passes(passes, plans, rotor, tools, of_strip, tol=1e-2):
+    """Give every read pass its (plan, strip, lobe): the reference pose it equals modulo the screw."""
+    refs = _reference_poses(plans, rotor)
+    for ps in passes:
+        best = None
+        reach = max(abs(x) for x in tools[ps["tool"]].h_range())
+        for p, s, k, T, a in refs:
+            Q, B = _map_to_level(ps["tip"], ps["axis"], T[2], rotor.v0, rotor.hand)
+            d = float(np.linalg.norm(Q - T) + reach * np.linalg.norm(B - a))
+            if best is None or d < best[0]:
+                best = (d, p, s, k)
+        d, p, s, k = best
+        ps["match"] = (p, s, k) if d <= tol and of_strip[p, s] == ps["tool"] else None
+        ps["match_distance"] = d
+    return passes
+
+
+def run_out(ps, tools, rotor):
+    """(start clearance, end clearance) in mm beyond the body's end faces (negative: inside the body)."""
+    shape = tools[ps["tool"]]
+    local = shape.local_points(1.0)
+    (P, A) = ps["ends"]
+    pts = place_points(local, P, A)
+    z0, z1 = rotor.z_range
+    zs = pts[..., 2]
+    down = ps["t_span"] > 0
+    if down:
+        return float(zs[0].min() - z1), float(z0 - zs[1].max())
+    return float(z0 - zs[0].max()), float(zs[1].min() - z1)
+
+
+def lobe_deviation(plan, p, passes, tools, rotor, lobe, reference):
+    """Deviation of the plan's target flanks milled by this lobe's passes turned back onto lobe 0, compared
+    with the plan's own (``reference`` = verify_plan of the plan)."""
+    turn = -rotor.lobe_angle(lobe)
+    strips = []
+    for ps in passes:
+        if ps.get("match") is None or ps["match"][0] != p or ps["match"][2] != lobe:
+            continue
+        src = plan["strips"][ps["match"][1]]
+        tip = screw_motion(ps["tip"], turn, 0.0, "right")
+        axis = screw_motion(ps["axis"], turn, 0.0, "right")
+        extra = {k: src[k] for k in ("flank", "reported_max_error", "reported_min_error", "collision")}
+        strips.append(tools[ps["tool"]].strip_at(tip, axis, extra))
+    if not strips:
+        return None
+    prog = dict(plan, strips=strips)
+    res = verify_plan(prog)
+    ref = {i: d for i, _, _, d in reference["deviation_profile"]}
+    diff, mismatch = 0.0, 0
+    for i, _, _, d in res["deviation_profile"]:
+        r = ref.get(i)
+        if (d is None) != (r is None):
+            mismatch += 1
+        elif d is not None:
+            diff = max(diff, abs(d - r))
+    return {"lobe": lobe, "passes": len(strips), "max_deviation_difference_mm": diff,
+            "coverage_mismatches": mismatch, "max_undercut_mm": res["max_undercut"],
+            "max_overcut_mm": res["max_overcut"], "gouge_points": len(res["gouge_points"])}
+
+
+def check_links(read, machine, tools, rotor, step=1.0, spacing=1.5):
+    """Intrusion of every non-cutting move into the stock or the shafts."""
+    worst, bad, checked = 0.0, [], 0
+    feed_lines = set()
+    local = {n: s.local_points(spacing) for n, s in tools.items()}
+    for mv in read.moves:
+        if mv.kind == "feed":
+            feed_lines.add(mv.line)
+            continue
+        if not np.isfinite(mv.start).all() or mv.tool not in tools or np.allclose(mv.start, mv.end):
+            continue
+        shape = tools[mv.tool]
+        gauge = shape.h_range()[1] - shape.h_range()[0]
+        depth, frac, pt = segment_intrusion(machine, rotor, mv.start, mv.end, local[mv.tool], gauge, step)
+        checked += 1
+        worst = max(worst, depth)
+        if depth > 0:
+            bad.append({"line": mv.line, "depth_mm": depth, "point": pt})
+    return {"moves_checked": checked, "max_intrusion_mm": worst, "intrusions": bad[:20]}
+
+
+def verify_program(text, post, machine, plans, rotor, lobes=None):
+    """The read-back report of a posted program (module doc); ``lobes``: lobes to sweep (default all
+    the program cuts)."""
+    t0 = time.perf_counter()
+    read = post.read(text, machine)
+    tools, of_strip = tool_table(plans)
+    passes = match_passes(read_passes(read, machine, tools, rotor), plans, rotor, tools, of_strip)
+    seen = {}
+    for ps in passes:
+        if ps["match"] is not None:
+            seen.setdefault(ps["match"], []).append(ps["line"])
+    cut_lobes = sorted({m[2] for m in seen})
+    expected = {(p, s, k) for p, plan in enumerate(plans) for s in range(len(plan["strips"])) for k in cut_lobes}
+    clear = [run_out(ps, tools, rotor) for ps in passes]
+    plans_out = []
+    for p, plan in enumerate(plans):
+        ref = verify_plan(plan)
+        lobes_out = [lobe_deviation(plan, p, passes, tools, rotor, k, ref)
+                     for k in (cut_lobes if lobes is None else [k for k in lobes if k in cut_lobes])]
+        plans_out.append({"plan": p, "plan_max_undercut_mm": ref["max_undercut"],
+                          "plan_max_overcut_mm": ref["max_overcut"], "plan_gouge_points": len(ref["gouge_points"]),
+                          "lobes": [x for x in lobes_out if x is not None]})
+    diffs = [lo["max_deviation_difference_mm"] for pl in plans_out for lo in pl["lobes"]]
+    times = cycle_time(read, machine, {n: s.h_range()[1] - s.h_range()[0] for n, s in tools.items()})
+    times.pop("block_minutes")
+    return {
+        "schema": "flank-program-check/1", "post": post.name, "machine": machine.name,
+        "moves": len(read.moves), "passes": len(passes),
+        "matched_passes": sum(1 for ps in passes if ps["match"] is not None),
+        "unmatched_passes": [{"line": ps["line"], "distance_mm": ps["match_distance"]} for ps in passes
+                             if ps["match"] is None],
+        "missing_strips": sorted(list(x) for x in expected - set(seen)),
+        "repeated_strips": sorted([list(k), v] for k, v in seen.items() if len(v) > 1),
+        "lobes_cut": cut_lobes,
+        "screw_error_mm": max((ps["screw_error"] for ps in passes), default=0.0),
+        "interpolation_error_mm": max((ps["interpolation_error"] for ps in passes), default=0.0),
+        "run_out": {"min_start_clearance_mm": min((c[0] for c in clear), default=math.inf),
+                    "min_end_clearance_mm": min((c[1] for c in clear), default=math.inf),
+                    "passes_not_clear": [ps["line"] for ps, c in zip(passes, clear) if min(c) <= 0]},
+        "plans": plans_out,
+        "max_deviation_difference_mm": max(diffs, default=None),
+        "gouge_points": sum(lo["gouge_points"] for pl in plans_out for lo in pl["lobes"]),
+        "links": check_links(read, machine, tools, rotor),
+        **times,
+        "elapsed_s": time.perf_counter() - t0,
+    }
