@@ -1,4 +1,4 @@
-"""Full single-flank pipeline (multi_strip.plan_single_flank: seeds, optimised candidates, global
+"""Full single-flank pipeline (methods.single_flank.planner.plan_single_flank: seeds, optimised candidates, global
 collision, adaptive cover, junction kinks, verify) with our optimiser vs the same pipeline with the
 paper's optimiser (Bizzarri, Bo & Bartoň Remark 5.1: finite-difference gradient descent on the weighted Phi1, w = 100).
 
@@ -10,7 +10,7 @@ How the comparison is made (and why)
   seeds, same collision / cover / junction / verify stages: only the pose optimiser differs
   (``plan_single_flank(optimizer=...)``).
 * Ours: the pipeline's default, hard mode (no overcut along the axis, Eq. (30) style).
-  Baseline: :func:`single_flank.fd_gradient_descent_poses` (the paper's descent, anchored at each
+  Baseline: :func:`flank_addon.methods.single_flank.poses.fd_gradient_descent_poses` (the paper's descent, anchored at each
   seed's depth like ours) with two stopping rules: the paper's |x_(i+1) - x_i| < 1e-5 ("paper"),
   and a tight one (1e-9, up to 20000 iterations, "to convergence") so it is not judged by an early
   stop.  The paper's objective has no hard constraint, so its poses may overcut slightly; the cover

@@ -1,10 +1,10 @@
 """Bizzarri, Bo & Bartoň Examples 6.2-6.6 analogues: multi-strip single-flank plans on the built-in asymmetric rotors.
 
-    python bench/bench_s000_examples.py [--seeds 18] [--cases NAME,...]
+    python bench/bench_single_flank_examples.py [--seeds 18] [--cases NAME,...]
 
 For each case: the paper's cone (alpha, r1c, r2c in units of the outer radius R = 1) and error
 threshold on one flank of our built-in asymmetric rotors (valley 0: flank 0 = X1, tip to bottom;
-flank 1 = X2, bottom to the next tip), the full pipeline of multi_strip.plan_single_flank (seeds,
+flank 1 = X2, bottom to the next tip), the full pipeline of methods.single_flank.planner.plan_single_flank (seeds,
 hard-mode optimisation, global collisions, minimum cover with adaptive seeding, simulation), and
 the outcome: strips chosen of the candidates, the simulated max error and overcut, uncovered flank
 ranges, time.  The paper's rows are printed beside them for context; its 'N' rotors differ from ours.

@@ -31,7 +31,7 @@ Note the units: a is the square root of a length (sqrt(R) for the built-in rotor
 
 Valley bounds (Bizzarri, Bo & Bartoň §4.2, Eqs. 19-21)
 -------------------------------------
-The custom double-flank tool of the valley (Bizzarri & Bartoň 2021, :func:`double_flank.plan_double_flank`) is the
+The custom double-flank tool of the valley (Bizzarri & Bartoň 2021, :func:`methods.double_flank.planner.plan_double_flank`) is the
 largest revolving tool that fits the valley.  We bound it by the truncated cone (Fig. 5b, yellow)
 whose boundary spheres are the custom tool's spheres at the two ends of the part of its axis where
 they touch *both* flanks (the one-flank tails do not measure the valley's width): with their radii
@@ -242,7 +242,7 @@ class ValleyBounds:
 
 
 def bounds_from_tool_path(path, c=DEFAULT_C, d_angle=DEFAULT_D_ANGLE, valley=None):
-    """:class:`ValleyBounds` of a custom tool given as a :class:`double_flank.ToolPath` (axis nodes
+    """:class:`ValleyBounds` of a custom tool given as a :class:`methods.double_flank.planner.ToolPath` (axis nodes
     ``points`` from the tip, sphere ``radii``, ``counted`` (2, N) flags): the truncated cone whose
     boundary spheres are the custom tool's spheres at the first and last node touching both flanks,
     through Eqs. (2), (3) and (7) (module docstring)."""

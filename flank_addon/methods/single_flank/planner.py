@@ -3,12 +3,12 @@
 
 Pipeline of :func:`plan_single_flank`:
 
-1. candidates: for profile parameters of the flank, the §5.1 seeds of :mod:`single_flank` (line
+1. candidates: for profile parameters of the flank, the §5.1 seeds of :mod:`.poses` (line
    contact at hyperbolic points, tangential contact elsewhere), optimised by Phi1 (Eq. 25) or Phi3
    (Eq. 31), by default in the hard non-overcutting mode (Eq. 30 style);
 2. global collision (§5.5, :mod:`collision`): tool and shank against every lobe of the rotor;
    colliding candidates are dropped and listed with where they collide;
-3. coverage (:mod:`strip_cover`): the flank interval each candidate's envelope holds within
+3. coverage (:mod:`.strip_cover`): the flank interval each candidate's envelope holds within
    [-eps_over, eps], a minimum-cardinality interval cover, new seeds in the gaps (Bizzarri, Bo & Bartoň §6.1) until
    the flank is covered or the rounds run out; what stays uncovered is reported as ranges;
 4. the plan (flank-plan/1) of the chosen strips, simulated with the :mod:`verify` engine so the
@@ -28,7 +28,7 @@ from .poses import PoseEvaluator, candidate_strips, initial_positions, single_fl
 
 @dataclass
 class SingleFlankResult:
-    """plan: flank-plan/1 dict; strips: the chosen :class:`single_flank.CandidateStrip` in flank
+    """plan: flank-plan/1 dict; strips: the chosen :class:`.poses.CandidateStrip` in flank
     order; candidates: every optimised candidate (collision-free or not); collisions: per colliding
     candidate {"u", "collisions": [...]}; uncovered: flank parameter ranges outside the tolerance
     band; junctions: per neighbouring pair the kink angles (degrees) where their envelopes meet;
@@ -81,12 +81,12 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
     occupies over the whole pass (None = an infinite rotor; a slab that is too short hides
     collisions, see :func:`collision.check_collisions`).  With ``g1`` (when the flank is covered):
     first the smoothest cover with at most ``g1_extra_strips`` more strips than the minimum is
-    chosen (:func:`strip_cover.smooth_cover`), seeding new candidates between neighbours whose
+    chosen (:func:`.strip_cover.smooth_cover`), seeding new candidates between neighbours whose
     junction kinks more than ``g1_target_deg`` for ``g1_rounds`` rounds, and kept if its largest
     exact kink is smaller; then the strips are re-optimised together with a tangency term at their
     junctions (:func:`refine_g1`), weight ``g1_weight`` reduced until the machined flank still meets
     the tolerance band (kept only then).
-    ``optimizer``: replaces :func:`single_flank.optimize_poses` (same signature; the benchmark passes
+    ``optimizer``: replaces :func:`.poses.optimize_poses` (same signature; the benchmark passes
     the paper's gradient descent).  ``progress``: None or ``progress(fraction, message)``; returning
     False cancels (:class:`progress.Cancelled` is raised, nothing is returned).  Returns
     :class:`SingleFlankResult`."""
@@ -232,7 +232,7 @@ def envelope_strip(candidate, surface, u_range, z_range=(0.0, 1.0), n_s=60, n_t=
     """The envelope strip of one strip's cone (Bizzarri, Bo & Bartoň Eqs. 11-14): the characteristic curve of the
     pose under the rotor's screw motion, swept over ``z_range`` (rotor frame).
 
-    candidate: :class:`single_flank.CandidateStrip` (or anything with ``params`` and ``pose``).
+    candidate: :class:`.poses.CandidateStrip` (or anything with ``params`` and ``pose``).
     Returns (verts (K*n_t, 3), faces (F, 3) int, deviation (K*n_t,)): K <= n_s characteristic points
     where the characteristic is real, their signed distance to the flank (+ = material left, in the
     rotor's length unit; constant along each helix, so exact at every vertex)."""
@@ -279,7 +279,7 @@ def flank_of_point(surface, flank_ranges, point):
 def _smooth_selection(cover, chosen, junctions, make_candidates, surface, u_range, tol, eps_over, extra,
                       target_deg, rounds, kinks):
     """The G1 cover stage of :func:`plan_single_flank`: re-choose the strips from all candidates
-    by :func:`strip_cover.smooth_cover`; between neighbours whose estimated kink exceeds target_deg
+    by :func:`.strip_cover.smooth_cover`; between neighbours whose estimated kink exceeds target_deg
     seed a new candidate half way (denser strips overlap more and meet flatter), up to ``rounds``
     times.  The new choice is kept if its largest exact kink is smaller than the minimum cover's.
     Returns (strips, junctions, report)."""
@@ -427,7 +427,7 @@ def refine_g1(candidates, ev, junction_u, weight=1.0, maxiter=40):
     """Rajain et al. 2023's G1 idea for helical strips: re-optimise the chosen poses together so neighbouring
     envelopes share their normal at each junction, while no sphere of any tool enters the flank
     (hard mode, e >= 0 at the axis samples) and every pose keeps its depth on the flank (the cover
-    stays a cover, as in :func:`single_flank.optimize_poses`).
+    stays a cover, as in :func:`.poses.optimize_poses`).
 
         minimise  sum_k mean_i e_ki / R  +  weight * sum_j |n_j,a - n_j,b|^2
 
