@@ -1,42 +1,55 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Operators of the Flank Toolpath extension (``bpy.ops.flank.*``).
+"""Operators of the Flank Toolpath extension (``bpy.ops.flank.*``): a thin layer over the planner.
 
-Operators are thin: read properties, call the embedded planner
-(``..flank_addon``, imported lazily inside ``execute``), build Blender data
-with ``foreach_set`` and report.  Failures are reported with
-``self.report({'ERROR'}, ...)`` and return ``{'CANCELLED'}`` without leaving
-half-built data behind.
+Operators read their properties and the Blender data they work on (``sources``), call the embedded planner
+(``..flank_addon``, off the UI thread for the planners: ``modal``, ``jobs``) and turn its results into Blender
+data through one shared builder (``result_builder``: the run's collection, objects, attributes, material,
+properties -- all or nothing).  Failures are reported with ``self.report({'ERROR'}, ...)`` and return
+``{'CANCELLED'}`` without leaving half-built data behind.
+
+Modules, bottom up (a module imports only those listed before it):
+
+- ``common`` (meshes, attributes, removal, F-curves), ``materials`` (the shared attribute material),
+  ``units`` (lengths as people read them), ``shapes`` (tool frames, screw motion, surfaces of revolution),
+  ``jobs`` / ``modal`` (the planner off the UI thread), ``tool_settings`` (the Tool panel's end mill);
+- ``runs`` (result runs in the scene), ``sources`` (rotor and surface read from Blender),
+  ``result_builder`` (the shared builder), ``strips`` (the Results lists), ``guiding`` (free-form guiding
+  direction and preview);
+- ``properties`` (operator properties and the scene settings);
+- the operators: ``generate``, ``analyze``, ``verify``, ``single_flank``, ``double_flank``, ``formed_cutter``,
+  ``paraboloid``, ``freeform``, ``sample_surfaces``, ``cutter_region``, ``flank_list``, ``tool_preview``,
+  ``export``, ``animate``, ``render_report`` (``report_scene``: the picture's scene), ``profile_plot``
+  (``chart_text``: its text in Blender's font), ``ui_ops`` (the Run button's call).
+
+Each module has a ``classes`` tuple and ``register, unregister = bpy.utils.register_classes_factory(classes)``;
+:func:`register` calls them in the order of ``MODULES`` (property groups before the operators that use them).
 """
-from .properties import FLANK_PG_flank, FLANK_PG_settings
-from .generate import FLANK_OT_generate_rotor
-from .analyze import FLANK_OT_analyze_rotor
-from .verify import FLANK_OT_verify_plan
-from .paraboloid import FLANK_OT_paraboloid_groove
-from .formed_cutter import FLANK_OT_formed_cutter
-from .double_flank import FLANK_OT_plan_double_flank
-from .single_flank import FLANK_OT_plan_single_flank
-from .cutter_region import FLANK_OT_cutter_region
-from . import render_report, export, animate, ui_ops, freeform, profile_plot
+import bpy
 
-classes = (
-    FLANK_PG_flank,          # item type of FLANK_PG_settings.flank_list: registered first
-    FLANK_PG_settings,
-    FLANK_OT_generate_rotor,
-    FLANK_OT_analyze_rotor,
-    FLANK_OT_verify_plan,
-    FLANK_OT_paraboloid_groove,
-    FLANK_OT_formed_cutter,
-    FLANK_OT_plan_double_flank,
-    FLANK_OT_plan_single_flank,
-    FLANK_OT_cutter_region,
-    *render_report.classes,
-    *export.classes,
-    *animate.classes,
-    *ui_ops.classes,
-    *freeform.classes,
-    *profile_plot.classes,
+from . import (analyze, animate, chart_text, common, cutter_region, double_flank, export, flank_list,
+               formed_cutter, freeform, generate, guiding, jobs, materials, modal, paraboloid, profile_plot,
+               properties, render_report, report_scene, result_builder, runs, sample_surfaces, shapes,
+               single_flank, sources, strips, tool_preview, tool_settings, ui_ops, units, verify)
+
+MODULES = (
+    common, materials, units, shapes, jobs, modal, tool_settings, runs, sources, result_builder, chart_text,
+    properties,            # FLANK_PG_flank, FLANK_PG_settings: before everything that uses them
+    strips, guiding,
+    generate, analyze, verify, single_flank, double_flank, formed_cutter, paraboloid, freeform, sample_surfaces,
+    cutter_region, flank_list, tool_preview, export, animate, render_report, report_scene, profile_plot, ui_ops,
 )
 
-__all__ = ["classes", "FLANK_PG_settings", "FLANK_OT_generate_rotor", "FLANK_OT_analyze_rotor",
-           "FLANK_OT_verify_plan", "FLANK_OT_paraboloid_groove", "FLANK_OT_formed_cutter",
-           "FLANK_OT_plan_double_flank", "FLANK_OT_plan_single_flank", "FLANK_OT_cutter_region"]
+classes = tuple(cls for module in MODULES for cls in module.classes)
+
+
+def register():
+    for module in MODULES:
+        module.register()
+    bpy.types.Scene.flank_settings = bpy.props.PointerProperty(type=properties.FLANK_PG_settings)
+
+
+def unregister():
+    if hasattr(bpy.types.Scene, "flank_settings"):
+        del bpy.types.Scene.flank_settings
+    for module in reversed(MODULES):
+        module.unregister()

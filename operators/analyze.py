@@ -1,19 +1,24 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """flank.analyze_rotor -- recover axis, v0, handedness and flanks of the active mesh."""
-import bpy
+import json
+import time
 
-from .common import CLASS_COLORS, clear_flank_props, mesh_world_arrays, set_color_attr, set_float_attr
+import bpy
+import numpy as np
+
+from .common import (CLASS_COLORS, clear_flank_props, mesh_world_arrays, remove_attributes, set_color_attr,
+                     set_float_attr)
 
 CURVATURE_ATTR = "gaussian_curvature"
 CLASS_ATTR = "curvature_class"
 
 
-def _write_attributes(np, mesh, K, cls):
-    set_float_attr(np, mesh, CURVATURE_ATTR, K)
+def _write_attributes(mesh, K, cls):
+    set_float_attr(mesh, CURVATURE_ATTR, K)
     rgba = np.empty((len(cls), 4), dtype=np.float32)
     for value, color in CLASS_COLORS.items():
         rgba[cls == value] = color
-    set_color_attr(np, mesh, CLASS_ATTR, rgba)
+    set_color_attr(mesh, CLASS_ATTR, rgba)
     mesh.update()
 
 
@@ -35,11 +40,6 @@ class FLANK_OT_analyze_rotor(bpy.types.Operator):
         return True
 
     def execute(self, context):
-        import json
-        import time
-
-        import numpy as np
-
         from ..flank_addon.geometry import rotor_analysis
 
         obj = context.active_object
@@ -55,7 +55,7 @@ class FLANK_OT_analyze_rotor(bpy.types.Operator):
             return {'CANCELLED'}
         t0 = time.perf_counter()
         try:
-            verts, faces = mesh_world_arrays(np, obj)
+            verts, faces = mesh_world_arrays(obj)
             res = rotor_analysis.analyze_mesh(verts, faces)
             K, cls = res.vertex_curvature(verts)
             K = np.asarray(K, dtype=np.float64).reshape(-1)
@@ -75,12 +75,9 @@ class FLANK_OT_analyze_rotor(bpy.types.Operator):
 
         mesh = obj.data
         try:
-            _write_attributes(np, mesh, K, cls)
+            _write_attributes(mesh, K, cls)
         except Exception as ex:
-            for name in (CURVATURE_ATTR, CLASS_ATTR):
-                attr = mesh.attributes.get(name)
-                if attr is not None:
-                    mesh.attributes.remove(attr)
+            remove_attributes(mesh, (CURVATURE_ATTR, CLASS_ATTR))
             self.report({'ERROR'}, "Could not write curvature attributes: {}".format(ex))
             return {'CANCELLED'}
 
@@ -126,10 +123,12 @@ class FLANK_OT_analyze_rotor(bpy.types.Operator):
 
 
 def _json_default(value):
-    import numpy as np
-
     if isinstance(value, np.ndarray):
         return value.tolist()
     if isinstance(value, np.generic):
         return value.item()
     return str(value)
+
+
+classes = (FLANK_OT_analyze_rotor,)
+register, unregister = bpy.utils.register_classes_factory(classes)

@@ -1,23 +1,16 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """flank.animate_strip -- play one strip of a planning run as the machine does it: the rotor screws along and
-about its axis past the tool, which stays where it is."""
+about its axis past the tool, which stays where it is (a free-form run: the tool moves through its rulings)."""
+import math
+
 import bpy
+import numpy as np
 from bpy.props import IntProperty, StringProperty
+from mathutils import Matrix
 
-from .common import iter_fcurves, key_screw_motion, remove_ids, remove_objects
-from .export import run_plan
-
-ROLE = "flank_anim_role"       # objects made here: "frame", "motion", "rotor", "strip"
-HID = "flank_anim_hid"         # on the motion empty: names of the objects this animation hid (shown again on removal)
-
-
-def _run_prop(coll, name):
-    """A run's custom property under any planner's prefix (flank_sf_<name>, flank_df_<name>)."""
-    for key in coll.keys():
-        if key.startswith("flank_") and key.endswith("_" + name) and key.count("_") == 2 + name.count("_"):
-            return coll[key]
-    return None
-
+from .common import iter_fcurves, key_screw_motion, linear_keys, remove_ids
+from .runs import ANIM_HID, ANIM_ROLE, remove_animation, run_plan, run_prop
+from .shapes import axis_frame
 
 # (role property, strip property) of the planners' result objects: single flank numbers strips, double
 # flank numbers paths (plan strip k = path k)
@@ -32,21 +25,38 @@ def _strip_of(ob, role):
     return None
 
 
-def remove_animation(coll):
-    """Remove an earlier animation of this run (objects, their actions) and show again what it hid (the rotor,
-    the strip's envelopes); the rotor's own data stays.  Also called by the planners when they replace a run.
-    Returns the number of objects removed."""
-    objs = [ob for ob in coll.objects if ROLE in ob]
-    hid = [str(name) for ob in objs for name in ob.get(HID, ())]
-    remove_objects(bpy, objs)
-    for name in hid:
-        ob = bpy.data.objects.get(name)
-        if ob is not None:
-            try:
-                ob.hide_set(False)
-            except RuntimeError:            # not in the current view layer
-                pass
-    return len(objs)
+def _hide(objs):
+    """Hide the objects the moving copies stand in for (shown again when the animation is removed) -> names."""
+    hid = []
+    for ob in objs:
+        try:
+            if not ob.hide_get():
+                ob.hide_set(True)
+                hid.append(ob.name)
+        except RuntimeError:                 # not in the current view layer: nothing to hide
+            pass
+    return hid
+
+
+def _discard(made, actions, op, ex):
+    remove_ids(made, (), ())
+    for act in actions:
+        if act.users == 0:
+            bpy.data.actions.remove(act)
+    op.report({'ERROR'}, "Animate strip failed: {}: {}".format(type(ex).__name__, ex))
+    return {'CANCELLED'}
+
+
+def _time_range(plan, k, rotor_obj, Dinv, v0):
+    """Screw parameters (t0, t1) over which the whole rotor body passes the tool tip (plus an outer radius on
+    either side)."""
+    W = np.array(rotor_obj.matrix_world, dtype=np.float64)
+    corners = np.array([list(c) + [1.0] for c in rotor_obj.bound_box]) @ (Dinv @ W).T
+    z = corners[:, 2] / corners[:, 3]
+    st = plan["strips"][k]
+    z_tip = 0.5 * (float(st["axis_start"][2]) + float(st["axis_end"][2]))
+    margin = float(plan["rotor"].get("outer_radius", 0.0))
+    return (z_tip - z.max() - margin) / v0, (z_tip - z.min() + margin) / v0
 
 
 class FLANK_OT_animate_strip(bpy.types.Operator):
@@ -65,31 +75,27 @@ class FLANK_OT_animate_strip(bpy.types.Operator):
     frame_end: IntProperty(name="End Frame", default=250)
 
     def execute(self, context):
-        import math
-
-        import numpy as np
-        from mathutils import Matrix
+        from ..flank_addon.io.plan import is_mesh_plan
 
         fs, fe = int(self.frame_start), int(self.frame_end)
-        if fe <= fs:
-            self.report({'ERROR'}, "Animate strip: end frame {} must be after the start frame {}".format(fe, fs))
-            return {'CANCELLED'}
-        found = run_plan(context, self.collection)
+        found = run_plan(context, self.collection) if fe > fs else \
+            "end frame {} must be after the start frame {}".format(fe, fs)
         if isinstance(found, str):
             self.report({'ERROR'}, "Animate strip: " + found)
             return {'CANCELLED'}
         coll, plan = found
-        n = len(plan["strips"])
-        k = int(self.strip) - 1
+        n, k = len(plan["strips"]), int(self.strip) - 1
         if not 0 <= k < n:
             self.report({'ERROR'}, "Animate strip: strip = {} does not exist: run '{}' has strips 1..{}".format(
                 int(self.strip), coll.name, n))
             return {'CANCELLED'}
-        from ..flank_addon.io.plan import is_mesh_plan
-
         if is_mesh_plan(plan):
-            return self._animate_tool(context, coll, plan, k, fs, fe)
-        rotor_name = _run_prop(coll, "rotor")
+            return self._animate_tool(coll, plan, k, fs, fe)
+        return self._animate_rotor(coll, plan, k, fs, fe)
+
+    def _animate_rotor(self, coll, plan, k, fs, fe):
+        """A rotor plan: a linked copy of the rotor (and of the strip's envelopes) screws past the fixed tool."""
+        rotor_name = run_prop(coll, "rotor")
         rotor_obj = bpy.data.objects.get(str(rotor_name)) if rotor_name is not None else None
         if rotor_obj is None or rotor_obj.type != 'MESH':
             self.report({'ERROR'}, "Animate strip: the rotor '{}' of run '{}' is gone".format(rotor_name, coll.name))
@@ -103,20 +109,12 @@ class FLANK_OT_animate_strip(bpy.types.Operator):
         except np.linalg.LinAlgError:
             self.report({'ERROR'}, "Animate strip: the plan's rotor placement (to_world) is singular")
             return {'CANCELLED'}
-        # time range: the whole rotor body passes the tool tip (plus an outer radius on either side)
-        W = np.array(rotor_obj.matrix_world, dtype=np.float64)
-        corners = np.array([list(c) + [1.0] for c in rotor_obj.bound_box]) @ (Dinv @ W).T
-        z = corners[:, 2] / corners[:, 3]
-        st = plan["strips"][k]
-        z_tip = 0.5 * (float(st["axis_start"][2]) + float(st["axis_end"][2]))
-        margin = float(rot.get("outer_radius", 0.0))
         if not (math.isfinite(v0) and abs(v0) > 0.0):
             self.report({'ERROR'}, "Animate strip: the plan's v0 = {} gives no screw motion".format(v0))
             return {'CANCELLED'}
-        t0, t1 = (z_tip - z.max() - margin) / v0, (z_tip - z.min() + margin) / v0
+        t0, t1 = _time_range(plan, k, rotor_obj, Dinv, v0)
         tag = "{} strip {}".format(coll.name, k + 1)
         envelopes = [ob for ob in coll.objects if _strip_of(ob, "envelope") == k]   # double flank: F1 and F2
-
         removed = remove_animation(coll)
         made, actions = [], []
         try:
@@ -134,8 +132,7 @@ class FLANK_OT_animate_strip(bpy.types.Operator):
             act = key_screw_motion(motion, ((fs, t0), (fe, t1)), v0, eps)
             if act is not None:
                 actions.append(act)
-            moving = [(rotor_obj, "rotor")] + [(ob, "strip") for ob in envelopes]
-            for src, role in moving:
+            for src, role in [(rotor_obj, "rotor")] + [(ob, "strip") for ob in envelopes]:
                 ob = bpy.data.objects.new("{} (moving)".format(src.name), src.data)    # linked copy: no new mesh
                 made.append(ob)
                 coll.objects.link(ob)
@@ -143,28 +140,15 @@ class FLANK_OT_animate_strip(bpy.types.Operator):
                 ob.matrix_parent_inverse = Matrix.Identity(4)
                 ob.matrix_basis = Matrix((Dinv @ np.array(src.matrix_world, dtype=np.float64)).tolist())
                 ob.color = src.color
-                ob[ROLE] = role
-            frame[ROLE], motion[ROLE] = "frame", "motion"
+                ob[ANIM_ROLE] = role
+            frame[ANIM_ROLE], motion[ANIM_ROLE] = "frame", "motion"
             for ob in made:
                 ob["flank_anim_strip"] = k + 1
             motion["flank_anim_time"] = [float(t0), float(t1)]
             motion["flank_anim_frames"] = [fs, fe]
         except Exception as ex:
-            remove_ids(bpy, made, (), ())
-            for act in actions:
-                if act.users == 0:
-                    bpy.data.actions.remove(act)
-            self.report({'ERROR'}, "Animate strip failed: {}: {}".format(type(ex).__name__, ex))
-            return {'CANCELLED'}
-        hid = []
-        for ob in [rotor_obj] + envelopes:      # the moving copies stand in for them; shown again on removal
-            try:
-                if not ob.hide_get():
-                    ob.hide_set(True)
-                    hid.append(ob.name)
-            except RuntimeError:                 # not in the current view layer: nothing to hide
-                pass
-        motion[HID] = hid
+            return _discard(made, actions, self, ex)
+        motion[ANIM_HID] = _hide([rotor_obj] + envelopes)
         fcurves = sum(1 for a in actions for _ in iter_fcurves(a))
         self.report({'INFO'}, "Animated strip {} of '{}': the rotor screws t = {:.4g} .. {:.4g} over frames {}..{} "
                               "({} F-curves); '{}' is hidden (Alt+H shows it){}".format(
@@ -172,14 +156,9 @@ class FLANK_OT_animate_strip(bpy.types.Operator):
                                   ", replaced the earlier animation" if removed else ""))
         return {'FINISHED'}
 
-    def _animate_tool(self, context, coll, plan, k, fs, fe):
+    def _animate_tool(self, coll, plan, k, fs, fe):
         """A free-form (mesh) plan: the surface stays, a linked copy of the strip's tool moves through its rulings
         (one key per ruling, linear in between; the static tool is hidden meanwhile)."""
-        import numpy as np
-        from mathutils import Matrix
-
-        from .common import frame_along
-
         tools = [ob for ob in coll.objects if ob.get("flank_ff_role") == "tool" and ob.get("flank_ff_strip") == k]
         if not tools or tools[0].type != 'MESH':
             self.report({'ERROR'}, "Animate strip: run '{}' has no tool object for strip {}".format(coll.name, k + 1))
@@ -201,39 +180,22 @@ class FLANK_OT_animate_strip(bpy.types.Operator):
             ob.color = tool.color
             ob.rotation_mode = 'QUATERNION'
             for f, (a, b) in zip(frames, R):
-                rot, _ = frame_along(np, a, b)
-                T = np.eye(4)
-                T[:3, :3], T[:3, 3] = rot, a
-                ob.matrix_world = Matrix((W @ T).tolist())
+                ob.matrix_world = Matrix((W @ axis_frame(a, b)[0]).tolist())
                 for path in ("location", "rotation_quaternion", "scale"):
                     ob.keyframe_insert(data_path=path, frame=int(f))
-            act = ob.animation_data.action if ob.animation_data else None
+            act = linear_keys(ob)
             if act is not None:
                 actions.append(act)
-                for fcu in iter_fcurves(act):
-                    for kp in fcu.keyframe_points:
-                        kp.interpolation = 'LINEAR'
-            ob[ROLE] = "tool"
+            ob[ANIM_ROLE] = "tool"
             ob["flank_anim_strip"] = k + 1
             ob["flank_anim_frames"] = [fs, fe]
         except Exception as ex:
-            remove_ids(bpy, made, (), ())
-            for act in actions:
-                if act.users == 0:
-                    bpy.data.actions.remove(act)
-            self.report({'ERROR'}, "Animate strip failed: {}: {}".format(type(ex).__name__, ex))
-            return {'CANCELLED'}
-        hid = []
-        try:
-            if not tool.hide_get():
-                tool.hide_set(True)
-                hid.append(tool.name)
-        except RuntimeError:
-            pass
-        ob[HID] = hid
+            return _discard(made, actions, self, ex)
+        ob[ANIM_HID] = _hide([tool])
         self.report({'INFO'}, "Animated strip {} of '{}': the tool moves through its {} rulings over frames {}..{}{}"
                     .format(k + 1, coll.name, len(R), fs, fe, ", replaced the earlier animation" if removed else ""))
         return {'FINISHED'}
 
 
 classes = (FLANK_OT_animate_strip,)
+register, unregister = bpy.utils.register_classes_factory(classes)

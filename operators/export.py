@@ -2,11 +2,18 @@
 """flank.export_results -- write a result run (its stored flank-plan/1) as plan JSON, CL data, error CSV or
 strip meshes, through the core writers of ``flank_addon.exports`` (the same files as ``python -m flank_addon
 export``)."""
+import json
+import math
+import os
+import shutil
+import tempfile
+import time
+
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatVectorProperty, IntProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper
 
-from .common import PLAN_JSON_PROP, RESULTS_COLLECTION
+from .runs import run_plan
 
 FORMAT_ITEMS = (
     ("PLAN", "Plan (JSON)", "The run's flank-plan/1 file", 0),
@@ -17,51 +24,6 @@ FORMAT_ITEMS = (
     ("PLY", "Strips (PLY)", "Envelope strips as PLY, one file per strip: <name>_<k>.ply", 4),
 )
 EXTENSIONS = {"PLAN": ".json", "CL": ".apt", "CSV": ".csv", "STL": ".stl", "PLY": ".ply"}
-
-
-def result_runs():
-    """Result collections that carry a plan, oldest first."""
-    parent = bpy.data.collections.get(RESULTS_COLLECTION)
-    if parent is None:
-        return []
-    return [c for c in parent.children if PLAN_JSON_PROP in c]
-
-
-def find_run(context, name=""):
-    """The run named ``name``, else the one holding the active object, else the newest -> collection or an
-    error message (str)."""
-    if name:
-        coll = bpy.data.collections.get(name)
-        if coll is None:
-            return "there is no collection '{}'".format(name)
-        if PLAN_JSON_PROP not in coll:
-            return "collection '{}' holds no plan (not a single- or double-flank run)".format(name)
-        return coll
-    runs = result_runs()
-    ob = context.active_object
-    if ob is not None:
-        for coll in ob.users_collection:
-            if PLAN_JSON_PROP in coll:
-                return coll
-    if not runs:
-        return "no planning run with a plan under '{}': run Plan Single Flank or Plan Double Flank first".format(
-            RESULTS_COLLECTION)
-    return runs[-1]
-
-
-def run_plan(context, name=""):
-    """(collection, plan dict) of the run :func:`find_run` picks, or an error message (str)."""
-    import json
-
-    from ..flank_addon.io.plan import PlanError, validate_plan
-
-    coll = find_run(context, name)
-    if isinstance(coll, str):
-        return coll
-    try:
-        return coll, validate_plan(json.loads(coll[PLAN_JSON_PROP]))
-    except (ValueError, PlanError) as ex:
-        return "the plan stored on '{}' is not valid: {}".format(coll.name, ex)
 
 
 class FLANK_OT_export_results(bpy.types.Operator, ExportHelper):
@@ -95,14 +57,8 @@ class FLANK_OT_export_results(bpy.types.Operator, ExportHelper):
         return ExportHelper.check(self, context)
 
     def execute(self, context):
-        import json
-        import math
-        import os
-        import shutil
-        import tempfile
-        import time
-
         from ..flank_addon import exports
+
         t0 = time.perf_counter()
         if not self.filepath:
             self.report({'ERROR'}, "Export: no file given (filepath is empty)")
@@ -182,3 +138,4 @@ class FLANK_OT_export_results(bpy.types.Operator, ExportHelper):
 
 
 classes = (FLANK_OT_export_results,)
+register, unregister = bpy.utils.register_classes_factory(classes)

@@ -1,8 +1,10 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """flank.generate_rotor -- built-in screw rotor as a mesh object with its helix data."""
+import time
+
 import bpy
 
-from .common import new_mesh_from_arrays, select_only
+from .common import count_limit_error, new_mesh_from_arrays, select_only
 from .properties import generator_props
 
 
@@ -16,15 +18,9 @@ class FLANK_OT_generate_rotor(bpy.types.Operator):
     __annotations__ = generator_props()
 
     def execute(self, context):
-        import time
-
-        import numpy as np
-
         from ..flank_addon.geometry import rotors
 
         t0 = time.perf_counter()
-        from .common import count_limit_error
-
         msg = (count_limit_error("resolution", self.resolution, 24, 65536)
                or count_limit_error("axial rings", self.axial, 2, 16384)
                or count_limit_error("mesh vertices (resolution x axial rings)",
@@ -47,7 +43,7 @@ class FLANK_OT_generate_rotor(bpy.types.Operator):
 
         name = "Rotor_{}_{}".format(self.kind, self.part)
         try:
-            mesh = new_mesh_from_arrays(bpy, np, name, verts, faces)
+            mesh = new_mesh_from_arrays(name, verts, faces)
         except Exception as ex:
             self.report({'ERROR'}, "Could not build the rotor mesh: {}".format(ex))
             return {'CANCELLED'}
@@ -82,3 +78,7 @@ class FLANK_OT_generate_rotor(bpy.types.Operator):
         self.report({'INFO'}, "Generated {}: {} lobes, v0={:.6g}, {}-handed, {} vertices in {:.2f}s".format(
             name, rotor.lobes, rotor.v0, hand_name, len(verts), dt))
         return {'FINISHED'}
+
+
+classes = (FLANK_OT_generate_rotor,)
+register, unregister = bpy.utils.register_classes_factory(classes)

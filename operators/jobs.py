@@ -66,3 +66,15 @@ class PlannerJob:
     def wait(self, timeout=None):
         self._thread.join(timeout)
         return self.poll()[0]
+
+
+# No classes, and no bpy on purpose (tests/test_jobs.py loads this file without Blender): nothing to register.
+classes = ()
+
+
+def register():
+    pass
+
+
+def unregister():
+    pass

@@ -123,3 +123,7 @@ class ModalPlannerMixin:
             self._job.cancel()
             self._job = None
         self._finish(context)
+
+
+classes = ()
+register, unregister = bpy.utils.register_classes_factory(classes)

@@ -2,13 +2,19 @@
 """flank.error_plot -- the signed machining error along the flank profile of a planning run as an image.
 
 The data are the verify engine's deviation on the run's target flanks (the numbers of the error-profile CSV
-export: ``flank_addon.report.error_chart.error_profile``), drawn by ``flank_addon.report.error_chart`` (numpy only) into
-the image "Flank Error Plot (<run>)" -- packed into the .blend, kept with a fake user, replaced in place by
-the next plot of the same run -- and shown in an Image Editor when the screen has one."""
+export: ``flank_addon.report.error_chart.error_profile``), drawn by ``flank_addon.report.error_chart`` (numpy:
+axes, bands, curves) with its text in Blender's font (``chart_text``) into the image "Flank Error Plot (<run>)"
+-- packed into the .blend, kept with a fake user, replaced in place by the next plot of the same run -- and
+shown in an Image Editor when the screen has one."""
+import math
+import os
+import time
+
 import bpy
 from bpy.props import BoolProperty, IntProperty, StringProperty
 
-from .export import run_plan
+from .chart_text import draw_text_items
+from .runs import run_plan
 
 IMAGE_PREFIX = "Flank Error Plot"
 RUN_PROP = "flank_plot_run"            # image custom property: the run (collection name) the plot shows
@@ -45,8 +51,6 @@ def plot_image(run_name):
 def run_tolerance(coll, plan):
     """The run's tolerance in plan units (the planner's, kept on the collection in scene units), or None
     (then the plan's own ``tolerance`` field or verify's default)."""
-    import math
-
     from ..flank_addon.report.report_geometry import plan_scale
 
     for key in TOLERANCE_PROPS:
@@ -101,37 +105,44 @@ class FLANK_OT_error_plot(bpy.types.Operator):
                                 subtype='FILE_PATH', default=""),
     )
 
-    def execute(self, context):
-        import os
-        import time
+    def _png_path(self):
+        """(the PNG to write or None, error message or None)."""
+        if not self.filepath:
+            return None, None
+        path = bpy.path.abspath(self.filepath)
+        if not path.lower().endswith(".png"):
+            path += ".png"
+        folder = os.path.dirname(path) or "."
+        if not os.path.isdir(folder):
+            return None, "the folder '{}' does not exist".format(folder)
+        return path, None
 
-        from ..flank_addon.report.error_chart import plan_error_plot, to_blender_pixels, to_png_bytes
-        from ..flank_addon.io.png import write_png
+    def _inputs(self, context):
+        """(collection, plan, PNG path or None), or an error message."""
+        w, h = int(self.width), int(self.height)
+        if not (320 <= w <= 4096 and 200 <= h <= 4096):
+            return "size {} x {} is outside 320 x 200 .. 4096 x 4096".format(w, h)
+        found = run_plan(context, self.collection)
+        if isinstance(found, str):
+            return found
+        coll, plan = found
+        if "rotor" not in plan:
+            return ("'{}' is a free-form run: it has no flank profile to plot the error along (export its error "
+                    "CSV instead)".format(coll.name))
+        path, msg = self._png_path()
+        return msg if msg is not None else (coll, plan, path)
+
+    def execute(self, context):
+        from ..flank_addon.report.error_chart import plan_error_plot
         from ..flank_addon.report.report_geometry import display_units
 
         t0 = time.perf_counter()
         w, h = int(self.width), int(self.height)
-        if not (320 <= w <= 4096 and 200 <= h <= 4096):
-            self.report({'ERROR'}, "Error plot: size {} x {} is outside 320 x 200 .. 4096 x 4096".format(w, h))
-            return {'CANCELLED'}
-        found = run_plan(context, self.collection)
+        found = self._inputs(context)
         if isinstance(found, str):
             self.report({'ERROR'}, "Error plot: " + found)
             return {'CANCELLED'}
-        coll, plan = found
-        if "rotor" not in plan:
-            self.report({'ERROR'}, "Error plot: '{}' is a free-form run: it has no flank profile to plot the "
-                                   "error along (export its error CSV instead)".format(coll.name))
-            return {'CANCELLED'}
-        path = None
-        if self.filepath:
-            path = bpy.path.abspath(self.filepath)
-            if not path.lower().endswith(".png"):
-                path += ".png"
-            folder = os.path.dirname(path) or "."
-            if not os.path.isdir(folder):
-                self.report({'ERROR'}, "Error plot: the folder '{}' does not exist".format(folder))
-                return {'CANCELLED'}
+        coll, plan, path = found
         us = context.scene.unit_settings
         try:
             units = display_units(plan, us.system, us.scale_length)
@@ -141,11 +152,29 @@ class FLANK_OT_error_plot(bpy.types.Operator):
         except Exception as ex:             # core ValueError (no finite error, ...): reported, never a traceback
             self.report({'ERROR'}, "Error plot of '{}' failed: {}".format(coll.name, ex))
             return {'CANCELLED'}
+        img = self._store(coll, rgba, info, path)
+        if img is None:
+            return {'CANCELLED'}
+        area = show_in_image_editor(context, img)
+        where = ("shown in the Image Editor" if area is not None else
+                 "open an Image Editor and pick the image '{}'".format(img.name))
+        self.report({'INFO'}, "Error plot of '{}' ({} x {} px, {}): {}; tolerance ±{:.3g} {}; {}{} ({:.2f} s)".format(
+            coll.name, w, h, "{} curve(s)".format(info["curves"]), info["note"], info["tolerance"], info["unit"],
+            where, ", wrote {}".format(os.path.basename(path)) if path else "", time.perf_counter() - t0))
+        return {'FINISHED'}
 
+    def _store(self, coll, rgba, info, path):
+        """The chart's text in Blender's font, then the image (made or reused) and the PNG -> image, or None
+        (error reported, nothing left behind)."""
+        from ..flank_addon.io.png import write_png
+        from ..flank_addon.report.error_chart import to_blender_pixels, to_png_bytes
+
+        h, w = rgba.shape[:2]
         wrote = False
         img = plot_image(coll.name)
         created = img is None
         try:
+            draw_text_items(rgba, info["texts"])
             if path is not None:
                 write_png(path, to_png_bytes(rgba))
                 wrote = True
@@ -175,15 +204,9 @@ class FLANK_OT_error_plot(bpy.types.Operator):
                 except OSError:
                     pass
             self.report({'ERROR'}, "Error plot of '{}' failed: {}: {}".format(coll.name, type(ex).__name__, ex))
-            return {'CANCELLED'}
-
-        area = show_in_image_editor(context, img)
-        where = ("shown in the Image Editor" if area is not None else
-                 "open an Image Editor and pick the image '{}'".format(img.name))
-        self.report({'INFO'}, "Error plot of '{}' ({} x {} px, {}): {}; tolerance ±{:.3g} {}; {}{} ({:.2f} s)".format(
-            coll.name, w, h, "{} curve(s)".format(info["curves"]), info["note"], info["tolerance"], info["unit"],
-            where, ", wrote {}".format(os.path.basename(path)) if wrote else "", time.perf_counter() - t0))
-        return {'FINISHED'}
+            return None
+        return img
 
 
 classes = (FLANK_OT_error_plot,)
+register, unregister = bpy.utils.register_classes_factory(classes)

@@ -1,7 +1,15 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Scene-level settings shown in the sidebar and shared enum items."""
+"""The properties of the operators and the scene settings the sidebar shows (``Scene.flank_settings``): each
+planner's property definitions (``*_props()``, fresh on every call: the operator's own properties and the scene
+settings with a prefix), the shared enum items, the Tool panel's dimensions in mm, the flank list and the
+Results legend.
+
+Property update callbacks import the modules they drive (the guiding preview, the strips list) inside the
+callback; none of those imports this module."""
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty, StringProperty
+
+from .units import mm_per_scene_unit
 
 KIND_ITEMS = (
     ("nilson", "Nilson", "Classic Nilson (4+6) rotor pair"),
@@ -88,8 +96,8 @@ def paraboloid_props():
 
 
 CUTTER_SOURCE_ITEMS = (
-    ("TABLE1", "s004 Table-1 Rotor", "The paper's arc-tooth rotor (R1 55.1, R2 111.69, G 125, 4 grooves, mm): "
-                                    "built as a new mesh object"),
+    ("TABLE1", "Table-1 Rotor", "The arc-tooth rotor of Hu, Zhou & Li 2025, Table 1 (R1 55.1, R2 111.69, G 125, "
+                                "4 grooves, mm): built as a new mesh object"),
     ("ACTIVE", "Active Rotor", "The active rotor made by Generate Rotor (or a Table-1 rotor from an earlier run): "
                               "its profile is rebuilt from its custom properties and its mesh is painted"),
 )
@@ -118,7 +126,7 @@ def formed_cutter_props():
             ("right", "Right", "Right-handed helix (Table-1 rotor only, or an active right-handed rotor)"),
             ("left", "Left", "Left-handed helix (Table-1 rotor only, or an active left-handed rotor)"),
         ), default="DEFAULT"),
-        planes=IntProperty(name="Planes", description="Planes Z_u = const of the cutter profile (s004: 119); "
+        planes=IntProperty(name="Planes", description="Planes Z_u = const of the cutter profile (the paper: 119); "
                                                       "one ring of the cutter mesh each",
                            default=119, min=2, soft_max=2000),
         eps_b=FloatProperty(name="eps_b", description="Subdivision threshold of the radius search, "
@@ -143,15 +151,15 @@ def formed_cutter_props():
 
 
 DF_VARIANT_ITEMS = (
-    ("min", "Minimum", "Radial function r = min(r1, r2) (s001 Eq. (14)): never overcuts"),
-    ("avg", "Average", "Radial function r = (r1 + r2) / 2 (s001 Eq. (16))"),
-    ("one-sided-1", "One-Sided 1", "r = r1: exact on flank 1 (s001 Eq. (17))"),
-    ("one-sided-2", "One-Sided 2", "r = r2: exact on flank 2 (s001 Eq. (17))"),
+    ("min", "Minimum", "Radial function r = min(r1, r2) (Bizzarri & Bartoň 2021, Eq. 14): never overcuts"),
+    ("avg", "Average", "Radial function r = (r1 + r2) / 2 (Bizzarri & Bartoň 2021, Eq. 16)"),
+    ("one-sided-1", "One-Sided 1", "r = r1: exact on flank 1 (Bizzarri & Bartoň 2021, Eq. 17)"),
+    ("one-sided-2", "One-Sided 2", "r = r2: exact on flank 2 (Bizzarri & Bartoň 2021, Eq. 17)"),
 )
 DF_TOOL_ITEMS = (
-    ("custom", "Custom", "Custom-shaped revolving tool (envelope of spheres on the optimised axis, s001 Sec. 4)"),
-    ("cone", "Cone", "One conical tool (s001 Sec. 5)"),
-    ("cones", "Cones", "K conical segments along the axis (s001 Remark 5.3; K = Cones)"),
+    ("custom", "Custom", "Custom-shaped revolving tool (envelope of spheres on the optimised axis)"),
+    ("cone", "Cone", "One conical tool"),
+    ("cones", "Cones", "K conical segments along the axis (K = Cones)"),
 )
 
 
@@ -168,17 +176,18 @@ def double_flank_props():
         cones=IntProperty(name="Cones", description="Number K of conical segments for Tool = Cones (1..12)",
                           default=3, soft_min=1, soft_max=12),
         two_paths=BoolProperty(name="Two Paths", description="One custom tool on two axes, one per flank "
-                                                             "(s001 Sec. 4.3; custom tool only)", default=False),
+                                                             "(custom tool only)", default=False),
         radii=IntProperty(name="Radii m", description="Radii intervals per strip of the plan (m + 1 radii, "
                                                       "2..5000)", default=400, soft_min=2, soft_max=5000),
         rim=FloatProperty(name="Rim", description="Targeted fraction of the valley depth, from the valley "
                                                   "bottom to the outer radius (core limits 0.2..0.98)",
                           default=0.85, soft_min=0.2, soft_max=0.98, precision=3, step=1),
         samples=IntProperty(name="Axis Samples", description="Axis samples of the optimisation of Phi "
-                                                             "(s001 Eq. (11))", default=100, soft_min=10,
+                                                             "(Bizzarri & Bartoň 2021, Eq. 11)", default=100,
+                            soft_min=10,
                             soft_max=1000),
         simulate=BoolProperty(name="Simulate", description="Run the sweep simulation for the rotor-to-envelope "
-                                                           "errors and the Hausdorff distance (s001 Remark 4.5; "
+                                                           "errors and the Hausdorff distance ("
                                                            "can take a minute)", default=False),
         tolerance=FloatProperty(name="Tolerance", description="Deviation colour band in scene units (green "
                                                               "within), 0 = 1e-3 x rotor outer radius",
@@ -200,17 +209,17 @@ def double_flank_props():
 
 
 SF_SHAPE_ITEMS = (
-    ("alpha", "Opening Angle", "Cone given by r1, r2 and its opening angle alpha (s000 Eq. 3)"),
+    ("alpha", "Opening Angle", "Cone given by r1, r2 and its opening angle alpha"),
     ("length", "Length", "Cone given by r1, r2 and the distance h of its boundary circles (tan alpha = "
                          "(r2 - r1) / h)"),
 )
 SF_OBJECTIVE_ITEMS = (
-    ("phi1", "Phi1", "Distance of the tool to the flank along the axis (s000 Eq. 25)"),
-    ("phi3", "Phi3", "Distance of the characteristic curve to the flank (s000 Eq. 31)"),
+    ("phi1", "Phi1", "Distance of the tool to the flank along the axis (Bizzarri, Bo & Bartoň, Eq. 25)"),
+    ("phi3", "Phi3", "Distance of the characteristic curve to the flank (Bizzarri, Bo & Bartoň, Eq. 31)"),
 )
 SF_MODE_ITEMS = (
-    ("hard", "Hard", "No overcut along the axis (s000 Eq. 30 style)"),
-    ("weighted", "Weighted", "Overcut weighted w = 100 (s000 Remark 5.1)"),
+    ("hard", "Hard", "No overcut along the axis"),
+    ("weighted", "Weighted", "Overcut weighted w = 100"),
 )
 
 
@@ -260,7 +269,7 @@ def single_flank_props():
         rounds=IntProperty(name="Rounds", description="Rounds of gap seeding of the cover (>= 1)",
                            default=4, soft_min=1, soft_max=20),
         collisions=BoolProperty(name="Collisions", description="Drop candidates whose tool or shank hits the "
-                                                               "rotor anywhere (s000 Sec. 5.5)", default=True),
+                                                               "rotor anywhere", default=True),
         g1=BoolProperty(name="G1 Junctions", description="Smoother junctions: the smoothest cover with up to G1 "
                                                          "Extra Strips more strips, then a tangency refinement "
                                                          "(each kept only if the kinks drop within the tolerance)",
@@ -281,23 +290,24 @@ def single_flank_props():
 
 
 FF_DIRECTION_ITEMS = (
-    ("VECTOR", "Direction", "One tangent vector (world axes) at Point, carried over the surface (s003 Sec. 3)", 0),
+    ("VECTOR", "Direction", "One tangent vector (world axes) at Point, carried over the surface", 0),
     ("FIELD", "Vector Attribute", "A tangent vector field: a FLOAT_VECTOR attribute of the mesh on its points or "
                                   "faces (object axes)", 1),
 )
 FF_FREE_ITEMS = (
-    ("L", "L", "Axis length L is a variable of the optimisation (s003 Sec. 7.2)", 1),
+    ("L", "L", "Axis length L is a variable of the optimisation", 1),
     ("r1", "r1", "Tip sphere radius r1 is a variable", 2),
     ("r2", "r2", "Base sphere radius r2 is a variable", 4),
 )
 
 
 def freeform_props():
-    """Fresh property definitions of flank.plan_freeform (s003; also the scene settings, prefixed 'ff_').
+    """Fresh property definitions of flank.plan_freeform (also the scene settings, prefixed 'ff_').
 
-    The tool is s003's family of spheres (Eqs. 1-2): tip and base sphere radii r1, r2 with centres L apart; the
-    Run button derives them from the Tool panel's end mill.  Lengths in scene units, directions and points in
-    world axes.  No hard limits: bad values reach the operator's checks and are reported with the limit."""
+    The tool is the family of spheres of Rajain et al. 2023 (Eqs. 1-2): tip and base sphere radii r1, r2 with
+    centres L apart; the Run button derives them from the Tool panel's end mill.  Lengths in scene units,
+    directions and points in world axes.  No hard limits: bad values reach the operator's checks and are reported
+    with the limit."""
     return dict(
         r1=FloatProperty(name="Tip Sphere r1", description="Radius of the tool's tip sphere (scene units, >= 0)",
                          default=0.05, soft_min=0.0, soft_max=100.0, precision=4, unit='LENGTH'),
@@ -332,11 +342,11 @@ def freeform_props():
                                   update=_ff_preview_update),
         spacing=FloatProperty(name="Strip Spacing d", description="Distance of the guiding curves (scene units); "
                                                                   "0 = sqrt(L^2 - (r2 - r1)^2) of the engaged tool "
-                                                                  "(s003 Sec. 5)",
+                                                                  "(Rajain et al. 2023, Sec. 5)",
                               default=0.0, soft_min=0.0, soft_max=1000.0, precision=4, unit='LENGTH',
                               update=_ff_preview_update),
         engagement=FloatProperty(name="Engagement", description="Share of the tool next to its base that cuts, "
-                                                                "0.05..1 (s003 Fig. 18)",
+                                                                "0.05..1",
                                  default=1.0, soft_min=0.05, soft_max=1.0, subtype='FACTOR',
                                  update=_ff_preview_update),
         w_rigid=FloatProperty(name="Rigidity w1", description="Weight of the constant axis length term (Eq. 18)",
@@ -374,7 +384,7 @@ def freeform_props():
 def _ff_preview_update(self, context):
     """A setting that moves the guiding curves changed: redraw the live preview if the user has one."""
     if getattr(self, "ff_live_preview", False) and context is not None:
-        from .freeform import refresh_guiding_preview
+        from .guiding import refresh_guiding_preview
 
         refresh_guiding_preview(context)
 
@@ -384,40 +394,30 @@ def _prefixed(prefix, props):
 
 
 # ----------------------------------------------------------------------------------------------- sidebar
-def mm_per_scene_unit(scene):
-    """Millimetres per Blender unit: with a unit system (metric or imperial) a Blender unit is scale_length
-    metres; a unit-less scene is taken as millimetres (the convention of analysed meshes and scaled
-    built-in rotors)."""
-    us = getattr(scene, "unit_settings", None)
-    if us is not None and us.system in ('METRIC', 'IMPERIAL'):
-        sl = float(us.scale_length)
-        return 1000.0 * sl if sl > 0.0 else 1000.0
-    return 1.0
-
-
 TOOL_KIND_ITEMS = (
     ("CONE", "Tapered End Mill", "Truncated cone r1 < r2 with a taper (opening) angle and a cylindrical shank: "
-                                 "the single-flank (s000) tool", 'MESH_CONE', 0),
+                                 "the single-flank conical tool", 'MESH_CONE', 0),
     ("CYLINDER", "Cylindrical End Mill", "Cylinder of radius r1 and flute length h with a shank; the single-flank "
-                                         "planner takes it as a cone of taper 0.0057 deg (1e-4 rad)", 'MESH_CYLINDER', 1),
-    ("CUSTOM", "Custom (Double Flank)", "Revolved tool shaped by the double-flank planner (s001) for one valley: "
+                                         "planner takes it as a cone of taper 0.0057 deg (1e-4 rad)", 'MESH_CYLINDER',
+     1),
+    ("CUSTOM", "Custom (Double Flank)", "Revolved tool shaped by the double-flank planner for one valley: "
                                         "custom radial function, one cone or K cones", 'MOD_SCREW', 2),
-    ("DISC", "Formed Disc Cutter", "Disc cutter whose profile the formed-cutter planner (s004) derives from the "
+    ("DISC", "Formed Disc Cutter", "Disc cutter whose profile the formed disc cutter planner derives from the "
                                    "rotor and its set-up", 'MESH_TORUS', 3),
-    ("PARABOLOID", "Paraboloid End Mill", "Lens |h| <= b + a rho^2 of the paraboloid groove (s002)", 'SPHERECURVE',
+    ("PARABOLOID", "Paraboloid End Mill", "Lens |h| <= b + a rho^2 of the paraboloid groove", 'SPHERECURVE',
      4),
 )
 STRATEGY_ITEMS = (
-    ("SINGLE", "Single Flank (Cone)", "s000: one flank with several strips of a tapered (or cylindrical) end mill",
+    ("SINGLE", "Single-Flank Conical", "One flank with several strips of a tapered (or cylindrical) end mill",
      'MOD_SCREW', 0),
-    ("DOUBLE", "Double Flank", "s001: both flanks of one valley in one pass of a custom-shaped or conical tool "
+    ("DOUBLE", "Double-Flank Custom Tool", "Both flanks of one valley in one pass of a custom-shaped or conical tool "
                                "(radial function min / average / one-sided)", 'MOD_MIRROR', 1),
-    ("TWO_PATHS", "Two Paths, One Tool", "s001 Sec. 4.3: one custom tool on two axes, one per flank of the valley",
+    ("TWO_PATHS", "Two Paths, One Tool", "One custom tool on two axes, one per flank of the valley",
      'ARROW_LEFTRIGHT', 2),
-    ("FORMED", "Formed Disc Cutter", "s004: disc cutter formed to the tooth space, one pass per groove", 'MESH_TORUS',
+    ("FORMED", "Formed Disc Cutter", "Disc cutter formed to the tooth space, one pass per groove", 'MESH_TORUS',
      3),
-    ("GROOVE", "Paraboloid Groove", "s002: groove of a paraboloid end mill moved along a helix", 'SPHERECURVE', 4),
-    ("FREEFORM", "Free-form G1", "s003: any triangle-mesh surface, strips of a conical tool along a guiding "
+    ("GROOVE", "Paraboloid Groove", "Groove of a paraboloid end mill moved along a helix", 'SPHERECURVE', 4),
+    ("FREEFORM", "Free-form G1", "Any triangle-mesh surface, strips of a conical tool along a guiding "
                                  "direction, G1 between neighbours", 'MOD_SMOOTH', 5),
 )
 # tool kinds each strategy can use (the first one is taken when the strategy is chosen with another kind)
@@ -425,7 +425,6 @@ STRATEGY_TOOLS = {"SINGLE": ("CONE", "CYLINDER"), "DOUBLE": ("CUSTOM",), "TWO_PA
                   "FORMED": ("DISC",), "GROOVE": ("PARABOLOID",), "FREEFORM": ("CONE", "CYLINDER")}
 TOOL_STRATEGY = {"CONE": "SINGLE", "CYLINDER": "SINGLE", "CUSTOM": "DOUBLE", "DISC": "FORMED",
                  "PARABOLOID": "GROOVE"}
-CYLINDER_TAPER = 1e-4      # rad: a cylinder is planned as a cone whose radius grows h * 1e-4 over its flutes
 
 
 def _tool_kind_changed(self, context):
@@ -574,8 +573,8 @@ def _legend_prop(key):
 
 
 def _strip_index_changed(self, context):
-    from .export import find_run
-    from .ui_ops import select_strip
+    from .runs import find_run
+    from .strips import select_strip
 
     coll = find_run(context)
     if not isinstance(coll, str):
@@ -598,12 +597,12 @@ class FLANK_PG_flank(bpy.types.PropertyGroup):
     u_start: FloatProperty(name="Start", description="Start of the flank's profile parameter range", default=0.0)
     u_end: FloatProperty(name="End", description="End of the flank's profile parameter range", default=0.0)
     hyperbolic_fraction: FloatProperty(name="Hyperbolic", description="Share of the flank's profile arc length "
-                                                                      "where the surface is hyperbolic (s000 "
-                                                                      "Sec. 4.1: where a cone can touch it "
-                                                                      "along a curve)",
+                                                                      "where the surface is hyperbolic (where a cone "
+                                                                      "can touch it along a curve)",
                                        default=0.0, min=0.0, max=1.0, subtype='FACTOR')
     a_min: FloatProperty(name="a_min", description="Smallest transverse semi-axis of the Dupin indicatrix over the "
-                                                   "hyperbolic part (s000 Eq. 17; scene units; 0 = none)",
+                                                   "hyperbolic part (Bizzarri, Bo & Bartoň, Eq. 17; scene units; "
+                                                   "0 = none)",
                          default=0.0, unit='LENGTH')
 
 
@@ -628,8 +627,17 @@ def ui_props():
 
 
 class FLANK_PG_settings(bpy.types.PropertyGroup):
+    """The Flank Toolpath settings of a scene: the values the sidebar shows and the Run button passes on"""
+
     __annotations__ = {**generator_props(), **_prefixed("verify_", verify_props()),
                        **_prefixed("groove_", paraboloid_props()), **_prefixed("cutter_", formed_cutter_props()),
                        **_prefixed("df_", double_flank_props()),
                        **_prefixed("sf_", single_flank_props()), **_prefixed("ff_", freeform_props()),
                        **results_props(), **ui_props()}
+
+
+classes = (
+    FLANK_PG_flank,          # item type of FLANK_PG_settings.flank_list: registered first
+    FLANK_PG_settings,
+)
+register, unregister = bpy.utils.register_classes_factory(classes)

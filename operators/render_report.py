@@ -6,7 +6,7 @@ the file gains no data-block and the user's scenes are not touched."""
 import bpy
 from bpy.props import EnumProperty, IntProperty, StringProperty
 
-from .export import run_plan
+from .runs import run_plan
 
 ENGINE_ITEMS = (
     ("WORKBENCH", "Workbench", "Fast, flat studio lighting; the strips show their exact error colours", 0),
@@ -81,3 +81,4 @@ class FLANK_OT_render_report(bpy.types.Operator):
 
 
 classes = (FLANK_OT_render_report,)
+register, unregister = bpy.utils.register_classes_factory(classes)

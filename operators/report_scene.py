@@ -312,3 +312,7 @@ def render_freeform_report(plan, path, width=1280, height=800, tolerance=None, t
     geo = freeform_geometry(plan, tolerance)
     return render_plan_report(plan, path, width=width, height=height, tolerance=tolerance,
                               title=title or freeform_title(plan), geometry=geo, engine=engine, units=units)
+
+
+classes = ()
+register, unregister = bpy.utils.register_classes_factory(classes)

@@ -1,9 +1,21 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""flank.verify_plan -- simulate a flank-plan/1 file and paint the machined deviation on the rotor mesh."""
-import bpy
+"""flank.verify_plan -- simulate a flank-plan/1 file and paint the machined deviation on the rotor mesh.
 
-from .common import frame_along, new_mesh_from_arrays, remove_ids, revolved_mesh, set_color_attr, set_float_attr
+Point attributes written on the mesh: ``machined_deviation`` (FLOAT, signed deviation in the plan's length unit:
+> 0 material left, < 0 overcut; 1e9 where no tool reaches within the search range or the vertex is not on the
+plan's rotor surface) and ``machined_deviation_color`` (FLOAT_COLOR, made the active and render colour: red
+gouge, green within tolerance, blue stock, grey untouched).  The mesh is mapped into the plan's rotor frame with
+matrix_world and the inverse of rotor.to_world (model frame = Blender world coordinates)."""
+import json
+import os
+import time
+
+import bpy
+import numpy as np
+
+from .common import new_mesh_from_arrays, remove_attributes, remove_ids, set_color_attr, set_float_attr
 from .properties import verify_props
+from .shapes import axis_frame, revolved_mesh
 
 DEVIATION_ATTR = "machined_deviation"
 DEVIATION_COLOR_ATTR = "machined_deviation_color"
@@ -23,20 +35,13 @@ TOOLS_COLLECTION = "Verify Tools"
 MAX_STORED_GOUGES = 500  # gouge points kept in the flank_verify_summary JSON property
 
 
-def _remove_attributes(mesh):
-    for name in (DEVIATION_ATTR, DEVIATION_COLOR_ATTR):
-        attr = mesh.attributes.get(name)
-        if attr is not None:
-            mesh.attributes.remove(attr)
-
-
-def _write_attributes(np, mesh, values, rgba):
-    set_float_attr(np, mesh, DEVIATION_ATTR, values)
-    set_color_attr(np, mesh, DEVIATION_COLOR_ATTR, rgba)
+def _write_attributes(mesh, values, rgba):
+    set_float_attr(mesh, DEVIATION_ATTR, values)
+    set_color_attr(mesh, DEVIATION_COLOR_ATTR, rgba)
     mesh.update()
 
 
-def _tool_meshes(np, strip):
+def _tool_meshes(strip):
     """[(name, verts, faces)] of one strip in the rotor frame: cutter and shank (if any).
 
     The cutter is drawn from the strip's inscribed-sphere radii at equally spaced axis points
@@ -46,37 +51,94 @@ def _tool_meshes(np, strip):
     out = []
     a = np.asarray(strip["axis_start"], dtype=np.float64)
     radii = np.asarray(strip["radii"], dtype=np.float64)
-    rot, length = frame_along(np, a, strip["axis_end"])
-    if rot is None:
+    frame, length = axis_frame(a, strip["axis_end"])
+    if frame is None:
         r = float(radii.max())
         t = np.linspace(0.0, np.pi, 17)
-        verts, faces = revolved_mesh(np, np.c_[r * np.sin(t), r * np.cos(t)], 32)
+        verts, faces = revolved_mesh(np.c_[r * np.sin(t), r * np.cos(t)], 32)
         out.append(("cutter", verts + a, faces))
     else:
         h = np.linspace(0.0, length, len(radii))
-        rh = np.vstack([[0.0, length], np.c_[radii, h][::-1], [0.0, 0.0]])
-        verts, faces = revolved_mesh(np, rh, 32)
-        out.append(("cutter", verts @ rot.T + a, faces))
+        verts, faces = revolved_mesh(np.vstack([[0.0, length], np.c_[radii, h][::-1], [0.0, 0.0]]), 32)
+        out.append(("cutter", verts @ frame[:3, :3].T + a, faces))
     shank_r = float(strip.get("shank_radius", 0.0))
     if shank_r > 0.0:
         s0 = np.asarray(strip["shank_start"], dtype=np.float64)
-        rot, length = frame_along(np, s0, strip["shank_end"])
-        if rot is not None:
-            rh = [[0.0, length], [shank_r, length], [shank_r, 0.0], [0.0, 0.0]]
-            verts, faces = revolved_mesh(np, rh, 32)
-            out.append(("shank", verts @ rot.T + s0, faces))
+        frame, length = axis_frame(s0, strip["shank_end"])
+        if frame is not None:
+            verts, faces = revolved_mesh([[0.0, length], [shank_r, length], [shank_r, 0.0], [0.0, 0.0]], 32)
+            out.append(("shank", verts @ frame[:3, :3].T + s0, faces))
     return out
 
 
-class FLANK_OT_verify_plan(bpy.types.Operator):
-    """Verify a flank-plan/1 file by sweep simulation and paint the machined deviation on the active rotor mesh.
+def _read_plan(path):
+    """The plan file -> plan dict, or an error message."""
+    from ..flank_addon.io.plan import PlanError, read_plan
 
-    Point attributes written on the mesh: ``machined_deviation`` (FLOAT, signed deviation in the plan's
-    length unit: > 0 material left, < 0 overcut; 1e9 where no tool reaches within the search range or
-    the vertex is not on the plan's rotor surface) and ``machined_deviation_color`` (FLOAT_COLOR, made
-    the active and render colour: red gouge, green within tolerance, blue stock, grey untouched).
-    The mesh is mapped into the plan's rotor frame with matrix_world and the inverse of rotor.to_world
-    (model frame = Blender world coordinates)."""
+    if not path:
+        return "No plan file given (filepath is empty)"
+    if not os.path.isfile(path):
+        return "Plan file not found: '{}'".format(path)
+    try:
+        return read_plan(path)
+    except PlanError as ex:
+        return "Invalid plan file '{}': {}".format(os.path.basename(path), ex)
+    except (OSError, UnicodeDecodeError) as ex:
+        return "Cannot read plan file '{}': {}".format(path, ex)
+
+
+def _on_plan(obj, plan, res):
+    """(deviation per vertex (NaN where none), on-surface mask, its distance limit) of the mesh object mapped
+    into the plan's rotor frame: vertices off the plan's rotor surface get no deviation (end-cap centres, or the
+    wrong object / plan), measured from the vertex's helix to the nearest profile point."""
+    from scipy.spatial import cKDTree
+
+    from ..flank_addon.geometry.screw import screw_to_plane
+    from ..flank_addon.simulation.verify import values_on_rotor, world_to_rotor
+
+    mesh = obj.data
+    co = np.empty(len(mesh.vertices) * 3, dtype=np.float64)
+    mesh.vertices.foreach_get("co", co)
+    mw = np.array(obj.matrix_world, dtype=np.float64)
+    rotor_pts = world_to_rotor(plan, co.reshape(-1, 3) @ mw[:3, :3].T + mw[:3, 3])
+    dev_all = np.array([np.nan if d is None else d for d in res["deviation_all"]], dtype=np.float64)
+    values = values_on_rotor(plan, rotor_pts, dev_all)
+    rotor = plan["rotor"]
+    prof = np.asarray(rotor["profile"], dtype=np.float64)
+    dist, _ = cKDTree(prof).query(screw_to_plane(rotor_pts, float(rotor["v0"]), rotor["handedness"]))
+    spacing = float(np.linalg.norm(np.diff(np.vstack([prof, prof[:1]]), axis=0), axis=1).max())
+    max_dist = max(2.0 * spacing, 1e-2 * float(rotor["outer_radius"]))
+    return values, dist <= max_dist, max_dist
+
+
+def _store_props(obj, path, plan, res, search, reached, on_surface):
+    for key in VERIFY_PROP_KEYS:
+        if key in obj:
+            del obj[key]
+    obj["flank_verify_plan"] = path
+    obj["flank_verify_method"] = str(plan.get("method", ""))
+    obj["flank_verify_unit"] = plan["length_unit"]
+    obj["flank_verify_tolerance"] = float(res["tolerance"])
+    obj["flank_verify_search"] = search if search > 0.0 else 0.1 * float(plan["rotor"]["outer_radius"])
+    if res["max_undercut"] is not None:
+        obj["flank_verify_max_undercut"] = float(res["max_undercut"])
+    if res["max_overcut"] is not None:
+        obj["flank_verify_max_overcut"] = float(res["max_overcut"])
+    obj["flank_verify_gouges"] = len(res["gouge_points"])
+    obj["flank_verify_elapsed"] = float(res["elapsed_s"])
+    obj["flank_verify_reached"] = int(reached.sum())
+    obj["flank_verify_untouched"] = int((~reached).sum())
+    obj["flank_verify_off_surface"] = int((~on_surface).sum())
+    summary = {k: v for k, v in res.items() if k not in ("deviation_all", "deviation_profile")}
+    if len(summary["gouge_points"]) > MAX_STORED_GOUGES:  # keep the .blend small; the count is exact
+        summary["gouge_points"] = summary["gouge_points"][:MAX_STORED_GOUGES]
+        summary["gouge_points_truncated_to"] = MAX_STORED_GOUGES
+    obj["flank_verify_summary"] = json.dumps(summary)
+
+
+class FLANK_OT_verify_plan(bpy.types.Operator):
+    """Verify a flank-plan/1 file by sweep simulation and paint the machined deviation on the active rotor mesh
+    (red overcut, green within tolerance, blue material left, grey not reached)"""
 
     bl_idname = "flank.verify_plan"
     bl_label = "Verify Plan"
@@ -104,47 +166,28 @@ class FLANK_OT_verify_plan(bpy.types.Operator):
             return {'RUNNING_MODAL'}
         return self.execute(context)
 
-    def execute(self, context):
-        import json
-        import os
-        import time
-
-        import numpy as np
-        from scipy.spatial import cKDTree
-
-        from ..flank_addon.io.plan import PlanError, read_plan
-        from ..flank_addon.geometry.screw import screw_to_plane
-        from ..flank_addon.simulation.verify import deviation_colors, values_on_rotor, verify_plan, world_to_rotor
-
+    def _target(self, context):
+        """The mesh object to paint, or an error message."""
         obj = context.active_object
         if obj is None or obj.type != 'MESH':
-            self.report({'ERROR'}, "Select the rotor mesh object to verify the plan on")
-            return {'CANCELLED'}
+            return "Select the rotor mesh object to verify the plan on"
         if obj.mode != 'OBJECT':
-            self.report({'ERROR'}, "Switch '{}' to Object Mode before verifying".format(obj.name))
-            return {'CANCELLED'}
-        mesh = obj.data
-        if len(mesh.vertices) == 0:
-            self.report({'ERROR'}, "Mesh '{}' has no vertices".format(obj.name))
-            return {'CANCELLED'}
-        path = bpy.path.abspath(self.filepath) if self.filepath else ""
-        if not path:
-            self.report({'ERROR'}, "No plan file given (filepath is empty)")
-            return {'CANCELLED'}
-        if not os.path.isfile(path):
-            self.report({'ERROR'}, "Plan file not found: '{}'".format(path))
-            return {'CANCELLED'}
+            return "Switch '{}' to Object Mode before verifying".format(obj.name)
+        if len(obj.data.vertices) == 0:
+            return "Mesh '{}' has no vertices".format(obj.name)
+        return obj
 
+    def execute(self, context):
+        from ..flank_addon.io.plan import PlanError
+        from ..flank_addon.simulation.verify import deviation_colors, verify_plan
+
+        obj = self._target(context)
+        path = bpy.path.abspath(self.filepath) if self.filepath else ""
+        plan = _read_plan(path) if not isinstance(obj, str) else obj
+        if isinstance(plan, str):
+            self.report({'ERROR'}, plan)
+            return {'CANCELLED'}
         t0 = time.perf_counter()
-        try:
-            plan = read_plan(path)
-        except PlanError as ex:
-            self.report({'ERROR'}, "Invalid plan file '{}': {}".format(os.path.basename(path), ex))
-            return {'CANCELLED'}
-        except (OSError, UnicodeDecodeError) as ex:
-            self.report({'ERROR'}, "Cannot read plan file '{}': {}".format(path, ex))
-            return {'CANCELLED'}
-        unit = plan["length_unit"]
         # single-precision properties: recover the typed decimal (7 significant digits)
         tol_in, search_in = (float("{:.7g}".format(v)) for v in (self.tolerance, self.search))
         try:
@@ -156,29 +199,13 @@ class FLANK_OT_verify_plan(bpy.types.Operator):
         except Exception as ex:
             self.report({'ERROR'}, "Verification failed: {}: {}".format(type(ex).__name__, ex))
             return {'CANCELLED'}
-        tol = float(res["tolerance"])
-
         try:
-            n = len(mesh.vertices)
-            co = np.empty(n * 3, dtype=np.float64)
-            mesh.vertices.foreach_get("co", co)
-            mw = np.array(obj.matrix_world, dtype=np.float64)
-            world = co.reshape(n, 3) @ mw[:3, :3].T + mw[:3, 3]
-            rotor_pts = world_to_rotor(plan, world)
-            dev_all = np.array([np.nan if d is None else d for d in res["deviation_all"]], dtype=np.float64)
-            values = values_on_rotor(plan, rotor_pts, dev_all)
-            # vertices that are not on the plan's rotor surface get no deviation (end-cap centres, or the
-            # wrong object / plan): distance of the vertex's helix to the nearest profile point
-            rotor = plan["rotor"]
-            prof = np.asarray(rotor["profile"], dtype=np.float64)
-            dist, _ = cKDTree(prof).query(screw_to_plane(rotor_pts, float(rotor["v0"]), rotor["handedness"]))
-            spacing = float(np.linalg.norm(np.diff(np.vstack([prof, prof[:1]]), axis=0), axis=1).max())
-            max_dist = max(2.0 * spacing, 1e-2 * float(rotor["outer_radius"]))
-            on_surface = dist <= max_dist
+            values, on_surface, max_dist = _on_plan(obj, plan, res)
         except Exception as ex:
             self.report({'ERROR'}, "Could not map '{}' into the plan's rotor frame: {}: {}".format(
                 obj.name, type(ex).__name__, ex))
             return {'CANCELLED'}
+        n, unit = len(values), plan["length_unit"]
         if on_surface.mean() < 0.5:
             self.report({'ERROR'}, "Mesh '{}' does not lie on the plan's rotor: {} of {} vertices are farther "
                                    "than {:.4g} {} from the rotor surface (limit: at least half must lie on it; "
@@ -186,52 +213,16 @@ class FLANK_OT_verify_plan(bpy.types.Operator):
                                        obj.name, int((~on_surface).sum()), n, max_dist, unit))
             return {'CANCELLED'}
         values = np.where(on_surface, values, np.nan)
-        rgba = deviation_colors(values, tol)
         reached = np.isfinite(values)
-        stored = np.where(reached, values, UNTOUCHED)
-
         try:
-            _write_attributes(np, mesh, stored, rgba)
+            _write_attributes(obj.data, np.where(reached, values, UNTOUCHED),
+                              deviation_colors(values, float(res["tolerance"])))
         except Exception as ex:
-            _remove_attributes(mesh)
+            remove_attributes(obj.data, (DEVIATION_ATTR, DEVIATION_COLOR_ATTR))
             self.report({'ERROR'}, "Could not write the deviation attributes: {}".format(ex))
             return {'CANCELLED'}
-
-        ignored = [m.name for m in obj.modifiers if m.show_viewport]
-        if ignored:
-            self.report({'WARNING'}, "Painted the base mesh of '{}'; modifiers ignored: {}".format(
-                obj.name, ", ".join(ignored)))
-        tools_note = ""
-        if self.show_tools:
-            try:
-                count = self._add_tools(context, np, plan, obj)
-                tools_note = ", {} tool objects in '{}'".format(count, TOOLS_COLLECTION)
-            except Exception as ex:  # the deviation is written; the tools are an extra
-                self.report({'WARNING'}, "Could not add the tool objects: {}".format(ex))
-        dt = time.perf_counter() - t0
-
-        for key in VERIFY_PROP_KEYS:
-            if key in obj:
-                del obj[key]
-        obj["flank_verify_plan"] = path
-        obj["flank_verify_method"] = str(plan.get("method", ""))
-        obj["flank_verify_unit"] = unit
-        obj["flank_verify_tolerance"] = tol
-        obj["flank_verify_search"] = search_in if search_in > 0.0 else 0.1 * float(rotor["outer_radius"])
-        if res["max_undercut"] is not None:
-            obj["flank_verify_max_undercut"] = float(res["max_undercut"])
-        if res["max_overcut"] is not None:
-            obj["flank_verify_max_overcut"] = float(res["max_overcut"])
-        obj["flank_verify_gouges"] = len(res["gouge_points"])
-        obj["flank_verify_elapsed"] = float(res["elapsed_s"])
-        obj["flank_verify_reached"] = int(reached.sum())
-        obj["flank_verify_untouched"] = int((~reached).sum())
-        obj["flank_verify_off_surface"] = int((~on_surface).sum())
-        summary = {k: v for k, v in res.items() if k not in ("deviation_all", "deviation_profile")}
-        if len(summary["gouge_points"]) > MAX_STORED_GOUGES:  # keep the .blend small; the count is exact
-            summary["gouge_points"] = summary["gouge_points"][:MAX_STORED_GOUGES]
-            summary["gouge_points_truncated_to"] = MAX_STORED_GOUGES
-        obj["flank_verify_summary"] = json.dumps(summary)
+        tools_note = self._extras(context, plan, obj)
+        _store_props(obj, path, plan, res, search_in, reached, on_surface)
 
         def fmt(v):
             return "n/a" if v is None else "{:.4g} {}".format(v, unit)
@@ -239,30 +230,48 @@ class FLANK_OT_verify_plan(bpy.types.Operator):
         self.report({'INFO'}, "Verified '{}' with {}: max undercut {}, max overcut {}, {} gouge points, "
                               "tolerance {}, {}/{} vertices reached{}; simulation {:.2f}s, total {:.2f}s".format(
                                   obj.name, os.path.basename(path), fmt(res["max_undercut"]),
-                                  fmt(res["max_overcut"]), len(res["gouge_points"]), fmt(tol),
-                                  int(reached.sum()), n, tools_note, res["elapsed_s"], dt))
+                                  fmt(res["max_overcut"]), len(res["gouge_points"]), fmt(res["tolerance"]),
+                                  int(reached.sum()), n, tools_note, res["elapsed_s"], time.perf_counter() - t0))
         return {'FINISHED'}
 
-    def _add_tools(self, context, np, plan, rotor_obj):
-        """Strip tools as mesh objects (model = world frame) in a new collection; all or nothing."""
-        T = np.asarray(plan["rotor"]["to_world"], dtype=np.float64)
-        created_meshes, created_objects = [], []
-        coll = bpy.data.collections.new(TOOLS_COLLECTION)
+    def _extras(self, context, plan, obj):
+        """Warnings about ignored modifiers, and the tool objects when asked for -> note for the report."""
+        ignored = [m.name for m in obj.modifiers if m.show_viewport]
+        if ignored:
+            self.report({'WARNING'}, "Painted the base mesh of '{}'; modifiers ignored: {}".format(
+                obj.name, ", ".join(ignored)))
+        if not self.show_tools:
+            return ""
         try:
-            for k, strip in enumerate(plan["strips"]):
-                for part, verts, faces in _tool_meshes(np, strip):
-                    world = verts @ T[:3, :3].T + T[:3, 3]
-                    name = "Strip{:03d}_{}".format(k, part)
-                    me = new_mesh_from_arrays(bpy, np, name, world, faces)
-                    created_meshes.append(me)
-                    ob = bpy.data.objects.new(name, me)
-                    created_objects.append(ob)
-                    ob["flank_strip"] = k
-                    ob["flank_strip_flank"] = int(strip["flank"])
-                    ob.color = (0.9, 0.75, 0.2, 1.0) if part == "cutter" else (0.5, 0.5, 0.55, 1.0)
-                    coll.objects.link(ob)
-            context.scene.collection.children.link(coll)
-        except Exception:
-            remove_ids(bpy, created_objects, created_meshes, [coll])
-            raise
-        return len(created_objects)
+            return ", {} tool objects in '{}'".format(_add_tools(context, plan), TOOLS_COLLECTION)
+        except Exception as ex:  # the deviation is written; the tools are an extra
+            self.report({'WARNING'}, "Could not add the tool objects: {}".format(ex))
+            return ""
+
+
+def _add_tools(context, plan):
+    """Strip tools as mesh objects (model = world frame) in a new collection; all or nothing."""
+    T = np.asarray(plan["rotor"]["to_world"], dtype=np.float64)
+    created_meshes, created_objects = [], []
+    coll = bpy.data.collections.new(TOOLS_COLLECTION)
+    try:
+        for k, strip in enumerate(plan["strips"]):
+            for part, verts, faces in _tool_meshes(strip):
+                name = "Strip{:03d}_{}".format(k, part)
+                me = new_mesh_from_arrays(name, verts @ T[:3, :3].T + T[:3, 3], faces)
+                created_meshes.append(me)
+                ob = bpy.data.objects.new(name, me)
+                created_objects.append(ob)
+                ob["flank_strip"] = k
+                ob["flank_strip_flank"] = int(strip["flank"])
+                ob.color = (0.9, 0.75, 0.2, 1.0) if part == "cutter" else (0.5, 0.5, 0.55, 1.0)
+                coll.objects.link(ob)
+        context.scene.collection.children.link(coll)
+    except Exception:
+        remove_ids(created_objects, created_meshes, [coll])
+        raise
+    return len(created_objects)
+
+
+classes = (FLANK_OT_verify_plan,)
+register, unregister = bpy.utils.register_classes_factory(classes)

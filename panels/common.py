@@ -3,6 +3,7 @@
 
 The panels draw with box / column / row / label / prop / operator / menu / template_list only and read only
 ``context.scene`` and ``context.active_object`` (the headless tests call ``draw`` with those)."""
+import bpy
 
 SPACE, REGION, CATEGORY = 'VIEW_3D', 'UI', "Flank"
 
@@ -49,3 +50,7 @@ def list_prop(obj, key):
     if val is None:
         return []
     return list(val.to_list() if hasattr(val, "to_list") else val)
+
+
+classes = ()
+register, unregister = bpy.utils.register_classes_factory(classes)

@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Double Flank (s001) panel: plan one valley with a custom-shaped or conical tool, show the axis and errors."""
+"""Double-flank custom tool panel (Bizzarri & Bartoň 2021): plan one valley with a custom-shaped or conical tool,
+show the axis and errors."""
 import math
 
 import bpy
@@ -13,7 +14,7 @@ DF_GROUPS = (("valley", "variant"), ("tolerance",), ("radii", "rim", "samples", 
 
 class FLANK_PT_double_flank(bpy.types.Panel):
     bl_idname = "FLANK_PT_double_flank"
-    bl_label = "Double Flank (s001)"
+    bl_label = "Double-Flank Custom Tool"
     bl_space_type = SPACE
     bl_region_type = REGION
     bl_category = CATEGORY
@@ -53,3 +54,7 @@ class FLANK_PT_double_flank(bpy.types.Panel):
             col.label(text="Hausdorff: {}".format(", ".join("{:.4g}".format(h) for h in haus)))
         col.label(text="Optimisation {:.2f} s, total {:.2f} s".format(
             obj.get("flank_df_optimize_elapsed", 0.0), obj.get("flank_df_total_elapsed", 0.0)))
+
+
+classes = (FLANK_PT_double_flank,)
+register, unregister = bpy.utils.register_classes_factory(classes)

@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Formed Cutter (s004) panel: disc cutter for one tooth, its flags, motion and machined deviation."""
+"""Formed disc cutter panel (Hu, Zhou & Li 2025): disc cutter for one tooth, its flags, motion and machined
+deviation."""
 import bpy
 
 from .common import CATEGORY, REGION, SPACE, draw_settings, strategy_poll
@@ -11,7 +12,7 @@ CUTTER_GROUPS = (("source", "lead", "handedness"), ("centre_distance", "swivel")
 
 class FLANK_PT_formed_cutter(bpy.types.Panel):
     bl_idname = "FLANK_PT_formed_cutter"
-    bl_label = "Formed Disc Cutter (s004)"
+    bl_label = "Formed Disc Cutter"
     bl_space_type = SPACE
     bl_region_type = REGION
     bl_category = CATEGORY
@@ -50,3 +51,7 @@ class FLANK_PT_formed_cutter(bpy.types.Panel):
             obj.get("flank_cutter_max_abs_deviation", float("nan")), obj.get("flank_cutter_tolerance", float("nan"))))
         col.label(text="Cutter {:.2f} s, simulation {:.2f} s".format(
             obj.get("flank_cutter_elapsed", 0.0), obj.get("flank_cutter_sim_elapsed", 0.0)))
+
+
+classes = (FLANK_PT_formed_cutter,)
+register, unregister = bpy.utils.register_classes_factory(classes)

@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Free-form G1 (s003) panel: the guiding direction (typed, picked from an edge / the view / an Empty / the 3D
-cursor, or a vector attribute), the guiding-curve preview, the weights of Eq. (18) and the run's numbers."""
+"""Free-form G1 panel (Rajain et al. 2023): the guiding direction (typed, picked from an edge / the view / an
+Empty / the 3D cursor, or a vector attribute), the guiding-curve preview, the weights of Eq. (18) and the run's
+numbers."""
 import bpy
 
 from .common import CATEGORY, REGION, SPACE, draw_settings, strategy_poll
@@ -13,7 +14,7 @@ FF_GROUPS = (("selected_only", "flip_normals", "spacing", "engagement"),
 
 class FLANK_PT_freeform(bpy.types.Panel):
     bl_idname = "FLANK_PT_freeform"
-    bl_label = "Free-form G1 (s003)"
+    bl_label = "Free-form G1"
     bl_space_type = SPACE
     bl_region_type = REGION
     bl_category = CATEGORY
@@ -25,7 +26,7 @@ class FLANK_PT_freeform(bpy.types.Panel):
         return strategy_poll(context, "FREEFORM")
 
     def draw(self, context):
-        from ..operators.freeform import preview_message
+        from ..operators.guiding import preview_message
 
         layout = self.layout
         settings = getattr(context.scene, "flank_settings", None)
@@ -78,3 +79,7 @@ class FLANK_PT_freeform(bpy.types.Panel):
             coll.get("flank_ff_colliding_rulings", 0), coll.get("flank_ff_overhanging_samples", 0)))
         col.label(text="Core {:.2f} s, total {:.2f} s".format(coll.get("flank_ff_elapsed", 0.0),
                                                               coll.get("flank_ff_total_elapsed", 0.0)))
+
+
+classes = (FLANK_PT_freeform,)
+register, unregister = bpy.utils.register_classes_factory(classes)

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Paraboloid Groove (s002) panel: groove of a paraboloid end mill on a helix, section and overcut."""
+"""Paraboloid groove panel (Doğrusadık): groove of a paraboloid end mill on a helix, section and overcut."""
 import bpy
 
 from .common import CATEGORY, REGION, SPACE, draw_settings, strategy_poll
@@ -9,7 +9,7 @@ GROOVE_GROUPS = (("radius", "pitch", "turns"), ("part", "resolution"))     # the
 
 class FLANK_PT_paraboloid(bpy.types.Panel):
     bl_idname = "FLANK_PT_paraboloid"
-    bl_label = "Paraboloid Groove (s002)"
+    bl_label = "Paraboloid Groove"
     bl_space_type = SPACE
     bl_region_type = REGION
     bl_category = CATEGORY
@@ -38,3 +38,7 @@ class FLANK_PT_paraboloid(bpy.types.Panel):
         col.label(text="Equator radius: {:.6g}".format(obj.get("flank_groove_equator_radius", float("nan"))))
         col.label(text="Max overcut: {:.4g} at x = {:.6g}".format(
             obj["flank_groove_max_overcut"], obj.get("flank_groove_max_overcut_x", float("nan"))))
+
+
+classes = (FLANK_PT_paraboloid,)
+register, unregister = bpy.utils.register_classes_factory(classes)

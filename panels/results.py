@@ -18,8 +18,9 @@ class FLANK_PT_results(bpy.types.Panel):
     bl_order = 20
 
     def draw(self, context):
-        from ..operators.export import find_run
-        from ..operators.ui_ops import length_text, strip_rows
+        from ..operators.runs import find_run
+        from ..operators.strips import strip_rows
+        from ..operators.units import length_text
 
         layout = self.layout
         settings = getattr(context.scene, "flank_settings", None)
@@ -77,3 +78,7 @@ class FLANK_PT_results(bpy.types.Panel):
         col.operator("flank.render_report", icon='RENDER_STILL').collection = coll.name
         if pre != "flank_ff_":                  # a free-form run has no flank profile
             col.operator("flank.error_plot", icon='GRAPH').collection = coll.name
+
+
+classes = (FLANK_PT_results,)
+register, unregister = bpy.utils.register_classes_factory(classes)

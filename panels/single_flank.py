@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Single Flank (s000) panel: plan one flank with strips of a conical tool, show the strips and errors."""
+"""Single-flank conical panel (Bizzarri, Bo & Bartoň): plan one flank with strips of a conical tool, show the
+strips and errors."""
 import bpy
 
 from .common import CATEGORY, REGION, SPACE, draw_settings, list_prop as _list, strategy_poll
@@ -12,7 +13,7 @@ SF_GROUPS = (("flank", "use_point", "point"), ("tolerance", "overcut_tolerance")
 
 class FLANK_PT_single_flank(bpy.types.Panel):
     bl_idname = "FLANK_PT_single_flank"
-    bl_label = "Single Flank (s000)"
+    bl_label = "Single-Flank Conical"
     bl_space_type = SPACE
     bl_region_type = REGION
     bl_category = CATEGORY
@@ -52,3 +53,7 @@ class FLANK_PT_single_flank(bpy.types.Panel):
         col.label(text="Largest kink {:.3g} deg".format(obj.get("flank_sf_kink_max_deg", 0.0)))
         col.label(text="Core {:.2f} s, total {:.2f} s".format(obj.get("flank_sf_elapsed", 0.0),
                                                               obj.get("flank_sf_total_elapsed", 0.0)))
+
+
+classes = (FLANK_PT_single_flank,)
+register, unregister = bpy.utils.register_classes_factory(classes)

@@ -44,7 +44,8 @@ class FLANK_PT_run(bpy.types.Panel):
 
     def draw(self, context):
         from ..operators.properties import STRATEGY_ITEMS, STRATEGY_TOOLS
-        from ..operators.ui_ops import run_call, workpiece_object
+        from ..operators.sources import surface_object, workpiece_object
+        from ..operators.ui_ops import run_call
 
         layout = self.layout
         settings = getattr(context.scene, "flank_settings", None)
@@ -60,9 +61,7 @@ class FLANK_PT_run(bpy.types.Panel):
             col.label(text="{} of '{}'".format(what, rotor.name) if rotor is not None else "Select a rotor",
                       icon='OBJECT_DATA' if rotor is not None else 'ERROR')
         elif settings.strategy == "FREEFORM":
-            from ..operators.freeform import _source_object
-
-            obj = _source_object(context)
+            obj = surface_object(context)
             ok = obj is not None and obj.type == 'MESH'
             col.label(text="{}'{}'".format("selected faces of " if kw["selected_only"] else "", obj.name) if ok
                       else "Select the surface mesh", icon='OBJECT_DATA' if ok else 'ERROR')
@@ -73,3 +72,7 @@ class FLANK_PT_run(bpy.types.Panel):
         op = row.operator(idname, text="Run " + name, icon='PLAY')
         for key, value in kw.items():
             setattr(op, key, value)
+
+
+classes = (FLANK_PT_strategy, FLANK_PT_run)
+register, unregister = bpy.utils.register_classes_factory(classes)

@@ -23,8 +23,8 @@ class FLANK_PT_tool(bpy.types.Panel):
     bl_order = 5
 
     def draw(self, context):
-        from ..operators.properties import CYLINDER_TAPER
-        from ..operators.ui_ops import length_text
+        from ..operators.tool_settings import CYLINDER_TAPER
+        from ..operators.units import length_text
 
         layout = self.layout
         settings = getattr(context.scene, "flank_settings", None)
@@ -76,14 +76,14 @@ class FLANK_PT_tool(bpy.types.Panel):
                 if len(rr) == 2:
                     layout.label(text="Newest: {} .. {} ({})".format(length_text(rr[0], scene),
                                                                      length_text(rr[1], scene), tool.name))
-            layout.label(text="Shaped by the double-flank planner (s001)", icon='INFO')
+            layout.label(text="Shaped by the double-flank planner", icon='INFO')
         elif kind == "DISC":
             cutter = _newest(lambda ob: "flank_cutter_r_range" in ob)
             if cutter is not None:
                 rr = list_prop(cutter, "flank_cutter_r_range")
                 if len(rr) == 2:
                     layout.label(text="Newest: radius {:.6g} .. {:.6g} ({})".format(rr[0], rr[1], cutter.name))
-            layout.label(text="Profile from the formed-cutter planner (s004)", icon='INFO')
+            layout.label(text="Profile from the formed disc cutter planner", icon='INFO')
         elif kind == "PARABOLOID":
             col = layout.column(align=True)
             col.prop(settings, "groove_a")
@@ -100,9 +100,13 @@ class FLANK_PT_tool(bpy.types.Panel):
         layout.use_property_split = False
         row = layout.row(align=True)
         row.operator("flank.preview_tool", icon='HIDE_OFF')
-        if kind == "CONE":                      # s000 Sec. 4: flank and cone from the sf_* settings
+        if kind == "CONE":                      # Bizzarri, Bo & Bartoň Sec. 4: flank and cone from the sf_* settings
             row.operator("flank.cutter_region", text="Check Tool", icon='CHECKMARK')
         elif kind == "CYLINDER":                # checked as the cone it is planned as (see ui_ops.run_call)
             op = row.operator("flank.cutter_region", text="Check Tool", icon='CHECKMARK')
             r, h = settings.sf_r1, settings.sf_length
             op.r1, op.r2, op.alpha = r, r + h * math.tan(CYLINDER_TAPER), CYLINDER_TAPER
+
+
+classes = (FLANK_PT_tool,)
+register, unregister = bpy.utils.register_classes_factory(classes)

@@ -36,3 +36,7 @@ class FLANK_PT_verify(bpy.types.Panel):
         col.label(text="Vertices reached: {} (untouched {})".format(
             obj.get("flank_verify_reached", 0), obj.get("flank_verify_untouched", 0)))
         col.label(text="Simulation: {:.2f} s".format(obj.get("flank_verify_elapsed", 0.0)))
+
+
+classes = (FLANK_PT_verify,)
+register, unregister = bpy.utils.register_classes_factory(classes)

@@ -17,7 +17,7 @@ class FLANK_PT_workpiece(bpy.types.Panel):
     bl_order = 0
 
     def draw(self, context):
-        from ..operators.ui_ops import workpiece_object
+        from ..operators.sources import workpiece_object
 
         layout = self.layout
         settings = getattr(context.scene, "flank_settings", None)
@@ -87,3 +87,7 @@ class FLANK_PT_workpiece(bpy.types.Panel):
         else:
             layout.label(text="Target: flank {} (valley {})".format(settings.sf_flank, settings.df_valley),
                          icon='RESTRICT_SELECT_OFF')
+
+
+classes = (FLANK_PT_workpiece,)
+register, unregister = bpy.utils.register_classes_factory(classes)

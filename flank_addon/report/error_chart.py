@@ -8,161 +8,44 @@ colour :func:`verify.deviation_colors` gives the error at that pixel (red overcu
 blue material left; the shade deepens with the distance from the band), encoded as sRGB like the report
 picture (``report_render.srgb_bytes``), so that an 8-bit image or PNG holds exactly these values.
 
-Text is drawn with a small 5 x 8 bitmap font defined below (no font files, no matplotlib, no PIL).
+The chart's text is not drawn here: the picture comes with a list of text items (string, anchor pixel,
+baseline, size, alignment, colour) that the caller draws in a real font (Blender's, in ``flank.error_plot``).
+The layout reserves room for them with an estimate of their width (:func:`text_width`).
 
 * :func:`error_profile` -- the data: the verify engine's deviation on the target flanks of a flank-plan/1
   (the same numbers as the error-profile CSV export), ordered along the profile, with the strip that forms
   the machined surface at each point.
 * :func:`plot_layout` -- where the axes go for given data and image size (also used by the tests).
-* :func:`render_error_plot` -- the (H, W, 4) float32 RGBA picture, top row first.
+* :func:`render_error_plot` -- the (H, W, 4) float32 RGBA picture, top row first, and its text items.
 * :func:`plan_error_plot` -- both for a plan, as the Blender operator ``flank.error_plot`` uses them.
 """
 import math
 
 import numpy as np
 
-# ------------------------------------------------------------------------------------------- the font
-# 5 columns x 8 rows per glyph, '#' = ink.  Capitals and digits use rows 0-6 (row 6 = baseline), the
-# descenders of g, j, p, q, y and µ use row 7.
-_GLYPH_ROWS = {
-    " ": ".....|.....|.....|.....|.....|.....|.....",
-    "0": ".###.|#...#|#..##|#.#.#|##..#|#...#|.###.",
-    "1": "..#..|.##..|..#..|..#..|..#..|..#..|.###.",
-    "2": ".###.|#...#|....#|...#.|..#..|.#...|#####",
-    "3": "#####|...#.|..#..|...#.|....#|#...#|.###.",
-    "4": "...#.|..##.|.#.#.|#..#.|#####|...#.|...#.",
-    "5": "#####|#....|####.|....#|....#|#...#|.###.",
-    "6": "..##.|.#...|#....|####.|#...#|#...#|.###.",
-    "7": "#####|....#|...#.|..#..|.#...|.#...|.#...",
-    "8": ".###.|#...#|#...#|.###.|#...#|#...#|.###.",
-    "9": ".###.|#...#|#...#|.####|....#|...#.|.##..",
-    "A": ".###.|#...#|#...#|#####|#...#|#...#|#...#",
-    "B": "####.|#...#|#...#|####.|#...#|#...#|####.",
-    "C": ".###.|#...#|#....|#....|#....|#...#|.###.",
-    "D": "###..|#..#.|#...#|#...#|#...#|#..#.|###..",
-    "E": "#####|#....|#....|####.|#....|#....|#####",
-    "F": "#####|#....|#....|####.|#....|#....|#....",
-    "G": ".###.|#...#|#....|#.###|#...#|#...#|.####",
-    "H": "#...#|#...#|#...#|#####|#...#|#...#|#...#",
-    "I": ".###.|..#..|..#..|..#..|..#..|..#..|.###.",
-    "J": "..###|...#.|...#.|...#.|...#.|#..#.|.##..",
-    "K": "#...#|#..#.|#.#..|##...|#.#..|#..#.|#...#",
-    "L": "#....|#....|#....|#....|#....|#....|#####",
-    "M": "#...#|##.##|#.#.#|#.#.#|#...#|#...#|#...#",
-    "N": "#...#|#...#|##..#|#.#.#|#..##|#...#|#...#",
-    "O": ".###.|#...#|#...#|#...#|#...#|#...#|.###.",
-    "P": "####.|#...#|#...#|####.|#....|#....|#....",
-    "Q": ".###.|#...#|#...#|#...#|#.#.#|#..#.|.##.#",
-    "R": "####.|#...#|#...#|####.|#.#..|#..#.|#...#",
-    "S": ".####|#....|#....|.###.|....#|....#|####.",
-    "T": "#####|..#..|..#..|..#..|..#..|..#..|..#..",
-    "U": "#...#|#...#|#...#|#...#|#...#|#...#|.###.",
-    "V": "#...#|#...#|#...#|#...#|#...#|.#.#.|..#..",
-    "W": "#...#|#...#|#...#|#.#.#|#.#.#|#.#.#|.#.#.",
-    "X": "#...#|#...#|.#.#.|..#..|.#.#.|#...#|#...#",
-    "Y": "#...#|#...#|.#.#.|..#..|..#..|..#..|..#..",
-    "Z": "#####|....#|...#.|..#..|.#...|#....|#####",
-    "a": ".....|.....|.###.|....#|.####|#...#|.####",
-    "b": "#....|#....|#.##.|##..#|#...#|#...#|####.",
-    "c": ".....|.....|.###.|#....|#....|#...#|.###.",
-    "d": "....#|....#|.##.#|#..##|#...#|#...#|.####",
-    "e": ".....|.....|.###.|#...#|#####|#....|.###.",
-    "f": "..##.|.#..#|.#...|###..|.#...|.#...|.#...",
-    "g": ".....|.....|.####|#...#|#...#|.####|....#|.###.",
-    "h": "#....|#....|#.##.|##..#|#...#|#...#|#...#",
-    "i": "..#..|.....|.##..|..#..|..#..|..#..|.###.",
-    "j": "...#.|.....|..##.|...#.|...#.|...#.|#..#.|.##..",
-    "k": "#....|#....|#..#.|#.#..|##...|#.#..|#..#.",
-    "l": ".##..|..#..|..#..|..#..|..#..|..#..|.###.",
-    "m": ".....|.....|##.#.|#.#.#|#.#.#|#.#.#|#.#.#",
-    "n": ".....|.....|#.##.|##..#|#...#|#...#|#...#",
-    "o": ".....|.....|.###.|#...#|#...#|#...#|.###.",
-    "p": ".....|.....|####.|#...#|#...#|####.|#....|#....",
-    "q": ".....|.....|.####|#...#|#...#|.####|....#|....#",
-    "r": ".....|.....|#.##.|##..#|#....|#....|#....",
-    "s": ".....|.....|.###.|#....|.###.|....#|####.",
-    "t": ".#...|.#...|###..|.#...|.#...|.#..#|..##.",
-    "u": ".....|.....|#...#|#...#|#...#|#..##|.##.#",
-    "v": ".....|.....|#...#|#...#|#...#|.#.#.|..#..",
-    "w": ".....|.....|#...#|#...#|#.#.#|#.#.#|.#.#.",
-    "x": ".....|.....|#...#|.#.#.|..#..|.#.#.|#...#",
-    "y": ".....|.....|#...#|#...#|#...#|.####|....#|.###.",
-    "z": ".....|.....|#####|...#.|..#..|.#...|#####",
-    "µ": ".....|.....|#...#|#...#|#...#|##..#|#.##.|#....",
-    ".": ".....|.....|.....|.....|.....|.##..|.##..",
-    ",": ".....|.....|.....|.....|.....|.##..|..#..|.#...",
-    "-": ".....|.....|.....|#####|.....|.....|.....",
-    "+": ".....|..#..|..#..|#####|..#..|..#..|.....",
-    "±": "..#..|..#..|#####|..#..|..#..|.....|#####",
-    ":": ".....|.##..|.##..|.....|.##..|.##..|.....",
-    "%": "##...|##..#|...#.|..#..|.#...|#..##|...##",
-    "(": "...#.|..#..|.#...|.#...|.#...|..#..|...#.",
-    ")": ".#...|..#..|...#.|...#.|...#.|..#..|.#...",
-    "[": ".###.|.#...|.#...|.#...|.#...|.#...|.###.",
-    "]": ".###.|...#.|...#.|...#.|...#.|...#.|.###.",
-    "/": ".....|....#|...#.|..#..|.#...|#....|.....",
-    "=": ".....|.....|#####|.....|#####|.....|.....",
-    "<": "...#.|..#..|.#...|#....|.#...|..#..|...#.",
-    ">": ".#...|..#..|...#.|....#|...#.|..#..|.#...",
-    "_": ".....|.....|.....|.....|.....|.....|.....|#####",
-    "'": "..#..|..#..|.#...|.....|.....|.....|.....",
-    "|": "..#..|..#..|..#..|..#..|..#..|..#..|..#..",
-    "°": ".##..|#..#.|#..#.|.##..|.....|.....|.....",
-    "#": ".#.#.|.#.#.|#####|.#.#.|#####|.#.#.|.#.#.",
-    "*": ".....|..#..|#.#.#|.###.|#.#.#|..#..|.....",
-    "?": ".###.|#...#|....#|...#.|..#..|.....|..#..",
-    ";": ".....|.##..|.##..|.....|.##..|..#..|.#...",
-    "$": "..#..|.####|#.#..|.###.|..#.#|####.|..#..",
-}
-GLYPH_W, GLYPH_H = 5, 8
-ADVANCE = GLYPH_W + 1          # font units per character (one empty column between glyphs)
-LINE = GLYPH_H + 2             # font units per text line
-
-
-def _parse_glyph(rows):
-    lines = rows.split("|")
-    lines += ["....."] * (GLYPH_H - len(lines))
-    if len(lines) != GLYPH_H or any(len(r) != GLYPH_W or set(r) - {".", "#"} for r in lines):
-        raise ValueError("malformed glyph {!r}".format(rows))
-    return np.array([[c == "#" for c in r] for r in lines], dtype=bool)
-
-
-FONT = {ch: _parse_glyph(rows) for ch, rows in _GLYPH_ROWS.items()}
-FONT["\u03bc"] = FONT["µ"]                     # Greek mu looks the same as the micro sign
-
-
-def glyph(ch):
-    """(8, 5) bool bitmap of a character; '?' for characters the font lacks."""
-    return FONT.get(ch, FONT["?"])
+# ------------------------------------------------------------------------------------------- text
+# The text items' metrics at font scale 1, in pixels: a font of size FONT_SIZE has capitals about CAP high; one
+# line of text takes LINE; CHAR_ADVANCE per character is a generous estimate of the drawn width (digits of
+# Blender's font at this size are 4.9 px wide), so the layout keeps room for any label.
+FONT_SIZE = 10
+CAP = 7
+LINE = 10
+CHAR_ADVANCE = 6
 
 
 def text_width(text, scale=1):
-    """Width in pixels of one line of ``text`` at an integer ``scale``."""
-    return max(0, len(text) * ADVANCE - 1) * int(scale)
+    """Estimated width in pixels of one line of ``text`` at an integer ``scale`` (room the layout keeps)."""
+    return max(0, len(text) * CHAR_ADVANCE - 1) * int(scale)
 
 
-def draw_text(img, text, x, y, rgba, scale=1, align="left"):
-    """Draw one line of text into ``img`` (H, W, C) with its top-left corner at pixel (x, y) (``align``
-    'center' / 'right': x is the middle / right end).  Clipped at the image border; returns the width."""
+def text_item(text, x, y, rgba, scale=1, align="left", role=""):
+    """A text item for the caller to draw: ``text`` whose capitals fill the rows y .. y + CAP * scale (so its
+    baseline is row ``baseline``), anchored at column ``x`` (``align`` 'left', 'center' or 'right': x is the
+    left end, the middle or the right end), font size ``size`` pixels, colour ``color`` (RGBA, encoded as the
+    picture's pixels), and what it is (``role``)."""
     s = int(scale)
-    w = text_width(text, s)
-    if align == "center":
-        x -= w // 2
-    elif align == "right":
-        x -= w
-    H, W = img.shape[:2]
-    col = np.asarray(rgba, dtype=img.dtype)[: img.shape[2]]
-    for k, ch in enumerate(text):
-        g = glyph(ch)
-        if not g.any():
-            continue
-        big = np.kron(g, np.ones((s, s), dtype=bool))
-        x0, y0 = int(x) + k * ADVANCE * s, int(y)
-        ys, xs = np.nonzero(big)
-        ys, xs = ys + y0, xs + x0
-        keep = (ys >= 0) & (ys < H) & (xs >= 0) & (xs < W)
-        img[ys[keep], xs[keep]] = col
-    return w
+    return dict(text=str(text), x=float(x), baseline=float(y + CAP * s), top=float(y), size=float(FONT_SIZE * s),
+                align=align, color=tuple(float(c) for c in rgba), role=role, width=float(text_width(text, s)))
 
 
 # ------------------------------------------------------------------------------------------- colours
@@ -408,13 +291,14 @@ def _curve_pixels(cx, cy, values, groups):
 
 def render_error_plot(x, y, tolerance, width=960, height=540, unit="", title="", x_label="", x_range=None,
                       groups=None, group_labels=None, line_width=None, legend=True, note="", fit_data=False):
-    """The error-along-profile chart as an (height, width, 4) float32 RGBA array, row 0 = top, values k/255
-    (sRGB-encoded: what an 8-bit image or PNG stores).
+    """The error-along-profile chart -> (picture, text items): the picture is an (height, width, 4) float32 RGBA
+    array, row 0 = top, values k/255 (sRGB-encoded: what an 8-bit image or PNG stores) without any text; the
+    text items (:func:`text_item`) are the labels, title and legend for the caller to draw in a font.
 
     ``x`` (N,): position along the profile (e.g. % of arc length); ``y`` (N,): signed error in ``unit``
     (positive = material left); NaN in y = no error there (not drawn; a grey tick at the bottom of the chart
     marks it); ``tolerance`` > 0 in ``unit``.  ``groups`` (N,) ints: consecutive points are joined only
-    within a group (one curve per strip; default one group); ``group_labels``: group -> text drawn above
+    within a group (one curve per strip; default one group); ``group_labels``: group -> text shown above
     each of its stretches when there is room; ``note``: text right-aligned above the chart; ``fit_data``:
     the y range fits the errors alone (see :func:`plot_layout`).  Raises ValueError for no finite point, a bad tolerance or an
     image size outside 200 x 150 .. 8192 x 8192."""
@@ -488,6 +372,7 @@ def render_error_plot(x, y, tolerance, width=960, height=540, unit="", title="",
     if len(lr):
         _stamp(img, lr, lc, curve_colors(lv, tolerance), lw + 2, lay.box)
 
+    texts = []
     if group_labels:
         bounds = np.r_[0, np.flatnonzero(g[idx][1:] != g[idx][:-1]) + 1, len(idx)] if len(idx) else []
         for a, b in zip(bounds[:-1], bounds[1:]):
@@ -496,50 +381,76 @@ def render_error_plot(x, y, tolerance, width=960, height=540, unit="", title="",
                 continue
             ca, cb = cx[idx[a]], cx[idx[b - 1]]
             if cb - ca >= text_width(text, fs) + 2 * fs:
-                draw_text(img, text, int(round(0.5 * (ca + cb))), y0 + 2 * fs, ink, fs, "center")
+                texts.append(text_item(text, int(round(0.5 * (ca + cb))), y0 + 2 * fs, ink, fs, "center", "group"))
 
-    # frame, ticks, tick labels
+    # frame, ticks
     _hline(img, y0 - 1, x0 - 1, x1 + 1, ink)
     _hline(img, y1 + 1, x0 - 1, x1 + 1, ink)
     _vline(img, x0 - 1, y0 - 1, y1 + 1, ink)
     _vline(img, x1 + 1, y0 - 1, y1 + 1, ink)
     tk = lay.tick_length
-    for v, t in zip(lay.y_ticks, lay.y_labels):
-        r = int(np.rint(lay.row(v)))
-        img[r, x0 - 1 - tk:x0 - 1] = ink
-        draw_text(img, t, x0 - 2 - tk - 2 * fs, r - 3 * fs, ink, fs, "right")
-    for v, t in zip(lay.x_ticks, lay.x_labels):
-        c = int(np.rint(lay.col(v)))
-        img[y1 + 2:y1 + 2 + tk, c] = ink
-        draw_text(img, t, c, y1 + 2 + tk + 2 * fs, ink, fs, "center")
+    for v in lay.y_ticks:
+        img[int(np.rint(lay.row(v))), x0 - 1 - tk:x0 - 1] = ink
+    for v in lay.x_ticks:
+        img[y1 + 2:y1 + 2 + tk, int(np.rint(lay.col(v)))] = ink
+    legend_items = _legend_items(tol, lay.y_unit, miss.any()) if legend else []
+    _legend_swatches(img, lay, legend_items)
+    return img, texts + _axis_text(lay, ink, x_label, note, title, legend_items)
+
+
+def _legend_items(tol, unit, missing):
+    """[(linear RGBA of the swatch, text)] of the legend: verify's colour classes."""
+    from ..simulation.verify import DEVIATION_COLORS
+
+    tol_txt = "{:.3g} {}".format(tol, unit).strip()
+    items = [(DEVIATION_COLORS["gouge"], "overcut"), (DEVIATION_COLORS["ok"], "within ±" + tol_txt),
+             (DEVIATION_COLORS["stock"], "material left")]
+    if missing:
+        items.append((DEVIATION_COLORS["untouched"], "no tool"))
+    return items
+
+
+def _legend_positions(lay, items):
+    """Top-left pixel of each legend swatch and of its text, in a row under the title."""
+    fs, sw = lay.font_scale, 7 * lay.font_scale
+    xl, yl = lay.pad, lay.pad + LINE * lay.title_scale + 2 * fs
+    out = []
+    for _, text in items:
+        out.append(((xl, yl), (xl + sw + 3 * fs, yl)))
+        xl += sw + 3 * fs + text_width(text, fs) + 12 * fs
+    return out
+
+
+def _legend_swatches(img, lay, items):
+    sw = 7 * lay.font_scale
+    for (rgba, _), ((xs, ys), _) in zip(items, _legend_positions(lay, items)):
+        img[ys:ys + sw, xs:xs + sw] = srgb(rgba)
+
+
+def _axis_text(lay, ink, x_label, note, title, legend_items):
+    """Text items of the tick labels, the axis labels, the note, the title and the legend."""
+    x0, y0, x1, y1 = lay.box
+    fs, tk, pad, ts = lay.font_scale, lay.tick_length, lay.pad, lay.title_scale
+    texts = [text_item(t, x0 - 2 - tk - 2 * fs, int(np.rint(lay.row(v))) - 3 * fs, ink, fs, "right", "y_tick")
+             for v, t in zip(lay.y_ticks, lay.y_labels)]
+    texts += [text_item(t, int(np.rint(lay.col(v))), y1 + 2 + tk + 2 * fs, ink, fs, "center", "x_tick")
+              for v, t in zip(lay.x_ticks, lay.x_labels)]
     if x_label:
-        draw_text(img, x_label, (x0 + x1) // 2, y1 + 2 + tk + 2 * fs + LINE * fs + fs, ink, fs, "center")
+        texts.append(text_item(x_label, (x0 + x1) // 2, y1 + 2 + tk + 2 * fs + LINE * fs + fs, ink, fs, "center",
+                               "x_label"))
     # y axis caption above the axis, title and legend at the top
-    pad, ts = lay.pad, lay.title_scale
     caption = "error ({}), + = material left".format(lay.y_unit) if lay.y_unit else "error, + = material left"
-    draw_text(img, caption, pad, y0 - LINE * fs - 4 * fs, ink, fs)
+    texts.append(text_item(caption, pad, y0 - LINE * fs - 4 * fs, ink, fs, "left", "caption"))
     if note:
-        draw_text(img, note, x1 + 1, y0 - LINE * fs - 4 * fs, ink, fs, "right")
+        texts.append(text_item(note, x1 + 1, y0 - LINE * fs - 4 * fs, ink, fs, "right", "note"))
     if title:
         t = title
-        while text_width(t, ts) > w - 2 * pad and len(t) > 4:
+        while text_width(t, ts) > lay.width - 2 * pad and len(t) > 4:
             t = t[:-4] + "..."
-        draw_text(img, t, pad, pad, ink, ts)
-    if legend:
-        from ..simulation.verify import DEVIATION_COLORS
-
-        tol_txt = "{:.3g} {}".format(tol, lay.y_unit).strip()
-        items = [(DEVIATION_COLORS["gouge"], "overcut"), (DEVIATION_COLORS["ok"], "within ±" + tol_txt),
-                 (DEVIATION_COLORS["stock"], "material left")]
-        if miss.any():
-            items.append((DEVIATION_COLORS["untouched"], "no tool"))
-        xl, yl = pad, pad + LINE * ts + 2 * fs
-        for rgba, text in items:
-            sw = 7 * fs
-            img[yl:yl + sw, xl:xl + sw] = srgb(rgba)
-            xl += sw + 3 * fs
-            xl += draw_text(img, text, xl, yl, ink, fs) + 12 * fs
-    return img
+        texts.append(text_item(t, pad, pad, ink, ts, "left", "title"))
+    for (_, text), (_, (xt, yt)) in zip(legend_items, _legend_positions(lay, legend_items)):
+        texts.append(text_item(text, xt, yt, ink, fs, "left", "legend"))
+    return texts
 
 
 def to_blender_pixels(rgba):
@@ -632,7 +543,7 @@ def plan_error_plot(plan, units=(1.0, None), width=960, height=540, per_strip=Tr
     :func:`error_profile`; ``data`` = an :func:`error_profile` result to reuse.  ``per_strip``: one curve per
     strip (broken where the next strip forms the surface, labelled S1, S2, ...), else one combined curve per
     flank run.  ``info``: the layout (:meth:`PlotLayout.as_dict`), the unit, tolerance and extreme errors in
-    the displayed unit, the point counts and the title."""
+    the displayed unit, the point counts, the title and the text items to draw on the picture (``texts``)."""
     if data is None:
         data = error_profile(plan, tolerance=tolerance)
     factor, unit = float(units[0]), units[1] if units[1] is not None else data["length_unit"]
@@ -654,10 +565,10 @@ def plan_error_plot(plan, units=(1.0, None), width=960, height=540, per_strip=Tr
     f, u = lay.y_factor, lay.y_unit
     hi, lo = float(np.nanmax(y)) * f, float(np.nanmin(y)) * f
     note = "max {:+.3g} {}, min {:+.3g} {}".format(hi, u, lo, u).replace("+0 ", "0 ")
-    rgba = render_error_plot(data["x"], y, tol, width=width, height=height, unit=unit, title=title,
-                             x_label=X_LABEL, x_range=(0.0, 100.0), groups=groups, group_labels=labels,
-                             note=note, fit_data=fit_data)
+    rgba, texts = render_error_plot(data["x"], y, tol, width=width, height=height, unit=unit, title=title,
+                                    x_label=X_LABEL, x_range=(0.0, 100.0), groups=groups, group_labels=labels,
+                                    note=note, fit_data=fit_data)
     info = dict(layout=lay.as_dict(), unit=u, tolerance=tol * f, title=title, note=note,
                 points=int(len(y)), finite_points=int(fin.sum()), max_error=hi, min_error=lo,
-                per_strip=bool(per_strip), curves=len(np.unique(groups[fin])), fit_data=bool(fit_data))
+                per_strip=bool(per_strip), curves=len(np.unique(groups[fin])), fit_data=bool(fit_data), texts=texts)
     return rgba, info

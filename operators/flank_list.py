@@ -1,0 +1,192 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The Workpiece panel's flank list and flank picking: every flank of the rotor with its valley and the hyperbolic
+share of its profile (the Dupin analysis of Bizzarri, Bo & Bartoň, Sec. 4.1), the flank nearest to the 3D cursor,
+and the flank under the selected faces."""
+from collections import Counter
+
+import bpy
+import numpy as np
+from bpy.props import IntProperty
+
+from .common import count_limit_error
+from .sources import rotor_source, to_rotor_frame, workpiece_object
+from .units import length_text
+
+
+def _profile_distance(surface, p_rotor):
+    """Distance (rotor units) of a rotor-frame point from the rotor surface, measured in its transverse section
+    after screwing it into z = 0."""
+    from ..flank_addon.geometry.screw import screw_to_plane
+
+    q0 = screw_to_plane(np.asarray(p_rotor, float).reshape(1, 3), surface.v0, surface.hand)[0]
+    prof = surface.profile
+    return float(np.min(np.linalg.norm(prof.eval(prof.params(8192)) - q0[:2], axis=1)))
+
+
+def _settings(op, context, what):
+    settings = getattr(context.scene, "flank_settings", None)
+    if settings is None:
+        op.report({'ERROR'}, "{}: the Flank settings are not registered".format(what))
+    return settings
+
+
+def _rotor(obj, edit_mode_ok=False):
+    if obj is None:
+        return "Select a rotor (made by Generate Rotor, or a mesh after Analyze Rotor)"
+    return rotor_source(obj, "flank_ui_", edit_mode_ok)
+
+
+class FLANK_UL_flanks(bpy.types.UIList):
+    """Flanks of the workpiece: index, valley and the hyperbolic share of its profile."""
+
+    def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index=0, flt_flag=0):
+        row = layout.row(align=True)
+        row.label(text="Flank {}".format(item.flank), icon='MOD_SCREW')
+        row.label(text="valley {}".format(item.valley))
+        row.label(text="hyperbolic {:.0f} %".format(100.0 * item.hyperbolic_fraction))
+
+
+class FLANK_OT_refresh_flanks(bpy.types.Operator):
+    """Fill the flank list of the active rotor: every flank with its valley and the share of its profile where
+    a cone can touch the surface along a curve (hyperbolic points)"""
+
+    bl_idname = "flank.refresh_flanks"
+    bl_label = "Refresh Flank List"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    samples: IntProperty(name="Samples", description="Profile samples per flank of the Dupin analysis (8 .. 5000)",
+                         default=200, soft_min=8, soft_max=5000)
+
+    def execute(self, context):
+        from ..flank_addon.tooling.cutter_selection import flank_dupin
+
+        settings = _settings(self, context, "Flank list")
+        if settings is None:
+            return {'CANCELLED'}
+        msg = count_limit_error("samples", self.samples, 8, 5000)
+        src = _rotor(workpiece_object(context)) if msg is None else msg
+        if isinstance(src, str):
+            self.report({'ERROR'}, "Flank list: " + src)
+            return {'CANCELLED'}
+        surface, flanks, s = src["surface"], src["flanks"], float(src["scale"])
+        rows = []
+        try:
+            for k in range(len(flanks)):
+                d = flank_dupin(surface, flanks, k, n=int(self.samples))
+                rows.append((k, tuple(float(v) for v in flanks[k]), float(d.hyperbolic_fraction),
+                             float(d.a_min) * s if np.isfinite(d.a_min) else 0.0))
+        except Exception as ex:
+            self.report({'ERROR'}, "Flank list: Dupin analysis failed: {}: {}".format(type(ex).__name__, ex))
+            return {'CANCELLED'}
+        settings.flank_list.clear()
+        for k, (u0, u1), frac, a_min in rows:
+            item = settings.flank_list.add()
+            item.name = "Flank {}".format(k)
+            item.flank, item.valley, item.u_start, item.u_end = k, k // 2, u0, u1
+            item.hyperbolic_fraction, item.a_min = frac, a_min
+        settings.flank_list_rotor = src["obj"].name
+        if not 0 <= settings.flank_index < len(rows):
+            settings.flank_index = min(max(int(settings.sf_flank), 0), len(rows) - 1) if rows else -1
+        self.report({'INFO'}, "Flank list of '{}': {} flanks, hyperbolic {}".format(
+            src["obj"].name, len(rows), ", ".join("{:.0f} %".format(100.0 * r[2]) for r in rows)))
+        return {'FINISHED'}
+
+
+class FLANK_OT_pick_flank_cursor(bpy.types.Operator):
+    """Pick the flank nearest to the 3D cursor (the cursor is screwed along its helix into the rotor's
+    transverse section; the flank holding the nearest profile point is taken)"""
+
+    bl_idname = "flank.pick_flank_cursor"
+    bl_label = "Flank at 3D Cursor"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    def execute(self, context):
+        from ..flank_addon.methods.single_flank.planner import flank_of_point
+
+        settings = _settings(self, context, "Pick flank")
+        if settings is None:
+            return {'CANCELLED'}
+        src = _rotor(workpiece_object(context))
+        if isinstance(src, str):
+            self.report({'ERROR'}, "Pick flank: " + src)
+            return {'CANCELLED'}
+        cursor = np.array(context.scene.cursor.location, dtype=np.float64)
+        if not np.isfinite(cursor).all():
+            self.report({'ERROR'}, "Pick flank: the 3D cursor is not at a finite location")
+            return {'CANCELLED'}
+        p = to_rotor_frame(src["display"], cursor[None, :])[0]
+        try:
+            k = int(flank_of_point(src["surface"], src["flanks"], p))
+        except ValueError as ex:
+            self.report({'ERROR'}, "Pick flank: {}".format(ex))
+            return {'CANCELLED'}
+        settings.flank_index = k      # its update aims sf_flank and df_valley at it
+        dist = _profile_distance(src["surface"], p) * float(src["scale"])
+        R = float(src["surface"].outer_radius) * float(src["scale"])
+        msg = "Flank {} (valley {}) of '{}': the 3D cursor is {} from the rotor surface".format(
+            k, k // 2, src["obj"].name, length_text(dist, context.scene, src["unit"], float(src["scale"])))
+        self.report({'WARNING'} if dist > 0.1 * R else {'INFO'}, msg)
+        return {'FINISHED'}
+
+
+def _votes(src, obj, centres):
+    """Flank votes of the selected faces' centres (object coordinates) -> (Counter, number of faces)."""
+    from ..flank_addon.methods.single_flank.planner import flank_of_point
+
+    mw = np.array(obj.matrix_world, dtype=np.float64)
+    world = np.array(centres, dtype=np.float64) @ mw[:3, :3].T + mw[:3, 3]
+    votes = Counter()
+    for p in to_rotor_frame(src["display"], world):
+        if not np.isfinite(p).all():
+            continue
+        try:
+            votes[int(flank_of_point(src["surface"], src["flanks"], p))] += 1
+        except ValueError:
+            continue
+    return votes
+
+
+class FLANK_OT_pick_flank_faces(bpy.types.Operator):
+    """Pick the flank under the selected faces (Edit Mode): each selected face's centre votes for its nearest
+    flank, the flank with most votes is taken"""
+
+    bl_idname = "flank.pick_flank_faces"
+    bl_label = "Flank of Selected Faces"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    def execute(self, context):
+        import bmesh
+
+        settings = _settings(self, context, "Pick flank")
+        if settings is None:
+            return {'CANCELLED'}
+        obj = context.active_object
+        if obj is None or obj.type != 'MESH' or obj.mode != 'EDIT':
+            self.report({'ERROR'}, "Pick flank: select faces of the rotor mesh in Edit Mode (active object: {})"
+                        .format("none" if obj is None else "'{}' in {} mode".format(obj.name, obj.mode.title())))
+            return {'CANCELLED'}
+        bm = bmesh.from_edit_mesh(obj.data)
+        centres = [tuple(f.calc_center_median()) for f in bm.faces if f.select]
+        if not centres:
+            self.report({'ERROR'}, "Pick flank: no face of '{}' is selected".format(obj.name))
+            return {'CANCELLED'}
+        if obj.get("flank_source") == "analyzed":
+            obj.update_from_editmode()     # the analysis is run again on the mesh data
+        src = _rotor(obj, edit_mode_ok=True)
+        if isinstance(src, str):
+            self.report({'ERROR'}, "Pick flank: " + src)
+            return {'CANCELLED'}
+        votes = _votes(src, obj, centres)
+        if not votes:
+            self.report({'ERROR'}, "Pick flank: none of the {} selected faces lies near a flank".format(len(centres)))
+            return {'CANCELLED'}
+        k, n = votes.most_common(1)[0]
+        settings.flank_index = k
+        others = ", ".join("flank {}: {}".format(f, c) for f, c in sorted(votes.items()) if f != k)
+        self.report({'INFO'}, "Flank {} (valley {}) of '{}': {} of {} selected faces{}".format(
+            k, k // 2, obj.name, n, len(centres), " (" + others + ")" if others else ""))
+        return {'FINISHED'}
+
+
+classes = (FLANK_UL_flanks, FLANK_OT_refresh_flanks, FLANK_OT_pick_flank_cursor, FLANK_OT_pick_flank_faces)
+register, unregister = bpy.utils.register_classes_factory(classes)

@@ -1,0 +1,212 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""What an operator works on: the rotor (a generated rotor rebuilt from its custom properties, or an analysed
+mesh analysed again) or the free-form surface mesh, read from Blender into the planner's terms."""
+import bpy
+import numpy as np
+
+from .common import mesh_world_arrays
+
+# custom properties that point from a result object to the rotor / surface it was made from
+RESULT_ROTOR_KEYS = ("flank_sf_rotor", "flank_df_rotor", "flank_cr_rotor", "flank_cutter_rotor", "flank_ff_source")
+MAX_SURFACE_VERTICES = 2_000_000
+
+
+def similarity_parts(matrix, rel_tol=1e-5):
+    """Split a 4x4 matrix into (exact float64 similarity (4, 4), uniform scale s) or an error string.
+
+    Blender keeps matrices in single precision: the rotation is re-orthonormalised (polar
+    decomposition) so that files validated to 1e-9 accept it, and the scale is rounded to 7
+    significant digits; non-uniform or mirroring scales are refused."""
+    M = np.asarray(matrix, dtype=np.float64)
+    A = M[:3, :3]
+    det = float(np.linalg.det(A))
+    if not np.isfinite(M).all() or det <= 0.0:
+        return "its matrix is singular or mirrored (determinant {:.6g})".format(det)
+    U, S, Vt = np.linalg.svd(A)
+    s = float(np.cbrt(np.prod(S)))
+    if float(S.max() - S.min()) > rel_tol * s:
+        return "its scale is not uniform (singular values {})".format(", ".join("{:.6g}".format(v) for v in S))
+    s = float("{:.7g}".format(s))   # single-precision matrix: the decimal scale that was typed
+    out = np.eye(4)
+    out[:3, :3] = s * (U @ Vt)
+    out[:3, 3] = M[:3, 3]
+    return out, s
+
+
+def workpiece_object(context):
+    """The rotor the sidebar works on: the active object, or the rotor a result object was made from."""
+    obj = context.active_object
+    if obj is None:
+        return None
+    if obj.get("flank_source") is None:
+        for key in RESULT_ROTOR_KEYS:
+            other = bpy.data.objects.get(str(obj.get(key, ""))) if key in obj else None
+            if other is not None:
+                return other
+    return obj
+
+
+def builtin_from_props(obj):
+    """The built-in Rotor that Generate Rotor made ``obj`` from (KeyError/ValueError if it cannot)."""
+    from ..flank_addon.geometry import rotors
+
+    return rotors.builtin_rotor(str(obj["flank_kind"]), str(obj["flank_part"]), scale=float(obj["flank_scale"]),
+                                lead=float(obj["flank_lead"]), length=float(obj["flank_length"]),
+                                handedness=str(obj["flank_handedness"]))
+
+
+def _generated_rotor(obj):
+    try:
+        rotor = builtin_from_props(obj)
+    except (KeyError, ValueError) as ex:
+        return "Cannot rebuild the rotor of '{}' from its custom properties: {}".format(obj.name, ex)
+    display = np.array(obj.matrix_world, dtype=np.float64)
+    parts = similarity_parts(display)
+    if isinstance(parts, str):
+        return "Rotor '{}': {}; apply or reset its scale".format(obj.name, parts)
+    to_world, scale = parts
+    return dict(obj=obj, surface=rotor.surface(), flanks=list(rotor.flanks), display=display,
+                to_world=to_world, scale=scale, z_range=(0.0, float(rotor.length)),
+                unit="R" if float(obj["flank_scale"]) == 1.0 else "mm",
+                kind="{}-{}".format(rotor.kind, rotor.part))
+
+
+def _analyzed_rotor(obj):
+    from ..flank_addon.geometry.flank_feet import flank_u_ranges
+    from ..flank_addon.geometry.helical_surface import HelicalSurface
+    from ..flank_addon.geometry.profile import SplineProfile
+    from ..flank_addon.geometry.rotor_analysis import NotHelicalError, analyze_mesh
+
+    try:
+        verts, faces = mesh_world_arrays(obj)
+        a = analyze_mesh(verts, faces)
+        prof = SplineProfile(a.profile)
+        surface = HelicalSurface(prof, a.v0, a.handedness)
+        flanks = flank_u_ranges(prof, [(int(i), int(j)) for i, j in a.flanks])
+        to_world = np.asarray(a.to_world, dtype=np.float64)
+    except NotHelicalError as ex:
+        return "'{}' is not a helical rotor: {}".format(obj.name, ex)
+    except Exception as ex:
+        return "Cannot analyze '{}' again: {}: {}".format(obj.name, type(ex).__name__, ex)
+    parts = similarity_parts(to_world)
+    if isinstance(parts, str):
+        return "Analysis of '{}': {}".format(obj.name, parts)
+    to_world, scale = parts
+    z = [float(v) for v in a.body_z] if getattr(a, "body_z", None) is not None else [0.0, 0.0]
+    if not z[1] > z[0]:
+        z = [0.0, 2.0 * float(a.outer_radius)]
+    return dict(obj=obj, surface=surface, flanks=flanks, display=to_world, to_world=to_world,
+                scale=scale, z_range=(z[0], z[1]), unit="mm", kind="analyzed")
+
+
+def rotor_source(obj, prop_prefix="", edit_mode_ok=False):
+    """The rotor a planning operator works on -> dict (obj, surface, flanks, display, to_world, scale, z_range,
+    unit, kind), or an error message (str).  ``obj`` may be a generated rotor, an analysed mesh, or a result
+    object whose ``<prop_prefix>rotor`` names its rotor; ``edit_mode_ok``: the caller synced an object in Edit
+    Mode (update_from_editmode)."""
+    if obj is not None and prop_prefix and prop_prefix + "rotor" in obj and obj.get("flank_source") is None:
+        other = bpy.data.objects.get(obj[prop_prefix + "rotor"])  # a result object: use its rotor
+        if other is not None:
+            obj = other
+    if obj is None or obj.type != 'MESH':
+        return "Select a rotor made by Generate Rotor or an analyzed rotor mesh (active object: {})".format(
+            "none" if obj is None else "'{}' ({})".format(obj.name, obj.type))
+    if obj.mode != 'OBJECT' and not edit_mode_ok:
+        return "Switch '{}' to Object Mode first".format(obj.name)
+    src = obj.get("flank_source")
+    if src == "generated":
+        return _generated_rotor(obj)
+    if src == "analyzed":
+        return _analyzed_rotor(obj)
+    return ("'{}' is not a rotor (flank_source = {!r}): select a rotor made by Generate Rotor or run "
+            "Analyze Rotor on the mesh first".format(obj.name, src))
+
+
+def to_rotor_frame(display, points_world):
+    """World points (N, 3) -> rotor frame (N, 3) through the rotor's display matrix (rotor frame -> world)."""
+    p = np.c_[np.asarray(points_world, dtype=np.float64).reshape(-1, 3), np.ones(len(points_world))]
+    q = np.linalg.solve(display, p.T).T
+    return q[:, :3] / q[:, 3:4]
+
+
+# ---------------------------------------------------------------------------------------------- free-form
+def surface_object(context, role_key="flank_ff_role", source_key="flank_ff_source"):
+    """The mesh to plan on: the active object, or the surface a free-form result object was made from."""
+    obj = context.active_object
+    if obj is not None and obj.get(role_key) is not None:
+        other = bpy.data.objects.get(str(obj.get(source_key, "")))
+        if other is not None:
+            obj = other
+    return obj
+
+
+def _triangles(mesh, selected_only):
+    """(triangles (m, 3), their polygon indices) of a mesh, only those of selected faces if asked."""
+    mesh.calc_loop_triangles()
+    m = len(mesh.loop_triangles)
+    tris = np.empty(3 * m, dtype=np.int64)
+    mesh.loop_triangles.foreach_get("vertices", tris)
+    poly = np.empty(m, dtype=np.int64)
+    mesh.loop_triangles.foreach_get("polygon_index", poly)
+    tris = tris.reshape(m, 3)
+    if selected_only:
+        sel = np.zeros(len(mesh.polygons), dtype=bool)
+        mesh.polygons.foreach_get("select", sel)
+        keep = sel[poly]
+        tris, poly = tris[keep], poly[keep]
+    return tris, poly
+
+
+def _field(obj, name, used, poly):
+    """The guiding vector field of the attribute ``name`` on the used vertices / triangles, or a message."""
+    attr = obj.data.attributes.get(name)
+    if attr is None:
+        return "'{}' has no attribute '{}' (the guiding vector field)".format(obj.name, name)
+    if attr.data_type != 'FLOAT_VECTOR' or attr.domain not in ('POINT', 'FACE'):
+        return "attribute '{}' of '{}' is {} on {}: the guiding field must be FLOAT_VECTOR on POINT or FACE"\
+            .format(name, obj.name, attr.data_type, attr.domain)
+    vals = np.empty(3 * len(attr.data), dtype=np.float64)
+    attr.data.foreach_get("vector", vals)
+    vals = vals.reshape(-1, 3)
+    field = vals[used] if attr.domain == 'POINT' else vals[poly]
+    if not np.isfinite(field).all():
+        return "attribute '{}' of '{}' holds values that are not finite numbers".format(name, obj.name)
+    return field
+
+
+def surface_source(obj, selected_only=False, field_attribute="", preview_prop=""):
+    """A mesh object's triangles in its local coordinates -> dict(obj, V (n, 3), F (m, 3), to_world (4, 4)
+    similarity, scale, field (n or m, 3) or None), or an error message (str)."""
+    if obj is None or obj.type != 'MESH':
+        return "select a mesh object: the surface to machine (active object: {})".format(
+            "none" if obj is None else "'{}' ({})".format(obj.name, obj.type))
+    if preview_prop and obj.get(preview_prop) is not None:
+        return "'{}' is the guiding-curve preview, not a surface".format(obj.name)
+    if obj.mode == 'EDIT':
+        obj.update_from_editmode()
+    parts = similarity_parts(obj.matrix_world)
+    if isinstance(parts, str):
+        return "'{}': {}; apply its scale first".format(obj.name, parts)
+    mesh = obj.data
+    n = len(mesh.vertices)
+    if n == 0 or len(mesh.polygons) == 0:
+        return "'{}' has no faces".format(obj.name)
+    if n > MAX_SURFACE_VERTICES:
+        return "'{}' has {} vertices, above the limit {}".format(obj.name, n, MAX_SURFACE_VERTICES)
+    co = np.empty(3 * n, dtype=np.float64)
+    mesh.vertices.foreach_get("co", co)
+    co = co.reshape(n, 3)
+    if not np.isfinite(co).all():
+        return "'{}' has vertices that are not finite numbers (NaN or infinity)".format(obj.name)
+    tris, poly = _triangles(mesh, selected_only)
+    if not len(tris):
+        return "'{}' has no selected faces (Selected Faces Only is on)".format(obj.name)
+    used, F = np.unique(tris, return_inverse=True)
+    field = _field(obj, field_attribute, used, poly) if field_attribute else None
+    if isinstance(field, str):
+        return field
+    return dict(obj=obj, V=co[used], F=F.reshape(-1, 3), to_world=parts[0], scale=parts[1], field=field)
+
+
+classes = ()
+register, unregister = bpy.utils.register_classes_factory(classes)

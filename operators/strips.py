@@ -1,0 +1,239 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The Results panel's lists: the strips of a planning run with their numbers (max / min error, the share of the
+flank each strip machines, collision), picking a row to select its tool and envelope, and the runs menu."""
+import json
+
+import bpy
+import numpy as np
+from bpy.props import StringProperty
+
+from .runs import PLAN_JSON_PROP, find_run, result_runs
+from .units import length_text
+
+PREFIXES = ("flank_sf_", "flank_df_", "flank_ff_")
+_ROWS_CACHE = {}
+
+
+def run_kind(coll):
+    """('flank_sf_', 'strip') for a single-flank run, ('flank_df_', 'path') for a double-flank run,
+    ('flank_ff_', 'strip') for a free-form run, else None."""
+    if coll is None:
+        return None
+    if "flank_sf_strips" in coll or "flank_sf_tolerance" in coll:
+        return "flank_sf_", "strip"
+    if "flank_df_paths" in coll or "flank_df_tolerance" in coll:
+        return "flank_df_", "path"
+    if "flank_ff_strips" in coll:
+        return "flank_ff_", "strip"
+    return None
+
+
+def object_prefix(ob):
+    """The planner prefix of a result object ('' for other objects)."""
+    for pre in PREFIXES:
+        if pre + "role" in ob:
+            return pre
+    return ""
+
+
+def strip_key(pre):
+    """The custom property numbering the strips of a planner's objects: double flank numbers paths."""
+    return pre + ("path" if pre == "flank_df_" else "strip")
+
+
+def _arc_fraction(plan, flank, u_range):
+    """Function u -> share (0..1) of the flank's profile arc length before profile parameter u."""
+    prof = np.asarray(plan["rotor"]["profile"], dtype=np.float64)
+    n = len(prof)
+    ia, ib = (int(v) for v in plan["rotor"]["flanks"][flank])
+    idx = np.arange(ia, ib + 1)
+    pts = prof[idx % n]
+    s = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))]
+    a, b = (float(v) for v in u_range)
+
+    def frac(u):
+        i = ia + (float(u) - a) / (b - a) * (ib - ia)
+        return float(np.interp(i, idx, s) / s[-1]) if s[-1] > 0 else 0.0
+    return frac
+
+
+def _sf_covered(coll, plan, n):
+    """Per strip of a single-flank run: (start, end) share of the flank's profile arc length where it forms the
+    machined flank -- from the planner's junctions (where neighbouring strips cut equally deep) and its
+    uncovered ranges."""
+    try:
+        summary = json.loads(coll.get("flank_sf_summary", "{}"))
+        a, b = (float(v) for v in coll["flank_sf_flank_range"])
+        junctions = [[float(j["u"]) for j in js] for js in summary.get("junctions", [])]
+        unc = [float(v) for v in coll.get("flank_sf_uncovered", [])]
+        frac = _arc_fraction(plan, int(coll["flank_sf_flank"]), (a, b))
+    except (KeyError, ValueError, TypeError, IndexError):
+        return [None] * n, []
+    starts = [a] + [min(js) if js else None for js in junctions]
+    ends = [max(js) if js else None for js in junctions] + [b]
+    gaps = list(zip(unc[0::2], unc[1::2]))
+    out = []
+    for k in range(n):
+        s0 = starts[k] if k < len(starts) else None
+        s1 = ends[k] if k < len(ends) else None
+        if s0 is None or s1 is None:
+            out.append(None)
+            continue
+        for u0, u1 in gaps:                  # an end inside an uncovered range: the strip stops where it begins
+            if u0 <= s0 <= u1:
+                s0 = u1
+            if u0 <= s1 <= u1:
+                s1 = u0
+        out.append((frac(s0), frac(max(s0, s1))))
+    return out, [(frac(u0), frac(u1)) for u0, u1 in gaps]
+
+
+def _covered_text(pre, coll, k, st, covered):
+    """The 'covered' column of a strip row."""
+    if pre == "flank_sf_":
+        c = covered[k]
+        return "{:.0f}–{:.0f} %".format(100.0 * c[0], 100.0 * c[1]) if c else "?"
+    if pre == "flank_ff_":
+        kinks = [float(v) for v in st.get("kink_to_next_deg", [])]
+        return "kink {:.2g}°".format(max(kinks)) if kinks else "last"
+    valley = int(coll.get("flank_df_valley", 0))
+    fl = sorted({int(ob.get("flank_df_flank", 0)) for ob in coll.objects
+                 if ob.get("flank_df_role") == "envelope" and ob.get("flank_df_path") == k
+                 and all(np.isfinite(list(ob.get("flank_df_deviation_range", [np.nan]))))})
+    return "flank " + ", ".join(str(2 * valley + f - 1) for f in fl) if fl else "none"
+
+
+def strip_rows(coll):
+    """The numbers of a run's strips list: {strip: dict(max, min (scene units), collision, covered (text))} plus
+    the run's unit and scale, parsed once per run (the plan text does not change)."""
+    kind = run_kind(coll)
+    text = coll.get(PLAN_JSON_PROP) if coll is not None else None
+    if kind is None or not text:
+        return None
+    pre, key = kind
+    cache_key = (coll.name, len(text), str(coll.get(pre + "total_elapsed", "")))
+    hit = _ROWS_CACHE.get(coll.name)
+    if hit is not None and hit[0] == cache_key:
+        return hit[1]
+    try:
+        plan = json.loads(text)
+        strips = plan["strips"]
+    except (ValueError, KeyError, TypeError):
+        return None
+    scale = float(coll.get(pre + "length_scale", 1.0) or 1.0)
+    covered, uncovered = _sf_covered(coll, plan, len(strips)) if pre == "flank_sf_" else (None, [])
+    rows = {k: dict(max=float(st["reported_max_error"]) * scale, min=float(st["reported_min_error"]) * scale,
+                    collision=bool(st.get("collision")), covered=_covered_text(pre, coll, k, st, covered))
+            for k, st in enumerate(strips)}
+    out = dict(pre=pre, key=key, rows=rows, uncovered=uncovered, unit=str(coll.get(pre + "length_unit", "mm")),
+               scale=scale, tolerance=float(coll.get(pre + "tolerance", 0.0) or 0.0))
+    _ROWS_CACHE.clear()
+    _ROWS_CACHE[coll.name] = (cache_key, out)
+    return out
+
+
+class FLANK_UL_strips(bpy.types.UIList):
+    """Strips of a planning run: one row per tool (strip number, max / min error in the scene's unit, the share
+    of the flank it machines, collision)."""
+
+    def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index=0, flt_flag=0):
+        pre = object_prefix(item)
+        k = int(item.get(strip_key(pre), -1))
+        info = strip_rows(data) if hasattr(data, "get") else None
+        row_info = info["rows"].get(k) if info else None
+        row = layout.row(align=True)
+        row.label(text="{} {}".format("Path" if pre == "flank_df_" else "Strip", k + 1), icon='MOD_SCREW')
+        if row_info is None:
+            errs = list(item.get(pre + "strip_errors", [])) or [float("nan"), float("nan")]
+            row.label(text="{:.3g} / {:.3g}".format(errs[0], errs[1]))
+            return
+        unit, scale = info["unit"], info["scale"]
+        row.label(text="{} / {}".format(length_text(row_info["max"], context.scene, unit, scale, signed=True),
+                                        length_text(row_info["min"], context.scene, unit, scale, signed=True)))
+        row.label(text=row_info["covered"])
+        row.label(text="", icon='ERROR' if row_info["collision"] else 'CHECKMARK')
+
+    def filter_items(self, context, data, propname):
+        items = getattr(data, propname)
+        show = getattr(self, "bitflag_filter_item", 1 << 30)      # UIList.bitflag_filter_item
+        flags, order = [], []
+        for ob in items:
+            pre = object_prefix(ob)
+            flags.append(show if pre and ob.get(pre + "role") == "tool" else 0)
+            order.append(int(ob.get(strip_key(pre), 0)) if pre else 0)
+        srt = sorted(range(len(order)), key=lambda i: order[i])
+        neworder = [0] * len(order)
+        for rank, i in enumerate(srt):
+            neworder[i] = rank
+        return flags, neworder
+
+
+def select_strip(context, coll, index):
+    """Select the tool and envelope objects of the strip (or double-flank path) shown at ``index`` of
+    ``coll.objects`` and make the tool active."""
+    if coll is None or not 0 <= index < len(coll.objects):
+        return []
+    ob = coll.objects[index]
+    pre = object_prefix(ob)
+    if not pre:
+        return []
+    key = strip_key(pre)
+    k = ob.get(key)
+    picked = [o for o in coll.objects if o.get(key) == k and o.get(pre + "role") in ("tool", "envelope")]
+    for o in context.view_layer.objects:
+        if o.select_get():
+            o.select_set(False)
+    for o in picked:
+        if o.name in context.view_layer.objects:
+            o.select_set(True)
+    if ob.name in context.view_layer.objects:
+        context.view_layer.objects.active = ob
+    return picked
+
+
+class FLANK_OT_select_run(bpy.types.Operator):
+    """Show this planning run in the Results panel (selects its first strip)"""
+
+    bl_idname = "flank.select_run"
+    bl_label = "Select Run"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    collection: StringProperty(name="Run", description="Result collection of the run", default="")
+
+    def execute(self, context):
+        coll = find_run(context, self.collection) if self.collection else "no run given"
+        if isinstance(coll, str):
+            self.report({'ERROR'}, "Select run: " + coll)
+            return {'CANCELLED'}
+        pre = object_prefix(next(iter(coll.objects), {})) if len(coll.objects) else ""
+        tools = [(int(ob.get(strip_key(pre), 0)), i) for i, ob in enumerate(coll.objects)
+                 if pre and ob.get(pre + "role") == "tool"]
+        if not tools:
+            self.report({'ERROR'}, "Select run: '{}' has no tool objects".format(coll.name))
+            return {'CANCELLED'}
+        i = min(tools)[1]
+        tool = coll.objects[i]
+        if tool.name not in context.view_layer.objects:
+            self.report({'ERROR'}, "Select run: '{}' is not in the view layer".format(tool.name))
+            return {'CANCELLED'}
+        context.view_layer.objects.active = tool
+        context.scene.flank_settings.results_strip_index = i
+        return {'FINISHED'}
+
+
+class FLANK_MT_runs(bpy.types.Menu):
+    """Planning runs under "Flank Results" (newest last)"""
+
+    bl_idname = "FLANK_MT_runs"
+    bl_label = "Runs"
+
+    def draw(self, context):
+        runs = result_runs()
+        if not runs:
+            self.layout.label(text="No planning run yet")
+        for coll in runs:
+            self.layout.operator("flank.select_run", text=coll.name, icon='OUTLINER_COLLECTION').collection = coll.name
+
+
+classes = (FLANK_UL_strips, FLANK_OT_select_run, FLANK_MT_runs)
+register, unregister = bpy.utils.register_classes_factory(classes)
