@@ -1,14 +1,15 @@
-"""The error-along-profile chart (flank_addon.report.error_chart): font, axes, pixel positions and colours of the
-curve, the tolerance band, NaN gaps, strips, degenerate input, and the data of a real single-flank plan
-against the error-profile CSV export."""
+"""The error-along-profile chart (flank_addon.report.error_chart): the text items it lists for a real font (and
+draws none itself), axes, pixel positions and colours of the curve, the tolerance band, NaN gaps, strips,
+degenerate input, and the data of a real single-flank plan against the error-profile CSV export."""
 import math
 
 import numpy as np
 import pytest
 
-from flank_addon.report.error_chart import (FONT, ADVANCE, axis_unit, draw_text, error_profile, nice_step,
-                                      plan_error_plot, plot_layout, render_error_plot, srgb, text_width,
-                                      tick_text, tick_values, to_blender_pixels, to_png_bytes, _target_runs)
+from flank_addon.report import error_chart
+from flank_addon.report.error_chart import (CAP, FONT_SIZE, INK, axis_unit, error_profile, nice_step,
+                                            plan_error_plot, plot_layout, srgb, text_width, tick_text, tick_values,
+                                            to_blender_pixels, to_png_bytes, _target_runs)
 from flank_addon.simulation.verify import DEVIATION_COLORS, deviation_colors
 
 TOL = 1.0e-3
@@ -34,23 +35,77 @@ def is_color(px, rgba, tol=0.5 / 255):
     return np.abs(np.asarray(px)[..., :3] - np.asarray(rgba)[:3]).max(axis=-1) <= tol
 
 
-# ------------------------------------------------------------------------------------------- font and axes
-def test_font_glyphs_are_5x8_and_text_lands_where_asked():
-    assert all(g.shape == (8, 5) for g in FONT.values())
-    for ch in "0123456789+-.e%µm()±":
-        assert ch in FONT and FONT[ch].any() or ch == " "
-    assert text_width("12", 1) == 2 * ADVANCE - 1 == 11 and text_width("12", 3) == 33
-    img = np.zeros((20, 30, 4), np.float32)
-    w = draw_text(img, "1", 4, 3, (1, 0, 0, 1), scale=2)
-    assert w == 10
-    ys, xs = np.nonzero(img[..., 0] > 0)
-    ref_y, ref_x = np.nonzero(np.kron(FONT["1"], np.ones((2, 2), bool)))
-    assert sorted(zip(ys, xs)) == sorted(zip(ref_y + 3, ref_x + 4))
-    # unknown characters are drawn as '?', text is clipped at the border without error
-    img2 = np.zeros((10, 10, 4), np.float32)
-    draw_text(img2, "\u2603", 0, 0, (1, 1, 1, 1))
-    assert (img2[:8, :5, 0] > 0).tolist() == FONT["?"].tolist()
-    draw_text(img2, "88888", 7, 6, (1, 1, 1, 1), scale=3)
+def render_error_plot(*args, **kw):
+    """The picture alone (the text items are checked in their own tests)."""
+    img, texts = error_chart.render_error_plot(*args, **kw)
+    assert isinstance(texts, list) and all(isinstance(t, dict) for t in texts)
+    return img
+
+
+# ------------------------------------------------------------------------------------------- text and axes
+def _text_case():
+    x = np.linspace(0.0, 100.0, 201)
+    y = 3 * TOL * np.sin(x / 8.0)
+    y[(x > 40) & (x < 45)] = np.nan
+    kw = dict(unit="mm", title="Error along profile: run", x_label="position", note="max +3 µm",
+              groups=(x >= 50.0).astype(int), group_labels={0: "S1", 1: "S2"})
+    return x, y, kw
+
+
+def test_text_is_listed_for_a_real_font_and_not_drawn():
+    x, y, kw = _text_case()
+    W, H = 960, 540
+    lay = plot_layout(x, y, TOL, W, H, unit="mm")
+    img, texts = error_chart.render_error_plot(x, y, TOL, W, H, **kw)
+    fs, (x0, y0, x1, y1), tk = lay.font_scale, lay.box, lay.tick_length
+    by_role = {}
+    for t in texts:
+        by_role.setdefault(t["role"], []).append(t)
+        assert t["color"] == tuple(float(c) for c in srgb(np.array(INK)))
+        assert t["size"] in (FONT_SIZE * fs, FONT_SIZE * lay.title_scale) and t["baseline"] - t["top"] == CAP * (
+            t["size"] / FONT_SIZE)
+        assert t["align"] in ("left", "center", "right") and t["text"]
+        left = t["x"] - {"left": 0.0, "center": 0.5, "right": 1.0}[t["align"]] * t["width"]
+        assert 0 <= left and left + t["width"] <= W and 0 <= t["top"] and t["baseline"] <= H, t
+    assert [t["text"] for t in by_role["title"]] == ["Error along profile: run"]
+    assert [t["text"] for t in by_role["legend"]] == ["overcut", "within ±1 µm", "material left", "no tool"]
+    assert by_role["caption"][0]["text"] == "error (µm), + = material left"
+    assert by_role["note"][0]["text"] == "max +3 µm" and by_role["note"][0]["align"] == "right"
+    assert by_role["note"][0]["x"] == x1 + 1
+    assert [t["text"] for t in by_role["x_label"]] == ["position"]
+    assert sorted(t["text"] for t in by_role["group"]) == ["S1", "S2"]
+    # tick labels: right-aligned left of the y ticks, their capitals centred on the tick's row; centred under
+    # the x ticks
+    assert [t["text"] for t in by_role["y_tick"]] == lay.y_labels
+    for t, v in zip(by_role["y_tick"], lay.y_ticks):
+        assert t["align"] == "right" and t["x"] == x0 - 2 - tk - 2 * fs
+        assert abs(0.5 * (t["top"] + t["baseline"]) - lay.row(v)) <= fs
+    assert [t["text"] for t in by_role["x_tick"]] == lay.x_labels
+    for t, v in zip(by_role["x_tick"], lay.x_ticks):
+        assert t["align"] == "center" and abs(t["x"] - lay.col(v)) <= 0.5 and t["top"] > y1
+    # the picture holds no text: ink only on the frame and the tick marks
+    ink = is_color(img, srgb(np.array(INK)))
+    allowed = np.zeros_like(ink)
+    allowed[[y0 - 1, y1 + 1], x0 - 1:x1 + 2] = True
+    allowed[y0 - 1:y1 + 2, [x0 - 1, x1 + 1]] = True
+    allowed[y0:y1 + 1, x0 - 1 - tk:x0 - 1] = True
+    allowed[y1 + 2:y1 + 2 + tk, x0:x1 + 1] = True
+    assert ink.sum() > 2 * (x1 - x0) and not (ink & ~allowed).any()
+    # the legend swatches are drawn, each left of its text
+    sw = 7 * fs
+    for t, cls in zip(by_role["legend"], ("gouge", "ok", "stock", "untouched")):
+        want = srgb(np.array(DEVIATION_COLORS[cls]))
+        assert is_color(img[int(t["top"]):int(t["top"]) + sw, int(t["x"]) - 3 * fs - sw:int(t["x"]) - 3 * fs],
+                        want).all(), cls
+
+
+def test_text_width_is_a_generous_estimate():
+    # Blender's font draws digits 4.9 px wide at size 10: the estimate keeps 6 px per character
+    assert text_width("12", 1) == 11 and text_width("12", 3) == 33 and text_width("", 2) == 0
+    # the layout keeps room for the widest tick label left of the box
+    x, y, _ = _text_case()
+    lay = plot_layout(x, y, TOL, 960, 540, unit="mm")
+    assert lay.box[0] >= lay.pad + max(text_width(t, lay.font_scale) for t in lay.y_labels) + lay.tick_length
 
 
 def test_nice_steps_ticks_and_labels():
@@ -320,6 +375,10 @@ def test_plan_error_plot_per_strip_and_combined(single):
     d = error_profile(single)
     rgba, info = plan_error_plot(single, units=(1000.0, "mm"), width=640, height=360, data=d)
     assert rgba.shape == (360, 640, 4)
+    texts = {t["role"]: t["text"] for t in info["texts"]}
+    assert texts["title"] == "Error along profile ({})".format(single["method"]) and texts["note"] == info["note"]
+    assert {t["text"] for t in info["texts"] if t["role"] == "group"} == {
+        "S{}".format(k + 1) for k in range(len(single["strips"]))}
     assert info["curves"] == len(single["strips"]) and info["points"] == len(d["x"])
     assert info["unit"] == "mm" and info["tolerance"] == pytest.approx(2.0)           # 2e-3 R at 1000 mm / R
     assert info["max_error"] == pytest.approx(1000.0 * np.nanmax(d["deviation"]))
