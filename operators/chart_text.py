@@ -70,10 +70,31 @@ def text_box(seg, shape):
     return (x0, y0, x1, y1) if x1 > x0 and y1 > y0 else None
 
 
+def _width(seg):
+    return float(np.ptp(seg[..., 0])) if len(seg) else 0.0
+
+
+def fitted_outline(item):
+    """The item's outline relative to its anchor; a text wider than the item's ``max_width`` is shortened with
+    an ellipsis to the longest head that fits (Blender's own measure of the glyphs)."""
+    text, size, align = item["text"], item["size"], item.get("align", "left")
+    seg = text_outline(text, size, align)
+    limit = item.get("max_width")
+    if limit is None or _width(seg) <= limit:
+        return seg
+    lo, hi = 0, len(text)                 # head lengths: lo fits (or is empty), hi does not
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if _width(text_outline(text[:mid].rstrip() + "…", size, align)) <= limit:
+            lo = mid
+        else:
+            hi = mid
+    return text_outline(text[:lo].rstrip() + "…", size, align)
+
+
 def place(item):
     """The item's outline in picture pixels (x right, y down): anchor at (x, baseline)."""
-    seg = text_outline(item["text"], item["size"], item.get("align", "left"))
-    seg = seg * np.array([1.0, -1.0])
+    seg = fitted_outline(item) * np.array([1.0, -1.0])
     return seg + np.array([float(item["x"]), float(item["baseline"])])
 
 

@@ -2,8 +2,9 @@
 """flank.error_plot through the installed extension: failure paths first (no run, unknown run, broken stored
 plan, missing PNG folder: an error and no image), then a small single-flank run (asymmetric female flank 1)
 plotted at two sizes and in two scene units; the image is compared with the core rasteriser on the stored
-plan, its curve pixels with verify's colours at the rows the errors map to, the PNG with the image, and the
-packed image survives save + reload.  For test_blender_error_plot.py.
+plan (equal outside the text, which Blender's font draws into the boxes of the core's text items), its curve
+pixels with verify's colours at the rows the errors map to, the PNG with the image, and the packed image
+survives save + reload.  For test_blender_error_plot.py.
 
 The operator is registered here when the add-on does not register it (yet)."""
 import importlib
@@ -45,9 +46,9 @@ def _check_image(bpy, np, img, coll, plan, pp, units, tol_plan, w, h):
     got = _pixels(np, img)
     ref, info = pp.plan_error_plot(plan, units=units, width=w, height=h, tolerance=tol_plan,
                                    title="Error along profile: {}".format(coll.name))
-    out["vs_core_max_diff"] = float(np.abs(got - ref).max()) if got.shape == ref.shape else None
-    out["core_info"] = {k: v for k, v in info.items() if k != "layout"}
+    out["core_info"] = {k: v for k, v in info.items() if k not in ("layout", "texts")}
     out["core_layout"] = info["layout"]
+    out["text"] = _text_check(np, got, ref, info["texts"])
 
     # every finite profile point: the curve colour (verify.deviation_colors at its error) within 1 px of the
     # row its error maps to, found from the image's own stored axes
@@ -77,6 +78,31 @@ def _check_image(bpy, np, img, coll, plan, pp, units, tol_plan, w, h):
                        img["flank_plot_y_factor"]]
     out["f"] = f
     return out
+
+
+def _text_check(np, got, ref, texts):
+    """The image against the core's picture: equal outside the boxes of the core's text items (where Blender's
+    font draws them), and every item drawn (dark ink in its box, its box near its anchor)."""
+    ct = importlib.import_module(driver.MODULE + ".operators.chart_text")
+    if got.shape != ref.shape:
+        return dict(shape=[list(got.shape), list(ref.shape)])
+    changed = np.abs(got - ref).max(axis=-1) > 0.5 / 255
+    inside = np.zeros(changed.shape, dtype=bool)
+    items = []
+    for t in texts:
+        box = ct.text_box(ct.place(t), got.shape)
+        if box is None:
+            items.append(dict(text=t["text"], box=None))
+            continue
+        x0, y0, x1, y1 = box
+        inside[y0:y1, x0:x1] = True
+        luma = got[y0:y1, x0:x1, :3].mean(axis=-1)
+        left = {"left": t["x"], "center": t["x"] - 0.5 * (x1 - x0), "right": t["x"] - (x1 - x0)}[t["align"]]
+        items.append(dict(text=t["text"], role=t["role"], box=[x0, y0, x1, y1], changed=int(changed[y0:y1, x0:x1].sum()),
+                          darkest=float(luma.min()), left_offset=float(x0 - left),
+                          cap_top_offset=float(y0 - t["top"]), baseline_offset=float(y1 - t["baseline"])))
+    return dict(outside_max_diff=float(np.abs(got - ref)[~inside].max()), changed_outside=int((changed & ~inside).sum()),
+                changed_inside=int((changed & inside).sum()), items=items, count=len(texts))
 
 
 def scenario(bpy, res, args):

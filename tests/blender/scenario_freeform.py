@@ -117,7 +117,9 @@ def scenario(bpy, res, args):
 
     g1 = driver._core("methods.freeform_g1.planner")
     plan_mod = driver._core("io.plan")
-    ff = __import__(driver.MODULE + ".operators.freeform", fromlist=["x"])
+    ff = __import__(driver.MODULE + ".operators.guiding", fromlist=["x"])
+    surfaces = __import__(driver.MODULE + ".operators.sample_surfaces", fromlist=["x"])
+    strips = __import__(driver.MODULE + ".operators.strips", fromlist=["x"])
     ui_ops = __import__(driver.MODULE + ".operators.ui_ops", fromlist=["x"])
     scene = bpy.context.scene
     s = scene.flank_settings
@@ -178,7 +180,7 @@ def scenario(bpy, res, args):
 
     # ---------------------------------------------------------------- results list and exports of the run
     coll = bpy.data.collections[out["rerun"]["runs"][0]]
-    info = ui_ops.strip_rows(coll)
+    info = strips.strip_rows(coll)
     out["rows"] = {str(k): v for k, v in (info["rows"].items() if info else [])}
     _select_only(bpy, blade)
     tmp = args.out.rsplit("/", 1)[0]
@@ -367,6 +369,6 @@ def scenario(bpy, res, args):
     bad["non_uniform_scale"] = _call(bpy, bpy.ops.flank.plan_freeform, **PLAN_KW)
     out["bad"] = bad
     out["test_surfaces"] = {k: _call(bpy, bpy.ops.flank.add_test_surface, kind=k, size=1.0, resolution=8)
-                            for k, _, _ in ff.SURFACE_ITEMS}
+                            for k, _, _ in surfaces.SURFACE_ITEMS}
     out["bad_surface"] = _call(bpy, bpy.ops.flank.add_test_surface, kind="bump", size=float("nan"))
     res["freeform"] = out

@@ -37,7 +37,7 @@ def _plain(v):
 
 def _check_tool(bpy, res, rotor):
     panels = __import__(driver.MODULE + ".panels", fromlist=["x"])
-    props = __import__(driver.MODULE + ".operators.properties", fromlist=["x"])
+    props = __import__(driver.MODULE + ".operators.tool_settings", fromlist=["x"])
     s = bpy.context.scene.flank_settings
     out = dict(taper=props.CYLINDER_TAPER)
     for kind in ("CONE", "CYLINDER"):

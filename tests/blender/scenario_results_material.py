@@ -106,7 +106,8 @@ def _three_runs(bpy, res_key, res, op, kw, select, key_prop, role_key):
 def scenario(bpy, res, args):
     from mathutils import Matrix
 
-    common = __import__(driver.MODULE + ".operators.common", fromlist=["x"])
+    materials = __import__(driver.MODULE + ".operators.materials", fromlist=["x"])
+    runs = __import__(driver.MODULE + ".operators.runs", fromlist=["x"])
     _BASELINE.update(m.name for m in bpy.data.materials if m.users == 0)
     res["baseline_zero_user_materials"] = sorted(_BASELINE)
     res["census_start"] = _census(bpy)
@@ -117,10 +118,10 @@ def scenario(bpy, res, args):
     asym = bpy.context.active_object
     _three_runs(bpy, "single", res, bpy.ops.flank.plan_single_flank, SF_KW, lambda: _select_only(bpy, asym),
                 "flank_sf_key", "flank_sf_role")
-    mat = next((m for m in bpy.data.materials if m.get(common.ATTRIBUTE_MATERIAL_PROP) is not None), None)
+    mat = next((m for m in bpy.data.materials if m.get(materials.ATTRIBUTE_MATERIAL_PROP) is not None), None)
     res["material"] = None if mat is None else dict(
         name=mat.name, users=mat.users, pointer=mat.as_pointer(), tree=_node_tree(mat),
-        marked=[m.name for m in bpy.data.materials if m.get(common.ATTRIBUTE_MATERIAL_PROP) is not None])
+        marked=[m.name for m in bpy.data.materials if m.get(materials.ATTRIBUTE_MATERIAL_PROP) is not None])
 
     # ---------------------------------------------------------------- double flank on nilson-male valley 0
     driver._run_op(bpy.ops.flank.generate_rotor, kind="nilson", part="male", resolution=180, axial=16)
@@ -151,24 +152,24 @@ def scenario(bpy, res, args):
     res["all_runs"] = [c.name for c in bpy.data.collections["Flank Results"].children]
     res["scene_children"] = [c.name for c in bpy.context.scene.collection.children]
     res["shared"] = sorted({m.name for ob in bpy.data.objects if ob.type == 'MESH' for m in ob.data.materials
-                            if m is not None and m.get(common.ATTRIBUTE_MATERIAL_PROP) is not None})
+                            if m is not None and m.get(materials.ATTRIBUTE_MATERIAL_PROP) is not None})
     res["material_users_all"] = mat.users if mat is not None else None
-    res["solid_switched"] = common.show_attribute_colors(bpy, bpy.context)   # background: nothing to do
+    res["solid_switched"] = materials.show_attribute_colors(bpy.context)   # background: nothing to do
 
     # ---------------------------------------------------------------- removing every run: no 0-user material
     parent = bpy.data.collections["Flank Results"]
     for coll in list(parent.children):
-        common.remove_result_collection(bpy, coll)
+        runs.remove_result_collection(coll)
     # the formed cutter painted the user's rotor (it had no material): that use stays with the rotor
     res["after_remove"] = dict(census=_census(bpy), zero_user_materials=_zero_user_materials(bpy),
                                marked=[m.name for m in bpy.data.materials
-                                       if m.get(common.ATTRIBUTE_MATERIAL_PROP) is not None],
+                                       if m.get(materials.ATTRIBUTE_MATERIAL_PROP) is not None],
                                orphan_meshes=sum(1 for m in bpy.data.meshes if m.users == 0),
                                orphan_actions=sum(1 for a in bpy.data.actions if a.users == 0))
     srm.data.materials.clear()
-    common.release_attribute_material(bpy)
+    materials.release_attribute_material()
     res["after_release"] = dict(marked=[m.name for m in bpy.data.materials
-                                        if m.get(common.ATTRIBUTE_MATERIAL_PROP) is not None],
+                                        if m.get(materials.ATTRIBUTE_MATERIAL_PROP) is not None],
                                 zero_user_materials=_zero_user_materials(bpy))
 
     # ---------------------------------------------------------------- a failed run (plan file in a missing
@@ -193,4 +194,4 @@ def scenario(bpy, res, args):
     res["undo"] = dict(result=ret, error=err, before=before, after_run=after_run, after_undo=_census(bpy),
                        zero_user_materials=_zero_user_materials(bpy),
                        marked=[m.name for m in bpy.data.materials
-                               if m.get(common.ATTRIBUTE_MATERIAL_PROP) is not None])
+                               if m.get(materials.ATTRIBUTE_MATERIAL_PROP) is not None])

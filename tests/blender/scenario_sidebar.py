@@ -177,6 +177,9 @@ def scenario(bpy, res, args):
     t_start = time.perf_counter()
     mod = driver.MODULE
     ui_ops = importlib.import_module(mod + ".operators.ui_ops")
+    presets = importlib.import_module(mod + ".operators.tool_preview")
+    strips = importlib.import_module(mod + ".operators.strips")
+    sources = importlib.import_module(mod + ".operators.sources")
     props = importlib.import_module(mod + ".operators.properties")
     panels = importlib.import_module(mod + ".panels")
     ms, rotors, verify, cs, screw, mesh_io = (driver._core(m) for m in (
@@ -206,7 +209,7 @@ def scenario(bpy, res, args):
 
     # ---------------------------------------------------------------- presets: shipped files in every unit
     t0 = time.perf_counter()
-    shipped = sorted(glob.glob(os.path.join(ui_ops.SHIPPED_PRESETS, "*.py")))
+    shipped = sorted(glob.glob(os.path.join(presets.SHIPPED_PRESETS, "*.py")))
     pres = {}
     for path in shipped:
         name = os.path.basename(path)
@@ -221,16 +224,16 @@ def scenario(bpy, res, args):
                                                shank_l=s.tool_shank_length_mm))
         pres[name] = entry
     res["presets"] = pres
-    res["preset_dir"] = ui_ops.SHIPPED_PRESETS
+    res["preset_dir"] = presets.SHIPPED_PRESETS
     _set_units(bpy, 'METRIC', 0.001)
     res["preset_menu"] = ui.draw_menu(bpy.types.FLANK_MT_tool_presets)
     # a user preset (AddPresetBase): saved in mm, loaded into a cm scene gives the same tool
-    run_op(bpy.ops.script.execute_preset, filepath=os.path.join(ui_ops.SHIPPED_PRESETS, "Tapered 2deg D3 L25.py"),
+    run_op(bpy.ops.script.execute_preset, filepath=os.path.join(presets.SHIPPED_PRESETS, "Tapered 2deg D3 L25.py"),
            menu_idname="FLANK_MT_tool_presets")
     s.tool_shank_length_mm = 41.5
     user = {}
     user["add"] = run_op(bpy.ops.flank.tool_preset_add, name="Shop Tool 7")
-    user_dir = bpy.utils.user_resource('SCRIPTS', path=os.path.join("presets", ui_ops.PRESET_SUBDIR))
+    user_dir = bpy.utils.user_resource('SCRIPTS', path=os.path.join("presets", presets.PRESET_SUBDIR))
     files = sorted(glob.glob(os.path.join(user_dir, "*.py")))
     user["files"] = [os.path.basename(f) for f in files]
     user["text"] = open(files[0], encoding="utf-8").read() if files else ""
@@ -378,7 +381,7 @@ def scenario(bpy, res, args):
     imp["source"] = imported.get("flank_source")
     imp["refresh"] = run_op(bpy.ops.flank.refresh_flanks)
     imp["listed"] = [s.flank_list_rotor == imported.name, len(s.flank_list)]
-    # the core on the same mesh (what common.rotor_source does for analysed meshes)
+    # the core on the same mesh (what sources.rotor_source does for analysed meshes)
     ra, feet_mod, prof_mod, hs = (driver._core(m) for m in (
         "geometry.rotor_analysis", "geometry.flank_feet", "geometry.profile", "geometry.helical_surface"))
     mw = np.array(imported.matrix_world)
@@ -415,7 +418,7 @@ def scenario(bpy, res, args):
     # ---------------------------------------------------------------- tool kinds and the preview
     t0 = time.perf_counter()
     _select_only(bpy, rotor)
-    run_op(bpy.ops.script.execute_preset, filepath=os.path.join(ui_ops.SHIPPED_PRESETS, "Tapered 3deg D6 L30.py"),
+    run_op(bpy.ops.script.execute_preset, filepath=os.path.join(presets.SHIPPED_PRESETS, "Tapered 3deg D6 L30.py"),
            menu_idname="FLANK_MT_tool_presets")
     s.groove_a, s.groove_b = -0.05, 7.2
     previews = {}
@@ -423,16 +426,16 @@ def scenario(bpy, res, args):
     for kind in ("CONE", "CYLINDER", "PARABOLOID", "CONE", "CUSTOM", "DISC"):
         s.tool_kind = kind
         if kind == "CYLINDER":
-            run_op(bpy.ops.script.execute_preset, filepath=os.path.join(ui_ops.SHIPPED_PRESETS,
+            run_op(bpy.ops.script.execute_preset, filepath=os.path.join(presets.SHIPPED_PRESETS,
                                                                          "Cylindrical D6 L13.py"),
                    menu_idname="FLANK_MT_tool_presets")
         elif kind == "CONE":
-            run_op(bpy.ops.script.execute_preset, filepath=os.path.join(ui_ops.SHIPPED_PRESETS,
+            run_op(bpy.ops.script.execute_preset, filepath=os.path.join(presets.SHIPPED_PRESETS,
                                                                          "Tapered 3deg D6 L30.py"),
                    menu_idname="FLANK_MT_tool_presets")
         before = _datablocks(bpy)
         ret = run_op(bpy.ops.flank.preview_tool)
-        obs = [o for o in bpy.data.objects if o.get(ui_ops.PREVIEW_PROP)]
+        obs = [o for o in bpy.data.objects if o.get(presets.PREVIEW_PROP)]
         entry = dict(result=ret, strategy=s.strategy, previews=len(obs), orphans=_orphan_meshes(bpy),
                      new={k: _datablocks(bpy)[k] - before[k] for k in before},
                      active=bpy.context.view_layer.objects.active.name, draw=ui.draw(panels.FLANK_PT_tool))
@@ -442,7 +445,7 @@ def scenario(bpy, res, args):
             ob.data.vertices.foreach_get("co", v)
             v = v.reshape(-1, 3)
             r = np.linalg.norm(v[:, :2], axis=1)
-            entry.update(name=ob.name, mesh=ob.data.name, kind=ob[ui_ops.PREVIEW_PROP], radius_max=float(r.max()),
+            entry.update(name=ob.name, mesh=ob.data.name, kind=ob[presets.PREVIEW_PROP], radius_max=float(r.max()),
                          z=[float(v[:, 2].min()), float(v[:, 2].max())],
                          radius_at_tip=float(r[np.abs(v[:, 2] - v[:, 2].min()) < 1e-6].max()),
                          location=list(ob.matrix_world.translation), rotor_box=[rb.min(axis=0).tolist(),
@@ -456,7 +459,7 @@ def scenario(bpy, res, args):
     t0 = time.perf_counter()
     _select_only(bpy, rotor)
     s.tool_kind = "CONE"
-    run_op(bpy.ops.script.execute_preset, filepath=os.path.join(ui_ops.SHIPPED_PRESETS, "Tapered 3deg D6 L30.py"),
+    run_op(bpy.ops.script.execute_preset, filepath=os.path.join(presets.SHIPPED_PRESETS, "Tapered 3deg D6 L30.py"),
            menu_idname="FLANK_MT_tool_presets")
     s.flank_index = 1
     s.sf_tolerance, s.sf_seeds, s.sf_rounds, s.sf_envelope_rings, s.sf_animate = 0.05, 6, 4, 12, False
@@ -467,7 +470,7 @@ def scenario(bpy, res, args):
         ret = (sorted(getattr(bpy.ops.flank, idname.split(".")[1])('INVOKE_DEFAULT', **kw)), None)
     except RuntimeError as ex:
         ret = (None, str(ex))
-    export = importlib.import_module(mod + ".operators.export")
+    export = importlib.import_module(mod + ".operators.runs")
     coll = export.find_run(bpy.context)
     runs["single"] = dict(idname=idname, kw={k: _plain(v) for k, v in kw.items()}, result=ret,
                           coll=getattr(coll, "name", coll), seconds=time.perf_counter() - t0)
@@ -477,7 +480,7 @@ def scenario(bpy, res, args):
         import json
 
         plan = json.loads(coll[driver_plan_prop])
-        info = ui_ops.strip_rows(coll)
+        info = strips.strip_rows(coll)
         tools = sorted(((int(o[pre + key]), i, o.name) for i, o in enumerate(coll.objects)
                         if o.get(pre + "role") == "tool"))
         facts = dict(props={k[len(pre):]: _plain(coll[k]) for k in coll.keys() if k.startswith(pre)
@@ -510,7 +513,7 @@ def scenario(bpy, res, args):
         facts["draw_items"] = items
         return plan, facts
 
-    driver_plan_prop = importlib.import_module(mod + ".operators.common").PLAN_JSON_PROP
+    driver_plan_prop = importlib.import_module(mod + ".operators.runs").PLAN_JSON_PROP
     if not isinstance(coll, str):
         plan, facts = run_facts(coll, "flank_sf_", "strip")
         # exact ownership from the verify engine, as a share of the flank's profile arc length
@@ -543,7 +546,7 @@ def scenario(bpy, res, args):
     # ---------------------------------------------------------------- Run: single flank, cylinder preset
     t0 = time.perf_counter()
     _select_only(bpy, rotor)
-    run_op(bpy.ops.script.execute_preset, filepath=os.path.join(ui_ops.SHIPPED_PRESETS, "Cylindrical D6 L13.py"),
+    run_op(bpy.ops.script.execute_preset, filepath=os.path.join(presets.SHIPPED_PRESETS, "Cylindrical D6 L13.py"),
            menu_idname="FLANK_MT_tool_presets")
     s.flank_index = 2
     idname, kw = ui_ops.run_call(s)
@@ -587,9 +590,9 @@ def scenario(bpy, res, args):
     s.tool_kind = "CUSTOM"
     before = _datablocks(bpy)
     runs["custom_preview"] = dict(result=run_op(bpy.ops.flank.preview_tool), orphans=_orphan_meshes(bpy),
-                                  previews=sum(1 for o in bpy.data.objects if o.get(ui_ops.PREVIEW_PROP)),
+                                  previews=sum(1 for o in bpy.data.objects if o.get(presets.PREVIEW_PROP)),
                                   new={k: _datablocks(bpy)[k] - before[k] for k in before})
-    prev = next((o for o in bpy.data.objects if o.get(ui_ops.PREVIEW_PROP)), None)
+    prev = next((o for o in bpy.data.objects if o.get(presets.PREVIEW_PROP)), None)
     src_tool = [o for o in bpy.data.objects if o.get("flank_df_role") == "tool" and o.get("flank_df_path") == 0]
     runs["custom_preview"]["vertices"] = [len(prev.data.vertices) if prev else 0,
                                           len(src_tool[-1].data.vertices) if src_tool else -1]
@@ -611,9 +614,9 @@ def scenario(bpy, res, args):
                                       new={k: _datablocks(bpy)[k] - before[k] for k in before})
     s.strategy = "FORMED"
     runs["disc_preview"] = dict(result=run_op(bpy.ops.flank.preview_tool), orphans=_orphan_meshes(bpy),
-                                previews=sum(1 for o in bpy.data.objects if o.get(ui_ops.PREVIEW_PROP)),
-                                kind=next((o[ui_ops.PREVIEW_PROP] for o in bpy.data.objects
-                                           if o.get(ui_ops.PREVIEW_PROP)), None),
+                                previews=sum(1 for o in bpy.data.objects if o.get(presets.PREVIEW_PROP)),
+                                kind=next((o[presets.PREVIEW_PROP] for o in bpy.data.objects
+                                           if o.get(presets.PREVIEW_PROP)), None),
                                 draw=ui.draw(panels.FLANK_PT_tool))
     s.strategy = "DOUBLE"
     res["timing"]["run_formed_groove"] = time.perf_counter() - t0
@@ -654,7 +657,7 @@ def scenario(bpy, res, args):
     bpy.ops.object.mode_set(mode='OBJECT')
     _select_only(bpy, bpy.data.objects.get(runs["double"].get("tools", [rotor.name])[0]))
     res["draw_result_active"] = ui.draw_all(panels)
-    res["draw_result_active_rotor"] = ui_ops.workpiece_object(bpy.context).name
+    res["draw_result_active_rotor"] = sources.workpiece_object(bpy.context).name
     # the recording stub of driver.py (used by the other scenarios) accepts every panel of its list too
     res["driver_stub"] = driver._draw_panels(bpy, rotor)
     res["timing"]["total"] = time.perf_counter() - t_start

@@ -1,8 +1,9 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """flank.error_plot through the installed extension (scenario_error_plot.py): failures leave no image and no
-file, the image of a single-flank run is exactly the core rasteriser's picture of the stored plan, its curve
-has verify's colours at the rows the errors map to, the axis unit follows the scene (mm, µm below 1 mm), the
-image is reused, written as PNG on request and survives save + reload."""
+file, the image of a single-flank run is exactly the core rasteriser's picture of the stored plan outside its
+text, the text is drawn in Blender's font where the core's text items put it, the curve has verify's colours at
+the rows the errors map to, the axis unit follows the scene (mm, µm below 1 mm), the image is reused, written
+as PNG on request and survives save + reload."""
 import pytest
 
 from blender_harness import run_scenario
@@ -45,8 +46,16 @@ def _image_checks(r, w, h, unit):
     assert r["packed"] and r["fake_user"]
     p = r["props"]
     assert p["flank_plot_unit"] == unit == r["core_info"]["unit"]
-    # pixel for pixel the core rasteriser on the stored plan (8-bit image: k / 255 exactly, float readback)
-    assert r["vs_core_max_diff"] < 1e-6
+    # pixel for pixel the core rasteriser on the stored plan outside the text (8-bit image: k / 255 exactly, float
+    # readback); every text item drawn in Blender's font inside its box: dark ink, where the item asks for it
+    tx = r["text"]
+    assert tx["outside_max_diff"] < 1e-6 and tx["changed_outside"] == 0, tx
+    assert tx["count"] >= 15 and len(tx["items"]) == tx["count"] and tx["changed_inside"] > 2000
+    roles = {i["role"] for i in tx["items"]}
+    assert {"title", "legend", "caption", "note", "x_label", "x_tick", "y_tick", "group"} <= roles, roles
+    for i in tx["items"]:
+        assert i["box"] is not None and i["changed"] >= 5 and i["darkest"] < 0.45, i
+        assert abs(i["left_offset"]) <= 2 and -2 <= i["cap_top_offset"] <= 2 and 0 <= i["baseline_offset"] <= 8, i
     # every one of the profile points is drawn in verify's colour within 1 px of its row (8-bit rounding)
     cc = r["curve_check"]
     assert cc["points"] == p["flank_plot_finite_points"] == p["flank_plot_points"] > 100
