@@ -143,7 +143,8 @@ def _cmd_verify(args):
     if len(args.plans) != 1:
         raise ValueError("verify takes one plan (several only with --program)")
     for opt in ("machine", "post", "mesh", "outer_radius_mm", "lobes"):
-        if getattr(args, opt) is not None:
+        if getattr(args, opt) is not None or args.flip_rotor:
+            opt = opt if getattr(args, opt) is not None else "flip_rotor"
             raise ValueError(f"--{opt.replace('_', '-')} applies to verify --program only")
     args.plan = args.plans[0]
     plan = read_plan(args.plan)
@@ -658,7 +659,6 @@ def _cutting_data(args):
 
 
 def _cmd_post(args):
-    from .machining.machine import load_machine
     from .machining.operation import build_operation
     from .machining.toolpath import build_program
     from .machining.cycle_time import cycle_time
@@ -666,7 +666,7 @@ def _cmd_post(args):
 
     t0 = time.perf_counter()
     post = get_post(args.post)
-    machine = load_machine(args.machine)
+    machine = _machine(args)
     plans, rotor = _machining_inputs(args)
     op = build_operation(plans, rotor, lobes=args.lobes, clearance=args.clearance, cutting_data=_cutting_data(args))
     prog = build_program(op, machine, direction=args.direction, chord_tolerance=args.chord_tolerance)
@@ -698,7 +698,6 @@ def _cmd_post(args):
 
 
 def _cmd_verify_program(args):
-    from .machining.machine import load_machine
     from .posts import get_post, post_for_file
     from .posts.readback import verify_program
 
@@ -707,7 +706,7 @@ def _cmd_verify_program(args):
     post = get_post(args.post) if args.post else post_for_file(args.program)
     if post is None:
         raise ValueError(f"cannot tell the dialect of {args.program} from its extension: pass --post")
-    machine = load_machine(args.machine)
+    machine = _machine(args)
     plans, rotor = _machining_inputs(args)
     with open(args.program, encoding="ascii", errors="replace") as fh:
         text = fh.read()
@@ -728,7 +727,8 @@ def _cmd_verify_program(args):
               f"{pl['plan_max_overcut_mm']:.4g} mm")
         for lo in pl["lobes"]:
             print(f"    lobe {lo['lobe']}: {lo['passes']} passes, deviation differs by at most "
-                  f"{lo['max_deviation_difference_mm']:.3g} mm, gouge points {lo['gouge_points']}")
+                  f"{lo['max_deviation_difference_mm']:.3g} mm (tool poses by {lo['pose_difference_mm']:.3g} mm; "
+                  f"{lo['rechecked_points']} point(s) swept again finer), gouge points {lo['gouge_points']}")
     ro = res["run_out"]
     print(f"  run-out beyond the end faces: start >= {ro['min_start_clearance_mm']:.3g} mm, end >= "
           f"{ro['min_end_clearance_mm']:.3g} mm; links: {res['links']['moves_checked']} checked, deepest "
@@ -736,6 +736,13 @@ def _cmd_verify_program(args):
     print(f"  cutting {res['cutting_time_s']:.1f} s, rapid {res['rapid_time_s']:.1f} s, total "
           f"{res['total_time_s']:.1f} s")
     return 0
+
+
+def _machine(args):
+    from .machining.machine import load_machine
+
+    m = load_machine(args.machine)
+    return m.flipped() if args.flip_rotor else m
 
 
 def _cmd_machines(args):
@@ -755,6 +762,8 @@ def _add_machining_inputs(p):
                                   "that do not record rotor.extent)")
     p.add_argument("--outer-radius-mm", type=float, help="plans in units of R: the rotor's outer radius in mm")
     p.add_argument("--lobes", type=lobe_list, help="lobes to cut: all (default) or indices like 0,2,4")
+    p.add_argument("--flip-rotor", action="store_true",
+                   help="the rotor is mounted the other way round (turned 180 deg about its x axis) on the machine")
 
 
 def report_scene():

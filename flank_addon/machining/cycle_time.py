@@ -38,18 +38,45 @@ def block_time(move, machine, tool_length=0.0):
     return max(T, max(dj[i] / machine.axes[n].max_feed for i, n in enumerate(names)))
 
 
+def block_times(moves, machine, tool_lengths=None):
+    """Minutes (N,) of many moves at once (:func:`block_time`, vectorised)."""
+    tool_lengths = tool_lengths or {}
+    N = len(moves)
+    if not N:
+        return np.zeros(0)
+    S = np.array([mv.start for mv in moves])
+    E = np.array([mv.end for mv in moves])
+    known = np.isfinite(S).all(axis=1)
+    S = np.where(known[:, None], S, E)
+    J0, J1 = np.empty_like(S), np.empty_like(E)
+    tools = np.array([mv.tool for mv in moves])
+    for t in np.unique(tools):
+        k = tools == t
+        J0[k] = machine.machine_joints(S[k], tool_lengths.get(int(t), 0.0))
+        J1[k] = machine.machine_joints(E[k], tool_lengths.get(int(t), 0.0))
+    dj = np.abs(J1 - J0)
+    names = machine.axis_names
+    rapid = np.array([machine.axes[n].rapid for n in names])
+    top = np.array([machine.axes[n].max_feed for n in names])
+    d = np.abs(E - S)
+    lin, rot = np.linalg.norm(d[:, :3], axis=1), np.linalg.norm(d[:, 3:], axis=1)
+    F = np.array([mv.feed if mv.kind == "feed" else 1.0 for mv in moves])
+    mode = np.array([mv.feed_mode if mv.kind == "feed" else "" for mv in moves])
+    bad = set(mode) - {"", "inverse_time", "per_minute", "tip_speed", "combined"}
+    if bad:
+        raise ValueError(f"unknown feed mode {sorted(bad)[0]!r}")
+    T = np.select([mode == "inverse_time", np.isin(mode, ("per_minute", "tip_speed")), mode == "combined"],
+                  [1.0 / F, np.where(lin > 0, lin, rot) / F, np.hypot(lin, rot) / F], 0.0)
+    T = np.where(mode == "", (dj / rapid).max(axis=1), np.maximum(T, (dj / top).max(axis=1)))
+    return np.where(known, T, 0.0)
+
+
 def cycle_time(read, machine, tool_lengths=None):
     """Cutting, rapid and tool-change seconds of a read-back program (:class:`..posts.base.ReadProgram`)."""
-    tool_lengths = tool_lengths or {}
-    cut = rapid = 0.0
-    per_block = []
-    for mv in read.moves:
-        T = block_time(mv, machine, tool_lengths.get(mv.tool, 0.0))
-        per_block.append(T)
-        if mv.kind == "feed":
-            cut += T
-        else:
-            rapid += T
+    per = block_times(read.moves, machine, tool_lengths)
+    feed = np.array([mv.kind == "feed" for mv in read.moves], bool)
+    cut, rapid = float(per[feed].sum()), float(per[~feed].sum())
+    per_block = per.tolist()
     changes = len(read.tool_changes)
     tc = changes * machine.tool_change_s / 60.0
     return {"cutting_time_s": 60.0 * cut, "rapid_time_s": 60.0 * rapid, "tool_changes": changes,

@@ -16,14 +16,14 @@ import numpy as np
 
 
 def disc_cutter_plan(profile, v0, handedness, flanks, cutter, length_unit="mm", to_world=None, extent=None,
-                     arbor_radius=None, arbor_length=None):
+                     arbor_radius=None, arbor_length=None, n_profile=2048):
     """The flank-plan/1 plan of a :class:`..methods.formed_cutter.cutter_profile.CutterProfile` ``cutter`` cut
     into the rotor (``profile``: :class:`SplineProfile`; ``flanks``: its parameter ranges, as
     ``Rotor.flanks``)."""
     from ..io.plan import new_plan, rotor_section, summarize
     from ..simulation.verify import verify_plan
 
-    rotor = rotor_section(profile, v0, handedness, flanks, to_world=to_world)
+    rotor = rotor_section(profile, v0, handedness, flanks, to_world=to_world, n_profile=n_profile)
     if extent is not None:
         rotor["extent"] = extent
     Z, R = np.asarray(cutter.z, float), np.asarray(cutter.r, float)

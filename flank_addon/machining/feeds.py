@@ -118,14 +118,14 @@ class PassConditions:
                 "cutting_length_mm": self.cutting_length, "feed_mm_min": self.feed_mm_min}
 
 
-def engaged_edge(shape, tip, axis, outer_radius, spacing=0.25):
+def engaged_edge(shape, tip, axis, outer_radius, spacing=0.5):
     """Surface samples of the cutting part inside the stock radius at the pose (tip, axis): points (K, 3)
     and their diameters (K,)."""
     from .tool_shape import perpendicular_frames
 
     h, R, sh = shape.outline(spacing)
     h, R = h[~sh], R[~sh]
-    m = 72
+    m = 48
     th = np.arange(m) * (2 * math.pi / m)
     e1, e2 = perpendicular_frames(axis)
     ring = np.cos(th)[:, None] * e1 + np.sin(th)[:, None] * e2              # (m, 3)

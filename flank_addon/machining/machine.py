@@ -144,6 +144,14 @@ class Machine:
         """sigma: +1 when the spin axis points along the rotor's +z, -1 against it."""
         return 1.0 if float(self.axes[self.spin].direction @ self.mount[:, 2]) > 0 else -1.0
 
+    def flipped(self):
+        """The same machine with the rotor mounted the other way round (turned 180 deg about its x axis:
+        z and y reversed), for tools whose axes point down the rotor's z."""
+        import dataclasses
+
+        m = dataclasses.replace(self, mount=self.mount * np.array([1.0, -1.0, -1.0]), name=self.name + " (rotor flipped)")
+        return m
+
     def describe(self):
         return {"name": self.name, "version": self.version, "tcp": self.tcp, "axes": self.axis_names,
                 "spin_axis": self.spin, "tilt_axis": self.tilt, "source": self.source}

@@ -88,8 +88,9 @@ def _same_rotor(plans):
                                  "placement differ): one operation needs plans of one rotor")
 
 
-def flank_on_lobe(plan, flank, turn):
-    """Index of the plan's rotor flank that flank ``flank`` turned by ``turn`` (rad) about z lands on."""
+def flank_on_lobe(plan, flank, turn, solid=None):
+    """Index of the plan's rotor flank that flank ``flank`` turned by ``turn`` (rad) about z lands on
+    (``solid``: the plan's :class:`..simulation.collision.ProfileSolid`, made here if not given)."""
     from ..geometry.screw import rotate2d
     from ..simulation.collision import ProfileSolid
 
@@ -97,15 +98,15 @@ def flank_on_lobe(plan, flank, turn):
     prof = np.asarray(rot["profile"], float)
     a, b = rot["flanks"][flank]
     mid = prof[((a + b) // 2) % len(prof)]
-    solid = ProfileSolid(prof, rot["flanks"])
+    solid = solid or ProfileSolid(prof, rot["flanks"])
     _, idx = solid.nearest(rotate2d(mid[None], turn))
     return int(solid.flank_of[idx[0]])
 
 
-def run_out(shape, tip, axis, rotor, clearance, spacing=1.0):
+def run_out(shape, tip, axis, rotor, clearance, spacing=1.0, local=None):
     """(t_a, t_b, shaft margin) of the pose (module doc); margin = smallest rho - shaft radius over the tool
-    points that pass over a shaft (inf without shafts)."""
-    pts = place_points(shape.local_points(spacing), tip, axis)[0]
+    points that pass over a shaft (inf without shafts).  ``local``: the shape's surface points if known."""
+    pts = place_points(shape.local_points(spacing) if local is None else local, tip, axis)[0]
     z0, z1 = rotor.z_range
     t_a = (pts[:, 2].min() - z1 - clearance) / rotor.v0
     t_b = (pts[:, 2].max() - z0 + clearance) / rotor.v0
@@ -138,11 +139,13 @@ def build_operation(plans, rotor, lobes=None, clearance=5.0, cutting_data=None):
         raise OperationError(f"lobes {bad or lobes} are not lobes of this rotor (0..{rotor.lobes - 1})")
     from ..exports.cl_data import strip_tip
     from ..geometry.screw import screw_motion
+    from ..simulation.collision import ProfileSolid
 
-    tools, by_sig, passes = [], {}, []
+    tools, by_sig, passes, local = [], {}, [], {}
     for p, plan in enumerate(plans):
         if not plan["strips"]:
             raise OperationError(f"plan {p} has no strips")
+        solid = ProfileSolid(np.asarray(plan["rotor"]["profile"], float), plan["rotor"]["flanks"])
         for s in range(len(plan["strips"])):
             shape = ToolShape.from_strip(plan, s)
             sig = shape.signature()
@@ -152,14 +155,15 @@ def build_operation(plans, rotor, lobes=None, clearance=5.0, cutting_data=None):
                 shape.name = f"T{len(tools) + 1} {plan['tool'].get('kind', 'tool')} ({plan.get('method', '?')})"
                 tools.append(ToolEntry(len(tools) + 1, shape, data, shape.name, hi - lo))
                 by_sig[sig] = len(tools)
+                local[len(tools)] = shape.local_points(1.0)
             number = by_sig[sig]
             T, a, _ = strip_tip(plan, s)
             for k in lobes:
                 turn = rotor.lobe_angle(k)
                 tip = screw_motion(T, turn, 0.0, "right")
                 axis = screw_motion(a, turn, 0.0, "right")
-                t_a, t_b, margin = run_out(tools[number - 1].shape, tip, axis, rotor, clearance)
-                ps = Pass(p, s, k, flank_on_lobe(plan, plan["strips"][s]["flank"], turn), number, tip, axis,
+                t_a, t_b, margin = run_out(tools[number - 1].shape, tip, axis, rotor, clearance, local=local[number])
+                ps = Pass(p, s, k, flank_on_lobe(plan, plan["strips"][s]["flank"], turn, solid), number, tip, axis,
                           (t_a, t_b), margin)
                 if margin < 0:
                     raise OperationError(f"pass {ps.label}: running out past the body the tool enters a shaft by "

@@ -48,9 +48,9 @@ class RotorBody:
         """Turn (rad) about z that carries lobe 0 onto lobe k."""
         return 2.0 * math.pi * k / self.lobes
 
-    def intrusion(self, points, stock=True):
+    def intrusion(self, points, stock=True, margin=0.0):
         """Depth (N,) by which rotor-frame points (N, 3) lie inside the stock cylinder (if ``stock``) or a
-        shaft: min(r - rho, z - z_a, z_b - z) of the deepest solid, 0 outside all of them."""
+        shaft, each grown by ``margin``: min(r - rho, z - z_a, z_b - z) of the deepest solid, 0 outside."""
         p = np.asarray(points, float).reshape(-1, 3)
         rho = np.hypot(p[:, 0], p[:, 1])
         z = p[:, 2]
@@ -59,6 +59,7 @@ class RotorBody:
             solids.append((self.z_range[0], self.z_range[1], self.outer_radius))
         depth = np.zeros(len(p))
         for a, b, r in solids:
+            a, b, r = a - margin, b + margin, r + margin
             d = np.minimum(np.minimum(r - rho, z - a), b - z)
             depth = np.maximum(depth, d)
         return depth

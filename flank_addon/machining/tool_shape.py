@@ -37,9 +37,8 @@ def place_points(local, tips, axes):
     tips = np.atleast_2d(np.asarray(tips, float))
     axes = np.atleast_2d(np.asarray(axes, float))
     e1, e2 = perpendicular_frames(axes)
-    L = np.asarray(local, float)
-    return (tips[:, None, :] + L[None, :, 0:1] * e1[:, None, :] + L[None, :, 1:2] * e2[:, None, :]
-            + L[None, :, 2:3] * axes[:, None, :])
+    F = np.stack([e1, e2, axes], axis=1)                   # (N, 3, 3): rows e1, e2, a
+    return np.matmul(np.asarray(local, float)[None], F) + tips[:, None, :]
 
 
 @dataclass

@@ -104,11 +104,10 @@ class _Planner:
         return tips[0], axes[0]
 
     def candidates(self, number, end, start):
-        """Candidate link row sequences (levels) from program row ``end`` to ``start`` (either may be None:
-        tool start / tool end)."""
+        """Candidate link row sequences (levels, generated lazily) from program row ``end`` to ``start``
+        (either may be None: tool start / tool end)."""
         R0 = self.rotor.safe_radius(self.op.clearance)
         gauge = self.op.tool(number).gauge_length
-        out = []
         for level, R in enumerate((R0, R0 + gauge, R0 + gauge)):
             seq = []
             lift = level == 2 or end is None or start is None
@@ -124,20 +123,33 @@ class _Planner:
                 tail = [self.row_at(up, start[3:], number), start]
                 if lift:
                     tail.insert(0, self.row_at(up + self.lift * axis, start[3:], number))
-                if seq:                                   # turn the rotaries where the tool is
-                    turn = self._turn(number, seq[-1], start[3:])
-                    if turn is not None:
-                        seq.append(turn)
+                if seq:                                   # turn the rotaries where the tool is: spin, then tilt
+                    seq += self._turn(seq[-1], start[3:], number)
                 seq += tail
-            out.append(seq)
+            yield seq
             if end is None or start is None:
                 break
-        return out
 
-    def _turn(self, number, row, angles):
-        if np.allclose(row[3:], angles, atol=1e-12):
-            return None
-        return np.r_[row[:3], angles]
+    def _turn(self, row, angles, number):
+        """Rows turning the rotaries from ``row`` to ``angles`` with the linear joints still: spin first, then
+        tilt.  With TCP the controller would keep the tip on the workpiece instead, so the same joint motion
+        is written as tip positions every <= 2 deg (the tip's chords then stay within R (1 - cos 1 deg))."""
+        spun = row.copy()
+        spun[self.ispin] = angles[self.ispin - 3]
+        targets = [r for r, prev in ((spun, row), (np.r_[row[:3], angles], spun)) if not np.allclose(r[3:], prev[3:])]
+        if not self.m.tcp:
+            return targets
+        gauge = self.op.tool(number).gauge_length
+        out, J = [], self.m.machine_joints(row, gauge)[0]
+        for target in targets:
+            J1 = np.r_[J[:3], target[3:]]
+            n = max(1, int(math.ceil(np.abs(J1[3:] - J[3:]).max() / 2.0)))
+            for k in range(1, n + 1):
+                Jk = J + (J1 - J) * (k / n)
+                tip, _ = self.m.forward(Jk, gauge, tcp=False)
+                out.append(np.r_[self.m.control_points(tip, Jk[3:], gauge)[0], Jk[3:]])
+            J = J1
+        return out
 
     def check(self, number, seq, what):
         gauge = self.op.tool(number).gauge_length
@@ -164,30 +176,32 @@ class _Planner:
 
 
 def segment_intrusion(machine, rotor, r0, r1, local, gauge, step):
-    """:func:`clearance.move_intrusion` of one program segment; a segment that only turns the spin axis (no
-    TCP) or only moves along the rotor axis keeps every tool point's distance from the axis, so its end
-    points decide."""
+    """Deepest intrusion (depth, fraction, point) of one program segment into the stock or a shaft: a move
+    of the linear axes alone is a translation in the rotor frame (:func:`clearance.translation_intrusion`,
+    exact); one whose machine joints only turn the spin keeps every tool point's rho and z, so its end points
+    decide (with TCP the control moves the tip on the chord instead of the arc: the solids are grown by the
+    sagitta); any other is sampled (:func:`clearance.move_intrusion`)."""
+    from .clearance import tool_points, translation_intrusion
+
     d = np.subtract(r1, r0)
     ispin = 3 + machine.rotary_names.index(machine.spin)
     moving = np.flatnonzero(np.abs(d) > 1e-12)
-    if not machine.tcp:
-        pure_spin = list(moving) == [ispin]
-        axial = False
-        if len(moving) and moving.max() < 3:
-            ang = {n: np.radians([r0[3 + i]]) for i, n in enumerate(machine.rotary_names)}
-            R, _ = machine.table_transform(ang)
-            w = (R[0].T @ d[:3]) @ machine.mount                 # rotor-frame displacement
-            axial = math.hypot(w[0], w[1]) <= 1e-9 * (1.0 + abs(w[2]))
-        if pure_spin or axial:
-            from .clearance import tool_points
-            pts = tool_points(machine, np.array([r0, r1]), local, gauge)
-            rho = np.hypot(pts[..., 0], pts[..., 1])
-            solids = rotor.shafts + [(rotor.z_range[0], rotor.z_range[1], rotor.outer_radius)]
-            r_all = max(s[2] for s in solids)
-            if pure_spin or rho.min() >= r_all:
-                depth = rotor.intrusion(pts.reshape(-1, 3)).reshape(pts.shape[:2])
-                k = np.unravel_index(np.argmax(depth), depth.shape)
-                return float(depth[k]), float(k[0]), pts[k].tolist()
+    if len(moving) and moving.max() < 3:                  # linear axes only: a translation in the rotor frame
+        tips, axes = machine.forward(np.array([r0, r1]), gauge)
+        pts = place_points(local, tips[0], axes[0])[0]
+        depth, pt = translation_intrusion(rotor, pts, tips[1] - tips[0])
+        return depth, 0.0, pt
+    J = machine.machine_joints(np.array([r0, r1]), gauge)
+    dj = np.flatnonzero(np.abs(J[1] - J[0]) > 1e-9)
+    if list(dj) == [ispin]:              # the machine turns the spin alone: rho and z of every point stay
+        pts = tool_points(machine, np.array([r0, r1]), local, gauge)
+        margin = 0.0
+        if machine.tcp:                  # a TCP control runs the tip on the chord: off the arc by the sagitta
+            reach = float(np.hypot(pts[..., 0], pts[..., 1]).max())
+            margin = reach * (1.0 - math.cos(math.radians(abs(J[1, ispin] - J[0, ispin])) / 2.0))
+        depth = rotor.intrusion(pts.reshape(-1, 3), margin=margin).reshape(pts.shape[:2])
+        k = np.unravel_index(np.argmax(depth), depth.shape)
+        return float(depth[k]), float(k[0]), pts[k].tolist()
     return move_intrusion(machine, rotor, r0, r1, local, gauge, step=step,
                           reach=reach_of(machine, [r0, r1], local, gauge))
 
@@ -262,8 +276,10 @@ def build_program(op, machine, direction="forward", chord_tolerance=1e-3, step=1
             label = f"pass {len(passes_out) + 1} ({ps.label})"
             mj = machine.machine_joints(rows, tool.gauge_length)
             for axis_name, value, lo, hi in machine.limit_violations(mj):
+                hint = (" (the rotor mounted the other way round, --flip-rotor, may reach it)"
+                        if axis_name == machine.tilt and "flipped" not in machine.name else "")
                 raise MachineError(f"{label}: axis {axis_name} reaches {value:.6g}, outside its limits "
-                                   f"{lo:g}..{hi:g} on machine {machine.name}")
+                                   f"{lo:g}..{hi:g} on machine {machine.name}{hint}")
             link = pl.link(tool.number, prev, rows[0], f"link to {label}")
             for r in link[1:-1] if prev is not None else link[:-1]:
                 ops.append({"op": "rapid", "row": r})

@@ -1,0 +1,94 @@
+"""Fixtures of the machining tests: LinuxCNC's interpreter (installed with apt where it is missing), small
+rotors in mm and one plan of each kind (single-flank cone, double-flank, formed disc cutter)."""
+import os
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+from flank_addon.geometry.rotors import builtin_by_name
+
+
+def _install_linuxcnc():
+    """apt-get install linuxcnc-uspace (the package that ships rs274); the apt output on failure."""
+    if shutil.which("apt-get") is None:
+        return "apt-get is not available"
+    sudo = [] if os.geteuid() == 0 else (["sudo", "-n"] if shutil.which("sudo") else None)
+    if sudo is None:
+        return "not root and no sudo"
+    env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
+    log = ""
+    for cmd in (["apt-get", "install", "-y", "linuxcnc-uspace"], ["apt-get", "update"],
+                ["apt-get", "install", "-y", "linuxcnc-uspace"]):
+        r = subprocess.run(sudo + cmd, capture_output=True, text=True, env=env, timeout=1200)
+        log = (r.stdout + r.stderr)[-3000:]
+        if cmd[1] == "install" and r.returncode == 0:
+            return None
+    return log
+
+
+@pytest.fixture(scope="session")
+def rs274():
+    """Path of LinuxCNC's rs274 interpreter; installs linuxcnc-uspace with apt when it is missing and fails
+    (never skips) when that is impossible."""
+    path = shutil.which("rs274")
+    if path is None:
+        why = _install_linuxcnc()
+        path = shutil.which("rs274")
+        if path is None:
+            pytest.fail("LinuxCNC's interpreter rs274 is missing and could not be installed "
+                        f"(apt-get install -y linuxcnc-uspace): {why}")
+    return path
+
+
+@pytest.fixture(scope="session")
+def female_rotor():
+    """Left-handed 6-lobe female, outer radius 30 mm, 60 mm long."""
+    return builtin_by_name("srm_a-female", scale=30.0, length=60.0)
+
+
+@pytest.fixture(scope="session")
+def male_rotor():
+    """Right-handed 4-lobe male, outer radius 30 mm, 60 mm long."""
+    return builtin_by_name("srm_a-male", scale=30.0, length=60.0)
+
+
+@pytest.fixture(scope="session")
+def single_flank_plan(male_rotor):
+    """Single-flank conical plan (a D3 L25 2-deg tapered end mill) of the male's flank 0 (4 strips, tool axes
+    45-54 deg from the rotor axis: every built-in machine reaches them), in mm, with the rotor extent."""
+    from flank_addon.methods.single_flank.planner import plan_single_flank
+    from flank_addon.tooling.cone import ConeTool
+
+    r = male_rotor
+    tool = ConeTool.from_length(1.5, 1.5 + 25.0 * np.tan(np.radians(2.0)), 25.0, shank_radius=3.0,
+                                shank_length=45.0)
+    res = plan_single_flank(r.surface(), r.flanks, 0, tool, 0.05, n_seeds=6, max_rounds=1, length_unit="mm",
+                            n_profile=720)
+    plan = res.plan
+    plan["rotor"]["extent"] = r.extent()
+    return plan
+
+
+@pytest.fixture(scope="session")
+def double_flank_plan(male_rotor):
+    """Double-flank plan (cone on the valley's reference line) of valley 0, in mm, with the rotor extent."""
+    from flank_addon.methods.double_flank.planner import plan_double_flank
+
+    r = male_rotor
+    res = plan_double_flank(r.surface(), r.flanks, valley=0, m=40, tool="cone", simulate=False, length_unit="mm")
+    plan = res.plan
+    plan["rotor"]["extent"] = r.extent()
+    return plan
+
+
+@pytest.fixture(scope="session")
+def formed_cutter_plan(male_rotor):
+    """Formed disc cutter (centre distance 54 mm, swivel 45 deg) as a flank-plan/1 plan, with the extent."""
+    from flank_addon.machining.disc_cutter_plan import disc_cutter_plan
+    from flank_addon.methods.formed_cutter.cutter_profile import cutter_profile
+
+    r = male_rotor
+    cp = cutter_profile(r.profile, r.lead, 54.0, 45.0, handedness=r.handedness, planes=24, analyse=False)
+    return disc_cutter_plan(r.profile, r.v0, r.handedness, r.flanks, cp, extent=r.extent(), n_profile=720)

@@ -1,0 +1,157 @@
+"""Post -> read back -> forward kinematics, for every built-in machine and post and the three kinds of plan.
+
+References: the plan's own strip poses screwed by the rotor's motion (cl_data.strip_tip, screw_motion),
+LinuxCNC's interpreter for rs274ngc (canonical moves and feeds), the sweep simulation for the deviation."""
+import math
+
+import numpy as np
+import pytest
+
+from machining_helpers import rs274_times, run_rs274
+from flank_addon.exports.cl_data import strip_tip
+from flank_addon.geometry.screw import screw_motion
+from flank_addon.machining.cycle_time import cycle_time
+from flank_addon.machining.machine import builtin_machines, load_machine
+from flank_addon.machining.operation import build_operation
+from flank_addon.machining.rotor_body import rotor_body
+from flank_addon.machining.toolpath import build_program
+from flank_addon.posts import POSTS, get_post, write_program
+from flank_addon.posts.readback import match_passes, read_passes, tool_table, verify_program
+
+KINDS = ("single_flank_plan", "double_flank_plan", "formed_cutter_plan")
+_programs, _references = {}, {}
+
+
+def plan_reference(plan):
+    """The plan's own sweep verification (once per plan)."""
+    from flank_addon.simulation.verify import verify_plan
+
+    if id(plan) not in _references:
+        _references[id(plan)] = verify_plan(plan)
+    return _references[id(plan)]
+
+
+def program_of(request, kind, machine_name):
+    key = (kind, machine_name)
+    if key not in _programs:
+        plan = request.getfixturevalue(kind)
+        rb = rotor_body(plan)
+        op = build_operation([plan], rb)
+        _programs[key] = (plan, rb, op, build_program(op, load_machine(machine_name)))
+    return _programs[key]
+
+
+def reference_pose(plan, rb, strip, lobe, z):
+    """The plan's strip turned to the lobe and screwed along the rotor's motion until its tip is at height z."""
+    T, a, _ = strip_tip(plan, strip)
+    turn = rb.lobe_angle(lobe)
+    T, a = screw_motion(T, turn, 0.0, "right"), screw_motion(a, turn, 0.0, "right")
+    t = (z - T[2]) / rb.v0
+    return screw_motion(T, t, rb.v0, rb.hand), screw_motion(a, t, 0.0, rb.hand)
+
+
+@pytest.mark.parametrize("post_name", list(POSTS))
+@pytest.mark.parametrize("machine_name", builtin_machines())
+@pytest.mark.parametrize("kind", KINDS)
+def test_round_trip(request, tmp_path, kind, machine_name, post_name, rs274):
+    plan, rb, op, prog = program_of(request, kind, machine_name)
+    m, post = prog.machine, get_post(post_name)
+    path = tmp_path / f"p{post.extension}"
+    text = write_program(prog, post, path)
+    read = post.read(path.read_text(), m)
+    # 1. the rows read back are the program's rows to the dialect's resolution
+    moves = [o for o in prog.ops if o["op"] in ("rapid", "feed")]
+    got = np.array([mv.end for mv in read.moves])
+    want = np.array([post.round_row(o["row"], m) for o in moves])
+    kept = [0] + [i for i in range(1, len(want)) if not np.array_equal(want[i], want[i - 1])]
+    assert got.shape == want[kept].shape and np.abs(got - want[kept]).max() < 1e-9
+    assert [mv.kind for mv in read.moves] == [moves[i]["op"] for i in kept]
+    # 2. every feed block end is the plan's strip on its lobe, screwed: the pose to the program's rounding
+    tools, of_strip = tool_table([plan])
+    passes = match_passes(read_passes(read, m, tools, rb), [plan], rb, tools, of_strip)
+    assert len(passes) == len(op.passes) == len(plan["strips"]) * rb.lobes
+    assert sorted(ps["match"] for ps in passes) == sorted((0, s, k) for s in range(len(plan["strips"]))
+                                                          for k in range(rb.lobes))
+    for ps in passes:
+        gauge = tools[ps["tool"]].h_range()[1] - tools[ps["tool"]].h_range()[0]
+        P, A = m.forward(ps["rows"], gauge)
+        for p, a in zip(P, A):
+            T, b = reference_pose(plan, rb, ps["match"][1], ps["match"][2], p[2])
+            assert np.linalg.norm(p - T) < 2e-3 and np.linalg.norm(a - b) < 2e-5
+        assert ps["interpolation_error"] < (2e-3 if m.tcp else 1e-3)
+    # 3. block times: as planned (to the F word's rounding) and within every joint's top speed
+    ct = cycle_time(read, m, {n: s.h_range()[1] - s.h_range()[0] for n, s in tools.items()})
+    planned = sum(o["time_min"] for o in moves if o["op"] == "feed")
+    assert abs(ct["cutting_time_s"] / (60 * planned) - 1) < 1e-5
+    J = m.machine_joints(np.array([mv.start for mv in read.moves[1:]]))
+    J1 = m.machine_joints(np.array([mv.end for mv in read.moves[1:]]))
+    T = np.array(ct["block_minutes"][1:])
+    speed = np.abs(J1 - J) / T[:, None]
+    feeds = np.array([mv.kind == "feed" for mv in read.moves[1:]])
+    top = np.array([m.axes[n].max_feed for n in m.axis_names])
+    assert (speed[feeds] <= top * (1 + 1e-6)).all()
+    # 4. LinuxCNC's own interpreter reads the rs274ngc program: same moves, same cutting time
+    if post_name == "linuxcnc":
+        canon = run_rs274(rs274, path)
+        pos = np.array([c[1][:3].tolist() + [c[1][3 + "ABC".index(n)] for n in m.rotary_names] for c in canon])
+        assert len(canon) == len(read.moves) and np.abs(pos - got).max() < 2e-4
+        assert abs(rs274_times(canon) * 60 / ct["cutting_time_s"] - 1) < 0.02
+
+
+@pytest.mark.parametrize("kind, machine_name, post_name", [
+    ("single_flank_plan", "xyzac-trt", "heidenhain"),
+    ("formed_cutter_plan", "xyzac-trt-tcp", "fanuc"),
+])
+def test_program_mills_what_the_plan_mills(request, kind, machine_name, post_name):
+    """Read back and swept (lobe 1), the program's deviation is the plan's to 2 um (+ the TCP chord); the
+    acceptance test sweeps every lobe of a rotor-xa-b program."""
+    plan, rb, op, prog = program_of(request, kind, machine_name)
+    post = get_post(post_name)
+    res = verify_program(post.write(prog), post, prog.machine, [plan], rb, lobes=[1],
+                         references=[plan_reference(plan)])
+    assert res["matched_passes"] == res["passes"] and not res["missing_strips"] and not res["repeated_strips"]
+    (lobe,) = res["plans"][0]["lobes"]
+    assert lobe["lobe"] == 1 and lobe["coverage_mismatches"] == 0
+    assert lobe["max_deviation_difference_mm"] < 2e-3 + (1e-3 if prog.machine.tcp else 0.0)
+    assert lobe["pose_difference_mm"] < 2e-3
+    assert lobe["gouge_points"] == res["plans"][0]["plan_gouge_points"]
+    assert res["links"]["max_intrusion_mm"] == 0.0 and res["links"]["moves_checked"] > 3 * len(op.passes)
+    assert min(res["run_out"]["min_start_clearance_mm"], res["run_out"]["min_end_clearance_mm"]) > 4.9
+
+
+def test_a_pose_error_shows_in_the_deviation(request):
+    """The read-back is no tautology: a program whose passes sit 0.05 mm off deviates by about that."""
+    plan, rb, op, prog = program_of(request, "single_flank_plan", "rotor-xa-b")
+    post = get_post("linuxcnc")
+    bad = post.write(prog).replace("\nG1 ", "\nG1 ")
+    lines = bad.splitlines()
+    yz = [i for i, ln in enumerate(lines) if ln.startswith("G0 ") and " Z" in ln and "X" not in ln]
+    i = yz[0]                                   # the first approach: lower it by 0.05 mm
+    z = float(lines[i].split("Z")[1].split()[0])
+    lines[i] = lines[i].replace(f"Z{z:.4f}", f"Z{z - 0.05:.4f}")
+    res = verify_program("\n".join(lines) + "\n", post, prog.machine, [plan], rb, lobes=[0, 1, 2, 3],
+                         references=[plan_reference(plan)])
+    worst = max(lo["max_deviation_difference_mm"] for lo in res["plans"][0]["lobes"])
+    assert len(res["unmatched_passes"]) == 1 and 0.01 < res["unmatched_passes"][0]["distance_mm"] < 0.2
+    assert len(res["missing_strips"]) == 1 and worst > 0.04      # its strip is missing: material is left
+
+
+def test_whole_rotor_from_three_plans_changes_tools_three_times(single_flank_plan, double_flank_plan,
+                                                               formed_cutter_plan, tmp_path, rs274):
+    plans = [single_flank_plan, double_flank_plan, formed_cutter_plan]
+    rb = rotor_body(plans[0])
+    op = build_operation(plans, rb, lobes=[0, 2])
+    prog = build_program(op, load_machine("rotor-xa-b"), direction="zigzag")
+    path = tmp_path / "all.ngc"
+    text = write_program(prog, "linuxcnc", path)
+    assert [ln for ln in text.splitlines() if ln.endswith(" M6")] == ["T1 M6", "T2 M6", "T3 M6"]
+    assert [p["tool"] for p in prog.passes] == sorted(p["tool"] for p in prog.passes)
+    assert {p["lobe"] for p in prog.passes} == {0, 2}
+    assert any(p["reverse"] for p in prog.passes) and not all(p["reverse"] for p in prog.passes)
+    canon = run_rs274(rs274, path)
+    read = get_post("linuxcnc").read(text, prog.machine)
+    assert len(canon) == len(read.moves)
+    ct = cycle_time(read, prog.machine)
+    assert ct["tool_changes"] == 3 and abs(rs274_times(canon) * 60 / ct["cutting_time_s"] - 1) < 0.02
+    disc = [p for p in prog.passes if p["tool"] == 3]
+    assert max(p["rpm"] for p in disc) < 1000 < min(p["rpm"] for p in prog.passes if p["tool"] == 1)
