@@ -1,0 +1,81 @@
+"""Feeds and speeds: spindle speed, chip load along the edge, top speeds of the joints; the preset table."""
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from flank_addon.machining.feeds import (DEFAULT_END_MILL, PRESET_CUTTING_DATA, PRESET_GEOMETRY, CuttingData,
+                                         cutting_data_for, engaged_edge)
+from flank_addon.machining.machine import load_machine
+from flank_addon.machining.operation import build_operation
+from flank_addon.machining.rotor_body import rotor_body
+from flank_addon.machining.toolpath import build_program
+
+PRESETS = Path(__file__).resolve().parents[2] / "presets" / "flank_tool"
+
+
+def test_spindle_speed_chip_load_and_surface_speed(single_flank_plan):
+    """n = 1000 vc / (pi D_max) over the engaged edge; the fastest point of the edge gets fz per tooth, every
+    other less; the surface speed runs from pi D_min n to pi D_max n = vc."""
+    rb = rotor_body(single_flank_plan)
+    op = build_operation([single_flank_plan], rb, lobes=[0])
+    data = cutting_data_for(single_flank_plan["tool"])
+    assert data is PRESET_CUTTING_DATA["Tapered 2deg D3 L25"]
+    prog = build_program(op, load_machine("rotor-xa-b"))
+    tool = op.tools[0]
+    D = max(engaged_edge(tool.shape, p.tip, p.axis, rb.outer_radius)[1].max() for p in op.passes)
+    assert abs(tool.rpm - 1000 * data.vc_m_min / (math.pi * D)) < 1e-6
+    for p in prog.passes:
+        assert p["limited_by"] == "chip load"
+        assert abs(p["chip_load_mm"][1] - data.fz_mm) < 1e-12 and 0 < p["chip_load_mm"][0] <= data.fz_mm
+        assert p["surface_speed_m_min"][1] <= data.vc_m_min * (1 + 1e-9)
+        dmin, dmax = p["engaged_diameter_mm"]
+        assert abs(p["surface_speed_m_min"][0] / p["surface_speed_m_min"][1] - dmin / dmax) < 1e-12
+        # feed = n z fz at the fastest engaged point, whose speed is omega sqrt(rho^2 + v0^2)
+        assert abs(p["feed_mm_min"] - tool.rpm * data.flutes * data.fz_mm) < 1e-6
+        assert abs(p["time_s"] - 60 * abs(p["t_range"][1] - p["t_range"][0]) / p["omega_rad_min"]) < 1e-9
+
+
+def test_a_slow_rotary_axis_caps_the_feed(single_flank_plan):
+    """With A limited to 100 deg/min the pass takes its A travel / 100 minutes and the chip gets thinner."""
+    m = load_machine("rotor-xa-b")
+    m.axes["A"].max_feed = 100.0
+    rb = rotor_body(single_flank_plan)
+    prog = build_program(build_operation([single_flank_plan], rb, lobes=[1]), m)
+    for p in prog.passes:
+        dA = abs(p["end"]["A"] - p["start"]["A"])
+        assert p["limited_by"] == "A top speed"
+        assert abs(p["time_s"] / 60 - dA / 100.0) < 1e-9
+        assert p["chip_load_mm"][1] < PRESET_CUTTING_DATA["Tapered 2deg D3 L25"].fz_mm
+
+
+def test_every_tool_preset_has_cutting_data_and_its_geometry():
+    names = sorted(p.stem for p in PRESETS.glob("*.py"))
+    assert names and names == sorted(PRESET_CUTTING_DATA) == sorted(PRESET_GEOMETRY)
+    for name in names:
+        text = (PRESETS / f"{name}.py").read_text()
+        val = {k: float(v) for k, v in re.findall(r"settings\.(\w+) = ([0-9.]+)", text)}
+        taper, d, L = PRESET_GEOMETRY[name]
+        assert val.get("tool_taper_deg", 0.0) == taper and val["tool_tip_diameter_mm"] == d
+        assert val["tool_flute_length_mm"] == L
+        assert PRESET_CUTTING_DATA[name].source == name
+
+
+@pytest.mark.parametrize("kw, message", [
+    (dict(flutes=0), "flutes must be an integer >= 1"),
+    (dict(vc_m_min=-1.0), "vc_m_min must be a finite number > 0"),
+    (dict(fz_mm=float("nan")), "fz_mm must be a finite number > 0"),
+])
+def test_bad_cutting_data_is_refused(kw, message):
+    args = dict(flutes=4, vc_m_min=100.0, fz_mm=0.02, max_rpm=10000.0)
+    args.update(kw)
+    with pytest.raises(ValueError, match=message):
+        CuttingData(**args)
+
+
+def test_unmatched_tools_get_the_defaults(double_flank_plan, formed_cutter_plan):
+    assert cutting_data_for(double_flank_plan["tool"]) is DEFAULT_END_MILL
+    assert cutting_data_for(formed_cutter_plan["tool"]).flutes == 16
+    assert np.isfinite(formed_cutter_plan["tool"]["max_diameter"])

@@ -1,0 +1,128 @@
+"""The post and verify --program commands: what they refuse and how, units, extents, atomic output."""
+import copy
+import json
+import os
+
+import numpy as np
+import pytest
+
+from flank_addon.cli import main
+from flank_addon.io.plan import PlanError, validate_plan, write_plan
+from flank_addon.machining.machine import load_machine
+from flank_addon.machining.rotor_body import scale_plan
+from flank_addon.posts import PostError, atomic_write
+
+
+@pytest.fixture
+def plan_file(tmp_path, double_flank_plan):
+    path = tmp_path / "plan.json"
+    write_plan(path, double_flank_plan)
+    return path
+
+
+def run(capsys, *argv):
+    code = main([str(a) for a in argv])
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_unknown_post_and_machine_list_the_valid_names(capsys, tmp_path, plan_file):
+    out = tmp_path / "p.nc"
+    code, _, err = run(capsys, "post", plan_file, "--machine", "rotor-xa-b", "--post", "haas", "-o", out)
+    assert code == 2 and "unknown post 'haas'; valid posts: linuxcnc, fanuc, heidenhain" in err
+    code, _, err = run(capsys, "post", plan_file, "--machine", "mill-9000", "--post", "fanuc", "-o", out)
+    assert code == 2 and "unknown machine 'mill-9000'" in err and "xyzac-trt-tcp" in err
+    assert not out.exists()
+
+
+def test_malformed_machine_file_and_unreachable_pass_are_named(capsys, tmp_path, plan_file):
+    with open(load_machine("rotor-xa-b").source) as fh:
+        data = json.load(fh)
+    data["rotary_axes"]["B"]["rapid"] = "fast"
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(data))
+    code, _, err = run(capsys, "post", plan_file, "--machine", bad, "--post", "fanuc", "-o", tmp_path / "p.nc")
+    assert code == 2 and "rotary_axes.B.rapid must be a finite number, got 'fast'" in err
+    data["rotary_axes"]["B"].update(rapid=9000.0, min=-20.0, max=-10.0)
+    bad.write_text(json.dumps(data))
+    code, _, err = run(capsys, "post", plan_file, "--machine", bad, "--post", "fanuc", "-o", tmp_path / "p.nc")
+    assert code == 2 and "pass 1 (plan 0 strip 0 lobe" in err and "axis B reaches 0, outside its limits -20..-10" in err
+
+
+def test_unwritable_output_is_a_clear_error_and_no_file(capsys, tmp_path, plan_file):
+    blocker = tmp_path / "file.txt"
+    blocker.write_text("x")
+    code, _, err = run(capsys, "post", plan_file, "--machine", "rotor-xa-b", "--post", "linuxcnc",
+                       "-o", blocker / "p.ngc")
+    assert code == 2 and err.startswith("error: cannot write") and "p.ngc" in err
+    assert "Traceback" not in err
+
+
+def test_a_failed_write_keeps_the_old_file_whole(tmp_path):
+    path = tmp_path / "p.ngc"
+    path.write_text("old program\n")
+    with pytest.raises(PostError, match="cannot write"):
+        atomic_write(path, "G0 X1\n(caf\u00e9)\n")                        # not ASCII: fails while writing
+    assert path.read_text() == "old program\n" and os.listdir(tmp_path) == ["p.ngc"]
+    atomic_write(path, "G0 X1\n")
+    assert path.read_text() == "G0 X1\n" and os.listdir(tmp_path) == ["p.ngc"]
+
+
+def test_a_plan_without_extent_needs_the_mesh(capsys, tmp_path, double_flank_plan):
+    old = copy.deepcopy(double_flank_plan)
+    del old["rotor"]["extent"]
+    validate_plan(old)                                            # old plans stay valid
+    path = tmp_path / "old.json"
+    write_plan(path, old)
+    code, _, err = run(capsys, "post", path, "--machine", "rotor-xa-b", "--post", "linuxcnc", "-o", tmp_path / "p")
+    assert code == 2 and "records no rotor extent" in err and "pass --mesh ROTOR_MESH" in err
+    bad = copy.deepcopy(double_flank_plan)
+    bad["rotor"]["extent"]["shafts"] = [{"z_range": [5.0, 1.0], "radius": 3.0}]
+    with pytest.raises(PlanError, match=r"rotor.extent.shafts\[0\].z_range"):
+        validate_plan(bad)
+
+
+def test_a_plan_in_units_of_r_is_scaled_to_the_same_program(capsys, tmp_path, double_flank_plan):
+    mm = tmp_path / "mm.json"
+    r = tmp_path / "r.json"
+    write_plan(mm, double_flank_plan)
+    write_plan(r, scale_plan(double_flank_plan, 1 / 30.0, "R"))
+    code, _, err = run(capsys, "post", r, "--machine", "xyzac-trt", "--post", "heidenhain", "-o", tmp_path / "r.h")
+    assert code == 2 and "pass --outer-radius-mm" in err
+    assert run(capsys, "post", r, "--machine", "xyzac-trt", "--post", "heidenhain", "--outer-radius-mm", "30",
+               "-o", tmp_path / "r.h")[0] == 0
+    assert run(capsys, "post", mm, "--machine", "xyzac-trt", "--post", "heidenhain", "-o", tmp_path / "mm.h")[0] == 0
+    a = (tmp_path / "r.h").read_text().splitlines()
+    b = (tmp_path / "mm.h").read_text().splitlines()
+    assert len(a) == len(b)
+    nums = lambda lines: np.array([float(w[1:]) for ln in lines if " L " in ln for w in ln.split()  # noqa: E731
+                                   if w[0] in "XYZAC" and w[1:2] in "+-"])
+    assert np.abs(nums(a) - nums(b)).max() <= 2e-4
+
+
+def test_post_json_and_verify_program_text(capsys, tmp_path, single_flank_plan):
+    plan_file = tmp_path / "single.json"
+    write_plan(plan_file, single_flank_plan)
+    out = tmp_path / "p.nc"
+    code, text, _ = run(capsys, "post", plan_file, "--machine", "rotor-xa-b", "--post", "fanuc", "--lobes", "0,2",
+                        "--json", "-o", out)
+    d = json.loads(text)
+    n = len(single_flank_plan["strips"])
+    assert code == 0 and d["passes"] == 2 * n and d["lobes"] == [0, 2]
+    assert {"passes", "cutting_time_s", "rapid_time_s", "total_time_s", "per_pass", "tools"} <= set(d)
+    p = d["per_pass"][0]
+    assert p["chip_load_mm"][1] <= d["tools"][0]["cutting_data"]["fz_mm"] * (1 + 1e-9)
+    code, text, err = run(capsys, "verify", plan_file, "--program", out, "--machine", "rotor-xa-b", "--lobes", "2")
+    assert code == 0, err
+    assert f"{2 * n} passes ({2 * n} matched to plan strips)" in text and f"lobe 2: {n} passes" in text
+    code, _, err = run(capsys, "verify", plan_file, "--program", out)
+    assert code == 2 and "needs --machine" in err
+    code, _, err = run(capsys, "verify", plan_file, plan_file)
+    assert code == 2 and "several only with --program" in err
+
+
+def test_machines_command_lists_machines_and_posts(capsys):
+    code, text, _ = run(capsys, "machines")
+    assert code == 0
+    assert all(f"{n}:" in text for n in ("rotor-xa-b", "xyzac-trt", "xyzac-trt-tcp"))
+    assert "posts: linuxcnc" in text and "heidenhain" in text
