@@ -543,6 +543,7 @@ def figure_walkthrough(bpy, np, out, width, height, core):
 
     pkg = core("geometry.rotors").__name__.rsplit(".", 3)[0]
     ui_ops = importlib.import_module(pkg + ".operators.ui_ops")
+    text = importlib.import_module(pkg + ".operators.chart_text")       # Blender's font for the captions
     plot = core("report.error_chart")
     scene = reset_scene(bpy, width, height)
     us = scene.unit_settings
@@ -654,25 +655,25 @@ def figure_walkthrough(bpy, np, out, width, height, core):
     gotos = [ln for ln in lines if ln.startswith("GOTO/")]
     facts["cl_steps"] = len(gotos)
     page = np.ones((height, width, 4), np.float32)
-    fit = (width - 20) // (2 * plot.ADVANCE)               # characters per line at scale 2
+    scale = 2
+    fit = (width - 20) // (plot.CHAR_ADVANCE * scale)       # characters per line at scale 2
     shown = [ln if len(ln) <= fit else ln[:fit - 3] + "..." for ln in
              [ln for ln in lines if not ln.startswith("GOTO/")][:6] + gotos[:11]] + ["..."]
-    scale = 2
-    for k, ln in enumerate(shown):
-        plot.draw_text(page, ln, 10, 12 + k * (plot.GLYPH_H + 4) * scale, (0.1, 0.1, 0.1, 1.0), scale=scale)
+    text.draw_text_items(page, [plot.text_item(ln, 10, 12 + k * (plot.LINE + 4) * scale, (0.1, 0.1, 0.1, 1.0),
+                                               scale=scale, max_width=width - 20) for k, ln in enumerate(shown)])
     panels.append((page, ["6 Export CL: {} GOTO steps (APT)".format(len(gotos)),
                           "tool tip and axis per step, rotor frame, mm"]))
 
     # captions in a band above every panel; 2 columns x 3 rows
     cap_scale = 3
-    band = 2 * (plot.GLYPH_H + 3) * cap_scale + 14
+    band = 2 * (plot.LINE + 3) * cap_scale + 14
     tiles = []
     for img, caption in panels:
         tile = np.ones((band + height, width, 4), np.float32)
         tile[band:, :, :] = img[:height, :width]
-        for k, text in enumerate(caption):
-            plot.draw_text(tile, text, 10, 8 + k * (plot.GLYPH_H + 3) * cap_scale, (0.1, 0.1, 0.1, 1.0),
-                           scale=cap_scale if k == 0 else cap_scale - 1)
+        text.draw_text_items(tile, [plot.text_item(t, 10, 8 + k * (plot.LINE + 3) * cap_scale, (0.1, 0.1, 0.1, 1.0),
+                                                   scale=cap_scale if k == 0 else cap_scale - 1,
+                                                   max_width=width - 20) for k, t in enumerate(caption)])
         tile[band - 2:band, :, :3] = 0.7
         tiles.append(tile)
     gap = np.ones((band + height, 8, 4), np.float32)
