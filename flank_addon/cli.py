@@ -820,7 +820,7 @@ def _cmd_render(args):
 
 
 def build_parser():
-    p = argparse.ArgumentParser(prog="python -m flank_addon",
+    p = _Parser(prog="python -m flank_addon",
                                 description="5-axis flank-milling planner for screw rotors and free-form surfaces: single-flank conical, "
                                             "double-flank custom tool, paraboloid groove, formed disc cutter and free-form G1 "
                                             "(references: docs/references.md)")
@@ -1028,11 +1028,25 @@ def build_parser():
     return p
 
 
+class UsageError(ValueError):
+    """A command line argparse cannot parse (printed by :func:`main` as one line)."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with usage errors as one line ``error: ...`` (no usage block), like every other bad input."""
+
+    def error(self, message):
+        raise UsageError(f"{message} (see {self.prog} --help)")
+
+
 def main(argv=None):
     try:
         args = build_parser().parse_args(attach_negative_lists(sys.argv[1:] if argv is None else list(argv)))
-    except SystemExit as ex:            # --help, or a usage error argparse has printed: its exit code
+    except SystemExit as ex:            # --help and --version: argparse has printed them
         return ex.code
+    except UsageError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
     try:
         return args.func(args)
     except OSError as e:  # missing or unreadable files: say which and why

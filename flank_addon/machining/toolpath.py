@@ -164,12 +164,21 @@ class _Planner:
         return worst
 
     def link(self, number, end, start, what):
-        first = None
+        first, limits = None, None
+        gauge = self.op.tool(number).gauge_length
         for seq in self.candidates(number, end, start):
+            bad = self.m.limit_violations(self.m.machine_joints(np.array(seq), gauge))
+            if bad:
+                limits = limits or bad[0]
+                continue
             depth, pt = self.check(number, seq, what)
             if depth <= 0:
                 return [np.asarray(r, float) for r in seq]
             first = first or (depth, pt)
+        if first is None:
+            n, v, lo, hi = limits
+            raise MachineError(f"{what}: axis {n} would reach {v:.6g}, outside its limits {lo:g}..{hi:g} on machine "
+                               f"{self.m.name}")
         raise OperationError(f"{what}: no link stays out of the rotor (the tool enters the stock or a shaft by "
                              f"{first[0]:.3g} mm at {np.round(first[1], 3).tolist()} in the rotor frame even "
                              "when lifted); raise --clearance or check the machine's rotary axes")

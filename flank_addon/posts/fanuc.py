@@ -5,12 +5,16 @@ the first positioning block of a tool carries the length compensation, ``G43 H<n
 ``G43.4 H<n>`` (tool centre point control type 1: programmed X Y Z = tool tip in work coordinates, rotary
 axes as positions); passes under ``G93`` (inverse time, F = 1 / block minutes in every block), ``G94``
 after them; ``M05 M09 G49 M30 %``.  Coordinates always carry a decimal point (X12.3456), comments are
-upper case in parentheses.
+upper case in parentheses, reduced to letters, digits and . , : = + - / [ ] # % *.  G43.5 (the tool vector
+I J K) is not written: the control would choose between the two rotary solutions itself, and the read-back
+could not tell which it took.
 
 Rapids are written as straight G00 moves; the link checks assume the control interpolates them linearly
 (Fanuc parameter 1401#1 LRP = 1), otherwise each axis runs at its own rapid and the tool may leave the
 checked path (docs/posts.md).
 """
+import re
+
 from .base import Post, feed_text, fixed, header_lines
 from .gcode import read_gcode
 
@@ -31,7 +35,8 @@ class FanucPost(Post):
         self.lines += ["G94", "M05", "M09", "G49", "M30", "%"]
 
     def _comment(self, text):
-        self.lines.append("(" + str(text).upper().replace("(", "[").replace(")", "]") + ")")
+        t = str(text).upper().replace("(", "[").replace(")", "]").replace(";", ",")
+        self.lines.append("(" + re.sub(r"[^A-Z0-9 .,:=+\-/\[\]#%*]", "", t) + ")")
 
     def _tool(self, op, program):
         self._mode("per_minute")

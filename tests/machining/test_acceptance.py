@@ -11,6 +11,7 @@ import json
 import math
 
 import numpy as np
+import pytest
 from scipy.spatial.transform import Rotation
 
 from flank_addon.cli import main
@@ -24,6 +25,8 @@ from flank_addon.posts import get_post
 from flank_addon.posts.readback import verify_program
 from helpers import cad_like
 from machining_helpers import rs274_times, run_rs274
+
+pytestmark = pytest.mark.xdist_group("machining")     # shared session fixtures: one worker
 
 R_MM, LENGTH = 30.0, 60.0
 

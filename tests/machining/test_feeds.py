@@ -13,6 +13,8 @@ from flank_addon.machining.operation import build_operation
 from flank_addon.machining.rotor_body import rotor_body
 from flank_addon.machining.toolpath import build_program
 
+pytestmark = pytest.mark.xdist_group("machining")     # shared session fixtures: one worker
+
 PRESETS = Path(__file__).resolve().parents[2] / "presets" / "flank_tool"
 
 

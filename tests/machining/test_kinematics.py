@@ -9,6 +9,8 @@ import pytest
 from flank_addon.geometry.screw import screw_motion
 from flank_addon.machining.machine import MachineError, builtin_machines, load_machine, parse_machine
 
+pytestmark = pytest.mark.xdist_group("machining")     # shared session fixtures: one worker
+
 RNG = np.random.default_rng(20260601)
 
 

@@ -12,6 +12,8 @@ from flank_addon.machining.machine import load_machine
 from flank_addon.machining.rotor_body import scale_plan
 from flank_addon.posts import PostError, atomic_write
 
+pytestmark = pytest.mark.xdist_group("machining")     # shared session fixtures: one worker
+
 
 @pytest.fixture
 def plan_file(tmp_path, double_flank_plan):
@@ -126,3 +128,32 @@ def test_machines_command_lists_machines_and_posts(capsys):
     assert code == 0
     assert all(f"{n}:" in text for n in ("rotor-xa-b", "xyzac-trt", "xyzac-trt-tcp"))
     assert "posts: linuxcnc" in text and "heidenhain" in text
+
+
+def test_cutter_plan_out_is_a_plan_the_post_takes(capsys, tmp_path):
+    from flank_addon.io.plan import read_plan
+
+    plan = tmp_path / "disc.json"
+    code, text, err = run(capsys, "cutter", "--builtin", "srm_a-male", "--scale", "30", "--center-distance", "54",
+                          "--swivel", "45", "--planes", "16", "--out", tmp_path / "c.csv", "--plan-out", plan)
+    assert code == 0, err
+    assert "plan: formed disc cutter on flanks" in text
+    p = read_plan(plan)
+    assert p["tool"]["kind"] == "disc" and p["length_unit"] == "mm" and len(p["strips"]) == 1
+    assert p["rotor"]["extent"] == {"z_range": [0.0, 96.0], "shafts": []}
+    assert len(p["strips"][0]["meridian"]) == 16 and p["strips"][0]["shank_radius"] < 54 - 30
+    code, text, err = run(capsys, "post", plan, "--machine", "xyzac-trt", "--post", "heidenhain", "--lobes", "0",
+                          "--json", "-o", tmp_path / "disc.h")
+    assert code == 0, err
+    d = json.loads(text)
+    assert d["passes"] == 1 and d["tools"][0]["cutting_data"]["flutes"] == 16 and d["tools"][0]["rpm"] < 1000
+
+
+def test_a_link_beyond_the_travel_is_refused_by_axis(capsys, tmp_path, plan_file):
+    with open(load_machine("rotor-xa-b").source) as fh:
+        data = json.load(fh)
+    data["linear_axes"]["Z"]["max"] = 20.0                    # the tool cannot lift above the rotor
+    short = tmp_path / "short.json"
+    short.write_text(json.dumps(data))
+    code, _, err = run(capsys, "post", plan_file, "--machine", short, "--post", "linuxcnc", "-o", tmp_path / "p")
+    assert code == 2 and "axis Z would reach" in err and "outside its limits -500..20" in err

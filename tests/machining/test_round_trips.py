@@ -18,6 +18,8 @@ from flank_addon.machining.toolpath import build_program
 from flank_addon.posts import POSTS, get_post, write_program
 from flank_addon.posts.readback import match_passes, read_passes, tool_table, verify_program
 
+pytestmark = pytest.mark.xdist_group("machining")     # shared session fixtures: one worker
+
 KINDS = ("single_flank_plan", "double_flank_plan", "formed_cutter_plan")
 _programs, _references = {}, {}
 
