@@ -678,7 +678,7 @@ def _cmd_post(args):
            "blocks": len(read.moves), "lines": text.count("\n"), "lobes": op.lobes, **times,
            "cutting_length_mm": sum(p["cutting_length_mm"] for p in prog.passes),
            "tools": [{"number": t.number, "name": t.name, "rpm": t.rpm, "gauge_length_mm": t.gauge_length,
-                      "cutting_data": t.data.as_dict()} for t in op.tools],
+                      "shape": t.shape.describe(), "cutting_data": t.data.as_dict()} for t in op.tools],
            "rotor": rotor.describe(), "per_pass": prog.passes, "elapsed_s": time.perf_counter() - t0}
     if args.json:
         print(json.dumps(out, indent=1))

@@ -141,9 +141,13 @@ class ToolShape:
         lo, hi = self.cutting_range()
         n = max(2, int(math.ceil((hi - lo) / spacing)) + 1)
         h = np.linspace(lo, hi, n)
-        if self.meridian is not None:                    # keep the meridian's corners
-            h = np.unique(np.r_[h, self.h_start + self.meridian[:, 0]])
         R = self._cutting_radius(h)
+        if self.meridian is not None:     # a ring per grid height carrying the largest meridian radius around it
+            mh, mr = self.h_start + self.meridian[:, 0], self.meridian[:, 1]
+            k = np.clip(np.rint((mh - lo) / (hi - lo) * (n - 1)).astype(int), 0, n - 1)
+            top = np.zeros(n)
+            np.maximum.at(top, k, mr)
+            R = np.maximum(R, top)
         out_h, out_r, out_s = [h], [R], [np.zeros(len(h), bool)]
         if self.shank is not None:
             a, b, rs = self.shank
@@ -152,10 +156,6 @@ class ToolShape:
             out_r.append(np.full(k, rs))
             out_s.append(np.ones(k, bool))
         return np.concatenate(out_h), np.concatenate(out_r), np.concatenate(out_s)
-
-    def max_radius(self):
-        _, R, _ = self.outline(0.5 * max(self.h_end - self.h_start, 1e-3) / 50)
-        return float(R.max())
 
     def local_points(self, spacing):
         """Surface points (M, 3) in the tool frame: a ring per outline height, the end faces of the cutting

@@ -76,8 +76,10 @@ class _Planner:
         return ts, rows
 
     # ---------------------------------------------------------------- links
-    def up(self, tip, axis, R):
-        """Rotor-frame tip of the point straight away from the rotor axis where the whole tool is >= R off it."""
+    @staticmethod
+    def radial_direction(tip, axis):
+        """Unit direction across the rotor axis along which the tool retracts: the tool axis' component across
+        the rotor axis (or, for a tool nearly along the rotor axis, the tip's radial direction)."""
         a = np.asarray(axis, float)
         r = np.array([a[0], a[1], 0.0])
         if np.linalg.norm(r) < 0.2:
@@ -87,7 +89,9 @@ class _Planner:
         return r
 
     def retract_point(self, number, tip, axis, R):
-        r = self.up(tip, axis, R)
+        """Rotor-frame tip of the point straight away from the rotor axis where the whole tool is >= R off it:
+        |q_xy + d r| >= R for every tool point q is d >= -q.r + sqrt((q.r)^2 - |q_xy|^2 + R^2)."""
+        r = self.radial_direction(tip, axis)
         pts = place_points(self.local[number], tip, axis)[0]
         b = pts[:, :2] @ r[:2]
         c = np.einsum("ij,ij->i", pts[:, :2], pts[:, :2]) - R * R
