@@ -11,7 +11,14 @@ PY        := $(VENV)/bin/python
 # Exact pins of the development venv (Blender 5.0 as a Python module).
 # bpy 5.0.1 is built against numpy 1.26 (Requires-Dist numpy<2,>=1.26);
 # scipy 1.17.1 is the same version that tools/build_extension.py bundles.
-PINS := bpy==5.0.1 numpy==1.26.4 scipy==1.17.1 pytest==9.2.0
+# pytest-xdist (with its execnet) runs the tests on every core: see XDIST below and tests/conftest.py.
+PINS := bpy==5.0.1 numpy==1.26.4 scipy==1.17.1 pytest==9.2.0 pytest-xdist==3.8.0 execnet==2.1.2
+
+# Test workers: one per core (TEST_JOBS=1 runs in-process, TEST_JOBS=4 forces four).  loadgroup keeps the tests of
+# one expensive module fixture (a plan, a Blender scenario run) on one worker and tests/conftest.py starts
+# the longest work units first.
+TEST_JOBS ?= auto
+XDIST := $(if $(filter 1,$(TEST_JOBS)),,-n $(TEST_JOBS) --dist loadgroup)
 
 # Compatibility venvs (Blender tests only; no scipy on purpose so the
 # bundled scipy wheel inside the extension is what gets imported).
@@ -59,13 +66,13 @@ demo: $(STAMP)
 	$(PY) tools/demo.py
 
 test: $(STAMP)
-	$(PY) -m pytest
+	$(PY) -m pytest $(XDIST)
 
 test-core: $(STAMP)
-	$(PY) -m pytest tests --ignore=tests/blender
+	$(PY) -m pytest $(XDIST) tests --ignore=tests/blender
 
 test-blender: $(STAMP)
-	$(PY) -m pytest tests/blender
+	$(PY) -m pytest $(XDIST) tests/blender
 
 extension: $(STAMP)
 	$(PY) tools/build_extension.py --platforms $(PLATFORMS)

@@ -12,17 +12,18 @@ from flank_addon.simulation.collision import (ProfileSolid, check_rotor_collisio
                                    sd_flat_cone)
 from flank_addon.tooling.cone import ConePose, ConeTool
 from flank_addon.geometry.profile import points_in_polygon
-from flank_addon.geometry.rotors import builtin_by_name, helical_body_mesh
+from flank_addon.geometry.rotors import helical_body_mesh
 from flank_addon.geometry.screw import screw_motion
 from flank_addon.methods.single_flank.strip_cover import covered_intervals
 
 TOOL = ConeTool(math.asin(0.1), 0.05, 0.08, 0.04, 0.6)
 
 
-@pytest.fixture(scope="module")
-def female():
-    r = builtin_by_name("asymmetric-female")
-    return r, r.surface(), ProfileSolid(*rotor_profile(r))
+@pytest.fixture
+def female_solid(female):
+    """The asymmetric female rotor, its surface and its profile solid (cheap)."""
+    r, s = female
+    return r, s, ProfileSolid(*rotor_profile(r))
 
 
 def good_pose(S, fr, u=0.695):
@@ -132,8 +133,8 @@ def test_flat_cone_signed_distance_exact():
     np.testing.assert_allclose(np.abs(d), ref, atol=1.2e-3)      # sample spacing of the reference
 
 
-def test_shank_through_lobe_is_caught(female):
-    r, S, solid = female
+def test_shank_through_lobe_is_caught(female_solid):
+    r, S, solid = female_solid
     rep = check_rotor_collisions([shank_through_lobe(r, 2)], r)[0]
     assert rep.collides
     shank = [c for c in rep.collisions if c["part"] == "shank"]
@@ -151,8 +152,8 @@ def test_shank_through_lobe_is_caught(female):
         assert np.linalg.norm(w - (w @ ax) * ax) < rad
 
 
-def test_tangent_cone_with_shank_out_is_free(female):
-    r, S, solid = female
+def test_tangent_cone_with_shank_out_is_free(female_solid):
+    r, S, solid = female_solid
     fr = r.flanks[1]
     pose = good_pose(S, fr)
     rep = check_rotor_collisions([pose], r, target_flanks=[1], tolerance=1e-4)[0]
@@ -169,8 +170,8 @@ def test_tangent_cone_with_shank_out_is_free(female):
     assert all(c["depth"] < 1e-6 for c in rep.collisions)
 
 
-def test_buried_tool_and_finite_ends(female):
-    r, S, solid = female
+def test_buried_tool_and_finite_ends(female_solid):
+    r, S, solid = female_solid
     small = ConeTool(math.asin(0.1), 0.02, 0.03, 0.02, 0.05)
     # a point deep inside lobe 0; the tool axis along its helix stays inside the lobe
     p = 0.8 * r.profile.eval(r.tip_params[0])
@@ -200,8 +201,8 @@ def test_buried_tool_and_finite_ends(female):
     assert not check_rotor_collisions([pose], r, z_range=(0.2, 1.0))[0].collides
 
 
-def test_agrees_with_brute_force(female):
-    r, S, solid = female
+def test_agrees_with_brute_force(female_solid):
+    r, S, solid = female_solid
     rng = np.random.default_rng(11)
     poses = [good_pose(S, r.flanks[1]), shank_through_lobe(r, 2), shank_through_lobe(r, 5)]
     while len(poses) < 14:
@@ -226,9 +227,9 @@ def test_agrees_with_brute_force(female):
     assert n_hit >= 3 and n_free >= 2
 
 
-def test_depth_agrees_with_dense_time_sampling(female):
+def test_depth_agrees_with_dense_time_sampling(female_solid):
     """The reported depth -D(p) against a dense scan of sd_part(S_t(p)) over t (no time windows)."""
-    r, S, solid = female
+    r, S, solid = female_solid
     pose = shank_through_lobe(r, 2)
     rep = check_rotor_collisions([pose], r)[0]
     sh0, sh1, rad = pose.shank
@@ -241,8 +242,8 @@ def test_depth_agrees_with_dense_time_sampling(female):
         assert c["depth"] == pytest.approx(-d.min(), abs=1e-6)
 
 
-def test_batch_equals_single(female):
-    r, S, solid = female
+def test_batch_equals_single(female_solid):
+    r, S, solid = female_solid
     poses = [good_pose(S, r.flanks[1]), shank_through_lobe(r, 2), shank_through_lobe(r, 4)]
     batch = check_rotor_collisions(poses, r, target_flanks=[1], tolerance=1e-4)
     for p, b in zip(poses, batch):
@@ -252,8 +253,8 @@ def test_batch_equals_single(female):
                [(c["part"], c["flank"], round(c["depth"], 9)) for c in b.collisions]
 
 
-def test_binned_point_in_polygon_equals_plain(female):
-    r, S, solid = female
+def test_binned_point_in_polygon_equals_plain(female_solid):
+    r, S, solid = female_solid
     rng = np.random.default_rng(5)
     q = np.vstack([rng.uniform(-1.05, 1.05, (3000, 2)), solid.points + 1e-7 * rng.normal(size=solid.points.shape)])
     np.testing.assert_array_equal(solid.contains(q), points_in_polygon(q, solid.points))

@@ -16,12 +16,6 @@ from flank_addon.geometry.rotors import builtin_by_name
 
 
 @pytest.fixture(scope="module")
-def female():
-    r = builtin_by_name("asymmetric-female")
-    return r, r.surface()
-
-
-@pytest.fixture(scope="module")
 def female_bounds(female):
     from flank_addon.methods.double_flank.planner import custom_tool_bounds, plan_double_flank
 
@@ -105,9 +99,8 @@ def test_curvatures_are_screw_invariant(female):
 
 
 @pytest.mark.parametrize("name,flank", [("asymmetric-female", 1), ("asymmetric-male", 0), ("srm_a-male", 1)])
-def test_classification_follows_sign_of_gaussian_curvature(name, flank):
-    r = builtin_by_name(name)
-    s = r.surface()
+def test_classification_follows_sign_of_gaussian_curvature(name, flank, builtin):
+    r, s = builtin(name)
     d = cs.flank_dupin(s, r.flanks, flank, n=120)
     k_fd, _, _, good = fd_reliable(s, d.u, np.zeros(len(d.u)))
     K = k_fd[:, 0] * k_fd[:, 1]
@@ -149,21 +142,20 @@ def test_indicatrix_geometry_at_hyperbolic_points(female):
         assert math.sqrt(h2.max()) == pytest.approx(d.a[i], rel=1e-6)
 
 
-def test_symmetric_rotor_has_mirror_flanks():
-    r = builtin_by_name("nilson-male")
-    s = r.surface()
+def test_symmetric_rotor_has_mirror_flanks(builtin):
+    r, s = builtin("nilson-male")
     d0, d1 = cs.flank_dupin(s, r.flanks, 0), cs.flank_dupin(s, r.flanks, 1)
     assert d0.hyperbolic_fraction == pytest.approx(d1.hyperbolic_fraction, abs=0.01)
     assert d0.a_min == pytest.approx(d1.a_min, rel=1e-3)
     assert np.allclose(d0.k1, d1.k1[::-1], rtol=1e-3, atol=1e-3)
 
 
-def test_female_flanks_are_mostly_hyperbolic_male_flanks_mostly_not(female):
+def test_female_flanks_are_mostly_hyperbolic_male_flanks_mostly_not(female, asym_male):
     # Bizzarri, Bo & Bartoň Fig. 3: the female rotor is mainly hyperbolic, the male only near its valley bottom
     r, s = female
-    m = builtin_by_name("asymmetric-male")
+    m, ms = asym_male
     fem = [cs.flank_dupin(s, r.flanks, k).hyperbolic_fraction for k in (0, 1)]
-    mal = [cs.flank_dupin(m.surface(), m.flanks, k).hyperbolic_fraction for k in (0, 1)]
+    mal = [cs.flank_dupin(ms, m.flanks, k).hyperbolic_fraction for k in (0, 1)]
     assert min(fem) > 0.5 and max(mal) < 0.1
 
 
@@ -359,11 +351,11 @@ def test_degenerate_inputs_raise_clear_errors(female):
 
 
 # ---------------------------------------------------------------------------- CLI
-def test_cli_suggest_tool_builtin(capsys):
+def test_cli_suggest_tool_builtin(capsys, female):
     assert main(["suggest-tool", "--builtin", "asymmetric-female", "--flank", "1", "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
-    r = builtin_by_name("asymmetric-female")
-    dup = cs.flank_dupin(r.surface(), r.flanks, 1)
+    r, s = female
+    dup = cs.flank_dupin(s, r.flanks, 1)
     assert d["dupin"]["a_min"] == pytest.approx(dup.a_min)
     assert d["dupin"]["hyperbolic_fraction"] == pytest.approx(dup.hyperbolic_fraction)
     b = cs.ValleyBounds(**{k: d["bounds"][k] for k in ("d_min", "d_max", "d_depth", "c", "d_angle")})
@@ -410,7 +402,7 @@ def test_largest_cone_matches_brute_force_grid(a_min, bounds):
     assert r2 - best <= 3 * b.c * b.d_max / n       # and the grid gets within a few steps of it
 
 
-def test_cli_suggest_tool_mesh_in_mm(tmp_path, capsys):
+def test_cli_suggest_tool_mesh_in_mm(tmp_path, capsys, female):
     from flank_addon.io.mesh_files import write_mesh
 
     r50 = builtin_by_name("asymmetric-female", scale=50.0)
@@ -421,8 +413,8 @@ def test_cli_suggest_tool_mesh_in_mm(tmp_path, capsys):
     assert d["unit"] == "mm" and d["unit_mm"] == 1.0
     # the same surface as the built-in with R = 1: a_min^2 scales with the length unit (both flank kinds of
     # this rotor reach a_min at the shared valley bottom, so the mesh's flank numbering does not matter)
-    r1 = builtin_by_name("asymmetric-female")
-    ref = cs.flank_dupin(r1.surface(), r1.flanks, 1).a_min ** 2
+    r1, s1 = female
+    ref = cs.flank_dupin(s1, r1.flanks, 1).a_min ** 2
     assert d["dupin"]["rho_min"] == pytest.approx(50.0 * ref, rel=5e-3)
     b = cs.ValleyBounds(**{k: d["bounds"][k] for k in ("d_min", "d_max", "d_depth", "c", "d_angle")})
     cat = catalogue.catalogue_tools()

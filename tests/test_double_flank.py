@@ -7,14 +7,13 @@ from flank_addon.cli import main
 from flank_addon.methods.double_flank.planner import (AxisEvaluator, Valley, build_path, optimize_axis, phi_value,
                                       plan_double_flank, radial_function, write_tool_csv)
 from flank_addon.io.plan import read_plan
-from flank_addon.geometry.rotors import builtin_by_name
 from flank_addon.geometry.screw import screw_motion, screw_to_plane
 from flank_addon.simulation.verify import verify_plan
 
 
-def _valley(name, k=0):
-    r = builtin_by_name(name)
-    return r, Valley(r.surface(), r.flanks, k)
+def _valley(builtin, name, k=0):
+    r, s = builtin(name)
+    return r, Valley(s, r.flanks, k)
 
 
 def _brute_flank_distance(surface, lo, hi, q, n_u=1500, n_t=1201, tmax=1.2):
@@ -30,8 +29,8 @@ def _brute_flank_distance(surface, lo, hi, q, n_u=1500, n_t=1201, tmax=1.2):
     return best
 
 
-def test_restricted_feet_match_dense_sampling():
-    r, v = _valley("asymmetric-female")
+def test_restricted_feet_match_dense_sampling(builtin):
+    r, v = _valley(builtin, "asymmetric-female")
     rng = np.random.default_rng(3)
     lam = rng.uniform(0.55, 1.2, 16)
     q = np.c_[lam * np.cos(v.theta) + 0.05 * rng.normal(size=16), lam * np.sin(v.theta) + 0.05 * rng.normal(size=16),
@@ -46,9 +45,9 @@ def test_restricted_feet_match_dense_sampling():
 
 
 @pytest.mark.parametrize("name", ["nilson-male", "srm_a-female"])
-def test_symmetric_profile_is_exact(name):
+def test_symmetric_profile_is_exact(name, builtin):
     """Prop. 3.1: on the symmetry line (0, 0, 0) both flanks are at the same distance from every axis point."""
-    r, v = _valley(name)
+    r, v = _valley(builtin, name)
     fit = optimize_axis(v, starts=[(0.0, 0.0, 0.0)])
     assert fit.phi < 1e-12 and np.all(np.abs(fit.x) < 1e-9)
     ev = AxisEvaluator(v)
@@ -70,12 +69,12 @@ def test_symmetric_profile_is_exact(name):
 
 
 @pytest.mark.parametrize("name", ["nilson-male", "nilson-female", "srm_a-male", "srm_a-female"])
-def test_symmetric_plan_is_exact_by_verify(name):
+def test_symmetric_plan_is_exact_by_verify(name, builtin):
     """the plan's custom tool mills both flanks within 1e-9 R, as the
     independent sweep simulation sees it (rotor -> envelope at every design point of both flanks),
     and the reported errors are what verify finds."""
-    r = builtin_by_name(name)
-    res = plan_double_flank(r.surface(), r.flanks, valley=0, m=200)
+    r, s = builtin(name)
+    res = plan_double_flank(s, r.flanks, valley=0, m=200)
     R = res.valley.outer_radius
     ver = verify_plan(res.plan)
     assert ver["gouge_points"] == []
@@ -85,8 +84,8 @@ def test_symmetric_plan_is_exact_by_verify(name):
         assert st["reported_max_error"] == pytest.approx(vs["max_error"], abs=1e-6 * R)
 
 
-def test_analytic_gradient_matches_finite_differences():
-    _, v = _valley("asymmetric-male")
+def test_analytic_gradient_matches_finite_differences(builtin):
+    _, v = _valley(builtin, "asymmetric-male")
     ev = AxisEvaluator(v)
     lam = np.linspace(*v.lam_range, 60)
     x = np.array([-0.05, -0.15, -0.25])
@@ -102,8 +101,8 @@ def test_analytic_gradient_matches_finite_differences():
 
 
 @pytest.fixture(scope="module")
-def asym_fit():
-    _, v = _valley("asymmetric-male")
+def asym_fit(builtin):
+    _, v = _valley(builtin, "asymmetric-male")
     return v, optimize_axis(v)
 
 
@@ -157,9 +156,9 @@ def test_radial_function_variants():
 
 
 @pytest.fixture(scope="module")
-def asym_plan():
-    r = builtin_by_name("asymmetric-male")
-    res = plan_double_flank(r.surface(), r.flanks, m=200)
+def asym_plan(asym_male):
+    r, s = asym_male
+    res = plan_double_flank(s, r.flanks, m=200)
     return res, verify_plan(res.plan)
 
 
@@ -253,12 +252,12 @@ def test_cli_two_paths(tmp_path, capsys):
     assert "--two-paths needs the custom tool" in capsys.readouterr().err
 
 
-def test_two_paths_beat_one_axis_on_asymmetric_female():
+def test_two_paths_beat_one_axis_on_asymmetric_female(female):
     """Bizzarri & Bartoň 2021 §4.3: one tool on two axes mills the asymmetric female valley better than the
     double-flank axis; its plan's reported errors are the simulated ones (rotor -> envelope)."""
-    r = builtin_by_name("asymmetric-female")
-    one = plan_double_flank(r.surface(), r.flanks, m=200, simulate=False)
-    two = plan_double_flank(r.surface(), r.flanks, m=200, two_paths=True)
+    r, s = female
+    one = plan_double_flank(s, r.flanks, m=200, simulate=False)
+    two = plan_double_flank(s, r.flanks, m=200, two_paths=True)
     e_one = max(e for e, _ in one.tool_to_rotor)
     e_two = max(e for e, _ in two.tool_to_rotor)
     assert e_two < 0.96 * e_one

@@ -9,7 +9,6 @@ from flank_addon.cli import main
 from flank_addon.tooling.cone import ConeTool
 from flank_addon.exports import cl_data, error_profile_csv, strip_mesh, write_strip_meshes
 from flank_addon.io.mesh_files import read_ply, read_stl
-from flank_addon.geometry.rotors import builtin_by_name
 from flank_addon.geometry.screw import screw_motion, screw_to_plane
 from flank_addon.simulation.sweep import StripTool, helical_distance
 from flank_addon.simulation.verify import verify_plan
@@ -19,19 +18,19 @@ GOTO = re.compile(r"^GOTO/([^ ]+) \$\$ A=([^ ]+) FEED=([^ ]+)$")
 
 
 @pytest.fixture(scope="module")
-def single():
+def single(female):
     from flank_addon.methods.single_flank.planner import plan_single_flank
 
-    r = builtin_by_name("asymmetric-female")
-    return plan_single_flank(r.surface(), r.flanks, 1, CONE, 2e-3, n_seeds=6, max_rounds=1).plan
+    r, s = female
+    return plan_single_flank(s, r.flanks, 1, CONE, 2e-3, n_seeds=6, max_rounds=1).plan
 
 
 @pytest.fixture(scope="module")
-def double():
+def double(builtin):
     from flank_addon.methods.double_flank.planner import plan_double_flank
 
-    r = builtin_by_name("nilson-male")
-    return plan_double_flank(r.surface(), r.flanks, m=100, simulate=False).plan
+    r, s = builtin("nilson-male")
+    return plan_double_flank(s, r.flanks, m=100, simulate=False).plan
 
 
 def parse_cl(text):
@@ -63,6 +62,7 @@ def expected_tip(plan, strip):
 
 
 @pytest.mark.parametrize("which", ["single", "double"])
+@pytest.mark.usefixtures("single", "double")    # looked up by name below; listed so both run on one worker
 def test_cl_steps_screw_back_to_the_plan_axis(which, request):
     plan = request.getfixturevalue(which)
     v0, hand = plan["rotor"]["v0"], {"right": 1, "left": -1}[plan["rotor"]["handedness"]]
@@ -117,6 +117,7 @@ def test_error_csv_equals_verify_profile(single):
 
 
 @pytest.mark.parametrize("which", ["single", "double"])
+@pytest.mark.usefixtures("single", "double")
 def test_envelope_lies_on_the_swept_tool(which, request):
     plan = request.getfixturevalue(which)
     rot = plan["rotor"]

@@ -119,12 +119,9 @@ def test_rejects_bad_input():
         surf.foot_points(np.array([[0.0, np.nan, 0.0]]))
 
 
-def test_builtin_female_rotor_thin_lobe_tips_match_brute_force():
+def test_builtin_female_rotor_thin_lobe_tips_match_brute_force(female):
     """Queries just inside thin lobe tips, where global-foot basins are narrower than the seed table."""
-    from flank_addon.geometry.rotors import builtin_by_name
-
-    rotor = builtin_by_name("asymmetric-female")
-    surf = rotor.surface()
+    rotor, surf = female
     rng = np.random.default_rng(0)
     n = 4000
     r = surf.outer_radius * rng.uniform(0.9, 1.0, n)

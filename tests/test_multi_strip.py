@@ -7,16 +7,9 @@ import pytest
 from flank_addon.tooling.cone import ConeTool
 from flank_addon.methods.single_flank.planner import plan_single_flank
 from flank_addon.io.plan import validate_plan
-from flank_addon.geometry.rotors import builtin_by_name
 from flank_addon.simulation.verify import verify_plan
 
 TOOL = ConeTool(math.asin(0.1), 0.05, 0.08, 0.04, 0.6)
-
-
-@pytest.fixture(scope="module")
-def female_plan():
-    r = builtin_by_name("asymmetric-female")
-    return r, plan_single_flank(r.surface(), r.flanks, 1, TOOL, 1e-3, n_seeds=18)
 
 
 def test_plan_covers_the_flank_within_tolerance_without_gouges(female_plan):
@@ -59,12 +52,12 @@ def test_junction_kinks_are_reported(female_plan):
     assert kinks and all(0 <= k < 90 for k in kinks)
 
 
-def test_colliding_candidates_are_excluded_and_listed():
+def test_colliding_candidates_are_excluded_and_listed(female):
     """A shank as thick as the valley is wide hits the neighbouring lobe: such candidates are listed
     with the part and flank they hit, and no chosen strip collides (verify: no gouge)."""
-    r = builtin_by_name("asymmetric-female")
+    r, s = female
     fat = ConeTool(TOOL.alpha, TOOL.r1c, TOOL.r2c, 0.25, 1.0)
-    res = plan_single_flank(r.surface(), r.flanks, 1, fat, 1e-3, n_seeds=6, max_rounds=1)
+    res = plan_single_flank(s, r.flanks, 1, fat, 1e-3, n_seeds=6, max_rounds=1)
     assert res.collisions
     c = res.collisions[0]["collisions"][0]
     assert c["part"] in ("cone", "shank") and c["depth"] > 0 and "flank" in c
@@ -80,15 +73,15 @@ def test_colliding_candidates_are_excluded_and_listed():
     (dict(n_seeds=0), "seeds 0 is outside"),
     (dict(objective="phi2"), "objective 'phi2'"),
 ])
-def test_bad_input_names_the_value(kw, msg):
-    r = builtin_by_name("asymmetric-female")
+def test_bad_input_names_the_value(kw, msg, female):
+    r, s = female
     args = dict(flank=1, tool=TOOL, tolerance=1e-3)
     args.update(kw)
     with pytest.raises(ValueError, match=msg.replace("(", r"\(")):
-        plan_single_flank(r.surface(), r.flanks, **args)
+        plan_single_flank(s, r.flanks, **args)
 
 
-def test_cli_plan_single_flank_round_trip(tmp_path, capsys):
+def test_cli_plan_single_flank_round_trip(tmp_path, capsys, female):
     import json
 
     from flank_addon.cli import main
@@ -99,8 +92,7 @@ def test_cli_plan_single_flank_round_trip(tmp_path, capsys):
             "--tool-h", "0.3", "--shank-radius", "0.04", "--shank-length", "0.6", "--tolerance", "2e-3",
             "--seeds", "8", "--rounds", "2", "--out", str(out), "--profile-csv", str(csv), "--json"]
     # --flank-point: a point on flank 1 screwed along its helix picks flank 1
-    r = builtin_by_name("asymmetric-female")
-    s = r.surface()
+    r, s = female
     u = 0.5 * (r.flanks[1][0] + r.flanks[1][1])
     p = s.evaluate(np.array([u]), np.array([0.37]))[0]
     # (with '=': a negative first coordinate would read as an option)
@@ -138,14 +130,13 @@ def test_cli_single_flank_errors(tmp_path, capsys, extra, msg):
     assert not (tmp_path / "x.json").exists()
 
 
-def test_junction_normals_and_their_exact_derivatives():
+def test_junction_normals_and_their_exact_derivatives(female):
     """The envelope normals the G1 term compares are unit vectors, and their analytic derivatives
     (characteristic derivative chained through the screw into z = 0) equal central differences."""
     from flank_addon.methods.single_flank.planner import _junction_normals
     from flank_addon.methods.single_flank.poses import PoseEvaluator, candidate_strips
 
-    r = builtin_by_name("asymmetric-female")
-    s = r.surface()
+    r, s = female
     tool = ConeTool(TOOL.alpha, TOOL.r1c, TOOL.r2c)
     ev = PoseEvaluator(s, r.flanks[1], tool)
     X = np.array([c.params for c in candidate_strips(s, r.flanks[1], tool, n_seeds=3, evaluator=ev)])
@@ -162,15 +153,15 @@ def test_junction_normals_and_their_exact_derivatives():
         assert np.abs(fd - dn[..., k]).max() < 1e-7 * max(1.0, np.abs(fd).max())
 
 
-def test_g1_option_keeps_the_tolerance_and_lowers_the_largest_kink():
+def test_g1_option_keeps_the_tolerance_and_lowers_the_largest_kink(female):
     """With g1 the strips are re-chosen for smooth junctions (at most 3 extra, new seeds between kinked
     neighbours) and then re-optimised with the tangency term.  Measured against the same run without g1:
     the largest exact kink drops (34.6 -> 24.7 deg when written), the flank is held wherever the minimum
     cover held it, nothing gouges, and the report says what each stage did."""
-    r = builtin_by_name("asymmetric-female")
+    r, s = female
     kw = dict(n_seeds=12, max_rounds=4)
-    base = plan_single_flank(r.surface(), r.flanks, 1, TOOL, 2e-3, **kw)
-    res = plan_single_flank(r.surface(), r.flanks, 1, TOOL, 2e-3, g1=True, g1_extra_strips=3, **kw)
+    base = plan_single_flank(s, r.flanks, 1, TOOL, 2e-3, **kw)
+    res = plan_single_flank(s, r.flanks, 1, TOOL, 2e-3, g1=True, g1_extra_strips=3, **kw)
 
     def worst(js):
         return max(j["kink_deg"] for jj in js for j in jj)

@@ -7,7 +7,6 @@ from flank_addon.tooling.cone import ConeTool
 from flank_addon.methods.double_flank.planner import plan_double_flank
 from flank_addon.methods.single_flank.planner import plan_single_flank
 from flank_addon.progress import Cancelled, reporter, substage
-from flank_addon.geometry.rotors import builtin_by_name
 
 TOOL = ConeTool(math.asin(0.1), 0.05, 0.08)
 
@@ -25,16 +24,12 @@ def test_reporter_maps_and_cancels():
         reporter(lambda f, m: False)(0.1, "stop here")
 
 
-@pytest.fixture(scope="module")
-def female():
-    return builtin_by_name("asymmetric-female")
-
-
 def _run(planner, female, progress):
+    r, s = female
     if planner == "single":
-        return plan_single_flank(female.surface(), female.flanks, 1, TOOL, 2e-3, n_seeds=6, max_rounds=2,
-                                 check_collisions=False, progress=progress)
-    return plan_double_flank(female.surface(), female.flanks, progress=progress)
+        return plan_single_flank(s, r.flanks, 1, TOOL, 2e-3, n_seeds=6, max_rounds=2, check_collisions=False,
+                                 progress=progress)
+    return plan_double_flank(s, r.flanks, progress=progress)
 
 
 @pytest.mark.parametrize("planner", ["single", "double"])

@@ -14,14 +14,13 @@ from flank_addon.report.report_geometry import (BAR_SPLIT, REPORT_KEY, air_limit
                                                 choose_view, display_strip, display_units, format_length,
                                                 legend_colors, legend_layout, report_geometry, srgb_bytes,
                                                 strip_part)
-from flank_addon.geometry.rotors import builtin_by_name
 from flank_addon.simulation.verify import DEVIATION_COLORS, deviation_colors
 
 
 @pytest.fixture(scope="module")
-def plan_file(tmp_path_factory):
-    r = builtin_by_name("asymmetric-female")
-    res = plan_single_flank(r.surface(), r.flanks, 1, ConeTool(math.asin(0.1), 0.05, 0.08), 1e-3, n_seeds=6,
+def plan_file(tmp_path_factory, female):
+    r, s = female
+    res = plan_single_flank(s, r.flanks, 1, ConeTool(math.asin(0.1), 0.05, 0.08), 1e-3, n_seeds=6,
                             max_rounds=2)
     p = tmp_path_factory.mktemp("render") / "plan.json"
     write_plan(p, res.plan)

@@ -9,7 +9,6 @@ from flank_addon.tooling.cone import ConePose, ConeTool
 from flank_addon.geometry.helical_surface import HelicalSurface
 from flank_addon.io.plan import validate_plan
 from flank_addon.geometry.profile import SplineProfile
-from flank_addon.geometry.rotors import builtin_by_name
 from flank_addon.geometry.screw import screw_to_plane
 from flank_addon.simulation.verify import verify_plan
 
@@ -111,8 +110,8 @@ def test_closed_form_seed_reproduces_the_envelope_pose(envelope):
 
 
 # ------------------------------------------------------------------ geometry helpers
-def test_pose_parameters_round_trip_and_screw_invariance():
-    s = builtin_by_name("asymmetric-female").surface()
+def test_pose_parameters_round_trip_and_screw_invariance(female):
+    _, s = female
     rng = np.random.default_rng(1)
     for _ in range(5):
         x = np.r_[rng.uniform(-0.5, 0.5, 2), rng.uniform(-1.2, 1.2), rng.uniform(-3, 3)]
@@ -123,9 +122,8 @@ def test_pose_parameters_round_trip_and_screw_invariance():
         assert np.allclose(sf.pose_params(q, s), x, atol=1e-10)
 
 
-def test_exact_jacobians_match_finite_differences():
-    r = builtin_by_name("asymmetric-female")
-    s = r.surface()
+def test_exact_jacobians_match_finite_differences(female):
+    r, s = female
     ev = sf.PoseEvaluator(s, r.flanks[1], EX62_TOOL, n=40)
     seed = sf.initial_positions(s, r.flanks[1], EX62_TOOL, n_samples=5)[2][0]
     x = seed.params + 0.003
@@ -147,9 +145,8 @@ def test_exact_jacobians_match_finite_differences():
         assert abs(fdm[0] - gm[0, j]) < 1e-8
 
 
-def test_flank_samples_profile_and_orthogonal_trajectory():
-    r = builtin_by_name("asymmetric-male")
-    s = r.surface()
+def test_flank_samples_profile_and_orthogonal_trajectory(asym_male):
+    r, s = asym_male
     lo, hi = r.flanks[0]
     a = sf.flank_samples(s, lo, hi, 12)
     b = sf.flank_samples(s, lo, hi, 12, along="orthogonal")
@@ -165,11 +162,10 @@ def test_flank_samples_profile_and_orthogonal_trajectory():
         sf.flank_samples(s, lo, hi, 5, along="diagonal")
 
 
-def test_seed_is_second_order_along_the_axis():
+def test_seed_is_second_order_along_the_axis(female):
     """At a hyperbolic sample the seed's error e(s) = d - r vanishes to second order at the middle
     sphere (Eq. (22): d is linear in the direction of the axis), unlike a tilted axis."""
-    r = builtin_by_name("asymmetric-female")
-    s = r.surface()
+    r, s = female
     per = sf.initial_positions(s, r.flanks[1], EX62_TOOL, n_samples=6)
     ev = sf.PoseEvaluator(s, r.flanks[1], EX62_TOOL)
     h = 0.01
@@ -191,12 +187,6 @@ def test_seed_is_second_order_along_the_axis():
 
 
 # ------------------------------------------------------------------ optimisation on a rotor flank
-@pytest.fixture(scope="module")
-def female():
-    r = builtin_by_name("asymmetric-female")
-    return r, r.surface()
-
-
 @pytest.fixture(scope="module")
 def free_candidates(female):
     r, s = female
@@ -288,9 +278,9 @@ EX61_TOOL = ConeTool(0.25, 0.25, 0.5)
 
 @pytest.mark.parametrize("name,flank", [("asymmetric-male", 0), ("asymmetric-male", 1),
                                         ("asymmetric-female", 0), ("asymmetric-female", 1)])
-def test_tool_shape_fit_is_non_overcutting(name, flank, record_property):
-    r = builtin_by_name(name)
-    fit = sf.optimize_tool_shape(r.surface(), r.flanks[flank], EX61_TOOL, n_seeds=12, top=2)
+def test_tool_shape_fit_is_non_overcutting(name, flank, record_property, builtin):
+    r, s = builtin(name)
+    fit = sf.optimize_tool_shape(s, r.flanks[flank], EX61_TOOL, n_seeds=12, top=2)
     assert fit.e.min() >= -1e-12                  # Eq. (30): the fitted line stays below d
     assert 0 < fit.r1s < fit.r2s
     assert fit.tool.L == pytest.approx(EX61_TOOL.L, rel=1e-9)

@@ -10,7 +10,6 @@ from cone_poses import surface_frame, tangent_pose
 from flank_addon.tooling.cone import ConePose, ConeTool
 from flank_addon.geometry.helical_surface import HelicalSurface
 from flank_addon.geometry.profile import Line, SegmentProfile
-from flank_addon.geometry.rotors import builtin_by_name
 from flank_addon.methods.single_flank.strip_cover import (FlankSamples, adaptive_cover, coverage_of,
                                                            covered_intervals, crossing_kinks, envelope_normals,
                                                            flank_samples, junction_kinks, minimum_interval_cover,
@@ -19,12 +18,6 @@ from flank_addon.simulation.sweep import machined_deviation, tool_of
 
 EPS = 1e-3
 TOOL = ConeTool(math.asin(0.1), 0.05, 0.08, 0.04, 0.6)
-
-
-@pytest.fixture(scope="module")
-def female():
-    r = builtin_by_name("asymmetric-female")
-    return r, r.surface()
 
 
 def scanned_pose(S, fr, u, n_dir=8, eps=EPS):

@@ -1,0 +1,244 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Shared fixtures of the test suite and its distribution over pytest-xdist workers.
+
+Fixtures: the built-in rotors the core tests plan on and their surfaces, made once per process (``builtin``,
+``female``, ``asym_male``).
+
+Distribution (``make test`` runs ``pytest -n auto --dist loadgroup``; the scheduler is
+``pytest_xdist_make_scheduler`` below):
+
+* Work units.  Tests that share a module-scoped fixture run on one worker, one after the other (a unit per
+  connected set of such fixtures), so an expensive module fixture -- a plan, a Blender scenario run -- is
+  computed once, not once per worker.  The same holds for the session fixtures of a sub-directory's conftest
+  (e.g. tests/machining: one unit per directory), for the expensive session fixtures of this file
+  (``_GROUPED_SESSION_FIXTURES``) and for an explicit ``@pytest.mark.xdist_group(name)``.  Every other test
+  is a unit of its own; the cheap session fixtures of this file are made on every worker, the extension zip
+  (tests/blender/conftest.py) once per run behind a file lock.  The workers compute the units while they
+  collect and leave them in the run's temporary directory for the controller (pytest-xdist 3.8 cannot put
+  its group names into pytest 9's node ids, so its own loadgroup would split them).
+* Order.  Units start longest first (longest-processing-time rule): a test's expected seconds come from
+  the durations recorded by earlier runs in .pytest_cache (``flank/durations``), else from
+  ``EXPECTED_SECONDS`` below (a clean clone), else ``DEFAULT_SECONDS``.  Each worker holds the test it
+  runs and at most one more, so a long unit never waits behind another worker's queue.
+
+Without xdist (plain ``pytest path``, the compatibility venvs) none of this is active.
+"""
+import json
+import os
+
+import pytest
+
+from flank_addon.geometry.rotors import builtin_by_name
+
+# ---------------------------------------------------------------------------------------------- fixtures
+
+
+@pytest.fixture(scope="session")
+def builtin():
+    """``builtin(name) -> (rotor, surface)``: a built-in rotor of default size and its helical surface, made
+    once per process, so the surface's lazy foot-point tables (~1.6 s) are built once too."""
+    made = {}
+
+    def get(name):
+        if name not in made:
+            r = builtin_by_name(name)
+            made[name] = (r, r.surface())
+        return made[name]
+
+    return get
+
+
+@pytest.fixture(scope="session")
+def female(builtin):
+    """The built-in asymmetric female rotor and its helical surface."""
+    return builtin("asymmetric-female")
+
+
+@pytest.fixture(scope="session")
+def asym_male(builtin):
+    """The built-in asymmetric male rotor and its helical surface."""
+    return builtin("asymmetric-male")
+
+
+@pytest.fixture(scope="session")
+def female_plan(female):
+    """(rotor, result) of the single-flank plan of the asymmetric female's flank 1: cone asin(0.1), 0.05, 0.08 R
+    with a shank 0.04 x 0.6 R, tolerance 1e-3 R, 18 seeds (the planner's defaults otherwise)."""
+    import math
+
+    from flank_addon.methods.single_flank.planner import plan_single_flank
+    from flank_addon.tooling.cone import ConeTool
+
+    r, s = female
+    return r, plan_single_flank(s, r.flanks, 1, ConeTool(math.asin(0.1), 0.05, 0.08, 0.04, 0.6), 1e-3, n_seeds=18)
+
+
+# ------------------------------------------------------------------------------------------ work units
+
+# session fixtures of this file that are expensive: their users run on one worker
+_GROUPED_SESSION_FIXTURES = {"female_plan"}
+
+# conftest files whose session fixtures are cheap or shared across workers by other means (no grouping)
+_UNGROUPED_CONFTESTS = {"tests", "tests/blender"}
+
+
+def _group_of(fixturedef, module):
+    """Group key a fixture imposes on its users, or None."""
+    scope = fixturedef.scope
+    baseid = fixturedef.baseid or ""
+    if scope == "module":
+        return "{}::{}".format(module, fixturedef.argname)
+    if fixturedef.argname in _GROUPED_SESSION_FIXTURES and baseid == "tests":
+        return "tests/conftest.py::" + fixturedef.argname
+    if scope in ("package", "session") and baseid.startswith("tests") and baseid not in _UNGROUPED_CONFTESTS \
+            and "::" not in baseid and not baseid.endswith(".py"):
+        return baseid                      # a sub-directory's conftest: one group per directory
+    return None
+
+
+GROUPS_FILE = "flank-xdist-groups.json"
+
+
+def _groups(items):
+    """{nodeid: group} for the tests that share an expensive fixture (connected sets of fixtures) or carry an
+    explicit ``xdist_group`` mark; other tests are units of their own."""
+    parent = {}
+
+    def find(k):
+        while parent[k] != k:
+            parent[k] = parent[parent[k]]
+            k = parent[k]
+        return k
+
+    keys_of = []
+    for item in items:
+        info = getattr(item, "_fixtureinfo", None)
+        module = item.nodeid.split("::", 1)[0]
+        keys = ["mark:" + str(m.args[0] if m.args else m.kwargs.get("name", "default"))
+                for m in item.iter_markers("xdist_group")]
+        for name in (info.names_closure if info is not None else ()):
+            defs = info.name2fixturedefs.get(name)
+            if defs:
+                key = _group_of(defs[-1], module)
+                if key is not None:
+                    keys.append(key)
+        for k in keys:
+            parent.setdefault(k, k)
+        for a, b in zip(keys, keys[1:]):
+            parent[find(a)] = find(b)
+        keys_of.append(keys)
+    members = {}
+    for keys in keys_of:
+        if keys:
+            members.setdefault(find(keys[0]), set()).update(keys)
+    names = {root: "+".join(sorted(ks)) for root, ks in members.items()}
+    return {item.nodeid: names[find(keys[0])] for item, keys in zip(items, keys_of) if keys}
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_collection_modifyitems(config, items):
+    """On an xdist worker: write the work units for the controller's scheduler (pytest-xdist 3.8 cannot mark
+    groups in pytest 9's node ids itself) into the run's shared temporary directory."""
+    if not hasattr(config, "workerinput"):
+        return
+    path = config._tmp_path_factory.getbasetemp().parent / GROUPS_FILE
+    part = path.with_name("{}.{}".format(path.name, config.workerinput["workerid"]))
+    part.write_text(json.dumps(_groups(items), indent=0, sort_keys=True))
+    os.replace(part, path)                  # every worker collects the same tests: the last write is as good
+
+
+# ------------------------------------------------------------------------------------- expected seconds
+
+DEFAULT_SECONDS = 0.3
+CACHE_KEY = "flank/durations"
+# measured (setup + call + teardown) on 2 cores; only tests above ~2 s, the rest count DEFAULT_SECONDS
+EXPECTED_SECONDS = {
+}
+
+
+def _test_id(nodeid):
+    """nodeid without the '@group' suffix loadgroup appends."""
+    at = nodeid.rfind("@")
+    return nodeid[:at] if at > nodeid.rfind("]") else nodeid
+
+
+class _DurationRecorder:
+    """Sums setup + call + teardown seconds per test where the reports arrive (the controller under xdist,
+    the only process without it) and merges them into the cache at the end of the session."""
+
+    def __init__(self, config):
+        self.config = config
+        self.seconds = {}
+
+    def pytest_runtest_logreport(self, report):
+        tid = _test_id(report.nodeid)
+        self.seconds[tid] = self.seconds.get(tid, 0.0) + float(getattr(report, "duration", 0.0) or 0.0)
+
+    def pytest_sessionfinish(self, session):
+        cache = getattr(self.config, "cache", None)
+        if cache is None or not self.seconds:
+            return
+        known = dict(cache.get(CACHE_KEY, {}))
+        known.update({k: round(v, 3) for k, v in self.seconds.items()})
+        cache.set(CACHE_KEY, known)
+
+
+def pytest_configure(config):
+    if not hasattr(config, "workerinput"):      # not an xdist worker: the reports of every test arrive here
+        config.pluginmanager.register(_DurationRecorder(config), "flank-duration-recorder")
+
+
+def _expected_seconds(config):
+    cache = getattr(config, "cache", None)
+    recorded = cache.get(CACHE_KEY, {}) if cache is not None else {}
+    return lambda tid: recorded.get(tid, EXPECTED_SECONDS.get(tid, DEFAULT_SECONDS))
+
+
+# ------------------------------------------------------------------------------------------- scheduler
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config, log):
+    """``--dist loadgroup``: the work units of :func:`_groups`, longest first, each worker holding at most one
+    test beyond the one it runs."""
+    if config.getvalue("dist") != "loadgroup":
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    seconds = _expected_seconds(config)
+    groups_path = config._tmp_path_factory.getbasetemp() / GROUPS_FILE
+
+    class LongestFirstScheduling(LoadScopeScheduling):
+        _groups = None
+
+        def _split_scope(self, nodeid):
+            if self._groups is None:        # first call: every worker has finished collecting
+                try:
+                    self._groups = json.loads(groups_path.read_text())
+                except (OSError, ValueError):
+                    self._groups = {}       # no groups: every test a unit of its own
+            tid = _test_id(nodeid)
+            group = self._groups.get(tid)
+            return "group " + group if group is not None else tid
+
+        _ordered = False
+
+        def _assign_work_unit(self, node):
+            if not self._ordered:           # the first assignment: the queue is complete, order it once
+                units = sorted(self.workqueue.items(), key=lambda kv: -sum(seconds(_test_id(n)) for n in kv[1]))
+                self.workqueue.clear()
+                self.workqueue.update(units)
+                self._ordered = True
+            super()._assign_work_unit(node)
+
+        def _reschedule(self, node):
+            if node.shutting_down:
+                return
+            if not self.workqueue:
+                node.shutdown()
+                return
+            # a worker runs a test once it knows the next one: the running test plus one queued suffices
+            if self._pending_of(self.assigned_work[node]) >= 2:
+                return
+            self._assign_work_unit(node)
+
+    return LongestFirstScheduling(config, log)
