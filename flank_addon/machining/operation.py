@@ -108,8 +108,9 @@ def run_out(shape, tip, axis, rotor, clearance, spacing=1.0, local=None):
     points that pass over a shaft (inf without shafts).  ``local``: the shape's surface points if known."""
     pts = place_points(shape.local_points(spacing) if local is None else local, tip, axis)[0]
     z0, z1 = rotor.z_range
-    t_a = (pts[:, 2].min() - z1 - clearance) / rotor.v0
-    t_b = (pts[:, 2].max() - z0 + clearance) / rotor.v0
+    lo, hi = shape.z_extent(tip, axis)
+    t_a = (float(lo[0]) - z1 - clearance) / rotor.v0
+    t_b = (float(hi[0]) - z0 + clearance) / rotor.v0
     margin = math.inf
     rho = np.hypot(pts[:, 0], pts[:, 1])
     lo, hi = pts[:, 2] - rotor.v0 * t_b, pts[:, 2] - rotor.v0 * t_a     # each point's heights over the pass

@@ -157,6 +157,15 @@ class ToolShape:
             out_s.append(np.ones(k, bool))
         return np.concatenate(out_h), np.concatenate(out_r), np.concatenate(out_s)
 
+    def z_extent(self, tips, axes, spacing=0.5):
+        """(z_min, z_max) (N,) of the tool and shank at poses (N, 3) x (N, 3), ring by ring exactly: a ring of
+        radius R about a point c on the unit axis a spans c_z +- R sqrt(1 - a_z^2)."""
+        h, R, _ = self.outline(spacing)
+        tips, axes = np.atleast_2d(tips), np.atleast_2d(axes)
+        cz = tips[:, 2:3] + h[None, :] * axes[:, 2:3]
+        w = R[None, :] * np.sqrt(np.maximum(1.0 - axes[:, 2:3] ** 2, 0.0))
+        return (cz - w).min(axis=1), (cz + w).max(axis=1)
+
     def local_points(self, spacing):
         """Surface points (M, 3) in the tool frame: a ring per outline height, the end faces of the cutting
         part and the shank as concentric rings; neighbours at most about ``spacing`` apart."""

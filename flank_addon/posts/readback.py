@@ -31,7 +31,6 @@ from ..geometry.screw import screw_motion
 from ..machining.cycle_time import cycle_time
 from ..machining.tool_shape import ToolShape
 from ..machining.toolpath import segment_intrusion
-from ..machining.tool_shape import place_points
 from ..simulation.verify import verify_plan
 
 
@@ -124,16 +123,12 @@ def match_passes(passes, plans, rotor, tools, of_strip, tol=1e-2):
 
 def run_out(ps, tools, rotor):
     """(start clearance, end clearance) in mm beyond the body's end faces (negative: inside the body)."""
-    shape = tools[ps["tool"]]
-    local = shape.local_points(1.0)
-    (P, A) = ps["ends"]
-    pts = place_points(local, P, A)
+    P, A = ps["ends"]
+    lo, hi = tools[ps["tool"]].z_extent(P, A)
     z0, z1 = rotor.z_range
-    zs = pts[..., 2]
-    down = ps["t_span"] > 0
-    if down:
-        return float(zs[0].min() - z1), float(z0 - zs[1].max())
-    return float(z0 - zs[0].max()), float(zs[1].min() - z1)
+    if ps["t_span"] > 0:                                   # the tool runs down the rotor's z
+        return float(lo[0] - z1), float(z0 - hi[1])
+    return float(z0 - hi[0]), float(lo[1] - z1)
 
 
 def fine_deviation(plan, strips, idx, refine=16):
