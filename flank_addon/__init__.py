@@ -9,7 +9,10 @@ from its own layer and those below; ``docs/architecture.md`` draws them):
 - :mod:`.io` -- the flank-plan/1 document, mesh files, PNG;
 - :mod:`.simulation` -- the sweep of a tool along the screw motion, plan verification, collisions;
 - :mod:`.methods` -- the five planners, one subpackage each;
-- :mod:`.exports` and :mod:`.report` -- CL data, error CSV, strip meshes; report and chart content;
+- :mod:`.exports` -- CL data, error CSV, strip meshes;
+- :mod:`.machining` -- whole-rotor operations, machine files and kinematics, feeds and speeds, cycle time;
+- :mod:`.posts` -- one module per controller dialect (writer and reader) and the read-back of a program;
+- :mod:`.report` -- report and chart content;
 - :mod:`.cli` -- ``python -m flank_addon``.
 
 :mod:`.progress` (progress callbacks and cancellation) imports nothing and serves every layer.
