@@ -94,8 +94,7 @@ class FLANK_OT_cutter_region(bpy.types.Operator):
                                    default=0.0, soft_min=0.0, soft_max=1000.0, precision=3)
 
     # ------------------------------------------------------------------ inputs
-
-    def _scene_defaults(self, context, math):
+    def _scene_defaults(self, context):
         """Take flank and cone from the scene's Single Flank settings where the caller gave none."""
         st = getattr(context.scene, "flank_settings", None)
         if st is None:
@@ -109,7 +108,7 @@ class FLANK_OT_cutter_region(bpy.types.Operator):
             if math.isfinite(h) and h > 0.0 and math.isfinite(r2 - r1) and r2 > r1:
                 self.alpha = math.atan2(r2 - r1, h)
 
-    def _check_inputs(self, math):
+    def _check_inputs(self):
         r1, r2, alpha = typed(self.r1), typed(self.r2), typed(self.alpha)
         if not math.isfinite(r1) or r1 < 0.0:
             return "tool radius r1 = {} must be a finite number >= 0".format(r1)
@@ -145,8 +144,8 @@ class FLANK_OT_cutter_region(bpy.types.Operator):
     # ------------------------------------------------------------------ run
     def execute(self, context):
         t0 = time.perf_counter()
-        self._scene_defaults(context, math)
-        msg = self._check_inputs(math)
+        self._scene_defaults(context)
+        msg = self._check_inputs()
         src = rotor_source(context.active_object, PROP_PREFIX) if msg is None else msg
         if not isinstance(src, str) and not 0 <= int(self.flank) < len(src["flanks"]):
             src = "flank = {} is outside 0..{} (rotor '{}' has {} flanks)".format(

@@ -107,6 +107,87 @@ def _axis_chart(path, T, chart, err_scale, s):
     return chains, np.concatenate(err_v), np.concatenate(flank_v), x0, max_abs
 
 
+def _fill_run(run, job, out, rotor, made):
+    """Tools, envelope strips, error charts, the motion and the files of the run."""
+    res, s, display, R = out["res"], float(job["src"]["scale"]), job["src"]["display"], \
+        float(job["surface"].outer_radius)
+    tol = job["tol_in"] if job["tol_in"] > 0.0 else 1e-3 * R * s
+    multi = len(res.paths) > 1
+
+    def name(base, k):
+        return "{} {}".format(base, k + 1) if multi else base
+
+    e_all = np.concatenate([np.r_[c[1], c[2]] for c in out["charts"]])
+    e_all = e_all[np.isfinite(e_all)]
+    e_max = float(np.abs(e_all).max()) if len(e_all) else 0.0
+    r_tool = max(float(np.nanmax(p.radii)) for p in res.paths)
+    made.update(tools=[], tol=tol, err_scale=0.5 * r_tool / e_max if e_max > 1e-12 * R else 1.0, files=[])
+    for k, path in enumerate(res.paths):
+        T = out["frames"][k][0]
+        verts, faces = out["tools"][k]
+        Tinv = np.linalg.inv(T)
+        local = np.asarray(verts, dtype=np.float64) @ Tinv[:3, :3].T + Tinv[:3, 3]
+        ob = run.add_mesh(name("DF Tool", k), local, faces, COLOR_TOOL, "tool", k, display @ T)
+        ob[PROP_PREFIX + "axis_start"] = [float(v) for v in path.plan_points[0]]
+        ob[PROP_PREFIX + "axis_end"] = [float(v) for v in path.plan_points[-1]]
+        ob[PROP_PREFIX + "radii_range"] = [float(np.nanmin(path.radii)) * s, float(np.nanmax(path.radii)) * s]
+        made["tools"].append(ob)
+        for f, (ev, ef, ed) in enumerate(out["env"][k]):
+            if len(ev) == 0 or len(ef) == 0:
+                continue
+            dev = np.asarray(ed, dtype=np.float64) * s
+            fin = np.isfinite(dev)
+            eo = run.add_strip(name("DF Envelope", k) + " F{}".format(f + 1), ev, ef, dev, tol, display, k,
+                               stored=np.where(fin, dev, UNTOUCHED))
+            eo[PROP_PREFIX + "flank"] = f + 1
+            eo[PROP_PREFIX + "deviation_range"] = ([float(dev[fin].min()), float(dev[fin].max())] if fin.any()
+                                                  else [float("nan")] * 2)
+        _add_error_chart(run, name("DF Error along axis", k), path, T, out["charts"][k], made["err_scale"], s,
+                         display, k)
+    if job["animate"]:
+        _add_tool_motion(run, job, out, rotor, made, name)
+    _write_files(run, job, res, made)
+
+
+def _add_error_chart(run, label, path, T, chart, err_scale, s, display, k):
+    chains, errs, flanks, x0, max_abs = _axis_chart(path, T, chart, err_scale, s)
+    me = run.edges(label, chains)
+    co = run.add(label, me, COLOR_CHART, "error_chart", k, display @ T)
+    set_float_attr(me, ERROR_ATTR, errs)
+    set_float_attr(me, FLANK_ATTR, flanks.astype(np.float64))
+    set_color_attr(me, CHART_COLOR_ATTR, np.array([CHART_COLORS[int(v)] for v in flanks]))
+    run.color_by_attribute(me)
+    co[PROP_PREFIX + "error_scale"] = float(err_scale)
+    co[PROP_PREFIX + "chart_offset"] = float(x0 * s)
+    co[PROP_PREFIX + "max_abs_error"] = max_abs
+
+
+def _add_tool_motion(run, job, out, rotor, made, name):
+    surface, src = job["surface"], job["src"]
+    R, v0, eps = float(surface.outer_radius), float(surface.v0), (1 if surface.hand > 0 else -1)
+    z0, z1 = src["z_range"]
+    made["motion"] = [float((z0 - R) / v0), float((z1 + R) / v0)]
+    motion = run.add_motion("DF Tool Motion", rotor, tuple(zip(job["frames"], made["motion"])), v0, eps,
+                            0.25 * R, frame=src["display"] if src["kind"] == "analyzed" else None)
+    for k, tool in enumerate(made["tools"]):
+        run.add_moving(name("DF Tool", k) + " (moving)", motion, tool.data, out["frames"][k][0], index=k)
+
+
+def _write_files(run, job, res, made):
+    from ..flank_addon.io.plan import write_plan
+    from ..flank_addon.methods.double_flank import planner as df
+
+    if job["filepath"]:
+        run.write(job["filepath"], lambda p: write_plan(p, res.plan))
+    if job["tool_csv"]:
+        base = job["tool_csv"]
+        which = range(len(res.paths)) if job["tool"].startswith("cones") else [0]
+        stem, ext = os.path.splitext(base)
+        for k in which:
+            p = base if len(which) == 1 else "{}_{}{}".format(stem, k + 1, ext or ".csv")
+            made["files"].append(run.write(p, lambda q, k=k: df.write_tool_csv(q, res.paths[k])))
+
+
 class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
     """Plan double-flank milling of one valley of the active rotor with a custom-shaped tool (or conical tools)
     that cuts both flanks in one pass, shown as tools, error-coloured strips and error charts"""
@@ -166,7 +247,7 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
                          "Double Flank ({}, valley {})".format(rotor.name, k), owner=("rotor", rotor.name),
                          index_key="path")
         made = {}
-        replaced = run.build(self, "double-flank results", lambda: self._fill(run, job, out, rotor, made))
+        replaced = run.build(self, "double-flank results", lambda: _fill_run(run, job, out, rotor, made))
         if replaced is None:
             return {'CANCELLED'}
         props = self._props(job, out, rotor, made)
@@ -176,87 +257,6 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
         run.show(made["tools"][0])
         self._report_done(job, out, rotor, props, made, replaced)
         return {'FINISHED'}
-
-    @staticmethod
-    def _fill(run, job, out, rotor, made):
-        """Tools, envelope strips, error charts, the motion and the files of the run."""
-        res, s, display, R = out["res"], float(job["src"]["scale"]), job["src"]["display"], \
-            float(job["surface"].outer_radius)
-        tol = job["tol_in"] if job["tol_in"] > 0.0 else 1e-3 * R * s
-        multi = len(res.paths) > 1
-
-        def name(base, k):
-            return "{} {}".format(base, k + 1) if multi else base
-
-        e_all = np.concatenate([np.r_[c[1], c[2]] for c in out["charts"]])
-        e_all = e_all[np.isfinite(e_all)]
-        e_max = float(np.abs(e_all).max()) if len(e_all) else 0.0
-        r_tool = max(float(np.nanmax(p.radii)) for p in res.paths)
-        made.update(tools=[], tol=tol, err_scale=0.5 * r_tool / e_max if e_max > 1e-12 * R else 1.0, files=[])
-        for k, path in enumerate(res.paths):
-            T = out["frames"][k][0]
-            verts, faces = out["tools"][k]
-            Tinv = np.linalg.inv(T)
-            local = np.asarray(verts, dtype=np.float64) @ Tinv[:3, :3].T + Tinv[:3, 3]
-            ob = run.add_mesh(name("DF Tool", k), local, faces, COLOR_TOOL, "tool", k, display @ T)
-            ob[PROP_PREFIX + "axis_start"] = [float(v) for v in path.plan_points[0]]
-            ob[PROP_PREFIX + "axis_end"] = [float(v) for v in path.plan_points[-1]]
-            ob[PROP_PREFIX + "radii_range"] = [float(np.nanmin(path.radii)) * s, float(np.nanmax(path.radii)) * s]
-            made["tools"].append(ob)
-            for f, (ev, ef, ed) in enumerate(out["env"][k]):
-                if len(ev) == 0 or len(ef) == 0:
-                    continue
-                dev = np.asarray(ed, dtype=np.float64) * s
-                fin = np.isfinite(dev)
-                eo = run.add_strip(name("DF Envelope", k) + " F{}".format(f + 1), ev, ef, dev, tol, display, k,
-                                   stored=np.where(fin, dev, UNTOUCHED))
-                eo[PROP_PREFIX + "flank"] = f + 1
-                eo[PROP_PREFIX + "deviation_range"] = ([float(dev[fin].min()), float(dev[fin].max())] if fin.any()
-                                                      else [float("nan")] * 2)
-            FLANK_OT_plan_double_flank._add_chart(run, name("DF Error along axis", k), path, T, out["charts"][k],
-                                                  made["err_scale"], s, display, k)
-        if job["animate"]:
-            FLANK_OT_plan_double_flank._add_motion(run, job, out, rotor, made, name)
-        FLANK_OT_plan_double_flank._write_files(run, job, res, made)
-
-    @staticmethod
-    def _add_chart(run, label, path, T, chart, err_scale, s, display, k):
-        chains, errs, flanks, x0, max_abs = _axis_chart(path, T, chart, err_scale, s)
-        me = run.edges(label, chains)
-        co = run.add(label, me, COLOR_CHART, "error_chart", k, display @ T)
-        set_float_attr(me, ERROR_ATTR, errs)
-        set_float_attr(me, FLANK_ATTR, flanks.astype(np.float64))
-        set_color_attr(me, CHART_COLOR_ATTR, np.array([CHART_COLORS[int(v)] for v in flanks]))
-        run.color_by_attribute(me)
-        co[PROP_PREFIX + "error_scale"] = float(err_scale)
-        co[PROP_PREFIX + "chart_offset"] = float(x0 * s)
-        co[PROP_PREFIX + "max_abs_error"] = max_abs
-
-    @staticmethod
-    def _add_motion(run, job, out, rotor, made, name):
-        surface, src = job["surface"], job["src"]
-        R, v0, eps = float(surface.outer_radius), float(surface.v0), (1 if surface.hand > 0 else -1)
-        z0, z1 = src["z_range"]
-        made["motion"] = [float((z0 - R) / v0), float((z1 + R) / v0)]
-        motion = run.add_motion("DF Tool Motion", rotor, tuple(zip(job["frames"], made["motion"])), v0, eps,
-                                0.25 * R, frame=src["display"] if src["kind"] == "analyzed" else None)
-        for k, tool in enumerate(made["tools"]):
-            run.add_moving(name("DF Tool", k) + " (moving)", motion, tool.data, out["frames"][k][0], index=k)
-
-    @staticmethod
-    def _write_files(run, job, res, made):
-        from ..flank_addon.io.plan import write_plan
-        from ..flank_addon.methods.double_flank import planner as df
-
-        if job["filepath"]:
-            run.write(job["filepath"], lambda p: write_plan(p, res.plan))
-        if job["tool_csv"]:
-            base = job["tool_csv"]
-            which = range(len(res.paths)) if job["tool"].startswith("cones") else [0]
-            stem, ext = os.path.splitext(base)
-            for k in which:
-                p = base if len(which) == 1 else "{}_{}{}".format(stem, k + 1, ext or ".csv")
-                made["files"].append(run.write(p, lambda q, k=k: df.write_tool_csv(q, res.paths[k])))
 
     def _props(self, job, out, rotor, made):
         """The run's custom properties (lengths in scene units, angles in radians)."""

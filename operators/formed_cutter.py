@@ -201,6 +201,55 @@ def _deviation_on_rotor(job, u_s, dev, v0):
     return r_verts, r_faces, rotor_world, on_tooth, np.where(on_tooth, values, np.nan)
 
 
+def _fill_run(run, job, out, made):
+    """The Table-1 rotor (when built here), the cutter, the contact points, the motion, the rotor's deviation
+    attributes and the profile CSV."""
+    from ..flank_addon.methods.formed_cutter import cutter_profile as fc
+
+    src, rotor_world = job["src"], out["rotor_world"]
+    if made["rotor"] is None:
+        made["rotor"] = run.add_mesh(TABLE1_ROTOR, out["r_verts"], out["r_faces"], (0.70, 0.72, 0.75, 1.0),
+                                     matrix=rotor_world)
+        for key, value in dict(
+                flank_source=TABLE1_SOURCE, flank_kind="arc_tooth", flank_part="male",
+                flank_lobes=int(fc.TABLE1["teeth"]), flank_scale=float(fc.TABLE1["R2"]),
+                flank_outer_radius=float(fc.TABLE1["R2"]), flank_lead=float(src["lead"]),
+                flank_length=out["length"], flank_v0=out["v0"], flank_handedness=src["hand"],
+                flank_axis_point=(0.0, 0.0, 0.0), flank_axis=(0.0, 0.0, 1.0)).items():
+            made["rotor"][key] = value
+    rotor = made["rotor"]
+    cutter = made["cutter"] = run.add_mesh(CUTTER, *out["cutter_mesh"], COLOR_CUTTER,
+                                           matrix=rotor_world @ out["C"])
+    set_float_attr(cutter.data, FLAGS_ATTR, out["ring_flags"])
+    set_color_attr(cutter.data, FLAGS_COLOR_ATTR, out["ring_colors"])
+    run.color_by_attribute(cutter.data)
+    contact = run.add(CONTACT, run.edges(CONTACT, [(out["contact"], False)]), (0.10, 0.10, 0.10, 1.0),
+                      matrix=rotor_world)
+    set_float_attr(contact.data, FLAGS_ATTR, out["flags"])
+    if job["animate"]:
+        s_m = out["s_m"]
+        motion = run.add_motion(MOTION, rotor, tuple(zip(job["frames"], (-s_m, s_m))), out["v0"], out["eps"],
+                                0.25 * src["r0"], role=None)
+        run.add_moving(CUTTER_MOVING, motion, cutter.data, out["C"], COLOR_CUTTER, role=None)
+    _paint_rotor(run, job, out, rotor)
+    if job["filepath"]:
+        run.write(job["filepath"], lambda p: np.savetxt(p, out["cp"].meridian, delimiter=",", header="z,r",
+                                                        comments="", fmt="%.12g"))
+
+
+def _paint_rotor(run, job, out, rotor):
+    """The machined deviation on the rotor mesh; a user's rotor gets the shared material only when it has
+    none, and loses the attributes (and that material) again if the run fails."""
+    mesh = rotor.data
+    if job["rotor_name"] is not None:
+        run.on_failure(lambda: remove_attributes(mesh, (DEVIATION_ATTR, DEVIATION_COLOR_ATTR)))
+    set_float_attr(mesh, DEVIATION_ATTR, out["stored"])
+    set_color_attr(mesh, DEVIATION_COLOR_ATTR, out["rgba"])
+    if run.color_by_attribute(mesh, only_if_none=job["rotor_name"] is not None) and job["rotor_name"]:
+        run.on_failure(mesh.materials.clear)
+    mesh.update()
+
+
 class FLANK_OT_formed_cutter(ModalPlannerMixin, bpy.types.Operator):
     """Derive the formed disc cutter for one tooth of a rotor, place it at its set-up with its machinability flags
     and helical motion, and paint the simulated machined deviation on the rotor"""
@@ -304,7 +353,7 @@ class FLANK_OT_formed_cutter(ModalPlannerMixin, bpy.types.Operator):
         run = RunBuilder(context, PROP_PREFIX, "table1" if rotor is None else "rotor:" + rotor.name,
                          "{} ({})".format(COLLECTION, job["src"]["name"]))
         made = dict(rotor=rotor)
-        replaced = run.build(self, "formed cutter objects", lambda: self._fill(run, job, out, made))
+        replaced = run.build(self, "formed cutter objects", lambda: _fill_run(run, job, out, made))
         if replaced is None:
             return {'CANCELLED'}
         rotor = made["rotor"]
@@ -313,55 +362,6 @@ class FLANK_OT_formed_cutter(ModalPlannerMixin, bpy.types.Operator):
         run.show(made["cutter"])
         self._report_done(job, out, rotor, props, made, replaced)
         return {'FINISHED'}
-
-    @staticmethod
-    def _fill(run, job, out, made):
-        """The Table-1 rotor (when built here), the cutter, the contact points, the motion, the rotor's deviation
-        attributes and the profile CSV."""
-        from ..flank_addon.methods.formed_cutter import cutter_profile as fc
-
-        src, rotor_world = job["src"], out["rotor_world"]
-        if made["rotor"] is None:
-            made["rotor"] = run.add_mesh(TABLE1_ROTOR, out["r_verts"], out["r_faces"], (0.70, 0.72, 0.75, 1.0),
-                                         matrix=rotor_world)
-            for key, value in dict(
-                    flank_source=TABLE1_SOURCE, flank_kind="arc_tooth", flank_part="male",
-                    flank_lobes=int(fc.TABLE1["teeth"]), flank_scale=float(fc.TABLE1["R2"]),
-                    flank_outer_radius=float(fc.TABLE1["R2"]), flank_lead=float(src["lead"]),
-                    flank_length=out["length"], flank_v0=out["v0"], flank_handedness=src["hand"],
-                    flank_axis_point=(0.0, 0.0, 0.0), flank_axis=(0.0, 0.0, 1.0)).items():
-                made["rotor"][key] = value
-        rotor = made["rotor"]
-        cutter = made["cutter"] = run.add_mesh(CUTTER, *out["cutter_mesh"], COLOR_CUTTER,
-                                               matrix=rotor_world @ out["C"])
-        set_float_attr(cutter.data, FLAGS_ATTR, out["ring_flags"])
-        set_color_attr(cutter.data, FLAGS_COLOR_ATTR, out["ring_colors"])
-        run.color_by_attribute(cutter.data)
-        contact = run.add(CONTACT, run.edges(CONTACT, [(out["contact"], False)]), (0.10, 0.10, 0.10, 1.0),
-                          matrix=rotor_world)
-        set_float_attr(contact.data, FLAGS_ATTR, out["flags"])
-        if job["animate"]:
-            s_m = out["s_m"]
-            motion = run.add_motion(MOTION, rotor, tuple(zip(job["frames"], (-s_m, s_m))), out["v0"], out["eps"],
-                                    0.25 * src["r0"], role=None)
-            run.add_moving(CUTTER_MOVING, motion, cutter.data, out["C"], COLOR_CUTTER, role=None)
-        FLANK_OT_formed_cutter._paint_rotor(run, job, out, rotor)
-        if job["filepath"]:
-            run.write(job["filepath"], lambda p: np.savetxt(p, out["cp"].meridian, delimiter=",", header="z,r",
-                                                            comments="", fmt="%.12g"))
-
-    @staticmethod
-    def _paint_rotor(run, job, out, rotor):
-        """The machined deviation on the rotor mesh; a user's rotor gets the shared material only when it has
-        none, and loses the attributes (and that material) again if the run fails."""
-        mesh = rotor.data
-        if job["rotor_name"] is not None:
-            run.on_failure(lambda: remove_attributes(mesh, (DEVIATION_ATTR, DEVIATION_COLOR_ATTR)))
-        set_float_attr(mesh, DEVIATION_ATTR, out["stored"])
-        set_color_attr(mesh, DEVIATION_COLOR_ATTR, out["rgba"])
-        if run.color_by_attribute(mesh, only_if_none=job["rotor_name"] is not None) and job["rotor_name"]:
-            run.on_failure(mesh.materials.clear)
-        mesh.update()
 
     def _props(self, job, out, rotor, made):
         src, cp, summary, setup = job["src"], out["cp"], out["summary"], out["setup"]

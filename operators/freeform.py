@@ -90,6 +90,49 @@ def _tool_meshes(g1, plan):
     return tools
 
 
+def _fill_run(run, job, out, made):
+    """Tools, envelope strips, boundary kink curves, guiding curves and the plan file of the run."""
+    from ..flank_addon.io.plan import write_plan
+
+    plan, s, to_world = out["plan"], job["s"], job["to_world"]
+    made["tools"] = []
+    for k, (env, ((tv, tf), T), st) in enumerate(zip(out["envs"], out["tools"], plan["strips"])):
+        ob = run.add_mesh("FF Tool {}".format(k + 1), tv, tf, COLOR_TOOL, "tool", k, to_world @ T)
+        ob[PROP_PREFIX + "strip_errors"] = [float(st["reported_max_error"]) * s,
+                                            float(st["reported_min_error"]) * s]
+        ob[PROP_PREFIX + "collision"] = bool(st["collision"])
+        made["tools"].append(ob)
+        V = np.asarray(env["vertices"], dtype=np.float64)
+        tris = quad_triangles(env["faces"], np.isfinite(V).all(axis=1))
+        if len(tris) == 0:
+            continue
+        used, inv = np.unique(tris, return_inverse=True)
+        dev = np.asarray(env["deviation"], dtype=np.float64)[used] * s
+        eo = run.add_strip("FF Strip {}".format(k + 1), V[used], inv.reshape(-1, 3), dev, job["tol_in"],
+                           to_world, k)
+        fin = dev[np.isfinite(dev)]
+        eo[PROP_PREFIX + "deviation_range"] = [float(fin.min()), float(fin.max())] if len(fin) else []
+        eo[PROP_PREFIX + "overhanging_points"] = int(len(dev) - len(fin))
+    for k, kk in enumerate(out["kinks"]):
+        pts = np.asarray(kk["points"], dtype=np.float64)
+        if len(pts) < 2:
+            continue
+        label = "FF Boundary {}|{}".format(k + 1, k + 2)
+        bo = run.add(label, run.edges(label, [(pts, False)]), COLOR_BOUNDARY, "boundary", k, to_world)
+        kd = np.asarray(kk["kink_deg"], dtype=np.float64)
+        set_float_attr(bo.data, KINK_ATTR, kd)
+        set_float_attr(bo.data, KINK_ATTR + "_edge", np.maximum(kd[:-1], kd[1:]), domain='EDGE')
+        bo[PROP_PREFIX + "max_kink_deg"] = float(kd.max())
+        bo[PROP_PREFIX + "mean_kink_deg"] = float(kd.mean())
+    chains = [(np.asarray(pl, dtype=np.float64), False) for c in plan["guiding"]["curves"] for pl in c
+              if len(pl) >= 2]
+    if chains:
+        run.add("FF Guiding Curves", run.edges("FF Guiding Curves", chains), COLOR_GUIDING, "guiding",
+                matrix=to_world)
+    if job["filepath"]:
+        run.write(job["filepath"], lambda p: write_plan(p, plan))
+
+
 class FLANK_OT_plan_freeform(ModalPlannerMixin, bpy.types.Operator):
     """Plan free-form G1 flank milling of the active mesh (or its selected faces): strips of a conical tool along
     a guiding direction, tangent-continuous between neighbours, shown as tools, error-coloured strips and kink
@@ -156,7 +199,7 @@ class FLANK_OT_plan_freeform(ModalPlannerMixin, bpy.types.Operator):
         run = RunBuilder(context, PROP_PREFIX, src_obj.name, "Free-form ({})".format(src_obj.name),
                          owner=("source", src_obj.name))
         made = {}
-        replaced = run.build(self, "free-form results", lambda: self._fill(run, job, out, made))
+        replaced = run.build(self, "free-form results", lambda: _fill_run(run, job, out, made))
         if replaced is None:
             return {'CANCELLED'}
         run.store(dict(source=src_obj.name, strips=len(plan["strips"]), max_error=float(summary["max_error"]) * s,
@@ -180,49 +223,6 @@ class FLANK_OT_plan_freeform(ModalPlannerMixin, bpy.types.Operator):
                                   summary["colliding_rulings"], summary["elapsed_s"],
                                   ", replaced the earlier run" if replaced else ""))
         return {'FINISHED'}
-
-    @staticmethod
-    def _fill(run, job, out, made):
-        """Tools, envelope strips, boundary kink curves, guiding curves and the plan file of the run."""
-        from ..flank_addon.io.plan import write_plan
-
-        plan, s, to_world = out["plan"], job["s"], job["to_world"]
-        made["tools"] = []
-        for k, (env, ((tv, tf), T), st) in enumerate(zip(out["envs"], out["tools"], plan["strips"])):
-            ob = run.add_mesh("FF Tool {}".format(k + 1), tv, tf, COLOR_TOOL, "tool", k, to_world @ T)
-            ob[PROP_PREFIX + "strip_errors"] = [float(st["reported_max_error"]) * s,
-                                                float(st["reported_min_error"]) * s]
-            ob[PROP_PREFIX + "collision"] = bool(st["collision"])
-            made["tools"].append(ob)
-            V = np.asarray(env["vertices"], dtype=np.float64)
-            tris = quad_triangles(env["faces"], np.isfinite(V).all(axis=1))
-            if len(tris) == 0:
-                continue
-            used, inv = np.unique(tris, return_inverse=True)
-            dev = np.asarray(env["deviation"], dtype=np.float64)[used] * s
-            eo = run.add_strip("FF Strip {}".format(k + 1), V[used], inv.reshape(-1, 3), dev, job["tol_in"],
-                               to_world, k)
-            fin = dev[np.isfinite(dev)]
-            eo[PROP_PREFIX + "deviation_range"] = [float(fin.min()), float(fin.max())] if len(fin) else []
-            eo[PROP_PREFIX + "overhanging_points"] = int(len(dev) - len(fin))
-        for k, kk in enumerate(out["kinks"]):
-            pts = np.asarray(kk["points"], dtype=np.float64)
-            if len(pts) < 2:
-                continue
-            label = "FF Boundary {}|{}".format(k + 1, k + 2)
-            bo = run.add(label, run.edges(label, [(pts, False)]), COLOR_BOUNDARY, "boundary", k, to_world)
-            kd = np.asarray(kk["kink_deg"], dtype=np.float64)
-            set_float_attr(bo.data, KINK_ATTR, kd)
-            set_float_attr(bo.data, KINK_ATTR + "_edge", np.maximum(kd[:-1], kd[1:]), domain='EDGE')
-            bo[PROP_PREFIX + "max_kink_deg"] = float(kd.max())
-            bo[PROP_PREFIX + "mean_kink_deg"] = float(kd.mean())
-        chains = [(np.asarray(pl, dtype=np.float64), False) for c in plan["guiding"]["curves"] for pl in c
-                  if len(pl) >= 2]
-        if chains:
-            run.add("FF Guiding Curves", run.edges("FF Guiding Curves", chains), COLOR_GUIDING, "guiding",
-                    matrix=to_world)
-        if job["filepath"]:
-            run.write(job["filepath"], lambda p: write_plan(p, plan))
 
 
 classes = (FLANK_OT_plan_freeform,)

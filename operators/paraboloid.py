@@ -98,6 +98,24 @@ def _groove(op, R, a, b, p, turns, n):
                 intercepts=[float(full.x[0]), float(full.x[-1])])
 
 
+def _animate_tool(run, context, lens_mesh, R, v0, turns):
+    """The tool moving along its helix: the lens is a solid of revolution whose axis stays parallel to the
+    screw axis, so a pure translation along the helix is the exact motion (one key per frame, linear)."""
+    moving = run.add("Paraboloid Tool (moving)", lens_mesh, COLOR_TOOL)    # shares the mesh
+    run.on_failure(lambda: run.own_action(moving.animation_data.action if moving.animation_data else None))
+    scene = context.scene
+    fs, fe = int(scene.frame_start), int(scene.frame_end)
+    if fe <= fs:
+        fe = fs + 1
+    frames = np.unique(np.round(np.linspace(fs, fe, min(fe - fs + 1, MAX_KEYS))).astype(int))
+    theta = np.pi + np.pi * turns * (2.0 * (frames - fs) / (fe - fs) - 1.0)
+    for f, loc in zip(frames, tool_location(theta, R, v0)):
+        moving.location = [float(c) for c in loc]
+        moving.keyframe_insert(data_path="location", frame=int(f))
+    linear_keys(moving)
+    return frames
+
+
 class FLANK_OT_paraboloid_groove(bpy.types.Operator):
     """Machine a helical groove with a paraboloid (lens) end mill: the groove surface, the tool and its motion,
     and the swept section against the tool's own section with the overcut between them"""
@@ -170,31 +188,13 @@ class FLANK_OT_paraboloid_groove(bpy.types.Operator):
         set_color_attr(band.data, OVERCUT_COLOR_ATTR, _ramp(band_oc / (g["max_overcut"] if g["max_overcut"] > 0
                                                                          else 1.0)))
         run.color_by_attribute(band.data)
-        frames = self._animate(run, context, tool.data, R, p / (2.0 * np.pi), turns)
+        frames = _animate_tool(run, context, tool.data, R, p / (2.0 * np.pi), turns)
         made["keys"] = len(frames)
         props = dict(R=R, a=a, b=b, pitch=p, v0=p / (2.0 * np.pi), turns=turns, part=str(self.part),
                      handedness="right", equator_radius=g["rho"], intercepts=g["intercepts"],
                      max_overcut=g["max_overcut"], max_overcut_x=float(x[g["k_max"]]),
                      frames=[int(frames[0]), int(frames[-1])])
         run.store(props, (groove, run.collection))
-
-    @staticmethod
-    def _animate(run, context, lens_mesh, R, v0, turns):
-        """The tool moving along its helix: the lens is a solid of revolution whose axis stays parallel to the
-        screw axis, so a pure translation along the helix is the exact motion (one key per frame, linear)."""
-        moving = run.add("Paraboloid Tool (moving)", lens_mesh, COLOR_TOOL)    # shares the mesh
-        run.on_failure(lambda: run.own_action(moving.animation_data.action if moving.animation_data else None))
-        scene = context.scene
-        fs, fe = int(scene.frame_start), int(scene.frame_end)
-        if fe <= fs:
-            fe = fs + 1
-        frames = np.unique(np.round(np.linspace(fs, fe, min(fe - fs + 1, MAX_KEYS))).astype(int))
-        theta = np.pi + np.pi * turns * (2.0 * (frames - fs) / (fe - fs) - 1.0)
-        for f, loc in zip(frames, tool_location(theta, R, v0)):
-            moving.location = [float(c) for c in loc]
-            moving.keyframe_insert(data_path="location", frame=int(f))
-        linear_keys(moving)
-        return frames
 
 
 classes = (FLANK_OT_paraboloid_groove,)

@@ -173,6 +173,60 @@ def _error_chart(res, surface, u_range, z0):
                 scale=float(err_scale), max_abs=e_max, u_dev=u_dev, e_dev=e_dev, finite=fin)
 
 
+def _fill_run(run, job, out, rotor, made):
+    """Tools, envelope strips, the error chart, the motion and the plan file of the run."""
+    from ..flank_addon.io.plan import write_plan
+
+    res, s, display, tag = out["res"], job["s"], job["display"], "SF F{} ".format(job["k_flank"])
+    rows = res.plan["strips"]
+    made["tools"] = []
+    for k, (cand, (ev, ef, ed), T) in enumerate(zip(res.strips, out["envs"], out["frames"])):
+        ob = run.add_mesh("{}Tool {}".format(tag, k + 1), *out["tool_mesh"], COLOR_TOOL, "tool", k, display @ T)
+        ob[PROP_PREFIX + "tip"] = [float(v) for v in cand.pose.tip]          # rotor frame, rotor units
+        ob[PROP_PREFIX + "axis"] = [float(v) for v in cand.pose.axis]
+        ob[PROP_PREFIX + "params"] = [float(v) for v in np.ravel(cand.params)]
+        ob[PROP_PREFIX + "strip_errors"] = [float(rows[k]["reported_max_error"]) * s,
+                                            float(rows[k]["reported_min_error"]) * s]
+        ob[PROP_PREFIX + "seed_u"] = float(cand.seed.u)
+        made["tools"].append(ob)
+        if len(ev) == 0 or len(ef) == 0:
+            continue
+        dev = np.asarray(ed, dtype=np.float64) * s
+        eo = run.add_strip("{}Strip {}".format(tag, k + 1), ev, ef, dev, job["tol_in"], display, k)
+        eo[PROP_PREFIX + "deviation_range"] = [float(dev.min()), float(dev.max())]
+        eo[PROP_PREFIX + "sweep"] = [float(v) for v in out["sweeps"][k]]
+        eo[PROP_PREFIX + "envelope_samples"] = ENVELOPE_SAMPLES
+        eo[PROP_PREFIX + "envelope_rings"] = job["n_t"]
+    _add_error_chart(run, out["chart"], s, job["tol_in"], display, tag)
+    if job["animate"]:
+        surface, R = job["surface"], job["R"]
+        v0, eps = float(surface.v0), (1 if surface.hand > 0 else -1)
+        made["motion"] = [float((job["z0"] - R) / v0), float((job["z1"] + R) / v0)]
+        motion = run.add_motion(tag + "Tool Motion", rotor, tuple(zip(job["frames"], made["motion"])), v0, eps,
+                                0.25 * R, frame=display if job["src"]["kind"] == "analyzed" else None)
+        for k, tool in enumerate(made["tools"]):
+            run.add_moving("{}Tool {} (moving)".format(tag, k + 1), motion, tool.data, out["frames"][k], index=k)
+    if job["filepath"]:
+        run.write(job["filepath"], lambda p: write_plan(p, res.plan))
+
+
+def _add_error_chart(run, chart, s, tol_in, display, tag):
+    from ..flank_addon.simulation.verify import deviation_colors
+
+    me = run.edges(tag + "Error along profile", chart["chains"])
+    co = run.add(tag + "Error along profile", me, COLOR_CHART, "error_chart", matrix=display)
+    errs = chart["error"] * s
+    set_float_attr(me, ERROR_ATTR, errs)
+    set_float_attr(me, PARAM_ATTR, chart["u"])
+    set_float_attr(me, CURVE_ATTR, chart["curve"])
+    cols = deviation_colors(errs, tol_in)
+    cols[chart["curve"] == 0] = COLOR_BASELINE
+    set_color_attr(me, CHART_COLOR_ATTR, cols)
+    run.color_by_attribute(me)
+    co[PROP_PREFIX + "error_scale"] = chart["scale"]
+    co[PROP_PREFIX + "max_abs_error"] = chart["max_abs"] * s
+
+
 class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
     """Plan single-flank conical milling of one flank of the active rotor: strips of a tapered end mill that
     cover the flank to the tolerance, shown as tools and error-coloured strips"""
@@ -253,7 +307,7 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
         run = RunBuilder(context, PROP_PREFIX, "{}|{}".format(rotor.name, k),
                          "Single Flank ({}, flank {})".format(rotor.name, k), owner=("rotor", rotor.name))
         made = {}
-        replaced = run.build(self, "single-flank results", lambda: self._fill(run, job, out, rotor, made))
+        replaced = run.build(self, "single-flank results", lambda: _fill_run(run, job, out, rotor, made))
         if replaced is None:
             return {'CANCELLED'}
         res = out["res"]
@@ -273,60 +327,6 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
                                   ", wrote {}".format(os.path.basename(job["filepath"])) if job["filepath"] else "",
                                   props["elapsed"], props["total_elapsed"]))
         return {'FINISHED'}
-
-    @staticmethod
-    def _fill(run, job, out, rotor, made):
-        """Tools, envelope strips, the error chart, the motion and the plan file of the run."""
-        from ..flank_addon.io.plan import write_plan
-
-        res, s, display, tag = out["res"], job["s"], job["display"], "SF F{} ".format(job["k_flank"])
-        rows = res.plan["strips"]
-        made["tools"] = []
-        for k, (cand, (ev, ef, ed), T) in enumerate(zip(res.strips, out["envs"], out["frames"])):
-            ob = run.add_mesh("{}Tool {}".format(tag, k + 1), *out["tool_mesh"], COLOR_TOOL, "tool", k, display @ T)
-            ob[PROP_PREFIX + "tip"] = [float(v) for v in cand.pose.tip]          # rotor frame, rotor units
-            ob[PROP_PREFIX + "axis"] = [float(v) for v in cand.pose.axis]
-            ob[PROP_PREFIX + "params"] = [float(v) for v in np.ravel(cand.params)]
-            ob[PROP_PREFIX + "strip_errors"] = [float(rows[k]["reported_max_error"]) * s,
-                                                float(rows[k]["reported_min_error"]) * s]
-            ob[PROP_PREFIX + "seed_u"] = float(cand.seed.u)
-            made["tools"].append(ob)
-            if len(ev) == 0 or len(ef) == 0:
-                continue
-            dev = np.asarray(ed, dtype=np.float64) * s
-            eo = run.add_strip("{}Strip {}".format(tag, k + 1), ev, ef, dev, job["tol_in"], display, k)
-            eo[PROP_PREFIX + "deviation_range"] = [float(dev.min()), float(dev.max())]
-            eo[PROP_PREFIX + "sweep"] = [float(v) for v in out["sweeps"][k]]
-            eo[PROP_PREFIX + "envelope_samples"] = ENVELOPE_SAMPLES
-            eo[PROP_PREFIX + "envelope_rings"] = job["n_t"]
-        FLANK_OT_plan_single_flank._add_chart(run, out["chart"], s, job["tol_in"], display, tag)
-        if job["animate"]:
-            surface, R = job["surface"], job["R"]
-            v0, eps = float(surface.v0), (1 if surface.hand > 0 else -1)
-            made["motion"] = [float((job["z0"] - R) / v0), float((job["z1"] + R) / v0)]
-            motion = run.add_motion(tag + "Tool Motion", rotor, tuple(zip(job["frames"], made["motion"])), v0, eps,
-                                    0.25 * R, frame=display if job["src"]["kind"] == "analyzed" else None)
-            for k, tool in enumerate(made["tools"]):
-                run.add_moving("{}Tool {} (moving)".format(tag, k + 1), motion, tool.data, out["frames"][k], index=k)
-        if job["filepath"]:
-            run.write(job["filepath"], lambda p: write_plan(p, res.plan))
-
-    @staticmethod
-    def _add_chart(run, chart, s, tol_in, display, tag):
-        from ..flank_addon.simulation.verify import deviation_colors
-
-        me = run.edges(tag + "Error along profile", chart["chains"])
-        co = run.add(tag + "Error along profile", me, COLOR_CHART, "error_chart", matrix=display)
-        errs = chart["error"] * s
-        set_float_attr(me, ERROR_ATTR, errs)
-        set_float_attr(me, PARAM_ATTR, chart["u"])
-        set_float_attr(me, CURVE_ATTR, chart["curve"])
-        cols = deviation_colors(errs, tol_in)
-        cols[chart["curve"] == 0] = COLOR_BASELINE
-        set_color_attr(me, CHART_COLOR_ATTR, cols)
-        run.color_by_attribute(me)
-        co[PROP_PREFIX + "error_scale"] = chart["scale"]
-        co[PROP_PREFIX + "max_abs_error"] = chart["max_abs"] * s
 
     def _props(self, job, out, rotor, made):
         """The run's custom properties (lengths in scene units, angles in radians, flank ranges as profile

@@ -125,8 +125,8 @@ def scenario(bpy, res, args):
     us = bpy.context.scene.unit_settings
     us.system, us.scale_length = 'METRIC', 0.001
     import glob
-    shipped = sorted(glob.glob(os.path.join(os.path.dirname(os.path.dirname(driver._core("io.plan").__file__)),
-                                            "presets", "flank_tool", "*.py")))
+    ext_root = os.path.dirname(os.path.dirname(os.path.dirname(driver._core("io.plan").__file__)))
+    shipped = sorted(glob.glob(os.path.join(ext_root, "presets", "flank_tool", "*.py")))
     ui["shipped"] = [os.path.basename(p) for p in shipped]
     pre = [p for p in shipped if os.path.basename(p) == "Tapered 3deg D6 L30.py"]
     if pre:

@@ -44,7 +44,7 @@ def _check_tool(bpy, res, rotor):
         s.tool_kind = kind
         s.sf_r1, s.sf_r2, s.sf_length, s.sf_flank = 0.05, 0.08, 0.2, 1
         _select_only(bpy, rotor)
-        buttons = _draw(bpy, panels.FLANK_PT_tool)
+        buttons = _draw(bpy, bpy.types.FLANK_PT_tool)
         k = dict(draw_error=buttons if isinstance(buttons, str) else None)
         if not isinstance(buttons, str):
             check = [b for b in buttons if b["idname"] == "flank.cutter_region"]
@@ -100,7 +100,7 @@ def _error_plot(bpy, res, coll):
 
 def _results_buttons(bpy, res, coll, tmp):
     panels = __import__(driver.MODULE + ".panels", fromlist=["x"])
-    buttons = _draw(bpy, panels.FLANK_PT_results)
+    buttons = _draw(bpy, bpy.types.FLANK_PT_results)
     out = dict(draw_error=buttons if isinstance(buttons, str) else None)
     if not isinstance(buttons, str):
         exports = [b for b in buttons if b["idname"] == "flank.export_results"]

@@ -271,7 +271,7 @@ def scenario(bpy, res, args):
     M[:3, 3] = (120.0, -40.0, 15.0)
     rotor.matrix_world = Matrix(M.tolist())
     bpy.context.view_layer.update()
-    res["draw_rotor_unlisted"] = ui.draw(panels.FLANK_PT_workpiece)
+    res["draw_rotor_unlisted"] = ui.draw(bpy.types.FLANK_PT_workpiece)
     core_rotor = rotors.builtin_rotor("asymmetric", "female", scale=50.0)
     surface, flanks = core_rotor.surface(), list(core_rotor.flanks)
     ret = run_op(bpy.ops.flank.refresh_flanks)
@@ -283,7 +283,7 @@ def scenario(bpy, res, args):
                              rows=[[i.flank, i.valley, i.hyperbolic_fraction, i.a_min, i.u_start, i.u_end]
                                    for i in s.flank_list],
                              core=core_rows, core_ranges=[list(map(float, f)) for f in flanks])
-    res["draw_rotor_listed"] = ui.draw(panels.FLANK_PT_workpiece)
+    res["draw_rotor_listed"] = ui.draw(bpy.types.FLANK_PT_workpiece)
     # a row of the list aims both planners
     s.flank_index = 5
     res["list_pick"] = dict(sf_flank=s.sf_flank, df_valley=s.df_valley, use_point=s.sf_use_point)
@@ -438,7 +438,7 @@ def scenario(bpy, res, args):
         obs = [o for o in bpy.data.objects if o.get(presets.PREVIEW_PROP)]
         entry = dict(result=ret, strategy=s.strategy, previews=len(obs), orphans=_orphan_meshes(bpy),
                      new={k: _datablocks(bpy)[k] - before[k] for k in before},
-                     active=bpy.context.view_layer.objects.active.name, draw=ui.draw(panels.FLANK_PT_tool))
+                     active=bpy.context.view_layer.objects.active.name, draw=ui.draw(bpy.types.FLANK_PT_tool))
         if obs:
             ob = obs[0]
             v = np.empty(len(ob.data.vertices) * 3)
@@ -465,7 +465,7 @@ def scenario(bpy, res, args):
     s.sf_tolerance, s.sf_seeds, s.sf_rounds, s.sf_envelope_rings, s.sf_animate = 0.05, 6, 4, 12, False
     runs = {}
     idname, kw = ui_ops.run_call(s)
-    res["run_panel_single"] = ui.draw(panels.FLANK_PT_run)
+    res["run_panel_single"] = ui.draw(bpy.types.FLANK_PT_run)
     try:
         ret = (sorted(getattr(bpy.ops.flank, idname.split(".")[1])('INVOKE_DEFAULT', **kw)), None)
     except RuntimeError as ex:
@@ -536,7 +536,7 @@ def scenario(bpy, res, args):
             return orig(self, *a, **kw)
         bpy.types.FLANK_UL_strips.draw_item = counting
         try:
-            facts["panel"] = ui.draw(panels.FLANK_PT_results)
+            facts["panel"] = ui.draw(bpy.types.FLANK_PT_results)
         finally:
             bpy.types.FLANK_UL_strips.draw_item = orig
         facts["draw_item_calls_by_blender"] = len(calls)
@@ -569,7 +569,7 @@ def scenario(bpy, res, args):
     s.df_tool, s.df_cones = "cones", 3
     s.flank_index = 3                                        # valley 1
     s.df_radii, s.df_samples, s.df_envelope_rings, s.df_animate, s.df_simulate = 40, 30, 12, False, False
-    res["run_panel_double"] = ui.draw(panels.FLANK_PT_run)
+    res["run_panel_double"] = ui.draw(bpy.types.FLANK_PT_run)
     idname, kw = ui_ops.run_call(s)
     try:
         ret = (sorted(bpy.ops.flank.plan_double_flank('INVOKE_DEFAULT', **kw)), None)
@@ -580,7 +580,7 @@ def scenario(bpy, res, args):
                           coll=getattr(coll, "name", coll))
     if not isinstance(coll, str):
         runs["double"].update(run_facts(coll, "flank_df_", "path")[1])
-        runs["double"]["panel"] = ui.draw(panels.FLANK_PT_results)
+        runs["double"]["panel"] = ui.draw(bpy.types.FLANK_PT_results)
     s.strategy = "TWO_PATHS"
     runs["two_paths_call"] = {k: _plain(v) for k, v in ui_ops.run_call(s)[1].items() if k in ("two_paths", "tool")}
     s.strategy = "DOUBLE"
@@ -617,7 +617,7 @@ def scenario(bpy, res, args):
                                 previews=sum(1 for o in bpy.data.objects if o.get(presets.PREVIEW_PROP)),
                                 kind=next((o[presets.PREVIEW_PROP] for o in bpy.data.objects
                                            if o.get(presets.PREVIEW_PROP)), None),
-                                draw=ui.draw(panels.FLANK_PT_tool))
+                                draw=ui.draw(bpy.types.FLANK_PT_tool))
     s.strategy = "DOUBLE"
     res["timing"]["run_formed_groove"] = time.perf_counter() - t0
     # switching the shown run
@@ -639,7 +639,7 @@ def scenario(bpy, res, args):
     legend_units = {}
     for tag, system, scale in UNITS:
         _set_units(bpy, system, scale)
-        d = ui.draw(panels.FLANK_PT_results)
+        d = ui.draw(bpy.types.FLANK_PT_results)
         legend_units[tag] = [c[1] for c in d["calls"] if c[0] == "label"] if isinstance(d, dict) else d
     res["legend_units"] = legend_units
     _set_units(bpy, 'METRIC', 0.001)

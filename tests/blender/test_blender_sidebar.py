@@ -346,8 +346,15 @@ def test_picking_a_row_selects_its_strip_and_tool(sb):
         for k, s in sel.items():
             assert s["selected"] == s["expected"] and len(s["expected"]) >= 2, (run, k, s)
             assert s["active"] in s["selected"] and "Tool" in s["active"]
-    dsel = sb["runs"]["double"]["selection"]["0"]["selected"]
-    assert dsel == ["DF Envelope 1 F1", "DF Envelope 1 F2", "DF Tool 1"]
+    # a path that mills both flanks: its row selects both envelopes with the tool.  (Which of the three cones
+    # does is the planner's outcome, not the list's: the first cone milled only flank 1 since the planner's
+    # optimiser changed, so a fixed path 1 made this test fail.)
+    both = {k: s["selected"] for k, s in sb["runs"]["double"]["selection"].items()
+            if sum("Envelope" in name for name in s["selected"]) == 2}
+    assert both, sb["runs"]["double"]["selection"]
+    for k, sel in both.items():
+        n = int(k) + 1
+        assert sel == ["DF Envelope {} F1".format(n), "DF Envelope {} F2".format(n), "DF Tool {}".format(n)], sel
 
 
 def test_run_formed_cutter_and_groove_and_disc_preview(sb):
