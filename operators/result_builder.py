@@ -12,8 +12,8 @@ reported (no traceback, no half-built data).
     replaced = run.build(operator, "single-flank results", lambda: fill(run))
     if replaced is None:
         return {'CANCELLED'}
-    run.store(props, [run.collection, rotor, *tools])
-    run.show(context, tools[0])
+    run.store(props, [run.collection, rotor, *tools], clear=[rotor])
+    run.show(tools[0])
 """
 import bpy
 import numpy as np

@@ -65,9 +65,12 @@ def test_text_is_listed_for_a_real_font_and_not_drawn():
         assert t["size"] in (FONT_SIZE * fs, FONT_SIZE * lay.title_scale) and t["baseline"] - t["top"] == CAP * (
             t["size"] / FONT_SIZE)
         assert t["align"] in ("left", "center", "right") and t["text"]
-        left = t["x"] - {"left": 0.0, "center": 0.5, "right": 1.0}[t["align"]] * t["width"]
-        assert 0 <= left and left + t["width"] <= W and 0 <= t["top"] and t["baseline"] <= H, t
+        width = t["width"] if t["max_width"] is None else t["max_width"]
+        left = t["x"] - {"left": 0.0, "center": 0.5, "right": 1.0}[t["align"]] * width
+        assert 0 <= left and left + width <= W and 0 <= t["top"] and t["baseline"] <= H, t
     assert [t["text"] for t in by_role["title"]] == ["Error along profile: run"]
+    assert by_role["title"][0]["max_width"] == W - 2 * lay.pad              # the caller shortens a longer one
+    assert all(t["max_width"] is None for t in texts if t["role"] != "title")
     assert [t["text"] for t in by_role["legend"]] == ["overcut", "within ±1 µm", "material left", "no tool"]
     assert by_role["caption"][0]["text"] == "error (µm), + = material left"
     assert by_role["note"][0]["text"] == "max +3 µm" and by_role["note"][0]["align"] == "right"

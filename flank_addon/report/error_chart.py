@@ -38,14 +38,16 @@ def text_width(text, scale=1):
     return max(0, len(text) * CHAR_ADVANCE - 1) * int(scale)
 
 
-def text_item(text, x, y, rgba, scale=1, align="left", role=""):
+def text_item(text, x, y, rgba, scale=1, align="left", role="", max_width=None):
     """A text item for the caller to draw: ``text`` whose capitals fill the rows y .. y + CAP * scale (so its
     baseline is row ``baseline``), anchored at column ``x`` (``align`` 'left', 'center' or 'right': x is the
     left end, the middle or the right end), font size ``size`` pixels, colour ``color`` (RGBA, encoded as the
-    picture's pixels), and what it is (``role``)."""
+    picture's pixels), what it is (``role``), its estimated ``width`` and, if given, the ``max_width`` it may
+    take (the caller shortens a longer text with an ellipsis)."""
     s = int(scale)
     return dict(text=str(text), x=float(x), baseline=float(y + CAP * s), top=float(y), size=float(FONT_SIZE * s),
-                align=align, color=tuple(float(c) for c in rgba), role=role, width=float(text_width(text, s)))
+                align=align, color=tuple(float(c) for c in rgba), role=role, width=float(text_width(text, s)),
+                max_width=None if max_width is None else float(max_width))
 
 
 # ------------------------------------------------------------------------------------------- colours
@@ -444,10 +446,7 @@ def _axis_text(lay, ink, x_label, note, title, legend_items):
     if note:
         texts.append(text_item(note, x1 + 1, y0 - LINE * fs - 4 * fs, ink, fs, "right", "note"))
     if title:
-        t = title
-        while text_width(t, ts) > lay.width - 2 * pad and len(t) > 4:
-            t = t[:-4] + "..."
-        texts.append(text_item(t, pad, pad, ink, ts, "left", "title"))
+        texts.append(text_item(title, pad, pad, ink, ts, "left", "title", max_width=lay.width - 2 * pad))
     for (_, text), (_, (xt, yt)) in zip(legend_items, _legend_positions(lay, legend_items)):
         texts.append(text_item(text, xt, yt, ink, fs, "left", "legend"))
     return texts
