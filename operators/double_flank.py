@@ -28,7 +28,7 @@ from .properties import double_flank_props
 from .result_builder import COLOR_CHART, COLOR_TOOL, RunBuilder, finite_runs
 from .runs import PLAN_JSON_PROP
 from .shapes import axis_frame
-from .sources import rotor_source
+from .sources import rotor_source, with_extent
 
 PROP_PREFIX = "flank_df_"
 ERROR_ATTR = "error"                   # FLOAT point attribute of the error chart (scene units, unscaled)
@@ -215,7 +215,8 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
                     tol_in=typed(self.tolerance), frames=(int(self.frame_start), int(self.frame_end)),
                     variant=str(self.variant), two_paths=bool(self.two_paths), samples=int(self.samples),
                     simulate=bool(self.simulate), rings=int(self.envelope_rings), to_world=src["to_world"].tolist(),
-                    unit=src["unit"], z_range=tuple(float(v) for v in src["z_range"]), animate=bool(self.animate),
+                    unit=src["unit"], z_range=tuple(float(v) for v in src["z_range"]), extent=src.get("extent"),
+                    animate=bool(self.animate),
                     filepath=bpy.path.abspath(self.filepath) if self.filepath else "",
                     tool_csv=bpy.path.abspath(self.tool_csv) if self.tool_csv else "")
 
@@ -229,6 +230,7 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
                                    tool=job["tool"], two_paths=job["two_paths"], m=job["m"], rim=job["rim"],
                                    n=job["samples"], to_world=job["to_world"], length_unit=job["unit"],
                                    simulate=job["simulate"], progress=progress)
+        with_extent(res.plan, job["extent"])         # the finite rotor, for whole-rotor machine programs
         env = res.envelope_meshes(job["z_range"], job["rings"])
         tools = [res.tool_mesh(k, n_around=TOOL_SEGMENTS, max_rings=TOOL_MAX_RINGS) for k in range(len(res.paths))]
         frames = [_tool_frame(p) for p in res.paths]

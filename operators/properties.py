@@ -381,6 +381,114 @@ def freeform_props():
     )
 
 
+# ----------------------------------------------------------------------------------------- machining
+def _machine_items():
+    """The built-in machine files of the core (name, name, description), then a machine file of one's own."""
+    from ..flank_addon.machining.machine import builtin_machines, load_machine
+
+    items = []
+    for k, name in enumerate(builtin_machines()):
+        try:
+            text = load_machine(name).description
+        except ValueError as ex:                 # a broken built-in is the core tests' business: say so here
+            text = "cannot be read: {}".format(ex)
+        items.append((name, name, text, k))
+    items.append(("FILE", "Machine File", "A machine file (flank-machine/1 JSON) of your own", len(items)))
+    return tuple(items)
+
+
+def _post_items():
+    from ..flank_addon.posts import POSTS
+
+    return tuple((p.name, p.name, "{} ({} files)".format(p.description, p.extension), k)
+                 for k, p in enumerate(POSTS.values()))
+
+
+MACHINE_ITEMS = _machine_items()
+POST_ITEMS = _post_items()
+
+
+def cutting_data_props():
+    """Fresh property definitions of the tool's cutting data (the Tool panel's end mill; the tool presets set
+    them): defaults are the core's default end mill (docs/feeds-and-speeds.md).  The same names on
+    flank.post_program.  No hard limits: bad values reach the operator's checks and are reported."""
+    from ..flank_addon.machining.feeds import DEFAULT_END_MILL as d
+
+    return dict(
+        tool_flutes=IntProperty(name="Flutes", description="Number of flutes z of the tool",
+                                default=d.flutes, soft_min=1, soft_max=16),
+        tool_cutting_speed_m_min=FloatProperty(name="Cutting Speed (m/min)", description="Cutting speed vc: the "
+                                                                                         "spindle speed follows it "
+                                                                                         "at the largest engaged "
+                                                                                         "diameter",
+                                               default=d.vc_m_min, soft_min=1.0, soft_max=1000.0, precision=1),
+        tool_feed_per_tooth_mm=FloatProperty(name="Feed per Tooth (mm)", description="Chip load fz at the "
+                                                                                     "fastest engaged point of the "
+                                                                                     "edge",
+                                             default=d.fz_mm, soft_min=0.001, soft_max=1.0, precision=4,
+                                             step=0.1),
+        tool_max_rpm=FloatProperty(name="Top Speed (1/min)", description="The tool's top spindle speed (the "
+                                                                         "machine's own top speed caps it too)",
+                                   default=d.max_rpm, soft_min=100.0, soft_max=100000.0, precision=0),
+    )
+
+
+def machining_props():
+    """Fresh property definitions shared by flank.post_program and the Machine panel's settings."""
+    return dict(
+        clearance=FloatProperty(name="Clearance (mm)", description="Run-out beyond the rotor's end faces and "
+                                                                   "margin of every link between passes, mm (> 0)",
+                                default=5.0, soft_min=0.1, soft_max=100.0, precision=2),
+        lobes=StringProperty(name="Lobes", description="Lobes to cut: empty or 'all' = every lobe, else indices "
+                                                       "like 0,2,4", default=""),
+        flip_rotor=BoolProperty(name="Flip Rotor", description="The rotor is mounted the other way round (turned "
+                                                               "180 deg about its x axis), which helps when the "
+                                                               "tool axes point down the rotor's z",
+                                default=False),
+    )
+
+
+def post_program_props():
+    """Fresh property definitions of flank.post_program.  The machine and the post are names (a machine may
+    also be a file path), so that a wrong one is reported with the valid names rather than refused by an
+    enum."""
+    return dict(
+        filepath=StringProperty(name="Program File", description="The machine program to write (absolute path, "
+                                                                 "or relative to the saved .blend file)",
+                                subtype='FILE_PATH', default=""),
+        collection=StringProperty(name="Run", description="Result collection whose plan is posted; empty = the run "
+                                                          "of the active object, else the newest run", default=""),
+        machine=StringProperty(name="Machine", description="A built-in machine name or a machine file",
+                               default="rotor-xa-b"),
+        post=StringProperty(name="Post", description="Controller dialect: linuxcnc, fanuc or heidenhain",
+                            default="linuxcnc"),
+        animate=BoolProperty(name="Animate", description="Animate the program: the rotor (a linked copy) turns "
+                                                         "about its axis while the tool moves", default=True),
+        frame_start=IntProperty(name="Start Frame", default=1),
+        frame_end=IntProperty(name="End Frame", default=250),
+        **machining_props(),
+        **cutting_data_props(),
+    )
+
+
+def machine_settings_props():
+    """The Machine panel's settings: machine, post, program file, clearance, lobes (the cutting data are the
+    Tool panel's, cutting_data_props)."""
+    return dict(
+        machine=EnumProperty(name="Machine", items=MACHINE_ITEMS, default="rotor-xa-b"),
+        machine_file=StringProperty(name="Machine File", description="flank-machine/1 JSON of your own machine "
+                                                                     "(Machine = Machine File)",
+                                    subtype='FILE_PATH', default=""),
+        post=EnumProperty(name="Post", items=POST_ITEMS, default="linuxcnc"),
+        program_filepath=StringProperty(name="Program File", description="The machine program to write; empty = "
+                                                                         "choose one when posting",
+                                        subtype='FILE_PATH', default=""),
+        program_animate=BoolProperty(name="Animate", description="Animate the program over the scene's frame "
+                                                                 "range", default=True),
+        **machining_props(),
+    )
+
+
 def _ff_preview_update(self, context):
     """A setting that moves the guiding curves changed: redraw the live preview if the user has one."""
     if getattr(self, "ff_live_preview", False) and context is not None:
@@ -633,7 +741,7 @@ class FLANK_PG_settings(bpy.types.PropertyGroup):
                        **_prefixed("groove_", paraboloid_props()), **_prefixed("cutter_", formed_cutter_props()),
                        **_prefixed("df_", double_flank_props()),
                        **_prefixed("sf_", single_flank_props()), **_prefixed("ff_", freeform_props()),
-                       **results_props(), **ui_props()}
+                       **results_props(), **ui_props(), **cutting_data_props(), **machine_settings_props()}
 
 
 classes = (

@@ -26,7 +26,7 @@ from .properties import single_flank_props
 from .result_builder import COLOR_CHART, COLOR_TOOL, RunBuilder, finite_runs
 from .runs import PLAN_JSON_PROP
 from .shapes import axis_frame, revolved_mesh
-from .sources import rotor_source
+from .sources import rotor_source, with_extent
 
 PROP_PREFIX = "flank_sf_"
 ERROR_ATTR = "error"                   # FLOAT point attribute of the error chart (scene units, unscaled; 0 = baseline)
@@ -263,7 +263,8 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
                     n_t=int(self.envelope_rings), seeds=int(self.seeds), objective=str(self.objective),
                     mode=str(self.mode), rounds=int(self.rounds), collisions=bool(self.collisions),
                     g1=bool(self.g1), g1_extra_strips=int(self.g1_extra_strips), to_world=src["to_world"].tolist(),
-                    unit=src["unit"], animate=bool(self.animate), frames=(int(self.frame_start), int(self.frame_end)),
+                    unit=src["unit"], extent=src.get("extent"), animate=bool(self.animate),
+                    frames=(int(self.frame_start), int(self.frame_end)),
                     filepath=bpy.path.abspath(self.filepath) if self.filepath else "")
 
     # ------------------------------------------------------------------ worker thread
@@ -281,6 +282,7 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
                                    max_rounds=job["rounds"], to_world=job["to_world"], length_unit=job["unit"],
                                    check_collisions=job["collisions"], g1=job["g1"],
                                    g1_extra_strips=job["g1_extra_strips"], progress=progress)
+        with_extent(res.plan, job["extent"])         # the finite rotor, for whole-rotor machine programs
         if not res.strips:
             raise ValueError("no collision-free strip on flank {}: {} candidates, {} colliding (uncovered {})".format(
                 k_flank, len(res.candidates), len(res.collisions), _ranges_text(merge_ranges(res.uncovered))))

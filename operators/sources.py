@@ -66,7 +66,7 @@ def _generated_rotor(obj):
         return "Rotor '{}': {}; apply or reset its scale".format(obj.name, parts)
     to_world, scale = parts
     return dict(obj=obj, surface=rotor.surface(), flanks=list(rotor.flanks), display=display,
-                to_world=to_world, scale=scale, z_range=(0.0, float(rotor.length)),
+                to_world=to_world, scale=scale, z_range=(0.0, float(rotor.length)), extent=rotor.extent(),
                 unit="R" if float(obj["flank_scale"]) == 1.0 else "mm",
                 kind="{}-{}".format(rotor.kind, rotor.part))
 
@@ -93,17 +93,37 @@ def _analyzed_rotor(obj):
         return "Analysis of '{}': {}".format(obj.name, parts)
     to_world, scale = parts
     z = [float(v) for v in a.body_z] if getattr(a, "body_z", None) is not None else [0.0, 0.0]
+    extent = _extent(a) if z[1] > z[0] else None
     if not z[1] > z[0]:
         z = [0.0, 2.0 * float(a.outer_radius)]
     return dict(obj=obj, surface=surface, flanks=flanks, display=to_world, to_world=to_world,
-                scale=scale, z_range=(z[0], z[1]), unit="mm", kind="analyzed")
+                scale=scale, z_range=(z[0], z[1]), extent=extent, unit="mm", kind="analyzed")
+
+
+def _extent(analysis):
+    """The analysed rotor's body z range and shafts as flank-plan/1's ``rotor.extent`` (None if not valid)."""
+    from ..flank_addon.io.plan import PlanError, rotor_extent
+
+    ext = analysis.extent()
+    try:
+        return rotor_extent(ext["z_range"], ext["shafts"])
+    except (PlanError, KeyError, TypeError, ValueError):
+        return None
+
+
+def with_extent(plan, extent):
+    """The plan with the finite rotor it was planned on (``rotor.extent``: body z range and shafts, as the
+    command line's planners record it), when the rotor source knows it."""
+    if extent is not None and plan.get("rotor") is not None:
+        plan["rotor"]["extent"] = extent
+    return plan
 
 
 def rotor_source(obj, prop_prefix="", edit_mode_ok=False):
     """The rotor a planning operator works on -> dict (obj, surface, flanks, display, to_world, scale, z_range,
-    unit, kind), or an error message (str).  ``obj`` may be a generated rotor, an analysed mesh, or a result
-    object whose ``<prop_prefix>rotor`` names its rotor; ``edit_mode_ok``: the caller synced an object in Edit
-    Mode (update_from_editmode)."""
+    extent (a plan's rotor.extent, or None), unit, kind), or an error message (str).  ``obj`` may be a generated
+    rotor, an analysed mesh, or a result object whose ``<prop_prefix>rotor`` names its rotor; ``edit_mode_ok``:
+    the caller synced an object in Edit Mode (update_from_editmode)."""
     if obj is not None and prop_prefix and prop_prefix + "rotor" in obj and obj.get("flank_source") is None:
         other = bpy.data.objects.get(obj[prop_prefix + "rotor"])  # a result object: use its rotor
         if other is not None:

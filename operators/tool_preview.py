@@ -19,9 +19,11 @@ from .units import length_text
 
 PRESET_SUBDIR = "flank_tool"
 SHIPPED_PRESETS = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "presets", PRESET_SUBDIR)
-# what a preset holds: kind, shape and the dimensions in mm (converted to scene units when set)
+# what a preset holds: kind, shape and the dimensions in mm (converted to scene units when set), and the cutting
+# data of the tool (flutes, cutting speed, feed per tooth, top speed: the Machine panel posts with them)
 PRESET_VALUES = ("tool_kind", "sf_shape", "tool_taper_deg", "tool_tip_diameter_mm", "tool_flute_length_mm",
-                 "tool_shank_diameter_mm", "tool_shank_length_mm")
+                 "tool_shank_diameter_mm", "tool_shank_length_mm", "tool_flutes", "tool_cutting_speed_m_min",
+                 "tool_feed_per_tooth_mm", "tool_max_rpm")
 PREVIEW_PROP = "flank_tool_preview"
 PREVIEW_NAME = "Flank Tool Preview"
 PREVIEW_SEGMENTS = 48

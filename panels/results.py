@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Results panel: the strips of a planning run (pick a row to select its tool and envelope), the error
-legend in the scene's unit, export / animate / report."""
+legend in the scene's unit, the cycle time of its posted program, export / animate / report."""
 import bpy
 
 from .common import CATEGORY, REGION, SPACE
@@ -18,6 +18,7 @@ class FLANK_PT_results(bpy.types.Panel):
     bl_order = 20
 
     def draw(self, context):
+        from ..operators.post_program import cycle_time_lines
         from ..operators.runs import find_run
         from ..operators.strips import strip_rows
         from ..operators.units import length_text
@@ -64,6 +65,8 @@ class FLANK_PT_results(bpy.types.Panel):
             box.label(text="Kinks between strips: max {:.3g}°, mean {:.3g}°".format(
                 float(coll.get(pre + "max_kink_deg", 0.0)), float(coll.get(pre + "mean_kink_deg", 0.0))),
                 icon='MOD_SMOOTH')
+        for k, text in enumerate(cycle_time_lines(coll)):          # after Post Program (Machine panel)
+            box.label(text=text, icon='TIME' if k == 1 else 'NONE')
         col = layout.column(align=True)
         op = col.operator("flank.animate_strip", icon='PLAY')
         op.collection = coll.name

@@ -13,3 +13,9 @@ settings.tool_tip_diameter_mm = 4
 settings.tool_flute_length_mm = 40
 settings.tool_shank_diameter_mm = 8
 settings.tool_shank_length_mm = 50
+# Cutting data (finishing in steel, the core's PRESET_CUTTING_DATA): flutes, cutting speed m/min, feed per
+# tooth mm, the tool's top spindle speed 1/min.
+settings.tool_flutes = 4
+settings.tool_cutting_speed_m_min = 100.0
+settings.tool_feed_per_tooth_mm = 0.018
+settings.tool_max_rpm = 20000.0

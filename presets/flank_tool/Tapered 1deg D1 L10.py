@@ -12,3 +12,9 @@ settings.tool_tip_diameter_mm = 1
 settings.tool_flute_length_mm = 10
 settings.tool_shank_diameter_mm = 4
 settings.tool_shank_length_mm = 40
+# Cutting data (finishing in steel, the core's PRESET_CUTTING_DATA): flutes, cutting speed m/min, feed per
+# tooth mm, the tool's top spindle speed 1/min.
+settings.tool_flutes = 2
+settings.tool_cutting_speed_m_min = 80.0
+settings.tool_feed_per_tooth_mm = 0.006
+settings.tool_max_rpm = 30000.0

@@ -12,3 +12,9 @@ settings.tool_tip_diameter_mm = 3
 settings.tool_flute_length_mm = 25
 settings.tool_shank_diameter_mm = 6
 settings.tool_shank_length_mm = 45
+# Cutting data (finishing in steel, the core's PRESET_CUTTING_DATA): flutes, cutting speed m/min, feed per
+# tooth mm, the tool's top spindle speed 1/min.
+settings.tool_flutes = 3
+settings.tool_cutting_speed_m_min = 100.0
+settings.tool_feed_per_tooth_mm = 0.015
+settings.tool_max_rpm = 24000.0

@@ -23,9 +23,10 @@ CLASS_NAMES = ("FLANK_OT_generate_rotor", "FLANK_OT_analyze_rotor", "FLANK_OT_ve
                "FLANK_OT_paraboloid_groove", "FLANK_OT_formed_cutter", "FLANK_PT_workpiece", "FLANK_PT_verify",
                "FLANK_PT_paraboloid", "FLANK_PT_formed_cutter", "FLANK_OT_plan_double_flank", "FLANK_PT_double_flank",
                "FLANK_OT_plan_single_flank", "FLANK_PT_single_flank", "FLANK_OT_cutter_region",
-               "FLANK_OT_plan_freeform", "FLANK_PT_freeform")
+               "FLANK_OT_plan_freeform", "FLANK_PT_freeform", "FLANK_OT_post_program", "FLANK_PT_machine")
 PANEL_NAMES = ("FLANK_PT_workpiece", "FLANK_PT_verify", "FLANK_PT_paraboloid", "FLANK_PT_formed_cutter",
-               "FLANK_PT_double_flank", "FLANK_PT_single_flank", "FLANK_PT_results", "FLANK_PT_freeform")
+               "FLANK_PT_double_flank", "FLANK_PT_single_flank", "FLANK_PT_results", "FLANK_PT_freeform",
+               "FLANK_PT_machine")
 
 
 def install_extension(bpy, zip_path):

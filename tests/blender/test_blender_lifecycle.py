@@ -26,7 +26,7 @@ def test_install_registers_everything(lifecycle):
     assert all(state["classes"].values()), state["classes"]
     assert state["scene_prop"] and state["scene_rna_props"] == ["flank_settings"]
     assert {"generate_rotor", "analyze_rotor", "verify_plan", "paraboloid_groove", "formed_cutter",
-            "plan_double_flank", "plan_single_flank", "cutter_region"} <= set(state["ops"])
+            "plan_double_flank", "plan_single_flank", "cutter_region", "post_program"} <= set(state["ops"])
 
 
 def test_sidebar_panel_in_flank_tab(lifecycle):
@@ -38,7 +38,8 @@ def test_sidebar_panel_in_flank_tab(lifecycle):
 def test_all_panels_in_flank_tab(lifecycle):
     panels = lifecycle["panels"]
     assert sorted(panels) == ["FLANK_PT_double_flank", "FLANK_PT_formed_cutter", "FLANK_PT_freeform",
-                              "FLANK_PT_paraboloid", "FLANK_PT_results", "FLANK_PT_single_flank", "FLANK_PT_verify", "FLANK_PT_workpiece"]
+                              "FLANK_PT_machine", "FLANK_PT_paraboloid", "FLANK_PT_results", "FLANK_PT_single_flank",
+                              "FLANK_PT_verify", "FLANK_PT_workpiece"]
     for name, panel in panels.items():
         assert (panel["bl_category"], panel["bl_space_type"], panel["bl_region_type"]) == ("Flank", "VIEW_3D", "UI")
 
@@ -58,12 +59,15 @@ def test_scene_settings_hold_verify_groove_cutter_double_and_single_flank_proper
             "sf_shank_radius", "sf_shank_length", "sf_tolerance", "sf_overcut_tolerance", "sf_seeds", "sf_objective",
             "sf_mode", "sf_rounds", "sf_collisions", "sf_envelope_rings", "sf_animate", "sf_frame_start",
             "sf_frame_end", "sf_filepath"} <= props
+    assert {"tool_flutes", "tool_cutting_speed_m_min", "tool_feed_per_tooth_mm", "tool_max_rpm", "machine",
+            "machine_file", "post", "clearance", "lobes", "flip_rotor", "program_filepath", "program_animate"} <= props
 
 
 def test_panels_in_workflow_order(lifecycle):
     order = {name: p["bl_order"] for name, p in lifecycle["panels"].items()}
     assert order["FLANK_PT_workpiece"] < order["FLANK_PT_double_flank"] < order["FLANK_PT_single_flank"] \
-        < order["FLANK_PT_formed_cutter"] < order["FLANK_PT_results"]
+        < order["FLANK_PT_formed_cutter"] < order["FLANK_PT_results"] < order["FLANK_PT_verify"] \
+        < order["FLANK_PT_machine"]
 
 
 def test_disable_enable_five_times_leaves_nothing_behind(lifecycle):

@@ -12,7 +12,7 @@ import pytest
 from blender_harness import run_scenario
 
 FLOW = ["FLANK_PT_workpiece", "FLANK_PT_tool", "FLANK_PT_strategy", "FLANK_PT_run", "FLANK_PT_results",
-        "FLANK_PT_verify"]
+        "FLANK_PT_verify", "FLANK_PT_machine"]
 STRATEGY_PANELS = {"SINGLE": "FLANK_PT_single_flank", "DOUBLE": "FLANK_PT_double_flank",
                    "TWO_PATHS": "FLANK_PT_double_flank", "FORMED": "FLANK_PT_formed_cutter",
                    "GROOVE": "FLANK_PT_paraboloid", "FREEFORM": "FLANK_PT_freeform"}
@@ -48,7 +48,7 @@ def test_every_panel_draws_into_a_real_layout_in_every_state(sb):
     states = [sb["draw_empty"], sb["draw_edit_mode"], sb["draw_result_active"]] + \
         [v["panels"] for v in sb["by_strategy"].values()]
     for state in states:
-        assert len(state) == 11
+        assert len(state) == 12
         for name, drawn in state.items():
             assert isinstance(drawn, dict), (name, drawn)
     # the recording stub of driver.py (other scenarios) accepts the panels of its list as well

@@ -1,0 +1,221 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""flank.post_program -- from plan to machine: the run's plan as a whole-rotor machine program (every strip on
+every chosen lobe, run out past the rotor's end faces, collision-checked links, feeds and speeds) for a machine
+and a controller dialect, written atomically, with the tool tip's path relative to the rotor, the cycle time and
+an animation of the program in the scene.  The core does the work exactly as ``python -m flank_addon post``:
+``flank_addon.machining`` (operation, program, kinematics, cycle time) and ``flank_addon.posts`` (writers and
+readers); this module reads the inputs and builds the Blender data (``program``, ``program_scene``).
+
+Nothing is written or built when anything is wrong: no run, a plan without the rotor's extent, an unknown
+machine or post (the message lists the valid names), a pass the machine cannot reach (the core names the pass
+and the axis), a path that cannot be written, bad numbers.  Under ``bpy.app.background`` (and from scripts) it
+runs synchronously; from the UI the core runs off the UI thread (``modal``)."""
+import json
+import math
+import os
+import time
+
+import bpy
+import numpy as np
+
+from .common import remove_objects
+from .modal import ModalPlannerMixin
+from .program import check_numbers, cutting_data_of, key_frames, parse_lobes, plan_in_mm, rounded, tool_outline
+from .program_scene import ANIM_ROLE, ProgramBuild, hide, program_objects, store_program
+from .properties import post_program_props
+from .runs import remove_animation, run_plan, run_prop
+from .units import mm_per_scene_unit
+
+__all__ = ["FLANK_OT_post_program", "check_filepath"]
+
+
+def check_filepath(filepath):
+    """(absolute program path, None) or (None, error message): never the current folder by accident."""
+    if not str(filepath).strip():
+        return None, "no program file given (filepath is empty)"
+    path = bpy.path.abspath(filepath)
+    if not os.path.isabs(path):
+        return None, "'{}' is a relative path and the .blend file is not saved: give an absolute path".format(
+            filepath)
+    path = os.path.normpath(path)
+    folder = os.path.dirname(path)
+    if os.path.isdir(path):
+        return None, "'{}' is a folder: give a file name".format(path)
+    if not os.path.isdir(folder):
+        return None, "the folder '{}' does not exist".format(folder)
+    if not os.access(folder, os.W_OK):
+        return None, "the folder '{}' is not writable".format(folder)
+    return path, None
+
+
+def _machine_and_post(op):
+    """(machine, post) of the operator's names, or an error message."""
+    from ..flank_addon.machining.machine import load_machine
+    from ..flank_addon.posts import get_post
+
+    name = str(op.machine).strip()
+    try:
+        post = get_post(str(op.post).strip())
+        machine = load_machine(bpy.path.abspath(name) if name.startswith("//") else name)
+    except ValueError as ex:                        # MachineError, PostError: names the valid ones
+        return str(ex)
+    return (machine.flipped() if op.flip_rotor else machine), post
+
+
+def _plan_mm(context, coll, plan):
+    """(plan in mm, k mm per plan length unit), or an error message."""
+    if plan.get("surface") is not None:
+        return "'{}' is a free-form run: whole-rotor machine programs are made from rotor plans".format(coll.name)
+    if plan["rotor"].get("extent") is None:
+        return ("the plan of '{}' records no rotor extent (the rotor body's axial range and shafts): plan it "
+                "again, the planners record it".format(coll.name))
+    s = run_prop(coll, "length_scale")
+    k = rounded((float(s) if s else 1.0) * mm_per_scene_unit(context.scene))
+    if not (math.isfinite(k) and k > 0.0):
+        return "run '{}': its length scale {!r} gives no millimetres".format(coll.name, s)
+    try:
+        return plan_in_mm(plan, k), k
+    except (ValueError, KeyError, TypeError) as ex:
+        return "the plan of '{}' cannot be scaled to mm: {}".format(coll.name, ex)
+
+
+def _time_text(seconds):
+    s = float(seconds)
+    return "{:.1f} s".format(s) if s < 60.0 else "{:.1f} s ({:d}:{:04.1f} min)".format(s, int(s // 60), s % 60)
+
+
+def cycle_time_lines(coll):
+    """Labels of a posted program's cycle time (the Machine and Results panels), [] before a posting."""
+    p = "flank_prog_"
+    if p + "total_time_s" not in coll:
+        return []
+    return ["Program: {} passes, {} for {}".format(int(coll[p + "passes"]), coll.get(p + "post", "?"),
+                                                   coll.get(p + "machine", "?")),
+            "Cycle time: {}".format(_time_text(coll[p + "total_time_s"])),
+            "Cutting {:.1f} s, rapid {:.1f} s, tool changes {:.1f} s".format(
+                float(coll[p + "cutting_time_s"]), float(coll[p + "rapid_time_s"]),
+                float(coll[p + "tool_change_time_s"]))]
+
+
+class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
+    """Post the run's plan as a whole-rotor machine program for a machine and a controller: written to the file,
+    shown as the tool's path relative to the rotor with its cycle time, and animated (the rotor turns while the
+    tool moves)"""
+
+    bl_idname = "flank.post_program"
+    bl_label = "Post Program"
+    bl_options = {'REGISTER', 'UNDO'}
+    _title = "Post program"
+
+    __annotations__ = post_program_props()
+
+    def invoke(self, context, event):
+        if not str(self.filepath).strip() and not bpy.app.background and context.window_manager is not None:
+            from ..flank_addon.posts import POSTS
+
+            post = POSTS.get(str(self.post))
+            self.filepath = "flank_program" + (post.extension if post is not None else ".nc")
+            context.window_manager.fileselect_add(self)      # execute() runs once a file is chosen
+            return {'RUNNING_MODAL'}
+        return ModalPlannerMixin.invoke(self, context, event)
+
+    # ------------------------------------------------------------------ main thread: inputs
+    def _prepare(self, context):
+        """Properties, run, machine and post -> job dict, or None (error reported)."""
+        path, msg = check_filepath(self.filepath)
+        msg = msg or check_numbers(self)
+        lobes = parse_lobes(self.lobes) if msg is None else None
+        msg = msg or (lobes if isinstance(lobes, str) else None)
+        found = run_plan(context, self.collection) if msg is None else msg
+        mp = _machine_and_post(self) if not isinstance(found, str) else found
+        mm = _plan_mm(context, *found) if not isinstance(mp, str) else mp
+        if isinstance(mm, str):
+            self.report({'ERROR'}, "Post program: " + mm)
+            return None
+        (coll, plan), (machine, post), (plan_mm, k) = found, mp, mm
+        rotor_name = run_prop(coll, "rotor")
+        return dict(t0=time.perf_counter(), coll=coll.name, plan=plan_mm, to_world=plan["rotor"]["to_world"], k=k,
+                    machine=machine, post=post, lobes=lobes, clearance=float(self.clearance), filepath=path,
+                    data=cutting_data_of(self.tool_flutes, self.tool_cutting_speed_m_min,
+                                         self.tool_feed_per_tooth_mm, self.tool_max_rpm),
+                    rotor=str(rotor_name) if rotor_name else "", animate=bool(self.animate),
+                    frames=(int(self.frame_start), int(self.frame_end)))
+
+    # ------------------------------------------------------------------ worker thread
+    @staticmethod
+    def _compute(job, progress):
+        from .program import post_program
+
+        return post_program(job)
+
+    # ------------------------------------------------------------------ main thread: results
+    def _build(self, context, job, out):
+        coll = bpy.data.collections.get(job["coll"])
+        if coll is None:
+            self.report({'ERROR'}, "Post program: the run '{}' was removed meanwhile".format(job["coll"]))
+            return {'CANCELLED'}
+        rotor = bpy.data.objects.get(job["rotor"]) if job["rotor"] else None
+        k = job["k"]
+        M = np.asarray(job["to_world"], float) @ np.diag([1.0 / k, 1.0 / k, 1.0 / k, 1.0])
+        build = ProgramBuild(coll, coll.name)
+        try:
+            path_ob = build.path(out["path"], M)
+            if job["animate"]:
+                keys = out["keys"]
+                frames = key_frames(keys["seconds"], keys["total"], *job["frames"])
+                build.animation(keys, frames, M, rotor if rotor is not None and rotor.type == 'MESH' else None,
+                                path_ob, out["shapes"], tool_outline)
+            from ..flank_addon.posts import atomic_write
+
+            atomic_write(job["filepath"], out["text"])
+        except Exception as ex:                      # PostError (cannot write), Blender data: nothing stays
+            build.discard()
+            self.report({'ERROR'}, "Post program: {}".format(ex if isinstance(ex, ValueError) else
+                                                             "{}: {}".format(type(ex).__name__, ex)))
+            return {'CANCELLED'}
+        self._replace(coll, build, rotor, path_ob, job)
+        store_program(coll, self._props(job, out))
+        self._report_done(coll, job, out)
+        return {'FINISHED'}
+
+    @staticmethod
+    def _replace(coll, build, rotor, path_ob, job):
+        """Remove the run's earlier program (and its animation, or any animation when this one is animated),
+        then make the new animation the run's."""
+        remove_objects([ob for ob in program_objects(coll) if ob not in build.objects])
+        if job["animate"] or any(ob.get(ANIM_ROLE) == "spin" for ob in coll.objects if ob not in build.objects):
+            remove_animation(coll)
+        if job["animate"]:
+            build.mark_animation(hide([ob for ob in (rotor, path_ob) if ob is not None]))
+
+    @staticmethod
+    def _props(job, out):
+        t, data = out["times"], job["data"]
+        per = [{key: p[key] for key in ("pass", "plan", "strip", "lobe", "flank", "tool", "reverse", "rpm", "time_s",
+                                        "feed_mm_min", "cutting_length_mm", "limited_by")} for p in out["per_pass"]]
+        props = dict(file=job["filepath"], post=job["post"].name, machine=job["machine"].name,
+                     machine_source=job["machine"].source, passes=int(t["passes"]), moves=int(t["moves"]),
+                     lobes=[int(v) for v in t["lobes"]], clearance=job["clearance"], mm_per_unit=float(job["k"]),
+                     cutting_time_s=float(t["cutting_time_s"]), rapid_time_s=float(t["rapid_time_s"]),
+                     tool_changes=int(t["tool_changes"]), tool_change_time_s=float(t["tool_change_time_s"]),
+                     total_time_s=float(t["total_time_s"]), cutting_length_mm=float(t["cutting_length_mm"]),
+                     rpm=[float(v) for v in t["rpm"]], cutting_data=json.dumps(data.as_dict()),
+                     path_edges=int(len(out["path"]["edges"])), summary=json.dumps(per, default=float),
+                     elapsed=float(time.perf_counter() - job["t0"]))
+        if job["animate"]:
+            props.update(frames=list(job["frames"]), animated_seconds=float(out["keys"]["total"]))
+        return props
+
+    def _report_done(self, coll, job, out):
+        t = out["times"]
+        self.report({'INFO'}, "Posted '{}': {} passes on lobes {}, {} for {}, cycle time {:.1f} s (cutting {:.1f} s, "
+                              "rapid {:.1f} s, tool changes {:.1f} s); wrote {} ({} moves){}; {:.2f} s".format(
+                                  coll.name, t["passes"], ",".join(map(str, t["lobes"])), job["post"].name,
+                                  job["machine"].name, t["total_time_s"], t["cutting_time_s"], t["rapid_time_s"],
+                                  t["tool_change_time_s"], os.path.basename(job["filepath"]), t["moves"],
+                                  ", animated over frames {}..{}".format(*job["frames"]) if job["animate"] else "",
+                                  time.perf_counter() - job["t0"]))
+
+
+classes = (FLANK_OT_post_program,)
+register, unregister = bpy.utils.register_classes_factory(classes)

@@ -1,0 +1,215 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""A run's machine program in the Blender layer's terms (no Blender data here): the post's inputs read from
+operator values (plan in mm, lobes, cutting data, machine, post), the core's whole-rotor operation, program and
+post (``flank_addon.machining``, ``flank_addon.posts``, the same calls as ``python -m flank_addon post``), and
+from the program as read back by the dialect's reader: the tool tip's path relative to the rotor and the keys of
+the program's animation.
+
+Units: the plan is scaled to millimetres of the scene (``k`` mm per plan length unit = the run's length scale x
+the scene's millimetres per unit), so the program machines the rotor as it is in the scene.  Every array here is
+in the rotor frame in mm (or the fixed frame of the animation, also mm); the Blender objects carry the
+rotor-frame placement scaled by 1 / k.
+
+Animation frame: the rotor only turns about its own axis, by psi = sigma x (spin axis angle) (sigma = +-1 as the
+spin axis points along or against the rotor's z), and the tool moves in the *fixed frame* R_z(psi) (rotor frame)
+so that the tool relative to the rotor is exactly the program's pose.  For rotor-xa-b this fixed frame is the
+machine frame turned back by the rotor mount.  During a joint-linear pass the tool's fixed-frame pose moves
+linearly in time (the screw's turn cancels the spin), so keys at the block ends with LINEAR interpolation are
+the exact relative motion at every frame; rapids that turn a rotary axis are keyed every ``STEP_DEG`` degrees.
+"""
+import math
+
+import bpy
+import numpy as np
+
+STEP_DEG = 2.0                 # rotary step between keys / path samples of a move
+MAX_SAMPLES = 720              # per move
+TOOL_OUTLINE_POINTS = 120      # outline samples of a tool mesh along its axis
+
+
+def rounded(x):
+    """The decimal a user typed, not the single-precision noise of a Blender float property (7 digits)."""
+    return float("{:.7g}".format(float(x)))
+
+
+def parse_lobes(text):
+    """Lobe indices of a lobes text ('' or 'all' -> None = every lobe; '0,2,4') or an error message (str)."""
+    t = str(text).strip().lower()
+    if t in ("", "all"):
+        return None
+    try:
+        vals = [int(x) for x in t.replace(" ", "").split(",")]
+    except ValueError:
+        return "lobes {!r} must be empty, 'all' or lobe indices like 0,2,4".format(str(text))
+    if any(v < 0 for v in vals):
+        return "lobes {!r}: lobe indices are >= 0".format(str(text))
+    return vals
+
+
+def cutting_data_of(flutes, vc, fz, max_rpm):
+    """The core's CuttingData of these values: the default end mill or a tool preset's data when they are
+    those (so the program names that source), else data from the Tool panel; an error message (str) for values
+    the core refuses."""
+    from ..flank_addon.machining.feeds import DEFAULT_END_MILL, PRESET_CUTTING_DATA, CuttingData
+
+    try:
+        vals = (int(flutes), rounded(vc), rounded(fz), rounded(max_rpm))
+    except (TypeError, ValueError, OverflowError):
+        return "cutting data {!r} must be numbers".format((flutes, vc, fz, max_rpm))
+    for d in (DEFAULT_END_MILL, *PRESET_CUTTING_DATA.values()):
+        if (d.flutes, d.vc_m_min, d.fz_mm, d.max_rpm) == vals:
+            return d
+    try:
+        return CuttingData(*vals, source="Tool panel")
+    except ValueError as ex:
+        return "cutting data: {}".format(ex)
+
+
+def plan_in_mm(plan, k):
+    """The plan with its lengths in mm: k mm per plan length unit (as is when already mm and k = 1)."""
+    from ..flank_addon.machining.rotor_body import scale_plan
+
+    if plan.get("length_unit") == "mm" and k == 1.0:
+        return plan
+    return scale_plan(plan, k)
+
+
+def check_numbers(op):
+    """Checks of the numbers of flank.post_program that need no run -> error message or None."""
+    c = float(op.clearance)
+    if not (math.isfinite(c) and 0.0 < c <= 1000.0):
+        return "clearance = {:g} mm must be a finite number in (0, 1000]".format(c)
+    if op.animate and int(op.frame_end) <= int(op.frame_start):
+        return "end frame {} must be after the start frame {}".format(int(op.frame_end), int(op.frame_start))
+    data = cutting_data_of(op.tool_flutes, op.tool_cutting_speed_m_min, op.tool_feed_per_tooth_mm,
+                           op.tool_max_rpm)
+    return data if isinstance(data, str) else None
+
+
+# ---------------------------------------------------------------------------------------------- the core
+def post_program(job):
+    """Operation, program, text, read-back and cycle time of ``job`` (plan in mm, machine, post, lobes,
+    clearance, cutting data): the calls of the command line's ``post``."""
+    from ..flank_addon.machining.cycle_time import cycle_time
+    from ..flank_addon.machining.operation import build_operation
+    from ..flank_addon.machining.rotor_body import rotor_body
+    from ..flank_addon.machining.toolpath import build_program
+
+    machine, post = job["machine"], job["post"]
+    rotor = rotor_body(job["plan"])
+    op = build_operation([job["plan"]], rotor, lobes=job["lobes"], clearance=job["clearance"],
+                         cutting_data=job["data"])
+    prog = build_program(op, machine)
+    text = post.write(prog)
+    read = post.read(text, machine)
+    gauges = {t.number: t.gauge_length for t in op.tools}
+    times = cycle_time(read, machine, gauges)
+    minutes = times.pop("block_minutes")
+    times.update(passes=len(prog.passes), moves=len(read.moves), lobes=list(op.lobes),
+                 cutting_length_mm=float(sum(p["cutting_length_mm"] for p in prog.passes)),
+                 rpm=[float(t.rpm) for t in op.tools])
+    return dict(text=text, times=times, per_pass=prog.passes, read=read, minutes=np.asarray(minutes, float),
+                gauges=gauges, shapes={t.number: t.shape for t in op.tools}, rotor=rotor,
+                path=program_path(read, machine, gauges), keys=program_keys(read, machine, gauges, minutes))
+
+
+def _samples(mv, machine, fine):
+    """Rows (n + 1, axes) along a move, linear in its program values: 1 segment for a feed block unless
+    ``fine`` (the path: every STEP_DEG of a rotary axis), for a rapid every STEP_DEG of a rotary axis."""
+    turn = float(np.abs(mv.end[3:] - mv.start[3:]).max()) if len(mv.end) > 3 else 0.0
+    n = 1 if (mv.kind == "feed" and not fine) else int(min(MAX_SAMPLES, max(1, math.ceil(turn / STEP_DEG))))
+    u = np.linspace(0.0, 1.0, n + 1)[:, None]
+    return (1.0 - u) * mv.start[None, :] + u * mv.end[None, :]
+
+
+def program_path(read, machine, gauges):
+    """The tool tip relative to the rotor along the program (rotor frame, mm): points (N, 3), edges (E, 2),
+    per edge motion (1 cutting, 0 rapid) and pass number (1.. for cutting edges, 0 for links); a pass is a run
+    of feed moves of one tool, as the read-back counts them."""
+    pts, edges, motion, passes = [], [], [], []
+    n_pass, prev_feed, prev_tool, last = 0, False, None, None
+    for mv in read.moves:
+        if not np.isfinite(mv.start).all():          # from the unknown tool-change position
+            last, prev_feed, prev_tool = None, False, mv.tool
+            continue
+        feed = mv.kind == "feed"
+        if feed and (not prev_feed or mv.tool != prev_tool):
+            n_pass += 1
+        tips = machine.forward(_samples(mv, machine, fine=True), gauges.get(mv.tool, 0.0))[0]
+        start = len(pts) if last is None else last
+        if last is None:
+            pts.append(tips[0])
+        for p in tips[1:]:
+            pts.append(p)
+            edges.append((start, len(pts) - 1))
+            motion.append(1 if feed else 0)
+            passes.append(n_pass if feed else 0)
+            start = len(pts) - 1
+        last, prev_feed, prev_tool = len(pts) - 1, feed, mv.tool
+    return dict(points=np.array(pts, float).reshape(-1, 3), edges=np.array(edges, int).reshape(-1, 2),
+                motion=np.array(motion, int), passes=np.array(passes, int), count=n_pass)
+
+
+def _fixed_frame(machine, rows, tips, axes):
+    """(psi (N,), fixed-frame tips (N, 3), fixed-frame axes (N, 3)) of program rows and their rotor-frame
+    poses: psi = sigma x the spin axis angle (rad), the fixed frame R_z(psi) (rotor frame)."""
+    ispin = 3 + machine.rotary_names.index(machine.spin)
+    psi = machine.spin_sign * np.radians(rows[:, ispin])
+    c, s = np.cos(psi), np.sin(psi)
+
+    def turn(v):
+        return np.c_[c * v[:, 0] - s * v[:, 1], s * v[:, 0] + c * v[:, 1], v[:, 2]]
+    return psi, turn(tips), turn(axes)
+
+
+def program_keys(read, machine, gauges, minutes):
+    """Keys of the program's animation: seconds (K,) from the first pose, tool number (K,), program rows
+    (K, axes), psi (K,), fixed-frame tips and axes (K, 3) and rotor-frame tips and axes (K, 3); block ends and,
+    for rapids that turn a rotary axis, every STEP_DEG between (a move's block time shared evenly: its program
+    values move linearly).  Time counts the moves' block times (tool changes are not shown)."""
+    seconds, tools, rows, clock = [], [], [], 0.0
+    for mv, m in zip(read.moves, minutes):
+        known = np.isfinite(mv.start).all()
+        samples = _samples(mv, machine, fine=False)[1:] if known else mv.end[None, :]
+        dt = 60.0 * float(m) / len(samples)
+        if known and not dt > 0.0:                    # a block that moves nothing
+            continue
+        for r in samples:
+            clock += dt if known else 0.0
+            seconds.append(clock)
+            tools.append(mv.tool)
+            rows.append(r)
+    seconds, tools = np.array(seconds, float), np.array(tools, int)
+    rows = np.array(rows, float).reshape(len(seconds), -1)
+    tips, axes = np.zeros((len(rows), 3)), np.zeros((len(rows), 3))
+    for t in np.unique(tools):
+        k = tools == t
+        tips[k], axes[k] = machine.forward(rows[k], gauges.get(int(t), 0.0))
+    psi, ftips, faxes = _fixed_frame(machine, rows, tips, axes)
+    return dict(seconds=seconds, tools=tools, rows=rows, psi=psi, tips=ftips, axes=faxes, rotor_tips=tips,
+                rotor_axes=axes, total=clock)
+
+
+def key_frames(seconds, total, frame_start, frame_end):
+    """Frames (float) of key times: the moves' total time spread over frame_start..frame_end."""
+    total = total if total > 0 else 1.0
+    return frame_start + (frame_end - frame_start) * np.asarray(seconds, float) / total
+
+
+def tool_outline(shape):
+    """(radius, height) outline of a program tool (cutting part and shank, tip at height 0, tool axis +z) from
+    the top pole to the bottom pole, for :func:`shapes.revolved_mesh`."""
+    lo, hi = shape.h_range()
+    h, R, _ = shape.outline(max((hi - lo) / TOOL_OUTLINE_POINTS, 1e-6))
+    order = np.argsort(-h, kind="stable")
+    h, R = h[order], R[order]
+    keep = np.r_[True, np.abs(np.diff(h)) > 1e-9 * max(1.0, hi - lo)]
+    hh, rr = h[keep], R[keep]
+    for i, hv in enumerate(hh):                       # the cutting part and the shank meet: the larger radius
+        rr[i] = R[np.abs(h - hv) <= 1e-9 * max(1.0, hi - lo)].max()
+    inner = rr > 1e-9
+    return np.r_[[[0.0, hh[0]]], np.c_[rr[inner], hh[inner]], [[0.0, hh[-1]]]]
+
+
+classes = ()
+register, unregister = bpy.utils.register_classes_factory(classes)

@@ -1,0 +1,70 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Machine panel (after Results and Verify): the machine and controller dialect, clearance, lobes, the tool's
+cutting data and the program file; Post Program turns the run shown in Results into a whole-rotor machine
+program (flank.post_program) and the panel shows its cycle time once posted."""
+import bpy
+
+from .common import CATEGORY, REGION, SPACE
+
+CUTTING_DATA = ("tool_flutes", "tool_cutting_speed_m_min", "tool_feed_per_tooth_mm", "tool_max_rpm")
+MACHINING = ("clearance", "lobes", "flip_rotor")
+
+
+def post_call(settings, scene):
+    """The keyword arguments the Post Program button carries from the scene settings."""
+    kw = {name: getattr(settings, name) for name in CUTTING_DATA + MACHINING}
+    kw.update(filepath=settings.program_filepath, post=settings.post, animate=settings.program_animate,
+              machine=settings.machine_file if settings.machine == "FILE" else settings.machine,
+              frame_start=scene.frame_start, frame_end=max(scene.frame_end, scene.frame_start + 1))
+    return kw
+
+
+class FLANK_PT_machine(bpy.types.Panel):
+    bl_idname = "FLANK_PT_machine"
+    bl_label = "Machine"
+    bl_space_type = SPACE
+    bl_region_type = REGION
+    bl_category = CATEGORY
+    bl_order = 40
+
+    def draw(self, context):
+        from ..operators.post_program import cycle_time_lines
+        from ..operators.runs import find_run
+
+        layout = self.layout
+        settings = getattr(context.scene, "flank_settings", None)
+        if settings is None:
+            return
+        col = layout.column(align=True)
+        col.prop(settings, "machine")
+        if settings.machine == "FILE":
+            col.prop(settings, "machine_file")
+        col.prop(settings, "post")
+        col = layout.column(align=True)
+        for name in MACHINING:
+            col.prop(settings, name)
+        box = layout.box()
+        box.label(text="Cutting Data of the Tool", icon='TOOL_SETTINGS')
+        col = box.column(align=True)
+        for name in CUTTING_DATA:
+            col.prop(settings, name)
+        col = layout.column(align=True)
+        col.prop(settings, "program_filepath")
+        col.prop(settings, "program_animate")
+        coll = find_run(context)
+        if isinstance(coll, str):
+            layout.label(text="No planning run yet", icon='INFO')
+            return
+        op = layout.operator("flank.post_program", icon='EXPORT')
+        for name, value in post_call(settings, context.scene).items():
+            setattr(op, name, value)
+        op.collection = coll.name
+        lines = cycle_time_lines(coll)
+        if lines:
+            box = layout.box()
+            for k, text in enumerate(lines):
+                box.label(text=text, icon='TIME' if k == 1 else 'NONE')
+
+
+classes = (FLANK_PT_machine,)
+register, unregister = bpy.utils.register_classes_factory(classes)

@@ -1,0 +1,240 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""flank.post_program through the installed extension, in background mode, for test_blender_machine.py.
+
+A mm scene, the tool preset "Tapered 2deg D3 L25" (dimensions and cutting data), a 4-lobe srm_a male rotor of
+outer radius 30 mm and length 60 mm, single-flank plan of flank 0 (few seeds); then the Machine panel's Post
+Program call (rotor-xa-b, LinuxCNC, lobes 0,2), animated.  Recorded: the written program and the plan (for the
+command line's post in the test), the run's program properties and the panels' labels, the program path's
+attributes, the animation at sampled frames against the core's reader (the program's poses by forward
+kinematics), a re-post (Fanuc on xyzac-trt, not animated) replacing the first, and the refusals."""
+import glob
+import json
+import math
+import os
+import time
+
+import driver
+
+PRESET = "Tapered 2deg D3 L25"
+
+
+def _blocks(bpy):
+    return dict(objects=len(bpy.data.objects), meshes=len(bpy.data.meshes), actions=len(bpy.data.actions),
+                collections=len(bpy.data.collections), curves=len(bpy.data.curves))
+
+
+def _call(bpy, **kw):
+    """(result, error, new data-blocks, seconds) of flank.post_program(**kw)."""
+    before = _blocks(bpy)
+    t0 = time.perf_counter()
+    ret, err = driver._run_op(bpy.ops.flank.post_program, **kw)
+    after = _blocks(bpy)
+    return dict(result=ret, error=err, seconds=time.perf_counter() - t0,
+                new={k: after[k] - before[k] for k in before})
+
+
+def _path_facts(np, ob):
+    me = ob.data
+    motion = np.empty(len(me.edges), dtype=np.int32)
+    me.attributes["motion"].data.foreach_get("value", motion)
+    passes = np.empty(len(me.edges), dtype=np.int32)
+    me.attributes["pass"].data.foreach_get("value", passes)
+    ev = np.empty(2 * len(me.edges), dtype=np.int32)
+    me.edges.foreach_get("vertices", ev)
+    ev = ev.reshape(-1, 2)
+    cut = ev[motion == 1]
+    # chains of cutting edges: an edge starts a chain unless the previous cutting edge ends where it starts
+    starts = int(np.sum(np.r_[True, cut[1:, 0] != cut[:-1, 1]])) if len(cut) else 0
+    co = np.empty(3 * len(me.vertices))
+    me.vertices.foreach_get("co", co)
+    return dict(name=ob.name, edges=len(me.edges), vertices=len(me.vertices), motion_values=sorted(set(motion.tolist())),
+                cutting_edges=int((motion == 1).sum()), rapid_edges=int((motion == 0).sum()),
+                cutting_chains=starts, pass_values=sorted(set(passes[motion == 1].tolist())),
+                rapid_pass_values=sorted(set(passes[motion == 0].tolist())),
+                attr_domains={a.name: [a.domain, a.data_type] for a in me.attributes if a.name in ("motion", "pass")},
+                max_radius=float(np.hypot(co[0::3], co[1::3]).max()),
+                matrix=[list(r) for r in ob.matrix_world], hidden=ob.hide_get())
+
+
+def _animation_check(bpy, np, coll, text, plan):
+    """The tool relative to the turning rotor copy at frames of block ends and pass middles, against the poses
+    the core's reader and forward kinematics give for the written program."""
+    core = {m: driver._core(m) for m in ("posts", "machining.machine", "machining.cycle_time",
+                                         "machining.rotor_body", "machining.operation")}
+    machine = core["machining.machine"].load_machine("rotor-xa-b")
+    read = core["posts"].get_post("linuxcnc").read(text, machine)
+    op = core["machining.operation"].build_operation([plan], core["machining.rotor_body"].rotor_body(plan),
+                                                     lobes=[0, 2], cutting_data=None)
+    gauge = op.tools[0].gauge_length
+    minutes = np.array(core["machining.cycle_time"].cycle_time(read, machine, {1: gauge})["block_minutes"])
+    ends = 60.0 * np.cumsum(minutes)
+    total = ends[-1]
+    role = "flank_anim_role"
+    spin = next(ob for ob in coll.objects if ob.get(role) == "spin")
+    tool = next(ob for ob in coll.objects if ob.get(role) == "tool")
+    copy = next(ob for ob in coll.objects if ob.get(role) == "rotor")
+    frame = next(ob for ob in coll.objects if ob.get(role) == "frame")
+    rotor = bpy.data.objects[copy.name.replace(" (program)", "")]
+    fs, fe = (int(v) for v in coll["flank_prog_frames"])
+    samples = []
+    for i, mv in enumerate(read.moves):
+        if not np.isfinite(mv.start).all():
+            continue
+        fracs = (0.5, 1.0) if mv.kind == "feed" else (1.0,)
+        for u in fracs:
+            samples.append((i, u, mv.kind, ends[i] - (1.0 - u) * 60.0 * minutes[i]))
+    out = []
+    for i, u, kind, t in samples:
+        f = fs + (fe - fs) * t / total
+        bpy.context.scene.frame_set(int(math.floor(f)), subframe=float(f - math.floor(f)))
+        rel = np.linalg.inv(np.array(spin.matrix_world)) @ np.array(tool.matrix_world)
+        mv = read.moves[i]
+        row = (1.0 - u) * mv.start + u * mv.end
+        P, A = machine.forward(row[None, :], gauge)
+        axis = rel[:3, 2] / np.linalg.norm(rel[:3, 2])
+        rotor_rel = np.linalg.inv(np.array(spin.matrix_world)) @ np.array(copy.matrix_world)
+        rest = np.linalg.inv(np.array(frame.matrix_world)) @ np.array(rotor.matrix_world)
+        out.append(dict(move=i, u=u, kind=kind, frame=f, tip_error=float(np.linalg.norm(rel[:3, 3] - P[0])),
+                        axis_error=float(np.linalg.norm(axis - A[0])), rotor_error=float(np.abs(rotor_rel - rest).max()),
+                        spin_deg=float(math.degrees(spin.matrix_world.to_euler()[2])), A=float(row[3])))
+    bpy.context.scene.frame_set(fs)
+    return dict(samples=out, moves=len(read.moves), total_s=float(total), gauge=gauge,
+                animated_s=float(coll["flank_prog_animated_seconds"]),
+                tool_fcurves=driver._fcurve_keys(tool.animation_data.action),
+                spin_fcurves=driver._fcurve_keys(spin.animation_data.action))
+
+
+def _errors(bpy, tmp, coll_name, good):
+    """Refusals: each leaves no data-block, no program file and no temporary file behind."""
+    bad_machine = os.path.join(tmp, "tight_b.json")
+    with open(os.path.join(os.path.dirname(driver._core("machining.machine").__file__), "machines",
+                           "rotor-xa-b.json")) as fh:
+        data = json.load(fh)
+    data["name"] = "rotor-xa-b tight B"
+    data["rotary_axes"]["B"].update(min=-5.0, max=5.0)
+    with open(bad_machine, "w") as fh:
+        json.dump(data, fh)
+    target = os.path.join(tmp, "refused.ngc")
+    cases = {
+        "empty_path": dict(filepath=""),
+        "relative_path": dict(filepath="relative_program.ngc"),
+        "missing_folder": dict(filepath=os.path.join(tmp, "no_such_folder", "p.ngc")),
+        "folder": dict(filepath=tmp),
+        "unwritable": dict(filepath="/proc/flank_program.ngc"),
+        "unknown_machine": dict(filepath=target, machine="mill-9000"),
+        "unknown_post": dict(filepath=target, post="haas"),
+        "unreachable": dict(filepath=target, machine=bad_machine),
+        "clearance_nan": dict(filepath=target, clearance=float("nan")),
+        "clearance_inf": dict(filepath=target, clearance=float("inf")),
+        "clearance_neg": dict(filepath=target, clearance=-1.0),
+        "clearance_huge": dict(filepath=target, clearance=1e9),
+        "flutes_neg": dict(filepath=target, tool_flutes=-1),
+        "fz_nan": dict(filepath=target, tool_feed_per_tooth_mm=float("nan")),
+        "rpm_neg": dict(filepath=target, tool_max_rpm=-1.0),
+        "lobes_text": dict(filepath=target, lobes="0,x"),
+        "lobes_range": dict(filepath=target, lobes="9"),
+        "frames": dict(filepath=target, frame_start=10, frame_end=10),
+    }
+    out = {}
+    for name, kw in cases.items():
+        r = _call(bpy, **dict(good, collection=coll_name, **kw))
+        r["file"] = os.path.exists(target) or os.path.exists(os.path.join(os.getcwd(), "relative_program.ngc"))
+        r["temp_files"] = sorted(os.path.basename(p) for p in glob.glob(os.path.join(tmp, ".flank-*")))
+        out[name] = r
+    return out
+
+
+def scenario(bpy, res, args):
+    import numpy as np
+
+    tmp = os.path.abspath(os.getcwd())
+    machine_panel = __import__(driver.MODULE + ".panels.machine", fromlist=["x"])
+    ui_ops = __import__(driver.MODULE + ".operators.ui_ops", fromlist=["x"])
+    presets = __import__(driver.MODULE + ".operators.tool_preview", fromlist=["x"])
+    feeds = driver._core("machining.feeds")
+    scene = bpy.context.scene
+    s = scene.flank_settings
+    t_start = time.perf_counter()
+
+    # ---------------------------------------------------------------- defaults, nothing planned yet
+    res["defaults"] = dict(tool=[s.tool_flutes, s.tool_cutting_speed_m_min, s.tool_feed_per_tooth_mm, s.tool_max_rpm],
+                           core=[feeds.DEFAULT_END_MILL.flutes, feeds.DEFAULT_END_MILL.vc_m_min,
+                                 feeds.DEFAULT_END_MILL.fz_mm, feeds.DEFAULT_END_MILL.max_rpm],
+                           machine=s.machine, post=s.post, clearance=s.clearance, lobes=s.lobes,
+                           machines=[i.identifier for i in s.bl_rna.properties["machine"].enum_items],
+                           posts=[i.identifier for i in s.bl_rna.properties["post"].enum_items],
+                           builtin_machines=driver._core("machining.machine").builtin_machines())
+    res["no_run"] = _call(bpy, filepath=os.path.join(tmp, "none.ngc"))
+    res["no_run"]["file"] = os.path.exists(os.path.join(tmp, "none.ngc"))
+    res["no_run_default"] = _call(bpy)
+
+    # ---------------------------------------------------------------- the preset, the rotor, the plan
+    us = scene.unit_settings
+    us.system, us.scale_length = 'METRIC', 0.001
+    path = os.path.join(presets.SHIPPED_PRESETS, PRESET + ".py")
+    res["preset"] = driver._run_op(bpy.ops.script.execute_preset, filepath=path, menu_idname="FLANK_MT_tool_presets")
+    d = feeds.PRESET_CUTTING_DATA[PRESET]
+    res["preset_cutting"] = dict(settings=[s.tool_flutes, s.tool_cutting_speed_m_min, s.tool_feed_per_tooth_mm,
+                                           s.tool_max_rpm], core=[d.flutes, d.vc_m_min, d.fz_mm, d.max_rpm])
+    driver._run_op(bpy.ops.flank.generate_rotor, kind="srm_a", part="male", scale=30.0, length=60.0, resolution=360,
+                   axial=24)
+    rotor = bpy.context.active_object
+    idname, kw = ui_ops.run_call(s)
+    kw.update(flank=0, tolerance=0.05, seeds=4, rounds=1, envelope_rings=8, animate=False)
+    t0 = time.perf_counter()
+    res["plan"] = dict(zip(("result", "error"), driver._run_op(bpy.ops.flank.plan_single_flank, **kw)))
+    res["plan"]["seconds"] = time.perf_counter() - t0
+    coll = next(c for c in bpy.data.collections["Flank Results"].children if "flank_plan_json" in c)
+    plan = json.loads(coll["flank_plan_json"])
+    res["plan"].update(strips=len(plan["strips"]), unit=plan["length_unit"], extent=plan["rotor"].get("extent"),
+                       tool=plan["tool"], rotor=rotor.name)
+    plan_path = os.path.join(tmp, "plan.json")
+    with open(plan_path, "w") as fh:
+        json.dump(plan, fh)
+    res["plan_file"] = plan_path
+
+    # ---------------------------------------------------------------- Post Program from the Machine panel
+    prog_path = os.path.join(tmp, "program.ngc")
+    s.program_filepath, s.lobes = prog_path, "0,2"
+    scene.frame_start, scene.frame_end = 1, 250
+    call = machine_panel.post_call(s, scene)
+    res["panel_call"] = {k: (v if isinstance(v, (bool, int, float, str)) else repr(v)) for k, v in call.items()}
+    bpy.context.view_layer.objects.active = rotor
+    res["post"] = _call(bpy, **call)
+    res["post"]["file"] = prog_path if os.path.exists(prog_path) else None
+    res["post"]["text"] = open(prog_path).read() if os.path.exists(prog_path) else ""
+    res["post"]["props"] = driver._obj_props(coll)
+    path_ob = next((ob for ob in coll.objects if ob.get("flank_prog_role") == "path"), None)
+    res["post"]["path"] = _path_facts(np, path_ob) if path_ob is not None else None
+    res["post"]["rotor_hidden"] = rotor.hide_get()
+    res["post"]["anim_roles"] = sorted(ob.get("flank_anim_role") for ob in coll.objects if "flank_anim_role" in ob)
+    res["post"]["temp_files"] = sorted(os.path.basename(p) for p in glob.glob(os.path.join(tmp, ".flank-*")))
+    res["panels"] = driver._draw_panels(bpy, bpy.context.active_object)
+    res["animation"] = _animation_check(bpy, np, coll, res["post"]["text"], plan)
+
+    # ---------------------------------------------------------------- refusals
+    good = dict(call, filepath=prog_path)
+    before = res["post"]["text"]
+    res["errors"] = _errors(bpy, tmp, coll.name, good)
+    res["program_unchanged"] = open(prog_path).read() == before
+
+    # ---------------------------------------------------------------- re-post: Fanuc on xyzac-trt, no animation
+    nc = os.path.join(tmp, "program.nc")
+    res["repost"] = _call(bpy, **dict(call, filepath=nc, machine="xyzac-trt", post="fanuc", animate=False,
+                                      collection=coll.name))
+    text = open(nc).read() if os.path.exists(nc) else ""
+    core = driver._core("posts")
+    mach = driver._core("machining.machine").load_machine("xyzac-trt")
+    read = core.get_post("fanuc").read(text, mach) if text else None
+    feeds_runs = 0
+    prev = "rapid"
+    for mv in (read.moves if read else []):
+        feeds_runs += mv.kind == "feed" and prev != "feed"
+        prev = mv.kind
+    res["repost"].update(props=driver._obj_props(coll), read_passes=feeds_runs, moves=len(read.moves) if read else 0,
+                         path_objects=sorted(ob.name for ob in coll.objects if ob.get("flank_prog_role") == "path"),
+                         anim_objects=sorted(ob.name for ob in coll.objects if "flank_anim_role" in ob),
+                         rotor_hidden=rotor.hide_get(),
+                         orphans=dict(meshes=sum(1 for m in bpy.data.meshes if m.users == 0),
+                                      actions=sum(1 for a in bpy.data.actions if a.users == 0)))
+    res["seconds_total"] = time.perf_counter() - t_start

@@ -1,0 +1,230 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""From plan to machine in Blender (scenario_machine.py, background mode): the Machine panel's Post Program
+writes the program the command line's ``post`` writes for the same plan and settings (text equal; read back by
+LinuxCNC's interpreter with the same passes and cutting time), the run shows the program's path (cutting and
+rapid edges, one chain of cutting edges per pass) and the core's cycle time, the animation puts the tool where
+the program's poses (core reader + forward kinematics) put it relative to the turning rotor, a re-post replaces
+the program, and every refusal leaves nothing behind."""
+import ast
+import json
+import math
+import shutil
+from pathlib import Path
+
+import pytest
+
+from blender_harness import run_scenario
+from machining.machining_helpers import rs274_times, run_rs274
+
+ROOT = Path(__file__).resolve().parents[2]
+PRESETS = ROOT / "presets" / "flank_tool"
+NOTHING = {"objects": 0, "meshes": 0, "actions": 0, "collections": 0, "curves": 0}
+
+
+@pytest.fixture(scope="module")
+def mc(extension_zip, tmp_path_factory):
+    return run_scenario(extension_zip, "machine", tmp_path_factory.mktemp("machine"))
+
+
+@pytest.fixture(scope="module")
+def cli(mc, tmp_path_factory):
+    """The command line's post of the scenario's plan with the same settings: (program text, --json output)."""
+    import contextlib
+    import io
+
+    from flank_addon.cli import main
+
+    out = tmp_path_factory.mktemp("machine_cli") / "cli.ngc"
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        code = main(["post", mc["plan_file"], "--machine", "rotor-xa-b", "--post", "linuxcnc", "--lobes", "0,2",
+                     "--clearance", "5", "--cutting-data", "Tapered 2deg D3 L25", "-o", str(out), "--json"])
+    assert code == 0, buf.getvalue()
+    return out.read_text(), json.loads(buf.getvalue())
+
+
+# ------------------------------------------------------------------------------------------- settings
+def test_cutting_data_settings_default_to_the_cores_end_mill_and_presets_set_theirs(mc):
+    assert mc["defaults"]["tool"] == pytest.approx(mc["defaults"]["core"], rel=1e-7)        # 4, 120, 0.03, 24000
+    assert mc["defaults"]["machines"] == mc["defaults"]["builtin_machines"] + ["FILE"]
+    assert mc["defaults"]["posts"] == ["linuxcnc", "fanuc", "heidenhain"]
+    assert (mc["defaults"]["machine"], mc["defaults"]["post"], mc["defaults"]["clearance"]) == ("rotor-xa-b",
+                                                                                               "linuxcnc", 5.0)
+    assert mc["preset"] == [["FINISHED"], None]
+    assert mc["preset_cutting"]["settings"] == pytest.approx(mc["preset_cutting"]["core"], rel=1e-7)   # 3, 100, ...
+
+
+def test_every_shipped_preset_carries_the_cores_cutting_data():
+    from flank_addon.machining.feeds import PRESET_CUTTING_DATA
+
+    files = sorted(PRESETS.glob("*.py"))
+    assert [p.stem for p in files] == sorted(PRESET_CUTTING_DATA)
+    for path in files:
+        vals = {}
+        for line in path.read_text().splitlines():
+            if line.startswith("settings.") and "=" in line:
+                key, value = (t.strip() for t in line[len("settings."):].split("=", 1))
+                vals[key] = ast.literal_eval(value)
+        d = PRESET_CUTTING_DATA[path.stem]
+        assert (vals["tool_flutes"], vals["tool_cutting_speed_m_min"], vals["tool_feed_per_tooth_mm"],
+                vals["tool_max_rpm"]) == (d.flutes, d.vc_m_min, d.fz_mm, d.max_rpm), path.name
+
+
+# ------------------------------------------------------------------------------------------- posting
+def test_the_plan_records_the_rotor_extent(mc):
+    p = mc["plan"]
+    assert p["result"] == ["FINISHED"], p["error"]
+    assert p["unit"] == "mm" and p["strips"] >= 2
+    assert p["extent"] == {"z_range": [0.0, 60.0], "shafts": []}
+
+
+def test_post_program_writes_what_the_command_line_writes(mc, cli):
+    post = mc["post"]
+    assert post["result"] == ["FINISHED"], post["error"]
+    assert mc["panel_call"]["machine"] == "rotor-xa-b" and mc["panel_call"]["lobes"] == "0,2"
+    text, js = cli
+    assert post["text"] == text                         # same plan, machine, post, lobes, clearance, cutting data
+    props = post["props"]
+    assert props["flank_prog_passes"] == js["passes"] == 2 * mc["plan"]["strips"]
+    assert props["flank_prog_moves"] == js["blocks"]
+    for key in ("cutting_time_s", "rapid_time_s", "tool_change_time_s", "total_time_s", "cutting_length_mm"):
+        assert props["flank_prog_" + key] == pytest.approx(js[key], rel=1e-12), key
+    assert props["flank_prog_lobes"] == js["lobes"] == [0, 2]
+    assert json.loads(props["flank_prog_cutting_data"]) == js["tools"][0]["cutting_data"]
+    assert js["tools"][0]["cutting_data"]["source"] == "Tapered 2deg D3 L25"
+    assert props["flank_prog_machine"] == "rotor-xa-b" and props["flank_prog_post"] == "linuxcnc"
+    assert post["temp_files"] == [] and post["seconds"] < 20.0
+
+
+def test_linuxcnc_reads_the_program_with_the_same_passes_and_cutting_time(mc, cli):
+    rs274 = shutil.which("rs274")
+    if rs274 is None:
+        pytest.fail("LinuxCNC's rs274 is not installed (tests/machining/conftest.py installs it)")
+    moves = run_rs274(rs274, mc["post"]["file"])
+    runs = sum(1 for k in range(len(moves)) if moves[k][0] == "STRAIGHT_FEED"
+               and (k == 0 or moves[k - 1][0] != "STRAIGHT_FEED"))
+    props = mc["post"]["props"]
+    assert runs == props["flank_prog_passes"]
+    cut_s = 60.0 * rs274_times(moves)
+    assert cut_s == pytest.approx(props["flank_prog_cutting_time_s"], rel=1e-3)
+    print("rs274 cutting {:.3f} s, posted {:.3f} s".format(cut_s, props["flank_prog_cutting_time_s"]))
+
+
+def test_the_program_path_has_cutting_and_rapid_edges_one_chain_per_pass(mc):
+    path = mc["post"]["path"]
+    props = mc["post"]["props"]
+    n = props["flank_prog_passes"]
+    assert path is not None and path["attr_domains"] == {"motion": ["EDGE", "INT"], "pass": ["EDGE", "INT"]}
+    assert path["motion_values"] == [0, 1] and path["cutting_edges"] > 0 and path["rapid_edges"] > 0
+    assert path["cutting_chains"] == n and path["pass_values"] == list(range(1, n + 1))
+    assert path["rapid_pass_values"] == [0]
+    assert path["edges"] == props["flank_prog_path_edges"] == path["cutting_edges"] + path["rapid_edges"]
+    assert path["hidden"] and mc["post"]["rotor_hidden"]      # the animation's copies stand in for them
+    # the rotor frame in mm: the links keep a safe radius beyond the stock (outer radius 30 + clearance 5)
+    assert path["max_radius"] > 35.0
+
+
+def test_the_cycle_time_shown_is_the_cores(mc, cli):
+    _, js = cli
+    want = ["Program: {} passes, linuxcnc for rotor-xa-b".format(js["passes"]),
+            "Cycle time: {:.1f} s ({:d}:{:04.1f} min)".format(js["total_time_s"], int(js["total_time_s"] // 60),
+                                                              js["total_time_s"] % 60),
+            "Cutting {:.1f} s, rapid {:.1f} s, tool changes {:.1f} s".format(js["cutting_time_s"],
+                                                                               js["rapid_time_s"],
+                                                                               js["tool_change_time_s"])]
+    assert js["total_time_s"] >= 60.0
+    for name in ("FLANK_PT_machine", "FLANK_PT_results"):
+        labels = [c[1] for c in mc["panels"][name] if c[0] == "label"]
+        assert all(w in labels for w in want), (name, labels)
+    machine = mc["panels"]["FLANK_PT_machine"]
+    assert ["operator", "flank.post_program"] in machine
+    for prop in ("machine", "post", "clearance", "lobes", "tool_flutes", "tool_cutting_speed_m_min",
+                 "tool_feed_per_tooth_mm", "tool_max_rpm", "program_filepath"):
+        assert ["prop", prop] in machine, prop
+
+
+def test_the_animation_is_the_programs_relative_motion(mc):
+    a = mc["animation"]
+    samples = a["samples"]
+    feeds = [s for s in samples if s["kind"] == "feed"]
+    assert len(feeds) >= 2 * mc["post"]["props"]["flank_prog_passes"] and len(samples) > len(feeds)
+    assert {s["u"] for s in feeds} == {0.5, 1.0}            # block ends and the middle of every pass
+    # mm, at rotor radius 30 and rotary angles up to thousands of degrees in single precision
+    assert max(s["tip_error"] for s in samples) < 2e-3
+    assert max(s["axis_error"] for s in samples) < 1e-5
+    assert max(s["rotor_error"] for s in samples) < 1e-4      # the rotor copy rides on the spin
+    assert a["animated_s"] == pytest.approx(a["total_s"], rel=1e-9)
+    assert abs(max(s["A"] for s in samples) - min(s["A"] for s in samples)) > 180.0     # the rotor really turns
+    assert all(v["interpolation"] == ["LINEAR"] for v in a["tool_fcurves"].values())
+    assert sorted(a["tool_fcurves"]) == ["location[0]", "location[1]", "location[2]", "rotation_quaternion[0]",
+                                         "rotation_quaternion[1]", "rotation_quaternion[2]", "rotation_quaternion[3]"]
+    assert list(a["spin_fcurves"]) == ["rotation_euler[2]"]
+    assert mc["post"]["anim_roles"] == ["frame", "path", "rotor", "spin", "tool"]
+    print("largest tip error {:.2e} mm over {} samples".format(max(s["tip_error"] for s in samples), len(samples)))
+
+
+def test_a_repost_replaces_the_program_and_its_animation(mc):
+    r = mc["repost"]
+    assert r["result"] == ["FINISHED"], r["error"]
+    p = r["props"]
+    assert p["flank_prog_machine"] == "xyzac-trt" and p["flank_prog_post"] == "fanuc"
+    assert r["read_passes"] == p["flank_prog_passes"] == mc["post"]["props"]["flank_prog_passes"]
+    assert r["moves"] == p["flank_prog_moves"]
+    assert len(r["path_objects"]) == 1 and r["anim_objects"] == [] and not r["rotor_hidden"]
+    assert r["orphans"] == {"meshes": 0, "actions": 0}
+    assert "flank_prog_frames" not in p
+
+
+# ------------------------------------------------------------------------------------------- refusals
+ERRORS = {
+    "empty_path": "no program file given (filepath is empty)",
+    "relative_path": "is a relative path and the .blend file is not saved",
+    "missing_folder": "does not exist",
+    "folder": "is a folder",
+    "unwritable": "cannot write /proc/flank_program.ngc",
+    "unknown_machine": "unknown machine 'mill-9000': give a machine file or one of rotor-xa-b, xyzac-trt, "
+                       "xyzac-trt-tcp",
+    "unknown_post": "unknown post 'haas'; valid posts: linuxcnc, fanuc, heidenhain",
+    "unreachable": "axis B reaches",
+    "clearance_nan": "clearance = nan mm",
+    "clearance_inf": "mm must be a finite number in (0, 1000]",     # Blender holds inf as 3.4e38
+    "clearance_neg": "clearance = -1 mm",
+    "clearance_huge": "clearance = 1e+09 mm",
+    "flutes_neg": "flutes must be an integer >= 1",
+    "fz_nan": "fz_mm must be a finite number > 0",
+    "rpm_neg": "max_rpm must be a finite number > 0",
+    "lobes_text": "lobes '0,x' must be empty, 'all' or lobe indices",
+    "lobes_range": "lobes [9] are not lobes of this rotor (0..3)",
+    "frames": "end frame 10 must be after the start frame 10",
+}
+
+
+@pytest.mark.parametrize("case", sorted(ERRORS))
+def test_refusals_name_the_problem_and_leave_nothing(mc, case):
+    e = mc["errors"][case]
+    assert e["result"] is None and e["error"].startswith("Error: Post program: "), e
+    assert ERRORS[case] in e["error"], e["error"]
+    assert "Traceback" not in e["error"]
+    assert e["new"] == NOTHING and not e["file"] and e["temp_files"] == []
+    assert e["seconds"] < 5.0
+    assert mc["program_unchanged"]
+
+
+def test_the_unreachable_pass_is_named_with_its_axis(mc):
+    msg = mc["errors"]["unreachable"]["error"]
+    assert "pass 1 (plan 0 strip " in msg and "outside its limits -5..5 on machine rotor-xa-b tight B" in msg
+
+
+def test_nothing_is_posted_without_a_run(mc):
+    for key in ("no_run", "no_run_default"):
+        r = mc[key]
+        assert r["result"] is None and r["new"] == NOTHING, r
+    assert "no planning run" in mc["no_run"]["error"] and not mc["no_run"]["file"]
+    assert "filepath is empty" in mc["no_run_default"]["error"]
+
+
+def test_the_scenario_stays_quick(mc):
+    assert mc["plan"]["seconds"] < 30.0 and mc["seconds_total"] < 90.0
+    print("plan {:.1f} s, post {:.1f} s, scenario {:.1f} s".format(mc["plan"]["seconds"], mc["post"]["seconds"],
+                                                                    mc["seconds_total"]))
+    assert not math.isnan(mc["post"]["seconds"])
