@@ -144,9 +144,16 @@ class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
     # ------------------------------------------------------------------ worker thread
     @staticmethod
     def _compute(job, progress):
+        from ..flank_addon.machining.machine import MachineError
         from .program import post_program
 
-        return post_program(job)
+        try:
+            return post_program(job)
+        except MachineError as ex:                  # beyond an axis' travel: maybe the scene's unit
+            if "outside its limits" not in str(ex):
+                raise
+            raise MachineError("{} (the rotor's outer radius is {:.4g} mm in this scene's unit)".format(
+                ex, float(job["plan"]["rotor"]["outer_radius"]))) from None
 
     # ------------------------------------------------------------------ main thread: results
     def _build(self, context, job, out):

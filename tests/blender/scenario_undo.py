@@ -364,6 +364,15 @@ def scenario(bpy, res, args):
     _activate(bpy, ROTOR)
     _undo_step(bpy, np, fcurves, "flank.animate_strip", dict(collection=sf_run or "", strip=1, **FRAMES), steps)
     _undo_step(bpy, np, fcurves, "flank.error_plot", dict(collection=sf_run or "", width=320, height=200), steps)
+    _activate(bpy, ROTOR)                               # replaces the strip's animation with the program's
+    us = bpy.context.scene.unit_settings
+    units = us.system, us.scale_length
+    us.system, us.scale_length = 'METRIC', 0.001        # the program in mm of the scene: the rotor is R = 1 mm
+    _undo_step(bpy, np, fcurves, "flank.post_program",
+               dict(collection=sf_run or "", lobes="0", filepath=os.path.join(tmp, "undo_program.ngc"), **FRAMES),
+               steps)
+    us = bpy.context.scene.unit_settings
+    us.system, us.scale_length = units
 
     # ------------------------------------------------------------------------------- free-form
     scene = bpy.context.scene

@@ -28,6 +28,8 @@ DATA_CHANGING = {
     "flank.verify_plan": "writes deviation attributes and flank_verify_* on the rotor, adds the Verify Tools",
     "flank.select_run": "changes the active object, the selection and the results list row",
     "flank.animate_strip": "adds the moving rotor copies, empties and action; hides the rotor",
+    "flank.post_program": "adds the program path, its animation (rotor copy, tool, empties, actions) replacing "
+                          "the run's earlier one, flank_prog_* on the run; writes the program file",
     "flank.error_plot": "adds a packed image with flank_plot_* properties",
     "flank.add_test_surface": "adds a test-surface object and mesh",
     "flank.pick_guiding_direction": "sets the free-form direction and point settings",
