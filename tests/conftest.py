@@ -186,6 +186,12 @@ class _DurationRecorder:
 def pytest_configure(config):
     if not hasattr(config, "workerinput"):      # not an xdist worker: the reports of every test arrive here
         config.pluginmanager.register(_DurationRecorder(config), "flank-duration-recorder")
+        if getattr(config.option, "numprocesses", None):
+            # a parallel run on a fresh machine: LinuxCNC's interpreter installs while the other tests run
+            import tempfile
+
+            from linuxcnc_install import start_background_install
+            start_background_install(tempfile.mkdtemp(prefix="flank-rs274-"))
 
 
 def _expected_seconds(config):

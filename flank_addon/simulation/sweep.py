@@ -155,12 +155,17 @@ class MeridianPart:
         meridian: (K, 2) rows (h, R) with h strictly increasing and R >= 0 (e.g. the axial profile
             (Z_u, R_u) of a formed disc cutter, Hu, Zhou & Li 2025).
     The 2D distance is exact: the boundary is resampled so no edge is longer than ``spacing``
-    (default: 1/400 of the meridian's extent or twice the median edge, the smaller), the nearest
-    foot lies on an edge next to a vertex within sqrt(d^2 + spacing^2 / 4) of the query, and rows
+    (default: 1/400 of the meridian's extent or twice the median edge, the smaller, but no finer than
+    the boundary's length / MAX_BOUNDARY_VERTICES), the nearest foot lies on an edge next to a vertex within sqrt(d^2 + spacing^2 / 4) of the query, and rows
     where the k nearest vertices do not provably include those fall back to all edges.  The sign is the exact test rho <= R(h).
     """
 
     K_NEAR = 8
+    # Splitting edges leaves the polyline (and so every distance) unchanged; it only makes the k nearest
+    # vertices bracket the foot more often.  A dense meridian with a few long edges (a custom tool's
+    # 20k-vertex meridian and its end faces) would otherwise be cut into ~400k pieces, and kd-tree
+    # queries among so many nearly collinear points cost more than the rare fall-backs to more neighbours.
+    MAX_BOUNDARY_VERTICES = 20000
     expensive = True     # worth pruning time samples by bounding spheres first
 
     def __init__(self, origin, direction, meridian, spacing=None):
@@ -183,7 +188,8 @@ class MeridianPart:
         # long edges are split to about the typical edge length, so the k nearest vertices of a
         # query usually bracket its foot (see signed_distance)
         typical = 2.0 * float(np.median(seg_len[seg_len > 0]))
-        self.spacing = float(spacing) if spacing else min(extent / 400.0, typical)
+        self.spacing = float(spacing) if spacing else max(min(extent / 400.0, typical),
+                                                          float(seg_len.sum()) / self.MAX_BOUNDARY_VERTICES)
         pts = [ring[i] + np.linspace(0, 1, max(1, int(np.ceil(l / self.spacing))), endpoint=False)[:, None] * seg[i]
                for i, l in enumerate(seg_len) if l > 0]
         self.boundary = np.vstack(pts + [ring[-1:]])    # open polyline

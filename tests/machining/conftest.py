@@ -1,40 +1,21 @@
 """Fixtures of the machining tests: LinuxCNC's interpreter (installed with apt where it is missing), small
 rotors in mm and one plan of each kind (single-flank cone, double-flank, formed disc cutter)."""
-import os
 import shutil
-import subprocess
 
 import numpy as np
 import pytest
 
 from flank_addon.geometry.rotors import builtin_by_name
-
-
-def _install_linuxcnc():
-    """apt-get install linuxcnc-uspace (the package that ships rs274); the apt output on failure."""
-    if shutil.which("apt-get") is None:
-        return "apt-get is not available"
-    sudo = [] if os.geteuid() == 0 else (["sudo", "-n"] if shutil.which("sudo") else None)
-    if sudo is None:
-        return "not root and no sudo"
-    env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
-    log = ""
-    for cmd in (["apt-get", "install", "-y", "linuxcnc-uspace"], ["apt-get", "update"],
-                ["apt-get", "install", "-y", "linuxcnc-uspace"]):
-        r = subprocess.run(sudo + cmd, capture_output=True, text=True, env=env, timeout=1200)
-        log = (r.stdout + r.stderr)[-3000:]
-        if cmd[1] == "install" and r.returncode == 0:
-            return None
-    return log
+from linuxcnc_install import wait_or_install
 
 
 @pytest.fixture(scope="session")
 def rs274():
-    """Path of LinuxCNC's rs274 interpreter; installs linuxcnc-uspace with apt when it is missing and fails
-    (never skips) when that is impossible."""
+    """Path of LinuxCNC's rs274 interpreter; installs linuxcnc-uspace with apt when it is missing (or waits
+    for the install a parallel run started in the background) and fails (never skips) when that is impossible."""
     path = shutil.which("rs274")
     if path is None:
-        why = _install_linuxcnc()
+        why = wait_or_install()
         path = shutil.which("rs274")
         if path is None:
             pytest.fail("LinuxCNC's interpreter rs274 is missing and could not be installed "

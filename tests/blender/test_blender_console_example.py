@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""README's scripted session (tools/console_session.py, bpy module + the installed zip): it plans,
+"""The README's scripted console example (tools/console_example.py, bpy module + the installed zip): it plans,
 exports, verifies and renders, and its numbers are the core's for the same plan file."""
 import json
 import os
@@ -12,19 +12,19 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def test_console_session_plans_verifies_and_renders(extension_zip, tmp_path):
-    out = tmp_path / "session"
+def test_console_example_plans_verifies_and_renders(extension_zip, tmp_path):
+    out = tmp_path / "console"
     env = dict(os.environ)
     env.pop("PYTHONPATH", None)                     # the installed extension, not the source tree
-    proc = subprocess.run([sys.executable, str(ROOT / "tools" / "console_session.py"), "--zip", str(extension_zip),
+    proc = subprocess.run([sys.executable, str(ROOT / "tools" / "console_example.py"), "--zip", str(extension_zip),
                            "--out", str(out)], cwd=str(tmp_path), env=env, stdout=subprocess.PIPE,
                           stderr=subprocess.STDOUT, text=True, timeout=900)
     assert proc.returncode == 0, proc.stdout[-4000:]
-    numbers = json.loads((out / "session.json").read_text())
-    assert {"plan.json", "rotor.apt", "report.png", "session.json"} <= set(numbers["outputs"] + ["session.json"])
+    numbers = json.loads((out / "example.json").read_text())
+    assert {"plan.json", "rotor.apt", "report.png", "example.json"} <= set(numbers["outputs"] + ["example.json"])
     assert "Traceback" not in proc.stdout
 
-    # the plan file the session exported (plain JSON: the compat venvs hold no scipy for flank_addon)
+    # the plan file the example exported (plain JSON: the compat venvs hold no scipy for flank_addon)
     plan = json.loads((out / "plan.json").read_text())
     assert plan["schema"] == "flank-plan/1" and len(plan["strips"]) == numbers["strips"] >= 5
     # the planner's own error figures are the plan's, in mm (tolerance 0.05 mm: the strips are within it)

@@ -1,15 +1,15 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""A complete scripted session: generate a rotor, plan, export, verify the plan, render the report.
+"""A complete scripted example: generate a rotor, plan, export, verify the plan, render the report.
 
-The body of :func:`session` is the README's console session: paste it into Blender's Python console
+The body of :func:`console_example` is the README's console example: paste it into Blender's Python console
 (with ``bpy`` imported and ``out`` set to a folder), or run this file headless:
 
-    blender -b --python tools/console_session.py -- [--out DIR]          # extension installed in Blender
-    python tools/console_session.py --zip dist/flank_toolpath-...zip [--out DIR]    # the bpy module
+    blender -b --python tools/console_example.py -- [--out DIR]          # extension installed in Blender
+    python tools/console_example.py --zip dist/flank_toolpath-...zip [--out DIR]    # the bpy module
 
 With the ``bpy`` module the zip is installed by Blender's own installer into a throw-away user
-folder first.  Prints the numbers as JSON (also written to DIR/session.json).
+folder first.  Prints the numbers as JSON (also written to DIR/example.json).
 """
 import argparse
 import json
@@ -19,8 +19,8 @@ import sys
 from pathlib import Path
 
 
-def session(bpy, out):
-    # --- README: console session -------------------------------------------------------------------
+def console_example(bpy, out):
+    # --- README: console example -------------------------------------------------------------------
     units = bpy.context.scene.unit_settings                         # 1 Blender unit = 1 mm
     units.system, units.scale_length, units.length_unit = 'METRIC', 0.001, 'MILLIMETERS'
     bpy.ops.flank.generate_rotor(kind='asymmetric', part='female', scale=50.0, resolution=1440, axial=96)
@@ -37,7 +37,7 @@ def session(bpy, out):
     print("strips", rotor["flank_sf_strips"], "planned error", rotor["flank_sf_min_error"], "..",
           rotor["flank_sf_max_error"], "simulated undercut", rotor["flank_verify_max_undercut"],
           "overcut", rotor["flank_verify_max_overcut"], "gouges", rotor["flank_verify_gouges"])
-    # --- end of the console session ----------------------------------------------------------------
+    # --- end of the console example ----------------------------------------------------------------
     return dict(strips=int(rotor["flank_sf_strips"]), planned_max_error=float(rotor["flank_sf_max_error"]),
                 planned_min_error=float(rotor["flank_sf_min_error"]),
                 verified_max_undercut=float(rotor["flank_verify_max_undercut"]),
@@ -48,7 +48,7 @@ def session(bpy, out):
 
 def main(argv):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default="out/session")
+    ap.add_argument("--out", default="out/console")
     ap.add_argument("--zip", help="bpy module: install this extension zip first (isolated user folder)")
     args = ap.parse_args(argv)
     out = os.path.abspath(args.out)
@@ -67,14 +67,14 @@ def main(argv):
         if not hasattr(bpy.ops, "flank") or not hasattr(bpy.ops.flank, "plan_single_flank"):
             sys.exit("the Flank Toolpath extension is not enabled: install its zip in Blender, or pass --zip")
         try:
-            numbers = session(bpy, out)
+            numbers = console_example(bpy, out)
         except RuntimeError as ex:                     # an operator's error report
-            sys.exit("console session failed: {}".format(ex))
+            sys.exit("console example failed: {}".format(ex))
     finally:
         if user_dir is not None:
             shutil.rmtree(user_dir, ignore_errors=True)
     text = json.dumps(numbers, indent=2)
-    Path(out, "session.json").write_text(text, encoding="utf-8")
+    Path(out, "example.json").write_text(text, encoding="utf-8")
     print(text, flush=True)
     if args.zip:
         # the bpy module's own teardown after a Workbench render can crash bpy 4.2 (EGL_BAD_MATCH, SIGSEGV)
