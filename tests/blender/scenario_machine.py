@@ -237,4 +237,16 @@ def scenario(bpy, res, args):
                          rotor_hidden=rotor.hide_get(),
                          orphans=dict(meshes=sum(1 for m in bpy.data.meshes if m.users == 0),
                                       actions=sum(1 for a in bpy.data.actions if a.users == 0)))
+
+    # ---------------------------------------------------------------- an analysed mesh knows its extent too
+    copy = bpy.data.objects.new("Analysed Copy", rotor.data.copy())
+    scene.collection.objects.link(copy)
+    bpy.context.view_layer.objects.active = copy
+    t0 = time.perf_counter()
+    ret = driver._run_op(bpy.ops.flank.analyze_rotor)
+    sources = __import__(driver.MODULE + ".operators.sources", fromlist=["x"])
+    src = sources.rotor_source(copy)
+    res["analysed"] = dict(result=ret, kind=src.get("kind") if isinstance(src, dict) else src,
+                           extent=src.get("extent") if isinstance(src, dict) else None,
+                           seconds=time.perf_counter() - t0)
     res["seconds_total"] = time.perf_counter() - t_start

@@ -7,7 +7,6 @@ the program's poses (core reader + forward kinematics) put it relative to the tu
 the program, and every refusal leaves nothing behind."""
 import ast
 import json
-import math
 import shutil
 from pathlib import Path
 
@@ -76,6 +75,11 @@ def test_the_plan_records_the_rotor_extent(mc):
     assert p["result"] == ["FINISHED"], p["error"]
     assert p["unit"] == "mm" and p["strips"] >= 2
     assert p["extent"] == {"z_range": [0.0, 60.0], "shafts": []}
+    # an analysed mesh of the same rotor: its body's axial range from the analysis (mesh rings 2.5 mm apart)
+    a = mc["analysed"]
+    assert a["result"] == [["FINISHED"], None] and a["kind"] == "analyzed"
+    z0, z1 = a["extent"]["z_range"]
+    assert z1 - z0 == pytest.approx(60.0, abs=0.5) and a["extent"]["shafts"] == []
 
 
 def test_post_program_writes_what_the_command_line_writes(mc, cli):
@@ -106,7 +110,7 @@ def test_linuxcnc_reads_the_program_with_the_same_passes_and_cutting_time(mc, cl
     props = mc["post"]["props"]
     assert runs == props["flank_prog_passes"]
     cut_s = 60.0 * rs274_times(moves)
-    assert cut_s == pytest.approx(props["flank_prog_cutting_time_s"], rel=1e-3)
+    assert cut_s == pytest.approx(props["flank_prog_cutting_time_s"], rel=1e-4)
     print("rs274 cutting {:.3f} s, posted {:.3f} s".format(cut_s, props["flank_prog_cutting_time_s"]))
 
 
@@ -227,4 +231,3 @@ def test_the_scenario_stays_quick(mc):
     assert mc["plan"]["seconds"] < 30.0 and mc["seconds_total"] < 90.0
     print("plan {:.1f} s, post {:.1f} s, scenario {:.1f} s".format(mc["plan"]["seconds"], mc["post"]["seconds"],
                                                                     mc["seconds_total"]))
-    assert not math.isnan(mc["post"]["seconds"])
