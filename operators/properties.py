@@ -1,8 +1,9 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The properties of the operators and the scene settings the sidebar shows (``Scene.flank_settings``): each
 planner's property definitions (``*_props()``, fresh on every call: the operator's own properties and the scene
-settings with a prefix), the shared enum items, the Tool panel's dimensions in mm, the flank list and the
-Results legend.
+settings with a prefix), the shared enum items, the Tool panel's dimensions in mm and the tool's cutting data,
+flank.post_program's properties and the Machine panel's settings (machines and posts from the core), the flank
+list and the Results legend.
 
 Property update callbacks import the modules they drive (the guiding preview, the strips list) inside the
 callback; none of those imports this module."""
