@@ -191,6 +191,7 @@ def scenario(bpy, res, args):
                   coll["flank_sf_tool_shank_radius"], coll["flank_sf_tool_shank_length"]]
     core = ms.plan_single_flank(builtin.surface(), builtin.flanks, 1, tool, 1e-3, n_seeds=SEEDS,
                                 max_rounds=ROUNDS, to_world=stored["rotor"]["to_world"])
+    core.plan["rotor"]["extent"] = builtin.extent()     # the planners record the rotor's extent, as the CLI does
     core_plan = json.loads(json.dumps(core.plan))
     worst, bad = _compare(stored, core_plan)
     to_world_diff = float(np.abs(np.array(stored["rotor"]["to_world"]) - np.array(rotor.matrix_world)).max())
