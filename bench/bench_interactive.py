@@ -1,0 +1,164 @@
+"""Interactive speed: what a user's click costs, as the command line runs it.
+
+Each operation runs in a fresh Python process: the time of ``import flank_addon.cli`` is measured and
+left out, then ``cli.main([...])`` is timed (wall clock).  With ``--base DIR`` (a checkout of an earlier
+commit, e.g. ``git worktree add /tmp/base <commit>``) every operation also runs on that tree, alternating
+with this one in the same loop, so both see the same machine load; the figures are the minima over the
+repeats and the ratio of the minima.
+
+    PYTHONPATH=. .venv/bin/python bench/bench_interactive.py [--base /tmp/base] [--repeat 3] [--only NAME,...]
+
+Operations (goals in brackets):
+  double-flank   plan double-flank --builtin asymmetric-female --valley 0 (defaults, with the simulated
+                 errors)                                                                      [0.6 s]
+  verify         verify of that plan (each tree verifies the plan written by the current tree) [0.5 s]
+  single-flank   plan single-flank --mesh of a 349k-triangle left-handed rotor mesh with shafts in an
+                 arbitrary pose, tool D3 L25 2 deg, tolerance 0.05 mm (read + analysis + plan)   [2 s]
+  freeform       plan freeform on the 20,000-triangle bump, 11 strips x 20 rulings x 30 samples  [2 s]
+  two-paths-f / two-paths-m   plan double-flank --two-paths on the asymmetric female / male    [1.5 s]
+"""
+import argparse
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parents[1]
+
+RUNNER = r"""
+import json, sys, time
+t0 = time.perf_counter()
+from flank_addon import cli
+t1 = time.perf_counter()
+import contextlib, io
+with contextlib.redirect_stdout(io.StringIO()) as out:
+    rc = cli.main(json.loads(sys.argv[1]))
+t2 = time.perf_counter()
+print(json.dumps({"import_s": t1 - t0, "run_s": t2 - t1, "rc": rc, "out": out.getvalue()[-2000:]}))
+"""
+
+
+def make_inputs(d):
+    """The rotor mesh (with a point on its flank 0) and the bump mesh, written with this tree's code."""
+    sys.path.insert(0, str(HERE))
+    import numpy as np
+    from scipy.spatial.transform import Rotation
+
+    from flank_addon.geometry.freeform_surfaces import bump
+    from flank_addon.geometry.rotors import builtin_by_name
+    from flank_addon.geometry.screw import screw_motion
+    from flank_addon.io.mesh_files import write_mesh
+
+    rotor = builtin_by_name("srm_a-female", scale=30.0, length=60.0)
+    v, f = rotor.mesh(n_profile=4300, n_axial=41)
+    parts = [(v, f)]
+    R = rotor.profile.outer_radius()
+    th = np.linspace(0, 2 * np.pi, 96, endpoint=False)
+    for z0, z1 in ((-0.8 * R, 0.0), (rotor.length, rotor.length + 1.2 * R)):
+        zs = np.linspace(z0, z1, 4)
+        cv = np.stack([np.tile(0.35 * R * np.cos(th), 4), np.tile(0.35 * R * np.sin(th), 4), np.repeat(zs, 96)], -1)
+        i, j = np.arange(3)[:, None] * 96, np.arange(96)[None, :]
+        a, b = i + j, i + (j + 1) % 96
+        cf = np.concatenate([np.stack([a, b, b + 96], -1).reshape(-1, 3), np.stack([a, b + 96, a + 96], -1).reshape(-1, 3)])
+        parts.append((cv, cf))
+    off, V, F = 0, [], []
+    for pv, pf in parts:
+        V.append(pv)
+        F.append(pf + off)
+        off += len(pv)
+    V, F = np.vstack(V), np.vstack(F)
+    rot = Rotation.random(random_state=11).as_matrix()
+    shift = np.array([40.0, -25.0, 60.0])
+    write_mesh(d / "rotor.stl", V @ rot.T + shift, F)
+    p = np.r_[rotor.profile.eval(np.array([0.45 * rotor.flanks[0][1]]))[0], 0.0]
+    point = screw_motion(p, 30.0 / rotor.v0, rotor.v0, rotor.handedness) @ rot.T + shift
+    S = bump(size=1.0, resolution=100)
+    write_mesh(d / "bump.stl", S.vertices, S.faces)
+    r1, r2, L = 0.01, 0.03, 0.09
+    D = (L * L - (r2 - r1) ** 2) ** 0.5
+    bp = S.point(np.array([[0.0, D / 2]]))[0]
+    return {"rotor_triangles": len(F), "flank_point": ",".join(f"{x:.6f}" for x in point),
+            "bump_triangles": len(S.faces), "bump_point": ",".join(f"{x:.9f}" for x in bp)}
+
+
+def operations(d, info):
+    df = str(d / HERE.name / "df.json")       # verify reads the plan this tree wrote
+    return {
+        "double-flank": ["plan", "double-flank", "--builtin", "asymmetric-female", "--valley", "0", "--out", df],
+        "verify": ["verify", df],
+        "single-flank": ["plan", "single-flank", "--mesh", str(d / "rotor.stl"), "--flank-point", info["flank_point"],
+                         "--tool-r1", "1.5", "--tool-r2", f"{1.5 + 25 * math.tan(math.radians(2)):.6f}",
+                         "--tool-h", "25", "--shank-radius", "3", "--shank-length", "45", "--tolerance", "0.05",
+                         "--out", str(d / "sf.json")],
+        "freeform": ["plan", "freeform", "--mesh", str(d / "bump.stl"), "--direction", "1,0,0", "--point",
+                     info["bump_point"], "--tool-r1", "0.01", "--tool-r2", "0.03", "--tool-length", "0.09",
+                     "--columns", "20", "--samples", "30", "--out", str(d / "ff.json")],
+        "two-paths-f": ["plan", "double-flank", "--builtin", "asymmetric-female", "--valley", "0", "--two-paths",
+                        "--out", str(d / "tp_f.json")],
+        "two-paths-m": ["plan", "double-flank", "--builtin", "asymmetric-male", "--valley", "0", "--two-paths",
+                        "--out", str(d / "tp_m.json")],
+    }
+
+
+GOALS = {"double-flank": 0.6, "verify": 0.5, "single-flank": 2.0, "freeform": 2.0, "two-paths-f": 1.5,
+         "two-paths-m": 1.5}
+
+
+def run(tree, argv, out_dir):
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    if argv[0] == "plan":       # each tree writes its own plans
+        argv = argv[:-1] + [str(out_dir / tree.name / Path(argv[-1]).name)]
+    p = subprocess.run([sys.executable, "-c", RUNNER, json.dumps(argv)], env=env, cwd=str(tree),
+                       capture_output=True, text=True)
+    if p.returncode != 0:
+        raise RuntimeError(f"{tree}: {' '.join(argv)} failed:\n{p.stderr[-3000:]}")
+    res = json.loads(p.stdout.strip().splitlines()[-1])
+    if res["rc"] != 0:
+        raise RuntimeError(f"{tree}: {' '.join(argv)} returned {res['rc']}:\n{res['out']}")
+    return res
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--base", help="checkout of the previous implementation, run side by side")
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--only", default="", help="comma-separated operation names")
+    ap.add_argument("--show", action="store_true", help="print each run's output (last lines)")
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        info = make_inputs(d)
+        print(f"rotor mesh {info['rotor_triangles']} triangles; bump {info['bump_triangles']} triangles")
+        trees = [HERE] + ([Path(args.base).resolve()] if args.base else [])
+        for t in trees:
+            (d / t.name).mkdir(exist_ok=True)
+        ops = operations(d, info)
+        names = [n for n in ops if not args.only or n in args.only.split(",")]
+        if "verify" in names and "double-flank" not in names:    # the verified plan is the current tree's
+            run(HERE, ops["double-flank"], d)
+        print(f"{'operation':14s} {'this tree (s)':>22s} {'import':>7s}" + (f" {'base (s)':>22s} {'ratio':>6s}"
+                                                                          if args.base else "") + "  goal")
+        for name in names:
+            times = {t: [] for t in trees}
+            imports = []
+            for _ in range(args.repeat):
+                for t in trees:
+                    r = run(t, ops[name], d)
+                    times[t].append(r["run_s"])
+                    if t == HERE:
+                        imports.append(r["import_s"])
+                        if args.show:
+                            print(r["out"])
+            cur = times[HERE]
+            line = f"{name:14s} {min(cur):8.3f} ({max(cur):6.3f} max) {min(imports):7.3f}"
+            if args.base:
+                b = times[trees[1]]
+                line += f" {min(b):8.3f} ({max(b):6.3f} max) {min(b) / min(cur):5.1f}x"
+            print(line + f"  {GOALS[name]:.1f}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
