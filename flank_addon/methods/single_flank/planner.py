@@ -1,19 +1,26 @@
-"""Multi-strip single-flank milling of one helical flank with a given cone, to a tolerance
+"""Multi-strip single-flank milling of one helical flank with given cones, to a tolerance
 (Bizzarri, Bo & Bartoň §5-6: optimised candidate strips, envelope coverage, minimum strip set, global collisions).
 
-Pipeline of :func:`plan_single_flank`:
+Pipeline of :func:`plan_single_flank`, for each tool in turn (the largest first; a later tool only where the
+earlier ones left the flank uncovered):
 
-1. candidates: for profile parameters of the flank, the §5.1 seeds of :mod:`.poses` (line
-   contact at hyperbolic points, tangential contact elsewhere), optimised by Phi1 (Eq. 25) or Phi3
-   (Eq. 31), by default in the hard non-overcutting mode (Eq. 30 style);
-2. global collision (§5.5, :mod:`collision`): tool and shank against every lobe of the rotor;
+1. seeds (:func:`.poses.clear_seeds`): at profile parameters of the flank, the §5.1 seed of :mod:`.poses`
+   (line contact at hyperbolic points, tangential contact elsewhere) or, where that pose buries the tool in
+   the rotor, the tangential contact of another ruling direction or with the contact nearer the tip;
+2. candidates: the seeds optimised by Phi1 (Eq. 25) or Phi3 (Eq. 31), by default in the hard non-overcutting
+   mode (Eq. 30 style) with the tool's and shank's clearance from the whole rotor as constraints
+   (:class:`.poses.RotorClearance`) and each seed's contact kept (``pin``);
+3. global collision (§5.5, :mod:`collision`): tool and shank against every lobe of the rotor, exactly;
    colliding candidates are dropped and listed with where they collide;
-3. coverage (:mod:`.strip_cover`): the flank interval each candidate's envelope holds within
-   [-eps_over, eps], a minimum-cardinality interval cover, new seeds in the gaps (Bizzarri, Bo & Bartoň §6.1) until
-   the flank is covered or the rounds run out; what stays uncovered is reported as ranges;
-4. the plan (flank-plan/1) of the chosen strips, simulated with the :mod:`verify` engine so the
-   reported errors are the machined ones, and the kink angles at the junctions of neighbouring
-   strips (Bizzarri, Bo & Bartoň §7, Rajain et al. 2023's G1 idea).
+4. coverage (:mod:`.strip_cover`): the flank interval each candidate's envelope holds within
+   [-eps_over, eps], a minimum-cardinality interval cover, new seeds in its gaps (Bizzarri, Bo & Bartoň §6.1,
+   as many as the tool's strip width says each gap needs) until the flank is covered or no gap gets a new
+   seed; what stays is the next tool's target;
+5. the plan (flank-plan/1) of the chosen strips (each with its tool when there are several), simulated with
+   the :mod:`verify` engine so the reported errors are the machined ones; the verified share of the flank
+   within tolerance and the uncovered ranges with their reasons (:mod:`.residual`) and, where the geometry
+   proves that no tool of the catalogue can do better, the bound (:mod:`.reach`); the kink angles at the
+   junctions of neighbouring strips (Bizzarri, Bo & Bartoň §7, Rajain et al. 2023's G1 idea).
 """
 import math
 import time
@@ -23,17 +30,20 @@ import numpy as np
 
 from ...tooling.cone import ConeTool
 from ...progress import reporter
-from .poses import PoseEvaluator, candidate_strips, initial_positions, single_flank_plan
+from .poses import PoseEvaluator, RotorClearance, candidate_strips, clear_seeds, single_flank_plan
 
 
 @dataclass
 class SingleFlankResult:
     """plan: flank-plan/1 dict; strips: the chosen :class:`.poses.CandidateStrip` in flank
     order; candidates: every optimised candidate (collision-free or not); collisions: per colliding
-    candidate {"u", "collisions": [...]}; uncovered: flank parameter ranges outside the tolerance
-    band; junctions: per neighbouring pair the kink angles (degrees) where their envelopes meet;
-    deviation: (u (N,), deviation (N,)) of the chosen strips along the flank profile (Bizzarri, Bo & Bartoň Fig. 11c);
-    verify: the sweep simulation of the plan (:func:`verify.verify_plan`); timings in seconds."""
+    candidate {"u", "tool", "collisions": [...]}; uncovered: flank parameter ranges outside the tolerance
+    band (verified); residual: one dict per uncovered range (index, parameter and arc-length range, kind,
+    reason per tool, the bound where proven); covered_fraction: verified share of the flank's arc length
+    within tolerance; junctions: per neighbouring pair the kink angles (degrees) where their envelopes meet;
+    deviation: (u (N,), deviation (N,)) of the chosen strips along the flank profile (Bizzarri, Bo & Bartoň
+    Fig. 11c); verify: the sweep simulation of the plan (:func:`verify.verify_plan`); tools: per tool its
+    name, cone, strips chosen and seeds tried; timings in seconds."""
     plan: dict
     strips: list
     candidates: list
@@ -44,6 +54,9 @@ class SingleFlankResult:
     verify: dict
     rounds: list
     timings: dict = field(default_factory=dict)
+    residual: list = field(default_factory=list)
+    covered_fraction: float = 0.0
+    tools: list = field(default_factory=list)
 
     @property
     def complete(self):
@@ -66,20 +79,133 @@ def _merge_ranges(ranges):
     return out
 
 
-def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tolerance=None, n_seeds=18,
-                      objective="phi1", mode="hard", max_rounds=4, n_profile=2048, n_cover=500,
+def _polygon_sagitta(points):
+    """Largest distance of a closed polygon's vertices from the chord of their neighbours, a quarter of it:
+    about the distance between the polygon and the smooth profile it samples (the collision test's point in
+    polygon decides inside / outside by the polygon)."""
+    P = np.asarray(points, float)
+    a, b = np.roll(P, 1, axis=0), np.roll(P, -1, axis=0)
+    ab = b - a
+    L = np.linalg.norm(ab, axis=1)
+    cross = np.abs(ab[:, 0] * (P - a)[:, 1] - ab[:, 1] * (P - a)[:, 0])
+    return 0.25 * float(np.max(cross / np.maximum(L, 1e-300)))
+
+
+def _named_tools(tool, names=None):
+    """[(name, ConeTool), ...] of one cone, a list of cones or of (name, cone) pairs."""
+    items = tool if isinstance(tool, (list, tuple)) and not isinstance(tool, ConeTool) else [tool]
+    out = []
+    for k, it in enumerate(items):
+        name, t = (it if isinstance(it, tuple) else (None, it))
+        if not isinstance(t, ConeTool):
+            raise ValueError(f"tool must be a ConeTool, got {type(t).__name__}")
+        if names is not None and k < len(names):
+            name = names[k]
+        out.append((name or f"tool {k + 1}", t))
+    if not out:
+        raise ValueError("no tool given")
+    return out
+
+
+class _ToolRun:
+    """Candidates of one tool on the flank, for :func:`.strip_cover.adaptive_cover`: seeds chosen with the
+    clearance in view, optimised, collision-checked; every seed is logged with what became of it."""
+
+    def __init__(self, index, name, tool, surface, u_range, flank, objective, mode, optimizer, clearance, pin,
+                 check, collide_args, timings, report, stage):
+        self.index, self.name, self.tool = index, name, tool
+        clr = RotorClearance.for_tool(surface, u_range, tool) if clearance else None
+        self.ev = PoseEvaluator(surface, u_range, tool, clearance=clr)
+        self.surface, self.u_range, self.flank = surface, u_range, flank
+        self.objective, self.mode, self.optimizer, self.pin = objective, mode, optimizer, pin
+        self.check, self.collide_args = check, collide_args
+        self.timings, self.report, self.stage = timings, report, stage
+        self.candidates, self.collisions, self.log = [], [], []
+        self.calls = 0
+        self.buried = float("inf")
+        self.flank_ranges = None
+
+    def __call__(self, us):
+        from ...simulation.collision import check_collisions as collide
+
+        lo, hi = self.stage
+        self.report(lo + (hi - lo) * min(self.calls / 6.0, 1.0),
+                    f"{self.name}: optimising {len(us)} candidate strips (round {self.calls + 1})")
+        self.calls += 1
+        ts = time.perf_counter()
+        seeds = clear_seeds(self.ev, us) if self.ev.clearance is not None else [None] * len(us)
+        if self.ev.clearance is None:
+            from .poses import initial_positions
+            per = initial_positions(self.surface, self.u_range, self.tool, u=np.asarray(us, float), feet=self.ev.feet)
+            seeds = [c[0] if c else None for c in per]
+        entries = []
+        for u, sd in zip(us, seeds):
+            e = {"tool": self.index, "u": float(u), "status": "no pose" if sd is None else None, "seed": sd}
+            if sd is not None and sd.blocked is not None and sd.clearance < 0:
+                e.update(seed_depth=sd.blocked["depth"], seed_part=sd.blocked["part"], seed_u=sd.blocked["u"])
+            entries.append(e)
+        self.log += entries
+        # a seed whose best pose is buried deeper than the tolerance cannot touch the flank here: the
+        # optimiser would only lift it off (logged as such, not optimised)
+        for e in entries:
+            sd = e["seed"]
+            if sd is not None and self.ev.clearance is not None and sd.clearance < -self.buried:
+                f = _flank_of_u(sd.blocked["u"], self.flank_ranges, self.surface)
+                e.update(status="held off", depth=sd.blocked["depth"], part=sd.blocked["part"], flank=f,
+                         deviation=None)
+                e["seed"] = None
+                self.collisions.append({"u": e["u"], "tool": self.name, "collisions": [
+                    {"part": sd.blocked["part"], "source": "clearance", "flank": int(f), "valley": int(f // 2),
+                     "target": f == self.flank, "depth": float(sd.blocked["depth"]),
+                     "orientations": int(sd.blocked["variants"])}]})
+        live = [e for e in entries if e["seed"] is not None]
+        cands = candidate_strips(self.surface, self.u_range, self.tool, seeds=[e["seed"] for e in live],
+                                 objective=self.objective, mode=self.mode, evaluator=self.ev, flank=self.flank,
+                                 optimizer=self.optimizer, pin_contact=self.pin and self.optimizer is None) \
+            if live else []
+        self.timings["candidates"] += time.perf_counter() - ts
+        ts = time.perf_counter()
+        out = []
+        reps = collide([c.pose for c in cands], **self.collide_args) if (self.check and cands) else [None] * len(cands)
+        for e, c, rep in zip(live, cands, reps):
+            e["candidate"] = c
+            c.tool_index = self.index
+            if rep is not None and rep.collides:
+                worst = max(rep.collisions, key=lambda x: x["depth"])
+                e.update(status="collides", depth=float(worst["depth"]), part=worst["part"], flank=int(worst["flank"]))
+                self.collisions.append({"u": float(c.seed.u), "tool": self.name, "collisions": rep.collisions})
+            else:
+                c.pose.candidate = c          # the cover hands poses back: keep the way to the strip
+                e["pose"] = c.pose
+                out.append(c.pose)
+        self.timings["collision"] += time.perf_counter() - ts
+        self.candidates += cands
+        return out
+
+
+def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tolerance=None, n_seeds=None,
+                      objective="phi1", mode="hard", max_rounds=None, n_profile=2048, n_cover=500,
                       to_world=None, length_unit="R", check_collisions=True, z_range=None, g1=False,
                       g1_weight=1.0, g1_extra_strips=2, g1_target_deg=1.0, g1_rounds=2, optimizer=None,
-                      progress=None):
-    """Plan strips of the cone ``tool`` (:class:`cone.ConeTool`) on flank index ``flank`` so the
-    machined flank stays within [-overcut_tolerance, tolerance] of the design (signed, + = stock).
+                      progress=None, clearance=None, pin=True, targets=None, max_seeds=400, tool_names=None,
+                      bound_radius=None, explain=True):
+    """Plan strips of the cone ``tool`` (:class:`cone.ConeTool`) -- or of several: a list of cones or of
+    (name, cone) pairs, tried in that order, each on what the earlier ones left -- on flank index ``flank``
+    so the machined flank stays within [-overcut_tolerance, tolerance] of the design (signed, + = stock).
 
     surface: :class:`HelicalSurface`; flank_ranges: the rotor's flank parameter ranges
-    (``Rotor.flanks`` or ``RotorAnalysis`` flanks); n_seeds: first-round seeds (uniform along the
-    flank profile); objective 'phi1' | 'phi3'; mode 'hard' (no overcut along the axis) | 'weighted'
-    (w = 100, Remark 5.1); overcut_tolerance defaults to 1e-6 R.  z_range: the z slab the finite rotor
+    (``Rotor.flanks`` or ``RotorAnalysis`` flanks); n_seeds: first-round seeds (uniform along the flank
+    profile; default 8, or the given count), later rounds seed the gaps as densely as the tool's strips
+    need (:func:`.strip_cover.adaptive_cover`) for at most ``max_rounds`` rounds (default 10) and
+    ``max_seeds`` seeds per tool; objective 'phi1' | 'phi3'; mode 'hard' (no overcut along the axis) |
+    'weighted' (w = 100, Remark 5.1); overcut_tolerance defaults to 1e-6 R.  ``clearance`` (default: with
+    the collision check) keeps tool and shank out of the whole rotor inside the optimisation (hard mode);
+    ``pin`` keeps each seed's contact.  ``targets``: parameter ranges of the flank to cover (default all of
+    it; e.g. one part of the hyperbolic / elliptic split).  z_range: the z slab the finite rotor
     occupies over the whole pass (None = an infinite rotor; a slab that is too short hides
-    collisions, see :func:`collision.check_collisions`).  With ``g1`` (when the flank is covered):
+    collisions, see :func:`collision.check_collisions`).  ``bound_radius``: the smallest tip sphere r1S the
+    proven bound of an uncovered range is stated for (default the smallest of the given tools; pass the
+    catalogue's smallest).  With ``g1`` (one tool, when the flank is covered):
     first the smoothest cover with at most ``g1_extra_strips`` more strips than the minimum is
     chosen (:func:`.strip_cover.smooth_cover`), seeding new candidates between neighbours whose
     junction kinks more than ``g1_target_deg`` for ``g1_rounds`` rounds, and kept if its largest
@@ -90,13 +216,11 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
     the paper's gradient descent).  ``progress``: None or ``progress(fraction, message)``; returning
     False cancels (:class:`progress.Cancelled` is raised, nothing is returned).  Returns
     :class:`SingleFlankResult`."""
-    from ...simulation.collision import check_collisions as collide
-    from .strip_cover import adaptive_cover, junction_kinks_chain
+    from .strip_cover import adaptive_cover, flank_samples, junction_kinks_chain, minimum_interval_cover
     from ...simulation.verify import verify_plan
 
     t0 = time.perf_counter()
-    if not isinstance(tool, ConeTool):
-        raise ValueError(f"tool must be a ConeTool, got {type(tool).__name__}")
+    tools = _named_tools(tool, tool_names)
     R = float(surface.outer_radius)
     tol = float(tolerance)
     if not (math.isfinite(tol) and 0 < tol < 0.5 * R):
@@ -106,8 +230,10 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
         raise ValueError(f"overcut tolerance {overcut_tolerance} is outside the limits [0, {0.5 * R:g})")
     if not 0 <= int(flank) < len(flank_ranges):
         raise ValueError(f"flank {flank} does not exist: the rotor has flanks 0..{len(flank_ranges) - 1}")
-    if not 1 <= int(n_seeds) <= 400:
+    if n_seeds is not None and not 1 <= int(n_seeds) <= 400:
         raise ValueError(f"seeds {n_seeds} is outside the limits 1..400")
+    if max_rounds is not None and not 1 <= int(max_rounds) <= 100:
+        raise ValueError(f"rounds {max_rounds} is outside the limits 1..100")
     if objective not in ("phi1", "phi3"):
         raise ValueError(f"objective {objective!r} is not one of phi1, phi3")
     if mode not in ("hard", "weighted"):
@@ -115,90 +241,110 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
     if not 0 <= int(g1_extra_strips) <= 50:
         raise ValueError(f"g1 extra strips {g1_extra_strips} is outside the limits 0..50")
     flank = int(flank)
+    n_seeds = 8 if n_seeds is None else int(n_seeds)
+    max_rounds = 10 if max_rounds is None else int(max_rounds)
+    clearance = bool(check_collisions) if clearance is None else bool(clearance)
     report = reporter(progress)
     report(0.0, "preparing the flank")
     u_range = tuple(float(v) for v in flank_ranges[flank])
-    ev = PoseEvaluator(surface, u_range, tool)
     prof_pts = surface.profile.sample(n_profile)
     idx_ranges = _flank_index_ranges(surface, flank_ranges, n_profile)
+    # the point-in-polygon part of the exact test decides by the polygon: a cone that only touches the
+    # target flank may sit inside it by the polygon's sagitta (its real overcut is the coverage's business)
+    collide_args = dict(profile_points=prof_pts, v0=surface.v0, handedness=surface.handedness, flanks=idx_ranges,
+                        target_flanks=(flank,), tolerance=max(eps_over, 2.0 * _polygon_sagitta(prof_pts)),
+                        z_range=z_range, model="spheres")
     timings = {"candidates": 0.0, "collision": 0.0}
-    all_cands, collisions = [], []
-
-    stage = {"calls": 0}
+    fs = flank_samples(surface, u_range, n_cover)
+    all_targets = [tuple(map(float, t)) for t in (targets or [u_range])]
+    remaining = list(all_targets)
+    chosen, chosen_cov, runs, rounds, covers = [], [], [], [], []
     cand_end = 0.6 if g1 else 0.75
-
-    def make_candidates(us):
-        # the cover asks at most max_rounds times (and the G1 stage g1_rounds more)
-        k = stage["calls"]
-        stage["calls"] += 1
-        frac = 0.02 + (cand_end - 0.02) * min(k / max(1, max_rounds + (g1_rounds if g1 else 0)), 1.0)
-        report(frac, f"optimising {len(us)} candidate strips (round {k + 1})")
-        ts = time.perf_counter()
-        per = initial_positions(surface, u_range, tool, u=np.asarray(us, float), feet=ev.feet)
-        seeds = [c[0] for c in per if c]
-        cands = candidate_strips(surface, u_range, tool, seeds=seeds, objective=objective, mode=mode,
-                                 evaluator=ev, flank=flank, optimizer=optimizer) if seeds else []
-        timings["candidates"] += time.perf_counter() - ts
-        if not cands:
-            return []
-        ts = time.perf_counter()
-        ok = [True] * len(cands)
-        if check_collisions:
-            reps = collide([c.pose for c in cands], prof_pts, surface.v0, surface.handedness, idx_ranges,
-                           target_flanks=(flank,), tolerance=eps_over, z_range=z_range, model="spheres")
-            for j, (c, rep) in enumerate(zip(cands, reps)):
-                if rep.collides:
-                    ok[j] = False
-                    collisions.append({"u": float(c.seed.u), "collisions": rep.collisions})
-        timings["collision"] += time.perf_counter() - ts
-        all_cands.extend(cands)
-        out = []
-        for c, good in zip(cands, ok):
-            if good:
-                c.pose.candidate = c          # the cover hands poses back: keep the way to the strip
-                out.append(c.pose)
-        return out
-
-    us0 = np.linspace(u_range[0], u_range[1], int(n_seeds) + 2)[1:-1]
-    ts = time.perf_counter()
-    cover = adaptive_cover(make_candidates, surface, u_range, tol, eps_over, seeds=list(us0),
-                           max_rounds=max_rounds, n=n_cover)
-    timings["cover"] = time.perf_counter() - ts - timings["candidates"] - timings["collision"]
+    ts0 = time.perf_counter()
+    for ti, (name, t) in enumerate(tools):
+        if not remaining:
+            break
+        share = (cand_end - 0.02) / len(tools)
+        run = _ToolRun(ti, name, t, surface, u_range, flank, objective, mode, optimizer, clearance, pin,
+                       check_collisions, collide_args, timings, report, (0.02 + ti * share, 0.02 + (ti + 1) * share))
+        run.buried, run.flank_ranges = tol, flank_ranges
+        runs.append(run)
+        cover = adaptive_cover(run, surface, u_range, tol, eps_over, n_seeds=n_seeds, max_rounds=max_rounds,
+                               samples=fs, targets=remaining, max_seeds=max_seeds)
+        covers.append(cover)
+        rounds += [dict(r, tool=name) for r in cover.rounds]
+        # what became of each seed: covered at its parameter, overcutting, leaving material there
+        cov_of = {id(p): pc for p, pc in zip(cover.candidates, cover.coverage)}
+        for e in run.log:
+            if e["status"] is not None:
+                continue
+            pc = cov_of.get(id(e.get("pose")))
+            if pc is None:
+                continue
+            dev = float(np.interp(e["u"], fs.u, np.where(np.isfinite(pc.deviation), pc.deviation, 1e300)))
+            if not pc.admissible:
+                e.update(status="overcuts", depth=pc.max_overcut)
+            elif -eps_over <= dev <= tol:
+                e.update(status="covers", deviation=dev)
+            elif e.get("seed_depth") is not None:
+                e.update(status="held off", deviation=dev if dev < 1e299 else None, depth=e["seed_depth"],
+                         part=e["seed_part"], flank=_flank_of_u(e["seed_u"], flank_ranges, surface))
+            else:
+                e.update(status="leaves", deviation=dev if dev < 1e299 else None)
+        for p, pc in zip(cover.poses, cover.chosen_coverage):
+            chosen.append(p.candidate)
+            chosen_cov.append(pc)
+        flat = [iv for pc in chosen_cov for iv in pc.intervals]
+        remaining = [g for a, b in all_targets for g in minimum_interval_cover(flat, a, b).gaps]
+    timings["cover"] = time.perf_counter() - ts0 - timings["candidates"] - timings["collision"]
+    for run in runs:
+        for e in run.log:
+            if e.get("flank") is not None:
+                e["relation"] = _relation(e["flank"], flank)
     # flank order: by the start of each chosen pose's first covered interval
-    order = sorted(range(len(cover.poses)),
-                   key=lambda i: min((iv[0] for iv in cover.intervals[i]), default=math.inf))
-    chosen = [cover.poses[i].candidate for i in order]
-    uncovered = _merge_ranges([tuple(map(float, g)) for g in list(cover.gaps) + list(cover.uncovered)])
+    order = sorted(range(len(chosen)), key=lambda i: min((iv[0] for iv in chosen_cov[i].intervals), default=math.inf))
+    chosen = [chosen[i] for i in order]
+    chosen_cov = [chosen_cov[i] for i in order]
+    dev_union = np.min([pc.deviation for pc in chosen_cov], axis=0) if chosen_cov else np.full(len(fs.u), np.inf)
 
     def kinks(strips, deviations=None):
-        chain = junction_kinks_chain([c.pose for c in strips], surface, u_range, samples=cover.samples,
-                                     deviations=deviations)
+        chain = junction_kinks_chain([c.pose for c in strips], surface, u_range, samples=fs, deviations=deviations)
         return [[{"u": float(j.u), "kink_deg": float(j.kink_deg)} for j in js] for js in chain]
 
     report(cand_end, "junction kinks")
     ts = time.perf_counter()
-    # the cover stage already has each chosen strip's deviation at the flank samples
-    devs = np.array([cover.chosen_coverage[i].deviation for i in order]) if len(order) > 1 else None
+    devs = np.array([pc.deviation for pc in chosen_cov]) if len(chosen) > 1 else None
     junctions = kinks(chosen, devs)
     timings["junctions"] = time.perf_counter() - ts
     g1_report = None
     selection = None
-    if g1 and len(chosen) > 1:
+    used = sorted({c.tool_index for c in chosen})
+    if g1 and len(chosen) > 1 and len(used) == 1 and len(runs) == 1:
         ts = time.perf_counter()
-        chosen, junctions, selection = _smooth_selection(cover, chosen, junctions, make_candidates, surface,
+        chosen, junctions, selection = _smooth_selection(covers[0], chosen, junctions, runs[0], surface,
                                                          u_range, tol, eps_over, int(g1_extra_strips),
                                                          float(g1_target_deg), int(g1_rounds), kinks)
         timings["g1_selection"] = time.perf_counter() - ts
-    if g1 and len(chosen) > 1:
+    if g1 and len(chosen) > 1 and len(used) == 1 and len(runs) == 1:
         report(0.7, "G1: tangency refinement")
         ts = time.perf_counter()
-        chosen, junctions, g1_report = _apply_g1(chosen, junctions, ev, cover.samples, surface, tol, eps_over,
+        chosen, junctions, g1_report = _apply_g1(chosen, junctions, runs[0].ev, fs, surface, tol, eps_over,
                                                  float(g1_weight), kinks)
         timings["g1"] = time.perf_counter() - ts
 
-    plan = single_flank_plan(surface, flank_ranges, flank, chosen, tool, to_world=to_world,
+    used = sorted({c.tool_index for c in chosen})
+    first = tools[used[0]][1] if used else tools[0][1]
+    first_name = tools[used[0]][0] if used else tools[0][0]
+    plan = single_flank_plan(surface, flank_ranges, flank, chosen, first, to_world=to_world,
                              length_unit=length_unit, n_profile=n_profile,
                              method=f"single-flank-cone-{objective}-{mode}")
+    named = tool_names is not None or len(tools) > 1
+    if named:
+        plan["tool"]["name"] = first_name
+    if len(used) > 1:          # several tools: each strip carries its own (same form as the plan's tool)
+        for st, c in zip(plan["strips"], chosen):
+            nm, t = tools[c.tool_index]
+            st["tool"] = dict(t.as_dict(), name=nm)
     plan["tolerance"] = tol
     plan["overcut_tolerance"] = eps_over
     report(0.85, "verifying the plan (sweep simulation)")
@@ -211,21 +357,105 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
             st["reported_max_error"], st["reported_min_error"] = vs["max_error"], vs["min_error"]
         st["collision"] = bool(vs["collision"])
     from ...io.plan import summarize
+    from .residual import explain_range, verified_coverage
+
+    ts = time.perf_counter()
+    per = float(surface.profile.period)
+    frac, runs_unc = verified_coverage(plan, ver, flank, tol, eps_over, period=per)
+    uncovered = []
+    residual = []
+    logs = [e for run in runs for e in run.log]
+    margin = 0.5 * (u_range[1] - u_range[0]) / max(1, len(fs.u) - 1)
+    r_bound = float(bound_radius) if bound_radius is not None else min(t.r1s for _, t in tools)
+    for ru in runs_unc:
+        # the plan's profile index i is the parameter i * period / n_profile of the surface's profile
+        a, b = ru["u_range"]
+        a, b = _unwrap(a, u_range, per), _unwrap(b, u_range, per)
+        ru["u_range"] = [a, b]
+        uncovered.append((a, b))
+        if explain:
+            per_tool, text = explain_range(ru, logs, [nm for nm, _ in tools[:len(runs)]], tol, length_unit,
+                                           margin)
+            ru["tools"] = per_tool
+            ru["reason"] = text
+            ru["bound"] = _bound(surface, a, b, r_bound, tol + eps_over)
+            if ru["bound"]["proven"]:
+                bd = ru["bound"]
+                ru["reason"] += (f"; proven: no tool whose smallest sphere has radius >= {r_bound:.4g} {length_unit} "
+                                 f"can mill u in [{bd['u_range'][0]:.6g}, {bd['u_range'][1]:.6g}] within the "
+                                 f"tolerance: each of its balls that comes within {tol + eps_over:.3g} of the flank "
+                                 f"there enters the rotor by at least {bd['depth_min']:.3g} {length_unit}")
+        residual.append(ru)
+    timings["residual"] = time.perf_counter() - ts
     timings["total"] = time.perf_counter() - t0
     plan["summary"] = summarize(plan["strips"], timings["total"])
     fin = ver["max_undercut"], ver["max_overcut"]
     if fin[0] is not None:
         plan["summary"]["max_error"], plan["summary"]["min_error"] = fin[0], fin[1]
+    plan["summary"]["covered_fraction"] = frac
     plan["summary"]["uncovered_ranges"] = [list(g) for g in uncovered]
+    plan["summary"]["uncovered"] = [_json_range(ru) for ru in residual]
     plan["summary"]["junction_kinks_deg"] = [[j["kink_deg"] for j in js] for js in junctions]
+    tool_rows = []
+    for ti, (nm, t) in enumerate(tools):
+        run = runs[ti] if ti < len(runs) else None
+        tool_rows.append({"name": nm, "tool": t.as_dict(), "strips": sum(1 for c in chosen if c.tool_index == ti),
+                          "seeds": 0 if run is None else len(run.log),
+                          "candidates": 0 if run is None else len(run.candidates),
+                          "collisions_excluded": 0 if run is None else len(run.collisions)})
+    if len(tools) > 1 or tool_names is not None:
+        plan["summary"]["tools"] = [{k: v for k, v in row.items() if k != "tool"} for row in tool_rows]
     if g1_report is not None:
         g1_report["selection"] = selection
         plan["summary"]["g1"] = g1_report
     report(1.0, "done")
-    return SingleFlankResult(plan=plan, strips=chosen, candidates=all_cands, collisions=collisions,
-                             uncovered=uncovered, junctions=junctions,
-                             deviation=(cover.samples.u, cover.deviation), verify=ver, rounds=cover.rounds,
-                             timings=timings)
+    return SingleFlankResult(plan=plan, strips=chosen, candidates=[c for run in runs for c in run.candidates],
+                             collisions=[c for run in runs for c in run.collisions], uncovered=uncovered,
+                             junctions=junctions, deviation=(fs.u, dev_union), verify=ver, rounds=rounds,
+                             timings=timings, residual=residual, covered_fraction=frac, tools=tool_rows)
+
+
+def _unwrap(u, u_range, per):
+    """Profile parameter u moved by whole periods into (or nearest to) the flank's range."""
+    a, b = u_range
+    k = math.floor((a - u) / per + 0.5)
+    v = u + k * per
+    if v < a - 0.5 * per:
+        v += per
+    return float(v)
+
+
+def _flank_of_u(u, flank_ranges, surface):
+    from .residual import flank_index
+
+    return flank_index(u, flank_ranges, float(surface.profile.period))
+
+
+def _relation(f, target):
+    from .residual import flank_relation
+
+    return flank_relation(int(f), int(target))
+
+
+def _bound(surface, a, b, radius, slack, n=9):
+    """:func:`.reach.room_bound` at n samples of [a, b]: whether (and where) it proves the range unreachable."""
+    from .reach import room_bound
+
+    u = np.linspace(a, b, n) if b > a else np.array([a])
+    rb = room_bound(surface, u, radius, slack)
+    if not rb.proven.any():
+        return {"proven": False, "radius": float(radius), "samples": int(len(u))}
+    up = u[rb.proven]
+    return {"proven": True, "radius": float(radius), "samples": int(len(u)), "proven_samples": int(rb.proven.sum()),
+            "u_range": [float(up.min()), float(up.max())], "depth_min": float(rb.depth[rb.proven].min()),
+            "depth_max": float(rb.depth[rb.proven].max())}
+
+
+def _json_range(ru):
+    out = {k: v for k, v in ru.items() if k != "tools"}
+    if "tools" in ru:
+        out["tools"] = [{k: v for k, v in t.items()} for t in ru["tools"]]
+    return out
 
 
 def envelope_strip(candidate, surface, u_range, z_range=(0.0, 1.0), n_s=60, n_t=48, evaluator=None):

@@ -74,6 +74,7 @@ from ...simulation.sweep import false_position, illinois_update
 OBJECTIVES = ("phi1", "phi3")
 MODES = ("weighted", "hard")
 W_OVERCUT = 100.0
+PIN_WEIGHT = 4.0      # weight of the contact sphere's error in the objective of a pinned pose (the mean is 1)
 
 
 # ============================================================================ pose parameters (Eq. 8)
@@ -136,12 +137,13 @@ def axis_and_jacobian(X, s, L):
     return pts, J, a, da
 
 
-def mid_radius(X, L):
-    """Distance of the axis midpoint o(1/2) from the helical axis (screw-invariant) and its gradient
-    (N, 4) w.r.t. the Eq. (8) parameters: sqrt(delta^2 + (rho + L/2)^2 cos^2 beta)."""
+def mid_radius(X, L, s=0.5):
+    """Distance of the axis point o(s) (default the midpoint) from the helical axis (screw-invariant) and
+    its gradient (N, 4) w.r.t. the Eq. (8) parameters: sqrt(delta^2 + (rho + s L)^2 cos^2 beta).  ``s``: one
+    axis parameter or one per row."""
     X = np.atleast_2d(X)
     de, rho, be = X[:, 0], X[:, 1], X[:, 2]
-    w = rho + 0.5 * L
+    w = rho + np.asarray(s, float) * L
     cb, sb = np.cos(be), np.sin(be)
     r = np.sqrt(de ** 2 + (w * cb) ** 2)
     g = np.stack([de / r, w * cb ** 2 / r, -w * w * cb * sb / r, np.zeros_like(r)], -1)
@@ -262,6 +264,9 @@ class SeedPose:
     phi: float = float("nan")
     rank: int = 0
     sample: int = 0
+    contact_s: float = 0.5          # axis parameter of the sphere that touches the flank at ``point``
+    clearance: float = float("nan")  # smallest clearance row of :func:`clear_seeds` (< 0: buried somewhere)
+    blocked: dict = None             # where that row is: part ("cone" | "shank"), foot parameter u, depth
 
 
 def _contact_axes(frame, r_mid, alpha):
@@ -353,6 +358,81 @@ def initial_positions(surface, u_range, tool, n_samples=18, along="profile", fee
     return out
 
 
+def clear_seeds(ev, u, contacts=(0.5, 0.25, 0.0), n_turns=12, w=W_OVERCUT, n_rank=33, prefer_paper=True):
+    """One initial pose per profile parameter u (M,), chosen with the tool's clearance from the whole rotor
+    (:class:`RotorClearance` of ``ev``) in view: Bizzarri, Bo & Bartoň §5.1 places the middle sphere in
+    second-order line contact, which in a narrow valley or with a shank wider than the cone can bury the
+    tool in the opposite flank or the shank in its own flank.  Candidates at each sample: the §5.1 seeds of
+    :func:`initial_positions`, then tangential contacts (the cone's sphere at axis parameter s_c touches the
+    flank at the sample, the axis a = sin(alpha) n + cos(alpha) g for ``n_turns`` ruling directions g of the
+    tangent plane) for every s_c in ``contacts`` (0: the tip circle touches, the flutes and shank lean out of
+    the valley), all kept only if they satisfy Eq. (24).  Clearance of a candidate: the smallest value of
+    the clearance rows away from the cone's own contact with the target flank (the optimisation removes an
+    overcut of the target flank, not a tool buried in another one).  Chosen: the first §5.1 seed that is
+    clear (``prefer_paper``), else the clear candidate of smallest Phi1 (Eq. (25) on ``n_rank`` axis samples),
+    else the one of largest clearance.  Returns a list (M,) of :class:`SeedPose` or None (no candidate)."""
+    surface, tool = ev.surface, ev.tool
+    us = np.atleast_1d(np.asarray(u, float))
+    paper = initial_positions(surface, ev.u_range, tool, u=us, feet=ev.feet, n_rank=n_rank, w=w)
+    if ev.clearance is None:
+        return [c[0] if c else None for c in paper]
+    fr = principal_frame(surface, us)
+    L, sa, ca = tool.L, math.sin(tool.alpha), math.cos(tool.alpha)
+    th = np.arange(int(n_turns)) * (2.0 * math.pi / int(n_turns))
+    rows = []                       # (sample, pose, paper rank or -1, contact parameter)
+    for i in range(len(us)):
+        for c in paper[i]:
+            rows.append((i, c.pose, c.rank, 0.5))
+        g = np.cos(th)[:, None] * fr.e1[i] + np.sin(th)[:, None] * fr.e2[i]
+        A = sa * fr.normal[i] + ca * g
+        for sc in contacts:
+            mid = fr.point[i] + float(tool.radius(sc)) * fr.normal[i]
+            tips = mid - sc * L * A
+            tops = tips + L * A
+            keep = np.linalg.norm(tips[:, :2], axis=1) < np.linalg.norm(tops[:, :2], axis=1)      # Eq. (24)
+            for tip, a in zip(tips[keep], A[keep]):
+                rows.append((i, ConePose(tool, tip, a), -1, float(sc)))
+    if not rows:
+        return [None] * len(us)
+    X = np.array([pose_params(p, surface) for _, p, _, _ in rows])
+    c = ev.clearance
+    pts, _, _, _ = axis_and_jacobian(X, c.s, ev.L)
+    d, _, uf, _, _ = ev._feet(pts, None, feet=c.feet)
+    cone_on_target = c.on_target(uf) & (c.margin_target[None, :] == 0.0)
+    val = d - c.r[None, :] - np.where(c.on_target(uf), c.margin_target[None, :], c.margin[None, :])
+    masked = np.where(cone_on_target, np.inf, val)
+    worst = np.argmin(masked, axis=1)
+    clear = masked[np.arange(len(X)), worst]
+    n_cone = int(np.count_nonzero(c.margin_target == 0.0))
+    ev_rank = PoseEvaluator(surface, ev.u_range, tool, n=n_rank, feet=ev.feet)
+    phi = weighted_l1(ev_rank.distances(X, key=None, jac=False)[0], w)
+    K = fr.k1 * fr.k2
+    out = []
+    sample = np.array([r[0] for r in rows])
+    rank = np.array([r[2] for r in rows])
+    for i in range(len(us)):
+        idx = np.flatnonzero(sample == i)
+        if not len(idx):
+            out.append(None)
+            continue
+        ok = idx[clear[idx] >= 0.0]
+        pap = [j for j in ok if rank[j] >= 0]
+        if prefer_paper and pap:
+            j = min(pap, key=lambda j: rank[j])
+        elif len(ok):
+            j = ok[int(np.argmin(phi[ok]))]
+        else:
+            j = idx[int(np.argmax(clear[idx]))]
+        pose = rows[j][1]
+        out.append(SeedPose(pose=pose, params=X[j], u=float(us[i]), point=fr.point[i], gauss=float(K[i]),
+                            contact=paper[i][rank[j]].contact if rank[j] >= 0 else 1, movability=float("nan"),
+                            admissible=True, phi=float(phi[j]), rank=int(rank[j]), sample=i,
+                            contact_s=rows[j][3], clearance=float(clear[j]),
+                            blocked={"part": "cone" if worst[j] < n_cone else "shank", "u": float(uf[j, worst[j]]),
+                                     "depth": float(max(0.0, -clear[j])), "variants": int(len(idx))}))
+    return out
+
+
 # ============================================================================ errors along the axis
 @dataclass
 class AxisErrors:
@@ -380,13 +460,81 @@ class AxisErrors:
         return float(np.min(self.e))
 
 
+@dataclass
+class RotorClearance:
+    """Clearance of the tool and its shank from the whole rotor, as hard constraints of the pose optimisation:
+    Bizzarri, Bo & Bartoň §5.5 filter colliding poses afterwards ("conceptually a better solution would incorporate
+    the collision avoidance as a part of the optimization", §6.1); here the optimiser keeps every sphere of a
+    sample of the axis out of the rotor, so a pose does not roll into the opposite flank or bury its shank in
+    its own flank.
+
+    feet: foot points on the whole rotor surface (a :class:`FlankFeet` over one full profile period, its seam
+    opposite the target flank); s (m,): axis parameters (Eq. (8); beyond 1: the shank's axis); r (m,): the
+    radius of the ball there (the cone's inscribed sphere r(s) of Eq. (9), the shank's radius: the balls
+    cover the flat-ended shank, so the constraint is on the safe side by at most its end caps); margin: kept
+    from surfaces other than the target flank (samples are discrete); margin_target: from the target flank
+    (0 for the cone: it touches it, its own constraint is the dense one of the hard mode)."""
+    feet: object
+    s: np.ndarray
+    r: np.ndarray
+    margin: np.ndarray
+    margin_target: np.ndarray
+    target: tuple
+    period: float
+
+    @classmethod
+    def for_tool(cls, surface, u_range, tool, sag=None, max_rows=48, feet=None):
+        """The clearance model of ``tool`` (cone and shank) on the flank ``u_range`` of ``surface``.
+
+        Between two balls of radius r a distance D apart the cone (or shank) bulges past their union by the
+        sagitta D^2 / (8 r): the samples are spaced so that it stays below ``sag`` (default 1e-3 R; at most
+        ``max_rows`` per part) and each row keeps its own sagitta as margin (from the target flank too for
+        the shank; the cone's contact with the target flank is the dense constraint of the hard mode)."""
+        R = float(surface.outer_radius)
+        per = float(surface.profile.period)
+        if feet is None:
+            mid = 0.5 * (float(u_range[0]) + float(u_range[1]))
+            lo = mid + 0.5 * per
+            flank_len = max(float(u_range[1]) - float(u_range[0]), 1e-9 * per)
+            feet = FlankFeet(surface, lo, lo + per, n_u=int(min(2400, max(320, 160 * per / flank_len))))
+        sag = 1e-3 * R if sag is None else float(sag)
+        L = tool.L
+
+        def rows(length, r_min):
+            step = math.sqrt(8.0 * max(r_min, 1e-9 * R) * sag)
+            return int(min(max_rows, max(4, math.ceil(length / step) + 1)))
+
+        s_c = np.linspace(0.0, 1.0, rows(L, tool.r1s))
+        parts = [(s_c, tool.radius(s_c), L / (len(s_c) - 1), True)]
+        if tool.shank_radius > 0 and tool.shank_length > 0:
+            s0 = 1.0 - tool.r2c * math.tan(tool.alpha) / L          # the top circle c2, where the shank starts
+            n_s = rows(tool.shank_length, tool.shank_radius)
+            s_s = s0 + np.linspace(0.0, tool.shank_length / L, n_s)
+            parts.append((s_s, np.full(n_s, tool.shank_radius), tool.shank_length / (n_s - 1), False))
+        s_all, r_all, m_all, mt_all = [], [], [], []
+        for sv, rv, D, cone in parts:
+            sagitta = D * D / (8.0 * rv) + 1e-6 * R
+            s_all.append(sv)
+            r_all.append(rv)
+            m_all.append(sagitta)
+            mt_all.append(np.zeros(len(sv)) if cone else sagitta)
+        return cls(feet=feet, s=np.concatenate(s_all), r=np.concatenate(r_all), margin=np.concatenate(m_all),
+                   margin_target=np.concatenate(mt_all), target=(float(u_range[0]), float(u_range[1])), period=per)
+
+    def on_target(self, u):
+        """Feet (profile parameters u) that lie on the target flank."""
+        a, b = self.target
+        w = np.mod(np.asarray(u, float) - a, self.period)
+        return w <= (b - a)
+
+
 class PoseEvaluator:
     """Errors and exact Jacobians of many poses of one tool on one flank at once.
 
     The foot points of all axis samples of all poses are found in one vectorised call of
     :class:`FlankFeet`, warm-started from the previous call with the same shape."""
 
-    def __init__(self, surface, u_range, tool, n=100, feet=None):
+    def __init__(self, surface, u_range, tool, n=100, feet=None, clearance=None):
         if n < 4:
             raise ValueError(f"need at least 4 axis samples, got {n}")
         self.surface, self.tool = surface, tool
@@ -398,12 +546,32 @@ class PoseEvaluator:
         self.calls = 0
         self.points_solved = 0
         self.last_feet = None
+        self.clearance = clearance
 
-    def _feet(self, pts, key, idx=None, warm=None):
+    @property
+    def n_clearance(self):
+        """Rows of the clearance constraints (:class:`RotorClearance`) per pose (0 without them)."""
+        return 0 if self.clearance is None else len(self.clearance.s)
+
+    def clearance_values(self, X, key="clear", idx=None):
+        """Clearance constraints (N, m) >= 0 and their Jacobian (N, m, 4) of parameter rows X
+        (:class:`RotorClearance`); None without a clearance model."""
+        c = self.clearance
+        if c is None:
+            return None
+        pts, J, _, _ = axis_and_jacobian(X, c.s, self.L)
+        d, g, u, _, _ = self._feet(pts, ("clear", key), idx, feet=c.feet)
+        on_target = c.on_target(u)
+        val = d - c.r[None, :] - np.where(on_target, c.margin_target[None, :], c.margin[None, :])
+        return val, np.einsum("Nni,Nnij->Nnj", g, J)
+
+    def _feet(self, pts, key, idx=None, warm=None, feet=None):
         """Signed distances, their gradients, feet u, t and interior flags of points (k, n, 3) of
         poses ``idx`` (k,) (default 0..k-1); warm-started per pose from the last call with ``key``, or
         from ``warm`` = (u, tau) arrays (k, n) when given.  The feet's (u, tau) are kept in
-        ``last_feet`` for warm starts of the caller's own."""
+        ``last_feet`` for warm starts of the caller's own.  ``feet``: another foot-point solver than the
+        flank's (the whole rotor of :class:`RotorClearance`)."""
+        feet = self.feet if feet is None else feet
         k, n = pts.shape[:2]
         idx = np.arange(k) if idx is None else np.asarray(idx)
         flat = pts.reshape(-1, 3)
@@ -413,7 +581,7 @@ class PoseEvaluator:
             w = (np.asarray(warm[0], float).ravel(), np.asarray(warm[1], float).ravel())
         elif len(store) and all(int(i) in store for i in idx):
             w = (np.concatenate([store[int(i)][0] for i in idx]), np.concatenate([store[int(i)][1] for i in idx]))
-        ft = self.feet(flat, warm=w)
+        ft = feet(flat, warm=w)
         uu, tt = ft.u.reshape(k, n), ft.tau.reshape(k, n)
         self.last_feet = (uu, tt)
         if key is not None:
@@ -421,7 +589,7 @@ class PoseEvaluator:
                 store[int(i)] = (uu[j], tt[j])
         self.calls += 1
         self.points_solved += len(flat)
-        lo, hi = self.feet.lo + self.feet.eps_u, self.feet.hi - self.feet.eps_u
+        lo, hi = feet.lo + feet.eps_u, feet.hi - feet.eps_u
         in_range = (ft.u > lo) & (ft.u < hi)
         # in range but not interior = the point is inside the material over the open flank
         sign = np.where(in_range & ~ft.interior, -1.0, 1.0)
@@ -560,6 +728,7 @@ class CandidateStrip:
     errors: AxisErrors
     convergence: Convergence
     flank: int = -1
+    tool_index: int = 0          # which of the planner's tools (several: the largest first)
 
     @property
     def max_error(self):
@@ -634,7 +803,7 @@ def _slp_weighted_l1(fun, X0, w=W_OVERCUT, max_iter=40, delta0=0.05, scale=1.0, 
             break
         eq = None
         if anchor is not None:
-            rv, gv = anchor[0](X[ia])
+            rv, gv = anchor[0](X[ia], ia)
             eq = (gv, anchor[1][ia] - rv)
         dx, model = _lp_steps(e[ia], J[ia], delta[ia], w, eq)
         if model is None:           # LP failure (should not happen): stop these poses where they are
@@ -879,7 +1048,7 @@ def _hard_lift(ev, X, ids, S, anchor, cons_fun, delta, margin=0.0, scale=None):
         rhs.append((c[j][mask[j]] - margin) / sc[j])
         bounds += [(0.0, 1.0)] * 8 + [(0.0, None)]
         if anchor is not None:
-            rv, gv = anchor[0](X[j:j + 1])
+            rv, gv = anchor[0](X[j:j + 1], ids[j:j + 1])
             gj = gv[0] * delta[j] / sc[j]
             eq_rows.append(np.r_[gj, -gj, 0.0])
             eq_b.append((anchor[1][ids[j]] - rv[0]) / sc[j])
@@ -896,15 +1065,34 @@ def _hard_lift(ev, X, ids, S, anchor, cons_fun, delta, margin=0.0, scale=None):
     return (z[:, :4] - z[:, 4:8]) * delta[:, None], z[:, 8]
 
 
+def anchor_parameters(anchor, N):
+    """Axis parameters (N,) of the anchored points of N poses (:func:`optimize_poses`): None for no anchor,
+    the midpoints (0.5) for True, else one value per pose (the seeds' contact parameters)."""
+    if anchor is None or anchor is False:
+        return None
+    if anchor is True:
+        return np.full(N, 0.5)
+    a = np.broadcast_to(np.asarray(anchor, float), (N,)).copy()
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"anchor axis parameters must be finite, got {a}")
+    return a
+
+
 def optimize_poses(ev, X0, objective="phi1", mode="weighted", w=W_OVERCUT, max_iter=40, anchor=True,
-                   exchange_rounds=2, max_rounds=4, n_dense=801):
+                   exchange_rounds=2, max_rounds=4, n_dense=801, pin_contact=False):
     """Optimise the poses X0 (N, 4) (Eq. (8) parameters) of ``ev``'s tool on its flank.
 
     objective 'phi1' (Eq. (25)) or 'phi3' (Eq. (31)); mode 'weighted' (overcut weight w) or 'hard'
     (no point of the tool axis' spheres inside the flank, Eq. (30) style, checked densely).  With
     ``anchor`` the distance of the axis midpoint from z stays that of X0 (the pose may not slide to
     another depth of the flank, so the seeds keep covering the flank); without it the poses are free
-    local minima of Phi.  Returns (X (N, 4), [Convergence], branches (N,) or None).
+    local minima of Phi.  ``anchor`` may also give one axis parameter per pose (the point whose distance
+    from z is kept: a seed's contact sphere, :attr:`SeedPose.contact_s`).  ``pin_contact`` (hard mode, with
+    an anchor): that sphere's error joins the objective with weight :data:`PIN_WEIGHT` (four times the
+    mean of all the others), so the strip keeps touching the flank at its seed unless that costs more than
+    the rest of the axis gains (what a seed placed in a gap of the cover is for; an equality here would
+    make the constraints near the contact degenerate and SLSQP slow).
+    Returns (X (N, 4), [Convergence], branches (N,) or None).
 
     All poses are optimised together: stage 1 is scipy's SLSQP run on every pose in lockstep
     (:func:`_slsqp_lockstep`: one foot-point call per evaluation round for all poses), minimising the
@@ -922,12 +1110,15 @@ def optimize_poses(ev, X0, objective="phi1", mode="weighted", w=W_OVERCUT, max_i
     N = len(X0)
     R = ev.surface.outer_radius
     branch = ev.branch(X0) if objective == "phi3" else None
-    rho0 = mid_radius(X0, ev.L)[0] if anchor else None
-    anc = None if rho0 is None else (lambda Xa: mid_radius(Xa, ev.L), rho0)
+    a_s = anchor_parameters(anchor, N)
+    rho0 = None if a_s is None else mid_radius(X0, ev.L, a_s)[0]
+    anc = None if rho0 is None else (lambda Xa, idx: mid_radius(Xa, ev.L, a_s[idx]), rho0)
     n = len(ev.s)
-    meq = 1 if anchor else 0
+    pin = bool(pin_contact) and a_s is not None and mode == "hard"
+    meq = 0 if a_s is None else 1
     constrain = "e" if (mode == "hard" or objective == "phi1") else "f"
     extra = [np.zeros(0) for _ in range(N)]          # hard mode: axis parameters added to the constraints
+    nc = ev.n_clearance if mode == "hard" else 0     # rows keeping tool and shank out of the whole rotor
 
     def samples(ids):
         """Per-pose sample rows (k, M): the base samples, then the pose's extra ones (padded by
@@ -957,13 +1148,22 @@ def optimize_poses(ev, X0, objective="phi1", mode="weighted", w=W_OVERCUT, max_i
                 e, de = np.where(real, f0, 1.0), df0
         else:
             val, grad = e[:, :n].mean(axis=1), de[:, :n].mean(axis=1)
+        if nc:
+            # the whole rotor's clearance rows first (fixed count; the padded samples stay last)
+            cc, dcc = ev.clearance_values(Xb, key=("opt", S.shape[1]), idx=ids)
+            e, de = np.concatenate([cc, e], axis=1), np.concatenate([dcc, de], axis=1)
+            mask = np.concatenate([np.ones(cc.shape, bool), mask], axis=1)
         return val, grad, e, de, mask
 
     def batch(Xb, ids):
         S, mask = samples(ids)
         val, grad, c, dc, _ = cons_fun(Xb, ids, (S, mask))
+        if pin:
+            ep, dep, _ = ev.distances(Xb, a_s[ids][:, None], key=("pin", 1), idx=ids)
+            val = val + PIN_WEIGHT * ep[:, 0]
+            grad = grad + PIN_WEIGHT * dep[:, 0]
         if anc is not None:
-            rv, gv = anc[0](Xb)
+            rv, gv = anc[0](Xb, ids)
             c = np.c_[(rv - anc[1][ids])[:, None], c]
             dc = np.concatenate([gv[:, None, :], dc], axis=1)
         return val, grad, c, dc
@@ -975,7 +1175,7 @@ def optimize_poses(ev, X0, objective="phi1", mode="weighted", w=W_OVERCUT, max_i
     conv = np.zeros(N, bool)
     # stage 1 (both modes): SLSQP on the smooth constrained form, which follows the curved valley of
     # Phi (a pose that rolls along the flank) with its quasi-Newton Hessian
-    X, nit, evals, modes, msgs = _slsqp_lockstep(batch, X0, n + meq, meq, maxiter=60, ftol=1e-13)
+    X, nit, evals, modes, msgs = _slsqp_lockstep(batch, X0, n + nc + meq, meq, maxiter=60, ftol=1e-13)
     ok = modes == 0
     bad_x = ~np.all(np.isfinite(X), axis=1)
     X[bad_x] = X0[bad_x]
@@ -1007,7 +1207,7 @@ def optimize_poses(ev, X0, objective="phi1", mode="weighted", w=W_OVERCUT, max_i
             active = active[dipping]
             ids = active
             if rnd < exchange_rounds:
-                ms = [n + meq + len(extra[i]) for i in ids]
+                ms = [n + nc + meq + len(extra[i]) for i in ids]
                 Xs, nit2, ev2, _, _ = _slsqp_lockstep(lambda Xb, kk: batch(Xb, ids[kk]), X[ids], ms, meq,
                                                         maxiter=60, ftol=1e-13)
                 good = np.all(np.isfinite(Xs), axis=1)
@@ -1072,7 +1272,7 @@ def flank_range(surface_or_rotor_flanks, flank):
 
 def candidate_strips(surface, u_range, tool, n_seeds=18, objective="phi1", mode="weighted", w=W_OVERCUT,
                      n=100, along="profile", flank=-1, evaluator=None, max_iter=40, seeds=None, anchor=True,
-                     optimizer=None):
+                     optimizer=None, pin_contact=False):
     """Optimised candidate poses ("candidate strips") of a given cone on one flank.
 
     surface: :class:`HelicalSurface`; u_range: the flank's (u_start, u_end) (``Rotor.flanks[k]``);
@@ -1093,7 +1293,11 @@ def candidate_strips(surface, u_range, tool, n_seeds=18, objective="phi1", mode=
     if not seeds:
         return []
     X0 = np.array([sd.params for sd in seeds])
-    X, conv, branch = (optimizer or optimize_poses)(ev, X0, objective, mode, w, max_iter=max_iter, anchor=anchor)
+    if anchor is True:          # each pose keeps the depth of its seed's contact
+        anchor = np.array([getattr(sd, "contact_s", 0.5) for sd in seeds])
+    kw = {"pin_contact": True} if pin_contact else {}
+    X, conv, branch = (optimizer or optimize_poses)(ev, X0, objective, mode, w, max_iter=max_iter, anchor=anchor,
+                                                    **kw)
     out = []
     for i, sd in enumerate(seeds):
         errs = ev.axis_errors(X[i], branch=None if branch is None else branch[i])
@@ -1242,12 +1446,12 @@ def optimize_tool_shape(surface, u_range, tool0, n=100, n_seeds=18, along="profi
 
 # ============================================================================ the paper's optimiser (baseline)
 def optimize_fd_gradient_descent(ev, x0, objective="phi1", w=W_OVERCUT, h=1e-6, eps=1e-5, step0=1e-3,
-                                 max_iter=5000, branch=None, anchor=None):
+                                 max_iter=5000, branch=None, anchor=None, anchor_s=0.5):
     """Remark 5.1's optimiser, for benchmarks: gradient descent on Phi1 (or Phi3) with the gradient by
     forward finite differences (step h), stopped when two subsequent iterates differ by less than
     eps = 1e-5.  The step length adapts (x1.2 on success, /2 with a retry on failure).  ``anchor``: a
-    mid radius (see :func:`mid_radius`) to keep, by eliminating delta (the descent then runs on
-    (rho, beta, phi)).  Returns (x, iterations, evaluations)."""
+    radius (see :func:`mid_radius`) of the axis point o(``anchor_s``) to keep, by eliminating delta (the descent
+    then runs on (rho, beta, phi)).  Returns (x, iterations, evaluations)."""
     x = np.asarray(x0, float).copy()
     if objective == "phi3" and branch is None:
         branch = ev.branch(x[None, :])[0]
@@ -1256,7 +1460,7 @@ def optimize_fd_gradient_descent(ev, x0, objective="phi1", w=W_OVERCUT, h=1e-6, 
         full0, sgn = x.copy(), (1.0 if x[0] >= 0 else -1.0)
 
         def full(y):
-            q = anchor ** 2 - ((y[0] + 0.5 * ev.L) * math.cos(y[1])) ** 2
+            q = anchor ** 2 - ((y[0] + anchor_s * ev.L) * math.cos(y[1])) ** 2
             return np.r_[sgn * math.sqrt(max(q, 0.0)), y]
         x = full0[1:].copy()
     else:
@@ -1300,15 +1504,17 @@ def optimize_fd_gradient_descent(ev, x0, objective="phi1", w=W_OVERCUT, h=1e-6, 
 
 
 def fd_gradient_descent_poses(ev, X0, objective="phi1", mode="weighted", w=W_OVERCUT, max_iter=40, anchor=True,
-                              eps=1e-5, fd_max_iter=5000):
+                              eps=1e-5, fd_max_iter=5000, pin_contact=False):
     """The paper's optimiser (:func:`optimize_fd_gradient_descent`, Remark 5.1: FD gradient descent on
     the weighted Phi1 / Phi3, stopped at |x_(i+1) - x_i| < eps) on every pose, one after the other,
     with the signature and result of :func:`optimize_poses`, for ``candidate_strips(optimizer=...)``.
     ``mode`` is ignored (the paper's objective has no hard constraint; its weight w = 100 is the only
-    guard against overcuts); ``anchor`` keeps each pose's mid radius (delta eliminated)."""
+    guard against overcuts); ``anchor`` keeps each pose's mid radius (delta eliminated); ``pin_contact`` and the
+    clearance rows of the evaluator are not part of the paper's method and are ignored."""
     X0 = np.atleast_2d(np.asarray(X0, float))
     branch = ev.branch(X0) if objective == "phi3" else None
-    rho0 = mid_radius(X0, ev.L)[0] if anchor else None
+    a_s = anchor_parameters(anchor, len(X0))
+    rho0 = None if a_s is None else mid_radius(X0, ev.L, a_s)[0]
     X = X0.copy()
     out = []
     for i in range(len(X0)):
@@ -1316,7 +1522,8 @@ def fd_gradient_descent_poses(ev, X0, objective="phi1", mode="weighted", w=W_OVE
         br = None if branch is None else branch[i]
         p0 = phi_value(ev, X0[i], objective, w, br)
         x, it, nev = optimize_fd_gradient_descent(ev, X0[i], objective, w, eps=eps, max_iter=fd_max_iter, branch=br,
-                                                  anchor=None if rho0 is None else float(rho0[i]))
+                                                  anchor=None if rho0 is None else float(rho0[i]),
+                                                  anchor_s=0.5 if a_s is None else float(a_s[i]))
         X[i] = x
         p1 = phi_value(ev, x, objective, w, br)
         out.append(Convergence(objective=objective, mode="weighted", phi_start=p0, phi_end=p1, iterations=int(it),

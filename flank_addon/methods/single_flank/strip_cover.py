@@ -217,7 +217,7 @@ def coverage_of(deviation, u, eps_under, eps_over):
 
 
 def covered_intervals(poses, surface, flank_range, eps_under, eps_over, n=500, search=None, samples=None,
-                      with_shank=False):
+                      with_shank=False, refine=True):
     """Rotor-to-envelope deviation of a flank's profile points under each pose, and where each
     pose mills the flank within [-eps_over, +eps_under].
 
@@ -229,6 +229,8 @@ def covered_intervals(poses, surface, flank_range, eps_under, eps_over, n=500, s
         n: flank samples (ignored when ``samples`` (:class:`FlankSamples`) is given).
         search: deviation search range (default 10 max(eps) + 1e-3 R); beyond it: +inf.
         with_shank: include the shank in the tool (the global test is :mod:`collision`).
+        refine: interval ends where the deviation leaves the band between the samples (:func:`refine_ends`)
+            instead of the linear interpolation of :func:`coverage_of`.
     Returns:
         :class:`Coverage` (``.poses[k]``: deviation (n,), intervals, index_ranges, admissible ...).
     """
@@ -240,7 +242,41 @@ def covered_intervals(poses, surface, flank_range, eps_under, eps_over, n=500, s
     tools = [tool_of(p, with_shank) for p in poses]
     dev = pose_deviations(tools, fs.points, fs.normals, surface.v0, surface.handedness, search) if tools \
         else np.zeros((0, len(fs.u)))
-    return Coverage(fs, float(eps_under), float(eps_over), [coverage_of(d, fs.u, eps_under, eps_over) for d in dev])
+    cov = [coverage_of(d, fs.u, eps_under, eps_over) for d in dev]
+    if refine and cov:
+        refine_ends(cov, tools, fs, surface, eps_under, eps_over, search)
+    return Coverage(fs, float(eps_under), float(eps_over), cov)
+
+
+def refine_ends(coverages, tools, fs, surface, eps_under, eps_over, search, iters=12):
+    """Move every interval end of the :class:`PoseCoverage` s from the linear interpolation of
+    :func:`coverage_of` to where the pose's deviation really leaves [-eps_over, eps_under] between the two
+    samples (bisection on the deviation itself, all ends in one :func:`deviations_rows` pass per step), so
+    a gap narrower than the sample spacing is real, not an artefact of the interpolation."""
+    u = fs.u
+    last = len(u) - 1
+    ends = []                                  # (pose, interval, side, u_in, u_out)
+    for k, pc in enumerate(coverages):
+        for j, (a, b) in enumerate(pc.index_ranges):
+            if a > 0:
+                ends.append((k, j, 0, float(u[a]), float(u[a - 1])))
+            if b < last:
+                ends.append((k, j, 1, float(u[b]), float(u[b + 1])))
+    if not ends:
+        return
+    which = np.array([e[0] for e in ends])
+    lo = np.array([e[3] for e in ends])      # inside the band
+    hi = np.array([e[4] for e in ends])      # outside
+    for _ in range(int(iters)):
+        mid = 0.5 * (lo + hi)
+        p, n = fs.at(mid)
+        d = deviations_rows(tools, which, p, n, surface.v0, surface.handedness, search)
+        inside = (d >= -eps_over) & (d <= eps_under)
+        lo = np.where(inside, mid, lo)
+        hi = np.where(inside, hi, mid)
+    for (k, j, side, _, _), x in zip(ends, lo):
+        a, b = coverages[k].intervals[j]
+        coverages[k].intervals[j] = (float(x), b) if side == 0 else (a, float(x))
 
 
 # ============================================================================ interval cover
@@ -442,36 +478,72 @@ def _param_ranges(u, runs):
     return [(float(u[a]), float(u[b])) for a, b in runs]
 
 
-def _gap_seeds(gap, tries):
-    a, b = gap
-    m = tries + 1
-    return [a + (b - a) * k / (m + 1) for k in range(1, m + 1)]
+def _overlaps(a, b, c, d):
+    return min(b, d) > max(a, c)
+
+
+def gap_seeds(gaps, width, tried, tries_of, spacing, max_per_gap=24, gap_tries=3):
+    """Seeds for the gaps of a cover (Bizzarri, Bo & Bartoň §6.1: insert samples where the flank is not yet
+    covered).  A gap (a, b) seen for the first time gets ceil((b - a) / (0.8 w)) seeds, w = ``width(a, b)``
+    (how long a covered interval of this tool is next to the gap), a gap that overlaps one seeded k times
+    before 2^k times as many (at most ``max_per_gap``), spread over its length; after ``gap_tries`` tries a
+    gap is given up.  Seeds closer than ``spacing`` to one tried before (``tried``, sorted array) are
+    dropped.  Returns (seeds, tries per gap)."""
+    out, tries = [], []
+    for a, b in gaps:
+        k = tries_of(a, b)
+        tries.append(k)
+        if k >= gap_tries or b <= a:
+            continue
+        m = int(min(max_per_gap, max(1, math.ceil((b - a) / (0.8 * width(a, b)))) * 2 ** k))
+        for x in a + (b - a) * (np.arange(m) + 0.5) / m:
+            if not len(tried) or np.min(np.abs(tried - x)) >= spacing:
+                out.append(float(x))
+    return out, tries
 
 
 def adaptive_cover(make_candidates, surface, flank_range, eps_under, eps_over, seeds=None, n_seeds=5,
-                   max_rounds=6, n=500, search=None, with_shank=False):
+                   max_rounds=6, n=500, search=None, with_shank=False, targets=None, samples=None,
+                   max_seeds=None, gap_tries=3, on_round=None):
     """Cover a flank with candidate poses, seeding new candidates where it is not yet covered
-    (Bizzarri, Bo & Bartoň §6.1: start coarse, insert samples where the error is worst).
+    (Bizzarri, Bo & Bartoň §6.1: start coarse, insert samples where the flank is not covered).
 
     make_candidates(param_values) -> poses: a callback (e.g. the single-flank optimiser) that turns
     profile parameters of the flank into candidate poses (any number; None entries are skipped).
-    Round 1 uses ``seeds`` (default: ``n_seeds`` parameters spread over the flank); every further
-    round seeds the gaps of the minimum cover (a gap seeded before gets one more seed each time) until
-    the cover is complete or ``max_rounds`` is reached.  The chosen poses are then simulated together
-    and what stays outside the tolerance band is reported as parameter ranges."""
-    fs = flank_samples(surface, flank_range, n)
+    Round 1 uses ``seeds`` (default: ``n_seeds`` parameters spread over the targets); every further
+    round seeds the gaps of the minimum cover (:func:`gap_seeds`: as many as the typical covered width of
+    the tool says the gap needs, twice as many each time a gap stays) until the cover is complete, no gap
+    gets a new seed, ``max_rounds`` rounds or ``max_seeds`` seeds are spent.  ``targets``: the parameter
+    ranges to cover (default the whole flank; e.g. what a larger tool left); each is covered by its own
+    minimum cover (:func:`minimum_interval_cover`).  The chosen poses are then simulated together and what
+    stays outside the tolerance band is reported as parameter ranges (whole flank).  ``on_round(record)``
+    is called after every round."""
+    fs = samples if samples is not None else flank_samples(surface, flank_range, n)
     u0, u1 = float(fs.u[0]), float(fs.u[-1])
+    targets = [(u0, u1)] if targets is None else [(max(u0, float(a)), min(u1, float(b))) for a, b in targets]
+    targets = [(a, b) for a, b in targets if b > a]
+    total = sum(b - a for a, b in targets)
     if seeds is None:
-        seeds = list(u0 + (u1 - u0) * (np.arange(n_seeds) + 0.5) / n_seeds)
+        seeds = []
+        for a, b in targets:
+            m = max(1, int(round(n_seeds * (b - a) / total))) if total > 0 else 1
+            seeds += list(a + (b - a) * (np.arange(m) + 0.5) / m)
+    spacing = 0.5 * (u1 - u0) / max(1, len(fs.u) - 1)
     cands, cov = [], []
-    tried = {}
     rounds = []
-    seeds = list(seeds)
-    cover = IntervalCover([], [(u0, u1)], False)
-    flat = []
-    for r in range(max_rounds):
+    seeds = [float(x) for x in seeds]
+    tried = np.zeros(0)
+    gap_history = []                  # (a, b, tries) of the gaps seeded so far
+
+    def tries_of(a, b):
+        k = [t + 1 for (c, d, t) in gap_history if _overlaps(a, b, c, d)]
+        return max(k) if k else 0
+
+    chosen_k, gaps = [], list(targets)
+    for r in range(max(1, int(max_rounds))):
         if not seeds:
             break
+        tried = np.sort(np.r_[tried, seeds])
         new = [p for p in make_candidates(np.asarray(seeds, float)) if p is not None]
         c = covered_intervals(new, surface, flank_range, eps_under, eps_over, search=search, samples=fs,
                               with_shank=with_shank) if new else None
@@ -479,28 +551,40 @@ def adaptive_cover(make_candidates, surface, flank_range, eps_under, eps_over, s
         if c is not None:
             cov += c.poses
         flat = [(iv, k) for k, pc in enumerate(cov) if pc.admissible for iv in pc.intervals]
-        cover = minimum_interval_cover([iv for iv, _ in flat], u0, u1)
-        rounds.append({"round": r + 1, "seeds": [float(s) for s in seeds], "candidates": len(new),
-                       "admissible": sum(pc.admissible for pc in (c.poses if c else [])),
-                       "gaps": [tuple(g) for g in cover.gaps]})
-        if cover.complete:
+        chosen_k, gaps = [], []
+        for a, b in targets:
+            cover = minimum_interval_cover([iv for iv, _ in flat], a, b)
+            for i in cover.chosen:
+                if flat[i][1] not in chosen_k:
+                    chosen_k.append(flat[i][1])
+            gaps += list(cover.gaps)
+        rec = {"round": r + 1, "seeds": [float(x) for x in seeds], "candidates": len(new),
+               "admissible": sum(pc.admissible for pc in (c.poses if c else [])),
+               "gaps": [tuple(g) for g in gaps]}
+        rounds.append(rec)
+        if on_round is not None:
+            on_round(rec)
+        if not gaps or r + 1 >= max_rounds or (max_seeds is not None and len(tried) >= max_seeds):
             break
-        seeds = []
-        for g in cover.gaps:
-            key = (round(g[0], 12), round(g[1], 12))
-            tried[key] = tried.get(key, 0) + 1
-            seeds += _gap_seeds(g, tried[key] - 1)
-    chosen_k = []
-    for i in cover.chosen:
-        k = flat[i][1]
-        if k not in chosen_k:
-            chosen_k.append(k)
+        ivs = [iv for iv, _ in flat if iv[1] > iv[0]]
+        typical = float(np.median([b - a for a, b in ivs])) if ivs else None
+
+        def width(a, b, ivs=ivs, typical=typical):
+            # the strips that end at the gap's start or begin at its end: how wide this tool mills there
+            near = [d - c for c, d in ivs if abs(d - a) <= spacing or abs(c - b) <= spacing]
+            w = min(near) if near else (typical if typical is not None else 0.5 * (b - a))
+            return max(w, 2.0 * spacing)
+
+        seeds, tries = gap_seeds(gaps, width, tried, tries_of, spacing, gap_tries=gap_tries)
+        gap_history += [(a, b, t) for (a, b), t in zip(gaps, tries)]
+        if max_seeds is not None:
+            seeds = seeds[:max(0, int(max_seeds) - len(tried))]
     poses = [cands[k] for k in chosen_k]
     # union of swept regions: along each normal ray the first crossing of the union is the first
     # crossing of one of the tools, so the machined deviation is the minimum of the tools' own
     dev = np.min([cov[k].deviation for k in chosen_k], axis=0) if chosen_k else np.full(len(fs.u), np.inf)
     bad = ~((dev >= -eps_over) & (dev <= eps_under))
-    return AdaptiveCover(poses=poses, intervals=[cov[k].intervals for k in chosen_k], gaps=list(cover.gaps),
+    return AdaptiveCover(poses=poses, intervals=[cov[k].intervals for k in chosen_k], gaps=list(gaps),
                          deviation=dev, uncovered=_param_ranges(fs.u, index_runs(bad)), samples=fs,
                          candidates=cands, coverage=cov, rounds=rounds, chosen_coverage=[cov[k] for k in chosen_k])
 
