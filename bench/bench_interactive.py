@@ -53,7 +53,7 @@ def make_inputs(d):
     from flank_addon.io.mesh_files import write_mesh
 
     rotor = builtin_by_name("srm_a-female", scale=30.0, length=60.0)
-    v, f = rotor.mesh(n_profile=4300, n_axial=41)
+    v, f = rotor.mesh(n_profile=4140, n_axial=41)
     parts = [(v, f)]
     R = rotor.profile.outer_radius()
     th = np.linspace(0, 2 * np.pi, 96, endpoint=False)

@@ -27,8 +27,7 @@ happens only inside those windows, and points whose helix never comes within the
 of the tool cost nothing.
 """
 import numpy as np
-from scipy.spatial import cKDTree
-
+from ..geometry.polyline_distance import PolylineDistance, segment_min
 from ..geometry.screw import hand_sign, screw_motion
 
 GOLDEN = 0.5 * (3.0 - np.sqrt(5.0))
@@ -154,19 +153,17 @@ class MeridianPart:
         origin, direction: axis point (h = 0) and axis direction.
         meridian: (K, 2) rows (h, R) with h strictly increasing and R >= 0 (e.g. the axial profile
             (Z_u, R_u) of a formed disc cutter, Hu, Zhou & Li 2025).
-    The 2D distance is exact: the boundary is resampled so no edge is longer than ``spacing``
-    (default: 1/400 of the meridian's extent or twice the median edge, the smaller, but no finer than
-    the boundary's length / MAX_BOUNDARY_VERTICES), the nearest foot lies on an edge next to a vertex within sqrt(d^2 + spacing^2 / 4) of the query, and rows
-    where the k nearest vertices do not provably include those fall back to all edges.  The sign is the exact test rho <= R(h).
+    The 2D distance is exact: the minimum over all edges of the boundary (end face, meridian, end face), found
+    by :class:`geometry.polyline_distance.PolylineDistance` (a window in h from the point straight across in
+    rho, or from the previous query's nearest edge, on this graph; else a hierarchy of edge runs).  The sign is
+    the exact test rho <= R(h).  Time samples of a helix are pruned by a grid of exact signed distances (the
+    signed distance is 1-Lipschitz) and by the hierarchy's bounds before any is measured exactly.
     """
 
-    K_NEAR = 8
-    # Splitting edges leaves the polyline (and so every distance) unchanged; it only makes the k nearest
-    # vertices bracket the foot more often.  A dense meridian with a few long edges (a custom tool's
-    # 20k-vertex meridian and its end faces) would otherwise be cut into ~400k pieces, and kd-tree
-    # queries among so many nearly collinear points cost more than the rare fall-backs to more neighbours.
+    # Long edges are split to about the typical edge length (``spacing``; a long-standing layout of the
+    # boundary: every distance is the same without it).
     MAX_BOUNDARY_VERTICES = 20000
-    expensive = True     # worth pruning time samples by bounding spheres first
+    expensive = True     # worth pruning time samples before measuring them exactly
 
     def __init__(self, origin, direction, meridian, spacing=None):
         m = np.asarray(meridian, float)
@@ -185,16 +182,18 @@ class MeridianPart:
         extent = max(h1 - h0, m[:, 1].max())
         seg = np.diff(ring, axis=0)
         seg_len = np.linalg.norm(seg, axis=1)
-        # long edges are split to about the typical edge length, so the k nearest vertices of a
-        # query usually bracket its foot (see signed_distance)
+        # long edges are split to about the typical edge length
         typical = 2.0 * float(np.median(seg_len[seg_len > 0]))
         self.spacing = float(spacing) if spacing else max(min(extent / 400.0, typical),
                                                           float(seg_len.sum()) / self.MAX_BOUNDARY_VERTICES)
-        pts = [ring[i] + np.linspace(0, 1, max(1, int(np.ceil(l / self.spacing))), endpoint=False)[:, None] * seg[i]
-               for i, l in enumerate(seg_len) if l > 0]
-        self.boundary = np.vstack(pts + [ring[-1:]])    # open polyline
-        self.edge_max = float(np.linalg.norm(np.diff(self.boundary, axis=0), axis=1).max())
-        self.tree = cKDTree(self.boundary)
+        # each edge of positive length split into ceil(l / spacing) equal pieces (j / count of the way along)
+        live = np.flatnonzero(seg_len > 0)
+        count = np.maximum(1, np.ceil(seg_len[live] / self.spacing).astype(int))
+        which = np.repeat(live, count)
+        j = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+        frac = j * np.repeat(1.0 / count, count)
+        self.boundary = np.vstack([ring[which] + frac[:, None] * seg[which], ring[-1:]])    # open polyline
+        self.polyline = PolylineDistance(self.boundary)
         self.golden_iters = 30
         # time sampling must resolve the thinner parts of the tool a helix can pass through; the
         # radius at the lowest 5 % of the axis (not the minimum, which a rounded or pointed end
@@ -214,38 +213,83 @@ class MeridianPart:
     def radius_at(self, h):
         return np.interp(h, self.meridian[:, 0], self.meridian[:, 1], left=-1.0, right=-1.0)
 
-    def _edge_distance(self, p, a_idx):
-        a = self.boundary[a_idx]
-        e = self.boundary[a_idx + 1] - a
-        u = np.clip(np.einsum("...j,...j->...", p - a, e) / np.einsum("...j,...j->...", e, e), 0.0, 1.0)
-        return np.linalg.norm(p - a - u[..., None] * e, axis=-1)
-
-    def signed_distance(self, q):
+    def _plane(self, q):
+        """(p (N, 2), inside (N,), ub (N,)): meridian-plane coordinates of rows q (..., 3), the exact test
+        rho <= R(h), and an upper bound of the distance (to the boundary point straight across in rho)."""
         h, rho = _axial(q, self.origin, self.axis)
-        shape = h.shape
         p = np.c_[h.ravel(), rho.ravel()]
-        nb = len(self.boundary)
-        best = np.full(len(p), np.inf)
-        rows = np.arange(len(p))
-        # the foot edge has an end vertex within sqrt(best^2 + (edge_max / 2)^2) (the foot's offset
-        # is perpendicular to its edge); if the k-th nearest vertex is farther, all such vertices
-        # were examined.  Rows in clusters of tiny edges retry with more neighbours, then all edges.
-        for k in (self.K_NEAR, 8 * self.K_NEAR, 64 * self.K_NEAR):
-            k = min(k, nb)
-            dist, near = self.tree.query(p[rows], k=k)
-            dist, near = dist.reshape(len(rows), -1), near.reshape(len(rows), -1)
-            near = np.concatenate([np.minimum(near, nb - 2), np.maximum(near - 1, 0)], axis=1)
-            best[rows] = self._edge_distance(p[rows, None, :], near).min(axis=1)
-            if k == nb:
-                rows = rows[:0]
-                break
-            rows = rows[dist[:, -1] <= np.sqrt(best[rows] ** 2 + 0.25 * self.edge_max ** 2) * (1 + 1e-12)]
-            if not len(rows):
-                break
-        for chunk in np.array_split(rows, max(1, len(rows) // 256)) if len(rows) else ():
-            best[chunk] = self._edge_distance(p[chunk, None, :], np.arange(nb - 1)[None, :]).min(axis=1)
-        inside = p[:, 1] <= self.radius_at(p[:, 0])
-        return np.where(inside, -best, best).reshape(shape)
+        R = self.radius_at(p[:, 0])
+        inside = p[:, 1] <= R
+        ub = np.where(R >= 0, np.abs(p[:, 1] - R), np.inf)
+        return p, inside, ub
+
+    def signed_distance(self, q, hint=None):
+        d, _ = self.signed_distance_hinted(q, hint)
+        return d
+
+    def signed_distance_hinted(self, q, hint=None):
+        """(sd, edge): signed distances of rows q (..., 3) and a boundary edge nearest to each; ``hint`` (rows,)
+        edges near the answer (e.g. those of a neighbouring query) speed up the search."""
+        p, inside, ub = self._plane(q)
+        best, edge = self.polyline.distance(p, ub=ub, hint=hint)
+        return np.where(inside, -best, best).reshape(np.shape(q)[:-1]), edge
+
+    def signed_distance_pruned(self, q, group, thr):
+        """(sd, exact) of rows q (N, 3) in sorted groups, exact where a row can hold its group's least signed
+        distance (``thr`` per group: an upper bound of it, lowered in place); elsewhere a lower bound above it,
+        exact False."""
+        p, inside, ub = self._plane(q)
+        lo, hi = self._grid_bounds(p)
+        np.minimum(thr, segment_min(np.minimum(np.where(inside, 0.0, ub), hi), group, len(thr)), out=thr)
+        slack = 1e-12 * self.polyline.scale
+        cand = np.flatnonzero(lo <= thr[group] + slack)
+        out, exact = lo, np.zeros(len(p), bool)
+        if len(cand):
+            out[cand], exact[cand] = self.polyline.signed_minimum(p[cand], inside[cand], group[cand], thr,
+                                                                  ub=ub[cand])
+        return out, exact
+
+    GRID = 128      # nodes along the longer side of the signed-distance grid of :meth:`_grid_bounds`
+
+    def _grid_bounds(self, p):
+        """Lower and upper bounds of the signed distances of meridian-plane points p (N, 2) from the exact
+        signed distances at the corners of their cell of a grid around the tool (the signed distance is
+        1-Lipschitz); -inf / +inf outside the grid."""
+        if getattr(self, "_grid", None) is None:
+            B = self.boundary
+            lo, hi = B.min(axis=0), B.max(axis=0)
+            margin = 0.25 * float((hi - lo).max())
+            lo = np.array([lo[0] - margin, 0.0])
+            hi = hi + margin
+            g = float((hi - lo).max()) / self.GRID
+            n = np.maximum(np.ceil((hi - lo) / g).astype(int), 1) + 1
+            hs, rs = lo[0] + g * np.arange(n[0]), lo[1] + g * np.arange(n[1])
+            H, Rr = np.meshgrid(hs, rs, indexing="ij")
+            nodes = np.c_[H.ravel(), Rr.ravel()]
+            d, _ = self.polyline.distance(nodes)
+            sd = np.where(nodes[:, 1] <= self.radius_at(nodes[:, 0]), -d, d).reshape(n)
+            self._grid = (lo, g, n, sd)
+        lo, g, n, sd = self._grid
+        f = (p - lo) / g
+        i = np.floor(f).astype(int)
+        ok = (i[:, 0] >= 0) & (i[:, 1] >= 0) & (i[:, 0] < n[0] - 1) & (i[:, 1] < n[1] - 1)
+        i = np.where(ok[:, None], i, 0)
+        low = np.full(len(p), -np.inf)
+        high = np.full(len(p), np.inf)
+        rows = np.flatnonzero(ok)
+        if len(rows):
+            fr = f[rows] - i[rows]
+            lb = np.full(len(rows), -np.inf)
+            ub = np.full(len(rows), np.inf)
+            for a in (0, 1):
+                for b in (0, 1):
+                    r = g * np.hypot(fr[:, 0] - a, fr[:, 1] - b) * (1 + 1e-12)
+                    v = sd[i[rows, 0] + a, i[rows, 1] + b]
+                    lb = np.maximum(lb, v - r)
+                    ub = np.minimum(ub, v + r)
+            slack = 1e-12 * self.polyline.scale
+            low[rows], high[rows] = lb - slack, ub + slack
+        return low, high
 
 
 class ParaboloidPart:
@@ -324,6 +368,29 @@ class RevolvingTool:
             d = np.minimum(d, p.signed_distance(q))
         return d
 
+    def signed_distance_pruned(self, q, group, thr):
+        """(sd, exact) for rows q (N, 3) in sorted groups of which only each group's least signed distance is
+        wanted (``thr`` (per group) an upper bound of it, lowered in place): exact wherever a row can attain
+        its group's minimum; elsewhere a lower bound of the row's signed distance above it (exact False)."""
+        cheap = [p for p in self.parts if not getattr(p, "expensive", False)]
+        d = np.full(len(q), np.inf)
+        for p in cheap:
+            d = np.minimum(d, p.signed_distance(q))
+        exact = np.ones(len(q), bool)
+        np.minimum(thr, segment_min(d, group, len(thr)), out=thr)
+        for p in self.parts:
+            if getattr(p, "expensive", False):
+                dp, ok = p.signed_distance_pruned(q, group, thr)
+                # a row this part left out lies above thr there; where a cheap part is at most thr it is exact
+                exact &= ok | (d <= thr[group])
+                d = np.minimum(d, dp)
+        return d, exact
+
+    def tracker(self):
+        """This tool for a sequence of calls on the same rows, each near the last (a per-row search that
+        moves a little each step): each call starts from the previous call's nearest boundary edges."""
+        return _Tracked(self)
+
     def lower_bound(self, q):
         """A lower bound of signed_distance (q (..., 3)): distance to the nearest bounding sphere."""
         d = np.full(np.shape(q)[:-1], np.inf)
@@ -337,6 +404,24 @@ class RevolvingTool:
 
     def rows(self, idx):
         return self
+
+
+class _Tracked:
+    """:meth:`RevolvingTool.tracker`: exact signed distances, each row's search started from its last answer."""
+
+    def __init__(self, tool):
+        self.tool = tool
+        self.hints = {}
+
+    def signed_distance(self, q):
+        d = None
+        for j, p in enumerate(self.tool.parts):
+            if hasattr(p, "signed_distance_hinted"):
+                dj, self.hints[j] = p.signed_distance_hinted(q, self.hints.get(j))
+            else:
+                dj = p.signed_distance(q)
+            d = dj if d is None else np.minimum(d, dj)
+        return d
 
 
 def time_windows(x, centres, radii, v0, handedness, margin):
@@ -518,11 +603,20 @@ def helical_distance(tool, points, v0, handedness="right", step=None, iters=None
     s = np.linspace(0.0, 1.0, n)
     T = t_lo[:, None] + (t_hi - t_lo)[:, None] * s[None, :]
     Q = screw_motion(x[:, None, :], T, v0, handedness)
-    if getattr(tool, "expensive", False):
+    rows = np.arange(len(x))
+    if getattr(tool, "expensive", False) and hasattr(tool, "signed_distance_pruned"):
+        # only each point's least sample and its two neighbours (the bracket of the search below) are needed:
+        # samples whose distance provably lies above the point's least value are never measured exactly
+        D = _least_samples(tool, Q)
+        k = np.argmin(D, axis=1)
+        for j in (np.maximum(k - 1, 0), np.minimum(k + 1, n - 1)):
+            need = ~np.isfinite(D[rows, j])
+            if need.any():
+                D[rows[need], j[need]] = tool.signed_distance(Q[rows[need], j[need]])
+    elif getattr(tool, "expensive", False):
         # bounding spheres give a cheap lower bound; a sample whose bound exceeds the exact value
         # at the most promising sample can never be the minimum, so it is not evaluated exactly
         lb = tool.lower_bound(Q)
-        rows = np.arange(len(x))
         upper = tool.signed_distance(Q[rows, np.argmin(lb, axis=1)])
         todo = lb <= upper[:, None]
         D = np.full(lb.shape, np.inf)
@@ -530,13 +624,13 @@ def helical_distance(tool, points, v0, handedness="right", step=None, iters=None
     else:
         D = tool.signed_distance(Q)
     k = np.argmin(D, axis=1)
-    rows = np.arange(len(x))
     a = T[rows, np.maximum(k - 1, 0)]
     b = T[rows, np.minimum(k + 1, n - 1)]
     best_t, best = T[rows, k], D[rows, k]
+    ft = tool.tracker() if hasattr(tool, "tracker") else tool
 
     def f(t):
-        return tool.signed_distance(screw_motion(x, t, v0, handedness))
+        return ft.signed_distance(screw_motion(x, t, v0, handedness))
 
     fa, fb = D[rows, np.maximum(k - 1, 0)], D[rows, np.minimum(k + 1, n - 1)]
 
@@ -583,6 +677,48 @@ def helical_distance(tool, points, v0, handedness="right", step=None, iters=None
     out_d[idx] = np.minimum(np.where(better, fm, best), cutoff[idx])
     out_t[idx] = np.where(better, tm, best_t)
     return out_d, out_t
+
+
+def _least_samples(tool, Q, strides=(16, 4, 1)):
+    """Signed distances of the time samples Q (N, n, 3) of N helices, exact wherever a sample can hold its
+    helix's least value, +inf elsewhere.  Coarse to fine: samples ``strides[0]`` apart first; screw motion
+    moves the samples of a helix equally far apart (the chord c of one step), and the distance is 1-Lipschitz,
+    so a sample j steps from one with a lower bound L (or an exact value) lies at least L - j c away: only
+    samples whose bound does not exceed the helix's best upper bound so far are searched at the next stride."""
+    N, n = Q.shape[:2]
+    rows = np.arange(N)
+    chord = np.linalg.norm(Q[:, min(1, n - 1)] - Q[:, 0], axis=1) * (1 + 1e-12) + 1e-15
+    thr = np.full(N, np.inf)
+    lower = np.full((N, n), -np.inf)        # lower bound of each sample's signed distance (exact where known)
+    exact = np.zeros((N, n), bool)
+    done = np.zeros(n, bool)
+    slack = 1e-12 * (1.0 + float(np.abs(Q).max()))
+    for stride in strides:
+        cols = np.zeros(n, bool)
+        cols[::stride] = True
+        cols[n - 1] = True
+        cols &= ~done
+        if done.any():
+            # bound each new sample from the nearest known samples on either side
+            known = np.flatnonzero(done)
+            c = np.flatnonzero(cols)
+            j_left = known[np.clip(np.searchsorted(known, c) - 1, 0, len(known) - 1)]
+            j_right = known[np.clip(np.searchsorted(known, c), 0, len(known) - 1)]
+            bound = np.maximum(lower[:, j_left] - np.abs(c - j_left) * chord[:, None],
+                               lower[:, j_right] - np.abs(j_right - c) * chord[:, None])
+            lower[:, c] = bound
+            want = np.zeros((N, n), bool)
+            want[:, c] = bound <= thr[:, None] + slack
+        else:
+            want = np.broadcast_to(cols, (N, n)).copy()
+        done |= cols
+        ri, ci = np.nonzero(want)
+        if not len(ri):
+            continue
+        d, ok = tool.signed_distance_pruned(Q[ri, ci], ri, thr)
+        lower[ri, ci] = d
+        exact[ri, ci] = ok
+    return np.where(exact, lower, np.inf)
 
 
 def false_position(lo, hi, f_lo, f_hi):

@@ -1,0 +1,213 @@
+"""Exact distances from planar points to a long open polyline.
+
+Two exact searches, both returning the minimum over *all* edges of the same per-edge distance (the foot on each
+edge clipped to it):
+
+- a box hierarchy: the edges are grouped into runs of ``FANOUT`` consecutive edges, the runs into runs of
+  ``FANOUT`` runs, and so on; every group carries the bounding box of its vertices and one of its vertices.  The
+  distance to the polyline lies between the box distance of the nearest box and the distance to any vertex, so
+  a search that goes down level by level, all queries at once, keeps only the groups whose box is nearer than
+  the best vertex seen so far.  Its work does not grow for queries far from a dense curve, unlike the k nearest
+  vertices of a kd-tree.
+- a window on a graph: where the first coordinate never decreases along the polyline (a meridian R(h) with its
+  end faces), every edge whose h-range misses [h - b, h + b] is farther than b from the query.  With an upper
+  bound b from a point known to lie on the polyline (the vertical foot, or the edge nearest to a neighbouring
+  query: a hint), the edges inside the window are measured directly; rows whose window holds too many edges go
+  to the hierarchy.
+
+:meth:`PolylineDistance.signed_minimum` goes further for queries that come in groups (the time samples of one
+helix): only the group's least signed distance matters, so a query whose signed distance provably exceeds the
+group's best upper bound is dropped as soon as the bounds show it.
+"""
+import numpy as np
+
+FANOUT = 8
+WINDOW = 128        # most edges a row's window may hold before the row goes to the hierarchy
+
+
+def segment_min(values, keys, n):
+    """out[k] = min(values[keys == k]) for sorted integer keys (n,), +inf where a key has no value."""
+    out = np.full(n, np.inf)
+    if len(values):
+        starts = np.r_[0, np.flatnonzero(keys[1:] != keys[:-1]) + 1]
+        out[keys[starts]] = np.minimum.reduceat(values, starts)
+    return out
+
+
+class PolylineDistance:
+    """Exact unsigned distances to the open polyline through ``points`` (K >= 2, 2), no edge of zero length."""
+
+    def __init__(self, points):
+        B = np.ascontiguousarray(points, float)
+        if B.ndim != 2 or B.shape[1] != 2 or len(B) < 2:
+            raise ValueError("a polyline needs (K >= 2, 2) points")
+        self.points = B
+        ne = len(B) - 1
+        self.n_edges = ne
+        self.scale = float(np.ptp(B, axis=0).max()) + float(np.abs(B).max())
+        self.ax, self.ay = B[:-1, 0].copy(), B[:-1, 1].copy()
+        self.ex, self.ey = np.diff(B[:, 0]), np.diff(B[:, 1])
+        self.ee = self.ex * self.ex + self.ey * self.ey
+        self.h = B[:, 0].copy()
+        self.monotone = bool(np.all(self.ex >= 0))
+        # levels, finest (runs of FANOUT edges) first: per run its chord (first to last vertex: start x, y,
+        # vector x, y, squared length), the largest distance of its vertices from the chord (the run lies in the
+        # convex hull of its vertices, and the distance to a segment is convex, so every point of the run is
+        # that close to the chord) and its middle vertex
+        self.levels = []
+        size = FANOUT
+        while True:
+            starts = np.arange(0, ne, size)
+            ends = np.minimum(starts + size, ne)            # last vertex index of each run
+            a, c = B[starts], B[ends] - B[starts]
+            cc = np.maximum(np.einsum("ij,ij->i", c, c), 1e-300)
+            owner = np.minimum(np.arange(ne + 1) // size, len(starts) - 1)
+            w = B - a[owner]
+            u = np.clip(np.einsum("ij,ij->i", w, c[owner]) / cc[owner], 0.0, 1.0)
+            off = np.linalg.norm(w - u[:, None] * c[owner], axis=1)
+            fat = np.maximum.reduceat(off, np.r_[starts, ne])[:len(starts)]
+            fat = np.maximum(fat, off[ends])                  # the run's last vertex starts the next run
+            rep = B[np.minimum(starts + size // 2, ne)]
+            self.levels.append(tuple(np.ascontiguousarray(x) for x in
+                                     (a[:, 0], a[:, 1], c[:, 0], c[:, 1], cc, fat * (1 + 1e-9), rep[:, 0],
+                                      rep[:, 1])))
+            if len(starts) <= FANOUT:
+                break
+            size *= FANOUT
+
+    def _edges(self, px, py, e):
+        """Squared distances from points to edges e (same shape)."""
+        wx, wy = px - self.ax[e], py - self.ay[e]
+        ex, ey = self.ex[e], self.ey[e]
+        u = np.clip((wx * ex + wy * ey) / self.ee[e], 0.0, 1.0)
+        dx, dy = wx - u * ex, wy - u * ey
+        return dx * dx + dy * dy
+
+    def _search(self, px, py, ub=None, group=None, thr=None, inside=None):
+        """(d, exact, edge, lower) by the hierarchy for points (px, py) (N,); ``ub`` optional upper bounds of d.
+        With ``group`` (sorted (N,)) and ``thr`` (per group, lowered in place), rows whose signed distance
+        (negative where ``inside``) provably exceeds their group's least upper bound are dropped (d = +inf, exact
+        False, ``lower`` a lower bound of their signed distance above the threshold)."""
+        N = len(px)
+        slack = 1e-12 * self.scale
+        top = len(self.levels) - 1
+        n_top = len(self.levels[top][0])
+        pr = np.repeat(np.arange(N), n_top)
+        pc = np.tile(np.arange(n_top), N)
+        ub2 = np.full(N, np.inf) if ub is None else np.square(ub)
+        alive = np.ones(N, bool)
+        lower = np.full(N, -np.inf)
+        for lev in range(top, -1, -1):
+            sx, sy, cx, cy, cc, fat, rx, ry = self.levels[lev]
+            qx, qy = px[pr], py[pr]
+            wx, wy = qx - sx[pc], qy - sy[pc]
+            vx, vy = cx[pc], cy[pc]
+            u = np.clip((wx * vx + wy * vy) / cc[pc], 0.0, 1.0)
+            gx, gy = wx - u * vx, wy - u * vy
+            lb = np.maximum(np.sqrt(gx * gx + gy * gy) - fat[pc], 0.0)
+            lb2 = lb * lb
+            wx, wy = qx - rx[pc], qy - ry[pc]
+            starts = np.r_[0, np.flatnonzero(pr[1:] != pr[:-1]) + 1] if len(pr) else pr
+            keys = pr[starts]
+            if len(pr):
+                ub2[keys] = np.minimum(ub2[keys], np.minimum.reduceat(wx * wx + wy * wy, starts))
+            ubs = np.sqrt(ub2)
+            keep = lb2 <= np.square(ubs + slack)[pr]
+            if group is not None:
+                lb_row = np.full(N, np.inf)
+                if len(pr):
+                    lb_row[keys] = np.sqrt(np.minimum.reduceat(np.where(keep, lb2, np.inf), starts))
+                sd_lo = np.where(inside, -ubs, lb_row)
+                sd_hi = np.where(inside, -lb_row, ubs)
+                has = np.isfinite(lb_row)
+                np.minimum(thr, segment_min(sd_hi[has], group[has], len(thr)), out=thr)
+                dead = alive & ~(sd_lo <= thr[group] + slack)
+                lower[dead] = sd_lo[dead]
+                alive &= ~dead
+                keep &= alive[pr]
+            pr, pc = pr[keep], pc[keep]
+            n_next = len(self.levels[lev - 1][0]) if lev else self.n_edges
+            child = (pc[:, None] * FANOUT + np.arange(FANOUT)).ravel()
+            pr = np.repeat(pr, FANOUT)
+            if len(child) and child.max() >= n_next:
+                ok = child < n_next
+                child, pr = child[ok], pr[ok]
+            pc = child
+        d2 = self._edges(px[pr], py[pr], pc)
+        d = np.full(N, np.inf)
+        edge = np.zeros(N, int)
+        if len(pr):
+            starts = np.r_[0, np.flatnonzero(pr[1:] != pr[:-1]) + 1]
+            m = np.minimum.reduceat(d2, starts)
+            d[pr[starts]] = np.sqrt(m)
+            hit = d2 == np.repeat(m, np.diff(np.r_[starts, len(pr)]))
+            edge[pr[hit]] = pc[hit]
+        return d, alive & np.isfinite(d), edge, lower
+
+    def _window(self, px, py, ub):
+        """Rows whose h-window [h - ub, h + ub] holds at most WINDOW edges: (rows, d, edge) exact there."""
+        lo = px - ub * (1 + 1e-12) - 1e-12 * self.scale
+        hi = px + ub * (1 + 1e-12) + 1e-12 * self.scale
+        i0 = np.maximum(np.searchsorted(self.h, lo, side="left") - 1, 0)
+        i1 = np.minimum(np.searchsorted(self.h, hi, side="right"), self.n_edges)
+        cnt = i1 - i0
+        rows = np.flatnonzero((cnt <= WINDOW) & np.isfinite(ub))
+        if not len(rows):
+            return rows, np.zeros(0), np.zeros(0, int)
+        K = max(int(cnt[rows].max()), 1)
+        e = np.minimum(i0[rows, None] + np.arange(K), np.maximum(i1[rows, None] - 1, i0[rows, None]))
+        d2 = self._edges(px[rows, None], py[rows, None], e)
+        j = np.argmin(d2, axis=1)
+        r = np.arange(len(rows))
+        return rows, np.sqrt(d2[r, j]), e[r, j]
+
+    def distance(self, p, ub=None, hint=None, batch=20000):
+        """(d, edge): exact distances of points p (N, 2) to the polyline and an edge attaining each.  ``ub``
+        (N,): optional upper bounds of d; ``hint`` (N,): optional edge indices near each row's nearest edge
+        (e.g. from a neighbouring query), which only change how fast the answer is found."""
+        p = np.asarray(p, float).reshape(-1, 2)
+        px, py = p[:, 0].copy(), p[:, 1].copy()
+        N = len(p)
+        ub = np.full(N, np.inf) if ub is None else np.array(ub, float)
+        if hint is not None:
+            hint = np.clip(np.asarray(hint, int), 0, self.n_edges - 1)
+            ub = np.minimum(ub, np.sqrt(self._edges(px, py, hint)))
+        d = np.empty(N)
+        edge = np.empty(N, int)
+        todo = np.arange(N)
+        if self.monotone:
+            rows, dw, ew = self._window(px, py, ub)
+            d[rows], edge[rows] = dw, ew
+            todo = np.setdiff1d(todo, rows, assume_unique=True) if len(rows) else todo
+        for s in range(0, len(todo), batch):
+            r = todo[s:s + batch]
+            dr, _, er, _ = self._search(px[r], py[r], ub[r])
+            d[r], edge[r] = dr, er
+        return d, edge
+
+    def signed_minimum(self, p, inside, group, thr, ub=None, batch=20000):
+        """Signed distances s = -d where ``inside``, +d elsewhere, of points p (N, 2) that come in groups
+        (``group`` (N,), sorted) of which only each group's least s is wanted: (s, exact).  ``thr`` (per group)
+        is an upper bound of that least value (+inf if none is known); it is lowered in place as the search
+        finds better bounds.  ``ub`` (N,): optional upper bounds of the rows' unsigned distances.  Rows whose s
+        provably exceeds the group's least value get a lower bound of s above it instead, with exact False;
+        every row that can attain its group's minimum is exact."""
+        p = np.asarray(p, float).reshape(-1, 2)
+        group = np.asarray(group)
+        N = len(p)
+        ub = np.full(N, np.inf) if ub is None else np.asarray(ub, float)
+        out = np.full(N, np.inf)
+        exact = np.zeros(N, bool)
+        s = 0
+        while s < N:            # batches end where a group ends, so a group is searched together
+            e = min(s + batch, N)
+            if e < N and group[e] == group[e - 1]:
+                e = int(np.searchsorted(group, group[e - 1], side="left"))
+                if e <= s:
+                    e = int(np.searchsorted(group, group[s], side="right"))
+            d, ok, _, lower = self._search(p[s:e, 0].copy(), p[s:e, 1].copy(), ub[s:e], group[s:e], thr,
+                                           inside[s:e])
+            out[s:e] = np.where(ok, np.where(inside[s:e], -d, d), lower)
+            exact[s:e] = ok
+            s = e
+        return out, exact
