@@ -22,14 +22,23 @@ group's best upper bound is dropped as soon as the bounds show it.
 import numpy as np
 
 FANOUT = 8
-WINDOW = 128        # most edges a row's window may hold before the row goes to the hierarchy
+WINDOW_TOTAL = 32768       # most edges the h-windows of one call measure; the widest rows beyond go to the hierarchy
+
+
+def _starts(keys):
+    """Indices where runs of equal sorted keys start."""
+    if not len(keys):
+        return np.zeros(0, int)
+    out = np.flatnonzero(keys[1:] != keys[:-1])
+    out += 1
+    return np.concatenate(([0], out))
 
 
 def segment_min(values, keys, n):
     """out[k] = min(values[keys == k]) for sorted integer keys (n,), +inf where a key has no value."""
     out = np.full(n, np.inf)
     if len(values):
-        starts = np.r_[0, np.flatnonzero(keys[1:] != keys[:-1]) + 1]
+        starts = _starts(keys)
         out[keys[starts]] = np.minimum.reduceat(values, starts)
     return out
 
@@ -107,7 +116,7 @@ class PolylineDistance:
             lb = np.maximum(np.sqrt(gx * gx + gy * gy) - fat[pc], 0.0)
             lb2 = lb * lb
             wx, wy = qx - rx[pc], qy - ry[pc]
-            starts = np.r_[0, np.flatnonzero(pr[1:] != pr[:-1]) + 1] if len(pr) else pr
+            starts = _starts(pr)
             keys = pr[starts]
             if len(pr):
                 ub2[keys] = np.minimum(ub2[keys], np.minimum.reduceat(wx * wx + wy * wy, starts))
@@ -137,37 +146,49 @@ class PolylineDistance:
         d = np.full(N, np.inf)
         edge = np.zeros(N, int)
         if len(pr):
-            starts = np.r_[0, np.flatnonzero(pr[1:] != pr[:-1]) + 1]
+            starts = _starts(pr)
             m = np.minimum.reduceat(d2, starts)
             d[pr[starts]] = np.sqrt(m)
-            hit = d2 == np.repeat(m, np.diff(np.r_[starts, len(pr)]))
+            hit = d2 == np.repeat(m, np.diff(np.append(starts, len(pr))))
             edge[pr[hit]] = pc[hit]
         return d, alive & np.isfinite(d), edge, lower
 
     def _window(self, px, py, ub):
-        """Rows whose h-window [h - ub, h + ub] holds at most WINDOW edges: (rows, d, edge) exact there."""
+        """Rows whose h-windows [h - ub, h + ub] hold at most WINDOW_TOTAL edges together (the narrowest
+        first): (rows, d, edge), exact there."""
         lo = px - ub * (1 + 1e-12) - 1e-12 * self.scale
         hi = px + ub * (1 + 1e-12) + 1e-12 * self.scale
         i0 = np.maximum(np.searchsorted(self.h, lo, side="left") - 1, 0)
         i1 = np.minimum(np.searchsorted(self.h, hi, side="right"), self.n_edges)
-        cnt = i1 - i0
-        rows = np.flatnonzero((cnt <= WINDOW) & np.isfinite(ub))
+        cnt = np.maximum(i1 - i0, 1)
+        cnt = np.where(np.isfinite(ub), cnt, self.n_edges + 1)
+        rows = np.flatnonzero(cnt <= self.n_edges)
+        if cnt[rows].sum() > WINDOW_TOTAL:
+            order = rows[np.argsort(cnt[rows], kind="stable")]
+            rows = np.sort(order[:int(np.searchsorted(np.cumsum(cnt[order]), WINDOW_TOTAL, side="right"))])
         if not len(rows):
             return rows, np.zeros(0), np.zeros(0, int)
-        K = max(int(cnt[rows].max()), 1)
-        e = np.minimum(i0[rows, None] + np.arange(K), np.maximum(i1[rows, None] - 1, i0[rows, None]))
-        d2 = self._edges(px[rows, None], py[rows, None], e)
-        j = np.argmin(d2, axis=1)
-        r = np.arange(len(rows))
-        return rows, np.sqrt(d2[r, j]), e[r, j]
+        c = cnt[rows]
+        first = np.cumsum(c) - c
+        row_of = np.repeat(np.arange(len(rows)), c)
+        e = np.repeat(i0[rows] - first, c) + np.arange(int(c.sum()))
+        d2 = self._edges(px[rows][row_of], py[rows][row_of], e)
+        m = np.minimum.reduceat(d2, first)
+        hit = np.flatnonzero(d2 == np.repeat(m, c))
+        edge = np.empty(len(rows), int)
+        edge[row_of[hit]] = e[hit]
+        return rows, np.sqrt(m), edge
 
     def distance(self, p, ub=None, hint=None, batch=20000):
         """(d, edge): exact distances of points p (N, 2) to the polyline and an edge attaining each.  ``ub``
         (N,): optional upper bounds of d; ``hint`` (N,): optional edge indices near each row's nearest edge
         (e.g. from a neighbouring query), which only change how fast the answer is found."""
         p = np.asarray(p, float).reshape(-1, 2)
-        px, py = p[:, 0].copy(), p[:, 1].copy()
-        N = len(p)
+        return self.distance_xy(p[:, 0].copy(), p[:, 1].copy(), ub, hint, batch)
+
+    def distance_xy(self, px, py, ub=None, hint=None, batch=20000):
+        """:meth:`distance` of the points (px, py) (N,)."""
+        N = len(px)
         ub = np.full(N, np.inf) if ub is None else np.array(ub, float)
         if hint is not None:
             hint = np.clip(np.asarray(hint, int), 0, self.n_edges - 1)
@@ -178,7 +199,10 @@ class PolylineDistance:
         if self.monotone:
             rows, dw, ew = self._window(px, py, ub)
             d[rows], edge[rows] = dw, ew
-            todo = np.setdiff1d(todo, rows, assume_unique=True) if len(rows) else todo
+            if len(rows):
+                rest = np.ones(N, bool)
+                rest[rows] = False
+                todo = np.flatnonzero(rest)
         for s in range(0, len(todo), batch):
             r = todo[s:s + batch]
             dr, _, er, _ = self._search(px[r], py[r], ub[r])

@@ -145,6 +145,16 @@ class CylinderPart:
     def signed_distance(self, q):
         return sd_cylinder(q, self.s0, self.s1, self.radius)
 
+    def axis_frame(self):
+        return self.s0, _unit(self.s1 - self.s0, "shank axis")[0]
+
+    def sd_plane(self, h, rho, hint=None):
+        """(sd, None) from meridian-plane coordinates (h from s0 along the axis, rho from it)."""
+        L = float(np.linalg.norm(self.s1 - self.s0))
+        dx = rho - self.radius
+        dy = np.maximum(-h, h - L)
+        return np.minimum(np.maximum(dx, dy), 0.0) + np.hypot(np.maximum(dx, 0.0), np.maximum(dy, 0.0)), None
+
 
 class MeridianPart:
     """Solid of revolution {h0 <= h <= h1, rho <= R(h)}, R piecewise linear through ``meridian``.
@@ -176,6 +186,7 @@ class MeridianPart:
         self.origin = np.asarray(origin, float)
         self.axis, _ = _unit(direction, "meridian axis")
         self.meridian = m
+        self._mh, self._mr = m[:, 0].copy(), m[:, 1].copy()
         h0, h1 = m[0, 0], m[-1, 0]
         # the boundary in the half-plane: end face, meridian, end face (the axis is not boundary)
         ring = np.vstack([[h0, 0.0], m, [h1, 0.0]])
@@ -211,7 +222,7 @@ class MeridianPart:
                                     radius_over, max(0.1 * float(m[:, 1].max()), 1e-9))
 
     def radius_at(self, h):
-        return np.interp(h, self.meridian[:, 0], self.meridian[:, 1], left=-1.0, right=-1.0)
+        return np.interp(h, self._mh, self._mr, left=-1.0, right=-1.0)
 
     def _plane(self, q):
         """(p (N, 2), inside (N,), ub (N,)): meridian-plane coordinates of rows q (..., 3), the exact test
@@ -226,6 +237,16 @@ class MeridianPart:
     def signed_distance(self, q, hint=None):
         d, _ = self.signed_distance_hinted(q, hint)
         return d
+
+    def axis_frame(self):
+        return self.origin, self.axis
+
+    def sd_plane(self, h, rho, hint=None):
+        """(sd, edge) from meridian-plane coordinates (h, rho) (N,), as :meth:`signed_distance_hinted`."""
+        R = self.radius_at(h)
+        ub = np.where(R >= 0, np.abs(rho - R), np.inf)
+        best, edge = self.polyline.distance_xy(h, rho, ub=ub, hint=hint)
+        return np.where(rho <= R, -best, best), edge
 
     def signed_distance_hinted(self, q, hint=None):
         """(sd, edge): signed distances of rows q (..., 3) and a boundary edge nearest to each; ``hint`` (rows,)
@@ -386,10 +407,35 @@ class RevolvingTool:
                 d = np.minimum(d, dp)
         return d, exact
 
-    def tracker(self):
+    def tracker(self, x=None, v0=None, handedness="right"):
         """This tool for a sequence of calls on the same rows, each near the last (a per-row search that
-        moves a little each step): each call starts from the previous call's nearest boundary edges."""
-        return _Tracked(self)
+        moves a little each step): each call starts from the previous call's nearest boundary edges.  With
+        points x (N, 3) and the screw (v0, handedness), :meth:`_Tracked.at` gives the signed distances of
+        S_t(x) directly."""
+        return _Tracked(self, x, v0, handedness)
+
+    def coaxial(self):
+        """(origin, unit axis, [(sign, offset)] per part) when every part is a solid of revolution about one
+        common axis line (a part's h = sign (h - offset)), else None."""
+        if not hasattr(self, "_coaxial"):
+            self._coaxial = None
+            if all(hasattr(p, "axis_frame") and hasattr(p, "sd_plane") for p in self.parts):
+                o, a = (np.asarray(v, float) for v in self.parts[0].axis_frame())
+                frames, ok = [], True
+                for p in self.parts:
+                    op, ap = (np.asarray(v, float) for v in p.axis_frame())
+                    sign = float(np.sign(ap @ a))
+                    w = op - o
+                    off = float(w @ a)
+                    scale = 1.0 + float(np.abs(o).max()) + float(np.abs(op).max())
+                    if (np.linalg.norm(np.cross(ap, a)) > 1e-12 or sign == 0
+                            or np.linalg.norm(w - off * a) > 1e-12 * scale):
+                        ok = False
+                        break
+                    frames.append((sign, off))
+                if ok:
+                    self._coaxial = (o, a, frames)
+        return self._coaxial
 
     def lower_bound(self, q):
         """A lower bound of signed_distance (q (..., 3)): distance to the nearest bounding sphere."""
@@ -409,9 +455,16 @@ class RevolvingTool:
 class _Tracked:
     """:meth:`RevolvingTool.tracker`: exact signed distances, each row's search started from its last answer."""
 
-    def __init__(self, tool):
+    def __init__(self, tool, x=None, v0=None, handedness="right"):
         self.tool = tool
         self.hints = {}
+        self.frame = tool.coaxial() if x is not None else None
+        if self.frame is not None:
+            o, a, _ = self.frame
+            x = np.asarray(x, float)
+            self.x, self.y, self.z = x[:, 0] - 0.0, x[:, 1] - 0.0, x[:, 2] - o[2]
+            self.v0, self.hand = float(v0), hand_sign(handedness)
+        self.screw = (x, v0, handedness)
 
     def signed_distance(self, q):
         d = None
@@ -420,6 +473,25 @@ class _Tracked:
                 dj, self.hints[j] = p.signed_distance_hinted(q, self.hints.get(j))
             else:
                 dj = p.signed_distance(q)
+            d = dj if d is None else np.minimum(d, dj)
+        return d
+
+    def at(self, t):
+        """Signed distances of S_t(x) (one t per row)."""
+        if self.frame is None:
+            x, v0, hand = self.screw
+            return self.signed_distance(screw_motion(x, t, v0, hand))
+        o, a, frames = self.frame
+        ang = self.hand * t
+        c, s = np.cos(ang), np.sin(ang)
+        wx = c * self.x - s * self.y - o[0]
+        wy = s * self.x + c * self.y - o[1]
+        wz = self.z + self.v0 * t
+        h = wx * a[0] + wy * a[1] + wz * a[2]
+        rho = np.sqrt(np.maximum(wx * wx + wy * wy + wz * wz - h * h, 0.0))
+        d = None
+        for j, (p, (sign, off)) in enumerate(zip(self.tool.parts, frames)):
+            dj, self.hints[j] = p.sd_plane(sign * (h - off), rho, self.hints.get(j))
             d = dj if d is None else np.minimum(d, dj)
         return d
 
@@ -627,10 +699,12 @@ def helical_distance(tool, points, v0, handedness="right", step=None, iters=None
     a = T[rows, np.maximum(k - 1, 0)]
     b = T[rows, np.minimum(k + 1, n - 1)]
     best_t, best = T[rows, k], D[rows, k]
-    ft = tool.tracker() if hasattr(tool, "tracker") else tool
+    ft = tool.tracker(x, v0, handedness) if hasattr(tool, "tracker") else None
 
     def f(t):
-        return ft.signed_distance(screw_motion(x, t, v0, handedness))
+        if ft is not None:
+            return ft.at(t)
+        return tool.signed_distance(screw_motion(x, t, v0, handedness))
 
     fa, fb = D[rows, np.maximum(k - 1, 0)], D[rows, np.minimum(k + 1, n - 1)]
 
