@@ -568,11 +568,13 @@ def sphere_union_meridian(s, r, tol=2e-10, dr=None, end_tol=None, grade=None):
     # that sphere's arc between the neighbouring contact circles, not an envelope)
     zones = []
     hs = np.sort(h_c)
-    for j, a, b in zip(j_vis, lo_h, hi_h):
-        if j == 0 or j == len(s) - 1:
-            continue            # the end spheres' exposed parts are the caps above
-        a, b = max(a, s[j] - r[j]), min(b, s[j] + r[j])
-        step = math.sqrt(8 * tol * max(r[j], 1e-300))
+    inner = (j_vis != 0) & (j_vis != len(s) - 1)      # the end spheres' exposed parts are the caps above
+    jj = j_vis[inner]
+    a_all = np.maximum(lo_h[inner], s[jj] - r[jj])
+    b_all = np.minimum(hi_h[inner], s[jj] + r[jj])
+    step_all = np.sqrt(8 * tol * np.maximum(r[jj], 1e-300))
+    wide = b_all - a_all > step_all
+    for a, b, step in zip(a_all[wide], b_all[wide], step_all[wide]):
         if b - a > step:
             q = 0.25 * (b - a)
             if np.searchsorted(hs, b - q) > np.searchsorted(hs, a + q):
@@ -591,8 +593,24 @@ def sphere_union_meridian(s, r, tol=2e-10, dr=None, end_tol=None, grade=None):
     keep = np.zeros(len(P), bool)
     keep[[0, -1]] = True
     arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))]
-    keep[np.unique(np.searchsorted(arc, np.arange(0.0, arc[-1], d_min)))] = True
+    keep[_first_at_or_after(arc, d_min)] = True
     return _graded_polyline(P[keep], ratio=grade) if grade else P[keep]
+
+
+def _first_at_or_after(arc, step):
+    """Indices np.unique(np.searchsorted(arc, np.arange(0.0, arc[-1], step))) for a non-decreasing ``arc``
+    starting at 0, without the grid: vertex i (> 0) is one iff a grid value k step (0 <= k < the grid's
+    length) lies in (arc[i - 1], arc[i]]."""
+    arc = np.asarray(arc, float)
+    if len(arc) < 2 or not arc[-1] > 0:
+        return np.zeros(0 if not len(arc) or not arc[-1] > 0 else 1, int)
+    prev = arc[:-1]
+    k = np.maximum(np.floor(prev / step) - 1.0, 0.0)
+    for _ in range(4):          # the least k with k step > arc[i - 1] (floor may be off by one either way)
+        k = np.where(k * step <= prev, k + 1.0, k)
+    g = k * step
+    hit = (g <= arc[1:]) & (k < math.ceil(float(arc[-1]) / step))     # np.arange's length
+    return np.r_[0, 1 + np.flatnonzero(hit)]
 
 
 def _graded_polyline(P, ratio=1.1):
