@@ -374,7 +374,7 @@ def _cmd_plan_freeform(args):
                          n_ruling_samples=args.samples, n_columns=args.columns, engagement=args.engagement,
                          optimize_tool=free, max_nfev=args.max_evaluations, slide=args.slide,
                          shank_radius=args.shank_radius if args.shank_radius else None,
-                         shank_length=args.shank_length, flip_normals=args.flip_normals)
+                         shank_length=args.shank_length or 0.0, flip_normals=args.flip_normals)
     write_plan(args.out, plan)
     s = plan["summary"]
     if args.json:
@@ -400,27 +400,68 @@ def _cmd_plan_freeform(args):
     return 0
 
 
+def _single_flank_tools(args, unit):
+    """[(name, ConeTool), ...] and the selection ('order' | 'auto') of --tools, or of the --tool-* cone."""
+    from .tooling.cone import ConeTool
+
+    cone_opts = ("tool_r1", "tool_r2", "tool_alpha", "tool_h")
+    if args.tools is not None:
+        given = [o for o in cone_opts + ("shank_radius", "shank_length") if getattr(args, o) not in (None, 0.0)]
+        if given:
+            raise ValueError(f"--tools takes the cones from the presets: drop --{given[0].replace('_', '-')}")
+        from .tooling.presets import load_presets, presets_by_name
+
+        if unit == "R":
+            mm = args.outer_radius_mm if args.outer_radius_mm is not None else SUGGEST_DEFAULT_R_MM
+            if not (math.isfinite(mm) and mm > 0):
+                raise ValueError(f"--outer-radius-mm {mm} must be a finite number > 0")
+        else:
+            if args.outer_radius_mm is not None:
+                raise ValueError("--outer-radius-mm applies to --builtin only (a mesh is read in mm)")
+            mm = 1.0
+        text = args.tools.strip()
+        presets = load_presets() if text.lower() == "auto" else presets_by_name(text)
+        return [(p.name, p.tool(mm)) for p in presets], ("auto" if text.lower() == "auto" else "order"), mm
+    if args.outer_radius_mm is not None:
+        raise ValueError("--outer-radius-mm applies to --tools (the presets are in mm)")
+    if args.max_tools is not None:
+        raise ValueError("--max-tools applies to --tools auto")
+    if args.tool_r1 is None or args.tool_r2 is None:
+        raise ValueError("single-flank needs --tools auto|NAME,... or --tool-r1 and --tool-r2 (radii of the cone's "
+                         "tip and top circles)")
+    if (args.tool_alpha is None) == (args.tool_h is None):
+        raise ValueError("give exactly one of --tool-alpha RAD or --tool-h H")
+    shank = dict(shank_radius=args.shank_radius or 0.0, shank_length=args.shank_length or 0.0)
+    if args.tool_alpha is not None:
+        tool = ConeTool(args.tool_alpha, args.tool_r1, args.tool_r2, **shank)
+    else:
+        tool = ConeTool.from_length(args.tool_r1, args.tool_r2, args.tool_h, **shank)
+    return [(None, tool)], "order", None
+
+
 def _cmd_plan_single_flank(args):
-    """Bizzarri, Bo & Bartoň: multi-strip single-flank milling of one flank with a given cone, to a tolerance."""
+    """Bizzarri, Bo & Bartoň: multi-strip single-flank milling of one flank with given cones, to a tolerance."""
     import json
     import math
 
-    from .tooling.cone import ConeTool
     from .methods.single_flank.planner import flank_of_point, plan_single_flank
     from .io.plan import write_plan
 
     if (args.flank is None) == (args.flank_point is None):
         raise ValueError("give exactly one of --flank K or --flank-point X,Y,Z")
-    if args.tool_r1 is None or args.tool_r2 is None:
-        raise ValueError("single-flank needs --tool-r1 and --tool-r2 (radii of the cone's tip and top circles)")
-    if (args.tool_alpha is None) == (args.tool_h is None):
-        raise ValueError("give exactly one of --tool-alpha RAD or --tool-h H")
     if args.tolerance is None:
         raise ValueError("single-flank needs --tolerance EPS (largest material left, in the rotor's unit)")
-    for name in ("tool_r1", "tool_r2", "tool_alpha", "tool_h", "shank_radius", "shank_length", "tolerance"):
+    for name in ("tool_r1", "tool_r2", "tool_alpha", "tool_h", "shank_radius", "shank_length", "tolerance",
+                 "outer_radius_mm"):
         v = getattr(args, name)
         if v is not None and not math.isfinite(v):
             raise ValueError(f"--{name.replace('_', '-')} {v} is not a finite number")
+    if args.max_tools is not None and args.tools is None:
+        raise ValueError("--max-tools applies to --tools auto")
+    unit_guess = "R" if args.builtin else "mm"
+    tools, select, mm = _single_flank_tools(args, unit_guess)
+    if select == "order" and args.max_tools is not None:
+        raise ValueError("--max-tools applies to --tools auto")
     surface, flanks, to_world, unit, src = _load_rotor(args)
     if args.flank is not None:
         if not 0 <= args.flank < len(flanks):
@@ -429,16 +470,26 @@ def _cmd_plan_single_flank(args):
         k = args.flank
     else:
         k = flank_of_point(surface, flanks, _model_point_to_rotor(args.flank_point, to_world))
-    shank = dict(shank_radius=args.shank_radius, shank_length=args.shank_length)
-    if args.tool_alpha is not None:
-        tool = ConeTool(args.tool_alpha, args.tool_r1, args.tool_r2, **shank)
-    else:
-        tool = ConeTool.from_length(args.tool_r1, args.tool_r2, args.tool_h, **shank)
-    res = plan_single_flank(surface, flanks, k, tool, args.tolerance, overcut_tolerance=args.overcut_tolerance,
-                            n_seeds=args.seeds, objective=args.objective, mode=args.mode,
-                            max_rounds=args.rounds, to_world=to_world, length_unit=unit,
+    targets = None
+    if args.split is not None:
+        from .methods.single_flank.planner import curvature_parts
+
+        parts = curvature_parts(surface, flanks[k])
+        targets = parts[args.split]
+        if not targets:
+            raise ValueError(f"--split {args.split}: flank {k} has no {args.split} part (all of it is "
+                             f"{'hyperbolic' if parts['hyperbolic'] else 'elliptic'})")
+    names = [nm for nm, _ in tools] if args.tools is not None else None
+    res = plan_single_flank(surface, flanks, k, tools if names else tools[0][1], args.tolerance,
+                            overcut_tolerance=args.overcut_tolerance, n_seeds=args.seeds, objective=args.objective,
+                            mode=args.mode, max_rounds=args.rounds, to_world=to_world, length_unit=unit,
                             check_collisions=not args.no_collisions, g1=args.g1,
-                            g1_extra_strips=args.g1_extra_strips)
+                            g1_extra_strips=args.g1_extra_strips, targets=targets, tool_names=names,
+                            select=select, max_tools=args.max_tools,
+                            bound_radius=min(t.r1s for _, t in tools) if names else None,
+                            split=args.split)
+    if mm is not None:
+        res.plan["summary"]["tools_mm_per_unit"] = mm
     write_plan(args.out, _with_extent(res.plan, args))
     if args.profile_csv:
         u, dev = res.deviation
@@ -447,29 +498,43 @@ def _cmd_plan_single_flank(args):
             for a, b in zip(u, dev):
                 fh.write(f"{a:.9g},{b:.9g}\n")
     v = res.verify
+    summ = res.plan["summary"]
+    tool0 = res.plan["tool"]
     summary = {
         "flank": k, "strips": len(res.strips), "candidates": len(res.candidates),
         "collisions_excluded": len(res.collisions), "uncovered_ranges": [list(g) for g in res.uncovered],
+        "covered_fraction": res.covered_fraction, "uncovered": summ.get("uncovered", []),
         "max_error": v["max_undercut"], "min_error": v["max_overcut"], "gouge_points": len(v["gouge_points"]),
         "junction_kinks_deg": [[j["kink_deg"] for j in js] for js in res.junctions],
-        "g1": res.plan["summary"].get("g1"),
-        "timings_s": res.timings, "tool": tool.as_dict(), "length_unit": unit,
+        "g1": summ.get("g1"), "split": summ.get("split"),
+        "timings_s": res.timings, "tool": tool0, "length_unit": unit,
+        "tools": summ.get("tools"), "tool_selection": summ.get("tool_selection"),
         "per_strip": [{"max_error": st["reported_max_error"], "min_error": st["reported_min_error"],
-                       "collision": st["collision"]} for st in res.plan["strips"]],
+                       "collision": st["collision"], "tool": st.get("tool", tool0).get("name")}
+                      for st in res.plan["strips"]],
     }
     if args.json:
         print(json.dumps(summary, indent=1))
         return 0
-    print(f"{src}: flank {k}, {res.plan['method']}, cone alpha {tool.alpha:.5f} rad, r1 {tool.r1c:g}, "
-          f"r2 {tool.r2c:g}, h {tool.h:.5g} {unit}; tolerance {args.tolerance:g}")
-    print(f"  {len(res.strips)} strip(s) chosen of {len(res.candidates)} candidates "
-          f"({len(res.collisions)} excluded by collisions), {len(res.rounds)} round(s)")
+    if names:
+        print(f"{src}: flank {k}, {res.plan['method']}, tools {'auto' if select == 'auto' else 'as named'} "
+              f"({len(tools)} in the list); tolerance {args.tolerance:g} {unit}")
+        for row in res.tools:
+            print(f"  {row['name']}: {row['strips']} strip(s) of {row['candidates']} candidates, {row['seeds']} seeds "
+                  f"({row['collisions_excluded']} excluded by collisions)")
+    else:
+        tool = tools[0][1]
+        print(f"{src}: flank {k}, {res.plan['method']}, cone alpha {tool.alpha:.5f} rad, r1 {tool.r1c:g}, "
+              f"r2 {tool.r2c:g}, h {tool.h:.5g} {unit}; tolerance {args.tolerance:g}")
+        print(f"  {len(res.strips)} strip(s) chosen of {len(res.candidates)} candidates "
+              f"({len(res.collisions)} excluded by collisions), {len(res.rounds)} round(s)")
     for j, st in enumerate(res.plan["strips"]):
-        print(f"  strip {j}: max {st['reported_max_error']:.4g}  min {st['reported_min_error']:.3g}")
+        tn = f"  [{st['tool']['name']}]" if st.get("tool") else ""
+        print(f"  strip {j}: max {st['reported_max_error']:.4g}  min {st['reported_min_error']:.3g}{tn}")
     kinks = [j["kink_deg"] for js in res.junctions for j in js]
     if kinks:
         print(f"  junction kinks: {min(kinks):.2f}..{max(kinks):.2f} deg")
-    g1 = res.plan["summary"].get("g1")
+    g1 = summ.get("g1")
     if g1 is not None:
         sel = g1.get("selection")
         if sel is not None and "strips_after" in sel:
@@ -479,10 +544,12 @@ def _cmd_plan_single_flank(args):
         print(f"  G1 refinement {'kept' if g1['accepted'] else 'not kept'}: rms kink "
               f"{g1['rms_kink_before_deg']:.2f} -> {g1['rms_kink_after_deg']:.2f} deg")
     print(f"  machined flank (verify): max {v['max_undercut']:.4g}, min {v['max_overcut']:.3g}, "
-          f"gouges {len(v['gouge_points'])}")
-    if res.uncovered:
-        rng = ", ".join(f"[{a:.5g}, {b:.5g}]" for a, b in res.uncovered)
-        print(f"  NOT covered within the tolerance: u in {rng}")
+          f"gouges {len(v['gouge_points'])}; {100 * res.covered_fraction:.2f} % of the flank's arc length within "
+          f"the tolerance")
+    for ru in summ.get("uncovered", []):
+        a, b = ru["u_range"]
+        s0, s1 = ru["arc_range"]
+        print(f"  NOT covered: u in [{a:.5g}, {b:.5g}] (arc {s0:.4g}..{s1:.4g} {unit}, {ru['kind']}): {ru['reason']}")
     print(f"  time {res.timings['total']:.2f} s; wrote {args.out}")
     return 0
 
@@ -915,19 +982,30 @@ def build_parser():
     fsel = sf.add_mutually_exclusive_group()
     fsel.add_argument("--flank", type=int, help="flank index K")
     fsel.add_argument("--flank-point", metavar="X,Y,Z", type=CommaList(3, "X,Y,Z"), help="a point X,Y,Z (model frame) near the flank")
+    sf.add_argument("--tools", metavar="auto|NAME,...",
+                    help="cones from the shipped tool presets instead of --tool-*: 'auto' picks the largest preset "
+                         "admissible for the flank, then smaller ones for what it leaves; or preset names, tried "
+                         "in that order (see docs/cli.md)")
+    sf.add_argument("--outer-radius-mm", type=float,
+                    help="with --tools on a built-in rotor (units of R): its outer radius in mm (default 50)")
+    sf.add_argument("--max-tools", type=int, help="with --tools auto: at most this many tools (default: as needed)")
+    sf.add_argument("--split", choices=["hyperbolic", "elliptic"],
+                    help="plan only the hyperbolic (K < 0) or the elliptic (K >= 0) part of the flank, each with "
+                         "its own initialisation (Bizzarri, Bo & Bartoň Examples 6.5, 6.6)")
     sf.add_argument("--tool-r1", type=float, help="cone: tip circle radius")
     sf.add_argument("--tool-r2", type=float, help="cone: top circle radius (> r1)")
     sf.add_argument("--tool-alpha", type=float, help="cone: opening angle (rad)")
     sf.add_argument("--tool-h", type=float, help="cone: length between the circles (instead of --tool-alpha)")
-    sf.add_argument("--shank-radius", type=float, default=0.0)
-    sf.add_argument("--shank-length", type=float, default=0.0)
+    sf.add_argument("--shank-radius", type=float)
+    sf.add_argument("--shank-length", type=float)
     sf.add_argument("--tolerance", type=float, help="largest material left (rotor unit)")
     sf.add_argument("--overcut-tolerance", type=float, help="largest overcut (default 1e-6 R)")
-    sf.add_argument("--seeds", type=int, default=18, help="first-round seeds along the flank (default 18)")
+    sf.add_argument("--seeds", type=int, help="first-round seeds along the flank (default 8; later rounds seed "
+                                                 "what is still uncovered)")
     sf.add_argument("--objective", default="phi1", choices=["phi1", "phi3"])
     sf.add_argument("--mode", default="hard", choices=["hard", "weighted"],
                     help="hard: no overcut along the tool; weighted: overcut weight 100 (Remark 5.1)")
-    sf.add_argument("--rounds", type=int, default=4, help="adaptive seeding rounds (default 4)")
+    sf.add_argument("--rounds", type=int, help="at most this many seeding rounds per tool (default 10)")
     sf.add_argument("--no-collisions", action="store_true", help="skip the global collision test")
     sf.add_argument("--g1", action="store_true",
                     help="smoother junctions: choose the smoothest cover (up to --g1-extra-strips more strips), "

@@ -53,3 +53,76 @@ def test_a_smaller_tool_never_covers_less_female(female_plan, female):
     assert small.covered_fraction >= big.covered_fraction
     assert len(small.strips) > len(big.strips)
     assert not small.verify["gouge_points"]
+
+
+# ---------------------------------------------------------------- the residual, stated
+def test_covered_fraction_is_the_verified_share_of_the_arc_length(male_d4):
+    """covered_fraction comes from the sweep simulation: recomputed here from an independent verify_plan run
+    (arc-length weights of the plan's own profile) and from a 4x denser sweep of the flank."""
+    from flank_addon.simulation.sweep import machined_deviation, tool_of
+    from flank_addon.simulation.verify import verify_plan
+
+    r, s, (big, _) = male_d4
+    plan = big.plan
+    assert plan["summary"]["covered_fraction"] == big.covered_fraction
+    v = verify_plan(plan, tolerance=1e-6)
+    prof = np.asarray(plan["rotor"]["profile"])
+    a, b = plan["rotor"]["flanks"][0]
+    idx = np.arange(a, b + 1) % len(prof)
+    dev = {i: (np.inf if d is None else d) for i, _, _, d in v["deviation_profile"]}
+    d = np.array([dev[i] for i in idx])
+    mids = 0.5 * (prof[idx][1:] + prof[idx][:-1])
+    seg = np.linalg.norm(np.diff(prof[idx], axis=0), axis=1)
+    ok = (d <= TOL) & (d >= -plan["overcut_tolerance"])
+    share = (np.sum(seg * 0.5 * (ok[1:].astype(float) + ok[:-1])) / seg.sum())
+    assert big.covered_fraction == pytest.approx(share, abs=1e-12)
+    # a denser independent sweep of the same strips agrees within a point
+    u0, u1 = r.flanks[0]
+    u = np.linspace(u0, u1, 4 * len(idx))
+    pts, nrm = s.profile.eval(u), s.profile.outward_normal(u)
+    dd = machined_deviation([tool_of(st, with_shank=True) for st in plan["strips"]], pts, nrm, s.v0, s.handedness,
+                            max_deviation=0.1)
+    arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))]
+    okd = (dd <= TOL) & (dd >= -plan["overcut_tolerance"])
+    dense = np.sum(np.diff(arc) * 0.5 * (okd[1:].astype(float) + okd[:-1])) / arc[-1]
+    assert abs(dense - big.covered_fraction) < 0.01
+
+
+def test_uncovered_ranges_carry_their_reason_and_the_proven_bound(male_d4):
+    """The valley bottom the D4 cone leaves: the reason names the collision, and the part where no cone of
+    tip sphere >= 2 mm can come within the tolerance without entering the rotor is stated with its depth.
+    The bound is checked by brute force: balls of that radius around the bottom points, centres on 20000
+    directions, exact signed distances to the whole rotor (foot points): none has the room the bound denies."""
+    from flank_addon.methods.single_flank.poses import RotorClearance
+    from flank_addon.methods.single_flank.reach import room_bound
+
+    r, s, (big, _) = male_d4
+    summ = big.plan["summary"]["uncovered"]
+    assert summ and all({"u_range", "arc_range", "index_range", "kind", "reason", "bound"} <= set(x) for x in summ)
+    bottom = summ[-1]
+    assert bottom["u_range"][1] == pytest.approx(r.flanks[0][1], abs=1e-3)
+    assert "collides" in bottom["reason"] and "proven" in bottom["reason"]
+    bd = bottom["bound"]
+    assert bd["proven"] and bd["depth_min"] > 0
+    tool = big.plan["tool"]
+    r1s = tool["r1c"] / math.cos(tool["alpha"])
+    assert bd["radius"] == pytest.approx(r1s)
+    slack = TOL + big.plan["overcut_tolerance"]
+    u = np.linspace(bd["u_range"][0], bd["u_range"][1], 4)
+    rb = room_bound(s, u, r1s, slack)
+    assert rb.proven.all()
+    feet = RotorClearance.for_tool(s, r.flanks[0], ConeTool(tool["alpha"], tool["r1c"], tool["r2c"])).feet
+    rng = np.random.default_rng(3)
+    w = rng.normal(size=(20000, 3))
+    w /= np.linalg.norm(w, axis=1, keepdims=True)
+    for ui, g_up in zip(u, rb.g_up):
+        p = np.r_[s.profile.eval(np.array([ui]))[0], 0.0]
+        c = p + r1s * w
+        ft = feet(c)
+        outside = np.einsum("ij,ij->i", c - ft.point, s.normal(ft.u, ft.t)) > 0
+        sd = np.where(outside, ft.distance, -ft.distance)
+        assert sd.max() <= g_up + 1e-9
+        assert sd.max() < r1s - slack
+    # not vacuous: where the plan mills the flank the bound proves nothing
+    mid = 0.5 * (r.flanks[0][0] + bottom["u_range"][0])
+    assert not room_bound(s, np.array([mid]), r1s, slack).proven.any()

@@ -124,6 +124,7 @@ class _ToolRun:
         self.calls = 0
         self.buried = float("inf")
         self.flank_ranges = None
+        self.room_slack = None
 
     def __call__(self, us):
         from ...simulation.collision import check_collisions as collide
@@ -133,6 +134,19 @@ class _ToolRun:
                     f"{self.name}: optimising {len(us)} candidate strips (round {self.calls + 1})")
         self.calls += 1
         ts = time.perf_counter()
+        us = np.asarray(us, float)
+        proven = np.zeros(len(us), bool)
+        if self.room_slack is not None and len(us):
+            # where the geometry proves that no ball of the tool's tip sphere can come within the tolerance
+            # without entering the rotor (:mod:`.reach`), no pose of this tool can help: not even seeded
+            from .reach import room_bound
+
+            rb = room_bound(self.surface, us, self.tool.r1s, self.room_slack)
+            proven = rb.proven
+            for u, d in zip(us[proven], rb.depth[proven]):
+                self.log.append({"tool": self.index, "u": float(u), "status": "collides", "seed": None,
+                                 "depth": float(d), "part": "cone", "relation": "the rotor (proven)"})
+            us = us[~proven]
         seeds = clear_seeds(self.ev, us) if self.ev.clearance is not None else [None] * len(us)
         if self.ev.clearance is None:
             from .poses import initial_positions
@@ -188,7 +202,7 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
                       to_world=None, length_unit="R", check_collisions=True, z_range=None, g1=False,
                       g1_weight=1.0, g1_extra_strips=2, g1_target_deg=1.0, g1_rounds=2, optimizer=None,
                       progress=None, clearance=None, pin=True, targets=None, max_seeds=400, tool_names=None,
-                      bound_radius=None, explain=True):
+                      bound_radius=None, explain=True, select="order", max_tools=None, split=None):
     """Plan strips of the cone ``tool`` (:class:`cone.ConeTool`) -- or of several: a list of cones or of
     (name, cone) pairs, tried in that order, each on what the earlier ones left -- on flank index ``flank``
     so the machined flank stays within [-overcut_tolerance, tolerance] of the design (signed, + = stock).
@@ -205,7 +219,13 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
     occupies over the whole pass (None = an infinite rotor; a slab that is too short hides
     collisions, see :func:`collision.check_collisions`).  ``bound_radius``: the smallest tip sphere r1S the
     proven bound of an uncovered range is stated for (default the smallest of the given tools; pass the
-    catalogue's smallest).  With ``g1`` (one tool, when the flank is covered):
+    catalogue's smallest).  ``select``: 'order' (the tools in the order given) or 'auto' (a catalogue:
+    :func:`_pick_tool` picks the largest tool admissible for what is still uncovered, then the next, at most
+    ``max_tools`` runs).  ``split``: 'hyperbolic' | 'elliptic' plans only that part of the flank
+    (:func:`curvature_parts`, unless ``targets`` are given), in its own run with its own initialisation: the
+    §5.1 second-order line contacts on the hyperbolic part, the tangential contacts along the direction of the
+    smallest principal curvature on the elliptic part (Examples 6.5, 6.6); the summary adds the part's ranges
+    and its own verified share.  With ``g1`` (one tool, when the flank is covered):
     first the smoothest cover with at most ``g1_extra_strips`` more strips than the minimum is
     chosen (:func:`.strip_cover.smooth_cover`), seeding new candidates between neighbours whose
     junction kinks more than ``g1_target_deg`` for ``g1_rounds`` rounds, and kept if its largest
@@ -240,6 +260,12 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
         raise ValueError(f"mode {mode!r} is not one of hard, weighted")
     if not 0 <= int(g1_extra_strips) <= 50:
         raise ValueError(f"g1 extra strips {g1_extra_strips} is outside the limits 0..50")
+    if split not in (None, "hyperbolic", "elliptic"):
+        raise ValueError(f"split {split!r} is not one of hyperbolic, elliptic")
+    if select not in ("order", "auto"):
+        raise ValueError(f"tool selection {select!r} is not one of order, auto")
+    if max_tools is not None and not 1 <= int(max_tools) <= 50:
+        raise ValueError(f"tools {max_tools} is outside the limits 1..50")
     flank = int(flank)
     n_seeds = 8 if n_seeds is None else int(n_seeds)
     max_rounds = 10 if max_rounds is None else int(max_rounds)
@@ -256,18 +282,35 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
                         z_range=z_range, model="spheres")
     timings = {"candidates": 0.0, "collision": 0.0}
     fs = flank_samples(surface, u_range, n_cover)
+    if split is not None and targets is None:
+        targets = curvature_parts(surface, u_range)[split]
+        if not targets:
+            raise ValueError(f"split {split}: flank {flank} has no {split} part")
     all_targets = [tuple(map(float, t)) for t in (targets or [u_range])]
     remaining = list(all_targets)
     chosen, chosen_cov, runs, rounds, covers = [], [], [], [], []
     cand_end = 0.6 if g1 else 0.75
     ts0 = time.perf_counter()
-    for ti, (name, t) in enumerate(tools):
-        if not remaining:
-            break
-        share = (cand_end - 0.02) / len(tools)
+    pool = list(range(len(tools)))
+    picks = []
+    budget = len(tools) if max_tools is None else int(max_tools)
+    while remaining and pool and len(runs) < budget:
+        if select == "auto":
+            ti, why = _pick_tool(surface, tools, pool, remaining, tol + eps_over, first=not runs)
+            if ti is None:
+                picks.append(why)
+                break
+            picks.append(why)
+        else:
+            ti = pool[0]
+        pool.remove(ti)
+        name, t = tools[ti]
+        k = len(runs)
+        share = (cand_end - 0.02) / max(1, min(budget, len(tools)))
         run = _ToolRun(ti, name, t, surface, u_range, flank, objective, mode, optimizer, clearance, pin,
-                       check_collisions, collide_args, timings, report, (0.02 + ti * share, 0.02 + (ti + 1) * share))
+                       check_collisions, collide_args, timings, report, (0.02 + k * share, 0.02 + (k + 1) * share))
         run.buried, run.flank_ranges = tol, flank_ranges
+        run.room_slack = (tol + eps_over) if clearance else None
         runs.append(run)
         cover = adaptive_cover(run, surface, u_range, tol, eps_over, n_seeds=n_seeds, max_rounds=max_rounds,
                                samples=fs, targets=remaining, max_seeds=max_seeds)
@@ -374,7 +417,7 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
         ru["u_range"] = [a, b]
         uncovered.append((a, b))
         if explain:
-            per_tool, text = explain_range(ru, logs, [nm for nm, _ in tools[:len(runs)]], tol, length_unit,
+            per_tool, text = explain_range(ru, logs, {run.index: run.name for run in runs}, tol, length_unit,
                                            margin)
             ru["tools"] = per_tool
             ru["reason"] = text
@@ -393,18 +436,25 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
     if fin[0] is not None:
         plan["summary"]["max_error"], plan["summary"]["min_error"] = fin[0], fin[1]
     plan["summary"]["covered_fraction"] = frac
+    if targets is not None:
+        part = _part_fraction(plan, ver, flank, tol, eps_over, per, all_targets, u_range)
+        plan["summary"]["split" if split is not None else "targets"] = {
+            "part": split, "u_ranges": [list(t) for t in all_targets], "covered_fraction": part}
     plan["summary"]["uncovered_ranges"] = [list(g) for g in uncovered]
     plan["summary"]["uncovered"] = [_json_range(ru) for ru in residual]
     plan["summary"]["junction_kinks_deg"] = [[j["kink_deg"] for j in js] for js in junctions]
     tool_rows = []
-    for ti, (nm, t) in enumerate(tools):
-        run = runs[ti] if ti < len(runs) else None
-        tool_rows.append({"name": nm, "tool": t.as_dict(), "strips": sum(1 for c in chosen if c.tool_index == ti),
-                          "seeds": 0 if run is None else len(run.log),
-                          "candidates": 0 if run is None else len(run.candidates),
-                          "collisions_excluded": 0 if run is None else len(run.collisions)})
+    for k, run in enumerate(runs):
+        row = {"name": run.name, "tool": run.tool.as_dict(),
+               "strips": sum(1 for c in chosen if c.tool_index == run.index), "seeds": len(run.log),
+               "candidates": len(run.candidates), "collisions_excluded": len(run.collisions)}
+        if select == "auto" and k < len(picks):
+            row["picked"] = picks[k]
+        tool_rows.append(row)
     if len(tools) > 1 or tool_names is not None:
         plan["summary"]["tools"] = [{k: v for k, v in row.items() if k != "tool"} for row in tool_rows]
+        if select == "auto":
+            plan["summary"]["tool_selection"] = {"catalogue": [nm for nm, _ in tools], "picks": picks}
     if g1_report is not None:
         g1_report["selection"] = selection
         plan["summary"]["g1"] = g1_report
@@ -413,6 +463,98 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
                              collisions=[c for run in runs for c in run.collisions], uncovered=uncovered,
                              junctions=junctions, deviation=(fs.u, dev_union), verify=ver, rounds=rounds,
                              timings=timings, residual=residual, covered_fraction=frac, tools=tool_rows)
+
+
+def curvature_parts(surface, u_range, n=2000, min_len=None):
+    """The hyperbolic (K < 0) and elliptic (K >= 0, parabolic included) parts of a flank as parameter ranges
+    (Bizzarri, Bo & Bartoň Fig. 3; Examples 6.5 and 6.6 plan each part in its own run): {"hyperbolic": [(a, b),
+    ...], "elliptic": [...]} from :meth:`HelicalSurface.classify` at n points, runs shorter than ``min_len``
+    (default 1 % of the flank) merged into their neighbours."""
+    a, b = (float(x) for x in u_range)
+    u = np.linspace(a, b, int(n))
+    hyp = surface.classify(u) < 0
+    edges = np.flatnonzero(np.diff(hyp.astype(int))) + 1
+    starts, ends = np.r_[0, edges], np.r_[edges, len(u)]
+    runs = [[bool(hyp[i]), float(u[i]), float(u[j - 1])] for i, j in zip(starts, ends)]
+    min_len = 0.01 * (b - a) if min_len is None else float(min_len)
+    merged = True
+    while merged and len(runs) > 1:
+        merged = False
+        for k, r in enumerate(runs):
+            if r[2] - r[1] < min_len:
+                j = k - 1 if k > 0 else k + 1
+                runs[j][0] = runs[j][0] if runs[j][2] - runs[j][1] >= r[2] - r[1] else r[0]
+                runs[j][1], runs[j][2] = min(runs[j][1], r[1]), max(runs[j][2], r[2])
+                runs.pop(k)
+                merged = True
+                break
+    out = {"hyperbolic": [], "elliptic": []}
+    for k, (h, lo, hi) in enumerate(runs):
+        # neighbouring parts meet half way between their samples
+        lo = a if k == 0 else 0.5 * (lo + runs[k - 1][2])
+        hi = b if k == len(runs) - 1 else 0.5 * (hi + runs[k + 1][1])
+        key = "hyperbolic" if h else "elliptic"
+        if out[key] and abs(out[key][-1][1] - lo) < 1e-12:
+            out[key][-1] = (out[key][-1][0], hi)
+        else:
+            out[key].append((lo, hi))
+    return out
+
+
+def _pick_tool(surface, tools, pool, remaining, slack, first, n=24):
+    """The next tool of an automatic selection among ``pool`` (indices into ``tools``) for the parameter
+    ranges ``remaining``: the largest (:func:`tooling.cutter_selection.tool_size_key`) that is admissible for
+    them.  Admissible: its smallest sphere r1S is not proven unable to mill within the tolerance
+    (:func:`.reach.room_bound`, slack = tolerance + overcut tolerance) at as many of n samples of the ranges
+    as the best tool of the pool (after the first tool: it can finish the job as far as any can), or, for
+    the first tool, at half as many (the largest tool that can mill most of what any tool can; the smaller
+    ones come after it).  Returns (index or None, a record of the choice)."""
+    from ...tooling.cutter_selection import tool_size_key
+    from .reach import room_bound
+
+    lens = np.array([b - a for a, b in remaining])
+    m = np.maximum(1, np.round(n * lens / lens.sum()).astype(int))
+    u = np.concatenate([a + (b - a) * (np.arange(k) + 0.5) / k for (a, b), k in zip(remaining, m)])
+    # one bound per tip sphere, rounded down to 3 digits (a bound proven for a smaller ball holds for larger)
+    key = {i: _floor3(tools[i][1].r1s) for i in pool}
+    share = {}
+    for r in sorted(set(key.values())):
+        share[r] = float(1.0 - room_bound(surface, u, r, slack).proven.mean())
+    best = max(share.values())
+    rec = {"samples": int(len(u)), "share_by_tip_sphere": {f"{r:.6g}": v for r, v in share.items()}, "best": best}
+    if best <= 0.0:
+        rec["reason"] = "every tool left is proven unable to mill what remains within the tolerance"
+        return None, rec
+    need = (0.5 if first else 1.0) * best - 1e-12
+    ok = [i for i in pool if share[key[i]] >= need]
+    ti = max(ok, key=lambda i: tool_size_key(tools[i][1]))
+    rec.update(tool=tools[ti][0], share=share[key[ti]])
+    return ti, rec
+
+
+def _floor3(x):
+    """x rounded down to three significant digits."""
+    e = 10.0 ** (math.floor(math.log10(x)) - 2)
+    return math.floor(x / e * (1 + 1e-12)) * e
+
+
+def _part_fraction(plan, ver, flank, tol, eps_over, per, ranges, u_range):
+    """Verified share of the arc length of the flank's points whose parameter lies in ``ranges``."""
+    from .residual import flank_points
+
+    idx, raw, _, w = flank_points(plan, flank)
+    n = len(plan["rotor"]["profile"])
+    u = np.array([_unwrap(x * per / n, u_range, per) for x in raw])
+    dev = np.full(n, np.nan)
+    for i, _, _, d in ver["deviation_profile"]:
+        dev[i] = np.inf if d is None else d
+    d = dev[idx]
+    inside = np.zeros(len(u), bool)
+    for a, b in ranges:
+        inside |= (u >= a) & (u <= b)
+    ok = inside & np.isfinite(d) & (d <= tol) & (d >= -eps_over)
+    tot = float(w[inside].sum())
+    return float(w[ok].sum() / tot) if tot > 0 else 0.0
 
 
 def _unwrap(u, u_range, per):

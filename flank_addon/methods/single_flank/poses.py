@@ -1138,7 +1138,13 @@ def optimize_poses(ev, X0, objective="phi1", mode="weighted", w=W_OVERCUT, max_i
             S, mask = samples(ids)
         else:
             S, mask = S
-        e, de, _ = ev.distances(Xb, S, key=("opt", S.shape[1]), idx=ids)
+        if pin:
+            # the pinned contact sphere rides along as one more column of the same foot-point call
+            e, de, _ = ev.distances(Xb, np.c_[S, a_s[ids]], key=("opt", S.shape[1] + 1), idx=ids)
+            pin_e, pin_de = e[:, -1], de[:, -1]
+            e, de = e[:, :-1], de[:, :-1]
+        else:
+            e, de, _ = ev.distances(Xb, S, key=("opt", S.shape[1]), idx=ids)
         if objective == "phi3":
             f, df, _ = ev.char_distances(Xb, branch[ids], S, key=("opt-f", S.shape[1]), idx=ids)
             real = np.isfinite(f)
@@ -1148,6 +1154,9 @@ def optimize_poses(ev, X0, objective="phi1", mode="weighted", w=W_OVERCUT, max_i
                 e, de = np.where(real, f0, 1.0), df0
         else:
             val, grad = e[:, :n].mean(axis=1), de[:, :n].mean(axis=1)
+        if pin:
+            val = val + PIN_WEIGHT * pin_e
+            grad = grad + PIN_WEIGHT * pin_de
         if nc:
             # the whole rotor's clearance rows first (fixed count; the padded samples stay last)
             cc, dcc = ev.clearance_values(Xb, key=("opt", S.shape[1]), idx=ids)
@@ -1158,10 +1167,6 @@ def optimize_poses(ev, X0, objective="phi1", mode="weighted", w=W_OVERCUT, max_i
     def batch(Xb, ids):
         S, mask = samples(ids)
         val, grad, c, dc, _ = cons_fun(Xb, ids, (S, mask))
-        if pin:
-            ep, dep, _ = ev.distances(Xb, a_s[ids][:, None], key=("pin", 1), idx=ids)
-            val = val + PIN_WEIGHT * ep[:, 0]
-            grad = grad + PIN_WEIGHT * dep[:, 0]
         if anc is not None:
             rv, gv = anc[0](Xb, ids)
             c = np.c_[(rv - anc[1][ids])[:, None], c]

@@ -28,7 +28,6 @@ whose bound reaches the threshold are split (the gnomonic cells are geodesically
 attained at a corner) until every bound is below it (proven) or a centre value itself reaches it (no proof
 is possible with this point set).
 """
-import heapq
 import math
 from dataclasses import dataclass
 
@@ -52,22 +51,25 @@ class RoomBound:
 _FACES = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
 
 
-def _face_axes(f):
-    n = _FACES[f]
-    a = np.array([0.0, 1.0, 0.0]) if abs(n[1]) < 0.5 else np.array([0.0, 0.0, 1.0])
+def _axes_table():
+    n = _FACES
+    a = np.where(np.abs(n[:, 1:2]) < 0.5, [[0.0, 1.0, 0.0]], [[0.0, 0.0, 1.0]])
     e1 = np.cross(a, n)
-    e1 /= np.linalg.norm(e1)
+    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
     return n, e1, np.cross(n, e1)
 
 
+_N, _E1, _E2 = _axes_table()
+
+
 def _directions(f, x, y):
-    n, e1, e2 = _face_axes(f)
-    v = n[None, :] + np.asarray(x)[:, None] * e1[None, :] + np.asarray(y)[:, None] * e2[None, :]
+    """Unit directions of the gnomonic points (x, y) of cube faces f (arrays of one length)."""
+    v = _N[f] + np.asarray(x)[:, None] * _E1[f] + np.asarray(y)[:, None] * _E2[f]
     return v / np.linalg.norm(v, axis=1, keepdims=True)
 
 
 def _cells(f, x0, x1, y0, y1):
-    """Centre directions (k, 3) and angular radii (k,) of gnomonic cells [x0, x1] x [y0, y1] of face f."""
+    """Centre directions (k, 3) and angular radii (k,) of gnomonic cells [x0, x1] x [y0, y1] of faces f."""
     c = _directions(f, 0.5 * (x0 + x1), 0.5 * (y0 + y1))
     th = np.zeros(len(c))
     for xs, ys in ((x0, y0), (x0, y1), (x1, y0), (x1, y1)):
@@ -92,11 +94,16 @@ def _fine_solid(surface, h):
 
     prof = surface.profile
     n = int(min(200000, max(4096, math.ceil(_profile_length(prof) / (0.5 * h)))))
+    n = 1 << int(math.ceil(math.log2(n)))            # powers of two: the polygons are cached per surface
+    cache = surface.__dict__.setdefault("_reach_polygons", {})
+    if n in cache:
+        return cache[n]
     u = np.arange(n) * (prof.period / n)
     P = prof.eval(u)
     mid = prof.eval(u + 0.5 * prof.period / n)
     sag = float(np.max(np.linalg.norm(mid - 0.5 * (P + np.roll(P, -1, axis=0)), axis=1)))
-    return ProfileSolid(P), 2.0 * sag
+    cache[n] = (ProfileSolid(P), 2.0 * sag)
+    return cache[n]
 
 
 def _local_cloud(surface, points, reach, h):
@@ -130,60 +137,62 @@ def _profile_length(prof):
     return float(np.sum(np.linalg.norm(np.diff(np.vstack([p, p[:1]]), axis=0), axis=1)))
 
 
-def room_bound(surface, u, radius, slack, h=None, m0=4, max_cells=20000, max_depth=9):
+
+def room_bound(surface, u, radius, slack, h=None, m0=4, max_cells=200000, max_depth=9):
     """:class:`RoomBound` of the balls of ``radius`` (a tool's smallest sphere) at the profile parameters u
     (rotor ``surface``, all lobes), ``slack`` = tolerance + allowed overcut (module doc).  ``h``: spacing of
-    the exact surface points (default radius / 25)."""
+    the exact surface points (default radius / 15).  The branch and bound runs on all points at once: every
+    cell whose bound reaches the threshold is split, level by level, until none is left (proven) or one of a
+    point's centre values reaches it (that point is not provable); ``max_depth`` levels, ``max_cells`` cells."""
     u = np.atleast_1d(np.asarray(u, float))
     r = float(radius)
     if not (math.isfinite(r) and r > 0):
         raise ValueError(f"ball radius {radius!r} must be a finite number > 0")
-    h = r / 25.0 if h is None else float(h)
+    h = r / 15.0 if h is None else float(h)
     p = np.c_[surface.profile.eval(u), np.zeros(len(u))]
     thr = r - float(slack)
-    g_up = np.full(len(u), np.inf)
-    proven = np.zeros(len(u), bool)
-    if thr <= 0 or not len(u):
-        return RoomBound(u, r, float(slack), g_up, proven, np.zeros(len(u)))
+    M = len(u)
+    g_up = np.full(M, np.inf)
+    proven = np.zeros(M, bool)
+    if thr <= 0 or not M:
+        return RoomBound(u, r, float(slack), g_up, proven, np.zeros(M))
     cloud = _local_cloud(surface, p, 2.0 * r + 2.0 * h, h)
     tree = cKDTree(cloud)
     solid, sag = _fine_solid(surface, h)
 
-    def upper(x):
-        return _signed_upper(tree, solid, sag, surface, x)
+    def bounds(pt, f, x0, x1, y0, y1):
+        cdir, th = _cells(f, x0, x1, y0, y1)
+        d = _signed_upper(tree, solid, sag, surface, p[pt] + r * cdir)
+        return d, d + 2.0 * r * np.sin(0.5 * th)
 
     e = np.linspace(-1.0, 1.0, m0 + 1)
-    for i in range(len(u)):
-        heap = []
-        for f in range(6):
-            X0, Y0 = np.meshgrid(e[:-1], e[:-1], indexing="ij")
-            X1, Y1 = X0 + (e[1] - e[0]), Y0 + (e[1] - e[0])
-            args = (X0.ravel(), X1.ravel(), Y0.ravel(), Y1.ravel())
-            cdir, th = _cells(f, *args)
-            dist = upper(p[i] + r * cdir)
-            for k in range(len(cdir)):
-                b = dist[k] + 2.0 * r * math.sin(0.5 * th[k])
-                heapq.heappush(heap, (-b, dist[k], f, args[0][k], args[1][k], args[2][k], args[3][k], 0))
-        worst_centre = max(item[1] for item in heap)
-        ok = worst_centre < thr
-        cells = len(heap)
-        while ok and heap and -heap[0][0] >= thr:
-            nb, dc, f, x0, x1, y0, y1, depth = heapq.heappop(heap)
-            if depth >= max_depth or cells > max_cells:
-                heapq.heappush(heap, (nb, dc, f, x0, x1, y0, y1, depth))
-                break
-            xm, ym = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
-            kids = (np.array([x0, xm, x0, xm]), np.array([xm, x1, xm, x1]),
-                    np.array([y0, y0, ym, ym]), np.array([ym, ym, y1, y1]))
-            cdir, th = _cells(f, *kids)
-            dist = upper(p[i] + r * cdir)
-            cells += 4
-            for k in range(4):
-                if dist[k] >= thr:
-                    ok = False
-                heapq.heappush(heap, (-(dist[k] + 2.0 * r * math.sin(0.5 * th[k])), dist[k], f, kids[0][k],
-                                      kids[1][k], kids[2][k], kids[3][k], depth + 1))
-        g_up[i] = -heap[0][0] if heap else np.inf
-        proven[i] = bool(ok and g_up[i] < thr)
+    X0, Y0 = (a.ravel() for a in np.meshgrid(e[:-1], e[:-1], indexing="ij"))
+    step = e[1] - e[0]
+    k0 = len(X0)
+    pt = np.repeat(np.arange(M), 6 * k0)
+    f = np.tile(np.repeat(np.arange(6), k0), M)
+    x0, y0 = np.tile(X0, 6 * M), np.tile(Y0, 6 * M)
+    x1, y1 = x0 + step, y0 + step
+    alive = np.ones(M, bool)            # no centre value has reached the threshold yet
+    best = np.full(M, -np.inf)          # largest bound among the cells kept below the threshold
+    cells = len(pt)
+    for depth in range(max_depth + 1):
+        dc, b = bounds(pt, f, x0, x1, y0, y1)
+        np.logical_and.at(alive, pt, dc < thr)
+        keep = b < thr
+        np.maximum.at(best, pt[keep], b[keep])
+        split = ~keep & alive[pt]
+        if not split.any() or depth == max_depth or cells > max_cells:
+            np.maximum.at(best, pt[split], b[split])
+            alive[np.unique(pt[split])] = False
+            break
+        pt, f, x0, x1, y0, y1 = (a[split] for a in (pt, f, x0, x1, y0, y1))
+        xm, ym = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+        pt, f = np.repeat(pt, 4), np.repeat(f, 4)
+        x0, x1 = np.stack([x0, xm, x0, xm], 1).ravel(), np.stack([xm, x1, xm, x1], 1).ravel()
+        y0, y1 = np.stack([y0, y0, ym, ym], 1).ravel(), np.stack([ym, ym, y1, y1], 1).ravel()
+        cells += len(pt)
+    proven = alive & (best < thr)
+    g_up = np.where(proven, best, np.maximum(best, thr))
     depth = np.where(proven, thr - g_up, 0.0)
     return RoomBound(u, r, float(slack), g_up, proven, depth)

@@ -129,11 +129,11 @@ def summarize_attempts(entries, tol, unit):
 
 
 def explain_range(run, logs, tool_names, tol, unit, margin):
-    """Per tool, why range ``run`` (a :func:`verified_coverage` run with ``u_range``) stayed uncovered, from the
+    """Per tool (``tool_names``: {tool index: name} of the tools tried), why range ``run`` (a :func:`verified_coverage` run with ``u_range``) stayed uncovered, from the
     planner's seed logs (dicts with tool index, u, status, ...); the combined text."""
     a, b = run["u_range"]
     per_tool = []
-    for ti, name in enumerate(tool_names):
+    for ti, name in tool_names.items():
         ent = [e for e in logs if e["tool"] == ti and a - margin <= e["u"] <= b + margin]
         s = summarize_attempts(ent, tol, unit)
         s["tool"] = name

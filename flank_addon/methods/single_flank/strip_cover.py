@@ -248,7 +248,7 @@ def covered_intervals(poses, surface, flank_range, eps_under, eps_over, n=500, s
     return Coverage(fs, float(eps_under), float(eps_over), cov)
 
 
-def refine_ends(coverages, tools, fs, surface, eps_under, eps_over, search, iters=12):
+def refine_ends(coverages, tools, fs, surface, eps_under, eps_over, search, iters=7):
     """Move every interval end of the :class:`PoseCoverage` s from the linear interpolation of
     :func:`coverage_of` to where the pose's deviation really leaves [-eps_over, eps_under] between the two
     samples (bisection on the deviation itself, all ends in one :func:`deviations_rows` pass per step), so
@@ -513,7 +513,8 @@ def adaptive_cover(make_candidates, surface, flank_range, eps_under, eps_over, s
     Round 1 uses ``seeds`` (default: ``n_seeds`` parameters spread over the targets); every further
     round seeds the gaps of the minimum cover (:func:`gap_seeds`: as many as the typical covered width of
     the tool says the gap needs, twice as many each time a gap stays) until the cover is complete, no gap
-    gets a new seed, ``max_rounds`` rounds or ``max_seeds`` seeds are spent.  ``targets``: the parameter
+    gets a new seed, ``max_rounds`` rounds or ``max_seeds`` seeds are spent, or the first round (or two
+    rounds running) gave no admissible candidate.  ``targets``: the parameter
     ranges to cover (default the whole flank; e.g. what a larger tool left); each is covered by its own
     minimum cover (:func:`minimum_interval_cover`).  The chosen poses are then simulated together and what
     stays outside the tolerance band is reported as parameter ranges (whole flank).  ``on_round(record)``
@@ -565,6 +566,10 @@ def adaptive_cover(make_candidates, surface, flank_range, eps_under, eps_over, s
         if on_round is not None:
             on_round(rec)
         if not gaps or r + 1 >= max_rounds or (max_seeds is not None and len(tried) >= max_seeds):
+            break
+        # no admissible candidate from the first round, or from two rounds running: denser seeds of the
+        # same tool will not do better
+        if rec["admissible"] == 0 and (r == 0 or rounds[-2]["admissible"] == 0):
             break
         ivs = [iv for iv, _ in flat if iv[1] > iv[0]]
         typical = float(np.median([b - a for a, b in ivs])) if ivs else None
