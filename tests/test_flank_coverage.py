@@ -1,5 +1,6 @@
 """Whole-flank coverage of the single-flank conical planner: adaptive strips, smaller tools never cover less."""
 import math
+import re
 
 import numpy as np
 import pytest
@@ -126,3 +127,104 @@ def test_uncovered_ranges_carry_their_reason_and_the_proven_bound(male_d4):
     # not vacuous: where the plan mills the flank the bound proves nothing
     mid = 0.5 * (r.flanks[0][0] + bottom["u_range"][0])
     assert not room_bound(s, np.array([mid]), r1s, slack).proven.any()
+
+
+# ---------------------------------------------------------------- several tools
+def test_plan_files_carry_a_tool_per_strip(tmp_path, female_plan):
+    """A strip may carry its own tool (same form as the plan's); old plans without one stay valid; a bad strip
+    tool is refused by name."""
+    import copy
+    import json
+
+    from flank_addon.io.plan import PlanError, plan_tools, read_plan, strip_tool, validate_plan, write_plan
+
+    _, res = female_plan
+    plan = copy.deepcopy(res.plan)
+    assert all("tool" not in st for st in plan["strips"]) and plan_tools(plan) == [(plan["tool"],
+                                                                                   list(range(len(plan["strips"]))))]
+    other = dict(plan["tool"], r1c=0.03, name="thin")
+    plan["strips"][1]["tool"] = other
+    path = tmp_path / "p.json"
+    write_plan(path, plan)
+    back = read_plan(path)
+    assert strip_tool(back, 1) == other and strip_tool(back, 0) == back["tool"]
+    n = len(back["strips"])
+    assert plan_tools(back) == [(back["tool"], [0] + list(range(2, n))), (other, [1])]
+    for bad, msg in (({"kind": "drill"}, "strips[1].tool.kind must be one of"),
+                     (dict(other, r1c=0.2), "strips[1].tool must have 0 < alpha < pi/2 and 0 <= r1c < r2c"),
+                     (dict(other, name=3), "strips[1].tool.name must be a string")):
+        plan["strips"][1]["tool"] = bad
+        with pytest.raises(PlanError, match=re.escape(msg)):
+            validate_plan(json.loads(json.dumps(plan)))
+
+
+def test_automatic_selection_takes_the_largest_admissible_then_what_finishes(male_d4):
+    """On the male flank every preset can mill its upper part; the valley bottom admits only small tip spheres.
+    First pick: the largest preset whose tip sphere the bound admits on at least half as much of the flank as
+    the best one's (the D12 cylinder); for the bottom range: the largest that is admissible all along it."""
+    from flank_addon.methods.single_flank.planner import _pick_tool
+    from flank_addon.tooling.presets import load_presets
+
+    r, s, _ = male_d4
+    tools = [(p.name, p.tool(R_MM)) for p in load_presets()]
+    pool = list(range(len(tools)))
+    ti, rec = _pick_tool(s, tools, pool, [r.flanks[0]], TOL + 1e-6, first=True)
+    assert tools[ti][0] == "Cylindrical D12 L26" and rec["best"] == 1.0 and 0.5 <= rec["share"] < 1.0
+    bottom = [(0.75, r.flanks[0][1])]
+    ti, rec = _pick_tool(s, tools, pool, bottom, TOL + 1e-6, first=False)
+    assert rec["share"] == rec["best"] == 1.0
+    shares = {k: v for k, v in rec["share_by_tip_sphere"].items()}
+    assert tools[ti][1].r1s <= min(float(k) for k, v in shares.items() if v == 1.0) * 1.01
+    assert all(v < 1.0 for k, v in shares.items() if float(k) > 2 * tools[ti][1].r1s)
+
+
+def test_cli_named_tools(tmp_path, capsys, male_d4):
+    """--tools NAME1,NAME2 on a built-in (its outer radius in mm): strips of both, each naming its tool, the
+    plan's tool the first; the summary's covered fraction is the plan's and verify, export and check-plan read
+    the file."""
+    import json
+
+    from flank_addon.cli import main
+    from flank_addon.io.plan import read_plan
+
+    out = tmp_path / "two.json"
+    names = "Tapered 3deg D4 L20,Tapered 1deg D1 L10"
+    assert main(["plan", "single-flank", "--builtin", "asymmetric-male", "--flank", "0", "--tools", names,
+                 "--outer-radius-mm", str(R_MM), "--tolerance", f"{TOL:.12g}", "--out", str(out), "--json"]) == 0
+    summ = json.loads(capsys.readouterr().out)
+    plan = read_plan(out)
+    used = {st["tool"]["name"] for st in plan["strips"]}
+    assert used == set(names.split(",")) and plan["tool"]["name"] == "Tapered 3deg D4 L20"
+    assert [row["name"] for row in summ["tools"]] == names.split(",")
+    assert [p["tool"] for p in summ["per_strip"]] == [st["tool"]["name"] for st in plan["strips"]]
+    assert summ["covered_fraction"] == plan["summary"]["covered_fraction"]
+    _, _, (big, _) = male_d4
+    assert summ["covered_fraction"] > big.covered_fraction + 0.05        # the D1 mills below the D4
+    assert plan["tool"]["r1c"] == pytest.approx(2.0 / R_MM)
+    assert main(["export", str(out), "--cl", str(tmp_path / "two.apt"), "--steps", "2"]) == 0
+    assert (tmp_path / "two.apt").read_text().count("LOADTL/") >= 2
+    capsys.readouterr()
+    assert main(["verify", str(out), "--json"]) == 0
+    v = json.loads(capsys.readouterr().out)
+    assert not v["gouge_points"]
+    assert [vs["tool"] for vs in v["strips"]] == [st["tool"]["name"] for st in plan["strips"]]
+
+
+@pytest.mark.parametrize("extra, msg", [
+    (["--tools", "Tapered 9deg D1 L1"], "no tool preset 'Tapered 9deg D1 L1'; presets: Cylindrical D10 L22"),
+    (["--tools", "auto", "--tool-r1", "0.02"], "--tools takes the cones from the presets: drop --tool-r1"),
+    (["--tools", "Tapered 3deg D4 L20,Tapered 3deg D4 L20"], "tool preset 'Tapered 3deg D4 L20' is named twice"),
+    (["--tools", "auto", "--outer-radius-mm", "-5"], "--outer-radius-mm -5.0 must be a finite number > 0"),
+    (["--tool-r1", "0.05", "--tool-r2", "0.08", "--tool-alpha", "0.1", "--max-tools", "2"],
+     "--max-tools applies to --tools auto"),
+    (["--tool-r1", "0.05", "--tool-r2", "0.08", "--tool-alpha", "0.1", "--outer-radius-mm", "30"],
+     "--outer-radius-mm applies to --tools"),
+])
+def test_cli_tool_errors(tmp_path, capsys, extra, msg):
+    from flank_addon.cli import main
+
+    rc = main(["plan", "single-flank", "--builtin", "asymmetric-male", "--flank", "0", "--tolerance", "1e-3",
+               "--out", str(tmp_path / "x.json")] + extra)
+    err = capsys.readouterr().err
+    assert rc == 2 and err.startswith("error: ") and msg in err, err
+    assert not (tmp_path / "x.json").exists()

@@ -22,7 +22,11 @@ Tool tip T on the axis (a = unit(axis_end - axis_start)):
   cone tool (plan tool kind "cone"): the tip circle centre x1c = axis_start - r1c tan(alpha) a
   (Bizzarri, Bo & Bartoň Eq. 2); meridian strips: axis_start + h_0 a (first meridian row); paraboloid strips:
   axis_start - b a (the lens' lower apex); otherwise axis_start - radii[0] a (the bottom of the tip
-  sphere).
+  sphere).  A strip with its own ``tool`` (a plan with several tools) uses that one.
+
+Several tools: the header lists them (``$$ tool n: ...``, numbered in the order the strips first use them) and
+``LOADTL/n`` with ``CUTTER/d,0,0,0,taper,0,h`` (tip diameter, taper angle in degrees, flute length) precedes the
+first strip of each tool and every change of tool.
 
 Free-form plans (Rajain et al. 2023, ``surface`` of kind mesh): one ``GOTO`` per ruling in the input model's
 frame, no rotor angle or feed (the tool itself moves); the tip T is the centre of the tool's tip
@@ -36,7 +40,7 @@ import math
 import numpy as np
 
 from ..geometry.screw import hand_sign, screw_motion
-from ..io.plan import is_mesh_plan
+from ..io.plan import is_mesh_plan, plan_tools, strip_tool
 
 DEFAULT_STEPS = 360
 
@@ -64,10 +68,10 @@ def _get_strip(plan, strip):
 def strip_tip(plan, strip):
     """(T (3,), a (3,), offset) of strip index ``strip``: tool tip point, unit axis (tip -> shank) in the
     rotor frame and the tip's signed offset along a from axis_start (see module doc)."""
-    _, s = _get_strip(plan, strip)
+    k, s = _get_strip(plan, strip)
     p0 = np.asarray(s["axis_start"], float)
     a = _unit(np.subtract(s["axis_end"], p0))
-    tool = plan.get("tool", {})
+    tool = strip_tool(plan, k)
     if s.get("meridian") is not None:
         off = float(np.asarray(s["meridian"], float)[0, 0])
     elif s.get("paraboloid") is not None:
@@ -193,9 +197,25 @@ def cl_data(plan, strip=None, steps=DEFAULT_STEPS, z_range=None):
            f"$$ z range {_fmt(z0)},{_fmt(z1)} (tip z from Z1 down to Z0); steps {steps} per strip, "
            f"feed {_fmt((z1 - z0) / steps)} per step",
            "MULTAX/ON"]
+    # several tools (strips with their own): LOADTL/CUTTER where the tool changes, numbered by first use
+    multi = any(isinstance(st.get("tool"), dict) for st in plan["strips"])
+    number = {}
+    if multi:
+        for n, (t, used) in enumerate(plan_tools(plan), 1):
+            number.update({k: (n, t) for k in used})
+            out.append(f"$$ tool {n}: {_tool_text(t)}; strips {','.join(map(str, used))}")
+    current = None
     for k in ks:
         s = plan["strips"][k]
         st = cl_steps(plan, k, steps, (z0, z1))
+        if multi and number[k][0] != current:
+            current, t = number[k]
+            out.append(f"LOADTL/{current}")
+            if t.get("kind") == "cone" and "r1c" in t:
+                # APT CUTTER/d,r,e,f,a,b,h: tip diameter, no corner radius, taper angle (deg), flute length
+                out.append("CUTTER/%s,0,0,0,%s,0,%s" % (_fmt(2 * float(t["r1c"])), _fmt(math.degrees(float(t["alpha"]))),
+                                                         _fmt(float(t.get("h", 0.0)))))
+            out.append(f"$$ tool {current}: {t.get('name', t.get('kind', 'tool'))}")
         out.append(f"$$ STRIP {k} flank {s.get('flank')} reported error max {_fmt(s['reported_max_error'])} "
                    f"min {_fmt(s['reported_min_error'])} collision {bool(s.get('collision', False))}")
         out.append(f"$$ tip = axis_start + {_fmt(st['tip_offset'])} * axis; hand {hand:+d}")

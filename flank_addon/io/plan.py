@@ -24,6 +24,9 @@ it.  Fields (more are welcome, none may be removed or change meaning):
                      radii [r_0..r_m] at m+1 equally spaced axis points (cone: 2),
                      shank_start, shank_end, shank_radius, flank, reported_max_error,
                      reported_min_error, collision,
+                     tool        optional: the strip's own tool, same form as the plan's ``tool`` (a
+                                 plan milling with several tools; without it the strip uses the
+                                 plan's ``tool``, which is then the first of them),
                      optional exact shapes instead of the inscribed spheres of "radii":
                        meridian    [[h, R], ...] revolved polyline, h from axis_start towards
                                    axis_end strictly increasing, R >= 0 (formed disc cutters)
@@ -259,10 +262,47 @@ def _validate(plan):
             raise PlanError(f"strips[{k}].flank must be a flank index (0..{nf - 1})")
         if not isinstance(st.get("collision"), bool):
             raise PlanError(f"strips[{k}].collision must be true or false")
+        if st.get("tool") is not None:
+            _check_tool(st["tool"], f"strips[{k}].tool")
     for key in ("max_error", "min_error", "elapsed_s"):
         if not _is_num(plan["summary"].get(key)):
             raise PlanError(f"summary.{key} must be a number")
     return plan
+
+
+def _check_tool(tool, name):
+    """A ``tool`` object: its kind, and for a cone its shape numbers (alpha in (0, pi/2), 0 <= r1c < r2c)."""
+    if not isinstance(tool, dict) or tool.get("kind") not in TOOL_KINDS:
+        got = tool.get("kind") if isinstance(tool, dict) else tool
+        raise PlanError(f"{name}.kind must be one of {TOOL_KINDS}, got {got!r}")
+    if tool["kind"] == "cone" and all(k in tool for k in ("alpha", "r1c", "r2c")):
+        a, r1, r2 = tool["alpha"], tool["r1c"], tool["r2c"]
+        if not (_is_num(a) and 0 < a < 0.5 * math.pi and _is_num(r1) and _is_num(r2) and 0 <= r1 < r2):
+            raise PlanError(f"{name} must have 0 < alpha < pi/2 and 0 <= r1c < r2c, got alpha {a!r}, r1c {r1!r}, "
+                            f"r2c {r2!r}")
+    if "name" in tool and not isinstance(tool["name"], str):
+        raise PlanError(f"{name}.name must be a string, got {tool['name']!r}")
+
+
+def strip_tool(plan, k):
+    """The tool of strip k: its own ``tool`` (plans with several tools) or the plan's."""
+    st = plan["strips"][k]
+    return st["tool"] if isinstance(st.get("tool"), dict) else plan.get("tool", {})
+
+
+def plan_tools(plan):
+    """The distinct tools of a plan in the order their strips first use them (the plan's tool when no strip
+    carries its own): a list of (tool dict, [strip indices])."""
+    out = []
+    for k in range(len(plan.get("strips", []))):
+        t = strip_tool(plan, k)
+        for entry in out:
+            if entry[0] == t:
+                entry[1].append(k)
+                break
+        else:
+            out.append((t, [k]))
+    return out
 
 
 def _check_strip_axes(k, st):

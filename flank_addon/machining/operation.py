@@ -139,6 +139,7 @@ def build_operation(plans, rotor, lobes=None, clearance=5.0, cutting_data=None):
     if bad or not lobes:
         raise OperationError(f"lobes {bad or lobes} are not lobes of this rotor (0..{rotor.lobes - 1})")
     from ..exports.cl_data import strip_tip
+    from ..io.plan import strip_tool
     from ..geometry.screw import screw_motion
     from ..simulation.collision import ProfileSolid
 
@@ -152,8 +153,10 @@ def build_operation(plans, rotor, lobes=None, clearance=5.0, cutting_data=None):
             sig = shape.signature()
             if sig not in by_sig:
                 lo, hi = shape.h_range()
-                data = cutting_data if cutting_data is not None else cutting_data_for(plan["tool"])
-                shape.name = f"T{len(tools) + 1} {plan['tool'].get('kind', 'tool')} ({plan.get('method', '?')})"
+                stool = strip_tool(plan, s)          # the strip's own tool in a plan with several
+                data = cutting_data if cutting_data is not None else cutting_data_for(stool)
+                label = stool.get("name") or stool.get("kind", "tool")
+                shape.name = f"T{len(tools) + 1} {label} ({plan.get('method', '?')})"
                 tools.append(ToolEntry(len(tools) + 1, shape, data, shape.name, hi - lo))
                 by_sig[sig] = len(tools)
                 local[len(tools)] = shape.local_points(1.0)

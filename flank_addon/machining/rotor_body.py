@@ -120,14 +120,23 @@ def scale_plan(plan, factor, unit="mm"):
             s["meridian"] = (np.asarray(s["meridian"], float) * k).tolist()
         if s.get("paraboloid") is not None:
             s["paraboloid"] = {"a": s["paraboloid"]["a"] / k, "b": s["paraboloid"]["b"] * k}
-    tool = out.get("tool", {})
-    for key in ("r1", "r2", "length", "r1c", "r2c", "h", "shank_radius", "shank_length"):
-        if isinstance(tool.get(key), (int, float)) and not isinstance(tool.get(key), bool):
-            tool[key] = tool[key] * k
+    for tool in [out.get("tool", {})] + [s["tool"] for s in out["strips"] if isinstance(s.get("tool"), dict)]:
+        for key in ("r1", "r2", "length", "r1c", "r2c", "h", "shank_radius", "shank_length"):
+            if isinstance(tool.get(key), (int, float)) and not isinstance(tool.get(key), bool):
+                tool[key] = tool[key] * k
     for key in ("max_error", "min_error"):
         out["summary"][key] *= k
     if isinstance(out.get("tolerance"), (int, float)):
         out["tolerance"] *= k
+    if isinstance(out.get("overcut_tolerance"), (int, float)):
+        out["overcut_tolerance"] *= k
+    for ru in out["summary"].get("uncovered", []) or []:     # single-flank residual: lengths, not parameters
+        for key in ("arc_range",):
+            if isinstance(ru.get(key), list):
+                ru[key] = [x * k for x in ru[key]]
+        for key in ("length", "max_deviation", "min_deviation"):
+            if isinstance(ru.get(key), (int, float)) and not isinstance(ru.get(key), bool):
+                ru[key] *= k
     out["length_unit"] = unit
     return out
 

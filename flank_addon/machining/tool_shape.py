@@ -71,7 +71,9 @@ class ToolShape:
                 shank = (min(hs), max(hs), float(s["shank_radius"]))
         mer = np.asarray(s["meridian"], float) if s.get("meridian") is not None else None
         par = dict(s["paraboloid"]) if s.get("paraboloid") is not None else None
-        return cls(kind=str(plan["tool"].get("kind", "cone")), h_start=-off, h_end=-off + L,
+        from ..io.plan import strip_tool
+
+        return cls(kind=str(strip_tool(plan, k).get("kind", "cone")), h_start=-off, h_end=-off + L,
                    radii=np.asarray(s["radii"], float), meridian=mer, paraboloid=par, shank=shank)
 
     def strip_at(self, tip, axis, extra=None):

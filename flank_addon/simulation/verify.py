@@ -102,6 +102,8 @@ def verify_plan(plan, tolerance=None, search=None, all_points=False):
             "collision": any(g["strip"] == k and not g["target"] for g in gouges),
             "reported_max_error": s["reported_max_error"], "reported_min_error": s["reported_min_error"],
         })
+        if isinstance(s.get("tool"), dict):          # a plan with several tools: which one milled here
+            per_strip[-1]["tool"] = s["tool"].get("name", s["tool"].get("kind"))
 
     flanks = []
     for f in plan["target_flanks"]:

@@ -73,3 +73,19 @@ def formed_cutter_plan(male_rotor):
     r = male_rotor
     cp = cutter_profile(r.profile, r.lead, 54.0, 45.0, handedness=r.handedness, planes=24, analyse=False)
     return disc_cutter_plan(r.profile, r.v0, r.handedness, r.flanks, cp, extent=r.extent(), n_profile=720)
+
+
+@pytest.fixture(scope="session")
+def two_tool_plan(male_rotor):
+    """Single-flank plan of the male's flank 0 with two tool presets in turn (the 2 deg D6 L35 end mill, then the
+    1.5 deg D2 L20 one for what it leaves), one seeding round each: strips of both tools, in mm, with the extent."""
+    from flank_addon.methods.single_flank.planner import plan_single_flank
+    from flank_addon.tooling.presets import presets_by_name
+
+    r = male_rotor
+    tools = [(p.name, p.tool()) for p in presets_by_name(["Tapered 2deg D6 L35", "Tapered 1.5deg D2 L20"])]
+    res = plan_single_flank(r.surface(), r.flanks, 0, tools, 0.05, n_seeds=4, max_rounds=1, length_unit="mm",
+                            n_profile=720)
+    plan = res.plan
+    plan["rotor"]["extent"] = r.extent()
+    return plan
