@@ -30,41 +30,62 @@ FACE, EDGE, VERTEX = 0, 1, 2
 def closest_on_triangles(P, A, B, C):
     """Closest points on triangles ABC to points P, all (n, 3); returns (points (n, 3),
     barycentric (n, 3)).  Region tests of Ericson, Real-Time Collision Detection 5.1.5."""
-    ab, ac, ap = B - A, C - A, P - A
-    d1, d2 = (ab * ap).sum(1), (ac * ap).sum(1)
-    bp = P - B
-    d3, d4 = (ab * bp).sum(1), (ac * bp).sum(1)
-    cp = P - C
-    d5, d6 = (ab * cp).sum(1), (ac * cp).sum(1)
+    px, py, pz = P[:, 0], P[:, 1], P[:, 2]
+    ax, ay, az = A[:, 0], A[:, 1], A[:, 2]
+    bx, by, bz = B[:, 0], B[:, 1], B[:, 2]
+    cx, cy, cz = C[:, 0], C[:, 1], C[:, 2]
+    abx, aby, abz = bx - ax, by - ay, bz - az
+    acx, acy, acz = cx - ax, cy - ay, cz - az
+    apx, apy, apz = px - ax, py - ay, pz - az
+    d1 = abx * apx + aby * apy + abz * apz
+    d2 = acx * apx + acy * apy + acz * apz
+    bpx, bpy, bpz = px - bx, py - by, pz - bz
+    d3 = abx * bpx + aby * bpy + abz * bpz
+    d4 = acx * bpx + acy * bpy + acz * bpz
+    cpx, cpy, cpz = px - cx, py - cy, pz - cz
+    d5 = abx * cpx + aby * cpy + abz * cpz
+    d6 = acx * cpx + acy * cpy + acz * cpz
     va = d3 * d6 - d5 * d4
     vb = d5 * d2 - d1 * d6
     vc = d1 * d4 - d3 * d2
     n = len(P)
-    bary = np.zeros((n, 3))
-    done = np.zeros(n, bool)
-
-    def put(mask, u, v, w):
-        m = mask & ~done
-        bary[m, 0], bary[m, 1], bary[m, 2] = u[m], v[m], w[m]
-        done[m] = True
-
-    one, zero = np.ones(n), np.zeros(n)
+    # the first region that holds, in Ericson's order: vertex A, vertex B, edge AB, vertex C, edge AC,
+    # edge BC, inside
     with np.errstate(divide="ignore", invalid="ignore"):
-        put((d1 <= 0) & (d2 <= 0), one, zero, zero)                                  # vertex A
-        put((d3 >= 0) & (d4 <= d3), zero, one, zero)                                 # vertex B
-        t = d1 / (d1 - d3)
-        put((vc <= 0) & (d1 >= 0) & (d3 <= 0), 1 - t, t, zero)                      # edge AB
-        put((d6 >= 0) & (d5 <= d6), zero, zero, one)                                 # vertex C
-        t = d2 / (d2 - d6)
-        put((vb <= 0) & (d2 >= 0) & (d6 <= 0), 1 - t, zero, t)                      # edge AC
-        t = (d4 - d3) / ((d4 - d3) + (d5 - d6))
-        put((va <= 0) & ((d4 - d3) >= 0) & ((d5 - d6) >= 0), zero, 1 - t, t)       # edge BC
-        den = va + vb + vc
-        v, w = vb / den, vc / den
-        put(np.ones(n, bool), 1 - v - w, v, w)                                       # inside
-    bary = np.nan_to_num(bary)
-    Q = bary[:, :1] * A + bary[:, 1:2] * B + bary[:, 2:] * C
-    return Q, bary
+        conds = [(d1 <= 0) & (d2 <= 0), (d3 >= 0) & (d4 <= d3), (vc <= 0) & (d1 >= 0) & (d3 <= 0),
+                 (d6 >= 0) & (d5 <= d6), (vb <= 0) & (d2 >= 0) & (d6 <= 0),
+                 (va <= 0) & ((d4 - d3) >= 0) & ((d5 - d6) >= 0)]
+        region = np.select(conds, np.arange(6), 6)
+        u, v, w = np.zeros(n), np.zeros(n), np.zeros(n)
+        m = region == 0
+        u[m] = 1.0
+        m = region == 1
+        v[m] = 1.0
+        m = np.flatnonzero(region == 2)
+        if len(m):
+            t = d1[m] / (d1[m] - d3[m])
+            u[m], v[m] = 1 - t, t
+        m = region == 3
+        w[m] = 1.0
+        m = np.flatnonzero(region == 4)
+        if len(m):
+            t = d2[m] / (d2[m] - d6[m])
+            u[m], w[m] = 1 - t, t
+        m = np.flatnonzero(region == 5)
+        if len(m):
+            t = (d4[m] - d3[m]) / ((d4[m] - d3[m]) + (d5[m] - d6[m]))
+            v[m], w[m] = 1 - t, t
+        m = np.flatnonzero(region == 6)
+        if len(m):
+            den = va[m] + vb[m] + vc[m]
+            vv, ww = vb[m] / den, vc[m] / den
+            u[m], v[m], w[m] = 1 - vv - ww, vv, ww
+    u, v, w = np.nan_to_num(u), np.nan_to_num(v), np.nan_to_num(w)
+    Q = np.empty((n, 3))
+    Q[:, 0] = u * ax + v * bx + w * cx
+    Q[:, 1] = u * ay + v * by + w * cy
+    Q[:, 2] = u * az + v * bz + w * cz
+    return Q, np.stack([u, v, w], axis=1)
 
 
 class TriangleMesh:
@@ -86,7 +107,9 @@ class TriangleMesh:
         area2 = np.linalg.norm(cr, axis=1)
         self.face_normals = cr / np.where(area2 > 0, area2, 1.0)[:, None]
         self.centroids = (A + B + C) / 3
-        self.face_radius = float(np.max(np.linalg.norm(np.stack([A, B, C]) - self.centroids, axis=2)))
+        corner = np.linalg.norm(np.stack([A, B, C]) - self.centroids, axis=2)
+        self.face_radius = float(np.max(corner))
+        self.face_radii = corner.max(axis=0) * (1 + 1e-12) + 1e-15 * float(np.abs(V).max())
         self._vtree = cKDTree(V)
         self._ctree = None
         # vertex -> incident faces, padded with -1
@@ -124,19 +147,38 @@ class TriangleMesh:
         self.size = float(np.linalg.norm(V.max(0) - V.min(0)))
 
     # ------------------------------------------------------------------ queries
-    def _project(self, P, cand):
-        """Best of candidate faces cand (n, c) (-1 = none) for points P (n, 3)."""
-        n, c = cand.shape
+    def _exact(self, P, f):
+        """Closest points, barycentric coordinates and squared distances of points P (m, 3) on faces f (m,)."""
         F, V = self.faces, self.vertices
+        Q, bary = closest_on_triangles(P, V[F[f, 0]], V[F[f, 1]], V[F[f, 2]])
+        return Q, bary, ((P - Q) ** 2).sum(1)
+
+    def _project(self, P, cand):
+        """Best of candidate faces cand (n, c) (-1 = none) for points P (n, 3): the least squared distance,
+        the first candidate in a row's order among equals.  A face lies within its radius of its centroid, so
+        candidates whose centroid is farther than that radius plus the distance to the row's most promising
+        candidate cannot be the closest and are not projected."""
+        n, c = cand.shape
         valid = cand >= 0
-        f = np.where(valid, cand, 0).ravel()
-        Pr = np.repeat(P, c, axis=0)
-        Q, bary = closest_on_triangles(Pr, V[F[f, 0]], V[F[f, 1]], V[F[f, 2]])
-        d2 = ((Pr - Q) ** 2).sum(1).reshape(n, c)
-        d2[~valid] = np.inf
+        f = np.where(valid, cand, 0)
+        w = P[:, None, :] - self.centroids[f]
+        lb = np.sqrt(np.einsum("ncj,ncj->nc", w, w)) - self.face_radii[f]
+        lb[~valid] = np.inf
+        rows = np.arange(n)
+        j0 = np.argmin(lb, axis=1)
+        _, _, d0 = self._exact(P, f[rows, j0])
+        need = lb <= np.sqrt(d0)[:, None] * (1 + 1e-9) + 1e-12 * self.size
+        need[rows, j0] = True
+        need &= valid
+        ri, ci = np.nonzero(need)
+        Q, bary, dd = self._exact(P[ri], f[ri, ci])
+        d2 = np.full((n, c), np.inf)
+        d2[ri, ci] = dd
         j = np.argmin(d2, axis=1)
-        rows = np.arange(n) * c + j
-        return Q[rows], bary[rows], f[rows], d2[np.arange(n), j]
+        at = np.empty((n, c), np.int64)
+        at[ri, ci] = np.arange(len(ri))
+        k = at[rows, j]
+        return Q[k], bary[k], f[rows, j], d2[rows, j]
 
     def _pseudo_normals(self, faces, bary):
         """Pseudo-normal of the feature (face / edge / vertex) a foot point lies on, and whether that

@@ -940,16 +940,31 @@ class GuidingCurves:
 
 def guiding_curves(vertices, faces, *, direction=None, point=None, field_vectors=None, r1=None, r2=None, L=None,
                    spacing=None, step=None, max_gap=None, method="transport", diffusion_time=None,
-                   w_orth=1.0, w_unit=1.0, w_fair=1e-3, scaling="mean", start=0):
+                   w_orth=1.0, w_unit=1.0, w_fair=1e-3, scaling="mean", start=0, reuse=None):
     """Guiding curves and base points of Rajain et al. 2023 §5 on a triangle mesh.
 
     Give the guiding direction either as ``direction`` (3,) at ``point`` (3,) (default: the mesh's
     centre) or as ``field_vectors`` per vertex / per face.  The spacing is ``spacing`` or, from the
     tool, default_spacing(r1, r2, L).  step h defaults to 1/100 of the bounding-box diagonal (§5),
     max_gap to 2 d.  See the module docstring for the method; ``start`` picks the curve whose base
-    points are seeded first (0 = g_1 as in the paper).
+    points are seeded first (0 = g_1 as in the paper).  ``reuse``: a result of this function for the
+    same mesh, field, spacing and G options; its field, G and guiding curves are taken as they are and
+    only the base points are laid out again (for another ``step``, ``max_gap`` or ``start``).
     """
     import time
+    if reuse is not None:
+        t0 = time.perf_counter()
+        curves = reuse.curves
+        V = np.asarray(vertices, float)
+        diag = float(np.linalg.norm(V.max(0) - V.min(0)))
+        step = diag / 100 if step is None else float(step)
+        max_gap = 2 * reuse.spacing if max_gap is None else float(max_gap)
+        if curves and not 0 <= start < len(curves):
+            raise ValueError(f"start = {start} is outside 0..{len(curves) - 1} ({len(curves)} guiding curves)")
+        bases, strips = base_points(curves, step, max_gap, start) if curves else ([], [])
+        timings = {"base_points": time.perf_counter() - t0}
+        return GuidingCurves(reuse.field, reuse.function, reuse.spacing, curves, bases, strips, step,
+                             reuse.margins, timings)
     timings = {}
     t0 = time.perf_counter()
     V, F = validate_mesh(vertices, faces)

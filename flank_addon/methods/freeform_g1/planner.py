@@ -719,10 +719,11 @@ def plan_freeform(vertices, faces, *, direction=None, point=None, field_vectors=
     if n_columns is not None and "step" not in gopt and gc.curves:
         lengths = [sum(pl.length for pl in c.polylines) for c in gc.curves]
         step = float(np.median(lengths)) / (n_columns - 1)
+        first = gc
         for _ in range(4):          # the strips' own lengths set N; a few corrections of h reach it
             gc = _guiding.guiding_curves(mesh.vertices, mesh.faces, direction=direction, point=point,
                                          field_vectors=field_vectors, r1=r1e, r2=r2e, L=Le, spacing=spacing,
-                                         step=step, **gopt)
+                                         step=step, reuse=first, **gopt)
             got = float(np.median([len(st.columns) for st in gc.strips])) if gc.strips else n_columns
             if abs(got - n_columns) < 1 or got < 2:
                 break
