@@ -228,3 +228,53 @@ def test_cli_tool_errors(tmp_path, capsys, extra, msg):
     err = capsys.readouterr().err
     assert rc == 2 and err.startswith("error: ") and msg in err, err
     assert not (tmp_path / "x.json").exists()
+
+
+# ---------------------------------------------------------------- acceptance from a rotor mesh
+def test_auto_tools_from_a_rotor_mesh_cover_the_flank(tmp_path, capsys):
+    """A right-handed male (30 mm, 60 mm long) with end shafts in a random pose, as STL; plan single-flank --mesh
+    --flank-point --tools auto --tolerance 0.05.  The true flank (the built-in's exact profile carried through the
+    pose into the plan's frame), swept by the plan's strips: >= 95 % of its arc length within [-1 um, 0.05 mm],
+    nothing deeper; the plan's covered_fraction within a point of it; verify finds no gouge on the whole rotor."""
+    import json
+
+    from scipy.spatial.transform import Rotation
+
+    from flank_addon.cli import main
+    from flank_addon.geometry.rotors import builtin_by_name
+    from flank_addon.geometry.screw import screw_motion, screw_to_plane
+    from flank_addon.io.mesh_files import write_mesh
+    from flank_addon.io.plan import read_plan
+    from flank_addon.simulation.sweep import StripTool, machined_deviation
+    from flank_addon.simulation.verify import verify_plan
+    from helpers import cad_like
+
+    rotor = builtin_by_name("srm_a-male", scale=30.0, length=60.0)
+    assert rotor.handedness == "right"
+    v, f = cad_like(rotor, n_profile=1500, n_axial=40)
+    rot, shift = Rotation.random(random_state=5).as_matrix(), np.array([-20.0, 35.0, 15.0])
+    write_mesh(tmp_path / "m.stl", v @ rot.T + shift, f)
+    a, b = rotor.flanks[1]
+    p = np.r_[rotor.profile.eval(np.array([a + 0.4 * (b - a)]))[0], 0.0]
+    point = screw_motion(p, 17.0 / rotor.v0, rotor.v0, rotor.handedness) @ rot.T + shift
+    out = tmp_path / "plan.json"
+    assert main(["plan", "single-flank", "--mesh", str(tmp_path / "m.stl"), "--flank-point=" + ",".join(
+        f"{x:.6f}" for x in point), "--tools", "auto", "--tolerance", "0.05", "--out", str(out), "--json"]) == 0
+    summ = json.loads(capsys.readouterr().out)
+    plan = read_plan(out)
+    assert summ["covered_fraction"] >= 0.95 and summ["gouge_points"] == 0
+    assert not verify_plan(plan, tolerance=0.05)["gouge_points"]
+    u = np.linspace(a, b, 1500)
+    model = np.c_[rotor.profile.eval(u), np.zeros(len(u))] @ rot.T + shift
+    T = np.linalg.inv(np.asarray(plan["rotor"]["to_world"]))
+    r = plan["rotor"]
+    q0 = screw_to_plane(model @ T[:3, :3].T + T[:3, 3], r["v0"], r["handedness"])
+    t = np.gradient(q0, axis=0)
+    t /= np.linalg.norm(t, axis=1, keepdims=True)
+    d = machined_deviation([StripTool.from_strip(s) for s in plan["strips"]], q0, np.c_[t[:, 1], -t[:, 0]],
+                           r["v0"], r["handedness"], max_deviation=3.0)
+    seg = np.linalg.norm(np.diff(q0, axis=0), axis=1)
+    ok = (d <= 0.05) & (d >= -1e-3)
+    share = np.sum(seg * 0.5 * (ok[1:].astype(float) + ok[:-1])) / seg.sum()
+    assert share >= 0.95 and d.min() >= -1e-3
+    assert abs(share - summ["covered_fraction"]) <= 0.01

@@ -144,8 +144,8 @@ class _ToolRun:
             rb = room_bound(self.surface, us, self.tool.r1s, self.room_slack)
             proven = rb.proven
             for u, d in zip(us[proven], rb.depth[proven]):
-                self.log.append({"tool": self.index, "u": float(u), "status": "collides", "seed": None,
-                                 "depth": float(d), "part": "cone", "relation": "the rotor (proven)"})
+                self.log.append({"tool": self.index, "u": float(u), "status": "unreachable", "seed": None,
+                                 "depth": float(d), "radius": float(self.tool.r1s)})
             us = us[~proven]
         seeds = clear_seeds(self.ev, us) if self.ev.clearance is not None else [None] * len(us)
         if self.ev.clearance is None:

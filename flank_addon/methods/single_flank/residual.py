@@ -12,6 +12,7 @@ import numpy as np
 
 # categories of what the planner found at a seed of an uncovered range, worst first
 COLLIDES, HELD_OFF, OVERCUTS, LEAVES, NO_POSE, COVERS = "collides", "held off", "overcuts", "leaves", "no pose", "covers"
+UNREACHABLE = "unreachable"       # the bound of :mod:`.reach` excludes the tool's tip sphere at the seed
 
 
 def flank_points(plan, flank):
@@ -97,19 +98,31 @@ def summarize_attempts(entries, tol, unit):
         return {"status": COVERS, "text": f"the planner's flank samples next to it are held ({len(held)} seed(s)); "
                                           "the simulation finds the range between them"}
     cats = [e["status"] for e in entries]
+    unr = [e for e in entries if e["status"] == UNREACHABLE]
     sel = [e for e in entries if e["status"] in (COLLIDES, HELD_OFF)]
-    if len(sel) == len(entries):
-        depths = [e["depth"] for e in sel if e.get("depth") is not None]
+    if len(sel) + len(unr) == len(entries):
         parts = sorted({(e.get("part") or "tool", e.get("relation") or "the rotor") for e in sel})
-        what = "; ".join(f"{p} with {r}" for p, r in parts)
-        d = max(depths) if depths else None
-        dmin = min(depths) if depths else None
-        txt = f"every pose of the tool that touches the flank here collides: {what}"
-        if d is not None:
-            txt += (f", by at least {dmin:.3g} {unit} (the least entry over the orientations tried at each seed: "
-                    f"{dmin:.3g}..{d:.3g})")
-        return {"status": COLLIDES, "depth_min": dmin, "depth_max": d, "parts": [list(x) for x in parts],
-                "text": txt}
+        out = {"status": COLLIDES, "parts": [list(x) for x in parts], "unreachable_seeds": len(unr)}
+        txt = []
+        if sel:
+            depths = [e["depth"] for e in sel if e.get("depth") is not None]
+            what = "; ".join(f"{p} with {r}" for p, r in parts)
+            d = max(depths) if depths else None
+            dmin = min(depths) if depths else None
+            t = f"every pose of the tool that touches the flank here collides: {what}"
+            if d is not None:
+                t += (f", by at least {dmin:.3g} {unit} (the least entry over the orientations tried at each "
+                      f"seed: {dmin:.3g}..{d:.3g})")
+            out.update(depth_min=dmin, depth_max=d)
+            txt.append(t)
+        if unr:
+            dmin = min(e["depth"] for e in unr)
+            out.update(proven_depth_min=dmin)
+            txt.append(f"at {len(unr)} of its seeds its tip sphere (radius {unr[0]['radius']:.3g} {unit}) is proven "
+                       f"unable to come within the tolerance without entering the rotor (by at least {dmin:.3g} "
+                       f"{unit})")
+        out["text"] = "; ".join(txt)
+        return out
     if all(c == OVERCUTS for c in cats):
         d = max(e.get("depth") or 0.0 for e in entries)
         return {"status": OVERCUTS, "depth_max": d,
@@ -144,9 +157,20 @@ def explain_range(run, logs, tool_names, tol, unit, margin):
     if tried and all(s["status"] == COLLIDES for s in tried):
         rel = sorted({r for s in tried for _, r in s.get("parts", [])})
         who = "every tool tried" if len(tried) > 1 else f"the tool ({tried[0]['tool']})"
-        txt = f"{who} collides with {' and '.join(rel) or 'the rotor'} here"
-        each = [f"{s['tool']}: {', '.join(f'{p} with {r}' for p, r in s.get('parts', []))} by at least "
-                f"{s['depth_min']:.3g} {unit}" for s in tried if s.get("depth_min") is not None]
+        if rel:
+            txt = f"{who} collides with {' and '.join(rel)} here"
+        else:
+            txt = f"{who} is proven unable to reach here"
+        each = []
+        for s in tried:
+            bits = []
+            if s.get("depth_min") is not None:
+                bits.append(f"{', '.join(f'{p} with {r}' for p, r in s.get('parts', []))} by at least "
+                            f"{s['depth_min']:.3g} {unit}")
+            if s.get("unreachable_seeds"):
+                bits.append(f"proven unreachable at {s['unreachable_seeds']} seed(s), by at least "
+                            f"{s['proven_depth_min']:.3g} {unit}")
+            each.append(f"{s['tool']}: {'; '.join(bits)}")
         if each:
             txt += " (" + "; ".join(each) + ")"
         return per_tool, txt
