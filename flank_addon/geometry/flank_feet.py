@@ -58,89 +58,132 @@ class FlankFeet:
         self._U, self._T = U.ravel(), T.ravel()
 
     def _newton(self, u, tau, q0, iters=40):
-        s = self.surface
-        lo, hi = self.lo, self.hi
-        u = np.clip(np.array(u, float), lo, hi)
-        tau = np.array(tau, float)
-        f = s._f_and_derivs(u, tau, q0, order=0)
-        active = np.ones(len(u), bool)
-        span = hi - lo
-        for _ in range(iters):
-            ia = np.flatnonzero(active)
-            if not len(ia):
-                break
-            ua, ta, qa = u[ia], tau[ia], q0[ia]
-            fa, gu, gt, huu, hut, htt = s._f_and_derivs(ua, ta, qa)
-            du, dt, scale = shifted_newton_step(gu, gt, huu, hut, htt)
-            # on a bound with the gradient pointing out of the box: move in tau only
-            pinned = ((ua <= lo) & (gu > 0)) | ((ua >= hi) & (gu < 0))
-            t_only = -gt / np.maximum(htt, 1e-8 * scale)
-            du = np.where(pinned, 0.0, du)
-            dt = np.where(pinned, t_only, dt)
-            norm = np.maximum(np.abs(du) / (0.25 * span), np.abs(dt) / (np.pi / 2))
-            k = 1.0 / np.maximum(norm, 1.0)
-            du, dt = du * k, dt * k
-            f_tol = fa + 1e-14 * (np.einsum("ij,ij->i", qa, qa) + s.outer_radius ** 2)
-            alpha = np.ones_like(du)
-            accepted = np.zeros(len(du), bool)
-            f_new = fa.copy()
-            nu, nt = ua.copy(), ta.copy()
-            for _ls in range(14):
-                todo = np.flatnonzero(~accepted)
-                if not len(todo):
-                    break
-                cu = np.clip(ua[todo] + alpha[todo] * du[todo], lo, hi)
-                ct = ta[todo] + alpha[todo] * dt[todo]
-                cf = s._f_and_derivs(cu, ct, qa[todo], order=0)
-                ok = cf <= f_tol[todo]
-                good = todo[ok]
-                accepted[good] = True
-                f_new[good], nu[good], nt[good] = cf[ok], cu[ok], ct[ok]
-                alpha[todo[~ok]] *= 0.5
-            step_u, step_t = np.abs(nu - ua), np.abs(nt - ta)
-            u[ia], tau[ia], f[ia] = nu, nt, np.minimum(f_new, fa)
-            small = (step_u <= 1e-11 * span) & (step_t <= 1e-11)
-            active[ia[small | ~accepted]] = False
-        return u, tau, f
+        return _newton_rows(self.surface, u, tau, q0, self.lo, self.hi, self.hi - self.lo, iters)
 
     def __call__(self, points, warm=None, k=2):
         """Feet of 3D points (N, 3); ``warm`` = (u, tau) of a previous solve (same queries) as an extra seed."""
+        return FlankFeet.many([self], points, [warm], k)[0]
+
+    @staticmethod
+    def many(solvers, points, warms, k=2):
+        """``[solver(points, warm) for solver, warm in zip(solvers, warms)]`` for solvers on one surface, their
+        Newton runs done together (every row's iterations are its own, so the feet are the same)."""
         q = np.atleast_2d(np.asarray(points, float))
-        s = self.surface
+        s = solvers[0].surface
+        if any(fs.surface is not s for fs in solvers):
+            return [FlankFeet.many([fs], q, [w], k)[0] for fs, w in zip(solvers, warms)]
         q0 = screw_to_plane(q, s.v0, s.hand)
         Q = np.c_[q0, np.zeros(len(q0))]
-        if warm is not None:
+        N, m = len(q0), len(solvers)
+        lo = np.repeat([fs.lo for fs in solvers], N)
+        hi = np.repeat([fs.hi for fs in solvers], N)
+        span = np.repeat([fs.hi - fs.lo for fs in solvers], N)
+        q0m = np.tile(q0, (m, 1))
+        u = np.empty(m * N)
+        tau = np.empty(m * N)
+        f = np.empty(m * N)
+        warm_j = [j for j, w in enumerate(warms) if w is not None]
+        cold_j = [j for j, w in enumerate(warms) if w is None]
+        if warm_j:
             # the warm start carries the basin.  Guard against a jump to another basin: a rough table
             # seed (approximate nearest neighbour, 4x cheaper than the exact query) that is already
             # nearer than the warm foot starts a second Newton run for that query only
-            u, tau, f = self._newton(warm[0], warm[1], q0)
-            _, idx = self._tree.query(Q, k=1, eps=2.0)
-            su, st = self._U[idx], self._T[idx]
-            fs = s._f_and_derivs(su, st, q0, order=0)
-            jump = np.flatnonzero(fs < f)
+            rows = np.concatenate([np.arange(j * N, (j + 1) * N) for j in warm_j])
+            wu = np.concatenate([np.asarray(warms[j][0], float) for j in warm_j])
+            wt = np.concatenate([np.asarray(warms[j][1], float) for j in warm_j])
+            u[rows], tau[rows], f[rows] = _newton_rows(s, wu, wt, q0m[rows], lo[rows], hi[rows], span[rows])
+            su, st = np.empty(len(rows)), np.empty(len(rows))
+            for i, j in enumerate(warm_j):
+                _, idx = solvers[j]._tree.query(Q, k=1, eps=2.0)
+                su[i * N:(i + 1) * N], st[i * N:(i + 1) * N] = solvers[j]._U[idx], solvers[j]._T[idx]
+            fs_ = s._f_and_derivs(su, st, q0m[rows], order=0)
+            jump = np.flatnonzero(fs_ < f[rows])
             if len(jump):
-                ju, jt, jf = self._newton(su[jump], st[jump], q0[jump])
-                better = jf < f[jump]
-                b = jump[better]
+                r = rows[jump]
+                ju, jt, jf = _newton_rows(s, su[jump], st[jump], q0m[r], lo[r], hi[r], span[r])
+                better = jf < f[r]
+                b = r[better]
                 u[b], tau[b], f[b] = ju[better], jt[better], jf[better]
-        else:
-            _, idx = self._tree.query(Q, k=k)
-            idx = idx.reshape(len(q0), -1)
+        for j in cold_j:
+            fs = solvers[j]
+            _, idx = fs._tree.query(Q, k=k)
+            idx = idx.reshape(N, -1)
             # all seeds in one vectorised Newton run, then the best per query
-            m = idx.shape[1]
-            U, T, F = self._newton(self._U[idx.T.ravel()], self._T[idx.T.ravel()], np.tile(q0, (m, 1)))
-            j = np.argmin(F.reshape(m, -1), axis=0)
-            rows = j * len(q0) + np.arange(len(q0))
-            u, tau, f = U[rows], T[rows], F[rows]
-        t = tau + q[:, 2] / s.v0
+            kk = idx.shape[1]
+            U, T, F = _newton_rows(s, fs._U[idx.T.ravel()], fs._T[idx.T.ravel()], np.tile(q0, (kk, 1)), fs.lo, fs.hi,
+                                   fs.hi - fs.lo)
+            jm = np.argmin(F.reshape(kk, -1), axis=0)
+            sel = jm * N + np.arange(N)
+            u[j * N:(j + 1) * N], tau[j * N:(j + 1) * N], f[j * N:(j + 1) * N] = U[sel], T[sel], F[sel]
+        qm = np.tile(q, (m, 1))
+        t = tau + qm[:, 2] / s.v0
         foot = s.evaluate(u, t)
-        diff = q - foot
+        diff = qm - foot
         d = np.linalg.norm(diff, axis=1)
         direction = diff / np.maximum(d, 1e-300)[:, None]
         # a query inside the rotor solid has no business in a tool axis: it never counts as interior
         outside = np.einsum("ij,ij->i", diff, s.normal(u, t)) > 0
-        interior = (u > self.lo + self.eps_u) & (u < self.hi - self.eps_u) & outside
-        return Feet(u=u, t=t, point=foot, distance=d, direction=direction, interior=interior, tau=tau)
+        eps = np.repeat([fs.eps_u for fs in solvers], N)
+        interior = (u > lo + eps) & (u < hi - eps) & outside
+        out = []
+        for j in range(m):
+            r = slice(j * N, (j + 1) * N)
+            out.append(Feet(u=u[r], t=t[r], point=foot[r], distance=d[r], direction=direction[r],
+                            interior=interior[r], tau=tau[r]))
+        return out
+
+
+def _newton_rows(s, u, tau, q0, lo, hi, span, iters=40):
+    """Projected Newton of :class:`FlankFeet` on surface s for rows with bounds lo <= u <= hi (scalars or per
+    row, span = hi - lo): a full (Hessian-shifted) Newton step where the foot is interior, a step in tau alone
+    where u sits on a bound and the gradient pushes outwards, backtracking so f never increases.  Every row
+    iterates on its own."""
+    u = np.clip(np.array(u, float), lo, hi)
+    tau = np.array(tau, float)
+    n = len(u)
+    lo = np.broadcast_to(np.asarray(lo, float), (n,))
+    hi = np.broadcast_to(np.asarray(hi, float), (n,))
+    span = np.broadcast_to(np.asarray(span, float), (n,))
+    f = s._f_and_derivs(u, tau, q0, order=0)
+    active = np.ones(n, bool)
+    for _ in range(iters):
+        ia = np.flatnonzero(active)
+        if not len(ia):
+            break
+        ua, ta, qa = u[ia], tau[ia], q0[ia]
+        la, ha, sa = lo[ia], hi[ia], span[ia]
+        fa, gu, gt, huu, hut, htt = s._f_and_derivs(ua, ta, qa)
+        du, dt, scale = shifted_newton_step(gu, gt, huu, hut, htt)
+        # on a bound with the gradient pointing out of the box: move in tau only
+        pinned = ((ua <= la) & (gu > 0)) | ((ua >= ha) & (gu < 0))
+        t_only = -gt / np.maximum(htt, 1e-8 * scale)
+        du = np.where(pinned, 0.0, du)
+        dt = np.where(pinned, t_only, dt)
+        norm = np.maximum(np.abs(du) / (0.25 * sa), np.abs(dt) / (np.pi / 2))
+        k = 1.0 / np.maximum(norm, 1.0)
+        du, dt = du * k, dt * k
+        f_tol = fa + 1e-14 * (np.einsum("ij,ij->i", qa, qa) + s.outer_radius ** 2)
+        alpha = np.ones_like(du)
+        accepted = np.zeros(len(du), bool)
+        f_new = fa.copy()
+        nu, nt = ua.copy(), ta.copy()
+        for _ls in range(14):
+            todo = np.flatnonzero(~accepted)
+            if not len(todo):
+                break
+            cu = np.clip(ua[todo] + alpha[todo] * du[todo], la[todo], ha[todo])
+            ct = ta[todo] + alpha[todo] * dt[todo]
+            cf = s._f_and_derivs(cu, ct, qa[todo], order=0)
+            ok = cf <= f_tol[todo]
+            good = todo[ok]
+            accepted[good] = True
+            f_new[good], nu[good], nt[good] = cf[ok], cu[ok], ct[ok]
+            alpha[todo[~ok]] *= 0.5
+        step_u, step_t = np.abs(nu - ua), np.abs(nt - ta)
+        u[ia], tau[ia], f[ia] = nu, nt, np.minimum(f_new, fa)
+        small = (step_u <= 1e-11 * sa) & (step_t <= 1e-11)
+        active[ia[small | ~accepted]] = False
+    return u, tau, f
 
 
 def flank_u_ranges(profile, flanks):

@@ -150,6 +150,8 @@ class HelicalSurface:
 
     # ------------------------------------------------------------------ reduced problem (*)
     def _f_and_derivs(self, u, tau, q0, order=2):
+        if hasattr(self.profile, "eval_xy"):
+            return self._f_and_derivs_xy(u, tau, q0, order)
         h, v0 = self.hand, self.v0
         c, s = np.cos(h * tau), np.sin(h * tau)
         if order == 0:
@@ -167,6 +169,30 @@ class HelicalSurface:
         huu = 2 * (np.einsum("...i,...i->...", P1, P1) + np.einsum("...i,...i->...", d, P2))
         hut = 2 * (np.einsum("...i,...i->...", JP, P1) + np.einsum("...i,...i->...", d, h * _J(P1)))
         htt = 2 * (np.einsum("...i,...i->...", P, P) - np.einsum("...i,...i->...", d, P)) + 2 * v0 ** 2
+        return f, gu, gt, huu, hut, htt
+
+    def _f_and_derivs_xy(self, u, tau, q0, order=2):
+        """:meth:`_f_and_derivs` on coordinate arrays (profiles with ``eval_xy``): the same numbers."""
+        h, v0 = self.hand, self.v0
+        c, s = np.cos(h * tau), np.sin(h * tau)
+        qx, qy = q0[..., 0], q0[..., 1]
+        if order == 0:
+            px, py = self.profile.eval_xy(u)
+            dx = c * px - s * py - qx
+            dy = s * px + c * py - qy
+            return dx * dx + dy * dy + (v0 * tau) ** 2
+        px, py, p1x, p1y, p2x, p2y = self.profile.eval_all_xy(u)
+        Px, Py = c * px - s * py, s * px + c * py
+        dx, dy = Px - qx, Py - qy
+        f = dx * dx + dy * dy + (v0 * tau) ** 2
+        P1x, P1y = c * p1x - s * p1y, s * p1x + c * p1y
+        JPx, JPy = h * -Py, h * Px
+        gu = 2 * (dx * P1x + dy * P1y)
+        gt = 2 * (dx * JPx + dy * JPy) + 2 * v0 ** 2 * tau
+        P2x, P2y = c * p2x - s * p2y, s * p2x + c * p2y
+        huu = 2 * ((P1x * P1x + P1y * P1y) + (dx * P2x + dy * P2y))
+        hut = 2 * ((JPx * P1x + JPy * P1y) + (dx * (h * -P1y) + dy * (h * P1x)))
+        htt = 2 * ((Px * Px + Py * Py) - (dx * Px + dy * Py)) + 2 * v0 ** 2
         return f, gu, gt, huu, hut, htt
 
     def _newton(self, u, tau, q0, iters=40, step_tol=1e-10):

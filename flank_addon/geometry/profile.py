@@ -73,6 +73,9 @@ class SplineProfile(Profile):
         self.period = float(self.knots[-1])
         self._spline = CubicSpline(self.knots, closed, bc_type="periodic")
         self._d = [self._spline, self._spline.derivative(1), self._spline.derivative(2)]
+        # the coefficients per coordinate, contiguous: eval_xy / eval_all_xy read them without scipy's call
+        self._cx = [np.ascontiguousarray(self._spline.c[k][:, 0]) for k in range(4)]
+        self._cy = [np.ascontiguousarray(self._spline.c[k][:, 1]) for k in range(4)]
 
     def eval(self, u, der=0):
         u = np.mod(np.asarray(u, dtype=float), self.period)
@@ -88,6 +91,32 @@ class SplineProfile(Profile):
         p1 = (3 * c0 * x + 2 * c1) * x + c2
         p2 = 6 * c0 * x + 2 * c1
         return p, p1, p2
+
+    def _interval(self, u):
+        u = np.mod(np.asarray(u, dtype=float), self.period)
+        i = np.clip(np.searchsorted(self.knots, u, side="right") - 1, 0, len(self.knots) - 2)
+        return i, u - self.knots[i]
+
+    def eval_xy(self, u):
+        """(x, y) of :meth:`eval` (the same numbers: the piecewise polynomial summed by powers, as scipy's
+        PPoly does), without the (..., 2) array."""
+        i, s = self._interval(u)
+        s2 = s * s
+        s3 = s2 * s
+        cx, cy = self._cx, self._cy
+        x = cx[3][i] + cx[2][i] * s + cx[1][i] * s2 + cx[0][i] * s3
+        y = cy[3][i] + cy[2][i] * s + cy[1][i] * s2 + cy[0][i] * s3
+        return x, y
+
+    def eval_all_xy(self, u):
+        """The components of :meth:`eval_all` (the same numbers): (x, y, x', y', x'', y'')."""
+        i, s = self._interval(u)
+        out = []
+        for c in (self._cx, self._cy):
+            c0, c1, c2, c3 = c[0][i], c[1][i], c[2][i], c[3][i]
+            out.append((((c0 * s + c1) * s + c2) * s + c3, (3 * c0 * s + 2 * c1) * s + c2, 6 * c0 * s + 2 * c1))
+        (x, dx, ddx), (y, dy, ddy) = out
+        return x, y, dx, dy, ddx, ddy
 
     def node_param(self, i):
         return self.knots[np.asarray(i)]

@@ -189,10 +189,10 @@ class AxisEvaluator:
         solvers = v.feet if solvers is None else solvers
         a, J = axis_points(x, lam, v.theta, self.R)
         out_r, out_i, out_g, feet = [], [], [], []
-        for j, fs in enumerate(solvers):
-            key = (tag, j, len(lam))
-            w = self._warm.get(key)
-            ft = fs(a, warm=w)
+        keys = [(tag, j, len(lam)) for j in range(len(solvers))]
+        # the flanks' Newton runs together (each row on its own: the same feet as one flank at a time)
+        found = FlankFeet.many(list(solvers), a, [self._warm.get(key) for key in keys])
+        for key, ft in zip(keys, found):
             self._warm[key] = (ft.u, ft.tau)
             feet.append(ft)
             out_r.append(ft.distance)
