@@ -66,71 +66,91 @@ class FlankFeet:
 
     @staticmethod
     def many(solvers, points, warms, k=2):
-        """``[solver(points, warm) for solver, warm in zip(solvers, warms)]`` for solvers on one surface, their
-        Newton runs done together (every row's iterations are its own, so the feet are the same)."""
-        q = np.atleast_2d(np.asarray(points, float))
+        """``[solver(p, warm) for solver, p, warm in zip(solvers, points, warms)]`` for solvers on one surface
+        (``points``: one (N, 3) array for all, or a list with one per solver), their Newton runs done together
+        (every row's iterations are its own, so the feet are the same)."""
+        m = len(solvers)
+        if isinstance(points, (list, tuple)):
+            pts = [np.atleast_2d(np.asarray(p, float)) for p in points]
+        else:
+            pts = [np.atleast_2d(np.asarray(points, float))] * m
         s = solvers[0].surface
         if any(fs.surface is not s for fs in solvers):
-            return [FlankFeet.many([fs], q, [w], k)[0] for fs, w in zip(solvers, warms)]
+            return [FlankFeet.many([fs], [p], [w], k)[0] for fs, p, w in zip(solvers, pts, warms)]
+        sizes = np.array([len(p) for p in pts])
+        off = np.r_[0, np.cumsum(sizes)]
+        q = np.concatenate(pts)
         q0 = screw_to_plane(q, s.v0, s.hand)
         Q = np.c_[q0, np.zeros(len(q0))]
-        N, m = len(q0), len(solvers)
-        lo = np.repeat([fs.lo for fs in solvers], N)
-        hi = np.repeat([fs.hi for fs in solvers], N)
-        span = np.repeat([fs.hi - fs.lo for fs in solvers], N)
-        q0m = np.tile(q0, (m, 1))
-        u = np.empty(m * N)
-        tau = np.empty(m * N)
-        f = np.empty(m * N)
+        lo = np.repeat([fs.lo for fs in solvers], sizes)
+        hi = np.repeat([fs.hi for fs in solvers], sizes)
+        span = np.repeat([fs.hi - fs.lo for fs in solvers], sizes)
+        u, tau, f = np.empty(len(q)), np.empty(len(q)), np.empty(len(q))
         warm_j = [j for j, w in enumerate(warms) if w is not None]
         cold_j = [j for j, w in enumerate(warms) if w is None]
         if warm_j:
             # the warm start carries the basin.  Guard against a jump to another basin: a rough table
             # seed (approximate nearest neighbour, 4x cheaper than the exact query) that is already
             # nearer than the warm foot starts a second Newton run for that query only
-            rows = np.concatenate([np.arange(j * N, (j + 1) * N) for j in warm_j])
+            rows = np.concatenate([np.arange(off[j], off[j + 1]) for j in warm_j])
             wu = np.concatenate([np.asarray(warms[j][0], float) for j in warm_j])
             wt = np.concatenate([np.asarray(warms[j][1], float) for j in warm_j])
-            u[rows], tau[rows], f[rows] = _newton_rows(s, wu, wt, q0m[rows], lo[rows], hi[rows], span[rows])
-            su, st = np.empty(len(rows)), np.empty(len(rows))
-            for i, j in enumerate(warm_j):
-                _, idx = solvers[j]._tree.query(Q, k=1, eps=2.0)
-                su[i * N:(i + 1) * N], st[i * N:(i + 1) * N] = solvers[j]._U[idx], solvers[j]._T[idx]
-            fs_ = s._f_and_derivs(su, st, q0m[rows], order=0)
+            u[rows], tau[rows], f[rows] = _newton_rows(s, wu, wt, q0[rows], lo[rows], hi[rows], span[rows])
+            su, st = np.empty(len(q)), np.empty(len(q))
+            for j in warm_j:
+                r = slice(off[j], off[j + 1])
+                _, idx = solvers[j]._tree.query(Q[r], k=1, eps=2.0, workers=_workers(sizes[j]))
+                su[r], st[r] = solvers[j]._U[idx], solvers[j]._T[idx]
+            su, st = su[rows], st[rows]
+            fs_ = s._f_and_derivs(su, st, q0[rows], order=0)
             jump = np.flatnonzero(fs_ < f[rows])
             if len(jump):
                 r = rows[jump]
-                ju, jt, jf = _newton_rows(s, su[jump], st[jump], q0m[r], lo[r], hi[r], span[r])
+                ju, jt, jf = _newton_rows(s, su[jump], st[jump], q0[r], lo[r], hi[r], span[r])
                 better = jf < f[r]
                 b = r[better]
                 u[b], tau[b], f[b] = ju[better], jt[better], jf[better]
-        for j in cold_j:
-            fs = solvers[j]
-            _, idx = fs._tree.query(Q, k=k)
-            idx = idx.reshape(N, -1)
-            # all seeds in one vectorised Newton run, then the best per query
-            kk = idx.shape[1]
-            U, T, F = _newton_rows(s, fs._U[idx.T.ravel()], fs._T[idx.T.ravel()], np.tile(q0, (kk, 1)), fs.lo, fs.hi,
-                                   fs.hi - fs.lo)
-            jm = np.argmin(F.reshape(kk, -1), axis=0)
-            sel = jm * N + np.arange(N)
-            u[j * N:(j + 1) * N], tau[j * N:(j + 1) * N], f[j * N:(j + 1) * N] = U[sel], T[sel], F[sel]
-        qm = np.tile(q, (m, 1))
-        t = tau + qm[:, 2] / s.v0
+        if cold_j:
+            # every query's k nearest table samples as seeds, all in one Newton run, then the best per query
+            seeds, kks = [], []
+            for j in cold_j:
+                fs, r = solvers[j], slice(off[j], off[j + 1])
+                _, idx = fs._tree.query(Q[r], k=k, workers=_workers(sizes[j]))
+                idx = idx.reshape(sizes[j], -1)
+                kks.append(idx.shape[1])
+                rows_j = np.tile(np.arange(off[j], off[j + 1]), idx.shape[1])      # seed-major, as idx.T
+                seeds.append((rows_j, fs._U[idx.T.ravel()], fs._T[idx.T.ravel()]))
+            rr = np.concatenate([x[0] for x in seeds])
+            U, T, F = _newton_rows(s, np.concatenate([x[1] for x in seeds]), np.concatenate([x[2] for x in seeds]),
+                                   q0[rr], lo[rr], hi[rr], span[rr])
+            o = 0
+            for j, kk in zip(cold_j, kks):
+                n = sizes[j]
+                Fj = F[o:o + kk * n].reshape(kk, -1)
+                jm = np.argmin(Fj, axis=0)
+                sel = o + jm * n + np.arange(n)
+                u[off[j]:off[j + 1]], tau[off[j]:off[j + 1]], f[off[j]:off[j + 1]] = U[sel], T[sel], F[sel]
+                o += kk * n
+        t = tau + q[:, 2] / s.v0
         foot = s.evaluate(u, t)
-        diff = qm - foot
+        diff = q - foot
         d = np.linalg.norm(diff, axis=1)
         direction = diff / np.maximum(d, 1e-300)[:, None]
         # a query inside the rotor solid has no business in a tool axis: it never counts as interior
         outside = np.einsum("ij,ij->i", diff, s.normal(u, t)) > 0
-        eps = np.repeat([fs.eps_u for fs in solvers], N)
+        eps = np.repeat([fs.eps_u for fs in solvers], sizes)
         interior = (u > lo + eps) & (u < hi - eps) & outside
         out = []
         for j in range(m):
-            r = slice(j * N, (j + 1) * N)
+            r = slice(off[j], off[j + 1])
             out.append(Feet(u=u[r], t=t[r], point=foot[r], distance=d[r], direction=direction[r],
                             interior=interior[r], tau=tau[r]))
         return out
+
+
+def _workers(n):
+    """Threads of a kd-tree query of n points (every query is independent: the same answer on any count)."""
+    return -1 if n >= 2048 else 1
 
 
 def _newton_rows(s, u, tau, q0, lo, hi, span, iters=40):

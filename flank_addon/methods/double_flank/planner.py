@@ -185,22 +185,40 @@ class AxisEvaluator:
         self.calls = 0
 
     def __call__(self, x, lam, solvers=None, tag=0):
+        return self.multi([(x, lam, solvers, tag)])[0]
+
+    def multi(self, requests):
+        """[self(x, lam, solvers, tag) for each request], every flank's feet found in one run (each row
+        iterates on its own and warm-starts from its own key: the same values as one call at a time)."""
         v = self.valley
-        solvers = v.feet if solvers is None else solvers
-        a, J = axis_points(x, lam, v.theta, self.R)
-        out_r, out_i, out_g, feet = [], [], [], []
-        keys = [(tag, j, len(lam)) for j in range(len(solvers))]
-        # the flanks' Newton runs together (each row on its own: the same feet as one flank at a time)
-        found = FlankFeet.many(list(solvers), a, [self._warm.get(key) for key in keys])
+        prepared, solvers_all, points, warms, keys = [], [], [], [], []
+        for x, lam, solvers, tag in requests:
+            solvers = v.feet if solvers is None else solvers
+            a, J = axis_points(x, lam, v.theta, self.R)
+            ks = [(tag, j, len(lam)) for j in range(len(solvers))]
+            prepared.append((lam, a, J, len(solvers)))
+            solvers_all += list(solvers)
+            points += [a] * len(solvers)
+            warms += [self._warm.get(key) for key in ks]
+            keys += ks
+        if len(set(keys)) < len(keys):      # a request warm-starts from an earlier one: one at a time
+            out = []
+            for req in requests:
+                out += self.multi([req])
+            return out
+        found = FlankFeet.many(solvers_all, points, warms)
         for key, ft in zip(keys, found):
             self._warm[key] = (ft.u, ft.tau)
-            feet.append(ft)
-            out_r.append(ft.distance)
-            out_i.append(ft.interior)
-            out_g.append(np.einsum("ni,nij->nj", ft.direction, J))
-        self.calls += 1
-        return AxisRadii(lam=np.asarray(lam, float), points=a, r=np.array(out_r), interior=np.array(out_i),
-                         grad=np.array(out_g), feet=tuple(feet))
+        out, o = [], 0
+        for lam, a, J, ns in prepared:
+            feet = found[o:o + ns]
+            o += ns
+            out.append(AxisRadii(lam=np.asarray(lam, float), points=a, r=np.array([ft.distance for ft in feet]),
+                                 interior=np.array([ft.interior for ft in feet]),
+                                 grad=np.array([np.einsum("ni,nij->nj", ft.direction, J) for ft in feet]),
+                                 feet=tuple(feet)))
+            self.calls += 1
+        return out
 
 
 def phi_value(ar):
@@ -469,8 +487,7 @@ def build_path(ev, x, m=400, variant="min", radii_fn=None, extent=None, flanks=(
             rm = radii_at(np.maximum(q - eps, 0.0))[0]
             return radii_at(q)[0], (rp - rm) / (np.minimum(q + eps, L) - np.maximum(q - eps, 0.0))
 
-        sd = _contact_samples(r_and_dr, np.r_[s, s_plan], tol)
-        rd, drd = r_and_dr(sd)
+        sd, rd, drd = _contact_samples(r_and_dr, np.r_[s, s_plan], tol)
         mer = sphere_union_meridian(sd, rd, tol=tol, dr=drd, end_tol=1e-5 * v.outer_radius)
         mer = _shrink_concave(mer, tol)
     a_plan, _ = axis_points(x, lo + s_plan / speed, v.theta, v.outer_radius)
@@ -480,11 +497,42 @@ def build_path(ev, x, m=400, variant="min", radii_fn=None, extent=None, flanks=(
 
 
 # ============================================================================ exact tool meridian
+def _upper_envelope(m, c):
+    """(indices, breaks) of the lines y = m x + c (m non-decreasing) on their upper envelope, slopes
+    increasing, and the x where each takes over from the one before.  Of lines with equal slopes the
+    largest intercept counts (the first among equals).  Then every line whose take-over point does not come
+    before its successor's is dropped, all such lines at once, until none is left: a run of dropped lines
+    is convex from below, so the chord of its neighbours lies above it, and the chain only rises until it
+    is the envelope (what the monotone convex-hull sweep keeps, without its Python loop)."""
+    n = len(m)
+    if n == 0:
+        return np.zeros(0, int), np.zeros(0)
+    start = np.r_[0, np.flatnonzero(m[1:] != m[:-1]) + 1]
+    if len(start) < n:
+        run = np.repeat(np.arange(len(start)), np.diff(np.r_[start, n]))
+        best = np.full(len(start), -np.inf)
+        np.maximum.at(best, run, c)
+        first = np.flatnonzero(c == best[run])
+        _, pos = np.unique(run[first], return_index=True)
+        idx = first[pos]
+    else:
+        idx = np.arange(n)
+    while len(idx) > 2:
+        x = (c[idx[:-1]] - c[idx[1:]]) / (m[idx[1:]] - m[idx[:-1]])
+        bad = x[1:] <= x[:-1]
+        if not bad.any():
+            break
+        keep = np.ones(len(idx), bool)
+        keep[1:-1] = ~bad
+        idx = idx[keep]
+    return idx, (c[idx[:-1]] - c[idx[1:]]) / (m[idx[1:]] - m[idx[:-1]])
+
+
 class SphereUnion:
     """Exact meridian R(h) of the union of spheres centred at axial positions s_j with radii r_j.
 
     R(h)^2 = max_j (r_j^2 - (h - s_j)^2) = max_j (2 s_j h + r_j^2 - s_j^2) - h^2: the upper envelope
-    of N lines in h (slopes 2 s_j), built once by the monotone convex-hull sweep, answers every
+    of N lines in h (slopes 2 s_j), built once (:func:`_upper_envelope`), answers every
     query with one binary search -- the maximum over *all* spheres, not a window of neighbours."""
 
     def __init__(self, s, r):
@@ -493,26 +541,7 @@ class SphereUnion:
         order = np.argsort(s, kind="stable")
         m, c = 2.0 * s[order], r[order] ** 2 - s[order] ** 2
         self.s, self.r = s[order], r[order]
-        hull = []          # indices into m, c of the lines on the upper envelope, slopes increasing
-        xs = []            # x where hull[k] takes over from hull[k - 1]
-        for j in range(len(m)):
-            if hull and m[j] == m[hull[-1]]:
-                if c[j] <= c[hull[-1]]:
-                    continue
-                hull.pop()
-                xs.pop()
-            while hull:
-                k = hull[-1]
-                x = (c[k] - c[j]) / (m[j] - m[k])
-                if len(hull) > 1 and x <= xs[-1]:
-                    hull.pop()
-                    xs.pop()
-                    continue
-                break
-            xs.append(-np.inf if not hull else (c[hull[-1]] - c[j]) / (m[j] - m[hull[-1]]))
-            hull.append(j)
-        self.hull = np.array(hull)
-        self.breaks = np.array(xs[1:])
+        self.hull, self.breaks = _upper_envelope(m, c)
         self.m, self.c = m[self.hull], c[self.hull]
 
     def which(self, h):
@@ -678,11 +707,11 @@ def _contact_samples(r_and_dr, s_init, tol, max_rounds=40, n_max=400000):
     enough that every chord of the contact polyline is within ~``tol`` of the envelope: a segment of
     length L between directions turning by dtheta at its ends has sagitta ~ L dtheta / 8; segments
     above ``tol`` (and segments next to a point where |r'| >= 1) are bisected in s until none is
-    left (or the s spacing reaches 1e-12 of the extent)."""
+    left (or the s spacing reaches 1e-12 of the extent).  Returns the samples and r, r' there."""
     s = np.unique(np.asarray(s_init, float))
     span = float(s[-1] - s[0])
+    r, dr = r_and_dr(s)
     for _ in range(max_rounds):
-        r, dr = r_and_dr(s)
         bad = np.abs(dr) >= 1.0
         d = np.clip(dr, -1.0, 1.0)
         h, R = s - r * d, r * np.sqrt(1.0 - d * d)
@@ -697,8 +726,12 @@ def _contact_samples(r_and_dr, s_init, tol, max_rounds=40, n_max=400000):
         split = (sag > tol) & (np.diff(s) > 1e-12 * span)
         if not split.any() or len(s) + split.sum() > n_max:
             break
-        s = np.sort(np.r_[s, 0.5 * (s[:-1] + s[1:])[split]])
-    return s
+        # r_and_dr works point by point: only the new midpoints are evaluated, then merged in order
+        mid = 0.5 * (s[:-1] + s[1:])[split]
+        rm, drm = r_and_dr(mid)
+        order = np.argsort(np.r_[s, mid], kind="stable")
+        s, r, dr = np.r_[s, mid][order], np.r_[r, rm][order], np.r_[dr, drm][order]
+    return s, r, dr
 
 
 def _shrink_concave(mer, tol):
@@ -727,14 +760,20 @@ def eval_at_tool_coordinate(ev, x, t, solvers=None, tag=0):
     perpendicular with z, lam = t cos(alpha)), with the gradients d r / d x at fixed t: the
     alpha-derivative gains (a - b)/r . da/dlam * dlam/dalpha = ... * (-t sin(alpha)).  One tool
     placed on two axes with different alpha is the same tool only in this coordinate."""
-    t = np.asarray(t, float)
-    al = float(x[0])
-    ar = ev(x, t * math.cos(al), solvers=solvers, tag=tag)
-    c, s = math.cos(ev.valley.theta + x[2]), math.sin(ev.valley.theta + x[2])
-    dadl = np.array([c, s, math.tan(al)])
-    for k, ft in enumerate(ar.feet):
-        ar.grad[k][:, 0] += (ft.direction @ dadl) * (-t * math.sin(al))
-    return ar
+    return eval_at_tool_coordinates(ev, [(x, t, solvers, tag)])[0]
+
+
+def eval_at_tool_coordinates(ev, requests):
+    """:func:`eval_at_tool_coordinate` of several (x, t, solvers, tag) requests in one evaluator run."""
+    reqs = [(x, np.asarray(t, float), solvers, tag) for x, t, solvers, tag in requests]
+    found = ev.multi([(x, t * math.cos(float(x[0])), solvers, tag) for x, t, solvers, tag in reqs])
+    for (x, t, _, _), ar in zip(reqs, found):
+        al = float(x[0])
+        c, s = math.cos(ev.valley.theta + x[2]), math.sin(ev.valley.theta + x[2])
+        dadl = np.array([c, s, math.tan(al)])
+        for k, ft in enumerate(ar.feet):
+            ar.grad[k][:, 0] += (ft.direction @ dadl) * (-t * math.sin(al))
+    return found
 
 
 def _two_path_terms(ev, y, t):
@@ -749,8 +788,8 @@ def _two_path_terms(ev, y, t):
     own_p - G_p,k, own_p - G_q,k: every such difference is a row (where own_p counts)."""
     v = ev.valley
     x1, x2 = y[:3], y[3:6]
-    A = eval_at_tool_coordinate(ev, x1, t, solvers=(v.feet[0],) + tuple(v.full_feet), tag="tp1")
-    B = eval_at_tool_coordinate(ev, x2, t, solvers=(v.feet[1],) + tuple(v.full_feet), tag="tp2")
+    A, B = eval_at_tool_coordinates(ev, [(x1, t, (v.feet[0],) + tuple(v.full_feet), "tp1"),
+                                         (x2, t, (v.feet[1],) + tuple(v.full_feet), "tp2")])
     rows, grads, owners = [], [], []
     z = np.zeros((len(t), 3))
     own = [(A.r[0], A.grad[0], A.interior[0], 0), (B.r[0], B.grad[0], B.interior[0], 1)]
