@@ -278,3 +278,47 @@ def test_auto_tools_from_a_rotor_mesh_cover_the_flank(tmp_path, capsys):
     share = np.sum(seg * 0.5 * (ok[1:].astype(float) + ok[:-1])) / seg.sum()
     assert share >= 0.95 and d.min() >= -1e-3
     assert abs(share - summ["covered_fraction"]) <= 0.01
+
+
+# ---------------------------------------------------------------- hyperbolic / elliptic split
+def test_split_plans_each_part_with_its_own_initialisation(female):
+    """Examples 6.5/6.6: the elliptic part of the female flank 1 (towards the lobe tip) planned in its own run:
+    the parts follow the sign of the Gaussian curvature, every seed lies in the part and starts in tangential
+    contact along the least curved principal direction, and the summary's share of the part is the verified one."""
+    from flank_addon.methods.single_flank.planner import curvature_parts
+    from flank_addon.methods.single_flank.poses import principal_frame
+    from flank_addon.simulation.verify import verify_plan
+
+    r, s = female
+    ur = r.flanks[1]
+    parts = curvature_parts(s, ur)
+    (ea, eb), = parts["elliptic"]
+    assert parts["hyperbolic"] == [(ur[0], ea)] and eb == ur[1]
+    u = np.linspace(ur[0], ur[1], 400)[1:-1]
+    K = s.curvatures(u)["K"]
+    assert (K[u < ea - 0.01] < 0).all() and (K[u > ea + 0.01] >= -1e-3).all()
+    tool = ConeTool(math.asin(0.1), 0.05, 0.08, 0.04, 0.6)
+    res = plan_single_flank(s, r.flanks, 1, tool, 1e-3, split="elliptic")
+    seeds = [c.seed for c in res.candidates]
+    assert seeds and all(ea - 1e-9 <= sd.u <= eb + 1e-9 for sd in seeds)
+    for sd in seeds:
+        if sd.rank >= 0:                       # a seed of Section 5.1: tangential, along the least curved direction
+            fr = principal_frame(s, np.array([sd.u]))
+            k = np.array([fr.k1[0], fr.k2[0]])
+            e = (fr.e1[0], fr.e2[0])[int(np.argmin(np.abs(k)))]
+            g = sd.pose.axis - math.sin(tool.alpha) * fr.normal[0]
+            assert sd.contact == 1 and abs(abs(g @ e) / np.linalg.norm(g) - 1.0) < 1e-9
+    sp = res.plan["summary"]["split"]
+    assert sp["part"] == "elliptic" and sp["u_ranges"] == [[ea, eb]]
+    v = verify_plan(res.plan, tolerance=1e-6)
+    prof = np.asarray(res.plan["rotor"]["profile"])
+    a, b = res.plan["rotor"]["flanks"][1]
+    n, per = len(prof), s.profile.period
+    dev = {i: (np.inf if d is None else d) for i, _, _, d in v["deviation_profile"]}
+    idx = np.arange(a, b + 1)
+    inside = (idx * per / n >= ea) & (idx * per / n <= eb)
+    seg = np.linalg.norm(np.diff(prof[idx % n], axis=0), axis=1)
+    w = 0.5 * (np.r_[seg, 0] + np.r_[0, seg])
+    ok = np.array([-1e-6 <= dev[i % n] <= 1e-3 for i in idx])
+    assert sp["covered_fraction"] == pytest.approx(w[inside & ok].sum() / w[inside].sum(), abs=1e-12)
+    assert sp["covered_fraction"] > 0.95

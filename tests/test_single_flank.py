@@ -279,15 +279,45 @@ EX61_TOOL = ConeTool(0.25, 0.25, 0.5)
 @pytest.mark.parametrize("name,flank", [("asymmetric-male", 0), ("asymmetric-male", 1),
                                         ("asymmetric-female", 0), ("asymmetric-female", 1)])
 def test_tool_shape_fit_is_non_overcutting(name, flank, record_property, builtin):
+    """Phi2 (Eq. 28) with only admissibility (Eqs. 18-21, the tool outside the rotor) and collision: either a
+    fitted cone whose constraint report is true (recomputed here from its distances) and which the exact
+    collision test passes, or a refusal naming what failed."""
+    from flank_addon.simulation.collision import check_rotor_collisions
+
     r, s = builtin(name)
-    fit = sf.optimize_tool_shape(s, r.flanks[flank], EX61_TOOL, n_seeds=12, top=2)
+    try:
+        fit = sf.optimize_tool_shape(s, r.flanks[flank], EX61_TOOL, n_seeds=12, top=2, flank_ranges=r.flanks,
+                                     flank=flank)
+    except ValueError as ex:
+        assert "no seed gave an admissible, collision-free cone" in str(ex)
+        assert "collides: cone with flank" in str(ex) or "against the limit" in str(ex)
+        record_property("tool_shape", f"{name} X{flank + 1}: {ex}")
+        return
     assert fit.e.min() >= -1e-12                  # Eq. (30): the fitted line stays below d
-    assert 0 < fit.r1s < fit.r2s
+    assert 0 <= fit.r1s < fit.r2s
     assert fit.tool.L == pytest.approx(EX61_TOOL.L, rel=1e-9)
-    assert fit.tool.r1s == pytest.approx(fit.r1s, rel=1e-9) and fit.tool.r2s == pytest.approx(fit.r2s, rel=1e-9)
+    assert fit.tool.r1s == pytest.approx(fit.r1s, abs=1e-12) and fit.tool.r2s == pytest.approx(fit.r2s, rel=1e-9)
     assert fit.phi2_end <= fit.phi2_start
     # the fit touches the distances (an LP vertex): it cannot be lifted
     assert fit.e.min() < 1e-9
-    line = f"{name} X{flank + 1}: r(s) = {fit.r2s - fit.r1s:.3f} s + {fit.r1s:.3f}, max error {fit.max_error:.5f}"
+    # the constraint report, recomputed from the distances: every row holds, "active" means it binds
+    d0, d1, L = fit.d[0], fit.d[-1], EX61_TOOL.L
+    lim = fit.limits
+    want = {"r1": (d0, lim["r1_max"]), "r2": (d1, lim["r2_max"]), "angle": ((d1 - d0) / L, math.sin(lim["d_angle"])),
+            "outside": (0.0, d0)}
+    if lim["a_min"] is not None:
+        want["omega1"] = (0.5 * (d0 + d1), lim["a_min"] ** 2)
+    rows = {c["name"]: c for c in fit.constraints}
+    assert set(want) <= set(rows)
+    for nm, (v, limit) in want.items():
+        assert v <= limit + 1e-9
+        if nm != "outside":
+            assert rows[nm]["value"] == pytest.approx(v, abs=1e-12) and rows[nm]["limit"] == pytest.approx(limit)
+    assert set(fit.active) == {c["name"] for c in fit.constraints if abs(c["slack"]) <= 1e-6 * max(abs(c["limit"]),
+                                                                                                     1e-9)}
+    assert not check_rotor_collisions([fit.pose], r, target_flanks=(flank,), tolerance=1e-6, model="spheres",
+                                      spacing=max(0.25 * fit.tool.r1c, 0.05 * fit.tool.r2c, 1e-4))[0].collides
+    line = (f"{name} X{flank + 1}: r(s) = {fit.r2s - fit.r1s:.3f} s + {fit.r1s:.3f}, max error {fit.max_error:.5f}, "
+            f"active {fit.active}")
     print(line)
     record_property("tool_shape", line)

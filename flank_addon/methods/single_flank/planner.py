@@ -125,6 +125,7 @@ class _ToolRun:
         self.buried = float("inf")
         self.flank_ranges = None
         self.room_slack = None
+        self.split = None
 
     def __call__(self, us):
         from ...simulation.collision import check_collisions as collide
@@ -147,10 +148,12 @@ class _ToolRun:
                 self.log.append({"tool": self.index, "u": float(u), "status": "unreachable", "seed": None,
                                  "depth": float(d), "radius": float(self.tool.r1s)})
             us = us[~proven]
-        seeds = clear_seeds(self.ev, us) if self.ev.clearance is not None else [None] * len(us)
+        tang = self.split == "elliptic"
+        seeds = clear_seeds(self.ev, us, tangential=tang) if self.ev.clearance is not None else [None] * len(us)
         if self.ev.clearance is None:
             from .poses import initial_positions
-            per = initial_positions(self.surface, self.u_range, self.tool, u=np.asarray(us, float), feet=self.ev.feet)
+            per = initial_positions(self.surface, self.u_range, self.tool, u=np.asarray(us, float), feet=self.ev.feet,
+                                    tangential=tang)
             seeds = [c[0] if c else None for c in per]
         entries = []
         for u, sd in zip(us, seeds):
@@ -311,6 +314,7 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
                        check_collisions, collide_args, timings, report, (0.02 + k * share, 0.02 + (k + 1) * share))
         run.buried, run.flank_ranges = tol, flank_ranges
         run.room_slack = (tol + eps_over) if clearance else None
+        run.split = split
         runs.append(run)
         cover = adaptive_cover(run, surface, u_range, tol, eps_over, n_seeds=n_seeds, max_rounds=max_rounds,
                                samples=fs, targets=remaining, max_seeds=max_seeds)

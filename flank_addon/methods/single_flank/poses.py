@@ -269,12 +269,13 @@ class SeedPose:
     blocked: dict = None             # where that row is: part ("cone" | "shank"), foot parameter u, depth
 
 
-def _contact_axes(frame, r_mid, alpha):
+def _contact_axes(frame, r_mid, alpha, tangential=False):
     """Candidate axis directions (M, 4, 3) at each sample (4 = the two contact lines, each with both
-    orientations) and a validity mask (M, 4) and contact order (M,)."""
+    orientations) and a validity mask (M, 4) and contact order (M,).  ``tangential``: every sample as an
+    elliptic one (the initialisation of the elliptic part, Examples 6.5, 6.6)."""
     k1, k2, n, e1, e2 = frame.k1, frame.k2, frame.normal, frame.e1, frame.e2
     K = k1 * k2
-    hyper = K < 0
+    hyper = (K < 0) & (not tangential)
     with np.errstate(divide="ignore", invalid="ignore"):
         c2 = (r_mid * K - k2) / (k1 - k2)
     second = hyper & (c2 >= 0) & (c2 <= 1)
@@ -308,7 +309,7 @@ def movability(feet_fn, tips, axes, L, surface, n=25):
 
 
 def initial_positions(surface, u_range, tool, n_samples=18, along="profile", feet=None, u=None,
-                      keep="admissible", n_rank=33, w=W_OVERCUT):
+                      keep="admissible", n_rank=33, w=W_OVERCUT, tangential=False):
     """Initial poses of the given cone on one flank (Bizzarri, Bo & Bartoň §5.1, closed form, see module doc).
 
     surface: :class:`HelicalSurface`; u_range: the flank (u_start, u_end); tool: :class:`ConeTool`;
@@ -316,7 +317,8 @@ def initial_positions(surface, u_range, tool, n_samples=18, along="profile", fee
     ``u``).  Returns a list (per sample) of lists of :class:`SeedPose`, admissible ones (Eq. (24))
     first, each sorted by the seed's own Phi1 on ``n_rank`` axis samples (see :class:`SeedPose` on
     why not by F of Eq. (23), which is reported too); with ``keep='admissible'`` only admissible poses
-    are listed, with ``keep='all'`` every candidate."""
+    are listed, with ``keep='all'`` every candidate.  ``tangential``: tangential contact along the least curved
+    principal direction at every sample (the elliptic part's own initialisation, Examples 6.5 and 6.6)."""
     if keep not in ("admissible", "all"):
         raise ValueError(f"keep must be 'admissible' or 'all', got {keep!r}")
     feet = feet or FlankFeet(surface, *u_range)
@@ -324,7 +326,7 @@ def initial_positions(surface, u_range, tool, n_samples=18, along="profile", fee
     fr = principal_frame(surface, us)
     r_mid = float(tool.radius(0.5))
     L = tool.L
-    A, valid, order = _contact_axes(fr, r_mid, tool.alpha)
+    A, valid, order = _contact_axes(fr, r_mid, tool.alpha, tangential)
     mid = fr.point + r_mid * fr.normal
     tips = mid[:, None, :] - 0.5 * L * A
     tops = tips + L * A
@@ -358,7 +360,8 @@ def initial_positions(surface, u_range, tool, n_samples=18, along="profile", fee
     return out
 
 
-def clear_seeds(ev, u, contacts=(0.5, 0.25, 0.0), n_turns=12, w=W_OVERCUT, n_rank=33, prefer_paper=True):
+def clear_seeds(ev, u, contacts=(0.5, 0.25, 0.0), n_turns=12, w=W_OVERCUT, n_rank=33, prefer_paper=True,
+                tangential=False):
     """One initial pose per profile parameter u (M,), chosen with the tool's clearance from the whole rotor
     (:class:`RotorClearance` of ``ev``) in view: Bizzarri, Bo & Bartoň §5.1 places the middle sphere in
     second-order line contact, which in a narrow valley or with a shank wider than the cone can bury the
@@ -370,10 +373,11 @@ def clear_seeds(ev, u, contacts=(0.5, 0.25, 0.0), n_turns=12, w=W_OVERCUT, n_ran
     the clearance rows away from the cone's own contact with the target flank (the optimisation removes an
     overcut of the target flank, not a tool buried in another one).  Chosen: the first §5.1 seed that is
     clear (``prefer_paper``), else the clear candidate of smallest Phi1 (Eq. (25) on ``n_rank`` axis samples),
-    else the one of largest clearance.  Returns a list (M,) of :class:`SeedPose` or None (no candidate)."""
+    else the one of largest clearance.  ``tangential``: the §5.1 seeds in tangential contact everywhere
+    (:func:`initial_positions`).  Returns a list (M,) of :class:`SeedPose` or None (no candidate)."""
     surface, tool = ev.surface, ev.tool
     us = np.atleast_1d(np.asarray(u, float))
-    paper = initial_positions(surface, ev.u_range, tool, u=us, feet=ev.feet, n_rank=n_rank, w=w)
+    paper = initial_positions(surface, ev.u_range, tool, u=us, feet=ev.feet, n_rank=n_rank, w=w, tangential=tangential)
     if ev.clearance is None:
         return [c[0] if c else None for c in paper]
     fr = principal_frame(surface, us)
@@ -1346,20 +1350,34 @@ class ToolFit:
     iterations: int
     seconds: float
     seed: SeedPose = None
+    constraints: list = field(default_factory=list)    # per admissibility row: value, limit, slack, active
+    active: list = field(default_factory=list)         # names of the active rows at the optimum
+    limits: dict = None                                # the limits used (and where they come from)
+    rejected: list = field(default_factory=list)       # seeds whose fit was no cone or collided
+    admissibility: str = None                          # the fitted cone against Eqs. (18)-(21), when bounds
 
     @property
     def max_error(self):
         return float(np.max(self.e))
 
+    def summary(self):
+        """JSON-ready: the cone, Phi2 start and end, error, constraints (which are active) and rejections."""
+        return {"tool": self.tool.as_dict(), "r1s": self.r1s, "r2s": self.r2s, "max_error": self.max_error,
+                "phi2_start": self.phi2_start, "phi2_end": self.phi2_end, "iterations": self.iterations,
+                "constraints": self.constraints, "active": self.active,
+                "limits": None if self.limits is None else dict(self.limits), "rejected": self.rejected,
+                "admissibility": self.admissibility, "seconds": self.seconds}
+
 
 def linear_fit_below(s, d):
     """The line r(s) = c0 + c1 s minimising sum (d_i - r(s_i)) subject to r(s_i) <= d_i (Eqs. (29)-(30);
-    the absolute values of Eq. (29) equal d_i - r(s_i) under the constraint): a 2-variable LP."""
+    the absolute values of Eq. (29) equal d_i - r(s_i) under the constraint) and c0 >= 0 (a sphere radius):
+    a 2-variable LP."""
     from scipy.optimize import linprog
 
     s, d = np.asarray(s, float), np.asarray(d, float)
     n = len(s)
-    res = linprog(c=[-n, -float(s.sum())], A_ub=np.c_[np.ones(n), s], b_ub=d, bounds=[(None, None)] * 2,
+    res = linprog(c=[-n, -float(s.sum())], A_ub=np.c_[np.ones(n), s], b_ub=d, bounds=[(0.0, None), (None, None)],
                   method="highs")
     if not res.success:
         raise ValueError(f"linear fit below the distances failed: {res.message}")
@@ -1377,17 +1395,54 @@ def second_differences(n):
     return D
 
 
-def optimize_tool_shape(surface, u_range, tool0, n=100, n_seeds=18, along="profile", top=4, max_nfev=200):
+def shape_constraints(d, J, L, a_min2, limits):
+    """The admissibility rows (value >= 0 holds) of a tool made from the distances d (n,) along an axis of
+    length L, and their Jacobians from J = dd/dx (n, 4): the spheres at the ends are the tool's r1S ~ d_0 and
+    r2S ~ d_(n-1) (the fitted line lies below them, Eqs. (29)-(30)), so r1c <= r1S <= d_0 and the opening
+    sin(alpha) = (d_(n-1) - d_0) / L (Eq. (3)).  ``limits``: r1_max, r2_max (Eq. (19)), d_depth (Eq. (20), or
+    None), d_angle (Eq. (21)); a_min2: a_min^2 of Eq. (18) (None: no hyperbolic point).  Returns
+    [(name, equation, value, limit, row, jac_row)]: row = the constraint's slack."""
+    d0, d1 = float(d[0]), float(d[-1])
+    g0, g1 = J[0], J[-1]
+    rise = d1 - d0
+    out = []
+    if a_min2 is not None:
+        out.append(("omega1", "Eq. (18)", 0.5 * (d0 + d1), a_min2, a_min2 - 0.5 * (d0 + d1), -0.5 * (g0 + g1)))
+    out.append(("r1", "Eq. (19)", d0, limits["r1_max"], limits["r1_max"] - d0, -g0))
+    out.append(("r2", "Eq. (19)", d1, limits["r2_max"], limits["r2_max"] - d1, -g1))
+    if limits.get("d_depth") is not None and L > limits["d_depth"]:
+        need = L * (L - limits["d_depth"])          # h = L - (r2S - r1S)^2 / L <= D_depth (Eqs. (7), (20))
+        out.append(("omega2", "Eq. (20)", L - rise * rise / L, limits["d_depth"], rise * rise - need,
+                    2.0 * rise * (g1 - g0)))
+    sa = math.sin(limits["d_angle"])
+    out.append(("angle", "Eq. (21)", rise / L, sa, sa * L - rise, g0 - g1))
+    out.append(("cone", "Eq. (3), r1S < r2S", rise, 1e-6 * L, rise - 1e-6 * L, g1 - g0))
+    # the tool outside the rotor (Eq. (30) with r >= 0, §5.5): an axis through the material also has linear
+    # distances, a degenerate optimum of Phi2
+    out.append(("outside", "Eq. (30), §5.5", d0, 0.0, d0, g0))
+    return out
+
+
+def optimize_tool_shape(surface, u_range, tool0, n=100, n_seeds=18, along="profile", top=4, max_nfev=200,
+                        bounds=None, a_min=None, flank_ranges=None, flank=None):
     """Tool-shape optimisation of §5.3 on one flank, starting from cone ``tool0`` (Ex. 6.1: alpha = 0.25,
     r1c = 0.25, r2c = 0.5): initial poses of tool0 (§5.1), then for the ``top`` best-ranked seeds the axis
-    (length L of tool0) minimising Phi2 = sum of squared second differences of the distances d_i
-    (Eq. (28), squared: as printed the sum telescopes) by SLSQP with the exact gradient, then the
-    linear radial function below the distances (Eqs. (29)-(30)).  Phi2 alone is degenerate (an axis far
-    from the flank sees almost linear distances), so two constraints keep the problem local: the
-    distance of the middle sample is at most the start tool's middle radius, the rise d(1) - d(0) stays
-    between a quarter of and the start tool's r2S - r1S, and the axis midpoint keeps the seed's distance
-    from z (its depth on the flank).  Returns the :class:`ToolFit` with the
-    smallest maximal error."""
+    (length L of tool0) minimising Phi2, the sum of squared second differences of the distances d_i along it
+    (Eq. (28), squared: as printed the sum telescopes), by SLSQP with the exact gradient, then the linear
+    radial function below the distances (Eqs. (29)-(30)).
+
+    Phi2 alone is degenerate (an axis far from the flank sees almost linear distances); the only constraints
+    are the paper's admissibility of the tool being made (§4, :func:`shape_constraints`): Eq. (18) with the
+    a_min where the seed touches (the smallest transverse semi-axis of the Dupin hyperbolas between the feet
+    of its axis samples, :func:`tooling.cutter_selection.dupin_analysis`: second-order line contact along
+    the tool's contact, none where that part is elliptic; ``a_min``: one value for all), Eqs. (19)-(21) with the valley's bounds (``bounds``,
+    :class:`tooling.cutter_selection.ValleyBounds`, e.g. from the custom double-flank tool; without them the
+    start tool's circles stand in for c D_min, c D_max and Eq. (20) is left out) -- and collision (§5.5):
+    with ``flank_ranges`` and ``flank`` every fitted tool is checked against the whole rotor and a colliding
+    one is dropped, as the paper filters colliding positions.  The fit reports each constraint's value and
+    limit and which are active (:attr:`ToolFit.constraints`, :attr:`ToolFit.active`).  Returns the
+    :class:`ToolFit` with the smallest maximal error."""
+    from ...tooling.cutter_selection import DEFAULT_D_ANGLE, dupin_analysis, is_admissible
 
     t0 = time.perf_counter()
     ev = PoseEvaluator(surface, u_range, tool0, n=n)
@@ -1397,56 +1452,106 @@ def optimize_tool_shape(surface, u_range, tool0, n=100, n_seeds=18, along="profi
         raise ValueError("no admissible initial pose of the start tool on this flank")
     from scipy.optimize import minimize
 
-    D = second_differences(n) * (n - 1) ** 2          # d'' at the inner samples
-    r_mid0 = float(tool0.radius(0.5))
-    best = None
-    for k, sd in enumerate(seeds):
-        rho0 = float(mid_radius(sd.params[None], tool0.L)[0][0])
-        cache = {}
+    dup = dupin_analysis(surface, u_range) if a_min is None else None
 
-        def get(x):
+    def a_min_at(x):
+        """a_min of Eq. (18) where the axis x touches: over the hyperbolic samples between the feet of its
+        axis samples (a number given as ``a_min`` instead: that one); None where they are all elliptic."""
+        if dup is None:
+            return float(a_min) if math.isfinite(float(a_min)) else None
+        _, _, info = ev.distances(x[None, :], key=None, jac=False)
+        lo, hi = float(np.min(info["u"][0])), float(np.max(info["u"][0]))
+        sel = dup.hyperbolic & (dup.u >= lo) & (dup.u <= hi)
+        return float(np.nanmin(dup.a[sel])) if sel.any() else None
+    if bounds is not None:
+        limits = {"r1_max": bounds.r1_max, "r2_max": bounds.r2_max, "d_depth": bounds.d_depth,
+                  "d_angle": bounds.d_angle, "source": getattr(bounds, "source", "given")}
+    else:
+        limits = {"r1_max": tool0.r1c, "r2_max": tool0.r2c, "d_depth": None, "d_angle": DEFAULT_D_ANGLE,
+                  "source": "the start tool's circles (no valley bounds given)"}
+    L = tool0.L
+    D = second_differences(n) * (n - 1) ** 2          # d'' at the inner samples
+    best, rejected = None, []
+    for k, sd in enumerate(seeds):
+        cache = {}
+        am = a_min_at(sd.params)
+        a_min2 = None if am is None else am * am
+
+        def get(x, a_min2=a_min2):
             key = x.tobytes()
             if key not in cache:
                 cache.clear()
                 e, de, info = ev.distances(x[None, :], key="phi2", idx=[k])
                 d, J = info["d"][0], de[0]
                 q = D @ d / n
-                cache[key] = (float(q @ q), 2.0 * (D @ J).T @ q / n, d, J)
+                rows = shape_constraints(d, J, L, a_min2, limits)
+                cache[key] = (float(q @ q), 2.0 * (D @ J).T @ q / n, np.array([r[4] for r in rows]),
+                              np.array([r[5] for r in rows]))
             return cache[key]
 
-        mid = n // 2
-        slope0 = tool0.r2s - tool0.r1s
-        cons = [  # the middle sphere no larger than the start tool's, the contact depth of the seed kept,
-            # the opening angle between a quarter of and the start tool's (an axis along the flank
-            # normal has exactly linear distances: the other degenerate optimum of Phi2)
-            {"type": "ineq", "fun": lambda x: r_mid0 - get(x)[2][mid], "jac": lambda x: -get(x)[3][mid]},
-            {"type": "ineq", "fun": lambda x: np.array([slope0 - (get(x)[2][-1] - get(x)[2][0]),
-                                                        get(x)[2][-1] - get(x)[2][0] - 0.25 * slope0]),
-             "jac": lambda x: np.array([get(x)[3][0] - get(x)[3][-1], get(x)[3][-1] - get(x)[3][0]])},
-            {"type": "eq", "fun": lambda x: mid_radius(x[None], tool0.L)[0][0] - rho0,
-             "jac": lambda x: mid_radius(x[None], tool0.L)[1][0]}]
+        cons = [{"type": "ineq", "fun": lambda x: get(x)[2], "jac": lambda x: get(x)[3]}]
         p0 = get(sd.params)[0]
         res = minimize(lambda x: get(x)[0], sd.params, jac=lambda x: get(x)[1], method="SLSQP",
                        constraints=cons, options={"maxiter": max_nfev, "ftol": 1e-16})
         x = res.x if np.all(np.isfinite(res.x)) else sd.params
-        _, _, info = ev.distances(x[None, :], key=None, jac=False)
+        e, de, info = ev.distances(x[None, :], key=None, jac=True)
         d = info["d"][0]
-        c0, c1 = linear_fit_below(ev.s, d)
-        fit = (x, d, c0, c1, p0, get(x)[0], int(res.nit), sd)
-        if c1 > 0 and c0 > 0:
-            if best is None or np.max(d - c0 - c1 * ev.s) < np.max(best[1] - best[2] - best[3] * ev.s):
-                best = fit
+        rows = shape_constraints(d, de[0], L, a_min2, limits)
+        bad = [r for r in rows if r[4] < -1e-9 * max(1.0, abs(r[3]))]
+        if bad:
+            rejected.append({"seed_u": float(sd.u), "reason": "no admissible axis found: " + "; ".join(
+                f"{nm} ({eq}) {v:.4g} against the limit {lim:.4g}" for nm, eq, v, lim, _, _ in bad)})
+            continue
+        try:
+            c0, c1 = linear_fit_below(ev.s, d)
+        except ValueError as ex:
+            rejected.append({"seed_u": float(sd.u), "reason": str(ex)})
+            continue
+        if not c1 > 0:
+            rejected.append({"seed_u": float(sd.u), "reason": "no cone: the fitted radii do not grow towards "
+                                                               "the shank"})
+            continue
+        fit = (x, d, c0, c1, p0, get(x)[0], int(res.nit), sd, rows, am)
+        if flank_ranges is not None and flank is not None:
+            alpha = math.asin(min(1.0, c1 / L))
+            cand = ConeTool(alpha, c0 * math.cos(alpha), (c0 + c1) * math.cos(alpha), tool0.shank_radius,
+                            tool0.shank_length)
+            from ...simulation.collision import check_collisions
+
+            per_ = surface.profile.period
+            nprof = 2048
+            idx = [(int(round(a / per_ * nprof)), int(round(b / per_ * nprof))) for a, b in flank_ranges]
+            rep = check_collisions([params_pose(x, cand)], surface.profile.sample(nprof), surface.v0,
+                                   surface.handedness, idx, target_flanks=(int(flank),), tolerance=1e-6 *
+                                   surface.outer_radius, model="spheres",
+                                   spacing=max(0.25 * cand.r1c, 0.05 * cand.r2c, 1e-4 * surface.outer_radius))[0]
+            if rep.collides:
+                rejected.append({"seed_u": float(sd.u), "reason": "collides: " + ", ".join(
+                    f"{c['part']} with flank {c['flank']} by {c['depth']:.3g}" for c in rep.collisions)})
+                continue
+        if best is None or np.max(d - c0 - c1 * ev.s) < np.max(best[1] - best[2] - best[3] * ev.s):
+            best = fit
     if best is None:
-        raise ValueError("tool-shape optimisation: no seed gave a cone (radii increasing towards the shank)")
-    x, d, c0, c1, p0, p1, nfev, sd = best
-    L = tool0.L
+        raise ValueError("tool-shape optimisation: no seed gave an admissible, collision-free cone ("
+                         + "; ".join(r["reason"] for r in rejected) + ")")
+    x, d, c0, c1, p0, p1, nfev, sd, rows, am = best
     r1s, r2s = c0, c0 + c1
     alpha = math.asin(min(1.0, c1 / L))                     # Eq. (3)
     tool = ConeTool(alpha, r1s * math.cos(alpha), r2s * math.cos(alpha), tool0.shank_radius, tool0.shank_length)
     r = c0 + c1 * ev.s
+    scale = max(1e-9 * float(surface.outer_radius), 1e-9)
+    cons = [{"name": nm, "equation": eq, "value": float(v), "limit": float(lim), "slack": float(sl),
+             "active": bool(abs(sl) <= 1e-6 * max(abs(lim), scale))} for nm, eq, v, lim, sl, _ in rows]
+    adm = None
+    if bounds is not None and am is not None:
+        adm = is_admissible(tool, am, bounds)
+    if limits is not None:
+        limits = dict(limits, a_min=am)
     return ToolFit(tool=tool, pose=params_pose(x, tool), params=x, s=ev.s.copy(), d=d, r=r, e=d - r,
                    phi2_start=p0, phi2_end=p1, r1s=r1s, r2s=r2s, iterations=nfev,
-                   seconds=time.perf_counter() - t0, seed=sd)
+                   seconds=time.perf_counter() - t0, seed=sd, constraints=cons,
+                   active=[c["name"] for c in cons if c["active"]], limits=limits, rejected=rejected,
+                   admissibility=None if adm is None else adm.message)
 
 
 # ============================================================================ the paper's optimiser (baseline)
