@@ -9,6 +9,8 @@ import struct
 
 import numpy as np
 
+from ..geometry.rows import unique_rows
+
 __all__ = ["MeshFormatError", "write_stl", "write_ply", "write_obj", "write_mesh", "read_mesh",
            "read_stl", "read_ply", "read_obj", "WRITERS", "READERS"]
 
@@ -54,7 +56,7 @@ def write_stl(path, verts, faces, header=b"flank_addon binary STL"):
 def _merge(tri_verts):
     """Exact merge of identical vertex rows -> (verts, faces)."""
     flat = tri_verts.reshape(-1, 3)
-    uniq, inv = np.unique(flat, axis=0, return_inverse=True)
+    uniq, inv = unique_rows(flat)
     return uniq.astype(np.float64), inv.reshape(-1, 3).astype(np.int64)
 
 
