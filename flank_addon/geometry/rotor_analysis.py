@@ -398,6 +398,63 @@ def shaft_cylinders(points, z0, z1, tol):
     return out
 
 
+CACHE_SIZE = 4                     # analyses kept in memory, by the content of the mesh
+_CACHE = {}                        # key -> RotorAnalysis (oldest first)
+CACHE_DIR_ENV = "FLANK_CACHE_DIR"  # a directory: analyses are also kept there, one small .npz file each
+
+
+def _cache_key(verts, faces, n_profile, threshold):
+    """SHA-256 of the mesh's numbers, the options and the analysing code's own source."""
+    import hashlib
+    import os
+
+    h = hashlib.sha256()
+    here = os.path.dirname(os.path.abspath(__file__))
+    for name in ("rotor_analysis.py", "profile.py", "rows.py", "screw.py", "helical_surface.py"):
+        try:
+            with open(os.path.join(here, name), "rb") as fh:
+                h.update(fh.read())
+        except OSError:
+            return None
+    h.update(np.ascontiguousarray(verts, np.float64).tobytes())
+    h.update(np.ascontiguousarray(faces, np.int64).tobytes())
+    h.update(repr((verts.shape, faces.shape, int(n_profile), float(threshold))).encode())
+    return h.hexdigest()
+
+
+def _to_npz(a, path):
+    import json
+    import os
+
+    tmp = path + ".tmp.npz"
+    np.savez(tmp, axis_point=a.axis_point, axis_direction=a.axis_direction, to_world=a.to_world, profile=a.profile,
+             meta=np.array(json.dumps({
+                 "v0": a.v0, "handedness": a.handedness, "residual": a.residual, "threshold": a.threshold,
+                 "flanks": [[int(i), int(j)] for i, j in a.flanks], "outer_radius": a.outer_radius,
+                 "lobes": a.lobes, "helical_area_fraction": a.helical_area_fraction,
+                 "body_z": [float(z) for z in a.body_z], "tangency_residual": a.tangency_residual,
+                 "mesh_repairs": a.mesh_repairs, "shafts": a.shafts})))
+    os.replace(tmp, path)
+
+
+def _from_npz(path):
+    import json
+
+    from .helical_surface import HelicalSurface
+
+    with np.load(path) as z:
+        meta = json.loads(str(z["meta"]))
+        prof = z["profile"].copy()
+        a = RotorAnalysis(axis_point=z["axis_point"].copy(), axis_direction=z["axis_direction"].copy(), v0=meta["v0"],
+                          handedness=meta["handedness"], residual=meta["residual"], threshold=meta["threshold"],
+                          tangency_residual=meta["tangency_residual"], to_world=z["to_world"].copy(), profile=prof,
+                          flanks=meta["flanks"], outer_radius=meta["outer_radius"], lobes=meta["lobes"],
+                          helical_area_fraction=meta["helical_area_fraction"], body_z=tuple(meta["body_z"]),
+                          mesh_repairs=meta["mesh_repairs"], shafts=meta["shafts"])
+    a.surface = HelicalSurface(SplineProfile(prof), a.v0, a.handedness)
+    return a
+
+
 def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD):
     """Estimate the helical motion of a rotor mesh and extract its profile and flanks.
 
@@ -407,9 +464,54 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD):
         n_profile: points of the resampled transverse profile (>= 720).
     Raises:
         NotHelicalError with the measured residual / ratio and its limit.
+
+    The analysis of a mesh is kept by the SHA-256 of its numbers, the options and the analysing code (the
+    last :data:`CACHE_SIZE` in memory; with the environment variable ``FLANK_CACHE_DIR`` naming a
+    directory, also there across runs): the same mesh again returns an equal copy at once (a mesh hashes in
+    about 1/50 of its analysis).
     """
+    import copy
+    import os
+
     verts = np.asarray(verts, float)
     faces = np.asarray(faces, int)
+    key = None
+    if verts.ndim == 2 and faces.ndim == 2:
+        key = _cache_key(verts, faces, n_profile, threshold)
+    if key is not None and key in _CACHE:
+        return copy.deepcopy(_CACHE[key])
+    folder = os.environ.get(CACHE_DIR_ENV, "")
+    path = os.path.join(folder, "analysis-" + key + ".npz") if key is not None and folder else None
+    if path is not None and os.path.isfile(path):
+        try:
+            found = _from_npz(path)
+        except (OSError, ValueError, KeyError):
+            found = None
+        if found is not None:
+            _remember(key, found)
+            return copy.deepcopy(found)
+    result = _analyze_mesh(verts, faces, n_profile, threshold)
+    if key is not None:
+        _remember(key, result)
+        if path is not None:
+            try:
+                os.makedirs(folder, exist_ok=True)
+                _to_npz(result, path)
+            except OSError:
+                pass
+        return copy.deepcopy(result)
+    return result
+
+
+def _remember(key, analysis):
+    _CACHE.pop(key, None)
+    _CACHE[key] = analysis
+    while len(_CACHE) > CACHE_SIZE:
+        _CACHE.pop(next(iter(_CACHE)))
+
+
+def _analyze_mesh(verts, faces, n_profile, threshold):
+    """:func:`analyze_mesh` without its cache."""
     if verts.ndim != 2 or verts.shape[1] != 3 or len(verts) < 4:
         raise NotHelicalError(f"mesh needs at least 4 vertices with 3 coordinates, got shape {verts.shape}")
     if faces.ndim != 2 or faces.shape[1] != 3 or len(faces) < 4:
