@@ -812,17 +812,20 @@ def illinois_update(lo, f_lo, hi, f_hi, m, f_m, side):
     return lo_new, f_lo_new, m, f_m, np.where(same_hi, 1, -1)
 
 
-def illinois_roots(D, lo, hi, f_lo, f_hi, found, tol, slack, cutoff):
+def illinois_roots(D, lo, hi, f_lo, f_hi, found, tol, slack, cutoff, report=None):
     """Illinois (modified regula falsi) on brackets [lo, hi] of D along each row's normal, only for rows
     ``found`` with a sign change and not yet narrower than ``tol``.  D(lam, idx, bound) evaluates the
     rows idx at lam with a distance cutoff; the cutoff passed is |f_hi| + bracket width + ``slack``
     (f_hi is never halved, so it bounds the distance), capped at ``cutoff``.  The arrays are updated
     in place; returns the root estimate per row (meaningful where ``found``)."""
     side = np.zeros(len(lo))
+    n_found = max(int(found.sum()), 1)
     for _ in range(100):
         idx = np.flatnonzero(found & (np.abs(hi - lo) > tol) & (f_hi != 0))
         if not len(idx):
             break
+        if report is not None:
+            report(1.0 - len(idx) / n_found, "surface crossings ({} points left)".format(len(idx)))
         l, fl, h, fh = lo[idx], f_lo[idx], hi[idx], f_hi[idx]
         m = false_position(l, h, fl, fh)
         fm = D(m, idx, np.minimum(np.abs(fh) + np.abs(h - l) + slack, cutoff))
@@ -831,7 +834,8 @@ def illinois_roots(D, lo, hi, f_lo, f_hi, found, tol, slack, cutoff):
     return np.where(f_lo == 0, lo, root)
 
 
-def machined_deviation(tools, points, normals, v0, handedness="right", max_deviation=None, tol=1e-12):
+def machined_deviation(tools, points, normals, v0, handedness="right", max_deviation=None, tol=1e-12,
+                       progress=None):
     """Signed deviation of design points from the simulated machined surface, along their normals.
 
     Args:
@@ -839,9 +843,14 @@ def machined_deviation(tools, points, normals, v0, handedness="right", max_devia
         points, normals: (N, 2) transverse profile points (plane z = 0) and unit outward normals, or
             (N, 3) points anywhere with 3D unit normals (e.g. an axial section).
         max_deviation: search limit; points with no machined surface within it get +inf (uncut).
+        progress: None or ``progress(fraction, message)`` (:mod:`progress`; returning False cancels).
     Returns:
         (N,) deviation: > 0 material left, < 0 overcut, +inf not reached by any tool.
     """
+    from ..progress import reporter
+
+    report = reporter(progress)
+    report(0.0, "distances to the tools")
     points = np.asarray(points, float)
     normals = np.asarray(normals, float)
     if points.shape[1] == 2:
@@ -885,10 +894,12 @@ def machined_deviation(tools, points, normals, v0, handedness="right", max_devia
     f_hi = d0.copy()
     direction = np.where(d0 >= 0, 1.0, -1.0)
     active = (d0 != 0) & relevant.any(axis=0)
+    n_active = max(int(active.sum()), 1)
     for _ in range(400):
         idx = np.flatnonzero(active)
         if not len(idx):
             break
+        report(0.1 + 0.6 * (1.0 - len(idx) / n_active), "marching to the surface ({} points left)".format(len(idx)))
         step = direction[idx] * (np.abs(f_lo[idx]) + 1e-9 * scale)
         lam = lo[idx] + step
         out = np.abs(lam) > max_deviation
@@ -900,7 +911,9 @@ def machined_deviation(tools, points, normals, v0, handedness="right", max_devia
         lo[idx[keep]], f_lo[idx[keep]] = lam[keep], f_new[keep]
         active[idx[crossed | out]] = False
     found = (np.sign(f_hi) != np.sign(f_lo)) | (f_lo == 0)
-    root = illinois_roots(D, lo, hi, f_lo, f_hi, found, tol, 1e-9 * scale, cutoff)
+    root = illinois_roots(D, lo, hi, f_lo, f_hi, found, tol, 1e-9 * scale, cutoff,
+                          report=None if progress is None else reporter(progress, 0.7, 1.0))
+    report(1.0, "deviation")
     return np.where(found, root, np.inf)
 
 

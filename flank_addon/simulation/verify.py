@@ -31,12 +31,17 @@ def _min_distance(tools, q, v0, hand, cutoff):
     return d.min(axis=0), d.argmin(axis=0)
 
 
-def verify_plan(plan, tolerance=None, search=None, all_points=False):
+def verify_plan(plan, tolerance=None, search=None, all_points=False, progress=None):
     """Simulate a plan; return a JSON-ready dict (see module doc and README).
 
     With ``all_points`` the deviation is also simulated on every profile point (all lobes, not only
     the target flanks) and returned as ``deviation_all`` (None where no tool reaches within
-    ``search``): what the Blender operator paints on the rotor."""
+    ``search``): what the Blender operator paints on the rotor.  ``progress``: None or
+    ``progress(fraction, message)``; returning False cancels (:class:`progress.Cancelled`)."""
+    from ..progress import reporter
+
+    report = reporter(progress)
+    report(0.0, "reading the plan")
     validate_plan(plan)
     t0 = time.perf_counter()
     rotor = plan["rotor"]
@@ -64,13 +69,16 @@ def verify_plan(plan, tolerance=None, search=None, all_points=False):
         flank_of[idx] = f
     deviation = np.full(n, np.nan)
     ti = np.flatnonzero(target)
+    stage = reporter(progress, 0.02, 0.8)
     if tools and all_points:
-        deviation = machined_deviation(tools, prof, normals, v0, hand, max_deviation=search)
+        deviation = machined_deviation(tools, prof, normals, v0, hand, max_deviation=search, progress=stage)
         dev_all = deviation.copy()
         deviation[~target] = np.nan
     elif tools and len(ti):
-        deviation[ti] = machined_deviation(tools, prof[ti], normals[ti], v0, hand, max_deviation=search)
+        deviation[ti] = machined_deviation(tools, prof[ti], normals[ti], v0, hand, max_deviation=search,
+                                           progress=stage)
     # gouges anywhere on the rotor: the swept region reaches tol below the design surface
+    report(0.8, "gouges")
     gouges = []
     if tools:
         below = np.c_[prof - tol * normals, np.zeros(n)]
@@ -84,6 +92,7 @@ def verify_plan(plan, tolerance=None, search=None, all_points=False):
                            "target": bool(target[i])})
 
     # per strip: where it forms the machined surface, and its errors there
+    report(0.9, "strips")
     per_strip = []
     machined = np.c_[prof + np.nan_to_num(deviation, posinf=0.0, nan=0.0)[:, None] * normals, np.zeros(n)]
     ok = target & np.isfinite(deviation)
