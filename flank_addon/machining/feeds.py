@@ -118,12 +118,19 @@ class PassConditions:
                 "cutting_length_mm": self.cutting_length, "feed_mm_min": self.feed_mm_min}
 
 
+# rings on the cutting part at least: a tool shorter than the spacing would otherwise be sampled at its two
+# poles only, where the radius is 0 (a 0.3 mm cone on a 1 mm rotor "never entered" the stock)
+MIN_RINGS = 32
+
+
 def engaged_edge(shape, tip, axis, outer_radius, spacing=0.5):
     """Surface samples of the cutting part inside the stock radius at the pose (tip, axis): points (K, 3)
-    and their diameters (K,)."""
+    and their diameters (K,).  Rings at most ``spacing`` (mm) apart along the axis and at least
+    :data:`MIN_RINGS` of them over the cutting part, whatever its length."""
     from .tool_shape import perpendicular_frames
 
-    h, R, sh = shape.outline(spacing)
+    lo, hi = shape.cutting_range()
+    h, R, sh = shape.outline(min(float(spacing), (hi - lo) / MIN_RINGS))
     h, R = h[~sh], R[~sh]
     m = 48
     th = np.arange(m) * (2 * math.pi / m)

@@ -40,6 +40,33 @@ def test_spindle_speed_chip_load_and_surface_speed(single_flank_plan):
         assert abs(p["time_s"] - 60 * abs(p["t_range"][1] - p["t_range"][0]) / p["omega_rad_min"]) < 1e-9
 
 
+def test_a_tool_shorter_than_the_ring_spacing_engages_as_its_full_size_twin(single_flank_plan):
+    """Geometric similarity: the plan scaled by 1/100 (rotor R = 0.3 mm, a cone 0.29 mm long, shorter than the
+    0.5 mm ring spacing, which once sampled only its two poles of radius 0 and refused the program with "never
+    enters the stock cylinder") has 1/100 of the engaged diameters of the full-size plan, sampled densely, to
+    within the ring spacing's sagitta on the top sphere (0.1 mm at full size); its spindle runs at top speed."""
+    from flank_addon.machining.rotor_body import scale_plan
+
+    k = 0.01
+    small = scale_plan(single_flank_plan, k)
+    big_rb, small_rb = rotor_body(single_flank_plan), rotor_body(small)
+    big_op, small_op = (build_operation([single_flank_plan], big_rb, lobes=[0]),
+                        build_operation([small], small_rb, lobes=[0]))
+    big_tool, small_tool = big_op.tools[0], small_op.tools[0]
+    lo, hi = small_tool.shape.cutting_range()
+    assert hi - lo < 0.5
+    for pb, ps in zip(big_op.passes, small_op.passes):
+        dense = engaged_edge(big_tool.shape, pb.tip, pb.axis, big_rb.outer_radius, spacing=0.01)[1].max()
+        D = engaged_edge(small_tool.shape, ps.tip, ps.axis, small_rb.outer_radius)[1].max()
+        assert abs(D / k - dense) < 0.1, (D / k, dense)
+    prog = build_program(small_op, load_machine("rotor-xa-b"))
+    assert small_tool.rpm == DEFAULT_END_MILL.max_rpm == 24000.0
+    assert len(prog.passes) == len(small_op.passes)
+    top = max(max(st["radii"]) for st in small["strips"])         # the largest sphere of the tool
+    for p in prog.passes:
+        assert 0.0 < p["engaged_diameter_mm"][1] <= 2.0 * top
+
+
 def test_a_slow_rotary_axis_caps_the_feed(single_flank_plan):
     """With A limited to 100 deg/min the pass takes its A travel / 100 minutes and the chip gets thinner."""
     m = load_machine("rotor-xa-b")
