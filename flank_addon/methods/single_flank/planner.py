@@ -414,15 +414,31 @@ def plan_single_flank(surface, flank_ranges, flank, tool, tolerance, overcut_tol
     logs = [e for run in runs for e in run.log]
     margin = 0.5 * (u_range[1] - u_range[0]) / max(1, len(fs.u) - 1)
     r_bound = float(bound_radius) if bound_radius is not None else min(t.r1s for _, t in tools)
+    pieces = []
     for ru in runs_unc:
         # the plan's profile index i is the parameter i * period / n_profile of the surface's profile
         a, b = ru["u_range"]
         a, b = _unwrap(a, u_range, per), _unwrap(b, u_range, per)
         ru["u_range"] = [a, b]
+        if targets is None:
+            pieces.append(ru)
+            continue
+        # a planned part only: the range's pieces inside it (the other part is its own run's business)
+        from .residual import flank_points
+
+        _, raw, arc, _ = flank_points(plan, flank)
+        up = np.array([_unwrap(x * per / len(plan["rotor"]["profile"]), u_range, per) for x in raw])
+        for ta, tb in all_targets:
+            lo, hi = max(a, ta), min(b, tb)
+            if hi >= lo:
+                sa, sb = (float(np.interp(x, up, arc)) for x in (lo, hi))
+                pieces.append(dict(ru, u_range=[lo, hi], arc_range=[sa, sb], length=sb - sa))
+    for ru in pieces:
+        a, b = ru["u_range"]
         uncovered.append((a, b))
         if explain:
             per_tool, text = explain_range(ru, logs, {run.index: run.name for run in runs}, tol, length_unit,
-                                           margin)
+                                           margin, named=named)
             ru["tools"] = per_tool
             ru["reason"] = text
             ru["bound"] = _bound(surface, a, b, r_bound, tol + eps_over)

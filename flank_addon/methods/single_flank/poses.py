@@ -377,6 +377,8 @@ def clear_seeds(ev, u, contacts=(0.5, 0.25, 0.0), n_turns=12, w=W_OVERCUT, n_ran
     (:func:`initial_positions`).  Returns a list (M,) of :class:`SeedPose` or None (no candidate)."""
     surface, tool = ev.surface, ev.tool
     us = np.atleast_1d(np.asarray(u, float))
+    if not len(us):
+        return []
     paper = initial_positions(surface, ev.u_range, tool, u=us, feet=ev.feet, n_rank=n_rank, w=w, tangential=tangential)
     if ev.clearance is None:
         return [c[0] if c else None for c in paper]

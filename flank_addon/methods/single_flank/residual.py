@@ -141,7 +141,7 @@ def summarize_attempts(entries, tol, unit):
             "text": "the seeds here ended " + ", ".join(f"{v} x {k}" for k, v in sorted(counts.items()))}
 
 
-def explain_range(run, logs, tool_names, tol, unit, margin):
+def explain_range(run, logs, tool_names, tol, unit, margin, named=True):
     """Per tool (``tool_names``: {tool index: name} of the tools tried), why range ``run`` (a :func:`verified_coverage` run with ``u_range``) stayed uncovered, from the
     planner's seed logs (dicts with tool index, u, status, ...); the combined text."""
     a, b = run["u_range"]
@@ -156,7 +156,7 @@ def explain_range(run, logs, tool_names, tol, unit, margin):
         [s for s in per_tool if s["status"] != "not tried"]
     if tried and all(s["status"] == COLLIDES for s in tried):
         rel = sorted({r for s in tried for _, r in s.get("parts", [])})
-        who = "every tool tried" if len(tried) > 1 else f"the tool ({tried[0]['tool']})"
+        who = "every tool tried" if len(tried) > 1 else (f"the tool ({tried[0]['tool']})" if named else "the tool")
         if rel:
             txt = f"{who} collides with {' and '.join(rel)} here"
         else:
@@ -170,10 +170,10 @@ def explain_range(run, logs, tool_names, tol, unit, margin):
             if s.get("unreachable_seeds"):
                 bits.append(f"proven unreachable at {s['unreachable_seeds']} seed(s), by at least "
                             f"{s['proven_depth_min']:.3g} {unit}")
-            each.append(f"{s['tool']}: {'; '.join(bits)}")
+            each.append(f"{s['tool']}: {'; '.join(bits)}" if named else "; ".join(bits))
         if each:
             txt += " (" + "; ".join(each) + ")"
         return per_tool, txt
     if not tried:
         return per_tool, per_tool[0]["text"] if per_tool else "nothing was tried here"
-    return per_tool, "; ".join(f"{s['tool']}: {s['text']}" for s in tried)
+    return per_tool, "; ".join(f"{s['tool']}: {s['text']}" if named else s["text"] for s in tried)
