@@ -39,9 +39,9 @@ def closest_on_triangles(P, A, B, C):
     apx, apy, apz = px - ax, py - ay, pz - az
     d1 = abx * apx + aby * apy + abz * apz
     d2 = acx * apx + acy * apy + acz * apz
-    bpx, bpy, bpz = px - bx, py - by, pz - bz
-    d3 = abx * bpx + aby * bpy + abz * bpz
-    d4 = acx * bpx + acy * bpy + acz * bpz
+    pbx, pby, pbz = px - bx, py - by, pz - bz
+    d3 = abx * pbx + aby * pby + abz * pbz
+    d4 = acx * pbx + acy * pby + acz * pbz
     cpx, cpy, cpz = px - cx, py - cy, pz - cz
     d5 = abx * cpx + aby * cpy + abz * cpz
     d6 = acx * cpx + acy * cpy + acz * cpz
