@@ -322,3 +322,23 @@ def test_split_plans_each_part_with_its_own_initialisation(female):
     ok = np.array([-1e-6 <= dev[i % n] <= 1e-3 for i in idx])
     assert sp["covered_fraction"] == pytest.approx(w[inside & ok].sum() / w[inside].sum(), abs=1e-12)
     assert sp["covered_fraction"] > 0.95
+
+
+def test_scaling_a_plan_scales_its_tools_and_residual(male_d4):
+    """Plans in units of R go to mm for the machine (machining.rotor_body.scale_plan): strip tools, the residual's
+    lengths and its bound scale with the rotor; parameters and fractions do not."""
+    import copy
+
+    from flank_addon.machining.rotor_body import scale_plan
+
+    _, _, (big, _) = male_d4
+    plan = copy.deepcopy(big.plan)
+    plan["strips"][0]["tool"] = dict(plan["tool"], name="again")
+    mm = scale_plan(plan, R_MM)
+    assert mm["strips"][0]["tool"]["r1c"] == pytest.approx(2.0) and mm["tool"]["h"] == pytest.approx(20.0)
+    a, b = plan["summary"]["uncovered"][-1], mm["summary"]["uncovered"][-1]
+    assert b["u_range"] == a["u_range"] and mm["summary"]["covered_fraction"] == plan["summary"]["covered_fraction"]
+    assert b["arc_range"] == pytest.approx([x * R_MM for x in a["arc_range"]])
+    assert b["bound"]["radius"] == pytest.approx(a["bound"]["radius"] * R_MM)
+    assert b["bound"]["depth_min"] == pytest.approx(a["bound"]["depth_min"] * R_MM)
+    assert plan["strips"][0]["tool"]["r1c"] == pytest.approx(2.0 / R_MM)          # the original is untouched

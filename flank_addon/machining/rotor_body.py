@@ -130,13 +130,15 @@ def scale_plan(plan, factor, unit="mm"):
         out["tolerance"] *= k
     if isinstance(out.get("overcut_tolerance"), (int, float)):
         out["overcut_tolerance"] *= k
+    lengths = ("length", "max_deviation", "min_deviation", "radius", "depth_min", "depth_max", "proven_depth_min",
+               "deviation_min")
     for ru in out["summary"].get("uncovered", []) or []:     # single-flank residual: lengths, not parameters
-        for key in ("arc_range",):
-            if isinstance(ru.get(key), list):
-                ru[key] = [x * k for x in ru[key]]
-        for key in ("length", "max_deviation", "min_deviation"):
-            if isinstance(ru.get(key), (int, float)) and not isinstance(ru.get(key), bool):
-                ru[key] *= k
+        if isinstance(ru.get("arc_range"), list):
+            ru["arc_range"] = [x * k for x in ru["arc_range"]]
+        for d in [ru, ru.get("bound") or {}] + list(ru.get("tools") or []):
+            for key in lengths:
+                if isinstance(d.get(key), (int, float)) and not isinstance(d.get(key), bool):
+                    d[key] *= k
     out["length_unit"] = unit
     return out
 
