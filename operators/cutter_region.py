@@ -25,6 +25,7 @@ from bpy.props import FloatProperty, IntProperty, IntVectorProperty
 from mathutils import Matrix
 
 from .common import point_mesh, set_color_attr, set_float_attr, set_int_attr, typed
+from .modal import ModalPlannerMixin
 from .result_builder import RunBuilder
 from .sources import rotor_source
 
@@ -65,13 +66,18 @@ def _cloud(cs, region, s, size):
     return chart, region.mask[keep].astype(np.float64), bits, scale
 
 
-class FLANK_OT_cutter_region(bpy.types.Operator):
+class _RegionError(Exception):
+    """A failure of the check with the message to report as it is."""
+
+
+class FLANK_OT_cutter_region(ModalPlannerMixin, bpy.types.Operator):
     """Check a cone for single-flank conical milling of one flank: the admissible cones as a point cloud beside
     the rotor and a marker at the given cone (green: admissible, red: not, with the failing condition)"""
 
     bl_idname = "flank.cutter_region"
     bl_label = "Check Tool"
     bl_options = {'REGISTER', 'UNDO'}
+    _title = "Check tool"
 
     flank: IntProperty(name="Flank", description="Flank index of the rotor (0 .. flanks - 1); default: the "
                                                  "Single Flank setting", default=1, soft_min=0, soft_max=24)
@@ -127,10 +133,11 @@ class FLANK_OT_cutter_region(bpy.types.Operator):
             return "outer radius = {} mm must be a finite number >= 0 (0 = from the scene units)".format(o)
         return None
 
-    def _catalogue(self, context, cat, src, R):
-        """(catalogue in rotor units, description): mm for mm rotors, units of R for built-ins in R."""
+    def _catalogue_scale(self, context, src, R):
+        """(the catalogue's outer radius in mm or None, its description): mm for mm rotors, units of R for
+        built-ins in R."""
         if src["unit"] != "R":
-            return cat.catalogue_tools(None), "mm"
+            return None, "mm"
         r_mm = typed(self.outer_radius_mm)
         if not r_mm > 0.0:
             us = context.scene.unit_settings
@@ -139,10 +146,16 @@ class FLANK_OT_cutter_region(bpy.types.Operator):
                 r_mm = R * s                                     # no unit system: one scene unit = 1 mm
             else:
                 r_mm = R * s * float(us.scale_length) * 1000.0   # scene unit = scale_length metres
-        return cat.catalogue_tools(r_mm), "R (outer radius {:.6g} mm)".format(r_mm)
+        return r_mm, "R (outer radius {:.6g} mm)".format(r_mm)
 
-    # ------------------------------------------------------------------ run
-    def execute(self, context):
+    def _compute_failed(self, ex):
+        if isinstance(ex, _RegionError):
+            return str(ex)
+        return "Cutter region failed: {}: {}".format(type(ex).__name__, ex)
+
+    # ------------------------------------------------------------------ main thread: inputs
+    def _prepare(self, context):
+        """Settings, the rotor (rebuilt or analysed here), the catalogue's scale -> job, or None."""
         t0 = time.perf_counter()
         self._scene_defaults(context)
         msg = self._check_inputs()
@@ -152,23 +165,65 @@ class FLANK_OT_cutter_region(bpy.types.Operator):
                 int(self.flank), len(src["flanks"]) - 1, src["obj"].name, len(src["flanks"]))
         if isinstance(src, str):
             self.report({'ERROR'}, "Cutter region: " + src)
-            return {'CANCELLED'}
+            return None
+        r_mm, cat_unit = self._catalogue_scale(context, src, float(src["surface"].outer_radius))
+        rotor = src.pop("obj")
+        return dict(t0=t0, src=src, rotor_name=rotor.name, k=int(self.flank), r_mm=r_mm, cat_unit=cat_unit,
+                    cone=(typed(self.alpha), typed(self.r1), typed(self.r2)), samples=int(self.samples),
+                    grid=tuple(int(v) for v in self.grid))
+
+    # ------------------------------------------------------------------ worker thread
+    @staticmethod
+    def _compute(job, progress):
+        """The planner's Dupin analysis, valley bounds, admissible region, the verdict on the cone and the
+        catalogue's suggestion -> dict."""
+        from ..flank_addon.methods.double_flank.planner import custom_tool_bounds
+        from ..flank_addon.progress import Cancelled, reporter
+        from ..flank_addon.tooling import catalogue as cat
+        from ..flank_addon.tooling import cutter_selection as cs
+        from ..flank_addon.tooling.cone import ConeTool
+
+        src, k = job["src"], job["k"]
+        s, surface, flanks = float(src["scale"]), src["surface"], src["flanks"]
+        report = reporter(progress)
         try:
-            found = self._region(context, src)
+            alpha, r1, r2 = job["cone"]
+            tool = ConeTool(alpha, r1 / s, r2 / s)
+            t = [time.perf_counter()]
+            report(0.0, "Dupin analysis")
+            dup = cs.flank_dupin(surface, flanks, k, n=job["samples"])
+            t.append(time.perf_counter())
+            bounds = custom_tool_bounds(surface, flanks, k // 2, progress=reporter(progress, 0.1, 0.85))
+            t.append(time.perf_counter())
+            report(0.85, "admissible region")
+            region = cs.admissible_region(dup, bounds, n=job["grid"])
+            adm = cs.is_admissible(tool, dup, bounds)
+            catalogue = cat.catalogue_tools(job["r_mm"])
+            sugg = cs.suggest_tool(catalogue, dup, bounds)
+            t.append(time.perf_counter())
+        except Cancelled:
+            raise
         except ValueError as ex:
-            self.report({'ERROR'}, "Cutter region: {}".format(ex))
+            raise _RegionError("Cutter region: {}".format(ex))
+        return dict(cs=cs, tool=tool, dup=dup, bounds=bounds, region=region, adm=adm, catalogue=catalogue,
+                    cat_unit=job["cat_unit"], sugg=sugg, times=t)
+
+    # ------------------------------------------------------------------ main thread: results
+    def _build(self, context, job, found):
+        """The run's collection, the point cloud, the marker, the properties and the report."""
+        rotor, k = bpy.data.objects.get(job["rotor_name"]), job["k"]
+        if rotor is None:
+            self.report({'ERROR'}, "Cutter region: the rotor '{}' was removed while checking".format(
+                job["rotor_name"]))
             return {'CANCELLED'}
-        except Exception as ex:
-            self.report({'ERROR'}, "Cutter region failed: {}: {}".format(type(ex).__name__, ex))
-            return {'CANCELLED'}
-        rotor, k = src["obj"], int(self.flank)
+        src = dict(job["src"], obj=rotor)
         run = RunBuilder(context, PROP_PREFIX, "{}|{}".format(rotor.name, k),
                          "Cutter Region ({}, flank {})".format(rotor.name, k))
         made = {}
         replaced = run.build(self, "cutter region", lambda: self._fill(run, src, found, made))
         if replaced is None:
             return {'CANCELLED'}
-        level, text, props = self._props(src, found, made, t0)
+        level, text, props = self._props(src, found, made, job["t0"])
         run.store(props, (run.collection, made["cloud"], made["marker"], rotor), clear=[rotor])
         made["cloud"][PROP_PREFIX + "role"] = "region"
         made["marker"][PROP_PREFIX + "role"] = "tool"
@@ -177,29 +232,6 @@ class FLANK_OT_cutter_region(bpy.types.Operator):
             props["admissible_points"], props["cone_points"], props["suggested"] or "none",
             ", replaced the earlier check" if replaced else "", props["total_elapsed"]))
         return {'FINISHED'}
-
-    def _region(self, context, src):
-        """The planner's Dupin analysis, valley bounds, admissible region, the verdict on the cone and the
-        catalogue's suggestion -> dict (ValueError on bad input)."""
-        from ..flank_addon.methods.double_flank.planner import custom_tool_bounds
-        from ..flank_addon.tooling import catalogue as cat
-        from ..flank_addon.tooling import cutter_selection as cs
-        from ..flank_addon.tooling.cone import ConeTool
-
-        s, surface, flanks, k = float(src["scale"]), src["surface"], src["flanks"], int(self.flank)
-        tool = ConeTool(typed(self.alpha), typed(self.r1) / s, typed(self.r2) / s)
-        t = [time.perf_counter()]
-        dup = cs.flank_dupin(surface, flanks, k, n=int(self.samples))
-        t.append(time.perf_counter())
-        bounds = custom_tool_bounds(surface, flanks, k // 2)
-        t.append(time.perf_counter())
-        region = cs.admissible_region(dup, bounds, n=tuple(int(v) for v in self.grid))
-        adm = cs.is_admissible(tool, dup, bounds)
-        catalogue, cat_unit = self._catalogue(context, cat, src, float(surface.outer_radius))
-        sugg = cs.suggest_tool(catalogue, dup, bounds)
-        t.append(time.perf_counter())
-        return dict(cs=cs, tool=tool, dup=dup, bounds=bounds, region=region, adm=adm, catalogue=catalogue,
-                    cat_unit=cat_unit, sugg=sugg, times=t)
 
     def _fill(self, run, src, found, made):
         """The point cloud and the marker at the user's cone, beside the rotor."""

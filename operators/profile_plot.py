@@ -14,6 +14,7 @@ import bpy
 from bpy.props import BoolProperty, IntProperty, StringProperty
 
 from .chart_text import draw_text_items
+from .modal import ModalPlannerMixin
 from .runs import run_plan
 
 IMAGE_PREFIX = "Flank Error Plot"
@@ -81,7 +82,11 @@ def show_in_image_editor(context, img):
     return None
 
 
-class FLANK_OT_error_plot(bpy.types.Operator):
+class _PlotError(Exception):
+    """A failure of the plot with the message to report as it is."""
+
+
+class FLANK_OT_error_plot(ModalPlannerMixin, bpy.types.Operator):
     """Plot the signed error along the target flank profile of a planning run (simulated by the verify
     engine from the run's plan; + = material left, - = overcut) with the tolerance band, one curve per strip,
     into an image shown in an Image Editor"""
@@ -89,6 +94,7 @@ class FLANK_OT_error_plot(bpy.types.Operator):
     bl_idname = "flank.error_plot"
     bl_label = "Error Plot"
     bl_options = {'REGISTER', 'UNDO'}
+    _title = "Error plot"
 
     # a dict, not class annotations: the same properties, and pyflakes does not read their strings as types
     __annotations__ = dict(
@@ -132,25 +138,66 @@ class FLANK_OT_error_plot(bpy.types.Operator):
         path, msg = self._png_path()
         return msg if msg is not None else (coll, plan, path)
 
-    def execute(self, context):
-        from ..flank_addon.report.error_chart import plan_error_plot
+    def _compute_failed(self, ex):
+        if isinstance(ex, _PlotError):
+            return str(ex)
+        return ModalPlannerMixin._compute_failed(self, ex)
+
+    # ------------------------------------------------------------------ main thread: inputs
+    def _prepare(self, context):
+        """The run, its plan, the units and the PNG path -> job, or None (error reported)."""
         from ..flank_addon.report.report_geometry import display_units
 
         t0 = time.perf_counter()
-        w, h = int(self.width), int(self.height)
         found = self._inputs(context)
         if isinstance(found, str):
             self.report({'ERROR'}, "Error plot: " + found)
-            return {'CANCELLED'}
+            return None
         coll, plan, path = found
         us = context.scene.unit_settings
         try:
             units = display_units(plan, us.system, us.scale_length)
-            rgba, info = plan_error_plot(plan, units=units, width=w, height=h, per_strip=bool(self.per_strip),
-                                         tolerance=run_tolerance(coll, plan), fit_data=bool(self.fit_data),
-                                         title="Error along profile: {}".format(coll.name))
-        except Exception as ex:             # core ValueError (no finite error, ...): reported, never a traceback
+            tolerance = run_tolerance(coll, plan)
+        except Exception as ex:             # core ValueError: reported, never a traceback
             self.report({'ERROR'}, "Error plot of '{}' failed: {}".format(coll.name, ex))
+            return None
+        return dict(t0=t0, coll_name=coll.name, plan=plan, path=path, units=units, tolerance=tolerance,
+                    width=int(self.width), height=int(self.height), per_strip=bool(self.per_strip),
+                    fit_data=bool(self.fit_data), title="Error along profile: {}".format(coll.name))
+
+    # ------------------------------------------------------------------ worker thread
+    @staticmethod
+    def _compute(job, progress):
+        """The verify engine's deviation along the target flanks and the chart's pixels (no Blender data)."""
+        from ..flank_addon.progress import Cancelled, reporter
+        from ..flank_addon.report.error_chart import error_profile, plan_error_plot
+        from ..flank_addon.simulation.verify import verify_plan
+
+        plan, tol = job["plan"], job["tolerance"]
+        try:
+            if "rotor" in plan:      # error_profile refuses free-form plans with its own message
+                verification = verify_plan(plan, tolerance=tol if tol is not None else plan.get("tolerance"),
+                                           progress=reporter(progress, 0.0, 0.9))
+            else:
+                verification = None
+            data = error_profile(plan, tolerance=tol, verification=verification)
+            reporter(progress)(0.9, "drawing")
+            return plan_error_plot(plan, units=job["units"], width=job["width"], height=job["height"],
+                                   per_strip=job["per_strip"], tolerance=tol, fit_data=job["fit_data"],
+                                   title=job["title"], data=data)
+        except Cancelled:
+            raise
+        except Exception as ex:             # core ValueError (no finite error, ...): reported, never a traceback
+            raise _PlotError("Error plot of '{}' failed: {}".format(job["coll_name"], ex))
+
+    # ------------------------------------------------------------------ main thread: results
+    def _build(self, context, job, out):
+        """The chart's text, the image and the PNG; the image shown; the report."""
+        rgba, info = out
+        w, h, path = job["width"], job["height"], job["path"]
+        coll = bpy.data.collections.get(job["coll_name"])
+        if coll is None:
+            self.report({'ERROR'}, "Error plot: the run '{}' was removed while plotting".format(job["coll_name"]))
             return {'CANCELLED'}
         img = self._store(coll, rgba, info, path)
         if img is None:
@@ -160,7 +207,7 @@ class FLANK_OT_error_plot(bpy.types.Operator):
                  "open an Image Editor and pick the image '{}'".format(img.name))
         self.report({'INFO'}, "Error plot of '{}' ({} x {} px, {}): {}; tolerance ±{:.3g} {}; {}{} ({:.2f} s)".format(
             coll.name, w, h, "{} curve(s)".format(info["curves"]), info["note"], info["tolerance"], info["unit"],
-            where, ", wrote {}".format(os.path.basename(path)) if path else "", time.perf_counter() - t0))
+            where, ", wrote {}".format(os.path.basename(path)) if path else "", time.perf_counter() - job["t0"]))
         return {'FINISHED'}
 
     def _store(self, coll, rgba, info, path):

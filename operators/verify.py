@@ -14,6 +14,7 @@ import bpy
 import numpy as np
 
 from .common import new_mesh_from_arrays, remove_attributes, remove_ids, set_color_attr, set_float_attr
+from .modal import ModalPlannerMixin
 from .properties import verify_props
 from .shapes import axis_frame, revolved_mesh
 
@@ -87,20 +88,21 @@ def _read_plan(path):
         return "Cannot read plan file '{}': {}".format(path, ex)
 
 
-def _on_plan(obj, plan, res):
-    """(deviation per vertex (NaN where none), on-surface mask, its distance limit) of the mesh object mapped
-    into the plan's rotor frame: vertices off the plan's rotor surface get no deviation (end-cap centres, or the
-    wrong object / plan), measured from the vertex's helix to the nearest profile point."""
+class _VerifyError(Exception):
+    """A failure of the verify run with the message to report as it is."""
+
+
+def _on_plan(co, mw, plan, res):
+    """(deviation per vertex (NaN where none), on-surface mask, its distance limit) of the mesh vertices ``co``
+    (N, 3) under ``mw`` (the object's matrix_world) mapped into the plan's rotor frame: vertices off the plan's
+    rotor surface get no deviation (end-cap centres, or the wrong object / plan), measured from the vertex's
+    helix to the nearest profile point."""
     from scipy.spatial import cKDTree
 
     from ..flank_addon.geometry.screw import screw_to_plane
     from ..flank_addon.simulation.verify import values_on_rotor, world_to_rotor
 
-    mesh = obj.data
-    co = np.empty(len(mesh.vertices) * 3, dtype=np.float64)
-    mesh.vertices.foreach_get("co", co)
-    mw = np.array(obj.matrix_world, dtype=np.float64)
-    rotor_pts = world_to_rotor(plan, co.reshape(-1, 3) @ mw[:3, :3].T + mw[:3, 3])
+    rotor_pts = world_to_rotor(plan, co @ mw[:3, :3].T + mw[:3, 3])
     dev_all = np.array([np.nan if d is None else d for d in res["deviation_all"]], dtype=np.float64)
     values = values_on_rotor(plan, rotor_pts, dev_all)
     rotor = plan["rotor"]
@@ -136,17 +138,19 @@ def _store_props(obj, path, plan, res, search, reached, on_surface):
     obj["flank_verify_summary"] = json.dumps(summary)
 
 
-class FLANK_OT_verify_plan(bpy.types.Operator):
+class FLANK_OT_verify_plan(ModalPlannerMixin, bpy.types.Operator):
     """Verify a flank-plan/1 file by sweep simulation and paint the machined deviation on the active rotor mesh
     (red overcut, green within tolerance, blue material left, grey not reached)"""
 
     bl_idname = "flank.verify_plan"
     bl_label = "Verify Plan"
     bl_options = {'REGISTER', 'UNDO'}
+    _title = "Verify"
 
     __annotations__ = dict(
         verify_props(),
         filter_glob=bpy.props.StringProperty(default="*.json", options={'HIDDEN'}),
+        modal_run=bpy.props.BoolProperty(default=False, options={'HIDDEN', 'SKIP_SAVE'}),
     )
 
     @classmethod
@@ -162,9 +166,22 @@ class FLANK_OT_verify_plan(bpy.types.Operator):
 
     def invoke(self, context, event):
         if not self.filepath:
+            # the file browser calls execute: from the UI that runs modal too
+            self.modal_run = not bpy.app.background
             context.window_manager.fileselect_add(self)
             return {'RUNNING_MODAL'}
-        return self.execute(context)
+        return ModalPlannerMixin.invoke(self, context, event)
+
+    def execute(self, context):
+        if self.modal_run and not bpy.app.background and context.window is not None:
+            self.modal_run = False
+            return self._start_modal(context)
+        return ModalPlannerMixin.execute(self, context)
+
+    def _compute_failed(self, ex):
+        if isinstance(ex, _VerifyError):
+            return str(ex)
+        return "Verification failed: {}: {}".format(type(ex).__name__, ex)
 
     def _target(self, context):
         """The mesh object to paint, or an error message."""
@@ -177,52 +194,74 @@ class FLANK_OT_verify_plan(bpy.types.Operator):
             return "Mesh '{}' has no vertices".format(obj.name)
         return obj
 
-    def execute(self, context):
-        from ..flank_addon.io.plan import PlanError
-        from ..flank_addon.simulation.verify import deviation_colors, verify_plan
-
+    # ------------------------------------------------------------------ main thread: inputs
+    def _prepare(self, context):
+        """The target mesh (its vertices read here), the plan file and the settings -> job, or None."""
         obj = self._target(context)
         path = bpy.path.abspath(self.filepath) if self.filepath else ""
         plan = _read_plan(path) if not isinstance(obj, str) else obj
         if isinstance(plan, str):
             self.report({'ERROR'}, plan)
-            return {'CANCELLED'}
-        t0 = time.perf_counter()
+            return None
+        mesh = obj.data
+        co = np.empty(len(mesh.vertices) * 3, dtype=np.float64)
+        mesh.vertices.foreach_get("co", co)
         # single-precision properties: recover the typed decimal (7 significant digits)
         tol_in, search_in = (float("{:.7g}".format(v)) for v in (self.tolerance, self.search))
+        return dict(t0=time.perf_counter(), obj_name=obj.name, path=path, plan=plan, co=co.reshape(-1, 3),
+                    mw=np.array(obj.matrix_world, dtype=np.float64), tol_in=tol_in, search_in=search_in)
+
+    # ------------------------------------------------------------------ worker thread
+    @staticmethod
+    def _compute(job, progress):
+        """The sweep simulation and the deviation per vertex (no Blender data)."""
+        from ..flank_addon.io.plan import PlanError
+        from ..flank_addon.progress import Cancelled, reporter
+        from ..flank_addon.simulation.verify import deviation_colors, verify_plan
+
+        plan, path, tol_in, search_in = job["plan"], job["path"], job["tol_in"], job["search_in"]
         try:
             res = verify_plan(plan, tolerance=tol_in if tol_in > 0.0 else None,
-                              search=search_in if search_in > 0.0 else None, all_points=True)
+                              search=search_in if search_in > 0.0 else None, all_points=True,
+                              progress=reporter(progress, 0.0, 0.95))
         except (PlanError, ValueError) as ex:
-            self.report({'ERROR'}, "Plan '{}' cannot be verified: {}".format(os.path.basename(path), ex))
-            return {'CANCELLED'}
-        except Exception as ex:
-            self.report({'ERROR'}, "Verification failed: {}: {}".format(type(ex).__name__, ex))
-            return {'CANCELLED'}
+            raise _VerifyError("Plan '{}' cannot be verified: {}".format(os.path.basename(path), ex))
         try:
-            values, on_surface, max_dist = _on_plan(obj, plan, res)
+            values, on_surface, max_dist = _on_plan(job["co"], job["mw"], plan, res)
+        except Cancelled:
+            raise
         except Exception as ex:
-            self.report({'ERROR'}, "Could not map '{}' into the plan's rotor frame: {}: {}".format(
-                obj.name, type(ex).__name__, ex))
-            return {'CANCELLED'}
+            raise _VerifyError("Could not map '{}' into the plan's rotor frame: {}: {}".format(
+                job["obj_name"], type(ex).__name__, ex))
         n, unit = len(values), plan["length_unit"]
         if on_surface.mean() < 0.5:
-            self.report({'ERROR'}, "Mesh '{}' does not lie on the plan's rotor: {} of {} vertices are farther "
-                                   "than {:.4g} {} from the rotor surface (limit: at least half must lie on it; "
-                                   "wrong object, plan or placement?)".format(
-                                       obj.name, int((~on_surface).sum()), n, max_dist, unit))
-            return {'CANCELLED'}
+            raise _VerifyError("Mesh '{}' does not lie on the plan's rotor: {} of {} vertices are farther than "
+                               "{:.4g} {} from the rotor surface (limit: at least half must lie on it; wrong "
+                               "object, plan or placement?)".format(job["obj_name"], int((~on_surface).sum()), n,
+                                                                    max_dist, unit))
         values = np.where(on_surface, values, np.nan)
         reached = np.isfinite(values)
+        return dict(res=res, on_surface=on_surface, reached=reached, stored=np.where(reached, values, UNTOUCHED),
+                    rgba=deviation_colors(values, float(res["tolerance"])))
+
+    # ------------------------------------------------------------------ main thread: results
+    def _build(self, context, job, out):
+        """The deviation attributes on the mesh, its properties, the tools if asked for, the report."""
+        plan, path, res, reached = job["plan"], job["path"], out["res"], out["reached"]
+        obj = bpy.data.objects.get(job["obj_name"])
+        if obj is None or obj.type != 'MESH' or len(obj.data.vertices) != len(job["co"]):
+            self.report({'ERROR'}, "Verify: the mesh '{}' was removed or changed while verifying".format(
+                job["obj_name"]))
+            return {'CANCELLED'}
         try:
-            _write_attributes(obj.data, np.where(reached, values, UNTOUCHED),
-                              deviation_colors(values, float(res["tolerance"])))
+            _write_attributes(obj.data, out["stored"], out["rgba"])
         except Exception as ex:
             remove_attributes(obj.data, (DEVIATION_ATTR, DEVIATION_COLOR_ATTR))
             self.report({'ERROR'}, "Could not write the deviation attributes: {}".format(ex))
             return {'CANCELLED'}
         tools_note = self._extras(context, plan, obj)
-        _store_props(obj, path, plan, res, search_in, reached, on_surface)
+        _store_props(obj, path, plan, res, job["search_in"], reached, out["on_surface"])
+        unit = plan["length_unit"]
 
         def fmt(v):
             return "n/a" if v is None else "{:.4g} {}".format(v, unit)
@@ -231,7 +270,8 @@ class FLANK_OT_verify_plan(bpy.types.Operator):
                               "tolerance {}, {}/{} vertices reached{}; simulation {:.2f}s, total {:.2f}s".format(
                                   obj.name, os.path.basename(path), fmt(res["max_undercut"]),
                                   fmt(res["max_overcut"]), len(res["gouge_points"]), fmt(res["tolerance"]),
-                                  int(reached.sum()), n, tools_note, res["elapsed_s"], time.perf_counter() - t0))
+                                  int(reached.sum()), len(reached), tools_note, res["elapsed_s"],
+                                  time.perf_counter() - job["t0"]))
         return {'FINISHED'}
 
     def _extras(self, context, plan, obj):

@@ -270,13 +270,14 @@ def _bounds(valley):
     return [(-1.2, 1.2), (-0.8, 0.8), (-math.pi, math.pi)]
 
 
-def optimize_axis(valley, n=100, starts=None, evaluator=None):
+def optimize_axis(valley, n=100, starts=None, evaluator=None, report=None):
     """Minimise Phi of Eq. (11) over (alpha, delta, phi) by SLSQP on the epigraph form
 
         minimise s  subject to  -s <= r1_i - r2_i <= s  for samples interior on both flanks,
 
     with dr_k/dx = ((a_i - b_k) / r_k) . da_i/dx (exact).  Samples lie on lam in valley.lam_range
-    (n of them, the paper's n = 100).  Returns the best :class:`AxisFit` over ``starts``."""
+    (n of them, the paper's n = 100).  Returns the best :class:`AxisFit` over ``starts``; ``report``
+    (a :func:`progress.reporter`) hears of every start."""
     t0 = time.perf_counter()
     ev = evaluator or AxisEvaluator(valley)
     lam = np.linspace(*valley.lam_range, n)
@@ -307,7 +308,11 @@ def optimize_axis(valley, n=100, starts=None, evaluator=None):
     calls0 = ev.calls
     ref = ev(np.zeros(3), lam)
     need = max(5, int(0.5 * np.sum(ref.interior[0] & ref.interior[1])))
-    for x0 in (starts or default_starts(valley)):
+    start_list = list(starts or default_starts(valley))
+    for i_start, x0 in enumerate(start_list):
+        if report is not None:
+            report(i_start / len(start_list), "optimising the tool axis (start {} of {})".format(
+                i_start + 1, len(start_list)))
         ts = time.perf_counter()
         x0 = np.asarray(x0, float)
         s0 = phi_value(ev(x0, lam)) / R
@@ -1216,7 +1221,7 @@ def plan_double_flank(surface, flank_ranges, valley=0, variant="min", tool="cust
     (:class:`progress.Cancelled` is raised, nothing is returned).
     """
     from ...io.plan import new_plan, rotor_section
-    from ...progress import reporter
+    from ...progress import reporter, substage
 
     report = reporter(progress)
 
@@ -1242,7 +1247,7 @@ def plan_double_flank(surface, flank_ranges, valley=0, variant="min", tool="cust
     v = Valley(surface, flank_ranges, valley, rim=rim)
     ev = AxisEvaluator(v)
     report(0.05, "optimising the tool axis")
-    fit = optimize_axis(v, n=n, starts=starts, evaluator=ev)
+    fit = optimize_axis(v, n=n, starts=starts, evaluator=ev, report=substage(report, 0.05, 0.4))
     fits, paths = [fit], []
     report(0.4, "building the tool")
     if kind == "custom" and not two_paths:

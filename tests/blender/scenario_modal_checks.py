@@ -1,0 +1,126 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Verify (flank.verify_plan), Error Plot (flank.error_plot) and Check Tool (flank.cutter_region) through the
+modal Run path (operators/modal.py), for test_blender_modal_checks.py.
+
+Each operator's ``execute`` is replaced for one call by scenario_modal's driver (``_start_modal`` + ``modal()``
+with TIMER / ESC events and a stand-in context): ESC and closing leave a full census of bpy.data and the scene
+unchanged, a modal run to the end makes what the synchronous run makes, and the driver records how long every
+``modal()`` call held the main thread."""
+import json
+import os
+import time
+
+import driver
+import scenario_modal as sm
+
+
+def _digest_attr(np, mesh, name):
+    vals = driver._float_attr(np, mesh, name)
+    return None if vals is None else sm._digest(np.ascontiguousarray(vals, dtype=np.float32).tobytes())
+
+
+def _verify_state(bpy, np, name):
+    ob = bpy.data.objects[name]
+    return dict(deviation=_digest_attr(np, ob.data, "machined_deviation"),
+                props={k: sm._plain(ob[k]) for k in ob.keys() if k.startswith("flank_verify_")
+                       and k not in ("flank_verify_elapsed", "flank_verify_summary")},
+                summary={k: v for k, v in json.loads(ob["flank_verify_summary"]).items() if k != "elapsed_s"}
+                if "flank_verify_summary" in ob else None)
+
+
+def _plot_state(bpy, np, run_name):
+    img = next((i for i in bpy.data.images if i.get("flank_plot_run") == run_name), None)
+    if img is None:
+        return None
+    px = np.empty(img.size[0] * img.size[1] * 4, dtype=np.float32)
+    img.pixels.foreach_get(px)
+    return dict(name=img.name, size=list(img.size), pixels=sm._digest(px.tobytes()),
+                props={k: sm._plain(img[k]) for k in img.keys() if k.startswith("flank_plot_")})
+
+
+def _region_state(bpy, np, key):
+    coll = next((c for c in bpy.data.collections if c.get("flank_cr_key") == key), None)
+    if coll is None:
+        return None
+    cloud = next(o for o in coll.objects if o.get("flank_cr_role") == "region")
+    skip = ("flank_cr_total_elapsed", "flank_cr_dupin_elapsed", "flank_cr_bounds_elapsed", "flank_cr_region_elapsed")
+    return dict(collection=coll.name, objects=sorted(o.name for o in coll.objects),
+                cloud=sm._digest(driver._mesh_co(np, cloud).tobytes()),
+                props={k: sm._plain(coll[k]) for k in coll.keys() if k.startswith("flank_cr_") and k not in skip})
+
+
+def _exercise(bpy, np, op, cls, kw, select, state):
+    """A synchronous run, then ESC / close (census before and after) and a modal run to the end."""
+    out = {}
+    select()
+    t0 = time.perf_counter()
+    ret, err = driver._run_op(op, **kw)
+    out["sync"] = dict(result=ret, error=err, seconds=time.perf_counter() - t0, state=state())
+    for plan in ("esc", "close"):
+        select()
+        bpy.context.view_layer.update()
+        before = sm.census(bpy, np)
+        rec = sm._call(bpy, op, cls, plan, **kw)
+        after = sm.census(bpy, np)
+        rec.update(census_equal=before == after, census_diff=sm._census_diff(before, after))
+        out[plan] = rec
+    select()
+    rec = sm._call(bpy, op, cls, "finish", **kw)
+    rec["state"] = state()
+    out["finish"] = rec
+    return out
+
+
+def scenario(bpy, res, args):
+    import numpy as np
+
+    mods = {name: __import__(driver.MODULE + ".operators." + name, fromlist=["x"])
+            for name in ("verify", "profile_plot", "cutter_region", "modal")}
+    mixin = mods["modal"].ModalPlannerMixin
+    classes = dict(verify=mods["verify"].FLANK_OT_verify_plan, error_plot=mods["profile_plot"].FLANK_OT_error_plot,
+                   cutter_region=mods["cutter_region"].FLANK_OT_cutter_region)
+    res["mixin"] = {k: issubclass(c, mixin) for k, c in classes.items()}
+    res["timer_step"] = mods["modal"].TIMER_STEP
+
+    driver._run_op(bpy.ops.flank.generate_rotor, kind="asymmetric", part="female", resolution=720, axial=24)
+    rotor_name = bpy.context.active_object.name
+
+    def select():
+        sm.driver_select(bpy, bpy.data.objects[rotor_name])
+
+    # a double-flank run on valley 0: its plan is what Error Plot draws and what Verify checks
+    select()
+    ret, err = driver._run_op(bpy.ops.flank.plan_double_flank, radii=40, envelope_rings=12, simulate=False)
+    run = next((c for c in bpy.data.collections if c.get("flank_df_key") == "{}|0".format(rotor_name)
+                and "flank_plan_json" in c), None)
+    res["run"] = dict(result=ret, error=err, name=None if run is None else run.name)
+    if run is None:
+        return
+    plan_path = os.path.join(os.path.abspath(os.getcwd()), "df_plan.json")
+    with open(plan_path, "w") as fh:
+        fh.write(run["flank_plan_json"])
+    run_name = run.name
+
+    res["verify"] = _exercise(bpy, np, bpy.ops.flank.verify_plan, classes["verify"], dict(filepath=plan_path),
+                              select, lambda: _verify_state(bpy, np, rotor_name))
+    res["error_plot"] = _exercise(bpy, np, bpy.ops.flank.error_plot, classes["error_plot"],
+                                  dict(collection=run_name, width=640, height=400), select,
+                                  lambda: _plot_state(bpy, np, run_name))
+    res["cutter_region"] = _exercise(bpy, np, bpy.ops.flank.cutter_region, classes["cutter_region"],
+                                     dict(flank=1, r1=0.05, r2=0.08, alpha=0.1001674211615598, grid=(12, 16, 16)),
+                                     select, lambda: _region_state(bpy, np, "{}|1".format(rotor_name)))
+    # a failure in the worker is reported as the synchronous run reports it, and changes nothing
+    select()
+    bad = os.path.join(os.path.abspath(os.getcwd()), "bad_plan.json")
+    plan = json.loads(run["flank_plan_json"])
+    plan["rotor"]["to_world"] = [[1, 0, 0, 5.0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]   # not on this mesh
+    with open(bad, "w") as fh:
+        json.dump(plan, fh)
+    before = sm.census(bpy, np)
+    rec = sm._call(bpy, bpy.ops.flank.verify_plan, classes["verify"], "finish", filepath=bad)
+    rec["census_equal"] = before == sm.census(bpy, np)
+    res["verify_failed"] = rec
+    select()
+    ret, err = driver._run_op(bpy.ops.flank.verify_plan, filepath=bad)
+    res["verify_failed_sync"] = dict(result=ret, error=err)
+    res["patched_left"] = ["__enter__" in c.execute.__qualname__ for c in classes.values()]
