@@ -255,6 +255,12 @@ def single_flank_props():
         shank_length=FloatProperty(name="Shank Length", description="Length of the shank, 0 = no shank "
                                                                     "(scene units)",
                                    default=0.6, soft_min=0.0, soft_max=1000.0, precision=4, unit='LENGTH'),
+        tools=StringProperty(name="Tool Presets", description="Plan with the shipped tool presets instead of the "
+                                                               "Tool panel's cone: empty = the Tool panel's cone; "
+                                                               "'auto' = the largest preset that can mill the "
+                                                               "flank, then smaller ones for what it leaves; or "
+                                                               "preset names separated by commas, tried in that "
+                                                               "order (presets are in mm)", default=""),
         tolerance=FloatProperty(name="Tolerance", description="Largest material left on the flank, > 0 "
                                                               "(scene units; core limit: below half the outer "
                                                               "radius)",

@@ -10,8 +10,13 @@ envelope strip with the point attributes ``deviation`` (FLOAT, signed, scene uni
 ``error_color`` (shown by the shared material "Flank Attribute Colour"), and its tool (cone + shank, origin at
 the tip sphere centre, local z along the axis); the error along the flank profile (the paper's Fig. 11c) as an
 edge mesh in the rotor's start plane (offset along the profile normal = error x flank_sf_error_scale); with
-Animate a "Tool Motion" empty with the moving tools.  Custom properties flank_sf_* (strips, candidates,
-errors, uncovered ranges, collisions, kinks, times) on the collection, the tools and the rotor."""
+Animate a "Tool Motion" empty with the moving tools; where the verified plan leaves part of the flank outside the
+tolerance, a "Residual" mesh on the flank over those ranges (along the rotor body, just off the flank; point
+attribute ``residual_range``, colours by kind).  Tool Presets plans with the shipped presets instead of the Tool
+panel's cone ('auto', or names tried in turn): each strip's tool is named on its tool object and in the Results
+rows.  Custom properties flank_sf_* (strips, candidates, errors, covered fraction, per strip the covered share of
+the flank and the tool, uncovered ranges with their reasons, collisions, kinks, times) on the collection, the
+tools and the rotor."""
 import json
 import math
 import os
@@ -20,13 +25,14 @@ import time
 import bpy
 import numpy as np
 
-from .common import count_limit_error, set_color_attr, set_float_attr, typed
+from .common import count_limit_error, set_color_attr, set_float_attr, set_int_attr, typed
 from .modal import ModalPlannerMixin
 from .properties import single_flank_props
 from .result_builder import COLOR_CHART, COLOR_TOOL, RunBuilder, finite_runs
 from .runs import PLAN_JSON_PROP
 from .shapes import axis_frame, revolved_mesh
 from .sources import rotor_source, with_extent
+from .units import mm_per_scene_unit
 
 PROP_PREFIX = "flank_sf_"
 ERROR_ATTR = "error"                   # FLOAT point attribute of the error chart (scene units, unscaled; 0 = baseline)
@@ -38,6 +44,11 @@ CHART_FRACTION = 0.1                   # largest |error| drawn as this fraction 
 TOOL_SEGMENTS = 48
 COLOR_BASELINE = (0.35, 0.35, 0.35, 1.0)
 MAX_STORED_COLLISIONS = 50
+RESIDUAL_ATTR = "residual_range"       # INT point attribute of the residual mesh: index of its uncovered range
+RESIDUAL_OFFSET = 0.004                # the residual mesh stands this many outer radii off the flank
+RESIDUAL_RINGS = 24                    # rings of the residual mesh along the rotor body
+COLOR_RESIDUAL = (0.85, 0.15, 0.75, 1.0)
+COLOR_UNREACHED = (0.85, 0.15, 0.75, 1.0)   # no tool within verify's search range: magenta
 
 __all__ = ["FLANK_OT_plan_single_flank"]
 
@@ -142,6 +153,24 @@ def _cone_tool(op, s):
         return str(ex)
 
 
+def _preset_tools(op, mm_per_unit):
+    """The Tool Presets setting -> (None, None) for the Tool panel's cone, ([(name, ConeTool in rotor units)],
+    'auto' | 'order'), or an error message (str)."""
+    from ..flank_addon.tooling.presets import load_presets, presets_by_name
+
+    text = str(op.tools).strip()
+    if not text:
+        return None, None
+    if not (math.isfinite(mm_per_unit) and mm_per_unit > 0.0):
+        return "tool presets are in mm: {:g} mm per rotor unit gives no tool".format(mm_per_unit)
+    auto = text.lower() == "auto"
+    try:
+        presets = load_presets() if auto else presets_by_name(text)
+        return [(p.name, p.tool(mm_per_unit)) for p in presets], ("auto" if auto else "order")
+    except ValueError as ex:
+        return "tool presets {!r}: {}".format(text, ex)
+
+
 def _error_chart(res, surface, u_range, z0):
     """The error along the flank profile (Fig. 11c of the paper) in the rotor's start plane: chains (baseline =
     the profile, curves = profile + normal x error x scale) and their point values."""
@@ -173,6 +202,57 @@ def _error_chart(res, surface, u_range, z0):
                 scale=float(err_scale), max_abs=e_max, u_dev=u_dev, e_dev=e_dev, finite=fin)
 
 
+def _no_strip_message(res, k_flank):
+    """Why a plan has no strip: the seeds tried, how many collided, the uncovered ranges and their reason."""
+    seeds = sum(int(t.get("seeds", 0)) for t in res.tools)
+    reasons = sorted({str(r.get("reason")) for r in res.residual if r.get("reason")})
+    return "no collision-free strip on flank {}: {} seeds tried, {} colliding{} (uncovered {})".format(
+        k_flank, seeds, len(res.collisions), ("; " + "; ".join(reasons)) if reasons else "",
+        _ranges_text(merge_ranges(res.uncovered)))
+
+
+def _coverage(res, job):
+    """What the verified plan covers (per strip: first, last share of the flank and its share) and leaves (the
+    residual rows and the mesh marking them on the flank, rotor frame)."""
+    from ..flank_addon.report.flank_coverage import residual_patches, residual_rows, residual_u_ranges, strip_shares
+
+    plan, k, surface = res.plan, job["k_flank"], job["surface"]
+    shares = strip_shares(plan, res.verify, k, plan["tolerance"], plan["overcut_tolerance"])
+    rows = residual_rows(plan, k)
+    spans = residual_u_ranges(rows, surface.profile.period, len(plan["rotor"]["profile"]), job["u_range"])
+    mesh = residual_patches(surface, spans, (job["z0"], job["z1"]), RESIDUAL_OFFSET * job["R"], RESIDUAL_RINGS)
+    return dict(shares=shares, rows=rows, spans=spans, mesh=mesh)
+
+
+def _residual_colors(rows, which, s, tol_in):
+    """Per residual vertex: verify's colour of its range's worst deviation (material left or overcut), magenta
+    where no tool comes near."""
+    from ..flank_addon.simulation.verify import deviation_colors
+
+    per = []
+    for r in rows:
+        d = r["max_deviation"] if r["kind"] == "material" else r["min_deviation"]
+        per.append(COLOR_UNREACHED if d is None or r["kind"] == "unreached" else
+                   tuple(deviation_colors(np.array([float(d) * s]), tol_in)[0]))
+    return np.asarray(per, dtype=np.float64)[np.asarray(which, dtype=np.int64)]
+
+
+def _add_residual(run, job, out, tag):
+    """The mesh marking the uncovered ranges on the flank (none when the plan covers it)."""
+    cov = out["coverage"]
+    verts, faces, which = cov["mesh"]
+    if not len(faces):
+        return None
+    ob = run.add_mesh(tag + "Residual", verts, faces, COLOR_RESIDUAL, "residual", None, job["display"])
+    me = ob.data
+    set_int_attr(me, RESIDUAL_ATTR, which)
+    set_color_attr(me, CHART_COLOR_ATTR, _residual_colors(cov["rows"], which, job["s"], job["tol_in"]))
+    run.color_by_attribute(me)
+    me.update()
+    ob[PROP_PREFIX + "residual_u"] = [float(v) for sp in cov["spans"] if sp is not None for v in sp]
+    return ob
+
+
 def _fill_run(run, job, out, rotor, made):
     """Tools, envelope strips, the error chart, the motion and the plan file of the run."""
     from ..flank_addon.io.plan import write_plan
@@ -181,7 +261,9 @@ def _fill_run(run, job, out, rotor, made):
     rows = res.plan["strips"]
     made["tools"] = []
     for k, (cand, (ev, ef, ed), T) in enumerate(zip(res.strips, out["envs"], out["frames"])):
-        ob = run.add_mesh("{}Tool {}".format(tag, k + 1), *out["tool_mesh"], COLOR_TOOL, "tool", k, display @ T)
+        ob = run.add_mesh("{}Tool {}".format(tag, k + 1), *out["tool_meshes"][k], COLOR_TOOL, "tool", k, display @ T)
+        if out["strip_tools"][k]:
+            ob[PROP_PREFIX + "tool_name"] = out["strip_tools"][k]
         ob[PROP_PREFIX + "tip"] = [float(v) for v in cand.pose.tip]          # rotor frame, rotor units
         ob[PROP_PREFIX + "axis"] = [float(v) for v in cand.pose.axis]
         ob[PROP_PREFIX + "params"] = [float(v) for v in np.ravel(cand.params)]
@@ -198,6 +280,7 @@ def _fill_run(run, job, out, rotor, made):
         eo[PROP_PREFIX + "envelope_samples"] = ENVELOPE_SAMPLES
         eo[PROP_PREFIX + "envelope_rings"] = job["n_t"]
     _add_error_chart(run, out["chart"], s, job["tol_in"], display, tag)
+    _add_residual(run, job, out, tag)
     if job["animate"]:
         surface, R = job["surface"], job["R"]
         v0, eps = float(surface.v0), (1 if surface.hand > 0 else -1)
@@ -227,6 +310,27 @@ def _add_error_chart(run, chart, s, tol_in, display, tag):
     co[PROP_PREFIX + "max_abs_error"] = chart["max_abs"] * s
 
 
+def _coverage_props(out, job, res):
+    """The run's coverage properties: the verified covered fraction, per strip the covered shares of the flank
+    (first, last; NaN where it machines none of it) and its share, the tools (JSON) and the residual (JSON:
+    per uncovered range its shares of the flank, kind, length and deviations in scene units, reason)."""
+    s, cov = job["s"], out["coverage"]
+    nan = float("nan")
+    shares = cov["shares"]
+    residual = [dict(start=r["start"], end=r["end"], kind=r["kind"], length=r["length"] * s,
+                     max_deviation=None if r["max_deviation"] is None else float(r["max_deviation"]) * s,
+                     min_deviation=None if r["min_deviation"] is None else float(r["min_deviation"]) * s,
+                     u_range=r["u_range"], reason=r["reason"], proven=r["proven"]) for r in cov["rows"]]
+    return dict(covered_fraction=float(res.covered_fraction),
+                strip_covered=[float(v) for sh in shares for v in ((sh[0], sh[1]) if sh else (nan, nan))],
+                strip_share=[float(sh[2]) if sh else 0.0 for sh in shares],
+                strip_tools=json.dumps(out["strip_tools"]),
+                tools=json.dumps([{k: v for k, v in row.items() if k in ("name", "strips", "seeds", "candidates",
+                                                                         "collisions_excluded")}
+                                  for row in res.tools]),
+                residual=json.dumps(residual), residual_length_unit=str(job["unit"]))
+
+
 class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
     """Plan single-flank conical milling of one flank of the active rotor: strips of a tapered end mill that
     cover the flank to the tolerance, shown as tools and error-coloured strips"""
@@ -250,15 +354,17 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
         s, R = float(src["scale"]), float(src["surface"].outer_radius)      # s: scene units per rotor unit
         target = _check_sizes(self, src["obj"].name, R, s) or _target_flank(self, src)
         tool = _cone_tool(self, s) if not isinstance(target, str) else target
-        if isinstance(tool, str):
-            self.report({'ERROR'}, "Single flank: " + tool)
+        presets = _preset_tools(self, typed(mm_per_scene_unit(context.scene) * s)) if not isinstance(tool, str) else tool
+        if isinstance(presets, str):
+            self.report({'ERROR'}, "Single flank: " + presets)
             return None
         k_flank, point_rotor = target
         tol_in, over_in = typed(self.tolerance), typed(self.overcut_tolerance)
         z0, z1 = (float(v) for v in src["z_range"])
         return dict(t0=t0, src=src, rotor_name=src["obj"].name, surface=src["surface"], flanks=src["flanks"],
                     s=s, R=R, display=src["display"], point_rotor=point_rotor, k_flank=k_flank,
-                    u_range=tuple(float(v) for v in src["flanks"][k_flank]), tool=tool, tol_in=tol_in,
+                    u_range=tuple(float(v) for v in src["flanks"][k_flank]), tool=tool, tools=presets[0],
+                    select=presets[1] or "order", tol_in=tol_in,
                     tol=tol_in / s, over=over_in / s if over_in > 0.0 else None, z0=z0, z1=z1,
                     n_t=int(self.envelope_rings), seeds=int(self.seeds), objective=str(self.objective),
                     mode=str(self.mode), rounds=int(self.rounds), collisions=bool(self.collisions),
@@ -271,21 +377,24 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
     @staticmethod
     def _compute(job, progress):
         """The planner, envelope strips, tool frames, tool mesh and error chart (no Blender data)."""
+        from ..flank_addon.io.plan import strip_tool
         from ..flank_addon.methods.single_flank import planner as ms
         from ..flank_addon.tooling.meridian import cone_tool_outline
 
-        surface, k_flank, u_range, tool = job["surface"], job["k_flank"], job["u_range"], job["tool"]
+        surface, k_flank, u_range, tool, tools = job["surface"], job["k_flank"], job["u_range"], job["tool"], \
+            job["tools"]
+        names = [name for name, _ in tools] if tools else None
         # collisions against the infinite rotor: a pass screws the whole body past the tool, so the finite
         # rotor's slab over the pass holds the tool entirely; z_range only places the strips
-        res = ms.plan_single_flank(surface, job["flanks"], k_flank, tool, job["tol"], overcut_tolerance=job["over"],
-                                   n_seeds=job["seeds"], objective=job["objective"], mode=job["mode"],
-                                   max_rounds=job["rounds"], to_world=job["to_world"], length_unit=job["unit"],
-                                   check_collisions=job["collisions"], g1=job["g1"],
-                                   g1_extra_strips=job["g1_extra_strips"], progress=progress)
+        res = ms.plan_single_flank(surface, job["flanks"], k_flank, tools if tools else tool, job["tol"],
+                                   overcut_tolerance=job["over"], n_seeds=job["seeds"], objective=job["objective"],
+                                   mode=job["mode"], max_rounds=job["rounds"], to_world=job["to_world"],
+                                   length_unit=job["unit"], check_collisions=job["collisions"], g1=job["g1"],
+                                   g1_extra_strips=job["g1_extra_strips"], progress=progress, tool_names=names,
+                                   select=job["select"], bound_radius=min(t.r1s for _, t in tools) if tools else None)
         with_extent(res.plan, job["extent"])         # the finite rotor, for whole-rotor machine programs
         if not res.strips:
-            raise ValueError("no collision-free strip on flank {}: {} candidates, {} colliding (uncovered {})".format(
-                k_flank, len(res.candidates), len(res.collisions), _ranges_text(merge_ranges(res.uncovered))))
+            raise ValueError(_no_strip_message(res, k_flank))
         t_env = time.perf_counter()
         envs, sweeps = [], []
         for c in res.strips:
@@ -294,9 +403,14 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
             envs.append(ms.envelope_strip(c, surface, u_range, sweeps[-1], ENVELOPE_SAMPLES, job["n_t"]))
         env_elapsed = time.perf_counter() - t_env
         frames = [axis_frame(c.pose.tip, c.pose.top)[0] for c in res.strips]
+        # each strip's tool (plans with several tools name it per strip): its index in the tools tried
+        cones = [t for _, t in tools] if tools else [tool]
+        which = [names.index(strip_tool(res.plan, k).get("name")) if names else 0 for k in range(len(res.strips))]
+        meshes = {i: revolved_mesh(cone_tool_outline(cones[i]), TOOL_SEGMENTS) for i in sorted(set(which))}
         return dict(res=res, envs=envs, sweeps=sweeps, env_elapsed=env_elapsed, frames=frames,
-                    tool_mesh=revolved_mesh(cone_tool_outline(tool), TOOL_SEGMENTS),
-                    chart=_error_chart(res, surface, u_range, job["z0"]))
+                    tool_meshes=[meshes[i] for i in which], strip_tools=[names[i] if names else "" for i in which],
+                    first_tool=cones[which[0]], chart=_error_chart(res, surface, u_range, job["z0"]),
+                    coverage=_coverage(res, job))
 
     # ------------------------------------------------------------------ main thread: results
     def _build(self, context, job, out):
@@ -318,7 +432,8 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
         # the run's plan (flank-plan/1) travels with its collection: exports and reports read it from there
         run.collection[PLAN_JSON_PROP] = json.dumps(res.plan)
         run.show(made["tools"][0])
-        unc = "complete" if res.complete else "uncovered " + _ranges_text(merge_ranges(res.uncovered))
+        unc = "covered {:.1f} %{}".format(100.0 * res.covered_fraction, "" if res.complete else ", uncovered " +
+                                           _ranges_text(merge_ranges(res.uncovered)))
         self.report({'INFO'}, "Single flank {} flank {} ({}): {} strips of {} candidates ({} colliding excluded), "
                               "error {:.4g} .. {:.4g} scene units (tolerance {:.4g}), {}, largest kink {:.3g} deg, "
                               "{} round(s){}{}; core {:.2f}s, total {:.2f}s".format(
@@ -333,7 +448,7 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
     def _props(self, job, out, rotor, made):
         """The run's custom properties (lengths in scene units, angles in radians, flank ranges as profile
         parameters)."""
-        res, s, tool, chart = out["res"], job["s"], job["tool"], out["chart"]
+        res, s, tool, chart = out["res"], job["s"], out["first_tool"], out["chart"]
         summary, rows = res.plan.get("summary", {}), res.plan["strips"]
         kinks = [float(j["kink_deg"]) for js in res.junctions for j in js]
         timings = {k: float(v) for k, v in res.timings.items()}
@@ -363,6 +478,7 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
             profile_max_error=float(np.nanmax(e_dev)) * s if fin.any() else float("nan"),
             profile_min_error=float(np.nanmin(e_dev)) * s if fin.any() else float("nan"),
             uncovered=[float(v) for g in uncovered for v in g], uncovered_count=len(uncovered),
+            **_coverage_props(out, job, res),
             kinks_deg=kinks, kink_max_deg=max(kinks) if kinks else 0.0, error_scale=chart["scale"],
             elapsed=float(timings.get("total", float("nan"))), total_elapsed=float(time.perf_counter() - job["t0"]),
             summary=json.dumps(dict(summary, timings=timings, rounds=res.rounds,

@@ -1,6 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The Results panel's lists: the strips of a planning run with their numbers (max / min error, the share of the
-flank each strip machines, collision), picking a row to select its tool and envelope, and the runs menu."""
+flank each strip machines, its tool where the plan names tools, collision), picking a row to select its tool and
+envelope, and the runs menu.  A single-flank run's rows also carry its verified covered fraction and the
+uncovered ranges with their reasons (the Results panel draws them)."""
 import json
 
 import bpy
@@ -59,8 +61,18 @@ def _arc_fraction(plan, flank, u_range):
 
 def _sf_covered(coll, plan, n):
     """Per strip of a single-flank run: (start, end) share of the flank's profile arc length where it forms the
-    machined flank -- from the planner's junctions (where neighbouring strips cut equally deep) and its
-    uncovered ranges."""
+    machined flank within the tolerance -- the verify engine's, stored by the planner (``flank_sf_strip_covered``;
+    None for a strip that forms none of it); for runs made before it was stored, from the planner's junctions
+    (where neighbouring strips cut equally deep) and its uncovered ranges -- and the uncovered ranges' shares."""
+    stored = [float(v) for v in coll.get("flank_sf_strip_covered", [])]
+    if len(stored) == 2 * n and coll.get("flank_sf_residual") is not None:
+        try:
+            residual = json.loads(coll["flank_sf_residual"])
+            gaps = [(float(r["start"]), float(r["end"])) for r in residual]
+        except (ValueError, KeyError, TypeError):
+            gaps = []
+        return [(a, b) if np.isfinite(a) and np.isfinite(b) else None
+                for a, b in zip(stored[0::2], stored[1::2])], gaps
     try:
         summary = json.loads(coll.get("flank_sf_summary", "{}"))
         a, b = (float(v) for v in coll["flank_sf_flank_range"])
@@ -92,7 +104,7 @@ def _covered_text(pre, coll, k, st, covered):
     """The 'covered' column of a strip row."""
     if pre == "flank_sf_":
         c = covered[k]
-        return "{:.0f}–{:.0f} %".format(100.0 * c[0], 100.0 * c[1]) if c else "?"
+        return "{:.0f}–{:.0f} %".format(100.0 * c[0], 100.0 * c[1]) if c else "none"
     if pre == "flank_ff_":
         kinks = [float(v) for v in st.get("kink_to_next_deg", [])]
         return "kink {:.2g}°".format(max(kinks)) if kinks else "last"
@@ -101,6 +113,29 @@ def _covered_text(pre, coll, k, st, covered):
                  if ob.get("flank_df_role") == "envelope" and ob.get("flank_df_path") == k
                  and all(np.isfinite(list(ob.get("flank_df_deviation_range", [np.nan]))))})
     return "flank " + ", ".join(str(2 * valley + f - 1) for f in fl) if fl else "none"
+
+
+def _tool_name(plan, k):
+    """The name of strip k's tool where the plan names its tools (several tools, or presets), else ''."""
+    from ..flank_addon.io.plan import strip_tool
+
+    try:
+        return str(strip_tool(plan, k).get("name") or "")
+    except (KeyError, IndexError, TypeError, AttributeError):
+        return ""
+
+
+def _sf_residual(coll):
+    """covered_fraction (None for runs made before it was stored), the residual rows (shares of the flank, kind,
+    length and deviations in scene units, reason) and the unit of the reasons' lengths."""
+    frac = coll.get("flank_sf_covered_fraction")
+    try:
+        residual = json.loads(coll.get("flank_sf_residual", "[]"))
+    except (ValueError, TypeError):
+        residual = []
+    return dict(covered_fraction=float(frac) if frac is not None else None,
+                residual=residual if isinstance(residual, list) else [],
+                reason_unit=str(coll.get("flank_sf_residual_length_unit", "")))
 
 
 def strip_rows(coll):
@@ -123,10 +158,13 @@ def strip_rows(coll):
     scale = float(coll.get(pre + "length_scale", 1.0) or 1.0)
     covered, uncovered = _sf_covered(coll, plan, len(strips)) if pre == "flank_sf_" else (None, [])
     rows = {k: dict(max=float(st["reported_max_error"]) * scale, min=float(st["reported_min_error"]) * scale,
-                    collision=bool(st.get("collision")), covered=_covered_text(pre, coll, k, st, covered))
+                    collision=bool(st.get("collision")), covered=_covered_text(pre, coll, k, st, covered),
+                    tool=_tool_name(plan, k))
             for k, st in enumerate(strips)}
     out = dict(pre=pre, key=key, rows=rows, uncovered=uncovered, unit=str(coll.get(pre + "length_unit", "mm")),
                scale=scale, tolerance=float(coll.get(pre + "tolerance", 0.0) or 0.0))
+    if pre == "flank_sf_":
+        out.update(_sf_residual(coll))
     _ROWS_CACHE.clear()
     _ROWS_CACHE[coll.name] = (cache_key, out)
     return out
@@ -134,7 +172,7 @@ def strip_rows(coll):
 
 class FLANK_UL_strips(bpy.types.UIList):
     """Strips of a planning run: one row per tool (strip number, max / min error in the scene's unit, the share
-    of the flank it machines, collision)."""
+    of the flank it machines, its tool's name where the plan names tools, collision)."""
 
     def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index=0, flt_flag=0):
         pre = object_prefix(item)
@@ -151,6 +189,8 @@ class FLANK_UL_strips(bpy.types.UIList):
         row.label(text="{} / {}".format(length_text(row_info["max"], context.scene, unit, scale, signed=True),
                                         length_text(row_info["min"], context.scene, unit, scale, signed=True)))
         row.label(text=row_info["covered"])
+        if row_info.get("tool"):
+            row.label(text=row_info["tool"], icon='TOOL_SETTINGS')
         row.label(text="", icon='ERROR' if row_info["collision"] else 'CHECKMARK')
 
     def filter_items(self, context, data, propname):

@@ -1,12 +1,50 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Results panel: the strips of a planning run (pick a row to select its tool and envelope), the error
-legend in the scene's unit, the cycle time of its posted program, export / animate / report."""
+"""Results panel: the strips of a planning run (pick a row to select its tool and envelope; each row names its
+tool where the plan names tools), the error legend in the scene's unit, a single-flank run's verified covered
+fraction and uncovered ranges with their reasons, the cycle time of its posted program, export / animate /
+report."""
+import textwrap
+
 import bpy
 
 from .common import CATEGORY, REGION, SPACE
 
 # legend swatch -> (multiple of the tolerance it shows, band name under it)
 LEGEND = (("gouge_deep", -10.0), ("gouge", -1.0), ("ok", 0.0), ("stock", 1.0), ("stock_deep", 10.0))
+KIND_TEXT = {"material": "material left", "overcut": "overcut", "unreached": "no tool reaches it"}
+REASON_WIDTH = 52              # characters per line of a reason
+REASON_LINES = 4               # lines of one reason at most (the run's summary keeps all of it)
+RESIDUAL_ROWS = 6              # uncovered ranges listed at most
+
+
+def draw_coverage(layout, info, ln):
+    """A single-flank run's verified covered fraction and its uncovered ranges (share of the flank, kind, worst
+    deviation, the reason wrapped into a few lines).  ``ln``: a length in scene units -> text."""
+    frac = info.get("covered_fraction")
+    residual = info.get("residual") or []
+    if frac is None:                                          # a run made before the residual was stored
+        if info["uncovered"]:
+            layout.label(text="Uncovered: " + ", ".join("{:.0f}–{:.0f} %".format(100.0 * a, 100.0 * b)
+                                                        for a, b in info["uncovered"]) + " of the flank",
+                         icon='ERROR')
+        return
+    layout.label(text="Covered {:.1f} % of the flank within tolerance".format(100.0 * frac),
+                 icon='CHECKMARK' if not residual else 'ERROR')
+    for r in residual[:RESIDUAL_ROWS]:
+        col = layout.column(align=True)
+        worst = r.get("max_deviation") if r.get("kind") == "material" else r.get("min_deviation")
+        col.label(text="{:.1f}–{:.1f} %: {}{}".format(100.0 * float(r["start"]), 100.0 * float(r["end"]),
+                                                     KIND_TEXT.get(r.get("kind"), str(r.get("kind"))),
+                                                     ", {}".format(ln(float(worst))) if worst is not None else ""),
+                  icon='DOT')
+        lines = textwrap.wrap(str(r.get("reason", "")), REASON_WIDTH) or ["(no reason recorded)"]
+        if len(lines) > REASON_LINES:
+            lines = lines[:REASON_LINES - 1] + [lines[REASON_LINES - 1] + " …"]
+        for line in lines:
+            col.label(text="    " + line)
+    if len(residual) > RESIDUAL_ROWS:
+        layout.label(text="… {} more uncovered ranges (the run's summary lists all)".format(
+            len(residual) - RESIDUAL_ROWS))
 
 
 class FLANK_PT_results(bpy.types.Panel):
@@ -55,9 +93,8 @@ class FLANK_PT_results(bpy.types.Panel):
             row.label(text="overcut")
             row.label(text="within tolerance")
             row.label(text="material left")
-        if info and info["uncovered"]:
-            box.label(text="Uncovered: " + ", ".join("{:.0f}–{:.0f} %".format(100.0 * a, 100.0 * b)
-                                                     for a, b in info["uncovered"]) + " of the flank", icon='ERROR')
+        if info and info["pre"] == "flank_sf_":
+            draw_coverage(box, info, ln)
         mx, mn = coll.get(pre + "max_error"), coll.get(pre + "min_error")
         if mx is not None and mn is not None:
             box.label(text="Run: max {}  min {}".format(ln(float(mx)), ln(float(mn))))

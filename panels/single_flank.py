@@ -5,8 +5,9 @@ import bpy
 
 from .common import CATEGORY, REGION, SPACE, draw_settings, list_prop as _list, strategy_poll
 
-# the strategy's own settings (the tool's are in the Tool panel; Run passes all of them to the planner)
-SF_GROUPS = (("flank", "use_point", "point"), ("tolerance", "overcut_tolerance"),
+# the strategy's own settings (the tool's are in the Tool panel, unless Tool Presets names shipped presets; Run
+# passes all of them to the planner)
+SF_GROUPS = (("flank", "use_point", "point"), ("tools",), ("tolerance", "overcut_tolerance"),
              ("seeds", "objective", "mode", "rounds", "collisions", "g1", "g1_extra_strips"),
              ("envelope_rings", "animate", "frame_start", "frame_end"), ("filepath",))
 
@@ -44,6 +45,9 @@ class FLANK_PT_single_flank(bpy.types.Panel):
         col.label(text="Error {:.4g} .. {:.4g} (tolerance {:.4g})".format(
             obj.get("flank_sf_min_error", float("nan")), obj.get("flank_sf_max_error", float("nan")),
             obj.get("flank_sf_tolerance", float("nan"))))
+        if obj.get("flank_sf_covered_fraction") is not None:
+            col.label(text="Covered {:.1f} % of the flank within tolerance".format(
+                100.0 * float(obj["flank_sf_covered_fraction"])))
         unc = _list(obj, "flank_sf_uncovered")
         if unc:
             col.label(text="Uncovered: {}".format(", ".join(
