@@ -1,7 +1,8 @@
 """Interactive speed: what a user's click costs, as the command line runs it.
 
 Each operation runs in a fresh Python process: the time of ``import flank_addon.cli`` is measured and
-left out, then ``cli.main([...])`` is timed (wall clock).  With ``--base DIR`` (a checkout of an earlier
+left out, then ``cli.main([...])`` is timed (wall clock; the CPU time of the process, all its threads, is
+printed beside it: on a shared machine the wall clock grows with the load, the CPU time much less).  With ``--base DIR`` (a checkout of an earlier
 commit, e.g. ``git worktree add /tmp/base <commit>``) every operation also runs on that tree, alternating
 with this one in the same loop, so both see the same machine load; the figures are the minima over the
 repeats and the ratio of the minima.
@@ -33,11 +34,13 @@ import json, sys, time
 t0 = time.perf_counter()
 from flank_addon import cli
 t1 = time.perf_counter()
+c1 = time.process_time()
 import contextlib, io
 with contextlib.redirect_stdout(io.StringIO()) as out:
     rc = cli.main(json.loads(sys.argv[1]))
 t2 = time.perf_counter()
-print(json.dumps({"import_s": t1 - t0, "run_s": t2 - t1, "rc": rc, "out": out.getvalue()[-2000:]}))
+print(json.dumps({"import_s": t1 - t0, "run_s": t2 - t1, "cpu_s": time.process_time() - c1, "rc": rc,
+                  "out": out.getvalue()[-2000:]}))
 """
 
 
@@ -139,24 +142,27 @@ def main():
         names = [n for n in ops if not args.only or n in args.only.split(",")]
         if "verify" in names and "double-flank" not in names:    # the verified plan is the current tree's
             run(HERE, ops["double-flank"], d)
-        print(f"{'operation':14s} {'this tree (s)':>22s} {'import':>7s}" + (f" {'base (s)':>22s} {'ratio':>6s}"
+        print(f"{'operation':14s} {'this tree (s)':>22s} {'import':>7s}" + (f" {'base (s)':>22s} {'ratio':>19s}"
                                                                           if args.base else "") + "  goal")
         for name in names:
             times = {t: [] for t in trees}
+            cpus = {t: [] for t in trees}
             imports = []
             for _ in range(args.repeat):
                 for t in trees:
                     r = run(t, ops[name], d)
                     times[t].append(r["run_s"])
+                    cpus[t].append(r["cpu_s"])
                     if t == HERE:
                         imports.append(r["import_s"])
                         if args.show:
                             print(r["out"])
             cur = times[HERE]
-            line = f"{name:14s} {min(cur):8.3f} ({max(cur):6.3f} max) {min(imports):7.3f}"
+            line = f"{name:14s} {min(cur):8.3f} ({min(cpus[HERE]):6.3f} cpu) {min(imports):7.3f}"
             if args.base:
                 b = times[trees[1]]
-                line += f" {min(b):8.3f} ({max(b):6.3f} max) {min(b) / min(cur):5.1f}x"
+                line += (f" {min(b):8.3f} ({min(cpus[trees[1]]):6.3f} cpu) {min(b) / min(cur):5.1f}x"
+                         f" ({min(cpus[trees[1]]) / min(cpus[HERE]):4.1f}x cpu)")
             print(line + f"  {GOALS[name]:.1f}", flush=True)
 
 

@@ -110,6 +110,7 @@ class TriangleMesh:
         corner = np.linalg.norm(np.stack([A, B, C]) - self.centroids, axis=2)
         self.face_radius = float(np.max(corner))
         self.face_radii = corner.max(axis=0) * (1 + 1e-12) + 1e-15 * float(np.abs(V).max())
+        self._centroid_xyz = tuple(np.ascontiguousarray(self.centroids[:, k]) for k in range(3))
         self._vtree = cKDTree(V)
         self._ctree = None
         # vertex -> incident faces, padded with -1
@@ -161,13 +162,15 @@ class TriangleMesh:
         n, c = cand.shape
         valid = cand >= 0
         f = np.where(valid, cand, 0)
-        w = P[:, None, :] - self.centroids[f]
-        lb = np.sqrt(np.einsum("ncj,ncj->nc", w, w)) - self.face_radii[f]
-        lb[~valid] = np.inf
+        cx, cy, cz = self._centroid_xyz
+        wx, wy, wz = P[:, 0, None] - cx[f], P[:, 1, None] - cy[f], P[:, 2, None] - cz[f]
+        w2 = wx * wx + wy * wy + wz * wz
+        w2[~valid] = np.inf
         rows = np.arange(n)
-        j0 = np.argmin(lb, axis=1)
+        j0 = np.argmin(w2, axis=1)                   # the nearest centroid: an upper bound to start from
         _, _, d0 = self._exact(P, f[rows, j0])
-        need = lb <= np.sqrt(d0)[:, None] * (1 + 1e-9) + 1e-12 * self.size
+        reach = (np.sqrt(d0) * (1 + 1e-9) + 1e-12 * self.size)[:, None] + self.face_radii[f]
+        need = w2 <= reach * reach
         need[rows, j0] = True
         need &= valid
         ri, ci = np.nonzero(need)

@@ -608,13 +608,12 @@ def sphere_union_meridian(s, r, tol=2e-10, dr=None, end_tol=None, grade=None):
     b_all = np.minimum(hi_h[inner], s[jj] + r[jj])
     step_all = np.sqrt(8 * tol * np.maximum(r[jj], 1e-300))
     wide = b_all - a_all > step_all
-    for a, b, step in zip(a_all[wide], b_all[wide], step_all[wide]):
-        if b - a > step:
-            q = 0.25 * (b - a)
-            if np.searchsorted(hs, b - q) > np.searchsorted(hs, a + q):
-                continue
-            n = int(min(np.ceil((b - a) / step) + 1, 200000))
-            zones.append(np.linspace(a, b, n))
+    a_w, b_w, step_w = a_all[wide], b_all[wide], step_all[wide]
+    q_w = 0.25 * (b_w - a_w)
+    bare = np.searchsorted(hs, b_w - q_w) <= np.searchsorted(hs, a_w + q_w)
+    for a, b, step in zip(a_w[bare], b_w[bare], step_w[bare]):
+        n = int(min(np.ceil((b - a) / step) + 1, 200000))
+        zones.append(np.linspace(a, b, n))
     h = np.unique(np.concatenate([h_c] + caps + zones + [[s[0] - r[0], s[-1] + r[-1]]]))
     h = h[(h >= s[0] - r[0]) & (h <= s[-1] + r[-1])]
     keep = np.r_[True, np.diff(h) > 1e-13 * max(1.0, float(np.ptp(h)))]
