@@ -1210,7 +1210,7 @@ def scenario_single_flank(bpy, res, args):
     out["core_seconds"] = time.perf_counter() - t0
     out["core"] = dict(strips=len(core.strips), candidates=len(core.candidates), collisions=len(core.collisions),
                        max_error=core.plan["summary"]["max_error"], min_error=core.plan["summary"]["min_error"],
-                       uncovered=[list(g) for g in core.uncovered],
+                       uncovered=[list(g) for g in core.uncovered], covered_fraction=core.covered_fraction,
                        kinks=[j["kink_deg"] for js in core.junctions for j in js],
                        strip_max=[st["reported_max_error"] for st in core.plan["strips"]],
                        method=core.plan["method"], dev_max=float(np.nanmax(core.deviation[1])),

@@ -490,7 +490,8 @@ def scenario(bpy, res, args):
                      rows={str(k): v for k, v in (info or {}).get("rows", {}).items()},
                      uncovered=(info or {}).get("uncovered"),
                      plan_errors=[[st["reported_max_error"], st["reported_min_error"], st["collision"]]
-                                  for st in plan["strips"]], tools=[t[2] for t in tools])
+                                  for st in plan["strips"]], tools=[t[2] for t in tools],
+                     residual=sum(1 for o in coll.objects if o.get(pre + "role") == "residual"))
         sel = {}
         for k, i, name in tools:
             s.results_strip_index = i
