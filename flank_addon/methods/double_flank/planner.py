@@ -1180,17 +1180,16 @@ def _two_paths(ev, f1, f2, m, n_dense=3001, tol=2e-8):
     T1 = max(e[1] / math.cos(x[0]) for e, x in zip(ext, xs))
     t = np.linspace(T0, T1, n_dense)
     shared = np.full(n_dense, np.inf)
-    for p, x in enumerate(xs):
-        ar = eval_at_tool_coordinate(ev, x, t, solvers=(v.feet[p],) + tuple(v.full_feet), tag=("tp", p))
+    found = eval_at_tool_coordinates(ev, [(x, t, (v.feet[p],) + tuple(v.full_feet), ("tp", p))
+                                          for p, x in enumerate(xs)])
+    for ar in found:
         shared = np.minimum(shared, np.where(ar.interior[0], ar.r[0], np.inf))
         # an axis point inside the rotor (past the valley bottom) leaves no room for the tool there
         inside = ~(ar.feet[1].interior | ar.feet[2].interior) & (np.minimum(ar.r[1], ar.r[2]) < ar.r[0] - 1e-12)
         shared = np.minimum(shared, np.where(inside, 0.0, np.minimum(ar.r[1], ar.r[2])))
     shared = np.maximum(np.where(np.isfinite(shared), shared, 0.0), 0.0)
-    gaps = []
-    for p, x in enumerate(xs):
-        ar = eval_at_tool_coordinate(ev, x, t, solvers=(v.feet[p],), tag=("tpc", p))
-        gaps.append(_coverage_gap(v, p, ar.feet[0]))
+    found = eval_at_tool_coordinates(ev, [(x, t, (v.feet[p],), ("tpc", p)) for p, x in enumerate(xs)])
+    gaps = [_coverage_gap(v, p, ar.feet[0]) for p, ar in enumerate(found)]
     from scipy.interpolate import PchipInterpolator
     spline = PchipInterpolator(t, shared)      # C1, no overshoot: a smooth contact curve
     paths = []
