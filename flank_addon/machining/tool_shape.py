@@ -138,10 +138,14 @@ class ToolShape:
             lo, hi = min(lo, self.shank[0]), max(hi, self.shank[1])
         return lo, hi
 
+    MIN_CUTTING_RINGS = 16
+
     def outline(self, spacing):
-        """(h, R, is_shank) samples of the cutting part and the shank, at most ``spacing`` apart along h."""
+        """(h, R, is_shank) samples of the cutting part and the shank, at most ``spacing`` apart along h, and at
+        least MIN_CUTTING_RINGS over the cutting part (a tool shorter than the spacing -- a sub-millimetre cone
+        -- would otherwise be sampled only at its poles, where its radius is 0)."""
         lo, hi = self.cutting_range()
-        n = max(2, int(math.ceil((hi - lo) / spacing)) + 1)
+        n = max(self.MIN_CUTTING_RINGS + 1, int(math.ceil((hi - lo) / spacing)) + 1)
         h = np.linspace(lo, hi, n)
         R = self._cutting_radius(h)
         if self.meridian is not None:     # a ring per grid height carrying the largest meridian radius around it

@@ -67,6 +67,29 @@ def test_a_tool_shorter_than_the_ring_spacing_engages_as_its_full_size_twin(sing
         assert 0.0 < p["engaged_diameter_mm"][1] <= 2.0 * top
 
 
+def test_the_link_checks_see_the_cutting_part_of_a_tool_shorter_than_the_spacing(single_flank_plan):
+    """The points the link and run-out checks place along a move (local_points at the operation's 1 mm spacing)
+    hold rings over the whole cutting part of the 1/100 plan's 0.29 mm cone, as large as its spheres, and its
+    axial extent reaches its top sphere: the cutting part is never sampled only at its poles of radius 0."""
+    from flank_addon.machining.rotor_body import scale_plan
+
+    small = scale_plan(single_flank_plan, 0.01)
+    shape = build_operation([small], rotor_body(small), lobes=[0]).tools[0].shape
+    lo, hi = shape.cutting_range()
+    h, R, is_shank = shape.outline(1.0)
+    top = max(max(st["radii"]) for st in small["strips"])
+    assert (~is_shank).sum() > shape.MIN_CUTTING_RINGS and (R[~is_shank] > 0).sum() >= shape.MIN_CUTTING_RINGS - 1
+    assert 0.95 * top < R[~is_shank].max() <= top * (1 + 1e-9)
+    pts = shape.local_points(1.0)                       # every cutting ring of radius > 0 is among the points
+    for hv, rv in zip(h[~is_shank], R[~is_shank]):
+        if rv > 0:
+            on = np.abs(pts[:, 2] - hv) < 1e-12
+            assert np.isclose(np.hypot(pts[on, 0], pts[on, 1]), rv).sum() >= 8
+    tips, axes = np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]])
+    z0, z1 = shape.z_extent(tips, axes, spacing=1.0)
+    assert z0[0] == pytest.approx(min(lo, shape.h_range()[0])) and z1[0] == pytest.approx(shape.h_range()[1])
+
+
 def test_a_slow_rotary_axis_caps_the_feed(single_flank_plan):
     """With A limited to 100 deg/min the pass takes its A travel / 100 minutes and the chip gets thinner."""
     m = load_machine("rotor-xa-b")
