@@ -7,7 +7,7 @@ commit, e.g. ``git worktree add /tmp/base <commit>``) every operation also runs 
 with this one in the same loop, so both see the same machine load; the figures are the minima over the
 repeats and the ratio of the minima.
 
-    PYTHONPATH=. .venv/bin/python bench/bench_interactive.py [--base /tmp/base] [--repeat 3] [--only NAME,...]
+    PYTHONPATH=. .venv/bin/python bench/bench_interactive.py [--base /tmp/base] [--repeat 3] [--only NAME,...] [--warm]
 
 Operations (goals in brackets):
   double-flank   plan double-flank --builtin asymmetric-female --valley 0 (defaults, with the simulated
@@ -39,8 +39,13 @@ import contextlib, io
 with contextlib.redirect_stdout(io.StringIO()) as out:
     rc = cli.main(json.loads(sys.argv[1]))
 t2 = time.perf_counter()
-print(json.dumps({"import_s": t1 - t0, "run_s": t2 - t1, "cpu_s": time.process_time() - c1, "rc": rc,
-                  "out": out.getvalue()[-2000:]}))
+c2 = time.process_time()
+res = {"import_s": t1 - t0, "run_s": t2 - t1, "cpu_s": c2 - c1, "rc": rc, "out": out.getvalue()[-2000:]}
+if sys.argv[2] == "warm":           # the same click again in this process (modules loaded, caches filled)
+    with contextlib.redirect_stdout(io.StringIO()):
+        rc = cli.main(json.loads(sys.argv[1]))
+    res.update(run_s=time.perf_counter() - t2, cpu_s=time.process_time() - c2, rc=rc)
+print(json.dumps(res))
 """
 
 
@@ -110,12 +115,12 @@ GOALS = {"double-flank": 0.6, "verify": 0.5, "single-flank": 2.0, "freeform": 2.
          "two-paths-m": 1.5}
 
 
-def run(tree, argv, out_dir):
+def run(tree, argv, out_dir, warm=False):
     env = dict(os.environ, PYTHONPATH=str(tree))
     if argv[0] == "plan":       # each tree writes its own plans
         argv = argv[:-1] + [str(out_dir / tree.name / Path(argv[-1]).name)]
-    p = subprocess.run([sys.executable, "-c", RUNNER, json.dumps(argv)], env=env, cwd=str(tree),
-                       capture_output=True, text=True)
+    p = subprocess.run([sys.executable, "-c", RUNNER, json.dumps(argv), "warm" if warm else "cold"], env=env,
+                       cwd=str(tree), capture_output=True, text=True)
     if p.returncode != 0:
         raise RuntimeError(f"{tree}: {' '.join(argv)} failed:\n{p.stderr[-3000:]}")
     res = json.loads(p.stdout.strip().splitlines()[-1])
@@ -130,6 +135,9 @@ def main():
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--only", default="", help="comma-separated operation names")
     ap.add_argument("--show", action="store_true", help="print each run's output (last lines)")
+    ap.add_argument("--warm", action="store_true", help="time the second click in one process (what a click "
+                                                        "costs in a Blender session: modules loaded, a mesh's "
+                                                        "analysis kept)")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
@@ -150,7 +158,7 @@ def main():
             imports = []
             for _ in range(args.repeat):
                 for t in trees:
-                    r = run(t, ops[name], d)
+                    r = run(t, ops[name], d, args.warm)
                     times[t].append(r["run_s"])
                     cpus[t].append(r["cpu_s"])
                     if t == HERE:
