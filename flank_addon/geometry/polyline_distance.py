@@ -209,6 +209,37 @@ class PolylineDistance:
             d[r], edge[r] = dr, er
         return d, edge
 
+    def fixed_windows(self, px, r, kmax=64):
+        """Edges of the h-windows [px - r, px + r] (monotone polylines), for a sequence of searches that stay
+        within r of these centres: (rows whose window holds at most ``kmax`` edges, their gathered edges as
+        :meth:`window_distance` takes them), or None where the polyline is not a graph."""
+        if not self.monotone:
+            return None
+        lo = px - r * (1 + 1e-12) - 1e-12 * self.scale
+        hi = px + r * (1 + 1e-12) + 1e-12 * self.scale
+        i0 = np.maximum(np.searchsorted(self.h, lo, side="left") - 1, 0)
+        i1 = np.minimum(np.searchsorted(self.h, hi, side="right"), self.n_edges)
+        cnt = np.maximum(i1 - i0, 1)
+        rows = np.flatnonzero((cnt <= kmax) & np.isfinite(r))
+        if not len(rows):
+            return rows, None
+        K = int(cnt[rows].max())
+        e = np.minimum(i0[rows, None] + np.arange(K), np.maximum(i1[rows, None] - 1, i0[rows, None]))
+        return rows, (e, self.ax[e], self.ay[e], self.ex[e], self.ey[e], self.ee[e])
+
+    @staticmethod
+    def window_distance(px, py, win):
+        """(d, edge) of points (px, py) (rows of a :meth:`fixed_windows` result) over their window's edges: the
+        same per-edge arithmetic as every other search here."""
+        e, ax, ay, ex, ey, ee = win
+        wx, wy = px[:, None] - ax, py[:, None] - ay
+        u = np.clip((wx * ex + wy * ey) / ee, 0.0, 1.0)
+        dx, dy = wx - u * ex, wy - u * ey
+        d2 = dx * dx + dy * dy
+        j = np.argmin(d2, axis=1)
+        r = np.arange(len(j))
+        return np.sqrt(d2[r, j]), e[r, j]
+
     def signed_minimum(self, p, inside, group, thr, ub=None, batch=20000):
         """Signed distances s = -d where ``inside``, +d elsewhere, of points p (N, 2) that come in groups
         (``group`` (N,), sorted) of which only each group's least s is wanted: (s, exact).  ``thr`` (per group)

@@ -241,11 +241,24 @@ class MeridianPart:
     def axis_frame(self):
         return self.origin, self.axis
 
-    def sd_plane(self, h, rho, hint=None):
-        """(sd, edge) from meridian-plane coordinates (h, rho) (N,), as :meth:`signed_distance_hinted`."""
+    def sd_plane(self, h, rho, hint=None, window=None):
+        """(sd, edge) from meridian-plane coordinates (h, rho) (N,), as :meth:`signed_distance_hinted`;
+        ``window`` = (rows, edges) of :meth:`PolylineDistance.fixed_windows` for rows known to have their
+        nearest edge there."""
         R = self.radius_at(h)
-        ub = np.where(R >= 0, np.abs(rho - R), np.inf)
-        best, edge = self.polyline.distance_xy(h, rho, ub=ub, hint=hint)
+        if window is not None and window[1] is not None and len(window[0]):
+            rows, win = window
+            rest = np.ones(len(h), bool)
+            rest[rows] = False
+            best, edge = np.empty(len(h)), np.empty(len(h), int)
+            best[rows], edge[rows] = self.polyline.window_distance(h[rows], rho[rows], win)
+            if rest.any():
+                ub = np.where(R[rest] >= 0, np.abs(rho[rest] - R[rest]), np.inf)
+                best[rest], edge[rest] = self.polyline.distance_xy(h[rest], rho[rest], ub=ub,
+                                                                    hint=None if hint is None else hint[rest])
+        else:
+            ub = np.where(R >= 0, np.abs(rho - R), np.inf)
+            best, edge = self.polyline.distance_xy(h, rho, ub=ub, hint=hint)
         return np.where(rho <= R, -best, best), edge
 
     def signed_distance_hinted(self, q, hint=None):
@@ -458,6 +471,8 @@ class _Tracked:
     def __init__(self, tool, x=None, v0=None, handedness="right"):
         self.tool = tool
         self.hints = {}
+        self.last = {}           # part -> (h, |sd|) of the last query of each row
+        self.windows = {}        # part -> fixed edge windows (rows, edges) of :meth:`narrow`
         self.frame = tool.coaxial() if x is not None else None
         if self.frame is not None:
             o, a, _ = self.frame
@@ -491,9 +506,28 @@ class _Tracked:
         rho = np.sqrt(np.maximum(wx * wx + wy * wy + wz * wz - h * h, 0.0))
         d = None
         for j, (p, (sign, off)) in enumerate(zip(self.tool.parts, frames)):
-            dj, self.hints[j] = p.sd_plane(sign * (h - off), rho, self.hints.get(j))
+            hj = sign * (h - off)
+            if j in self.windows:
+                dj, self.hints[j] = p.sd_plane(hj, rho, self.hints.get(j), window=self.windows[j])
+            else:
+                dj, self.hints[j] = p.sd_plane(hj, rho, self.hints.get(j))
+            if self.hints[j] is not None:
+                self.last[j] = (hj, np.abs(dj))
             d = dj if d is None else np.minimum(d, dj)
         return d
+
+    def narrow(self, reach):
+        """Every later query of a row lies within ``reach`` (per row) of its last one: its nearest meridian edge
+        then lies within the last distance plus twice that of the last query (in h on the meridian graph), so
+        each row's search is fixed to those few edges (rows with more keep the general search)."""
+        if self.frame is None:
+            return
+        for j, p in enumerate(self.tool.parts):
+            if j in self.last and hasattr(p, "polyline"):
+                h_last, d_last = self.last[j]
+                win = p.polyline.fixed_windows(h_last, d_last + 2.0 * reach)
+                if win is not None:
+                    self.windows[j] = win
 
 
 def time_windows(x, centres, radii, v0, handedness, margin):
@@ -712,7 +746,7 @@ def helical_distance(tool, points, v0, handedness="right", step=None, iters=None
     c = a + GOLDEN * (b - a)
     d = b - GOLDEN * (b - a)
     fc, fd = f(c), f(d)
-    for _ in range(iters):
+    for it in range(iters):
         left = fc <= fd
         b, fb = np.where(left, d, b), np.where(left, fd, fb)
         a, fa = np.where(left, a, c), np.where(left, fa, fc)
@@ -723,6 +757,9 @@ def helical_distance(tool, points, v0, handedness="right", step=None, iters=None
         f_eval = f(np.where(left, new_c, new_d))
         fc, fd = np.where(left, f_eval, fd), np.where(left, fc, f_eval)
         c, d = c_next, d_next
+        if ft is not None and it in (5, 12):
+            # every later time lies in [a, b], which holds the last one: the helix moves at most speed (b - a)
+            ft.narrow(speed * (b - a) * (1 + 1e-9))
     # then successive parabolic interpolation on the best point and its neighbours: the distance
     # along the helix is C1 near a minimum outside the tool, so this converges fast where golden
     # section would need ~20 more evaluations for the same accuracy
