@@ -8,7 +8,7 @@ import numpy as np
 from bpy.props import IntProperty, StringProperty
 from mathutils import Matrix
 
-from .common import iter_fcurves, key_screw_motion, linear_keys, remove_ids
+from .common import hide_objects, iter_fcurves, key_screw_motion, linear_keys, remove_ids
 from .runs import ANIM_HID, ANIM_ROLE, remove_animation, run_plan, run_prop
 from .shapes import axis_frame
 
@@ -23,19 +23,6 @@ def _strip_of(ob, role):
         if ob.get(role_key) == role and strip_key in ob:
             return int(ob[strip_key])
     return None
-
-
-def _hide(objs):
-    """Hide the objects the moving copies stand in for (shown again when the animation is removed) -> names."""
-    hid = []
-    for ob in objs:
-        try:
-            if not ob.hide_get():
-                ob.hide_set(True)
-                hid.append(ob.name)
-        except RuntimeError:                 # not in the current view layer: nothing to hide
-            pass
-    return hid
 
 
 def _discard(made, actions, op, ex):
@@ -148,7 +135,7 @@ class FLANK_OT_animate_strip(bpy.types.Operator):
             motion["flank_anim_frames"] = [fs, fe]
         except Exception as ex:
             return _discard(made, actions, self, ex)
-        motion[ANIM_HID] = _hide([rotor_obj] + envelopes)
+        motion[ANIM_HID] = hide_objects([rotor_obj] + envelopes)
         fcurves = sum(1 for a in actions for _ in iter_fcurves(a))
         self.report({'INFO'}, "Animated strip {} of '{}': the rotor screws t = {:.4g} .. {:.4g} over frames {}..{} "
                               "({} F-curves); '{}' is hidden (Alt+H shows it){}".format(
@@ -191,7 +178,7 @@ class FLANK_OT_animate_strip(bpy.types.Operator):
             ob["flank_anim_frames"] = [fs, fe]
         except Exception as ex:
             return _discard(made, actions, self, ex)
-        ob[ANIM_HID] = _hide([tool])
+        ob[ANIM_HID] = hide_objects([tool])
         self.report({'INFO'}, "Animated strip {} of '{}': the tool moves through its {} rulings over frames {}..{}{}"
                     .format(k + 1, coll.name, len(R), fs, fe, ", replaced the earlier animation" if removed else ""))
         return {'FINISHED'}

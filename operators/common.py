@@ -273,3 +273,16 @@ def key_screw_motion(motion, keys, v0, eps):
 
 classes = ()
 register, unregister = bpy.utils.register_classes_factory(classes)
+
+
+def hide_objects(objs):
+    """Hide the objects an animation stands in for (shown again when the animation is removed) -> their names."""
+    hid = []
+    for ob in objs:
+        try:
+            if not ob.hide_get():
+                ob.hide_set(True)
+                hid.append(ob.name)
+        except RuntimeError:                 # not in the current view layer: nothing to hide
+            pass
+    return hid

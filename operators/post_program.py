@@ -18,10 +18,10 @@ import time
 import bpy
 import numpy as np
 
-from .common import remove_objects
+from .common import hide_objects, remove_objects
 from .modal import ModalPlannerMixin
 from .program import check_numbers, cutting_data_of, key_frames, parse_lobes, plan_in_mm, rounded, tool_outline
-from .program_scene import ANIM_ROLE, ProgramBuild, hide, program_objects, store_program
+from .program_scene import ANIM_ROLE, ProgramBuild, program_objects, store_program
 from .properties import post_program_props
 from .runs import remove_animation, run_plan, run_prop
 from .units import mm_per_scene_unit
@@ -193,7 +193,7 @@ class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
         if job["animate"] or any(ob.get(ANIM_ROLE) == "spin" for ob in coll.objects if ob not in build.objects):
             remove_animation(coll)
         if job["animate"]:
-            build.mark_animation(hide([ob for ob in (rotor, path_ob) if ob is not None]))
+            build.mark_animation(hide_objects([ob for ob in (rotor, path_ob) if ob is not None]))
 
     @staticmethod
     def _props(job, out):

@@ -178,19 +178,6 @@ class ProgramBuild:
         return me
 
 
-def hide(objs):
-    """Hide objects (shown again when the animation is removed) -> their names."""
-    hid = []
-    for ob in objs:
-        try:
-            if not ob.hide_get():
-                ob.hide_set(True)
-                hid.append(ob.name)
-        except RuntimeError:                 # not in the current view layer: nothing to hide
-            pass
-    return hid
-
-
 def program_objects(coll):
     """The program objects of a run (its path), not its animation."""
     return [ob for ob in coll.objects if ob.get(PROG_ROLE) is not None]
