@@ -37,8 +37,9 @@ def test_cylinder_distance_is_exact():
     assert np.array_equal(surf.contains(q), expected < 0)
 
 
-@pytest.mark.parametrize("hand", ["right", "left"])
-@pytest.mark.parametrize("v0", [0.25, 0.8])
+# both hands (the screw's sign enters the seed table and the Newton steps) and a steep and a flat helix; the
+# surface's seed table dominates the cost, so the two other combinations would only repeat these code paths
+@pytest.mark.parametrize("v0, hand", [(0.25, "right"), (0.8, "left")])
 def test_foot_points_never_worse_than_brute_force(hand, v0):
     surf = HelicalSurface(wavy_profile(), v0, hand)
     rng = np.random.default_rng(7)
@@ -64,8 +65,15 @@ def test_foot_points_never_worse_than_brute_force(hand, v0):
     assert np.array_equal(fp.distance < 0, surf.contains(q))
 
 
-def test_foot_is_a_minimum_under_perturbation():
-    surf = HelicalSurface(wavy_profile(), 0.5, "right")
+@pytest.fixture(scope="module")
+def wavy():
+    """The wavy profile's right-handed surface, v0 = 0.5: its foot-point seed table is built once for the tests
+    below."""
+    return HelicalSurface(wavy_profile(), 0.5, "right")
+
+
+def test_foot_is_a_minimum_under_perturbation(wavy):
+    surf = wavy
     rng = np.random.default_rng(3)
     q = rng.uniform(-1, 1, (400, 3))
     fp = surf.foot_points(q)
@@ -75,13 +83,14 @@ def test_foot_is_a_minimum_under_perturbation():
         assert np.all(other >= d - 1e-13)
 
 
-def test_global_not_local_minimum():
+def test_global_not_local_minimum(wavy):
     """A query whose nearest point on its own valley is only a local minimum (Hu, Zhou & Li 2025 §3.2 failure mode)."""
-    surf = HelicalSurface(wavy_profile(), 0.5, "right")
+    surf = wavy
     # on the axis every valley bottom is nearly equidistant; a slight offset makes one valley win
     q = np.array([[0.02, 0.0, 0.0], [0.0, 0.03, 0.4], [-0.01, -0.02, -0.7]])
     fp = surf.foot_points(q)
-    bf = brute_force_distance(surf, q, n_u=6000, n_t=1500)
+    # the next valley is >= 0.019 farther for each query; this sampling is within 1e-5 of the exact distance
+    bf = brute_force_distance(surf, q, n_u=2000, n_t=800)
     assert np.all(np.abs(fp.distance) <= bf + 1e-12)
 
 
