@@ -73,10 +73,28 @@ def female_plan(female):
     return r, plan_single_flank(s, r.flanks, 1, ConeTool(math.asin(0.1), 0.05, 0.08, 0.04, 0.6), 1e-3, n_seeds=18)
 
 
+@pytest.fixture(scope="session")
+def female_g1_plans(female):
+    """(minimum cover, G1 cover) of the asymmetric female's flank 1: cone alpha = asin(0.1) to the 7 digits a
+    Blender float property keeps (the operators plan with that typed value), 0.05, 0.08 R, shank 0.04 x 0.6 R, tolerance 2e-3 R, 12 seeds,
+    4 rounds; the G1 run with at most 3 extra strips.  The G1 run is the slowest single-flank plan of the suite
+    (about 13 s): the core test and the Blender operator test compare against this one."""
+    import math
+
+    from flank_addon.methods.single_flank.planner import plan_single_flank
+    from flank_addon.tooling.cone import ConeTool
+
+    r, s = female
+    tool = ConeTool(float("{:.7g}".format(math.asin(0.1))), 0.05, 0.08, 0.04, 0.6)
+    kw = dict(n_seeds=12, max_rounds=4)
+    base = plan_single_flank(s, r.flanks, 1, tool, 2e-3, **kw)
+    return base, plan_single_flank(s, r.flanks, 1, tool, 2e-3, g1=True, g1_extra_strips=3, **kw)
+
+
 # ------------------------------------------------------------------------------------------ work units
 
 # session fixtures of this file that are expensive: their users run on one worker
-_GROUPED_SESSION_FIXTURES = {"female_plan"}
+_GROUPED_SESSION_FIXTURES = {"female_plan", "female_g1_plans"}
 
 # conftest files whose session fixtures are cheap or shared across workers by other means (no grouping)
 _UNGROUPED_CONFTESTS = {"tests", "tests/blender"}

@@ -153,15 +153,12 @@ def test_junction_normals_and_their_exact_derivatives(female):
         assert np.abs(fd - dn[..., k]).max() < 1e-7 * max(1.0, np.abs(fd).max())
 
 
-def test_g1_option_keeps_the_tolerance_and_lowers_the_largest_kink(female):
+def test_g1_option_keeps_the_tolerance_and_lowers_the_largest_kink(female_g1_plans):
     """With g1 the strips are re-chosen for smooth junctions (at most 3 extra, new seeds between kinked
     neighbours) and then re-optimised with the tangency term.  Measured against the same run without g1:
     the largest exact kink drops (34.6 -> 24.7 deg when written), the flank is held wherever the minimum
     cover held it, nothing gouges, and the report says what each stage did."""
-    r, s = female
-    kw = dict(n_seeds=12, max_rounds=4)
-    base = plan_single_flank(s, r.flanks, 1, TOOL, 2e-3, **kw)
-    res = plan_single_flank(s, r.flanks, 1, TOOL, 2e-3, g1=True, g1_extra_strips=3, **kw)
+    base, res = female_g1_plans
 
     def worst(js):
         return max(j["kink_deg"] for jj in js for j in jj)

@@ -37,7 +37,7 @@ def scenario(bpy, res, args):
     bpy.context.view_layer.update()
     ret, err = run_op(bpy.ops.flank.plan_single_flank, flank=1, shape="alpha", alpha=0.1001674, r1=0.05 * S,
                       r2=0.08 * S, shank_radius=0.04 * S, shank_length=0.6 * S, tolerance=1e-3 * S, seeds=6,
-                      rounds=2, envelope_rings=8, animate=False)
+                      rounds=1, envelope_rings=8, animate=False)
     res["plan"] = dict(result=ret, error=err)
     coll = next(c for c in bpy.data.collections["Flank Results"].children if "flank_plan_json" in c)
     plan = json.loads(coll["flank_plan_json"])

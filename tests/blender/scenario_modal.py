@@ -24,7 +24,7 @@ TIMER_STEP = 0.1
 MAX_SECONDS = 240.0
 SF_ASIN = math.asin(0.1)
 SF_KW = dict(shape="alpha", alpha=SF_ASIN, r1=0.05, r2=0.08, shank_radius=0.04, shank_length=0.6,
-             tolerance=1e-3, envelope_rings=12, seeds=6, rounds=4, flank=1)
+             tolerance=1e-3, envelope_rings=12, seeds=6, rounds=1, flank=1)
 # a cone on the saddle, object scale 2 (local r 0.02 .. 0.03, L 0.12): about 100 optimiser evaluations, ~2 s
 FF_KW = dict(r1=0.04, r2=0.06, length=0.24, samples=12, columns=16, max_evaluations=150, tolerance=0.002,
              direction=(0.0, 1.0, 0.0))

@@ -13,7 +13,7 @@ from scenario_freeform import _select_only
 from scenario_sidebar import _UI
 
 SF_KW = dict(shape="alpha", alpha=math.asin(0.1), r1=0.05, r2=0.08, shank_radius=0.04, shank_length=0.6,
-             tolerance=1e-3, envelope_rings=8, seeds=6, rounds=2, flank=1)
+             tolerance=1e-3, envelope_rings=8, seeds=6, rounds=1, flank=1)
 
 
 def _draw(bpy, cls):

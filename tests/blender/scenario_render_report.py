@@ -70,7 +70,7 @@ def scenario(bpy, res, args):
     run_op(bpy.ops.flank.generate_rotor, kind="asymmetric", part="female", resolution=360, axial=24)
     t0 = time.perf_counter()
     ret, err = run_op(bpy.ops.flank.plan_single_flank, flank=1, shape="alpha", alpha=0.1001674, r1=0.05, r2=0.08,
-                      shank_radius=0.04, shank_length=0.6, tolerance=1e-3, seeds=6, rounds=2, envelope_rings=8,
+                      shank_radius=0.04, shank_length=0.6, tolerance=1e-3, seeds=6, rounds=1, envelope_rings=8,
                       animate=False)
     res["plan"] = dict(result=ret, error=err, seconds=time.perf_counter() - t0)
     coll = next(c for c in bpy.data.collections["Flank Results"].children if "flank_plan_json" in c)

@@ -16,7 +16,7 @@ from scenario_freeform import _select_only
 CENSUS_KINDS = ("objects", "meshes", "collections", "materials", "actions", "curves", "images")
 MATERIAL = "Flank Attribute Colour"
 SF_KW = dict(shape="alpha", alpha=driver.SF_ASIN, r1=0.05, r2=0.08, shank_radius=0.04, shank_length=0.6,
-             tolerance=1e-3, envelope_rings=8, flank=1, seeds=4, rounds=2, animate=False)
+             tolerance=1e-3, envelope_rings=8, flank=1, seeds=4, rounds=1, animate=False)
 DF_KW = dict(radii=40, envelope_rings=12, simulate=False, animate=True, valley=0)
 FF_KW = dict(r1=0.06, r2=0.06, length=0.5, samples=12, columns=8, max_evaluations=30, tolerance=0.002,
              direction=(0.0, 1.0, 0.0))

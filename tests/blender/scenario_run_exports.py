@@ -12,7 +12,7 @@ import time
 import driver
 
 SF_ASIN = driver.SF_ASIN                 # asin(0.1)
-SEEDS, ROUNDS = 6, 2
+SEEDS, ROUNDS = 6, 1
 TOOL = dict(shape="alpha", alpha=SF_ASIN, r1=0.05, r2=0.08, shank_radius=0.04, shank_length=0.6, tolerance=1e-3)
 SKIP = ("elapsed", "timings", "seconds")    # wall-clock figures differ between two runs of the same plan
 
