@@ -19,7 +19,7 @@ ALWAYS = ("nan", "inf")  # never skipped: a non-finite number must be refused ho
 # Small sizes passed along with every call unless that property is the one being fuzzed: the fuzz checks
 # refusals, messages and leaks, not the quality of a plan, so an accepted call need not be a full-size run.
 CHEAP = {
-    "flank.plan_single_flank": dict(seeds=4, rounds=1, envelope_rings=8),
+    "flank.plan_single_flank": dict(seeds=2, rounds=1, envelope_rings=8),
     "flank.plan_double_flank": dict(radii=40, samples=20, envelope_rings=8),
     "flank.formed_cutter": dict(planes=24, sample_points=16, resolution=96),
     "flank.cutter_region": dict(grid=(8, 10, 10), samples=64),
