@@ -1,3 +1,5 @@
+import contextlib
+import io
 import json
 import subprocess
 import sys
@@ -6,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from flank_addon.cli import main
 from flank_addon.io.plan import PlanError, new_plan, read_plan, rotor_section, validate_plan, write_plan
 from flank_addon.geometry.rotors import builtin_by_name
 
@@ -13,8 +16,18 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def run_cli(*args):
+    """The CLI as ``python -m flank_addon`` runs it: its exit code and what it printed."""
     return subprocess.run([sys.executable, "-m", "flank_addon", *map(str, args)], cwd=ROOT,
                           capture_output=True, text=True, timeout=300)
+
+
+def main_cli(*args):
+    """The CLI's main() in this process (no interpreter start and imports per call): its return code and what
+    it printed, as :func:`run_cli` gives them.  An uncaught exception fails the test as a traceback would."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main([str(a) for a in args])
+    return subprocess.CompletedProcess(args, code, out.getvalue(), err.getvalue())
 
 
 def sample_plan():
@@ -70,11 +83,11 @@ def test_plan_validation_names_the_field(mutate, message):
 
 def test_cli_rotor_then_analyze_json(tmp_path):
     out = tmp_path / "rotor.stl"
-    r = run_cli("rotor", "--kind", "srm_a", "--part", "male", "--scale", "50", "--resolution", "3000",
-                "--axial", "40", "--out", out)
+    r = main_cli("rotor", "--kind", "srm_a", "--part", "male", "--scale", "50", "--resolution", "3000",
+                 "--axial", "40", "--out", out)
     assert r.returncode == 0, r.stderr
     assert "srm_a-male" in r.stdout and out.stat().st_size > 0
-    r = run_cli("analyze", out, "--json")
+    r = main_cli("analyze", out, "--json")
     assert r.returncode == 0, r.stderr
     d = json.loads(r.stdout)
     rotor = builtin_by_name("srm_a-male", scale=50)
@@ -88,10 +101,10 @@ def test_cli_rotor_then_analyze_json(tmp_path):
 def test_cli_formats_and_left_hand(tmp_path):
     for ext in ("ply", "obj"):
         out = tmp_path / f"r.{ext}"
-        r = run_cli("rotor", "--kind", "nilson", "--part", "female", "--handedness", "right",
-                    "--resolution", "1500", "--axial", "20", "--out", out)
+        r = main_cli("rotor", "--kind", "nilson", "--part", "female", "--handedness", "right",
+                     "--resolution", "1500", "--axial", "20", "--out", out)
         assert r.returncode == 0, r.stderr
-        r = run_cli("analyze", out)
+        r = main_cli("analyze", out)
         assert r.returncode == 0, r.stderr
         assert "right-handed" in r.stdout and "12 flanks" in r.stdout
 
@@ -99,13 +112,13 @@ def test_cli_formats_and_left_hand(tmp_path):
 def test_cli_bad_input_is_one_clear_line(tmp_path):
     bad = tmp_path / "bad.csv"
     bad.write_text("x,y\n0,0\n1,nan\n")
-    r = run_cli("rotor", "--profile-csv", bad, "--lead", "3", "--length", "2", "--out", tmp_path / "x.stl")
+    r = main_cli("rotor", "--profile-csv", bad, "--lead", "3", "--length", "2", "--out", tmp_path / "x.stl")
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert r.stderr.startswith("error:") and "not a finite number" in r.stderr
-    missing = run_cli("analyze", tmp_path / "none.stl")
+    missing = main_cli("analyze", tmp_path / "none.stl")
     assert missing.returncode == 2 and "Traceback" not in missing.stderr
     assert "none.stl" in missing.stderr and "no such mesh file" in missing.stderr
-    few = run_cli("analyze", tmp_path / "none.stl", "--profile-points", "100")
+    few = main_cli("analyze", tmp_path / "none.stl", "--profile-points", "100")
     assert few.returncode == 2 and "720" in few.stderr
 
 
@@ -115,14 +128,14 @@ def test_cli_profile_csv_rotor_round_trip(tmp_path):
     csv = tmp_path / "p.csv"
     np.savetxt(csv, np.c_[rr * np.cos(t), rr * np.sin(t)], delimiter=",", header="x,y", comments="")
     out = tmp_path / "r.stl"
-    r = run_cli("rotor", "--profile-csv", csv, "--lead", "-90", "--length", "40", "--axial", "30", "--out", out)
+    r = main_cli("rotor", "--profile-csv", csv, "--lead", "-90", "--length", "40", "--axial", "30", "--out", out)
     assert r.returncode == 0 and "left-handed" in r.stdout, r.stderr
-    r = run_cli("rotor", "--profile-csv", csv, "--lead", "-90", "--handedness", "left", "--length", "40",
-                "--axial", "30", "--out", out)
+    r = main_cli("rotor", "--profile-csv", csv, "--lead", "-90", "--handedness", "left", "--length", "40",
+                 "--axial", "30", "--out", out)
     assert "right-handed" in r.stdout  # a negative lead flips the given hand, as for the built-ins
-    r = run_cli("rotor", "--profile-csv", csv, "--lead", "-90", "--length", "40", "--axial", "30", "--out", out)
+    r = main_cli("rotor", "--profile-csv", csv, "--lead", "-90", "--length", "40", "--axial", "30", "--out", out)
     assert r.returncode == 0, r.stderr
-    d = json.loads(run_cli("analyze", out, "--json").stdout)
+    d = json.loads(main_cli("analyze", out, "--json").stdout)
     assert d["handedness"] == "left" and abs(d["v0"] * 2 * np.pi / 90 - 1) < 1e-4 and d["lobes"] == 3
 
 
