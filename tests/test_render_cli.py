@@ -1,13 +1,10 @@
 """python -m flank_addon render: the report PNG of a plan (needs Blender as a Python module; the project venv has it)."""
 import json
-import math
 
 import numpy as np
 import pytest
 
 from flank_addon.cli import main
-from flank_addon.tooling.cone import ConeTool
-from flank_addon.methods.single_flank.planner import plan_single_flank
 from flank_addon.io.plan import write_plan
 from flank_addon.io.png import read_png, read_png_text, write_png
 from flank_addon.report.report_geometry import (BAR_SPLIT, REPORT_KEY, air_limit, bar_colors, bar_deviations,
@@ -18,10 +15,10 @@ from flank_addon.simulation.verify import DEVIATION_COLORS, deviation_colors
 
 
 @pytest.fixture(scope="module")
-def plan_file(tmp_path_factory, female):
-    r, s = female
-    res = plan_single_flank(s, r.flanks, 1, ConeTool(math.asin(0.1), 0.05, 0.08), 1e-3, n_seeds=6,
-                            max_rounds=2)
+def plan_file(tmp_path_factory, female_plan):
+    """The shared single-flank plan of the asymmetric female (conftest), written to a file: the report shows a
+    real plan that covers its flank, without planning one more here."""
+    _, res = female_plan
     p = tmp_path_factory.mktemp("render") / "plan.json"
     write_plan(p, res.plan)
     return p, res.plan
