@@ -25,7 +25,10 @@ def ray_intervals(p, n, c1, r1, c2, r2, v0, hand, t, s):
     return (-b - sq)[ok], (-b + sq)[ok], T[ok], S[ok]
 
 
-def brute_deviation(p, n, c1, r1, c2, r2, v0, hand, n_t=3000, n_s=300):
+def brute_deviation(p, n, c1, r1, c2, r2, v0, hand, n_t=1500, n_s=150):
+    """Signed deviation along the ray: the grid of (t, s) spheres picks the removed interval, Nelder-Mead polishes
+    its end.  The grid only chooses the start of the polish: on the cases below 1000 x 100 already gives the
+    same values (within 5e-16) as 3000 x 300, and the same reached / unreached points."""
     z_lo = min(c1[2] - r1, c2[2] - r2)
     z_hi = max(c1[2] + r1, c2[2] + r2)
     t = np.linspace(z_lo / v0, z_hi / v0, n_t)
@@ -64,7 +67,7 @@ def test_sphere_frustum_distance_matches_union_of_spheres():
     c1, c2, r1, r2 = np.array([0.1, 0.2, 0.0]), np.array([0.3, -0.1, 0.5]), 0.05, 0.12
     q = rng.uniform(-0.5, 0.8, (1500, 3))
     d = sd_sphere_frustum(q, c1, r1, c2, r2)
-    s = np.linspace(0, 1, 20001)[:, None]
+    s = np.linspace(0, 1, 10001)[:, None]          # the union's sampling error here: 2.7e-9 (1.1e-9 at 20001)
     C, R = (1 - s) * c1 + s * c2, (1 - s[:, 0]) * r1 + s[:, 0] * r2
     best = np.full(len(q), np.inf)
     for i in range(0, len(C), 2000):
