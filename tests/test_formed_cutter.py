@@ -1,8 +1,8 @@
 """Hu, Zhou & Li 2025 formed cutter: numerical method vs the contact equation, vs a brute-force plane section, flags, CLI."""
+import contextlib
+import io
 import math
 import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,12 +12,12 @@ from flank_addon.methods.formed_cutter.cutter_profile import (FLAG_CONTACT_JUMP,
                                        contact_equation_profile, cutter_meridian, cutter_profile,
                                        section_from_profile, table2,
                                        _first_hits)
+from flank_addon.cli import main
 from flank_addon.geometry.profile import SplineProfile
 from flank_addon.geometry.rotors import builtin_by_name
 from flank_addon.geometry.screw import screw_to_plane
 
 T = TABLE1
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def run(sec, **kw):
@@ -319,8 +319,12 @@ def test_bad_input_messages():
 
 
 def cli(*args):
-    return subprocess.run([sys.executable, "-m", "flank_addon", "cutter", *args], capture_output=True, text=True,
-                          cwd=ROOT)
+    """``flank_addon cutter ARGS`` through the CLI's main() in this process: its exit code and what it printed
+    (test_plan_cli runs the ``python -m flank_addon`` entry point itself)."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(["cutter", *args])
+    return subprocess.CompletedProcess(args, code, out.getvalue(), err.getvalue())
 
 
 def test_cli_round_trip_and_errors(tmp_path):

@@ -1,8 +1,4 @@
 """Doğrusadık paraboloid end mill on a helix: analytic section vs direct numerical maximisation."""
-import subprocess
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 from scipy.optimize import minimize_scalar
@@ -75,18 +71,19 @@ def test_bad_parameters_are_named():
         groove_section(R=10, a=-0.05, b=7.2, p=20)
 
 
-def test_cli_writes_paper_section(tmp_path):
+def test_cli_writes_paper_section(tmp_path, capsys):
+    from flank_addon.cli import main
+
     out = tmp_path / "groove.csv"
-    r = subprocess.run([sys.executable, "-m", "flank_addon", "paraboloid", "--radius", "20", "--a", "-0.05",
-                        "--b", "7.2", "--pitch", "20", "--full", "--out", str(out)],
-                       cwd=Path(__file__).resolve().parents[1], capture_output=True, text=True, timeout=120)
-    assert r.returncode == 0, r.stderr
+    assert main(["paraboloid", "--radius", "20", "--a", "-0.05", "--b", "7.2", "--pitch", "20", "--full",
+                 "--out", str(out)]) == 0, capsys.readouterr().err
     xy = np.loadtxt(out, delimiter=",", skiprows=1)
     assert xy[0, 0] == -32.0 and xy[-1, 0] == -8.0 and abs(xy[0, 1]) < 1e-12
-    r = subprocess.run([sys.executable, "-m", "flank_addon", "paraboloid", "--radius", "5", "--a", "-0.05",
-                        "--b", "7.2", "--pitch", "20", "--out", str(out)],
-                       cwd=Path(__file__).resolve().parents[1], capture_output=True, text=True, timeout=120)
-    assert r.returncode == 2 and r.stderr.startswith("error:") and "equator radius" in r.stderr
+    capsys.readouterr()
+    assert main(["paraboloid", "--radius", "5", "--a", "-0.05", "--b", "7.2", "--pitch", "20",
+                 "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error:") and "equator radius" in err
 
 
 def section_normals(x, y):
