@@ -21,13 +21,10 @@ def shrunk(tool, d):
 
 
 @pytest.fixture(scope="module")
-def male_d4():
+def male_d4(asym_male):
     """Male flank 0 (tip to the valley's small bottom fillet) with the 3 deg D4 L20 end mill and the same cone
     1 mm thinner: plans with the planner's defaults."""
-    from flank_addon.geometry.rotors import builtin_by_name
-
-    r = builtin_by_name("asymmetric-male")
-    s = r.surface()
+    r, s = asym_male
     big = presets_by_name(["Tapered 3deg D4 L20"])[0].tool(R_MM)
     small = shrunk(big, 1.0 / R_MM)
     return r, s, [plan_single_flank(s, r.flanks, 0, t, TOL) for t in (big, small)]

@@ -74,14 +74,13 @@ def test_flanks_cover_profile_in_order():
         assert (ends_r[0] > ends_r[1]) if k % 2 == 0 else (ends_r[0] < ends_r[1])
 
 
-def test_vertex_curvature_classes_match_the_true_surface():
-    rotor = builtin_by_name("asymmetric-female")
+def test_vertex_curvature_classes_match_the_true_surface(female):
+    rotor, surf = female                            # the exact surface's foot-point tables are shared
     v, f = rotor.mesh(n_profile=1440, n_axial=96)   # Blender's default resolution
     a = analyze_mesh(v, f)
     K, cls = a.vertex_curvature(v)
     # truth: classify the exact surface at each side vertex's own profile parameter
     side = (v[:, 2] > 1e-9) & (v[:, 2] < rotor.length - 1e-9)
-    surf = rotor.surface()
     u = surf.foot_points(v[side]).u
     true_cls, true_K = surf.classify(u), surf.curvatures(u)["K"]
     # where the exact surface is clearly curved the classes must agree; next to G1 joins of
