@@ -215,7 +215,7 @@ def test_cli_mesh_input(tmp_path, capsys):
     from flank_addon.geometry.rotors import builtin_rotor
 
     rot = builtin_rotor("nilson", "male")
-    v, f = rot.mesh()
+    v, f = rot.mesh(n_axial=40)          # 720 x 40 vertices: rings are what the analysis reads
     write_mesh(tmp_path / "rotor.stl", v, f)
     out = tmp_path / "m.json"
     point = v[5000]                      # a mesh vertex in the middle of a flank, not on a lobe tip
