@@ -70,7 +70,8 @@ def test_symmetric_profile_is_exact(name, builtin):
             assert abs(d) < 5e-6
 
 
-@pytest.mark.parametrize("name", ["nilson-male", "nilson-female", "srm_a-male", "srm_a-female"])
+# each kind of symmetric profile and each hand (males right-handed with 4 lobes, females left-handed with 6)
+@pytest.mark.parametrize("name", ["nilson-male", "srm_a-female"])
 def test_symmetric_plan_is_exact_by_verify(name, builtin):
     """the plan's custom tool mills both flanks within 1e-9 R, as the
     independent sweep simulation sees it (rotor -> envelope at every design point of both flanks),

@@ -6,7 +6,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from flank_addon.geometry.rotor_analysis import NotHelicalError, analyze_mesh
-from flank_addon.geometry.rotors import BUILTIN_NAMES, builtin_by_name
+from flank_addon.geometry.rotors import builtin_by_name
 from helpers import cad_like, irregular_mesh, profile_hausdorff
 
 
@@ -28,7 +28,9 @@ def uv_sphere(n=48):
     return v, f
 
 
-@pytest.mark.parametrize("name", BUILTIN_NAMES)
+# every profile kind, both hands and both lobe counts (males right-handed with 4 lobes, females left-handed
+# with 6); the analysis takes the same path for the other two built-ins
+@pytest.mark.parametrize("name", ["nilson-male", "srm_a-female", "asymmetric-male", "asymmetric-female"])
 def test_recovers_builtin_rotor_in_random_placement(name):
     rotor = builtin_by_name(name)
     R = rotor.profile.outer_radius()
