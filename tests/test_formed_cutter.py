@@ -50,7 +50,9 @@ def brute_plane_min(profile, setup, z, n=40000, tooth=None):
             y = r * np.sin(a + e * th)
             f = -e * s * y + c * v0 * th - zz
             fp = -s * r * np.cos(a + e * th) + c * v0
-            th = th - f / fp
+            th, last = th - f / fp, th
+            if np.max(np.abs(th - last)) <= 1e-14 * max(1.0, np.max(np.abs(th))):
+                break                        # converged: the crossings to 1e-14 rad, the distances to ~1e-12
         x, y = r * np.cos(a + e * th), r * np.sin(a + e * th)
         Y = c * y + e * s * v0 * th
         out.append(np.min(np.hypot(x - setup.centre_distance, Y)))
