@@ -28,9 +28,17 @@ CHEAP = {
 }
 
 
+# Companions that make the property under test count: the single-flank cone length is only read with the
+# shape 'length' (with the default 'alpha' every value of it would plan a full run that ignores it).
+USED_WITH = {("flank.plan_single_flank", "length"): dict(shape="length")}
+
+
 def _cheap(idname, prop=None):
-    """The small companion settings of ``idname`` without ``prop`` (the property under test)."""
-    return {k: v for k, v in CHEAP.get(idname, {}).items() if k != prop}
+    """The small companion settings of ``idname`` without ``prop`` (the property under test), plus what makes
+    ``prop`` count."""
+    out = {k: v for k, v in CHEAP.get(idname, {}).items() if k != prop}
+    out.update(USED_WITH.get((idname, prop), {}))
+    return out
 
 
 def _datablocks(bpy):
