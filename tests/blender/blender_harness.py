@@ -1,7 +1,13 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Run a driver.py scenario in a fresh process with an isolated Blender user directory."""
+"""Run a driver.py scenario in a fresh process with an isolated Blender user directory.
+
+The zip is installed with Blender's own installer once per test run (:func:`installed_template`, next to the
+zip); the scenarios get a hard-linked copy of that user repository and only enable the extension (0.13 s
+instead of 0.86 s and 180 MB written per scenario).  The scenarios about installing itself install the zip
+into their empty user directory as a user would (``INSTALLING``)."""
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -9,13 +15,11 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 DRIVER = HERE / "driver.py"
 TIMEOUT = int(os.environ.get("FLANK_BLENDER_TEST_TIMEOUT", "900"))
+INSTALLING = {"lifecycle", "operators"}      # scenarios that install the zip themselves
+TEMPLATE = "installed_user"                  # the installed user directory, next to the zip
 
 
-def run_scenario(zip_path, scenario, tmp_dir, **options):
-    """Run driver.py in a fresh process with an isolated Blender user directory; return its JSON."""
-    tmp_dir = Path(tmp_dir)
-    user = tmp_dir / "blender_user"
-    user.mkdir(parents=True, exist_ok=True)
+def _user_env(user):
     env = dict(os.environ)
     env.update(
         BLENDER_USER_RESOURCES=str(user),
@@ -26,8 +30,49 @@ def run_scenario(zip_path, scenario, tmp_dir, **options):
         PYTHONNOUSERSITE="1",
     )
     env.pop("PYTHONPATH", None)  # the installed extension must not see the source tree
+    return env
+
+
+def installed_template(zip_path):
+    """The user directory into which Blender's installer put ``zip_path`` (made on the first call; callers
+    hold the zip's build lock)."""
+    zip_path = Path(zip_path)
+    template = zip_path.parent / TEMPLATE
+    if not (template / "extensions").is_dir():
+        part = zip_path.parent / (TEMPLATE + ".part")
+        shutil.rmtree(part, ignore_errors=True)
+        part.mkdir()
+        code = ("import sys; sys.path.insert(0, {!r}); import bpy, driver; "
+                "driver.install_extension(bpy, {!r})").format(str(HERE), str(zip_path))
+        proc = subprocess.run([sys.executable, "-c", code], cwd=str(part), env=_user_env(part),
+                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=TIMEOUT)
+        assert proc.returncode == 0, "installing {} failed:\n{}".format(zip_path, proc.stdout[-6000:])
+        os.replace(part, template)
+    return template
+
+
+def _copy_installed(template, user):
+    """Hard-linked copy of the template's extensions (a file the scenario writes is replaced, not changed in
+    place: Python writes its caches by rename); a plain copy where links are not possible."""
+    try:
+        shutil.copytree(template / "extensions", user / "extensions", copy_function=os.link)
+    except OSError:
+        shutil.rmtree(user / "extensions", ignore_errors=True)
+        shutil.copytree(template / "extensions", user / "extensions")
+
+
+def run_scenario(zip_path, scenario, tmp_dir, **options):
+    """Run driver.py in a fresh process with an isolated Blender user directory; return its JSON."""
+    tmp_dir = Path(tmp_dir)
+    user = tmp_dir / "blender_user"
+    user.mkdir(parents=True, exist_ok=True)
+    env = _user_env(user)
     out = tmp_dir / "{}.json".format(scenario)
     cmd = [sys.executable, str(DRIVER), "--zip", str(zip_path), "--scenario", scenario, "--out", str(out)]
+    template = Path(zip_path).parent / TEMPLATE
+    if scenario not in INSTALLING and (template / "extensions").is_dir():
+        _copy_installed(template, user)
+        cmd.append("--preinstalled")
     for key, value in options.items():
         cmd += ["--" + key.replace("_", "-"), str(value)]
     proc = subprocess.run(cmd, cwd=str(tmp_dir), env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,

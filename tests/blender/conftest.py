@@ -15,6 +15,8 @@ from pathlib import Path
 
 import pytest
 
+from blender_harness import installed_template
+
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
 BUILD_TOOL = ROOT / "tools" / "build_extension.py"
@@ -68,7 +70,9 @@ def extension_zip(tmp_path_factory):
 
     Built once per test run: under pytest-xdist the first worker that needs it builds it into the run's
     shared base directory while holding a lock, the others wait for it and reuse it (a build also
-    downloads the scipy wheels into wheels/, which must not happen twice at the same time)."""
+    downloads the scipy wheels into wheels/, which must not happen twice at the same time).  Under the same
+    lock Blender's installer puts it into a template user directory once (blender_harness.installed_template),
+    which the scenarios copy."""
     _require_bpy()
     base = tmp_path_factory.getbasetemp()
     if os.environ.get("PYTEST_XDIST_WORKER"):
@@ -86,6 +90,8 @@ def extension_zip(tmp_path_factory):
                 pytest.skip("no bundled scipy wheels for this platform: " + proc.stdout.strip().splitlines()[-1])
             assert proc.returncode == 0, "build_extension.py failed:\n" + proc.stdout
             os.replace(str(summary_path) + ".part", summary_path)
-    summary = json.loads(summary_path.read_text())
-    assert len(summary["zips"]) == 1, summary
-    return Path(summary["zips"][0]["path"])
+        summary = json.loads(summary_path.read_text())
+        assert len(summary["zips"]) == 1, summary
+        zip_path = Path(summary["zips"][0]["path"])
+        installed_template(zip_path)        # Blender's installer, once: the scenarios copy what it made
+    return zip_path

@@ -44,6 +44,19 @@ def install_extension(bpy, zip_path):
                 installed_dir=os.path.join(ext_dir, REPO, EXT_ID))
 
 
+def enable_installed(bpy):
+    """Enable the extension that an earlier run of :func:`install_extension` left in this process's user
+    repository (a copy of that run's user directory); return info as :func:`install_extension` does."""
+    t0 = time.perf_counter()
+    result = bpy.ops.preferences.addon_enable(module=MODULE)
+    dt = time.perf_counter() - t0
+    if MODULE not in bpy.context.preferences.addons:
+        raise RuntimeError("installed extension not enabled (operator returned {})".format(sorted(result)))
+    ext_dir = bpy.utils.user_resource('EXTENSIONS')
+    return dict(result=sorted(result), seconds=dt, extensions_dir=ext_dir, preinstalled=True,
+                installed_dir=os.path.join(ext_dir, REPO, EXT_ID))
+
+
 def _addon_state(bpy):
     return dict(
         enabled=MODULE in bpy.context.preferences.addons,
@@ -1559,6 +1572,8 @@ def main():
     ap.add_argument("--scenario", required=True, choices=sorted(set(SCENARIOS) | set(plugins)))
     ap.add_argument("--out", required=True)
     ap.add_argument("--resolution", type=int, default=360)
+    ap.add_argument("--preinstalled", action="store_true",
+                    help="the user directory already holds the installed zip: enable it instead of installing")
     args = ap.parse_args()
     args.ext_dir = None
 
@@ -1571,7 +1586,7 @@ def main():
 
         res["blender_version"] = list(bpy.app.version)
         res["background"] = bool(bpy.app.background)
-        res["install"] = install_extension(bpy, args.zip)
+        res["install"] = enable_installed(bpy) if args.preinstalled else install_extension(bpy, args.zip)
         args.ext_dir = res["install"]["extensions_dir"]
         run = SCENARIOS.get(args.scenario) or _load_plugin(plugins[args.scenario])
         run(bpy, res, args)

@@ -31,6 +31,9 @@ CHEAP = {
 # Companions that make the property under test count: the single-flank cone length is only read with the
 # shape 'length' (with the default 'alpha' every value of it would plan a full run that ignores it).
 USED_WITH = {("flank.plan_single_flank", "length"): dict(shape="length")}
+# ... and the settings that make an operator read the selection (the formed cutter's default source is the
+# built-in Table 1 rotor: it would plan the same cutter for every wrong selection)
+READS_SELECTION = {"flank.formed_cutter": dict(source="ACTIVE")}
 
 
 def _cheap(idname, prop=None):
@@ -191,7 +194,7 @@ def scenario(bpy, res, args):
             if idname == "flank.generate_rotor":
                 continue                          # makes its own rotor: fuzzed by properties below
             _activate(bpy, ob)
-            c = _call(bpy, idname, **_cheap(idname))
+            c = _call(bpy, idname, **_cheap(idname), **READS_SELECTION.get(idname, {}))
             c["subject"] = label
             calls.append(c)
     _degenerate_tools(bpy, calls)

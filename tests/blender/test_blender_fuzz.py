@@ -50,10 +50,11 @@ def test_failed_calls_leave_nothing_behind(fuzz):
 
 
 def test_wrong_selections_are_refused_with_a_message(fuzz):
-    """Operators that need a rotor refuse nothing/camera/empty/empty mesh/triangle/loose edges/NaN/cube with an
-    ERROR message (verify_plan and the stand-alone generators need no rotor and may succeed)."""
+    """Operators that need a rotor (the formed cutter with the source 'Active rotor', as the fuzz calls it for
+    the selections) refuse nothing/camera/empty/empty mesh/triangle/loose edges/NaN/cube with an ERROR message
+    (verify_plan and the stand-alone generators need no rotor and may succeed)."""
     for c in fuzz["calls"]:
-        if c["subject"] in WRONG_SELECTIONS and c["op"] in NEED_ROTOR:
+        if c["subject"] in WRONG_SELECTIONS and c["op"] in NEED_ROTOR | {"flank.formed_cutter"}:
             assert c["result"] is None and c["error"], c
             assert len(c["error"].strip()) > 20, c
 
