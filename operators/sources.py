@@ -73,7 +73,7 @@ def _generated_rotor(obj):
 
 def _analyzed_rotor(obj):
     from ..flank_addon.geometry.flank_feet import flank_u_ranges
-    from ..flank_addon.geometry.helical_surface import HelicalSurface
+    from ..flank_addon.geometry.helical_surface import shared_surface
     from ..flank_addon.geometry.profile import SplineProfile
     from ..flank_addon.geometry.rotor_analysis import NotHelicalError, analyze_mesh
 
@@ -81,7 +81,7 @@ def _analyzed_rotor(obj):
         verts, faces = mesh_world_arrays(obj)
         a = analyze_mesh(verts, faces)
         prof = SplineProfile(a.profile)
-        surface = HelicalSurface(prof, a.v0, a.handedness)
+        surface = shared_surface(prof, a.v0, a.handedness)
         flanks = flank_u_ranges(prof, [(int(i), int(j)) for i, j in a.flanks])
         to_world = np.asarray(a.to_world, dtype=np.float64)
     except NotHelicalError as ex:

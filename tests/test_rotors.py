@@ -182,7 +182,11 @@ def test_surface_is_helical_surface_of_the_rotor():
     r = rotors.builtin_rotor("nilson", "male")
     s = r.surface()
     assert isinstance(s, hs.HelicalSurface)
-    assert s.profile is r.profile
+    np.testing.assert_array_equal(s.profile.points, r.profile.points)
+    assert (s.v0, s.handedness) == (r.v0, r.handedness)
+    # an equal rotor gets the same surface object (its foot-point table is built once), another one does not
+    assert rotors.builtin_rotor("nilson", "male").surface() is s
+    assert rotors.builtin_rotor("nilson", "female").surface() is not s
 
 
 # --------------------------------------------------------------------------- nilson: male of four arcs

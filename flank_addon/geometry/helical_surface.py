@@ -18,6 +18,8 @@ corners carry different basins exactly where the global foot jumps (the
 cut locus), so near-ties are resolved there.  Hu, Zhou & Li 2025 §3.2 shows why a local
 minimum is not good enough: it cost 0.1275 mm there.
 """
+import hashlib
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -455,3 +457,30 @@ class HelicalSurface:
         K = self.curvatures(u)["K"]
         tol = rel_tol / self.outer_radius ** 2
         return np.where(K > tol, 1, np.where(K < -tol, -1, 0))
+
+
+# ------------------------------------------------------------------------------ shared surfaces
+_SHARED = {}              # a few recent surfaces by content: their lazy tables are built once per rotor
+_SHARED_KEPT = 4
+_SHARED_LOCK = threading.Lock()
+
+
+def shared_surface(profile, v0, handedness="right"):
+    """The :class:`HelicalSurface` of (profile, v0, handedness), the same object for the same content (the
+    profile's points, class, v0 and hand equal to the last bit; the last four kept).  A surface builds its
+    foot-point seed table (~0.5 s) on first use and only reads it afterwards, so a second plan, report or
+    verification of the same rotor in one process starts from the table the first one built."""
+    pts = getattr(profile, "points", None)
+    if pts is None:
+        return HelicalSurface(profile, v0, handedness)
+    pts = np.ascontiguousarray(pts, dtype=float)
+    key = (type(profile).__name__, pts.shape, hashlib.sha256(pts.tobytes()).hexdigest(), float(v0),
+           hand_name(hand_sign(handedness)))
+    with _SHARED_LOCK:
+        surface = _SHARED.pop(key, None)
+        if surface is None:
+            surface = HelicalSurface(profile, v0, handedness)
+        _SHARED[key] = surface                       # most recent last
+        while len(_SHARED) > _SHARED_KEPT:
+            _SHARED.pop(next(iter(_SHARED)))
+    return surface

@@ -477,8 +477,9 @@ class Rotor:
     bottom_params: np.ndarray = None
 
     def surface(self):
-        from .helical_surface import HelicalSurface
-        return HelicalSurface(self.profile, self.v0, self.handedness)
+        """The rotor's helical surface (shared by equal rotors: :func:`.helical_surface.shared_surface`)."""
+        from .helical_surface import shared_surface
+        return shared_surface(self.profile, self.v0, self.handedness)
 
     def profile_points(self, n=2048):
         return self.profile.sample(n)

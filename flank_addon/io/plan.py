@@ -54,10 +54,8 @@ union over t of S_t(profile).  A strip's tool is fixed in the rotor frame
 while the rotor screws.  Errors are signed: positive = material left
 (undercut), negative = overcut.
 """
-import hashlib
 import json
 import math
-import threading
 
 import numpy as np
 
@@ -380,29 +378,15 @@ def read_plan(path):
     return validate_plan(plan)
 
 
-_SURFACES = {}            # a few recent plan rotors: their surfaces keep the foot-point tables they have built
-_SURFACES_KEPT = 4
-_SURFACES_LOCK = threading.Lock()
-
-
 def plan_surface(plan):
-    """HelicalSurface of the plan's rotor (rotor frame, plan units).  The same rotor (profile, v0 and hand
-    equal to the last bit) gets the same surface object back, so the foot-point table it builds on first use
-    (~0.6 s) is built once per rotor, not once per report of a plan of it."""
-    from ..geometry.helical_surface import HelicalSurface
+    """HelicalSurface of the plan's rotor (rotor frame, plan units); the same object for the same rotor
+    (:func:`..geometry.helical_surface.shared_surface`), so a second report of a rotor's plans reuses the
+    foot-point table the first one built."""
+    from ..geometry.helical_surface import shared_surface
     from ..geometry.profile import SplineProfile
 
     r = plan["rotor"]
-    prof = np.ascontiguousarray(r["profile"], dtype=float)
-    key = (hashlib.sha256(prof.tobytes()).hexdigest(), prof.shape, float(r["v0"]), str(r["handedness"]))
-    with _SURFACES_LOCK:
-        surface = _SURFACES.pop(key, None)
-        if surface is None:
-            surface = HelicalSurface(SplineProfile(prof), r["v0"], r["handedness"])
-        _SURFACES[key] = surface                     # most recent last
-        while len(_SURFACES) > _SURFACES_KEPT:
-            _SURFACES.pop(next(iter(_SURFACES)))
-    return surface
+    return shared_surface(SplineProfile(r["profile"]), r["v0"], r["handedness"])
 
 
 def flank_points(plan, k):
