@@ -57,6 +57,18 @@ class FlankFeet:
         self._tree = cKDTree(pts)
         self._U, self._T = U.ravel(), T.ravel()
 
+    @classmethod
+    def of(cls, surface, u_start, u_end, n_u=None, reach=None):
+        """``FlankFeet(surface, u_start, u_end, n_u, reach)``, made once per surface: the seed table (0.13 s
+        on a built-in rotor) is kept on the surface with the other lazy tables, so the next plan of the
+        same flank reuses it (an instance never changes after it is made)."""
+        key = (float(u_start), float(u_end), n_u, None if reach is None else float(reach))
+        made = surface.__dict__.setdefault("_flank_feet", {})
+        feet = made.get(key)
+        if feet is None:
+            feet = made[key] = cls(surface, u_start, u_end, n_u=n_u, reach=reach)
+        return feet
+
     def _newton(self, u, tau, q0, iters=40):
         return _newton_rows(self.surface, u, tau, q0, self.lo, self.hi, self.hi - self.lo, iters)
 

@@ -113,7 +113,7 @@ class Valley:
         pa, pc = prof.eval(u0), prof.eval(u1)
         mid = pa / np.linalg.norm(pa) + pc / np.linalg.norm(pc)
         self.theta = float(math.atan2(mid[1], mid[0]))
-        self.feet = (FlankFeet(surface, *self.ranges[0]), FlankFeet(surface, *self.ranges[1]))
+        self.feet = (FlankFeet.of(surface, *self.ranges[0]), FlankFeet.of(surface, *self.ranges[1]))
         self._full = None
         # axis samples of the optimisation: from below the bottom to beyond the outer radius
         self.lam_range = (0.9 * self.r_bottom, 1.6 * R)
@@ -122,8 +122,8 @@ class Valley:
     @property
     def full_feet(self):
         if self._full is None:
-            self._full = (FlankFeet(self.surface, *self.full_ranges[0]),
-                          FlankFeet(self.surface, *self.full_ranges[1]))
+            self._full = (FlankFeet.of(self.surface, *self.full_ranges[0]),
+                          FlankFeet.of(self.surface, *self.full_ranges[1]))
         return self._full
 
 

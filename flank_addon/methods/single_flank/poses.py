@@ -321,7 +321,7 @@ def initial_positions(surface, u_range, tool, n_samples=18, along="profile", fee
     principal direction at every sample (the elliptic part's own initialisation, Examples 6.5 and 6.6)."""
     if keep not in ("admissible", "all"):
         raise ValueError(f"keep must be 'admissible' or 'all', got {keep!r}")
-    feet = feet or FlankFeet(surface, *u_range)
+    feet = feet or FlankFeet.of(surface, *u_range)
     us = flank_samples(surface, *u_range, n_samples, along=along) if u is None else np.atleast_1d(u)
     fr = principal_frame(surface, us)
     r_mid = float(tool.radius(0.5))
@@ -502,7 +502,7 @@ class RotorClearance:
             mid = 0.5 * (float(u_range[0]) + float(u_range[1]))
             lo = mid + 0.5 * per
             flank_len = max(float(u_range[1]) - float(u_range[0]), 1e-9 * per)
-            feet = FlankFeet(surface, lo, lo + per, n_u=int(min(2400, max(320, 160 * per / flank_len))))
+            feet = FlankFeet.of(surface, lo, lo + per, n_u=int(min(2400, max(320, 160 * per / flank_len))))
         sag = 1e-3 * R if sag is None else float(sag)
         L = tool.L
 
@@ -545,7 +545,7 @@ class PoseEvaluator:
             raise ValueError(f"need at least 4 axis samples, got {n}")
         self.surface, self.tool = surface, tool
         self.u_range = (float(u_range[0]), float(u_range[1]))
-        self.feet = feet or FlankFeet(surface, *u_range)
+        self.feet = feet or FlankFeet.of(surface, *u_range)
         self.s = np.linspace(0.0, 1.0, n)
         self.L = tool.L
         self._warm = {}
