@@ -20,7 +20,7 @@ SF_KW = dict(shape="alpha", alpha=driver.SF_ASIN, r1=0.05, r2=0.08, shank_radius
 DF_KW = dict(radii=40, envelope_rings=12, simulate=False, animate=True, valley=0)
 FF_KW = dict(r1=0.06, r2=0.06, length=0.5, samples=12, columns=8, max_evaluations=30, tolerance=0.002,
              direction=(0.0, 1.0, 0.0))
-FC_KW = dict(source="ACTIVE", sample_points=41, animate=True)
+FC_KW = dict(source="ACTIVE", sample_points=16, planes=24, resolution=96, animate=True)
 PG_KW = dict(turns=0.5, resolution=101)
 
 
@@ -144,7 +144,7 @@ def scenario(bpy, res, args):
                 "flank_cutter_key", "flank_cutter_role")
     res["formed_active"]["rotor_materials"] = [m.name if m else None for m in srm.data.materials]
     _three_runs(bpy, "formed_table1", res, bpy.ops.flank.formed_cutter,
-                dict(source="TABLE1", sample_points=41, planes=60, resolution=96, animate=True),
+                dict(source="TABLE1", sample_points=16, planes=24, resolution=96, animate=True),
                 lambda: _select_only(bpy, None), "flank_cutter_key", "flank_cutter_role")
     # ---------------------------------------------------------------- paraboloid groove
     _three_runs(bpy, "groove", res, bpy.ops.flank.paraboloid_groove, PG_KW, lambda: _select_only(bpy, None),
