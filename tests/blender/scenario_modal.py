@@ -335,14 +335,10 @@ def _find_run(bpy, pre, key):
     return next((c for c in bpy.data.collections if c.get(pre + "key") == key), None)
 
 
-def _exercise(bpy, np, op, cls, kw, pre, key, select):
-    """sync run, then ESC / close / modal-to-the-end / a failing modal run; census around the cancelled ones."""
+def cancelled_runs(bpy, np, op, cls, kw, select):
+    """{"esc": record, "close": record}: the modal run ended by Esc and by closing, each with the census of
+    bpy.data before and after it (equal: the cancelled run left nothing)."""
     out = {}
-    select()
-    t0 = time.perf_counter()
-    ret, err = driver._run_op(op, **kw)
-    out["sync"] = dict(result=ret, error=err, seconds=time.perf_counter() - t0,
-                       run=_run_summary(_find_run(bpy, pre, key), pre))
     for plan in ("esc", "close"):
         select()
         bpy.context.view_layer.update()
@@ -352,6 +348,18 @@ def _exercise(bpy, np, op, cls, kw, pre, key, select):
         rec.update(census_equal=before == after, census_diff=_census_diff(before, after),
                    census_sizes={k: len(v) for k, v in before.items() if isinstance(v, (list, dict))})
         out[plan] = rec
+    return out
+
+
+def _exercise(bpy, np, op, cls, kw, pre, key, select):
+    """sync run, then ESC / close / modal-to-the-end / a failing modal run; census around the cancelled ones."""
+    out = {}
+    select()
+    t0 = time.perf_counter()
+    ret, err = driver._run_op(op, **kw)
+    out["sync"] = dict(result=ret, error=err, seconds=time.perf_counter() - t0,
+                       run=_run_summary(_find_run(bpy, pre, key), pre))
+    out.update(cancelled_runs(bpy, np, op, cls, kw, select))
     # the same planning modal, to the end: FINISHED and the same strips as the synchronous run
     select()
     rec = _call(bpy, op, cls, "finish", **kw)

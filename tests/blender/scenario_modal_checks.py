@@ -56,14 +56,7 @@ def _exercise(bpy, np, op, cls, kw, select, state):
     t0 = time.perf_counter()
     ret, err = driver._run_op(op, **kw)
     out["sync"] = dict(result=ret, error=err, seconds=time.perf_counter() - t0, state=state())
-    for plan in ("esc", "close"):
-        select()
-        bpy.context.view_layer.update()
-        before = sm.census(bpy, np)
-        rec = sm._call(bpy, op, cls, plan, **kw)
-        after = sm.census(bpy, np)
-        rec.update(census_equal=before == after, census_diff=sm._census_diff(before, after))
-        out[plan] = rec
+    out.update(sm.cancelled_runs(bpy, np, op, cls, kw, select))
     select()
     rec = sm._call(bpy, op, cls, "finish", **kw)
     rec["state"] = state()

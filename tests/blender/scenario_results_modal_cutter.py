@@ -58,14 +58,7 @@ def scenario(bpy, res, args):
         ret = str(ex)
     res["sync"] = dict(result=ret, seconds=time.perf_counter() - t0, run=_summary(bpy, np, rotor_name))
 
-    for plan in ("esc", "close"):
-        select()
-        bpy.context.view_layer.update()
-        before = sm.census(bpy, np)
-        rec = sm._call(bpy, op, cls, plan, **KW)
-        after = sm.census(bpy, np)
-        rec.update(census_equal=before == after, census_diff=sm._census_diff(before, after))
-        res[plan] = rec
+    res.update(sm.cancelled_runs(bpy, np, op, cls, KW, select))
 
     select()
     rec = sm._call(bpy, op, cls, "finish", **KW)
