@@ -18,8 +18,10 @@ Distribution (``make test`` runs ``pytest -n auto --dist loadgroup``; the schedu
   its group names into pytest 9's node ids, so its own loadgroup would split them).
 * Order.  Units start longest first (longest-processing-time rule): a test's expected seconds come from
   the durations recorded by earlier runs in .pytest_cache (``flank/durations``), else from
-  ``EXPECTED_SECONDS`` below (a clean clone), else ``DEFAULT_SECONDS``.  Each worker holds the test it
-  runs and at most one more, so a long unit never waits behind another worker's queue.
+  ``EXPECTED_SECONDS`` below (a clean clone), else ``DEFAULT_SECONDS``; only the second unit is the longest of
+  the other kind (Blender or core), so that the second worker does not wait while the first builds and
+  installs the extension.  Each worker holds the test it runs and at most one more, so a long unit never
+  waits behind another worker's queue.
 
 Without xdist (plain ``pytest path``, the compatibility venvs) none of this is active.
 """
@@ -232,6 +234,11 @@ def _expected_seconds(config):
 
 # ------------------------------------------------------------------------------------------- scheduler
 
+def _blender_unit(nodeids):
+    """Does a work unit run Blender (needs the extension zip and its installed template)?"""
+    return any(n.startswith("tests/blender/") for n in nodeids)
+
+
 @pytest.hookimpl(optionalhook=True)
 def pytest_xdist_make_scheduler(config, log):
     """``--dist loadgroup``: the work units of :func:`_groups`, longest first, each worker holding at most one
@@ -261,6 +268,13 @@ def pytest_xdist_make_scheduler(config, log):
         def _assign_work_unit(self, node):
             if not self._ordered:           # the first assignment: the queue is complete, order it once
                 units = sorted(self.workqueue.items(), key=lambda kv: -sum(seconds(_test_id(n)) for n in kv[1]))
+                # the second worker starts on the longest unit of the other kind: the first Blender test of a
+                # run builds the extension and installs it (~10 s behind a lock), a second Blender test
+                # would only wait for it
+                other = next((j for j, (_, ids) in enumerate(units)
+                              if _blender_unit(ids) != _blender_unit(units[0][1])), None)
+                if other is not None:
+                    units.insert(1, units.pop(other))
                 self.workqueue.clear()
                 self.workqueue.update(units)
                 self._ordered = True
