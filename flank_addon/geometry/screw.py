@@ -39,9 +39,16 @@ def screw_motion(points, t, v0, handedness="right"):
     h = hand_sign(handedness)
     p = np.asarray(points, dtype=float)
     t = np.asarray(t, dtype=float)
-    xy = rotate2d(p[..., :2], h * t)
+    angle = h * t
+    c, s = np.cos(angle), np.sin(angle)
+    x, y = p[..., 0], p[..., 1]
+    # the rotation of rotate2d written straight into the result (the planners call this very often on a
+    # few points, where every numpy call counts)
+    rx, ry = c * x - s * y, s * x + c * y
     z = p[..., 2] + v0 * t
-    return np.concatenate([xy, z[..., None]], axis=-1)
+    out = np.empty(np.broadcast(rx, z).shape + (3,))
+    out[..., 0], out[..., 1], out[..., 2] = rx, ry, z
+    return out
 
 
 def screw_to_plane(points, v0, handedness="right"):

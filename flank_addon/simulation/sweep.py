@@ -76,21 +76,41 @@ def sd_sphere_frustum(q, c1, r1, c2, r2):
     q = np.asarray(q, float)
     c1, c2 = _rows(c1, q, True), _rows(c2, q, True)
     r1, r2 = _rows(r1, q, False), _rows(r2, q, False)
+    axis, L, contained, Ls, nx, ny = _frustum_frame(c1, r1, c2, r2)
+    h, rho = _axial_h_rho(q, c1, axis, Ls)
+    cap1, cap2, d = _frustum_pieces(h, rho, r1, r2, L, nx, ny)
+    return np.where(contained, np.where(r2 >= r1, cap2, cap1), d)
+
+
+def _frustum_frame(c1, r1, c2, r2):
+    """The q-independent quantities of :func:`sd_sphere_frustum`: axis c2 - c1, its length L, whether one
+    sphere contains the other, the divisor Ls (1 where contained) and the unit normal (nx, ny) of the
+    tangent line in the (h, rho) half-plane."""
     axis = c2 - c1
     L = np.sqrt(np.einsum("...i,...i->...", axis, axis))
     contained = L <= np.abs(r2 - r1)           # one sphere contains the other
     Ls = np.where(contained, 1.0, L)
-    w = q - c1
-    h = np.einsum("...i,...i->...", w, axis) / Ls
-    rho = np.sqrt(np.maximum(np.einsum("...i,...i->...", w, w) - h * h, 0.0))
     nx = np.where(contained, 0.0, (r1 - r2) / Ls)
     ny = np.sqrt(1.0 - nx * nx)
+    return axis, L, contained, Ls, nx, ny
+
+
+def _axial_h_rho(q, c, axis, Ls):
+    """Axial coordinate h (along ``axis`` / Ls from c) and distance rho from the axis of points q."""
+    w = q - c
+    h = np.einsum("...i,...i->...", w, axis) / Ls
+    rho = np.sqrt(np.maximum(np.einsum("...i,...i->...", w, w) - h * h, 0.0))
+    return h, rho
+
+
+def _frustum_pieces(h, rho, r1, r2, L, nx, ny):
+    """Distances to the two spherical caps and the signed distance of the frustum (not contained case)."""
     tau = (h - r1 * nx) * ny - (rho - r1 * ny) * nx     # position along the tangent line from T1
     line = h * nx + rho * ny - r1
     cap1 = np.hypot(h, rho) - r1
     cap2 = np.hypot(h - L, rho) - r2
     d = np.where(tau < 0, cap1, np.where(tau > L * ny, cap2, line))
-    return np.where(contained, np.where(r2 >= r1, cap2, cap1), d)
+    return cap1, cap2, d
 
 
 def sd_cylinder(q, s0, s1, radius):
@@ -100,9 +120,11 @@ def sd_cylinder(q, s0, s1, radius):
     s0, s1, radius = _rows(s0, q, True), _rows(s1, q, True), _rows(radius, q, False)
     axis = s1 - s0
     L = np.sqrt(np.einsum("...i,...i->...", axis, axis))
-    w = q - s0
-    h = np.einsum("...i,...i->...", w, axis) / L
-    rho = np.sqrt(np.maximum(np.einsum("...i,...i->...", w, w) - h * h, 0.0))
+    return _sd_cylinder_axial(*_axial_h_rho(q, s0, axis, L), L, radius)
+
+
+def _sd_cylinder_axial(h, rho, L, radius):
+    """:func:`sd_cylinder` from the axial coordinates (h, rho) of the points."""
     dx = rho - radius
     dy = np.maximum(-h, h - L)
     return np.minimum(np.maximum(dx, dy), 0.0) + np.hypot(np.maximum(dx, 0.0), np.maximum(dy, 0.0))
@@ -127,7 +149,17 @@ class FrustumPart:
     sd_rows = staticmethod(sd_sphere_frustum)
 
     def signed_distance(self, q):
-        return sd_sphere_frustum(q, self.c1, self.r1, self.c2, self.r2)
+        """:func:`sd_sphere_frustum` of this part (the same numbers), its q-independent terms made once: the
+        sweep evaluates a part many times on a few points each, where numpy's per-call cost dominates."""
+        frame = self.__dict__.get("_frame")
+        if frame is None:
+            axis, L, contained, Ls, nx, ny = _frustum_frame(self.c1, self.r1, self.c2, self.r2)
+            frame = self._frame = (axis, float(L), bool(contained), float(Ls), float(nx), float(ny))
+        axis, L, contained, Ls, nx, ny = frame
+        h, rho = _axial_h_rho(np.asarray(q, float), self.c1, axis, Ls)
+        if contained:
+            return np.hypot(h - L, rho) - self.r2 if self.r2 >= self.r1 else np.hypot(h, rho) - self.r1
+        return _frustum_pieces(h, rho, self.r1, self.r2, L, nx, ny)[2]
 
 
 class CylinderPart:
@@ -143,7 +175,13 @@ class CylinderPart:
     sd_rows = staticmethod(sd_cylinder)
 
     def signed_distance(self, q):
-        return sd_cylinder(q, self.s0, self.s1, self.radius)
+        """:func:`sd_cylinder` of this part (the same numbers), its axis and length made once."""
+        frame = self.__dict__.get("_frame")
+        if frame is None:
+            axis = self.s1 - self.s0
+            frame = self._frame = (axis, float(np.sqrt(np.einsum("...i,...i->...", axis, axis))))
+        axis, L = frame
+        return _sd_cylinder_axial(*_axial_h_rho(np.asarray(q, float), self.s0, axis, L), L, self.radius)
 
     def axis_frame(self):
         return self.s0, _unit(self.s1 - self.s0, "shank axis")[0]
