@@ -28,9 +28,14 @@ Without xdist (plain ``pytest path``, the compatibility venvs) none of this is a
 import json
 import os
 
-import pytest
+# One BLAS thread per process: the test workers (and the Blender scenarios they start) already keep every core
+# busy, and OpenBLAS threads on top of them only compete and spin (in a 2-worker run on 2 cores they cost ~15 %
+# more CPU, mostly system time).  Set before numpy is first imported; the workers and subprocesses inherit it.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-from flank_addon.geometry.rotors import builtin_by_name
+import pytest  # noqa: E402
+
+from flank_addon.geometry.rotors import builtin_by_name  # noqa: E402
 
 # ---------------------------------------------------------------------------------------------- fixtures
 
