@@ -148,6 +148,20 @@ class FrustumPart:
     stack_fields = ("c1", "r1", "c2", "r2")
     sd_rows = staticmethod(sd_sphere_frustum)
 
+    @staticmethod
+    def prepare_rows(c1, r1, c2, r2):
+        """Per-row parameters (c (N, 3), r (N,)) with the q-independent terms of :func:`sd_sphere_frustum`."""
+        return (c1, r1, r2) + _frustum_frame(c1, r1, c2, r2)
+
+    @staticmethod
+    def sd_prepared(q, prepared):
+        """:func:`sd_sphere_frustum` of points q (N, 3) or (N, n, 3) by :meth:`prepare_rows` (the same numbers)."""
+        if q.ndim == 3:
+            prepared = tuple(v[:, None] for v in prepared)
+        c1, r1, r2, axis, L, contained, Ls, nx, ny = prepared
+        cap1, cap2, d = _frustum_pieces(*_axial_h_rho(q, c1, axis, Ls), r1, r2, L, nx, ny)
+        return np.where(contained, np.where(r2 >= r1, cap2, cap1), d)
+
     def signed_distance(self, q):
         """:func:`sd_sphere_frustum` of this part (the same numbers), its q-independent terms made once: the
         sweep evaluates a part many times on a few points each, where numpy's per-call cost dominates."""
@@ -173,6 +187,20 @@ class CylinderPart:
 
     stack_fields = ("s0", "s1", "radius")
     sd_rows = staticmethod(sd_cylinder)
+
+    @staticmethod
+    def prepare_rows(s0, s1, radius):
+        """Per-row parameters with the q-independent terms of :func:`sd_cylinder`."""
+        axis = s1 - s0
+        return s0, radius, axis, np.sqrt(np.einsum("...i,...i->...", axis, axis))
+
+    @staticmethod
+    def sd_prepared(q, prepared):
+        """:func:`sd_cylinder` of points q (N, 3) or (N, n, 3) by :meth:`prepare_rows` (the same numbers)."""
+        if q.ndim == 3:
+            prepared = tuple(v[:, None] for v in prepared)
+        s0, radius, axis, L = prepared
+        return _sd_cylinder_axial(*_axial_h_rho(q, s0, axis, L), L, radius)
 
     def signed_distance(self, q):
         """:func:`sd_cylinder` of this part (the same numbers), its axis and length made once."""
@@ -653,9 +681,19 @@ class _StackedRows:
                             handedness, margin)
 
     def signed_distance(self, q):
+        # a search calls this ~20 times on the same rows: their parameters are gathered (and, where the part
+        # can, its q-independent terms computed) once
+        parts = self.__dict__.get("_parts")
+        if parts is None:
+            parts = self._parts = []
+            for kind, fields in zip(self.stack.kinds, self.stack.fields):
+                rows = tuple(fields[f][self.which] for f in kind.stack_fields)
+                parts.append((kind.sd_prepared, kind.prepare_rows(*rows)) if hasattr(kind, "prepare_rows")
+                             else (lambda q, rows, kind=kind: kind.sd_rows(q, *rows), rows))
+        q = np.asarray(q, float)
         d = None
-        for kind, fields in zip(self.stack.kinds, self.stack.fields):
-            dj = kind.sd_rows(q, *(fields[f][self.which] for f in kind.stack_fields))
+        for sd, prepared in parts:
+            dj = sd(q, prepared)
             d = dj if d is None else np.minimum(d, dj)
         return d
 
