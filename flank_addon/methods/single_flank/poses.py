@@ -566,7 +566,11 @@ class PoseEvaluator:
         if c is None:
             return None
         pts, J, _, _ = axis_and_jacobian(X, c.s, self.L)
-        d, g, u, _, _ = self._feet(pts, ("clear", key), idx, feet=c.feet)
+        return self._clearance_from_feet(self._feet(pts, ("clear", key), idx, feet=c.feet), J)
+
+    def _clearance_from_feet(self, feet, J):
+        c = self.clearance
+        d, g, u, _, _ = feet
         on_target = c.on_target(u)
         val = d - c.r[None, :] - np.where(on_target, c.margin_target[None, :], c.margin[None, :])
         return val, np.einsum("Nni,Nnij->Nnj", g, J)
@@ -577,6 +581,13 @@ class PoseEvaluator:
         from ``warm`` = (u, tau) arrays (k, n) when given.  The feet's (u, tau) are kept in
         ``last_feet`` for warm starts of the caller's own.  ``feet``: another foot-point solver than the
         flank's (the whole rotor of :class:`RotorClearance`)."""
+        solver, flat, w, finish = self._feet_query(pts, key, idx, warm, feet)
+        return finish(solver(flat, warm=w))
+
+    def _feet_query(self, pts, key, idx=None, warm=None, feet=None):
+        """:meth:`_feet` in two halves, so that several queries share one :meth:`FlankFeet.many` run:
+        (solver, flat points, warm start, finish), where ``finish(feet of the flat points)`` keeps the warm
+        starts and returns what :meth:`_feet` returns."""
         feet = self.feet if feet is None else feet
         k, n = pts.shape[:2]
         idx = np.arange(k) if idx is None else np.asarray(idx)
@@ -587,21 +598,24 @@ class PoseEvaluator:
             w = (np.asarray(warm[0], float).ravel(), np.asarray(warm[1], float).ravel())
         elif len(store) and all(int(i) in store for i in idx):
             w = (np.concatenate([store[int(i)][0] for i in idx]), np.concatenate([store[int(i)][1] for i in idx]))
-        ft = feet(flat, warm=w)
-        uu, tt = ft.u.reshape(k, n), ft.tau.reshape(k, n)
-        self.last_feet = (uu, tt)
-        if key is not None:
-            for j, i in enumerate(idx):
-                store[int(i)] = (uu[j], tt[j])
-        self.calls += 1
-        self.points_solved += len(flat)
-        lo, hi = feet.lo + feet.eps_u, feet.hi - feet.eps_u
-        in_range = (ft.u > lo) & (ft.u < hi)
-        # in range but not interior = the point is inside the material over the open flank
-        sign = np.where(in_range & ~ft.interior, -1.0, 1.0)
-        sh = pts.shape[:-1]
-        return (sign * ft.distance).reshape(sh), (sign[:, None] * ft.direction).reshape(sh + (3,)), \
-            ft.u.reshape(sh), ft.t.reshape(sh), ft.interior.reshape(sh)
+
+        def finish(ft):
+            uu, tt = ft.u.reshape(k, n), ft.tau.reshape(k, n)
+            self.last_feet = (uu, tt)
+            if key is not None:
+                for j, i in enumerate(idx):
+                    store[int(i)] = (uu[j], tt[j])
+            self.calls += 1
+            self.points_solved += len(flat)
+            lo, hi = feet.lo + feet.eps_u, feet.hi - feet.eps_u
+            in_range = (ft.u > lo) & (ft.u < hi)
+            # in range but not interior = the point is inside the material over the open flank
+            sign = np.where(in_range & ~ft.interior, -1.0, 1.0)
+            sh = pts.shape[:-1]
+            return (sign * ft.distance).reshape(sh), (sign[:, None] * ft.direction).reshape(sh + (3,)), \
+                ft.u.reshape(sh), ft.t.reshape(sh), ft.interior.reshape(sh)
+
+        return feet, flat, w, finish
 
     def distances(self, X, s=None, key="d", jac=True, idx=None, warm=None):
         """e = d - r (N, n), de/dx (N, n, 4) and the feet data for parameter rows X (N, 4) (of poses
@@ -610,10 +624,27 @@ class PoseEvaluator:
         signed distance at the axis points (de/ds = L g . a - (r2S - r1S)) and (u, tau) for warm starts."""
         s = self.s if s is None else np.asarray(s, float)
         pts, J, _, _ = axis_and_jacobian(X, s, self.L)
-        d, g, u, t, inter = self._feet(pts, key, idx, warm)
+        return self._distances_from_feet(s, pts, J, self._feet(pts, key, idx, warm), jac)
+
+    def _distances_from_feet(self, s, pts, J, feet, jac=True):
+        d, g, u, t, inter = feet
         e = d - (self.tool.radius(s) if s.ndim == 2 else self.tool.radius(s)[None, :])
         de = np.einsum("Nni,Nnij->Nnj", g, J) if jac else None
         return e, de, dict(points=pts, d=d, u=u, t=t, interior=inter, g=g, warm=self.last_feet)
+
+    def distances_and_clearance(self, X, s, key, idx=None, clear_key=None):
+        """``(distances(X, s, key, idx=idx), clearance_values(X, clear_key, idx))`` with the foot points of both
+        solved in one :meth:`FlankFeet.many` run (the same numbers: every point iterates on its own; the
+        optimisation asks for both at every step, and half the foot-point calls halve numpy's per-call cost)."""
+        c = self.clearance
+        s = np.asarray(s, float)
+        pts, J, _, _ = axis_and_jacobian(X, s, self.L)
+        cpts, cJ, _, _ = axis_and_jacobian(X, c.s, self.L)
+        qd = self._feet_query(pts, key, idx)
+        qc = self._feet_query(cpts, ("clear", key if clear_key is None else clear_key), idx, feet=c.feet)
+        fd, fc = FlankFeet.many([qd[0], qc[0]], [qd[1], qc[1]], [qd[2], qc[2]])
+        dist = self._distances_from_feet(s, pts, J, qd[3](fd))
+        return dist, self._clearance_from_feet(qc[3](fc), cJ)
 
     def characteristic(self, X, branch, s=None):
         """Characteristic points c (N, n, 3) of the cones at X under the screw (Eqs. (11)-(14)),
@@ -1144,13 +1175,17 @@ def optimize_poses(ev, X0, objective="phi1", mode="weighted", w=W_OVERCUT, max_i
             S, mask = samples(ids)
         else:
             S, mask = S
+        # the pinned contact sphere rides along as one more column of the same foot-point call, and the whole
+        # rotor's clearance rows are solved with them
+        S_d = np.c_[S, a_s[ids]] if pin else S
+        if nc:
+            (e, de, _), (cc, dcc) = ev.distances_and_clearance(Xb, S_d, key=("opt", S_d.shape[1]), idx=ids,
+                                                               clear_key=("opt", S.shape[1]))
+        else:
+            e, de, _ = ev.distances(Xb, S_d, key=("opt", S_d.shape[1]), idx=ids)
         if pin:
-            # the pinned contact sphere rides along as one more column of the same foot-point call
-            e, de, _ = ev.distances(Xb, np.c_[S, a_s[ids]], key=("opt", S.shape[1] + 1), idx=ids)
             pin_e, pin_de = e[:, -1], de[:, -1]
             e, de = e[:, :-1], de[:, :-1]
-        else:
-            e, de, _ = ev.distances(Xb, S, key=("opt", S.shape[1]), idx=ids)
         if objective == "phi3":
             f, df, _ = ev.char_distances(Xb, branch[ids], S, key=("opt-f", S.shape[1]), idx=ids)
             real = np.isfinite(f)
@@ -1165,7 +1200,6 @@ def optimize_poses(ev, X0, objective="phi1", mode="weighted", w=W_OVERCUT, max_i
             grad = grad + PIN_WEIGHT * pin_de
         if nc:
             # the whole rotor's clearance rows first (fixed count; the padded samples stay last)
-            cc, dcc = ev.clearance_values(Xb, key=("opt", S.shape[1]), idx=ids)
             e, de = np.concatenate([cc, e], axis=1), np.concatenate([dcc, de], axis=1)
             mask = np.concatenate([np.ones(cc.shape, bool), mask], axis=1)
         return val, grad, e, de, mask
