@@ -841,9 +841,9 @@ def helical_distance(tool, points, v0, handedness="right", step=None, iters=None
     # section would need ~20 more evaluations for the same accuracy
     X = np.stack([a, c, d, b], axis=1)
     F = np.stack([fa, fc, fd, fb], axis=1)
+    r = np.arange(len(X))
     for _ in range(polish):
         j = np.clip(np.argmin(F, axis=1), 1, X.shape[1] - 2)
-        r = np.arange(len(X))
         x0, x1, x2 = X[r, j - 1], X[r, j], X[r, j + 1]
         f0, f1, f2 = F[r, j - 1], F[r, j], F[r, j + 1]
         num = (x1 - x0) ** 2 * (f1 - f2) - (x1 - x2) ** 2 * (f1 - f0)
@@ -857,9 +857,9 @@ def helical_distance(tool, points, v0, handedness="right", step=None, iters=None
         X = np.concatenate([X, u[:, None]], axis=1)
         F = np.concatenate([F, fu[:, None]], axis=1)
         order = np.argsort(X, axis=1)
-        X, F = np.take_along_axis(X, order, 1), np.take_along_axis(F, order, 1)
+        X, F = X[r[:, None], order], F[r[:, None], order]
     jm = np.argmin(F, axis=1)
-    fm, tm = F[np.arange(len(X)), jm], X[np.arange(len(X)), jm]
+    fm, tm = F[r, jm], X[r, jm]
     better = fm < best
     out_d[idx] = np.minimum(np.where(better, fm, best), cutoff[idx])
     out_t[idx] = np.where(better, tm, best_t)
