@@ -19,7 +19,7 @@ def rs274():
         path = shutil.which("rs274")
         if path is None:
             pytest.fail("LinuxCNC's interpreter rs274 is missing and could not be installed "
-                        f"(apt-get install -y linuxcnc-uspace): {why}")
+                        f"(apt-get install -y --no-install-recommends linuxcnc-uspace): {why}")
     return path
 
 
