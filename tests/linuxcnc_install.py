@@ -5,10 +5,10 @@ On a fresh machine the install (apt-get update + the package) starts in the back
 begins (:func:`start_background_install`, called by tests/conftest.py), so it overlaps with the CPU-bound tests
 instead of holding a worker; the ``rs274`` fixture then waits for it (:func:`wait_or_install`) and installs in
 the foreground only where no background install ran.  Only the package's dependencies are installed, not its
-recommendations: with them apt installs about 400 packages instead of 92 (Qt, OpenCV, the documentation,
-even a real-time kernel whose initramfs is built on the spot) and two minutes of unpacking that competed with the tests for the CPU, while
-``rs274`` links only libraries of the dependencies.  The background install also runs at a lower priority
-(``nice``)."""
+recommendations: with them apt installs about 400 packages instead of 92 (Qt, OpenCV, the documentation, even
+a real-time kernel whose initramfs is built on the spot), two minutes of unpacking that competed with the tests
+for the CPU, while ``rs274`` links only libraries of the dependencies.  The background install also runs at a
+lower priority (``nice``)."""
 import os
 import shutil
 import subprocess
