@@ -20,8 +20,10 @@ Distribution (``make test`` runs ``pytest -n auto --dist loadgroup``; the schedu
   the durations recorded by earlier runs in .pytest_cache (``flank/durations``), else from
   ``EXPECTED_SECONDS`` below (a clean clone), else ``DEFAULT_SECONDS``; only the second unit is the longest of
   the other kind (Blender or core), so that the second worker does not wait while the first builds and
-  installs the extension.  Each worker holds the test it runs and at most one more, so a long unit never
-  waits behind another worker's queue.
+  installs the extension; and while LinuxCNC's interpreter installs in the background
+  (tests/linuxcnc_install.py), the machining units start only after about ``INSTALL_HEAD_START`` seconds of
+  other work.  Each worker holds the test it runs and at most one more, so a long unit never waits behind
+  another worker's queue.
 
 Without xdist (plain ``pytest path``, the compatibility venvs) none of this is active.
 """
@@ -244,6 +246,31 @@ def _blender_unit(nodeids):
     return any(n.startswith("tests/blender/") for n in nodeids)
 
 
+# expected seconds of work (both workers) that run before the machining units while LinuxCNC installs
+INSTALL_HEAD_START = 150.0
+
+
+def _after_the_install(units, unit_seconds):
+    """The machining units (they read posted programs back with LinuxCNC's ``rs274``) moved behind about
+    INSTALL_HEAD_START seconds of other work while its background install is going, so that no worker sleeps
+    waiting for it (on a fresh machine the install takes about half a minute; the longest-first order would
+    start them within seconds)."""
+    from linuxcnc_install import background_pending
+
+    if not background_pending():
+        return units
+    is_machining = [any(n.startswith("tests/machining/") for n in ids) for _, ids in units]
+    machining = [u for u, m in zip(units, is_machining) if m]
+    rest = [u for u, m in zip(units, is_machining) if not m]
+    at, done = len(rest), 0.0
+    for j, u in enumerate(rest):
+        if done >= INSTALL_HEAD_START:
+            at = j
+            break
+        done += unit_seconds(u[1])
+    return rest[:at] + machining + rest[at:]
+
+
 @pytest.hookimpl(optionalhook=True)
 def pytest_xdist_make_scheduler(config, log):
     """``--dist loadgroup``: the work units of :func:`_groups`, longest first, each worker holding at most one
@@ -280,6 +307,7 @@ def pytest_xdist_make_scheduler(config, log):
                               if _blender_unit(ids) != _blender_unit(units[0][1])), None)
                 if other is not None:
                     units.insert(1, units.pop(other))
+                units = _after_the_install(units, lambda ids: sum(seconds(_test_id(n)) for n in ids))
                 self.workqueue.clear()
                 self.workqueue.update(units)
                 self._ordered = True

@@ -57,6 +57,12 @@ def start_background_install(tmp_dir):
     os.environ[STATUS_ENV] = status
 
 
+def background_pending():
+    """Is a background install of this run still going?"""
+    status = os.environ.get(STATUS_ENV)
+    return bool(status) and not os.path.exists(status)
+
+
 def _wait_for_background():
     """Wait for a background install of this run; its log tail if it failed, None if it succeeded or none ran."""
     status = os.environ.get(STATUS_ENV)
