@@ -177,13 +177,18 @@ def _newton_rows(s, u, tau, q0, lo, hi, span, iters=40):
     hi = np.broadcast_to(np.asarray(hi, float), (n,))
     span = np.broadcast_to(np.asarray(span, float), (n,))
     f = s._f_and_derivs(u, tau, q0, order=0)
+    # the line search accepts within roundoff of f (converged rows would backtrack forever otherwise)
+    f_slack = 1e-14 * (np.einsum("ij,ij->i", q0, q0) + s.outer_radius ** 2)
     active = np.ones(n, bool)
     for _ in range(iters):
         ia = np.flatnonzero(active)
         if not len(ia):
             break
-        ua, ta, qa = u[ia], tau[ia], q0[ia]
-        la, ha, sa = lo[ia], hi[ia], span[ia]
+        ua, ta = u[ia], tau[ia]
+        if len(ia) == n:            # every row: the read-only inputs need no copies
+            qa, la, ha, sa, fs = q0, lo, hi, span, f_slack
+        else:
+            qa, la, ha, sa, fs = q0[ia], lo[ia], hi[ia], span[ia], f_slack[ia]
         fa, gu, gt, huu, hut, htt = s._f_and_derivs(ua, ta, qa)
         du, dt, scale = shifted_newton_step(gu, gt, huu, hut, htt)
         # on a bound with the gradient pointing out of the box: move in tau only
@@ -194,12 +199,16 @@ def _newton_rows(s, u, tau, q0, lo, hi, span, iters=40):
         norm = np.maximum(np.abs(du) / (0.25 * sa), np.abs(dt) / (np.pi / 2))
         k = 1.0 / np.maximum(norm, 1.0)
         du, dt = du * k, dt * k
-        f_tol = fa + 1e-14 * (np.einsum("ij,ij->i", qa, qa) + s.outer_radius ** 2)
-        alpha = np.ones_like(du)
-        accepted = np.zeros(len(du), bool)
-        f_new = fa.copy()
-        nu, nt = ua.copy(), ta.copy()
-        for _ls in range(14):
+        f_tol = fa + fs
+        # the full step first, for every row at once (most rows take it)
+        cu = np.clip(ua + du, la, ha)
+        ct = ta + dt
+        cf = s._f_and_derivs(cu, ct, qa, order=0)
+        accepted = cf <= f_tol
+        f_new = np.where(accepted, cf, fa)
+        nu, nt = np.where(accepted, cu, ua), np.where(accepted, ct, ta)
+        alpha = np.where(accepted, 1.0, 0.5)
+        for _ls in range(13):
             todo = np.flatnonzero(~accepted)
             if not len(todo):
                 break

@@ -162,6 +162,12 @@ class SplineProfile(Profile):
         # the coefficients per coordinate, contiguous: eval_xy / eval_all_xy read them without (N, 2) arrays
         self._cx = [np.ascontiguousarray(c[k][:, 0]) for k in range(4)]
         self._cy = [np.ascontiguousarray(c[k][:, 1]) for k in range(4)]
+        # per interval and coordinate: c0, c1, c2, c3 and the derivatives' 3 c0, 2 c1, 6 c0 in one row, so that
+        # eval_all_xy gathers its coefficients in one indexing (the foot-point Newton calls it on a few points
+        # at a time, where every numpy call counts); the products are the ones eval_all_xy would form
+        self._all_xy = np.ascontiguousarray(np.concatenate(
+            [np.stack([ck[0], ck[1], ck[2], ck[3], 3 * ck[0], 2 * ck[1], 6 * ck[0]], axis=1)
+             for ck in (self._cx, self._cy)], axis=1))
 
     def eval(self, u, der=0):
         """Points (der 0) or derivatives (der 1, 2) at parameters u (...): (..., 2); the polynomial of u's
@@ -210,10 +216,11 @@ class SplineProfile(Profile):
     def eval_all_xy(self, u):
         """The components of :meth:`eval_all` (the same numbers): (x, y, x', y', x'', y'')."""
         i, s = self._interval(u, wrap_end=False)
+        g = self._all_xy[i]
         out = []
-        for c in (self._cx, self._cy):
-            c0, c1, c2, c3 = c[0][i], c[1][i], c[2][i], c[3][i]
-            out.append((((c0 * s + c1) * s + c2) * s + c3, (3 * c0 * s + 2 * c1) * s + c2, 6 * c0 * s + 2 * c1))
+        for k in (0, 7):
+            c0, c1, c2, c3, c0_3, c1_2, c0_6 = (g[..., k + j] for j in range(7))
+            out.append((((c0 * s + c1) * s + c2) * s + c3, (c0_3 * s + c1_2) * s + c2, c0_6 * s + c1_2))
         (x, dx, ddx), (y, dy, ddy) = out
         return x, y, dx, dy, ddx, ddy
 
