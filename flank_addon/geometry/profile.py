@@ -208,9 +208,9 @@ class SplineProfile(Profile):
         i, s = self._interval(u)
         s2 = s * s
         s3 = s2 * s
-        cx, cy = self._cx, self._cy
-        x = cx[3][i] + cx[2][i] * s + cx[1][i] * s2 + cx[0][i] * s3
-        y = cy[3][i] + cy[2][i] * s + cy[1][i] * s2 + cy[0][i] * s3
+        g = self._all_xy[i]           # c0..c3 of x in columns 0..3, of y in 7..10 (see __init__)
+        x = g[..., 3] + g[..., 2] * s + g[..., 1] * s2 + g[..., 0] * s3
+        y = g[..., 10] + g[..., 9] * s + g[..., 8] * s2 + g[..., 7] * s3
         return x, y
 
     def eval_all_xy(self, u):
