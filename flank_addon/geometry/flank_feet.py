@@ -90,10 +90,11 @@ class FlankFeet:
         if any(fs.surface is not s for fs in solvers):
             return [FlankFeet.many([fs], [p], [w], k)[0] for fs, p, w in zip(solvers, pts, warms)]
         sizes = np.array([len(p) for p in pts])
-        off = np.r_[0, np.cumsum(sizes)]
+        off = np.concatenate([[0], np.cumsum(sizes)])
         q = np.concatenate(pts)
         q0 = screw_to_plane(q, s.v0, s.hand)
-        Q = np.c_[q0, np.zeros(len(q0))]
+        Q = np.zeros((len(q0), 3))          # the planar points in z = 0, for the seed tables
+        Q[:, :2] = q0
         lo = np.repeat([fs.lo for fs in solvers], sizes)
         hi = np.repeat([fs.hi for fs in solvers], sizes)
         span = np.repeat([fs.hi - fs.lo for fs in solvers], sizes)
