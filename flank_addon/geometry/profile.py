@@ -159,15 +159,12 @@ class SplineProfile(Profile):
         c = self._spline.c
         # the derivatives' coefficients as scipy's PPoly.derivative makes them (falling factorials)
         self._d = [c, c[:-1] * np.array([3.0, 2.0, 1.0])[:, None, None], c[:-2] * np.array([6.0, 2.0])[:, None, None]]
-        # the coefficients per coordinate, contiguous: eval_xy / eval_all_xy read them without (N, 2) arrays
-        self._cx = [np.ascontiguousarray(c[k][:, 0]) for k in range(4)]
-        self._cy = [np.ascontiguousarray(c[k][:, 1]) for k in range(4)]
-        # per interval and coordinate: c0, c1, c2, c3 and the derivatives' 3 c0, 2 c1, 6 c0 in one row, so that
-        # eval_all_xy gathers its coefficients in one indexing (the foot-point Newton calls it on a few points
-        # at a time, where every numpy call counts); the products are the ones eval_all_xy would form
+        # per interval, for x then y: c0, c1, c2, c3 and the derivatives' 3 c0, 2 c1, 6 c0 in one row, so that
+        # eval_xy / eval_all_xy gather their coefficients in one indexing (the foot-point Newton calls them on a
+        # few points at a time, where every numpy call counts); the products are the ones they would form
         self._all_xy = np.ascontiguousarray(np.concatenate(
-            [np.stack([ck[0], ck[1], ck[2], ck[3], 3 * ck[0], 2 * ck[1], 6 * ck[0]], axis=1)
-             for ck in (self._cx, self._cy)], axis=1))
+            [np.stack([c[0][:, j], c[1][:, j], c[2][:, j], c[3][:, j], 3 * c[0][:, j], 2 * c[1][:, j], 6 * c[0][:, j]],
+                      axis=1) for j in (0, 1)], axis=1))
 
     def eval(self, u, der=0):
         """Points (der 0) or derivatives (der 1, 2) at parameters u (...): (..., 2); the polynomial of u's
