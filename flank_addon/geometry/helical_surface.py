@@ -176,7 +176,8 @@ class HelicalSurface:
     def _f_and_derivs_xy(self, u, tau, q0, order=2):
         """:meth:`_f_and_derivs` on coordinate arrays (profiles with ``eval_xy``): the same numbers."""
         h, v0 = self.hand, self.v0
-        c, s = np.cos(h * tau), np.sin(h * tau)
+        ht = h * tau
+        c, s = np.cos(ht), np.sin(ht)
         qx, qy = q0[..., 0], q0[..., 1]
         if order == 0:
             px, py = self.profile.eval_xy(u)
@@ -188,12 +189,14 @@ class HelicalSurface:
         dx, dy = Px - qx, Py - qy
         f = dx * dx + dy * dy + (v0 * tau) ** 2
         P1x, P1y = c * p1x - s * p1y, s * p1x + c * p1y
-        JPx, JPy = h * -Py, h * Px
+        # h * v for the handedness h = +-1 is exact: +-v (the products h * -v of the formula, fewer numpy calls)
+        JPx, JPy = (-Py, Px) if h > 0 else (Py, -Px)
+        JP1x, JP1y = (-P1y, P1x) if h > 0 else (P1y, -P1x)
         gu = 2 * (dx * P1x + dy * P1y)
         gt = 2 * (dx * JPx + dy * JPy) + 2 * v0 ** 2 * tau
         P2x, P2y = c * p2x - s * p2y, s * p2x + c * p2y
         huu = 2 * ((P1x * P1x + P1y * P1y) + (dx * P2x + dy * P2y))
-        hut = 2 * ((JPx * P1x + JPy * P1y) + (dx * (h * -P1y) + dy * (h * P1x)))
+        hut = 2 * ((JPx * P1x + JPy * P1y) + (dx * JP1x + dy * JP1y))
         htt = 2 * ((Px * Px + Py * Py) - (dx * Px + dy * Py)) + 2 * v0 ** 2
         return f, gu, gt, huu, hut, htt
 
