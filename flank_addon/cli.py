@@ -265,17 +265,12 @@ def _load_rotor(args):
         src = args.builtin
         args.rotor_extent = rotor.extent()
     else:
-        from .geometry.flank_feet import flank_u_ranges
-        from .geometry.helical_surface import shared_surface
         from .io.mesh_files import read_mesh
-        from .geometry.profile import SplineProfile
         from .geometry.rotor_analysis import analyze_mesh
 
         verts, faces = read_mesh(args.mesh)
         a = analyze_mesh(verts, faces)
-        prof = SplineProfile(a.profile)
-        surface = shared_surface(prof, a.v0, a.handedness)
-        flanks = flank_u_ranges(prof, [(int(i), int(j)) for i, j in a.flanks])
+        surface, flanks = a.surface, a.flank_ranges()
         to_world = a.to_world
         unit = "mm"
         src = str(args.mesh)
@@ -577,16 +572,11 @@ def _cmd_suggest_tool(args):
     else:
         if args.outer_radius_mm != SUGGEST_DEFAULT_R_MM:
             raise ValueError("--outer-radius-mm applies to --builtin only (a mesh is read in mm)")
-        from .geometry.flank_feet import flank_u_ranges
-        from .geometry.helical_surface import shared_surface
         from .io.mesh_files import read_mesh
-        from .geometry.profile import SplineProfile
         from .geometry.rotor_analysis import analyze_mesh
 
         a = analyze_mesh(*read_mesh(args.mesh))
-        prof = SplineProfile(a.profile)
-        surface = shared_surface(prof, a.v0, a.handedness)
-        flanks = flank_u_ranges(prof, [(int(i), int(j)) for i, j in a.flanks])
+        surface, flanks = a.surface, a.flank_ranges()
         src, unit, r_mm = str(args.mesh), "mm", 1.0
         catalogue = cat.catalogue_tools()
     if not 0 <= args.flank < len(flanks):

@@ -72,17 +72,12 @@ def _generated_rotor(obj):
 
 
 def _analyzed_rotor(obj):
-    from ..flank_addon.geometry.flank_feet import flank_u_ranges
-    from ..flank_addon.geometry.helical_surface import shared_surface
-    from ..flank_addon.geometry.profile import SplineProfile
     from ..flank_addon.geometry.rotor_analysis import NotHelicalError, analyze_mesh
 
     try:
         verts, faces = mesh_world_arrays(obj)
         a = analyze_mesh(verts, faces)
-        prof = SplineProfile(a.profile)
-        surface = shared_surface(prof, a.v0, a.handedness)
-        flanks = flank_u_ranges(prof, [(int(i), int(j)) for i, j in a.flanks])
+        surface, flanks = a.surface, a.flank_ranges()
         to_world = np.asarray(a.to_world, dtype=np.float64)
     except NotHelicalError as ex:
         return "'{}' is not a helical rotor: {}".format(obj.name, ex)

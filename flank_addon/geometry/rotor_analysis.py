@@ -66,6 +66,11 @@ class RotorAnalysis:
         return {"z_range": [float(self.body_z[0]), float(self.body_z[1])],
                 "shafts": [{"z_range": list(s["z_range"]), "radius": s["radius"]} for s in self.shafts]}
 
+    def flank_ranges(self):
+        """The flanks' profile parameter ranges (u_start, u_end) on :attr:`surface`'s profile."""
+        from .flank_feet import flank_u_ranges
+        return flank_u_ranges(self.surface.profile, [(int(i), int(j)) for i, j in self.flanks])
+
     def to_dict(self):
         return {
             "axis_point": self.axis_point.tolist(),
@@ -440,7 +445,7 @@ def _to_npz(a, path):
 def _from_npz(path):
     import json
 
-    from .helical_surface import HelicalSurface
+    from .helical_surface import shared_surface
 
     with np.load(path) as z:
         meta = json.loads(str(z["meta"]))
@@ -451,7 +456,7 @@ def _from_npz(path):
                           flanks=meta["flanks"], outer_radius=meta["outer_radius"], lobes=meta["lobes"],
                           helical_area_fraction=meta["helical_area_fraction"], body_z=tuple(meta["body_z"]),
                           mesh_repairs=meta["mesh_repairs"], shafts=meta["shafts"])
-    a.surface = HelicalSurface(SplineProfile(prof), a.v0, a.handedness)
+    a.surface = shared_surface(SplineProfile(prof), a.v0, a.handedness)
     return a
 
 
@@ -659,8 +664,9 @@ def _analyze_mesh(verts, faces, n_profile, threshold):
     final = SplineProfile(prof)
     bz = body_extent(final, va, v0, hand, (0.0, z1 - z0), max(50.0 * residual, 2e-4) * outer)
     shafts = shaft_cylinders(va, bz[0], bz[1], 1e-6 * outer)
-    from .helical_surface import HelicalSurface
-    surface = HelicalSurface(final, v0, hand)
+    # shared by equal rotors (the CLI and the operators plan on this surface; a report of the plan reuses it)
+    from .helical_surface import shared_surface
+    surface = shared_surface(final, v0, hand)
     return RotorAnalysis(axis_point=origin, axis_direction=d, v0=v0, handedness=hand_name(hand),
                          residual=residual, threshold=threshold, tangency_residual=tangency,
                          to_world=T, profile=prof, flanks=flanks,
