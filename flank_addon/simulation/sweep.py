@@ -76,9 +76,12 @@ def sd_sphere_frustum(q, c1, r1, c2, r2):
     q = np.asarray(q, float)
     c1, c2 = _rows(c1, q, True), _rows(c2, q, True)
     r1, r2 = _rows(r1, q, False), _rows(r2, q, False)
-    axis, L, contained, Ls, nx, ny = _frustum_frame(c1, r1, c2, r2)
-    h, rho = _axial_h_rho(q, c1, axis, Ls)
-    cap1, cap2, d = _frustum_pieces(h, rho, r1, r2, L, nx, ny)
+    return _sd_frustum_framed(q, c1, r1, r2, *_frustum_frame(c1, r1, c2, r2))
+
+
+def _sd_frustum_framed(q, c1, r1, r2, axis, L, contained, Ls, nx, ny):
+    """:func:`sd_sphere_frustum` from the q-independent terms of :func:`_frustum_frame`."""
+    cap1, cap2, d = _frustum_pieces(*_axial_h_rho(q, c1, axis, Ls), r1, r2, L, nx, ny)
     return np.where(contained, np.where(r2 >= r1, cap2, cap1), d)
 
 
@@ -120,11 +123,12 @@ def sd_cylinder(q, s0, s1, radius):
     s0, s1, radius = _rows(s0, q, True), _rows(s1, q, True), _rows(radius, q, False)
     axis = s1 - s0
     L = np.sqrt(np.einsum("...i,...i->...", axis, axis))
-    return _sd_cylinder_axial(*_axial_h_rho(q, s0, axis, L), L, radius)
+    return _sd_cylinder_framed(q, s0, radius, axis, L)
 
 
-def _sd_cylinder_axial(h, rho, L, radius):
-    """:func:`sd_cylinder` from the axial coordinates (h, rho) of the points."""
+def _sd_cylinder_framed(q, s0, radius, axis, L):
+    """:func:`sd_cylinder` from its q-independent terms: the axis s1 - s0 and its length L."""
+    h, rho = _axial_h_rho(q, s0, axis, L)
     dx = rho - radius
     dy = np.maximum(-h, h - L)
     return np.minimum(np.maximum(dx, dy), 0.0) + np.hypot(np.maximum(dx, 0.0), np.maximum(dy, 0.0))
@@ -158,9 +162,7 @@ class FrustumPart:
         """:func:`sd_sphere_frustum` of points q (N, 3) or (N, n, 3) by :meth:`prepare_rows` (the same numbers)."""
         if q.ndim == 3:
             prepared = tuple(v[:, None] for v in prepared)
-        c1, r1, r2, axis, L, contained, Ls, nx, ny = prepared
-        cap1, cap2, d = _frustum_pieces(*_axial_h_rho(q, c1, axis, Ls), r1, r2, L, nx, ny)
-        return np.where(contained, np.where(r2 >= r1, cap2, cap1), d)
+        return _sd_frustum_framed(q, *prepared)
 
     def signed_distance(self, q):
         """:func:`sd_sphere_frustum` of this part (the same numbers), its q-independent terms made once: the
@@ -199,17 +201,14 @@ class CylinderPart:
         """:func:`sd_cylinder` of points q (N, 3) or (N, n, 3) by :meth:`prepare_rows` (the same numbers)."""
         if q.ndim == 3:
             prepared = tuple(v[:, None] for v in prepared)
-        s0, radius, axis, L = prepared
-        return _sd_cylinder_axial(*_axial_h_rho(q, s0, axis, L), L, radius)
+        return _sd_cylinder_framed(q, *prepared)
 
     def signed_distance(self, q):
         """:func:`sd_cylinder` of this part (the same numbers), its axis and length made once."""
         frame = self.__dict__.get("_frame")
         if frame is None:
-            axis = self.s1 - self.s0
-            frame = self._frame = (axis, float(np.sqrt(np.einsum("...i,...i->...", axis, axis))))
-        axis, L = frame
-        return _sd_cylinder_axial(*_axial_h_rho(np.asarray(q, float), self.s0, axis, L), L, self.radius)
+            frame = self._frame = self.prepare_rows(self.s0, self.s1, self.radius)
+        return _sd_cylinder_framed(np.asarray(q, float), *frame)
 
     def axis_frame(self):
         return self.s0, _unit(self.s1 - self.s0, "shank axis")[0]
