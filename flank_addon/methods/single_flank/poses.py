@@ -559,16 +559,9 @@ class PoseEvaluator:
         """Rows of the clearance constraints (:class:`RotorClearance`) per pose (0 without them)."""
         return 0 if self.clearance is None else len(self.clearance.s)
 
-    def clearance_values(self, X, key="clear", idx=None):
-        """Clearance constraints (N, m) >= 0 and their Jacobian (N, m, 4) of parameter rows X
-        (:class:`RotorClearance`); None without a clearance model."""
-        c = self.clearance
-        if c is None:
-            return None
-        pts, J, _, _ = axis_and_jacobian(X, c.s, self.L)
-        return self._clearance_from_feet(self._feet(pts, ("clear", key), idx, feet=c.feet), J)
-
     def _clearance_from_feet(self, feet, J):
+        """Clearance constraints (N, m) >= 0 of :class:`RotorClearance` and their Jacobian (N, m, 4) from the
+        feet of its axis samples (:meth:`_feet`) and the samples' Jacobian J."""
         c = self.clearance
         d, g, u, _, _ = feet
         on_target = c.on_target(u)
@@ -633,9 +626,10 @@ class PoseEvaluator:
         return e, de, dict(points=pts, d=d, u=u, t=t, interior=inter, g=g, warm=self.last_feet)
 
     def distances_and_clearance(self, X, s, key, idx=None, clear_key=None):
-        """``(distances(X, s, key, idx=idx), clearance_values(X, clear_key, idx))`` with the foot points of both
-        solved in one :meth:`FlankFeet.many` run (the same numbers: every point iterates on its own).  The
-        optimisation asks for both at every step; one run instead of two halves numpy's per-call overhead."""
+        """``distances(X, s, key, idx=idx)`` and the clearance constraints (N, m) >= 0 of :class:`RotorClearance`
+        with their Jacobian (N, m, 4) (warm starts under ``clear_key``), the foot points of both solved in one
+        :meth:`FlankFeet.many` run (every point iterates on its own).  The optimisation asks for both at every
+        step; one run instead of two halves numpy's per-call overhead."""
         c = self.clearance
         s = np.asarray(s, float)
         pts, J, _, _ = axis_and_jacobian(X, s, self.L)
