@@ -299,7 +299,10 @@ def pytest_xdist_make_scheduler(config, log):
 
         def _assign_work_unit(self, node):
             if not self._ordered:           # the first assignment: the queue is complete, order it once
-                units = sorted(self.workqueue.items(), key=lambda kv: -sum(seconds(_test_id(n)) for n in kv[1]))
+                def unit_seconds(ids):
+                    return sum(seconds(_test_id(n)) for n in ids)
+
+                units = sorted(self.workqueue.items(), key=lambda kv: -unit_seconds(kv[1]))
                 # the second worker starts on the longest unit of the other kind: the first Blender test of a
                 # run builds the extension and installs it (~10 s behind a lock), a second Blender test
                 # would only wait for it
@@ -307,7 +310,7 @@ def pytest_xdist_make_scheduler(config, log):
                               if _blender_unit(ids) != _blender_unit(units[0][1])), None)
                 if other is not None:
                     units.insert(1, units.pop(other))
-                units = _after_the_install(units, lambda ids: sum(seconds(_test_id(n)) for n in ids))
+                units = _after_the_install(units, unit_seconds)
                 self.workqueue.clear()
                 self.workqueue.update(units)
                 self._ordered = True
