@@ -225,6 +225,13 @@ class _DurationRecorder:
 def pytest_configure(config):
     if not hasattr(config, "workerinput"):      # not an xdist worker: the reports of every test arrive here
         config.pluginmanager.register(_DurationRecorder(config), "flank-duration-recorder")
+        # byte-compile the planner once: the workers and the command-line tests' subprocesses then load the
+        # cached bytecode even where the environment forbids writing it (PYTHONDONTWRITEBYTECODE), instead
+        # of compiling the modules they import again in every process
+        import compileall
+        from pathlib import Path
+
+        compileall.compile_dir(str(Path(__file__).resolve().parents[1] / "flank_addon"), quiet=1)
         if getattr(config.option, "numprocesses", None):
             # a parallel run on a fresh machine: LinuxCNC's interpreter installs while the other tests run
             import tempfile
