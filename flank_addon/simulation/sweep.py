@@ -805,9 +805,24 @@ def helical_distance(tool, points, v0, handedness="right", step=None, iters=None
     else:
         D = tool.signed_distance(Q)
     k = np.argmin(D, axis=1)
+    best_t, best = T[rows, k], D[rows, k]
+    # a time between two samples puts the point within half the arc between them (speed * dt / 2) of a
+    # sample, and D is 1-Lipschitz: rows whose least sample lies that far above the cutoff can only answer
+    # the cutoff, so they skip the search (their t* stays at the least sample)
+    arc = speed * (t_hi - t_lo) / (n - 1)
+    settled = best - 0.5 * arc * (1.0 + 1e-9) - 1e-12 * (1.0 + np.abs(best)) >= cutoff[idx]
+    if settled.any():
+        out_d[idx[settled]] = cutoff[idx[settled]]
+        out_t[idx[settled]] = best_t[settled]
+        keep = np.flatnonzero(~settled)
+        if not len(keep):
+            return out_d, out_t
+        idx, x, T, D, k, best_t, best, speed = (idx[keep], x[keep], T[keep], D[keep], k[keep], best_t[keep],
+                                                 best[keep], speed[keep])
+        tool = tool.rows(keep)
+        rows = np.arange(len(x))
     a = T[rows, np.maximum(k - 1, 0)]
     b = T[rows, np.minimum(k + 1, n - 1)]
-    best_t, best = T[rows, k], D[rows, k]
     ft = tool.tracker(x, v0, handedness) if hasattr(tool, "tracker") else None
 
     def f(t):
