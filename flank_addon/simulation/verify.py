@@ -57,7 +57,6 @@ def verify_plan(plan, tolerance=None, search=None, all_points=False, progress=No
     normals = spline.outward_normal(spline.knots[:-1])
     strips = plan["strips"]
     tools = [StripTool.from_strip(s) for s in strips]
-    tool_only = [StripTool.from_strip(s, with_shank=False) for s in strips]
 
     # deviation on the target flanks
     target = np.zeros(n, bool)
@@ -84,7 +83,8 @@ def verify_plan(plan, tolerance=None, search=None, all_points=False, progress=No
         below = np.c_[prof - tol * normals, np.zeros(n)]
         d_all, which = _min_distance(tools, below, v0, hand, 0.0)
         hit = np.flatnonzero(d_all < 0)
-        if len(hit):  # tool or shank: only the few gouged points need the distinction
+        if len(hit):  # tool or shank: only the few gouged points need the distinction (and the bare tools)
+            tool_only = [StripTool.from_strip(s, with_shank=False) for s in strips]
             d_tool, _ = _min_distance(tool_only, below[hit], v0, hand, 0.0)
         for j, i in enumerate(hit):
             gouges.append({"index": int(i), "x": float(prof[i, 0]), "y": float(prof[i, 1]),
