@@ -56,6 +56,7 @@ while the rotor screws.  Errors are signed: positive = material left
 """
 import json
 import math
+import os
 
 import numpy as np
 
@@ -363,10 +364,31 @@ def is_mesh_plan(plan):
     return isinstance(plan, dict) and plan.get("surface") is not None
 
 
+def plan_text(plan):
+    """The JSON text of a plan: one line per top-level field and per strip.  Readable in a text editor and
+    written by the json module's C encoder (an indented dump goes through its pure-Python encoder: about
+    five times slower on a plan with a 20,000-triangle surface)."""
+    def field(key, value):
+        if key == "strips" and isinstance(value, list) and value:
+            return "{}: [\n{}\n ]".format(json.dumps(key), ",\n".join("  " + json.dumps(s) for s in value))
+        return "{}: {}".format(json.dumps(key), json.dumps(value))
+
+    return "{\n" + ",\n".join(" " + field(k, v) for k, v in plan.items()) + "\n}\n"
+
+
 def write_plan(path, plan):
+    """Validate and write a plan atomically: the file is either the old one or the complete new one."""
     validate_plan(plan)
-    with open(path, "w") as f:
-        json.dump(plan, f, indent=1)
+    text = plan_text(plan)
+    path = os.fspath(path)
+    tmp = "{}.tmp{}".format(path, os.getpid())
+    try:
+        with open(tmp, "w", encoding="utf-8") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
 
 
 def read_plan(path):
