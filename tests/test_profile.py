@@ -82,3 +82,29 @@ def test_intersection_count_and_point_in_polygon():
     assert segments_intersect_count(np.c_[np.cos(t), np.sin(2 * t)]) == 1
     inside = points_in_polygon(np.array([[0, 0], [0.99, 0], [1.01, 0], [0, -1.2]]), circle(2000))
     assert inside.tolist() == [True, True, False, False]
+
+
+def test_periodic_spline_coefficients_equal_scipy_bit_for_bit():
+    """The profile spline is computed without scipy.interpolate (an import of ~0.25 s per command); its
+    coefficients must be scipy's own, also where the periodic system needs LAPACK's row interchanges (uneven
+    knots, as on every asymmetric built-in rotor)."""
+    from scipy.interpolate import CubicSpline
+
+    from flank_addon.geometry.profile import PeriodicCubic, _periodic_coefficients
+    from flank_addon.geometry.rotors import BUILTIN_NAMES, builtin_by_name
+
+    rng = np.random.default_rng(1)
+    cases = []
+    for _ in range(60):
+        n = int(rng.integers(5, 300))
+        dx = rng.exponential(1.0, n - 1) ** rng.uniform(0, 4) + 1e-6
+        y = rng.normal(size=(n, 2))
+        y[-1] = y[0]
+        cases.append((np.r_[0.0, np.cumsum(dx)], y))
+    for name in BUILTIN_NAMES:
+        prof = builtin_by_name(name).profile
+        cases.append((prof.knots, np.vstack([prof.points, prof.points[:1]])))
+    for knots, closed in cases:
+        ref = np.asarray(CubicSpline(knots, closed, bc_type="periodic").c)
+        assert np.array_equal(_periodic_coefficients(knots, closed), ref)
+        assert np.array_equal(PeriodicCubic(knots, closed).c, ref)

@@ -64,19 +64,37 @@ class _NeedsPivoting(Exception):
 
 def _tridiagonal(dl, d, du, b):
     """x with A x = b for the tridiagonal A (sub-diagonal dl, diagonal d, super-diagonal du), b (m, k): the
-    elimination and back substitution of LAPACK's dgtsv, row by row, where no row needs an interchange
-    (|d_i| >= |dl_i| throughout, which a spline's system of not too uneven knots keeps); else
-    :class:`_NeedsPivoting`."""
+    elimination with partial pivoting and the back substitution of LAPACK's dgtsv, step by step (rows i and
+    i + 1 change places where |d_i| < |dl_i|, which fills in a second super-diagonal), so that the result is
+    the one scipy's solve_banded gets from LAPACK; :class:`_NeedsPivoting` for a zero pivot (a singular
+    system, which scipy reports in its own words)."""
     d, dl, du = [float(v) for v in d], [float(v) for v in dl], [float(v) for v in du]
     cols = [[float(v) for v in b[:, j]] for j in range(b.shape[1])]
     m = len(d)
     for i in range(m - 1):
-        if not abs(d[i]) >= abs(dl[i]) or d[i] == 0.0:
+        if abs(d[i]) >= abs(dl[i]):
+            if d[i] == 0.0:
+                raise _NeedsPivoting
+            fact = dl[i] / d[i]
+            d[i + 1] = d[i + 1] - fact * du[i]
+            for c in cols:
+                c[i + 1] = c[i + 1] - fact * c[i]
+            dl[i] = 0.0
+        elif dl[i] == dl[i]:                       # row interchange (dl[i] is not NaN)
+            fact = d[i] / dl[i]
+            d[i] = dl[i]
+            temp = d[i + 1]
+            d[i + 1] = du[i] - fact * temp
+            if i < m - 2:
+                dl[i] = du[i + 1]
+                du[i + 1] = -fact * dl[i]
+            du[i] = temp
+            for c in cols:
+                temp = c[i]
+                c[i] = c[i + 1]
+                c[i + 1] = temp - fact * c[i + 1]
+        else:
             raise _NeedsPivoting
-        fact = dl[i] / d[i]
-        d[i + 1] = d[i + 1] - fact * du[i]
-        for c in cols:
-            c[i + 1] = c[i + 1] - fact * c[i]
     if d[m - 1] == 0.0:
         raise _NeedsPivoting
     for c in cols:
@@ -84,7 +102,7 @@ def _tridiagonal(dl, d, du, b):
         if m > 1:
             c[m - 2] = (c[m - 2] - du[m - 2] * c[m - 1]) / d[m - 2]
         for i in range(m - 3, -1, -1):
-            c[i] = (c[i] - du[i] * c[i + 1] - 0.0 * c[i + 2]) / d[i]
+            c[i] = (c[i] - du[i] * c[i + 1] - dl[i] * c[i + 2]) / d[i]
     return np.array(cols).T
 
 
@@ -129,7 +147,7 @@ def _periodic_coefficients(x, y):
 class PeriodicCubic:
     """The coefficients ``c`` (4, n - 1, 2) of the periodic cubic spline through closed points (n, 2) at knots
     (n,), as scipy's CubicSpline(knots, closed, bc_type='periodic') has them: computed here, or by scipy
-    where the system needs row interchanges or has fewer than 5 points."""
+    where the system is singular, the input not finite or shorter than 5 points (scipy's own errors)."""
 
     def __init__(self, knots, closed):
         knots, closed = np.asarray(knots, float), np.asarray(closed, float)
