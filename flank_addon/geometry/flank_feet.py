@@ -54,7 +54,8 @@ class FlankFeet:
         ts = np.linspace(-tmax, tmax, n_t)
         U, T = np.meshgrid(us, ts, indexing="ij")
         pts = surface.evaluate(U.ravel(), T.ravel())
-        self._tree = cKDTree(pts)
+        self._tree = cKDTree(pts)           # the warm starts' guard: its approximate answers depend on the tree
+        self._exact_tree = None             # the cold seeds' exact queries: :func:`seed_tree`, made when needed
         self._U, self._T = U.ravel(), T.ravel()
 
     @classmethod
@@ -128,7 +129,9 @@ class FlankFeet:
             seeds, kks = [], []
             for j in cold_j:
                 fs, r = solvers[j], slice(off[j], off[j + 1])
-                _, idx = fs._tree.query(Q[r], k=k, workers=_workers(sizes[j]))
+                if fs._exact_tree is None:
+                    fs._exact_tree = seed_tree(fs._tree.data)
+                _, idx = fs._exact_tree.query(Q[r], k=k, workers=_workers(sizes[j]))
                 idx = idx.reshape(sizes[j], -1)
                 kks.append(idx.shape[1])
                 rows_j = np.tile(np.arange(off[j], off[j + 1]), idx.shape[1])      # seed-major, as idx.T
@@ -159,6 +162,14 @@ class FlankFeet:
             out.append(Feet(u=u[r], t=t[r], point=foot[r], distance=d[r], direction=direction[r],
                             interior=interior[r], tau=tau[r]))
         return out
+
+
+def seed_tree(points):
+    """A kd-tree of seed-table samples for exact queries.  Midpoint splits and uncompacted node boxes: the
+    samples lie on a regular (u, t) grid, where this tree builds in half the time and answers the planners'
+    queries, which lie off the table, 2-2.5x faster than scipy's default tree.  An exact query finds the
+    same nearest samples in either tree; an approximate one (``eps`` > 0) may not, so it keeps its tree."""
+    return cKDTree(points, balanced_tree=False, compact_nodes=False)
 
 
 def _workers(n):
