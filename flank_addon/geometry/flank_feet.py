@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .helical_surface import shifted_newton_step
+from .helical_surface import exact_tree, shifted_newton_step
 from .screw import screw_to_plane
 
 @dataclass
@@ -55,7 +55,7 @@ class FlankFeet:
         U, T = np.meshgrid(us, ts, indexing="ij")
         pts = surface.evaluate(U.ravel(), T.ravel())
         self._tree = cKDTree(pts)           # the warm starts' guard: its approximate answers depend on the tree
-        self._exact_tree = None             # the cold seeds' exact queries: :func:`seed_tree`, made when needed
+        self._exact_tree = None             # the cold seeds' exact queries (:func:`exact_tree`), made when needed
         self._U, self._T = U.ravel(), T.ravel()
 
     @classmethod
@@ -130,7 +130,7 @@ class FlankFeet:
             for j in cold_j:
                 fs, r = solvers[j], slice(off[j], off[j + 1])
                 if fs._exact_tree is None:
-                    fs._exact_tree = seed_tree(fs._tree.data)
+                    fs._exact_tree = exact_tree(fs._tree.data)
                 _, idx = fs._exact_tree.query(Q[r], k=k, workers=_workers(sizes[j]))
                 idx = idx.reshape(sizes[j], -1)
                 kks.append(idx.shape[1])
@@ -162,14 +162,6 @@ class FlankFeet:
             out.append(Feet(u=u[r], t=t[r], point=foot[r], distance=d[r], direction=direction[r],
                             interior=interior[r], tau=tau[r]))
         return out
-
-
-def seed_tree(points):
-    """A kd-tree of seed-table samples for exact queries.  Midpoint splits and uncompacted node boxes: the
-    samples lie on a regular (u, t) grid, where this tree builds in half the time and answers the planners'
-    queries, which lie off the table, 2-2.5x faster than scipy's default tree.  An exact query finds the
-    same nearest samples in either tree; an approximate one (``eps`` > 0) may not, so it keeps its tree."""
-    return cKDTree(points, balanced_tree=False, compact_nodes=False)
 
 
 def _workers(n):
