@@ -114,3 +114,22 @@ def test_binary_ply_truncated(tmp_path):
     p.write_bytes(p.read_bytes()[:-30])
     with pytest.raises(MeshFormatError, match="ends early"):
         read_mesh(p)
+
+
+def test_float32_merge_equals_the_general_unique_rows():
+    """A binary STL's vertices are merged by an integer sort of their float32 bits; the rows, their order and
+    the inverse must be those of the general lexicographic unique (signs, zeros of both signs, denormals,
+    huge and tiny values, rows equal in x and y only)."""
+    from flank_addon.geometry.rows import unique_float32_triples, unique_rows
+
+    rng = np.random.default_rng(5)
+    pool = np.array([0.0, -0.0, 1.0, -1.0, 1e-40, -1e-40, 3.4e38, -3.4e38, 1e-3, -1e-3, 2.5, -2.5], np.float32)
+    a = np.concatenate([rng.choice(pool, (3000, 3)),
+                        rng.normal(scale=50.0, size=(2000, 3)).astype(np.float32)])
+    a = np.concatenate([a, a[rng.integers(0, len(a), 2000)]])[rng.permutation(7000)]
+    u, inv = unique_float32_triples(a)
+    u_ref, inv_ref = unique_rows(a.astype(np.float64))
+    assert u.dtype == np.float64
+    assert np.array_equal(u, u_ref) and np.array_equal(np.signbit(u), np.signbit(u_ref))
+    assert np.array_equal(inv, inv_ref)
+    assert np.array_equal(u[inv], a.astype(np.float64))

@@ -9,7 +9,7 @@ import struct
 
 import numpy as np
 
-from ..geometry.rows import unique_rows
+from ..geometry.rows import unique_float32_triples, unique_rows
 
 __all__ = ["MeshFormatError", "write_stl", "write_ply", "write_obj", "write_mesh", "read_mesh",
            "read_stl", "read_ply", "read_obj", "WRITERS", "READERS"]
@@ -56,7 +56,10 @@ def write_stl(path, verts, faces, header=b"flank_addon binary STL"):
 def _merge(tri_verts):
     """Exact merge of identical vertex rows -> (verts, faces)."""
     flat = tri_verts.reshape(-1, 3)
-    uniq, inv = unique_rows(flat)
+    if flat.dtype == np.float32:          # a binary STL's own numbers: the faster sort of their bits
+        uniq, inv = unique_float32_triples(flat)
+    else:
+        uniq, inv = unique_rows(flat)
     return uniq.astype(np.float64), inv.reshape(-1, 3).astype(np.int64)
 
 
@@ -68,7 +71,7 @@ def read_stl(path):
         if 84 + 50 * count == len(data):
             rec = np.frombuffer(data, dtype=[("n", "<f4", 3), ("v", "<f4", (3, 3)), ("attr", "<u2")],
                                 count=count, offset=84)
-            tri = rec["v"].astype(np.float64)
+            tri = rec["v"]
             if not np.all(np.isfinite(tri)):
                 bad = int(np.flatnonzero(~np.isfinite(tri).all(axis=(1, 2)))[0])
                 raise MeshFormatError(f"{path}: binary STL facet {bad} has non-finite coordinates")
