@@ -2,7 +2,6 @@
 """flank.export_results -- write a result run (its stored flank-plan/1) as plan JSON, CL data, error CSV or
 strip meshes, through the core writers of ``flank_addon.exports`` (the same files as ``python -m flank_addon
 export``)."""
-import json
 import math
 import os
 import shutil
@@ -58,6 +57,7 @@ class FLANK_OT_export_results(bpy.types.Operator, ExportHelper):
 
     def execute(self, context):
         from ..flank_addon import exports
+        from ..flank_addon.io.plan import plan_text
 
         t0 = time.perf_counter()
         if not self.filepath:
@@ -101,7 +101,7 @@ class FLANK_OT_export_results(bpy.types.Operator, ExportHelper):
             # everything is written into a temporary folder first and moved only when all of it succeeded
             if fmt in ("PLAN", "CL", "CSV"):
                 if fmt == "PLAN":
-                    text, what = json.dumps(plan, indent=1), "plan, {} strips".format(n)
+                    text, what = plan_text(plan), "plan, {} strips".format(n)
                 elif fmt == "CL":
                     text = exports.cl_data(plan, strip=k, steps=int(self.steps), z_range=z_range)
                     what = "CL data, {} GOTO steps".format(text.count("\nGOTO/"))
