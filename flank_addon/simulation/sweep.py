@@ -758,7 +758,8 @@ def helical_distance(tool, points, v0, handedness="right", step=None, iters=None
     are sampled densely (points move at most ``step`` between samples) and the best sample is
     polished on its neighbouring interval by ``iters`` golden-section steps (default: the tool's
     ``golden_iters``), then ``polish`` parabolic-interpolation steps.  Points whose helix never comes
-    within ``cutoff`` (scalar or (N,)) of the tool get exactly ``cutoff`` (a lower bound of D), t* = nan.
+    within ``cutoff`` (scalar or (N,)) of the tool get exactly ``cutoff`` (a lower bound of D), t* = nan;
+    points whose time samples already prove D >= cutoff get ``cutoff`` too, t* = their least sample's time.
     """
     x = np.atleast_2d(np.asarray(points, float))
     N = len(x)
