@@ -945,11 +945,14 @@ def illinois_roots(D, lo, hi, f_lo, f_hi, found, tol, slack, cutoff, report=None
     ``found`` with a sign change and not yet narrower than ``tol``.  D(lam, idx, bound) evaluates the
     rows idx at lam with a distance cutoff; the cutoff passed is |f_hi| + bracket width + ``slack``
     (f_hi is never halved, so it bounds the distance), capped at ``cutoff``.  The arrays are updated
-    in place; returns the root estimate per row (meaningful where ``found``)."""
+    in place; returns the root estimate per row (meaningful where ``found``).  A row also stops when the
+    secant through its bracket puts the root within tol / 2 of hi: regula falsi moves one end at a time, so
+    the bracket itself would need further steps to shrink below ``tol`` around a root already found."""
     side = np.zeros(len(lo))
     n_found = max(int(found.sum()), 1)
     for _ in range(100):
-        idx = np.flatnonzero(found & (np.abs(hi - lo) > tol) & (f_hi != 0))
+        near_hi = np.abs(f_hi) * np.abs(hi - lo) <= 0.5 * tol * np.abs(f_lo - f_hi)
+        idx = np.flatnonzero(found & (np.abs(hi - lo) > tol) & (f_hi != 0) & ~near_hi)
         if not len(idx):
             break
         if report is not None:
