@@ -55,6 +55,35 @@ def test_plan_round_trip_and_summary(tmp_path):
     assert r[a % len(r)] > r[b % len(r)]
 
 
+def test_write_plan_is_atomic_and_names_the_file(tmp_path, monkeypatch):
+    """A plan file is the old one or the complete new one; a failed write names the file asked for and leaves
+    no temporary file behind.  The text has one line per top-level field and per strip."""
+    import os
+
+    plan = sample_plan()
+    path = tmp_path / "p.json"
+    write_plan(path, plan)
+    lines = path.read_text().splitlines()
+    assert lines[0] == "{" and lines[-1] == "}" and len(lines) == len(plan) + 2 + len(plan["strips"]) + 1
+    old = path.read_bytes()
+
+    def failing_replace(src, dst):
+        raise OSError(28, "No space left on device", src)
+
+    changed = dict(plan, method="other")
+    monkeypatch.setattr(os, "replace", failing_replace)
+    with pytest.raises(OSError) as e:
+        write_plan(path, changed)
+    monkeypatch.undo()
+    assert e.value.filename == str(path) and "No space" in e.value.strerror
+    assert path.read_bytes() == old and sorted(p.name for p in tmp_path.iterdir()) == ["p.json"]
+    r = main_cli("verify", path, "--json")          # the old plan still reads
+    assert r.returncode == 0, r.stderr
+    with pytest.raises(OSError) as e:
+        write_plan(tmp_path / "missing" / "q.json", plan)
+    assert e.value.filename == str(tmp_path / "missing" / "q.json")
+
+
 @pytest.mark.parametrize("mutate, message", [
     (lambda p: p.update(schema="flank-plan/0"), "schema"),
     (lambda p: p["rotor"].update(v0=-1.0), "rotor.v0"),
