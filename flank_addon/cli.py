@@ -2,6 +2,7 @@
 import argparse
 import json
 import math
+import os
 import re
 import sys
 import time
@@ -1107,6 +1108,17 @@ class _Parser(argparse.ArgumentParser):
         raise UsageError(f"{message} (see {self.prog} --help)")
 
 
+def _missing_output_folder(args):
+    """The message for an output file (--out, --plan-out) whose folder does not exist, else None."""
+    for name in ("out", "plan_out"):
+        path = getattr(args, name, None)
+        if isinstance(path, str) and path:
+            folder = os.path.dirname(os.path.abspath(path))
+            if not os.path.exists(folder):
+                return f"--{name.replace('_', '-')} {path}: the folder {folder} does not exist"
+    return None
+
+
 def main(argv=None):
     try:
         args = build_parser().parse_args(attach_negative_lists(sys.argv[1:] if argv is None else list(argv)))
@@ -1114,6 +1126,10 @@ def main(argv=None):
         return ex.code
     except UsageError as e:
         print(f"error: {e}", file=sys.stderr)
+        return 2
+    missing = _missing_output_folder(args)
+    if missing:                         # before minutes of planning, not after
+        print(f"error: {missing}", file=sys.stderr)
         return 2
     try:
         return args.func(args)

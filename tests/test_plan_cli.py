@@ -110,6 +110,24 @@ def test_plan_validation_names_the_field(mutate, message):
         validate_plan(plan)
 
 
+@pytest.mark.parametrize("argv", [
+    ["plan", "double-flank", "--builtin", "asymmetric-female", "--valley", "0", "--out", "{missing}/df.json"],
+    ["rotor", "--kind", "srm_a", "--part", "male", "--out", "{missing}/rotor.stl"],
+    ["post", "{plan}", "--machine", "rotor-xa-b", "--post", "linuxcnc", "-o", "{missing}/p.ngc"],
+])
+def test_cli_output_into_a_missing_folder_fails_at_once(tmp_path, argv):
+    """An output file whose folder does not exist is named before any planning, not after it (the write itself
+    would fail later with the system's "No such file or directory")."""
+    plan = tmp_path / "p.json"
+    write_plan(plan, sample_plan())
+    missing = tmp_path / "nowhere"
+    args = [a.format(missing=missing, plan=plan) for a in argv]
+    r = main_cli(*args)
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr.strip() == "error: --out {}: the folder {} does not exist".format(args[-1], missing)
+    assert not missing.exists()
+
+
 def test_cli_rotor_then_analyze_json(tmp_path):
     out = tmp_path / "rotor.stl"
     r = main_cli("rotor", "--kind", "srm_a", "--part", "male", "--scale", "50", "--resolution", "3000",
