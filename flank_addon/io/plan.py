@@ -56,9 +56,10 @@ while the rotor screws.  Errors are signed: positive = material left
 """
 import json
 import math
-import os
 
 import numpy as np
+
+from .files import atomic_write
 
 SCHEMA = "flank-plan/1"
 TOOL_KINDS = ("cone", "revolved", "disc", "paraboloid")
@@ -377,20 +378,10 @@ def plan_text(plan):
 
 
 def write_plan(path, plan):
-    """Validate and write a plan atomically: the file is either the old one or the complete new one."""
+    """Validate and write a plan atomically (:func:`.files.atomic_write`): the file is either the old one or the
+    complete new one."""
     validate_plan(plan)
-    text = plan_text(plan)
-    path = os.fspath(path)
-    tmp = "{}.tmp{}".format(path, os.getpid())
-    try:
-        with open(tmp, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except OSError as e:                 # name the file asked for, not the temporary one
-        raise OSError(e.errno, e.strerror, path) from None
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+    atomic_write(path, plan_text(plan))
 
 
 def read_plan(path):

@@ -7,6 +7,8 @@ import zlib
 
 import numpy as np
 
+from .files import atomic_write
+
 
 def _chunk(tag, data):
     return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
@@ -25,14 +27,7 @@ def write_png(path, rgba, text=None):
     for key, value in (text or {}).items():
         png += _chunk(b"iTXt", key.encode("latin-1") + b"\x00\x00\x00\x00\x00" + value.encode("utf-8"))
     png += _chunk(b"IDAT", zlib.compress(raw, 6)) + _chunk(b"IEND", b"")
-    tmp = "{}.tmp{}".format(path, os.getpid())
-    try:
-        with open(tmp, "wb") as fh:
-            fh.write(png)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+    atomic_write(path, png)
 
 
 def _chunks(path):

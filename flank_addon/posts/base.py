@@ -11,10 +11,11 @@ Anything the reader does not know is refused with the line number (:class:`PostE
 """
 import math
 import os
-import tempfile
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from ..io.files import atomic_write as io_atomic_write
 
 
 class PostError(ValueError):
@@ -155,21 +156,9 @@ def header_lines(program, post):
 
 
 def atomic_write(path, text):
-    """Write ``text`` to ``path`` through a temporary file in the same directory and os.replace, so the file
-    is either the old one or the complete new one; :class:`PostError` with the reason when it cannot be."""
-    path = os.fspath(path)
-    folder = os.path.dirname(os.path.abspath(path))
+    """Write a program as ASCII with \\n line ends, whole or not at all (:func:`..io.files.atomic_write`);
+    :class:`PostError` with the reason when it cannot be."""
     try:
-        fd, tmp = tempfile.mkstemp(prefix=".flank-", suffix=".tmp", dir=folder)
-    except OSError as e:
-        raise PostError(f"cannot write {path}: {e.strerror or e}") from None
-    try:
-        with os.fdopen(fd, "w", encoding="ascii", newline="\n") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
+        io_atomic_write(path, text, encoding="ascii", newline="\n")
     except (OSError, UnicodeEncodeError) as e:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise PostError(f"cannot write {path}: {getattr(e, 'strerror', None) or e}") from None
+        raise PostError(f"cannot write {os.fspath(path)}: {getattr(e, 'strerror', None) or e}") from None
