@@ -60,7 +60,7 @@ def _merge(tri_verts):
         uniq, inv = unique_float32_triples(flat)
     else:
         uniq, inv = unique_rows(flat)
-    return uniq.astype(np.float64), inv.reshape(-1, 3).astype(np.int64)
+    return uniq.astype(np.float64, copy=False), inv.reshape(-1, 3).astype(np.int64)
 
 
 def read_stl(path):
