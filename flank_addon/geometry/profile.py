@@ -10,6 +10,7 @@ points, Hu, Zhou & Li 2025 style point data) and :class:`SegmentProfile` (exact 
 circular arcs, e.g. the Nilson profile of Bizzarri & Bartoň 2021 Ex. 3.3).
 """
 import csv
+import hashlib
 import math
 
 import numpy as np
@@ -133,8 +134,10 @@ def _periodic_coefficients(x, y):
     b2[0] = -a_0_m1
     b2[-1] = -a_m2_m1
     m = b1.shape[0]
-    s1 = _tridiagonal(Ac[2, :-1], Ac[1, :], Ac[0, 1:], b1.reshape(m, -1)).reshape(b1.shape)
-    s2 = _tridiagonal(Ac[2, :-1], Ac[1, :], Ac[0, 1:], b2.reshape(m, -1)).reshape(b2.shape)
+    # both right-hand sides in one elimination (each column's arithmetic is its own)
+    k = b1.reshape(m, -1).shape[1]
+    both = _tridiagonal(Ac[2, :-1], Ac[1, :], Ac[0, 1:], np.concatenate([b1.reshape(m, -1), b2.reshape(m, -1)], axis=1))
+    s1, s2 = both[:, :k].reshape(b1.shape), both[:, k:].reshape(b2.shape)
     s_m1 = ((b[-1] - a_m1_0 * s1[0] - a_m1_m2 * s1[-1]) / (a_m1_m1 + a_m1_0 * s2[0] + a_m1_m2 * s2[-1]))
     s = np.empty((n,) + y.shape[1:], dtype=y.dtype)
     s[:-2] = s1 + s_m1 * s2
@@ -151,14 +154,27 @@ class PeriodicCubic:
 
     def __init__(self, knots, closed):
         knots, closed = np.asarray(knots, float), np.asarray(closed, float)
-        try:
-            if len(knots) < 5 or not np.all(np.isfinite(closed)) or np.any(np.diff(knots) <= 0):
-                raise _NeedsPivoting
-            self.c = _periodic_coefficients(knots, closed)
-        except _NeedsPivoting:
-            from scipy.interpolate import CubicSpline
+        # a plan's profile is splined again by every step that reads the plan (its simulated errors, verify):
+        # the coefficients of the last few inputs are kept, by their exact numbers
+        key = hashlib.sha1(repr((knots.shape, closed.shape)).encode() + knots.tobytes() + closed.tobytes()).digest()
+        c = _COEFFICIENTS.pop(key, None)
+        if c is None:
+            try:
+                if len(knots) < 5 or not np.all(np.isfinite(closed)) or np.any(np.diff(knots) <= 0):
+                    raise _NeedsPivoting
+                c = _periodic_coefficients(knots, closed)
+            except _NeedsPivoting:
+                from scipy.interpolate import CubicSpline
 
-            self.c = np.asarray(CubicSpline(knots, closed, bc_type="periodic").c)
+                c = np.asarray(CubicSpline(knots, closed, bc_type="periodic").c)
+            c.setflags(write=False)
+        _COEFFICIENTS[key] = c
+        while len(_COEFFICIENTS) > 8:
+            _COEFFICIENTS.pop(next(iter(_COEFFICIENTS)))
+        self.c = c
+
+
+_COEFFICIENTS = {}      # digest of (knots, points) -> read-only coefficients, the most recent last
 
 
 class SplineProfile(Profile):
