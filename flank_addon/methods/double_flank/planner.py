@@ -360,6 +360,9 @@ class ToolPath:
     meridian: np.ndarray = None      # (K, 2) exact tool meridian (h from axis_start, R), or None
     kind: str = "custom"
     dirs: np.ndarray = None          # (2, N, 3) unit (node - foot_k) / r_k
+    # build_path(meridian="later"): makes the meridian when asked (a candidate that may lose to another
+    # pays only for its errors); :func:`finish_meridians` sets it
+    make_meridian: object = field(default=None, repr=False, compare=False)
 
 
 def _counted(ev, x, lam, tag):
@@ -475,7 +478,7 @@ def build_path(ev, x, m=400, variant="min", radii_fn=None, extent=None, flanks=(
     trimmed and on the untrimmed flanks, derivatives d r_k / d lam = (a - b_k)/r_k . da/dlam), cubic
     Hermite interpolation in between, radii by ``variant`` (or ``radii_fn(lam, r, counted, cap)``),
     ``m + 1`` plan radii and, if ``meridian``, the exact union-of-spheres meridian (h, R) sampled so
-    that its chord error is ~ ``tol``."""
+    that its chord error is ~ ``tol`` (``meridian="later"``: made by :func:`finish_meridians`)."""
     from scipy.interpolate import CubicHermiteSpline
 
     v = ev.valley
@@ -520,26 +523,31 @@ def build_path(ev, x, m=400, variant="min", radii_fn=None, extent=None, flanks=(
     errors = np.where(counted, ar.r - node_r[None, :], np.nan)
     s_plan = np.linspace(0.0, s[-1], m + 1)
     plan_r = radii_at(s_plan)[0]
-    mer = None
-    if meridian:
-        L = float(s[-1])
-        eps = 1e-7 * L
+    L = float(s[-1])
+    eps = 1e-7 * L
 
-        def r_and_dr(q):
-            # r' by central differences of the Hermite pieces (exact for the selected branch away
-            # from kinks: the radial functions are selections and averages of smooth distances)
-            q = np.asarray(q, float)
-            rp = radii_at(np.minimum(q + eps, L))[0]
-            rm = radii_at(np.maximum(q - eps, 0.0))[0]
-            return radii_at(q)[0], (rp - rm) / (np.minimum(q + eps, L) - np.maximum(q - eps, 0.0))
+    def r_and_dr(q):
+        # r' by central differences of the Hermite pieces (exact for the selected branch away
+        # from kinks: the radial functions are selections and averages of smooth distances)
+        q = np.asarray(q, float)
+        rp = radii_at(np.minimum(q + eps, L))[0]
+        rm = radii_at(np.maximum(q - eps, 0.0))[0]
+        return radii_at(q)[0], (rp - rm) / (np.minimum(q + eps, L) - np.maximum(q - eps, 0.0))
 
+    def exact_meridian():
         sd, rd, drd = _contact_samples(r_and_dr, np.r_[s, s_plan], tol)
         mer = sphere_union_meridian(sd, rd, tol=tol, dr=drd, end_tol=1e-5 * v.outer_radius)
-        mer = _shrink_concave(mer, tol)
+        return _shrink_concave(mer, tol)
+
     a_plan, _ = axis_points(x, lo + s_plan / speed, v.theta, v.outer_radius)
-    return ToolPath(x=np.array([x[0], x[1] * v.outer_radius, x[2]]), lam=lam, points=ar.points, radii=node_r, r=ar.r, counted=counted,
-                    errors=errors, flanks=tuple(flanks), plan_points=a_plan, plan_radii=plan_r, meridian=mer,
-                    dirs=np.array([ar.feet[0].direction, ar.feet[1].direction]))
+    path = ToolPath(x=np.array([x[0], x[1] * v.outer_radius, x[2]]), lam=lam, points=ar.points, radii=node_r,
+                    r=ar.r, counted=counted, errors=errors, flanks=tuple(flanks), plan_points=a_plan,
+                    plan_radii=plan_r, dirs=np.array([ar.feet[0].direction, ar.feet[1].direction]))
+    if meridian == "later":
+        path.make_meridian = exact_meridian
+    elif meridian:
+        path.meridian = exact_meridian()
+    return path
 
 
 # ============================================================================ exact tool meridian
@@ -1204,6 +1212,13 @@ def simulate_plan_errors(plan, search=None):
     return idx, dev, owner, per
 
 
+def finish_meridians(paths):
+    """Make the meridians that :func:`build_path` left for later (``meridian="later"``)."""
+    for p in paths:
+        if p.make_meridian is not None:
+            p.meridian, p.make_meridian = p.make_meridian(), None
+
+
 def _max_err(paths):
     return max(float(np.nanmax(p.errors)) for p in paths)
 
@@ -1241,7 +1256,7 @@ def _two_paths(ev, f1, f2, m, n_dense=3001, tol=2e-8):
             return spline(np.clip(lq / c, T0, T1))
 
         paths.append(build_path(ev, x, m=m, extent=(T0 * c, T1 * c), flanks=(p,), radii_fn=fn, tag=("q", p),
-                                tol=tol * v.outer_radius))
+                                tol=tol * v.outer_radius, meridian="later"))
     return paths, gaps
 
 
@@ -1302,6 +1317,7 @@ def plan_double_flank(surface, flank_ranges, valley=0, variant="min", tool="cust
         ref, ref_gaps = _two_paths(ev, fit, fit, m)
         if _max_err(paths) >= _max_err(ref) or max(gaps) > max(ref_gaps) + 0.01:
             paths, fits = ref, [fit, fit, fit]
+        finish_meridians(paths)          # the winner's only: each pair's meridians cost 0.2-0.3 s
         method = "double-flank-custom-two-paths"
     else:
         ext = tool_extent(ev, fit.x_unit)
