@@ -62,6 +62,28 @@ def test_exact_mode_finds_faces_the_vertex_candidates_miss():
     assert np.allclose(np.abs(mesh.foot_points(P, exact=True)["distance"]), ref, atol=1e-12)
 
 
+def test_pruned_candidates_give_the_closest_candidate_face():
+    # a triangle soup with zero-area faces (a repeated corner) and slivers (a corner 1e-9 off the opposite
+    # edge, whose computed normal is poor): the faces left out by the plane-and-disc bound never include the
+    # closest one, which is the first closest in the row's candidate order, as brute force over all finds it
+    rng = np.random.default_rng(5)
+    V = rng.normal(size=(60, 3))
+    V[50:60] = 0.5 * (V[30:40] + V[40:50]) + 1e-9 * rng.normal(size=(10, 3))
+    F = np.concatenate([rng.integers(0, 50, size=(120, 3)), np.c_[np.arange(30, 40), np.arange(40, 50), np.arange(50, 60)],
+                        np.c_[np.arange(10), np.arange(10), np.arange(10, 20)]])
+    mesh = TriangleMesh(V, F)
+    P = np.concatenate([rng.normal(size=(200, 3)), 40 * rng.normal(size=(50, 3)), V[50:60] + 1e-7 * rng.normal(size=(10, 3))])
+    cand = np.tile(np.arange(len(F)), (len(P), 1))
+    cand[rng.random(cand.shape) < 0.2] = -1               # rows of different candidate sets, padded with -1
+    _, _, face, d2 = mesh._project(P, cand)
+    A, B, C = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+    for i, p in enumerate(P):
+        fi = cand[i][cand[i] >= 0]
+        Q, _ = closest_on_triangles(np.repeat(p[None], len(fi), 0), A[fi], B[fi], C[fi])
+        dd = ((p - Q) ** 2).sum(1)
+        assert face[i] == fi[np.argmin(dd)] and d2[i] == dd.min()
+
+
 def test_bad_queries_and_meshes_are_named():
     with pytest.raises(ValueError, match="vertices"):
         TriangleMesh(np.zeros((2, 3)), [[0, 1, 1]])

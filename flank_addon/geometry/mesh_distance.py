@@ -20,6 +20,7 @@ triangle mesh here, so the foot point is the exact closest point over all triang
   the signed distance, which is what the optimiser's analytic Jacobians need.
 """
 import math
+import threading
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -86,6 +87,20 @@ def closest_on_triangles(P, A, B, C):
     Q[:, 1] = u * ay + v * by + w * cy
     Q[:, 2] = u * az + v * bz + w * cz
     return Q, np.stack([u, v, w], axis=1)
+
+
+_POOL = []
+_POOL_LOCK = threading.Lock()
+
+
+def _pool():
+    """Two worker threads for blocks of foot-point queries, made on first use."""
+    with _POOL_LOCK:
+        if not _POOL:
+            from concurrent.futures import ThreadPoolExecutor
+
+            _POOL.append(ThreadPoolExecutor(max_workers=2, thread_name_prefix="foot-points"))
+        return _POOL[0]
 
 
 class TriangleMesh:
@@ -247,20 +262,20 @@ class TriangleMesh:
         n = len(P)
         foot, bary = np.empty((n, 3)), np.empty((n, 3))
         face, d2 = np.empty(n, np.int64), np.empty(n)
-        for s in range(0, n, chunk):
-            Pc = P[s:s + chunk]
-            _, vi = self._vtree.query(Pc, k=self.k)
-            vi = np.atleast_2d(vi).reshape(len(Pc), -1)
-            cand = np.sort(self.vertex_faces[vi].reshape(len(Pc), -1), axis=1)
-            # drop repeated faces (shared by several of the k vertices) and pack the rest left
-            dup = np.zeros(cand.shape, bool)
-            dup[:, 1:] = cand[:, 1:] == cand[:, :-1]
-            cand = np.where(dup, -1, cand)
-            big = np.iinfo(np.int64).max
-            cand = np.sort(np.where(cand < 0, big, cand), axis=1)
-            width = int((cand < big).sum(1).max())
-            cand = np.where(cand[:, :width] == big, -1, cand[:, :width])
-            foot[s:s + chunk], bary[s:s + chunk], face[s:s + chunk], d2[s:s + chunk] = self._project(Pc, cand)
+        # every row is its own problem: blocks of rows give the same feet in any order, so big queries are cut
+        # into blocks that two threads share (numpy and the kd-tree let go of the interpreter lock on arrays
+        # this long)
+        blocks = max(-(-n // chunk), 2 if n >= 2048 else 1)
+        edges = [n * i // blocks for i in range(blocks + 1)]
+
+        def block(i):
+            r = slice(edges[i], edges[i + 1])
+            foot[r], bary[r], face[r], d2[r] = self._closest_candidates(P[r])
+
+        if blocks == 1:
+            block(0)
+        else:
+            list(_pool().map(block, range(blocks)))
         if exact:
             self._certify(P, foot, bary, face, d2)
         diff = P - foot
@@ -274,6 +289,22 @@ class TriangleMesh:
         off = border & ((grad * pn).sum(1) < math.cos(math.radians(10.0)))
         return {"foot": foot, "distance": sgn * dist, "gradient": grad, "normal": pn, "face": face,
                 "off_surface": off}
+
+    def _closest_candidates(self, P):
+        """Closest of the faces around the ``k`` vertices nearest to each point P (m, 3): foot, barycentric
+        coordinates, face, squared distance."""
+        _, vi = self._vtree.query(P, k=self.k)
+        vi = np.atleast_2d(vi).reshape(len(P), -1)
+        cand = np.sort(self.vertex_faces[vi].reshape(len(P), -1), axis=1)
+        # drop repeated faces (shared by several of the k vertices) and pack the rest left
+        dup = np.zeros(cand.shape, bool)
+        dup[:, 1:] = cand[:, 1:] == cand[:, :-1]
+        cand = np.where(dup, -1, cand)
+        big = np.iinfo(np.int64).max
+        cand = np.sort(np.where(cand < 0, big, cand), axis=1)
+        width = int((cand < big).sum(1).max())
+        cand = np.where(cand[:, :width] == big, -1, cand[:, :width])
+        return self._project(P, cand)
 
     def _certify(self, P, foot, bary, face, d2):
         if self._ctree is None:
