@@ -125,12 +125,15 @@ class TriangleMesh:
         corner = np.linalg.norm(np.stack([A, B, C]) - self.centroids, axis=2)
         self.face_radius = float(np.max(corner))
         self.face_radii = corner.max(axis=0) * (1 + 1e-12) + 1e-15 * float(np.abs(V).max())
-        self._centroid_xyz = tuple(np.ascontiguousarray(self.centroids[:, k]) for k in range(3))
         # the face's plane through its centroid, and how far its corners lie off it (zero up to the rounding of
         # the normal; what keeps the plane bound of _project a true bound for slivers)
-        self._normal_xyz = tuple(np.ascontiguousarray(self.face_normals[:, k]) for k in range(3))
         off_plane = np.abs(np.einsum("cfk,fk->cf", np.stack([A, B, C]) - self.centroids, self.face_normals))
         self.face_thickness = off_plane.max(axis=0) * (1 + 1e-12) + 1e-15 * float(np.abs(V).max())
+        # one row per face of what a query gathers (one fancy index instead of eight: the gathers, not the
+        # arithmetic, are what a candidate costs): centroid, unit normal, thickness, radius; and the corners
+        self._face_rows = np.ascontiguousarray(np.c_[self.centroids, self.face_normals, self.face_thickness,
+                                                     self.face_radii])
+        self._corner_rows = np.ascontiguousarray(np.c_[A, B, C])
         self._vtree = cKDTree(V)
         self._ctree = None
         # vertex -> incident faces, padded with -1
@@ -170,8 +173,8 @@ class TriangleMesh:
     # ------------------------------------------------------------------ queries
     def _exact(self, P, f):
         """Closest points, barycentric coordinates and squared distances of points P (m, 3) on faces f (m,)."""
-        F, V = self.faces, self.vertices
-        Q, bary = closest_on_triangles(P, V[F[f, 0]], V[F[f, 1]], V[F[f, 2]])
+        K = self._corner_rows[f]
+        Q, bary = closest_on_triangles(P, K[:, 0:3], K[:, 3:6], K[:, 6:9])
         return Q, bary, ((P - Q) ** 2).sum(1)
 
     def _project(self, P, cand):
@@ -187,20 +190,19 @@ class TriangleMesh:
         n, c = cand.shape
         valid = cand >= 0
         f = np.where(valid, cand, 0)
-        cx, cy, cz = self._centroid_xyz
-        wx, wy, wz = P[:, 0, None] - cx[f], P[:, 1, None] - cy[f], P[:, 2, None] - cz[f]
+        g = self._face_rows[f]
+        wx, wy, wz = P[:, 0, None] - g[..., 0], P[:, 1, None] - g[..., 1], P[:, 2, None] - g[..., 2]
         w2 = wx * wx + wy * wy + wz * wz
         w2[~valid] = np.inf
         rows = np.arange(n)
         j0 = np.argmin(w2, axis=1)                   # the nearest centroid: an upper bound to start from
         f0 = f[rows, j0]
         Q0, bary0, d0 = self._exact(P, f0)
-        nx, ny, nz = self._normal_xyz
-        ux, uy, uz = nx[f], ny[f], nz[f]
+        ux, uy, uz = g[..., 3], g[..., 4], g[..., 5]
         pd = wx * ux + wy * uy + wz * uz
         qx, qy, qz = wx - pd * ux, wy - pd * uy, wz - pd * uz
-        along = np.maximum(np.abs(pd) - self.face_thickness[f], 0.0)
-        across = np.maximum(np.sqrt(qx * qx + qy * qy + qz * qz) - self.face_radii[f], 0.0)
+        along = np.maximum(np.abs(pd) - g[..., 6], 0.0)
+        across = np.maximum(np.sqrt(qx * qx + qy * qy + qz * qz) - g[..., 7], 0.0)
         reach = (np.sqrt(d0) * (1 + 1e-9) + 1e-12 * self.size)[:, None] + 1e-13 * np.sqrt(w2)
         need = (along * along + across * across <= reach * reach) & valid
         need[rows, j0] = False                       # projected already
