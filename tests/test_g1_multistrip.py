@@ -75,13 +75,41 @@ def test_pruned_candidates_give_the_closest_candidate_face():
     P = np.concatenate([rng.normal(size=(200, 3)), 40 * rng.normal(size=(50, 3)), V[50:60] + 1e-7 * rng.normal(size=(10, 3))])
     cand = np.tile(np.arange(len(F)), (len(P), 1))
     cand[rng.random(cand.shape) < 0.2] = -1               # rows of different candidate sets, padded with -1
-    _, _, face, d2 = mesh._project(P, cand)
     A, B, C = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
-    for i, p in enumerate(P):
-        fi = cand[i][cand[i] >= 0]
-        Q, _ = closest_on_triangles(np.repeat(p[None], len(fi), 0), A[fi], B[fi], C[fi])
-        dd = ((p - Q) ** 2).sum(1)
-        assert face[i] == fi[np.argmin(dd)] and d2[i] == dd.min()
+
+    def check(P, face, d2):
+        for i, p in enumerate(P):
+            fi = cand[i][cand[i] >= 0]
+            Q, _ = closest_on_triangles(np.repeat(p[None], len(fi), 0), A[fi], B[fi], C[fi])
+            dd = ((p - Q) ** 2).sum(1)
+            assert face[i] == fi[np.argmin(dd)] and d2[i] == dd.min()
+
+    check(P, *mesh._project(P, cand)[2:4])
+    # from any starting candidate (here the first), looking at all; then again after moves of 1e-6 .. 1e-1,
+    # starting from the face found and passing on the slack, as an optimiser's next query does
+    first = np.argmax(cand >= 0, axis=1)
+    out = mesh._project(P, cand, start=first, slack=np.full(cand.shape, -np.inf), moved=np.zeros(len(P)))
+    check(P, *out[2:4])
+    for step in (1e-6, 1e-3, 1e-1):
+        P2 = P + step * rng.normal(size=P.shape)
+        out = mesh._project(P2, cand, start=out[4], slack=out[5], moved=np.linalg.norm(P2 - P, axis=1))
+        check(P2, *out[2:4])
+        P = P2
+
+
+def test_a_mesh_asked_again_answers_as_a_new_one():
+    # the remembered nearest vertices and candidates of the last query change nothing: moves from none to
+    # larger than the triangles, every answer equal to that of a mesh asked for the first time
+    S = make_surface("bump", size=1.0, resolution=24)
+    mesh = TriangleMesh(S.vertices, S.faces)
+    rng = np.random.default_rng(7)
+    uv = S.uv[rng.choice(len(S.uv), 3000)]
+    P = S.point(uv) + rng.uniform(-0.05, 0.05, len(uv))[:, None] * S.normal(uv)
+    for step in (0.0, 1e-7, 1e-4, 1e-2, 0.2, 0.0):
+        P = P + step * rng.normal(size=P.shape)
+        got, ref = mesh.foot_points(P), TriangleMesh(S.vertices, S.faces).foot_points(P)
+        for key in ref:
+            assert np.array_equal(got[key], ref[key]), (step, key)
 
 
 def test_bad_queries_and_meshes_are_named():

@@ -135,6 +135,8 @@ class TriangleMesh:
                                                      self.face_radii])
         self._corner_rows = np.ascontiguousarray(np.c_[A, B, C])
         self._vtree = cKDTree(V)
+        self._near_memo = None            # the last query's nearest vertices and candidates, see _candidates
+        self._near_lock = threading.Lock()
         self._ctree = None
         # vertex -> incident faces, padded with -1
         order = np.argsort(F.ravel(), kind="stable")
@@ -177,52 +179,81 @@ class TriangleMesh:
         Q, bary = closest_on_triangles(P, K[:, 0:3], K[:, 3:6], K[:, 6:9])
         return Q, bary, ((P - Q) ** 2).sum(1)
 
-    def _project(self, P, cand):
+    def _project(self, P, cand, start=None, slack=None, moved=None):
         """Best of candidate faces cand (n, c) (-1 = none) for points P (n, 3): the least squared distance,
-        the first candidate in a row's order among equals.
+        the first candidate in a row's order among equals.  Returns foot (n, 3), barycentric coordinates
+        (n, 3), face (n,), squared distance (n,), the column of the face (n,) and ``slack`` (n, c) (below).
 
         Candidates that cannot be the closest are not projected.  Split P - X for a point X of a face into its
         parts along the face's normal and in the face's plane: the first is at least |pd| - thickness (pd the
         distance of P from the plane through the centroid), the second at least |P' - c| - radius (P' the
-        projection of P, c the centroid; the face lies within its radius of c).  A face whose bound exceeds the
-        distance to the row's most promising candidate (margins for rounding) is left out; near a smooth mesh
-        this leaves about 3 of 16 candidates, the centroid bound alone about 15."""
+        projection of P, c the centroid; the face lies within its radius of c).  A face whose bound exceeds
+        ``reach``, the distance to the row's starting candidate (margins for rounding), is left out: near a
+        smooth mesh about 3 of 16 candidates are projected.  The starting candidate is the nearest centroid,
+        or the column ``start`` (n,) given.  Leaving out faces that cannot be the closest never changes the
+        answer, the first least distance in the row's order.
+
+        ``slack`` (n, c) out: a lower bound of bound - reach of each candidate (-inf where unknown).  Both the
+        bound and the distance to a fixed face change by at most the move of P, so a row asked again at a
+        point ``moved`` (n,) away from the last, starting from the face it found then, passes the last slack
+        in: candidates whose slack exceeds twice the move are left out without a look."""
         n, c = cand.shape
         valid = cand >= 0
         f = np.where(valid, cand, 0)
-        g = self._face_rows[f]
-        wx, wy, wz = P[:, 0, None] - g[..., 0], P[:, 1, None] - g[..., 1], P[:, 2, None] - g[..., 2]
-        w2 = wx * wx + wy * wy + wz * wz
-        w2[~valid] = np.inf
-        rows = np.arange(n)
-        j0 = np.argmin(w2, axis=1)                   # the nearest centroid: an upper bound to start from
-        f0 = f[rows, j0]
+        at_row = np.arange(n)
+        if start is None:
+            g = self._face_rows[f]
+            wx, wy, wz = P[:, 0, None] - g[..., 0], P[:, 1, None] - g[..., 1], P[:, 2, None] - g[..., 2]
+            w2 = wx * wx + wy * wy + wz * wz
+            w2[~valid] = np.inf
+            j0 = np.argmin(w2, axis=1)               # the nearest centroid: an upper bound to start from
+        else:
+            j0 = np.asarray(start)
+            decay = (2.0 * moved * (1 + 1e-9) + 1e-12 * self.size)[:, None]
+            look = valid & (slack <= decay)
+            look[at_row, j0] = False                 # projected anyway
+            li, lc = np.nonzero(look)
+            g = self._face_rows[f[li, lc]]
+            pl = P[li]
+            wx, wy, wz = pl[:, 0] - g[:, 0], pl[:, 1] - g[:, 1], pl[:, 2] - g[:, 2]
+            w2 = wx * wx + wy * wy + wz * wz
+        f0 = f[at_row, j0]
         Q0, bary0, d0 = self._exact(P, f0)
         ux, uy, uz = g[..., 3], g[..., 4], g[..., 5]
         pd = wx * ux + wy * uy + wz * uz
         qx, qy, qz = wx - pd * ux, wy - pd * uy, wz - pd * uz
         along = np.maximum(np.abs(pd) - g[..., 6], 0.0)
         across = np.maximum(np.sqrt(qx * qx + qy * qy + qz * qz) - g[..., 7], 0.0)
-        reach = (np.sqrt(d0) * (1 + 1e-9) + 1e-12 * self.size)[:, None] + 1e-13 * np.sqrt(w2)
-        need = (along * along + across * across <= reach * reach) & valid
-        need[rows, j0] = False                       # projected already
-        ri, ci = np.nonzero(need)
+        r0 = np.sqrt(d0) * (1 + 1e-9) + 1e-12 * self.size
+        lb2 = along * along + across * across
+        if start is None:
+            reach = r0[:, None] + 1e-13 * np.sqrt(w2)
+            need = (lb2 <= reach * reach) & valid
+            need[at_row, j0] = False                 # projected already
+            slack_out = np.where(valid, np.sqrt(lb2) - reach, -np.inf)
+            ri, ci = np.nonzero(need)
+        else:
+            reach = r0[li] + 1e-13 * np.sqrt(w2)
+            slack_out = slack - decay
+            slack_out[li, lc] = np.sqrt(lb2) - reach
+            need = lb2 <= reach * reach
+            ri, ci = li[need], lc[need]
         Q, bary, dd = self._exact(P[ri], f[ri, ci])
         d2 = np.full((n, c), np.inf)
         d2[ri, ci] = dd
-        d2[rows, j0] = d0
+        d2[at_row, j0] = d0
         j = np.argmin(d2, axis=1)
         at = np.full((n, c), -1, np.int64)
         at[ri, ci] = np.arange(len(ri))
-        k = at[rows, j]
-        first = k < 0                                # the row's nearest-centroid face is its closest
+        k = at[at_row, j]
+        first = k < 0                                # the row's starting face is its closest
         k = np.where(first, 0, k)
         if len(ri):
             Qb, bb = Q[k], bary[k]
             Qb[first], bb[first] = Q0[first], bary0[first]
         else:
             Qb, bb = Q0, bary0
-        return Qb, bb, f[rows, j], d2[rows, j]
+        return Qb, bb, f[at_row, j], d2[at_row, j], j, slack_out
 
     def _pseudo_normals(self, faces, bary):
         """Pseudo-normal of the feature (face / edge / vertex) a foot point lies on, and whether that
@@ -264,20 +295,32 @@ class TriangleMesh:
         n = len(P)
         foot, bary = np.empty((n, 3)), np.empty((n, 3))
         face, d2 = np.empty(n, np.int64), np.empty(n)
-        # every row is its own problem: blocks of rows give the same feet in any order, so big queries are cut
-        # into blocks that two threads share (numpy and the kd-tree let go of the interpreter lock on arrays
-        # this long)
-        blocks = max(-(-n // chunk), 2 if n >= 2048 else 1)
-        edges = [n * i // blocks for i in range(blocks + 1)]
+        with self._near_lock:          # the remembered candidates (see _candidates) belong to one query at a time
+            cand, start, slack, fresh = self._candidates(P)
+            if start is not None:
+                memo = self._near_memo
+                moved = np.sqrt(((P - memo["last"]) ** 2).sum(1))
+            # every row is its own problem: blocks of rows give the same feet in any order, so a query with many
+            # new rows (each looks at all its candidates) is cut into blocks that two threads share (numpy and
+            # the kd-tree let go of the interpreter lock on arrays this long); rows that start from their last
+            # face are cheap, and two threads would only wait for each other's many small steps
+            blocks = max(-(-n // chunk), 2 if fresh >= 2048 else 1)
+            edges = [n * i // blocks for i in range(blocks + 1)]
 
-        def block(i):
-            r = slice(edges[i], edges[i + 1])
-            foot[r], bary[r], face[r], d2[r] = self._closest_candidates(P[r])
+            def block(i):
+                r = slice(edges[i], edges[i + 1])
+                if start is None:
+                    foot[r], bary[r], face[r], d2[r] = self._project(P[r], cand[r])[:4]
+                else:
+                    foot[r], bary[r], face[r], d2[r], start[r], slack[r] = self._project(
+                        P[r], cand[r], start=start[r], slack=slack[r], moved=moved[r])
 
-        if blocks == 1:
-            block(0)
-        else:
-            list(_pool().map(block, range(blocks)))
+            if blocks == 1:
+                block(0)
+            else:
+                list(_pool().map(block, range(blocks)))
+            if start is not None:
+                memo["last"][:] = P
         if exact:
             self._certify(P, foot, bary, face, d2)
         diff = P - foot
@@ -292,12 +335,63 @@ class TriangleMesh:
         return {"foot": foot, "distance": sgn * dist, "gradient": grad, "normal": pn, "face": face,
                 "off_surface": off}
 
-    def _closest_candidates(self, P):
-        """Closest of the faces around the ``k`` vertices nearest to each point P (m, 3): foot, barycentric
-        coordinates, face, squared distance."""
-        _, vi = self._vtree.query(P, k=self.k)
-        vi = np.atleast_2d(vi).reshape(len(P), -1)
-        cand = np.sort(self.vertex_faces[vi].reshape(len(P), -1), axis=1)
+    def _candidates(self, P):
+        """Candidate faces of points P (n, 3) and where to start among them, for :meth:`_project`: the faces
+        (n, c) around the ``k`` vertices nearest to each point (-1 padded, each row sorted), a starting column
+        (n,) and the slack (n, c) of each candidate (-inf: look at it); and how many rows are new.  None, None
+        for a query without memory (a short one).  The caller holds ``_near_lock``.
+
+        An optimiser asks for nearly the same points again and again, so each row remembers the point it was
+        last queried at (q'), the distance d_k of its k-th and d_(k+1) of its next vertex, and its candidates.
+        A point q within delta of q' has the same k nearest vertices while d_k + 2 delta < d_(k+1): every
+        vertex of the set is within d_k + delta of q, every other at least d_(k+1) - delta away.  Such a row
+        keeps its candidates, starts from the face it found last and passes on its slack.  The other rows ask
+        the kd-tree again and start from their nearest centroid, looking at every candidate; a row whose k-th
+        and next vertex are equally far asks for exactly k, as a query without the memory would (the set is
+        what counts: its faces are sorted)."""
+        k, n = self.k, len(P)
+        if k >= len(self.vertices) or n < 64:
+            _, vi = self._vtree.query(P, k=k)
+            return self._candidate_faces(np.atleast_2d(vi).reshape(n, -1)), None, None, n
+        memo = self._near_memo
+        if memo is not None and len(memo["ref"]) == n:
+            delta = np.sqrt(((P - memo["ref"]) ** 2).sum(1))
+            fresh = np.flatnonzero(~(memo["dk"] + 2.0 * delta < memo["dnext"] * (1 - 1e-9) - 1e-12 * self.size))
+        else:
+            memo = {"ref": P.copy(), "vi": np.empty((n, k), np.int64), "dk": np.empty(n), "dnext": np.empty(n),
+                    "cand": np.full((n, 0), -1, np.int64), "last": P.copy(), "col": np.zeros(n, np.int64),
+                    "slack": np.full((n, 0), -np.inf)}
+            fresh = np.arange(n)
+        if len(fresh):
+            Pf = P[fresh]
+            d, i = self._vtree.query(Pf, k=k + 1, workers=-1 if len(fresh) >= 2048 else 1)
+            tie = np.flatnonzero(d[:, k - 1] == d[:, k])
+            if len(tie):
+                _, i[tie, :k] = self._vtree.query(Pf[tie], k=k)
+                d[tie, k] = d[tie, k - 1]            # never kept: the set is not unique there
+            memo["ref"][fresh], memo["vi"][fresh], memo["dk"][fresh], memo["dnext"][fresh] = Pf, i[:, :k], d[:, k - 1], d[:, k]
+            cf = self._candidate_faces(i[:, :k])
+            w = cf.shape[1]
+            if w > memo["cand"].shape[1]:
+                grown = np.full((n, w), -1, np.int64)
+                grown[:, :memo["cand"].shape[1]] = memo["cand"]
+                slack = np.full((n, w), -np.inf)
+                slack[:, :memo["slack"].shape[1]] = memo["slack"]
+                memo["cand"], memo["slack"] = grown, slack
+            memo["cand"][fresh] = -1
+            memo["cand"][fresh, :w] = cf
+            memo["slack"][fresh] = -np.inf
+            # start from the nearest centroid
+            c = self.centroids[np.where(cf >= 0, cf, 0)]
+            w2 = ((Pf[:, None, :] - c) ** 2).sum(2)
+            w2[cf < 0] = np.inf
+            memo["col"][fresh] = np.argmin(w2, axis=1)
+        self._near_memo = memo
+        return memo["cand"], memo["col"], memo["slack"], len(fresh)
+
+    def _candidate_faces(self, vi):
+        """The faces around the vertices vi (m, k) of each row, sorted, without repeats, packed left (-1 pads)."""
+        cand = np.sort(self.vertex_faces[vi].reshape(len(vi), -1), axis=1)
         # drop repeated faces (shared by several of the k vertices) and pack the rest left
         dup = np.zeros(cand.shape, bool)
         dup[:, 1:] = cand[:, 1:] == cand[:, :-1]
@@ -305,8 +399,7 @@ class TriangleMesh:
         big = np.iinfo(np.int64).max
         cand = np.sort(np.where(cand < 0, big, cand), axis=1)
         width = int((cand < big).sum(1).max())
-        cand = np.where(cand[:, :width] == big, -1, cand[:, :width])
-        return self._project(P, cand)
+        return np.where(cand[:, :width] == big, -1, cand[:, :width])
 
     def _certify(self, P, foot, bary, face, d2):
         if self._ctree is None:
@@ -326,7 +419,7 @@ class TriangleMesh:
             cand = np.full((len(idx), c), -1, np.int64)
             for r, i in enumerate(idx):
                 cand[r, :lens[i]] = lists[i]
-            Q, b, f, dd = self._project(P[idx], cand)
+            Q, b, f, dd = self._project(P[idx], cand)[:4]
             better = dd < d2[idx]
             w = idx[better]
             foot[w], bary[w], face[w], d2[w] = Q[better], b[better], f[better], dd[better]
