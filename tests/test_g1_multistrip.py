@@ -69,10 +69,12 @@ def test_pruned_candidates_give_the_closest_candidate_face():
     rng = np.random.default_rng(5)
     V = rng.normal(size=(60, 3))
     V[50:60] = 0.5 * (V[30:40] + V[40:50]) + 1e-9 * rng.normal(size=(10, 3))
-    F = np.concatenate([rng.integers(0, 50, size=(120, 3)), np.c_[np.arange(30, 40), np.arange(40, 50), np.arange(50, 60)],
+    F = np.concatenate([rng.integers(0, 50, size=(120, 3)),
+                        np.c_[np.arange(30, 40), np.arange(40, 50), np.arange(50, 60)],
                         np.c_[np.arange(10), np.arange(10), np.arange(10, 20)]])
     mesh = TriangleMesh(V, F)
-    P = np.concatenate([rng.normal(size=(200, 3)), 40 * rng.normal(size=(50, 3)), V[50:60] + 1e-7 * rng.normal(size=(10, 3))])
+    P = np.concatenate([rng.normal(size=(200, 3)), 40 * rng.normal(size=(50, 3)),
+                        V[50:60] + 1e-7 * rng.normal(size=(10, 3))])
     cand = np.tile(np.arange(len(F)), (len(P), 1))
     cand[rng.random(cand.shape) < 0.2] = -1               # rows of different candidate sets, padded with -1
     A, B, C = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]

@@ -369,7 +369,8 @@ class TriangleMesh:
             if len(tie):
                 _, i[tie, :k] = self._vtree.query(Pf[tie], k=k)
                 d[tie, k] = d[tie, k - 1]            # never kept: the set is not unique there
-            memo["ref"][fresh], memo["vi"][fresh], memo["dk"][fresh], memo["dnext"][fresh] = Pf, i[:, :k], d[:, k - 1], d[:, k]
+            memo["ref"][fresh], memo["vi"][fresh] = Pf, i[:, :k]
+            memo["dk"][fresh], memo["dnext"][fresh] = d[:, k - 1], d[:, k]
             cf = self._candidate_faces(i[:, :k])
             w = cf.shape[1]
             if w > memo["cand"].shape[1]:
