@@ -99,6 +99,31 @@ def test_pruned_candidates_give_the_closest_candidate_face():
         P = P2
 
 
+def test_a_face_too_thin_for_a_unit_normal_is_still_found():
+    # the sliver's cross product squared underflows, so its computed normal is not of length 1: the plane part
+    # of the bound must not be used for it (the small triangle beside it has the nearer centroid)
+    P = np.array([[2.0, 0.0, 10.0]])
+    c1 = P[0] + [0.0, 10.08, 0.0]
+    V = np.array([[0, 0, 0], [1, 0, 0], [0.5, 2.5e-162, 0],
+                  c1 + [0.01, 0, 0], c1 + [-0.005, 0, 0.0087], c1 + [-0.005, 0, -0.0087]], float)
+    F = np.array([[0, 1, 2], [3, 4, 5]])
+    mesh = TriangleMesh(V, F)
+    assert abs(np.linalg.norm(mesh.face_normals[0]) - 1) > 1e-3           # the case this test is about
+    for exact in (False, True):
+        fp = mesh.foot_points(P, exact=exact)
+        assert fp["face"][0] == 0 and abs(abs(fp["distance"][0]) - brute_distance(V, F, P)[0]) < 1e-12
+
+
+def test_vertices_of_no_face_are_not_candidates():
+    # a vertex that belongs to no face cannot lead to one: the nearest vertices are looked for among the faces'
+    rng = np.random.default_rng(0)
+    V = np.r_[[[0, 0, 0], [1, 0, 0], [0, 1, 0], [5, 5, 0]], 10 + rng.normal(size=(10, 3))]
+    F = np.array([[0, 1, 2], [1, 3, 2]])
+    P = np.r_[[[0.2, 0.2, 1.0]], 10 + rng.normal(size=(99, 3))]
+    fp = TriangleMesh(V, F).foot_points(P)
+    assert np.abs(np.abs(fp["distance"]) - brute_distance(V, F, P)).max() < 1e-12
+
+
 def test_a_mesh_asked_again_answers_as_a_new_one():
     # the remembered nearest vertices and candidates of the last query change nothing: moves from none to
     # larger than the triangles, every answer equal to that of a mesh asked for the first time

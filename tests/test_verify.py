@@ -45,6 +45,30 @@ def test_ball_beside_cylinder_exact_deviation(delta, hand):
     assert res["flanks"][0]["uncovered_ranges"]
 
 
+def test_a_strip_given_twice_leaves_every_point_to_the_first():
+    # the same tool on the same axis twice (what a two-paths plan falls back to): the two distances of a point
+    # differ only by rounding (here: the second axis one unit of rounding deeper), so the first strip owns it,
+    # in every run, and its gouges are the first's too
+    plan = ball_plan(0.003)
+    again = dict(plan["strips"][0])
+    x = float(np.nextafter(again["axis_start"][0], 0.0))       # one unit of rounding deeper than the first
+    again["axis_start"] = again["axis_end"] = again["shank_start"] = again["shank_end"] = [x, 0.0, 0.0]
+    plan["strips"].append(again)
+    res = verify_plan(plan, tolerance=1e-3)
+    first, second = res["strips"]
+    assert first["covered_ranges"] and first["max_error"] is not None
+    assert second["covered_ranges"] == [] and second["max_error"] is None and second["gouge_points"] == 0
+    assert all(g["strip"] == 0 for g in res["gouge_points"])
+
+
+def test_first_least_picks_the_first_of_near_equal_rows():
+    from flank_addon.simulation.sweep import first_least
+
+    d = np.array([[1.0, 2.0, 5.0, np.inf, np.nan, 1.0],
+                  [1.0 - 1e-16, 1.0, 5.0 - 1e-9, np.inf, 3.0, np.nan]])
+    assert first_least(d, 1e-12).tolist() == [0, 1, 1, 0, 0, 1]          # a NaN: where argmin puts it
+
+
 def test_shank_collision_is_reported_on_the_other_flank():
     # a shank cylinder reaching deep into the rotor at 270 degrees, inside the non-target flank
     shank = ([0.0, -0.9, -0.05], [0.0, -0.6, 0.05], 0.05)

@@ -20,6 +20,7 @@ triangle mesh here, so the foot point is the exact closest point over all triang
   the signed distance, which is what the optimiser's analytic Jacobians need.
 """
 import math
+import os
 import threading
 
 import numpy as np
@@ -89,18 +90,31 @@ def closest_on_triangles(P, A, B, C):
     return Q, np.stack([u, v, w], axis=1)
 
 
-_POOL = []
+_POOL = {}
 _POOL_LOCK = threading.Lock()
+MEMO_ROWS = 50_000     # queries up to this many points are remembered for the next one (see TriangleMesh._candidates)
 
 
 def _pool():
-    """Two worker threads for blocks of foot-point queries, made on first use."""
+    """Two worker threads for blocks of foot-point queries, made on first use (and again in a forked child,
+    which inherits the pool but not its threads)."""
     with _POOL_LOCK:
-        if not _POOL:
+        if _POOL.get("pid") != os.getpid():
             from concurrent.futures import ThreadPoolExecutor
 
-            _POOL.append(ThreadPoolExecutor(max_workers=2, thread_name_prefix="foot-points"))
-        return _POOL[0]
+            _POOL.update(pid=os.getpid(), pool=ThreadPoolExecutor(max_workers=2, thread_name_prefix="foot-points"))
+        return _POOL["pool"]
+
+
+def _run_blocks(n, chunk, block, parallel):
+    """block(slice) over n rows cut into blocks of at most ``chunk``; two threads share them if ``parallel``."""
+    blocks = max(-(-n // chunk), 2 if parallel else 1)
+    edges = [n * i // blocks for i in range(blocks + 1)]
+    parts = [slice(edges[i], edges[i + 1]) for i in range(blocks)]
+    if blocks == 1:
+        block(parts[0])
+    else:
+        list(_pool().map(block, parts))
 
 
 class TriangleMesh:
@@ -116,7 +130,11 @@ class TriangleMesh:
             raise ValueError(f"vertices must be (V >= 3, 3) finite numbers, got shape {V.shape}")
         if F.ndim != 2 or F.shape[1] != 3 or len(F) < 1 or F.min() < 0 or F.max() >= len(V):
             raise ValueError(f"faces must be (F >= 1, 3) vertex indices in 0..{len(V) - 1}")
-        self.vertices, self.faces, self.k = V, F, int(min(k, len(V)))
+        self.vertices, self.faces = V, F
+        # the kd-tree holds the vertices of faces only: a vertex of no face has no candidates to offer
+        used = np.unique(F)
+        self._tree_vertices = None if len(used) == len(V) else used
+        self.k = int(min(k, len(used)))
         A, B, C = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
         cr = np.cross(B - A, C - A)
         area2 = np.linalg.norm(cr, axis=1)
@@ -126,15 +144,18 @@ class TriangleMesh:
         self.face_radius = float(np.max(corner))
         self.face_radii = corner.max(axis=0) * (1 + 1e-12) + 1e-15 * float(np.abs(V).max())
         # the face's plane through its centroid, and how far its corners lie off it (zero up to the rounding of
-        # the normal; what keeps the plane bound of _project a true bound for slivers)
-        off_plane = np.abs(np.einsum("cfk,fk->cf", np.stack([A, B, C]) - self.centroids, self.face_normals))
+        # the normal; what keeps the plane bound of _project a true bound for slivers).  The bound needs a unit
+        # normal: where the cross product was too small for one (a zero-area face, or one so thin that its
+        # squared length underflows), the normal is 0 and the bound is the centroid's sphere alone
+        unit = self.face_normals.copy()
+        unit[np.abs(np.linalg.norm(unit, axis=1) - 1.0) > 1e-12] = 0.0
+        off_plane = np.abs(np.einsum("cfk,fk->cf", np.stack([A, B, C]) - self.centroids, unit))
         self.face_thickness = off_plane.max(axis=0) * (1 + 1e-12) + 1e-15 * float(np.abs(V).max())
         # one row per face of what a query gathers (one fancy index instead of eight: the gathers, not the
         # arithmetic, are what a candidate costs): centroid, unit normal, thickness, radius; and the corners
-        self._face_rows = np.ascontiguousarray(np.c_[self.centroids, self.face_normals, self.face_thickness,
-                                                     self.face_radii])
+        self._face_rows = np.ascontiguousarray(np.c_[self.centroids, unit, self.face_thickness, self.face_radii])
         self._corner_rows = np.ascontiguousarray(np.c_[A, B, C])
-        self._vtree = cKDTree(V)
+        self._vtree = cKDTree(V if self._tree_vertices is None else V[used])
         self._near_memo = None            # the last query's nearest vertices and candidates, see _candidates
         self._near_lock = threading.Lock()
         self._ctree = None
@@ -296,31 +317,11 @@ class TriangleMesh:
         foot, bary = np.empty((n, 3)), np.empty((n, 3))
         face, d2 = np.empty(n, np.int64), np.empty(n)
         with self._near_lock:          # the remembered candidates (see _candidates) belong to one query at a time
-            cand, start, slack, fresh = self._candidates(P)
-            if start is not None:
-                memo = self._near_memo
-                moved = np.sqrt(((P - memo["last"]) ** 2).sum(1))
-            # every row is its own problem: blocks of rows give the same feet in any order, so a query with many
-            # new rows (each looks at all its candidates) is cut into blocks that two threads share (numpy and
-            # the kd-tree let go of the interpreter lock on arrays this long); rows that start from their last
-            # face are cheap, and two threads would only wait for each other's many small steps
-            blocks = max(-(-n // chunk), 2 if fresh >= 2048 else 1)
-            edges = [n * i // blocks for i in range(blocks + 1)]
-
-            def block(i):
-                r = slice(edges[i], edges[i + 1])
-                if start is None:
-                    foot[r], bary[r], face[r], d2[r] = self._project(P[r], cand[r])[:4]
-                else:
-                    foot[r], bary[r], face[r], d2[r], start[r], slack[r] = self._project(
-                        P[r], cand[r], start=start[r], slack=slack[r], moved=moved[r])
-
-            if blocks == 1:
-                block(0)
-            else:
-                list(_pool().map(block, range(blocks)))
-            if start is not None:
-                memo["last"][:] = P
+            try:
+                self._closest(P, foot, bary, face, d2, chunk)
+            except BaseException:
+                self._near_memo = None        # a half-updated memory would mislead the next query
+                raise
         if exact:
             self._certify(P, foot, bary, face, d2)
         diff = P - foot
@@ -335,11 +336,44 @@ class TriangleMesh:
         return {"foot": foot, "distance": sgn * dist, "gradient": grad, "normal": pn, "face": face,
                 "off_surface": off}
 
-    def _candidates(self, P):
+    def _nearest(self, P, k, workers=1):
+        """Distances (m, k) and indices (m, k) of the k vertices (of faces) nearest to the points P (m, 3)."""
+        d, i = self._vtree.query(P, k=k, workers=workers)
+        d, i = np.reshape(d, (len(P), -1)), np.reshape(i, (len(P), -1))
+        return d, (i if self._tree_vertices is None else self._tree_vertices[i])
+
+    def _closest(self, P, foot, bary, face, d2, chunk):
+        """Closest candidate faces of the points P (n, 3), into foot, bary, face, d2.  The caller holds
+        ``_near_lock``.
+
+        Every row is its own problem: blocks of rows give the same feet in any order, so a query with many new
+        rows (each looks at all its candidates) is cut into blocks that two threads share (numpy and the
+        kd-tree let go of the interpreter lock on arrays this long); rows that start from their last face (see
+        :meth:`_candidates`) are cheap, and two threads would only wait for each other's many small steps."""
+        n, k = len(P), self.k
+        if n < 64 or n > MEMO_ROWS or k >= len(self._vtree.data):
+            def block(r):
+                cand = self._candidate_faces(self._nearest(P[r], k)[1])
+                foot[r], bary[r], face[r], d2[r] = self._project(P[r], cand)[:4]
+
+            _run_blocks(n, chunk, block, n >= 2048)
+            return
+        cand, start, slack, fresh = self._candidates(P, chunk)
+        memo = self._near_memo
+        moved = np.sqrt(((P - memo["last"]) ** 2).sum(1))
+
+        def block(r):
+            foot[r], bary[r], face[r], d2[r], start[r], slack[r] = self._project(
+                P[r], cand[r], start=start[r], slack=slack[r], moved=moved[r])
+
+        _run_blocks(n, chunk, block, fresh >= 2048)
+        memo["last"][:] = P
+
+    def _candidates(self, P, chunk):
         """Candidate faces of points P (n, 3) and where to start among them, for :meth:`_project`: the faces
         (n, c) around the ``k`` vertices nearest to each point (-1 padded, each row sorted), a starting column
-        (n,) and the slack (n, c) of each candidate (-inf: look at it); and how many rows are new.  None, None
-        for a query without memory (a short one).  The caller holds ``_near_lock``.
+        (n,) and the slack (n, c) of each candidate (-inf: look at it); and how many rows are new.  The
+        caller holds ``_near_lock``.
 
         An optimiser asks for nearly the same points again and again, so each row remembers the point it was
         last queried at (q'), the distance d_k of its k-th and d_(k+1) of its next vertex, and its candidates.
@@ -348,11 +382,8 @@ class TriangleMesh:
         keeps its candidates, starts from the face it found last and passes on its slack.  The other rows ask
         the kd-tree again and start from their nearest centroid, looking at every candidate; a row whose k-th
         and next vertex are equally far asks for exactly k, as a query without the memory would (the set is
-        what counts: its faces are sorted)."""
+        what counts: its faces are sorted).  One query of up to :data:`MEMO_ROWS` points is remembered."""
         k, n = self.k, len(P)
-        if k >= len(self.vertices) or n < 64:
-            _, vi = self._vtree.query(P, k=k)
-            return self._candidate_faces(np.atleast_2d(vi).reshape(n, -1)), None, None, n
         memo = self._near_memo
         if memo is not None and len(memo["ref"]) == n:
             delta = np.sqrt(((P - memo["ref"]) ** 2).sum(1))
@@ -362,15 +393,17 @@ class TriangleMesh:
                     "cand": np.full((n, 0), -1, np.int64), "last": P.copy(), "col": np.zeros(n, np.int64),
                     "slack": np.full((n, 0), -np.inf)}
             fresh = np.arange(n)
-        if len(fresh):
-            Pf = P[fresh]
-            d, i = self._vtree.query(Pf, k=k + 1, workers=-1 if len(fresh) >= 2048 else 1)
+        self._near_memo = None                 # until it is whole again
+        for lo in range(0, len(fresh), chunk):
+            rows = fresh[lo:lo + chunk]
+            Pf = P[rows]
+            d, i = self._nearest(Pf, k + 1, workers=-1 if len(rows) >= 2048 else 1)
             tie = np.flatnonzero(d[:, k - 1] == d[:, k])
             if len(tie):
-                _, i[tie, :k] = self._vtree.query(Pf[tie], k=k)
+                i[tie, :k] = self._nearest(Pf[tie], k)[1]
                 d[tie, k] = d[tie, k - 1]            # never kept: the set is not unique there
-            memo["ref"][fresh], memo["vi"][fresh] = Pf, i[:, :k]
-            memo["dk"][fresh], memo["dnext"][fresh] = d[:, k - 1], d[:, k]
+            memo["ref"][rows], memo["vi"][rows] = Pf, i[:, :k]
+            memo["dk"][rows], memo["dnext"][rows] = d[:, k - 1], d[:, k]
             cf = self._candidate_faces(i[:, :k])
             w = cf.shape[1]
             if w > memo["cand"].shape[1]:
@@ -379,14 +412,14 @@ class TriangleMesh:
                 slack = np.full((n, w), -np.inf)
                 slack[:, :memo["slack"].shape[1]] = memo["slack"]
                 memo["cand"], memo["slack"] = grown, slack
-            memo["cand"][fresh] = -1
-            memo["cand"][fresh, :w] = cf
-            memo["slack"][fresh] = -np.inf
+            memo["cand"][rows] = -1
+            memo["cand"][rows, :w] = cf
+            memo["slack"][rows] = -np.inf
             # start from the nearest centroid
             c = self.centroids[np.where(cf >= 0, cf, 0)]
             w2 = ((Pf[:, None, :] - c) ** 2).sum(2)
             w2[cf < 0] = np.inf
-            memo["col"][fresh] = np.argmin(w2, axis=1)
+            memo["col"][rows] = np.argmin(w2, axis=1)
         self._near_memo = memo
         return memo["cand"], memo["col"], memo["slack"], len(fresh)
 

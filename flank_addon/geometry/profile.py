@@ -12,6 +12,7 @@ circular arcs, e.g. the Nilson profile of Bizzarri & Bartoň 2021 Ex. 3.3).
 import csv
 import hashlib
 import math
+import threading
 
 import numpy as np
 
@@ -157,7 +158,8 @@ class PeriodicCubic:
         # a plan's profile is splined again by every step that reads the plan (its simulated errors, verify):
         # the coefficients of the last few inputs are kept, by their exact numbers
         key = hashlib.sha1(repr((knots.shape, closed.shape)).encode() + knots.tobytes() + closed.tobytes()).digest()
-        c = _COEFFICIENTS.pop(key, None)
+        with _COEFFICIENTS_LOCK:
+            c = _COEFFICIENTS.get(key)
         if c is None:
             try:
                 if len(knots) < 5 or not np.all(np.isfinite(closed)) or np.any(np.diff(knots) <= 0):
@@ -168,13 +170,16 @@ class PeriodicCubic:
 
                 c = np.asarray(CubicSpline(knots, closed, bc_type="periodic").c)
             c.setflags(write=False)
-        _COEFFICIENTS[key] = c
-        while len(_COEFFICIENTS) > 8:
-            _COEFFICIENTS.pop(next(iter(_COEFFICIENTS)))
+        with _COEFFICIENTS_LOCK:          # a planner's worker thread and Blender's own may spline at once
+            _COEFFICIENTS.pop(key, None)
+            _COEFFICIENTS[key] = c
+            while len(_COEFFICIENTS) > 8:
+                _COEFFICIENTS.pop(next(iter(_COEFFICIENTS)))
         self.c = c
 
 
 _COEFFICIENTS = {}      # digest of (knots, points) -> read-only coefficients, the most recent last
+_COEFFICIENTS_LOCK = threading.Lock()
 
 
 class SplineProfile(Profile):

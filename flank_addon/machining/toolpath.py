@@ -181,17 +181,11 @@ class _Planner:
             first = first or (depth, pt)
         if first is None:
             n, v, lo, hi = limits
-            raise MachineError(f"{what}: axis {n} would reach {_position_text(v)}, outside its limits {lo:g}..{hi:g} "
-                               f"on machine {self.m.name}")
+            raise MachineError(f"{what}: axis {n} would reach {v:.6g}, outside its limits {lo:g}..{hi:g} on machine "
+                               f"{self.m.name}")
         raise OperationError(f"{what}: no link stays out of the rotor (the tool enters the stock or a shaft by "
                              f"{first[0]:.3g} mm at {np.round(first[1], 3).tolist()} in the rotor frame even "
                              "when lifted); raise --clearance or check the machine's rotary axes")
-
-
-def _position_text(v):
-    """An axis position for a message: 6 significant digits, rounded to 1e-6 first so that rounding noise of an
-    axis at 0 (1e-13 deg) reads 0, not -1.2e-13."""
-    return f"{round(float(v), 6) + 0.0:.6g}"
 
 
 def segment_intrusion(machine, rotor, r0, r1, local, gauge, step):
@@ -297,7 +291,7 @@ def build_program(op, machine, direction="forward", chord_tolerance=1e-3, step=1
             for axis_name, value, lo, hi in machine.limit_violations(mj):
                 hint = (" (the rotor mounted the other way round, --flip-rotor, may reach it)"
                         if axis_name == machine.tilt and "flipped" not in machine.name else "")
-                raise MachineError(f"{label}: axis {axis_name} reaches {_position_text(value)}, outside its limits "
+                raise MachineError(f"{label}: axis {axis_name} reaches {value:.6g}, outside its limits "
                                    f"{lo:g}..{hi:g} on machine {machine.name}{hint}")
             link = pl.link(tool.number, prev, rows[0], f"link to {label}")
             for r in link[1:-1] if prev is not None else link[:-1]:

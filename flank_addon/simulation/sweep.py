@@ -965,6 +965,20 @@ def illinois_roots(D, lo, hi, f_lo, f_hi, found, tol, slack, cutoff, report=None
     return np.where(f_lo == 0, lo, root)
 
 
+def first_least(d, tie):
+    """Per column of d (K, N): the first row whose value is within ``tie`` of the column's least, or the row of
+    the least where no other comes that close (NaN columns: argmin's row).  Two strips that sweep the same
+    surface (one tool used twice on one axis) give values equal up to rounding, and the rounding of a long
+    sum differs from run to run with the memory layout: the first row wins, so the owner of a point is the
+    same every time."""
+    d = np.asarray(d, float)
+    owner = np.argmin(d, axis=0)
+    low = d[owner, np.arange(d.shape[1])]
+    with np.errstate(invalid="ignore"):
+        near = d <= low + tie
+    return np.where(near.any(axis=0), np.argmax(near, axis=0), owner)
+
+
 def machined_deviation(tools, points, normals, v0, handedness="right", max_deviation=None, tol=1e-12,
                        progress=None):
     """Signed deviation of design points from the simulated machined surface, along their normals.

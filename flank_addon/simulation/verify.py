@@ -11,7 +11,7 @@ import numpy as np
 
 from ..io.plan import validate_plan
 from ..geometry.profile import SplineProfile
-from .sweep import StripTool, machined_deviation, tool_distances
+from .sweep import StripTool, first_least, machined_deviation, tool_distances
 
 
 def _ranges(mask):
@@ -25,10 +25,11 @@ def _ranges(mask):
     return [[int(a), int(b)] for a, b in zip(starts, ends)]
 
 
-def _min_distance(tools, q, v0, hand, cutoff):
-    """min over tools of min(D, cutoff) and the tool attaining it (cutoff lets the time windows cull)."""
+def _min_distance(tools, q, v0, hand, cutoff, tie=0.0):
+    """min over tools of min(D, cutoff) and the tool attaining it, the first of tools within ``tie`` of each
+    other (cutoff lets the time windows cull)."""
     d = tool_distances(tools, q, v0, hand, cutoff)
-    return d.min(axis=0), d.argmin(axis=0)
+    return d.min(axis=0), first_least(d, tie)
 
 
 def verify_plan(plan, tolerance=None, search=None, all_points=False, progress=None):
@@ -81,7 +82,7 @@ def verify_plan(plan, tolerance=None, search=None, all_points=False, progress=No
     gouges = []
     if tools:
         below = np.c_[prof - tol * normals, np.zeros(n)]
-        d_all, which = _min_distance(tools, below, v0, hand, 0.0)
+        d_all, which = _min_distance(tools, below, v0, hand, 0.0, 1e-12 * outer)
         hit = np.flatnonzero(d_all < 0)
         if len(hit):  # tool or shank: only the few gouged points need the distinction (and the bare tools)
             tool_only = [StripTool.from_strip(s, with_shank=False) for s in strips]
@@ -98,7 +99,7 @@ def verify_plan(plan, tolerance=None, search=None, all_points=False, progress=No
     ok = target & np.isfinite(deviation)
     own = np.full(n, -1)
     if tools and ok.any():
-        d_own, owner = _min_distance(tools, machined[ok], v0, hand, tol)
+        d_own, owner = _min_distance(tools, machined[ok], v0, hand, tol, 1e-12 * outer)
         own[ok] = np.where(d_own < tol, owner, -1)
     for k, s in enumerate(strips):
         mine = own == k

@@ -383,66 +383,25 @@ def tool_extent(ev, x, flanks=(0, 1), n_scan=400, tag="extent"):
     if not len(idx):
         raise ValueError("the tool axis touches neither flank of the valley")
 
+    def pred(l):
+        a = ev(x, np.array([l]), tag=(tag, "bisect"))
+        return bool(a.interior[list(flanks)].any())
+
+    def bisect(inside, outside):
+        for _ in range(60):
+            m = 0.5 * (inside + outside)
+            if pred(m):
+                inside = m
+            else:
+                outside = m
+            if abs(inside - outside) < 1e-12 * v.outer_radius:
+                break
+        return inside
+
     i0, i1 = idx[0], idx[-1]
-    ends = []                   # [inside, outside] of each bracket still to bisect
-    if i0 > 0:
-        ends.append([lam[i0], lam[i0 - 1]])
-    if i1 < n_scan - 1:
-        ends.append([lam[i1], lam[i1 + 1]])
-    found = _bisect_together(lambda ls: ev(x, ls, tag=(tag, "bisect")).interior[list(flanks)].any(axis=0),
-                             ends, 1e-12 * v.outer_radius)
-    lo = found.pop(0) if i0 > 0 else lam[0]
-    hi = found.pop(0) if i1 < n_scan - 1 else lam[-1]
+    lo = bisect(lam[i0], lam[i0 - 1]) if i0 > 0 else lam[0]
+    hi = bisect(lam[i1], lam[i1 + 1]) if i1 < n_scan - 1 else lam[-1]
     return float(lo), float(hi)
-
-
-def _bisect_together(pred, brackets, tol, levels=3, max_steps=60):
-    """Bisection of every bracket [inside, outside] of the predicate ``pred`` (a vector of parameters -> a
-    vector of bools), three levels per call: the 2^levels - 1 midpoints the next ``levels`` steps can visit
-    are asked at once, then the steps are taken one by one as plain bisection takes them (midpoint
-    0.5 * (inside + outside), stop when the bracket is below ``tol`` or after ``max_steps`` steps).  One
-    predicate call per three steps of all brackets, instead of one per step and bracket: the same brackets
-    as one-at-a-time bisection wherever the predicate is a function of its parameter alone.  Returns the
-    ``inside`` end of each bracket."""
-    state = [[float(a), float(b), 0, False] for a, b in brackets]     # inside, outside, steps, done
-    for st in state:
-        st[3] = max_steps == 0
-    while not all(st[3] for st in state):
-        asks, trees = [], []
-        for st in state:
-            if st[3]:
-                trees.append(None)
-                continue
-            # the midpoints of every bracket the next levels can reach, level by level
-            tree = {(): (st[0], st[1])}
-            order = []
-            for depth in range(levels):
-                for path in [p for p in tree if len(p) == depth]:
-                    a, b = tree[path]
-                    m = 0.5 * (a + b)
-                    order.append((path, m))
-                    tree[path + (True,)] = (m, b)
-                    tree[path + (False,)] = (a, m)
-            trees.append({path: len(asks) + k for k, (path, _) in enumerate(order)})
-            asks += [m for _, m in order]
-        answers = pred(np.array(asks))
-        for st, where in zip(state, trees):
-            if where is None:
-                continue
-            path = ()
-            for _ in range(levels):
-                m = 0.5 * (st[0] + st[1])
-                if answers[where[path]]:
-                    st[0] = m
-                    path += (True,)
-                else:
-                    st[1] = m
-                    path += (False,)
-                st[2] += 1
-                if abs(st[0] - st[1]) < tol or st[2] >= max_steps:
-                    st[3] = True
-                    break
-    return [st[0] for st in state]
 
 
 def radial_function(r, counted, variant="min", cap=None):
@@ -1191,7 +1150,7 @@ def simulate_plan_errors(plan, search=None):
     (:mod:`sweep`, signed: + material left, - overcut), each point owned by the strip that cuts
     deepest there.  Returns (indices, deviation, owner, per-strip (max, min))."""
     from ...geometry.profile import SplineProfile
-    from ...simulation.sweep import StripTool, machined_deviation
+    from ...simulation.sweep import StripTool, first_least, machined_deviation
 
     rot = plan["rotor"]
     prof = np.asarray(rot["profile"], float)
@@ -1203,7 +1162,7 @@ def simulate_plan_errors(plan, search=None):
     search = 0.1 * float(rot["outer_radius"]) if search is None else search
     devs = np.array([machined_deviation([StripTool.from_strip(s)], prof[idx], normals[idx], rot["v0"],
                                         rot["handedness"], max_deviation=search) for s in plan["strips"]])
-    owner = np.argmin(devs, axis=0)
+    owner = first_least(devs, 1e-12 * float(rot["outer_radius"]))
     dev = devs[owner, np.arange(len(idx))]
     per = []
     for k in range(len(plan["strips"])):
