@@ -389,9 +389,8 @@ class TriangleMesh:
             delta = np.sqrt(((P - memo["ref"]) ** 2).sum(1))
             fresh = np.flatnonzero(~(memo["dk"] + 2.0 * delta < memo["dnext"] * (1 - 1e-9) - 1e-12 * self.size))
         else:
-            memo = {"ref": P.copy(), "vi": np.empty((n, k), np.int64), "dk": np.empty(n), "dnext": np.empty(n),
-                    "cand": np.full((n, 0), -1, np.int64), "last": P.copy(), "col": np.zeros(n, np.int64),
-                    "slack": np.full((n, 0), -np.inf)}
+            memo = {"ref": P.copy(), "dk": np.empty(n), "dnext": np.empty(n), "cand": np.full((n, 0), -1, np.int64),
+                    "last": P.copy(), "col": np.zeros(n, np.int64), "slack": np.full((n, 0), -np.inf)}
             fresh = np.arange(n)
         self._near_memo = None                 # until it is whole again
         for lo in range(0, len(fresh), chunk):
@@ -402,8 +401,7 @@ class TriangleMesh:
             if len(tie):
                 i[tie, :k] = self._nearest(Pf[tie], k)[1]
                 d[tie, k] = d[tie, k - 1]            # never kept: the set is not unique there
-            memo["ref"][rows], memo["vi"][rows] = Pf, i[:, :k]
-            memo["dk"][rows], memo["dnext"][rows] = d[:, k - 1], d[:, k]
+            memo["ref"][rows], memo["dk"][rows], memo["dnext"][rows] = Pf, d[:, k - 1], d[:, k]
             cf = self._candidate_faces(i[:, :k])
             w = cf.shape[1]
             if w > memo["cand"].shape[1]:
