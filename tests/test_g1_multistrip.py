@@ -11,13 +11,14 @@ import subprocess
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 
 from flank_addon.cli import main
 from flank_addon.methods.freeform_g1 import guiding
 from flank_addon.geometry.freeform_surfaces import bump, cylinder_patch, make_surface, parabolic_blade, plane_patch
-from flank_addon.methods.freeform_g1.planner import (Layout, Objective, envelope, envelope_normal, freeform_envelopes,
-                                       freeform_kinks, plan_freeform, rail_derivative_matrix, sweep_deviation,
-                                       verify_freeform)
+from flank_addon.methods.freeform_g1.planner import (Layout, Objective, assemble, envelope, envelope_normal,
+                                       freeform_envelopes, freeform_kinks, plan_freeform, rail_derivative_matrix,
+                                       sweep_deviation, verify_freeform)
 from flank_addon.methods.freeform_g1.initial_rulings import initial_rulings
 from flank_addon.geometry.mesh_distance import TriangleMesh, closest_on_triangles
 from flank_addon.io.plan import PlanError, read_plan, validate_plan, write_plan
@@ -191,6 +192,29 @@ def test_analytic_jacobian_equals_central_differences(g1_term, free):
         Jn[:, k] = (obj.fun(x + h * e) - obj.fun(x - h * e)) / (2 * h)
     assert np.abs(JE - Jn).max() <= 1e-6 * np.abs(Jn).max()
     assert len(lay.g1_pairs) > 10 and len(x) > 100
+
+
+def test_fixed_pattern_assembly_is_scipys_matrix_bit_for_bit():
+    # entries with up to 6 repeats of a (row, column) pair: the sum of 3 or more depends on the order of adding
+    rng = np.random.default_rng(7)
+    shape = (300, 40)
+    rows = rng.integers(0, shape[0], 5000)
+    cols = rng.integers(0, 8, 5000) * 5
+    pattern = None
+    for trial in range(4):
+        vals = rng.normal(size=len(rows)) * 10.0 ** rng.integers(-8, 8, len(rows))
+        J, pattern = assemble(pattern, vals, rows, cols, shape)
+        ref = sp.csr_matrix((vals, (rows, cols)), shape=shape)
+        assert J.indices.dtype == ref.indices.dtype and np.array_equal(J.indptr, ref.indptr)
+        assert np.array_equal(J.indices, ref.indices)
+        assert np.array_equal(J.data.view(np.int64), ref.data.view(np.int64))
+    assert max(len(g) for g, _ in pattern.repeats) > 0 and len(pattern.repeats) >= 3
+    # a changed pattern is noticed and assembled afresh
+    cols2 = cols.copy()
+    cols2[0] += 1
+    J2, pattern2 = assemble(pattern, vals, rows, cols2, shape)
+    assert pattern2 is not pattern
+    assert np.array_equal(J2.toarray(), sp.csr_matrix((vals, (rows, cols2)), shape=shape).toarray())
 
 
 def test_rail_derivative_matrix_is_the_spline_derivative():

@@ -19,6 +19,7 @@ triangle mesh here, so the foot point is the exact closest point over all triang
 * ``gradient``: the unit vector (y - y_perp) / |y - y_perp| times the sign, i.e. the gradient of
   the signed distance, which is what the optimiser's analytic Jacobians need.
 """
+import itertools
 import math
 import os
 import threading
@@ -434,11 +435,16 @@ class TriangleMesh:
         return np.where(cand[:, :width] == big, -1, cand[:, :width])
 
     def _certify(self, P, foot, bary, face, d2):
+        """Replace each foot (foot, bary, face, d2 of the points P, in place) by the closest point of any
+        face that could be nearer: every face whose centroid is within the foot's distance plus the face's
+        radius."""
         if self._ctree is None:
             self._ctree = cKDTree(self.centroids)
         radius = np.sqrt(d2) + self.face_radius * (1 + 1e-9) + 1e-12 * self.size
         lists = self._ctree.query_ball_point(P, radius)
-        lens = np.fromiter((len(x) for x in lists), np.int64, len(lists))
+        lens = np.fromiter(map(len, lists), np.int64, len(lists))
+        flat = np.fromiter(itertools.chain.from_iterable(lists), np.int64, int(lens.sum()))
+        offset = np.cumsum(lens) - lens
         todo = np.flatnonzero(lens > 0)
         todo = todo[np.argsort(lens[todo], kind="stable")]
         # batches of similar candidate counts, each a dense (n, c) array of <= ~200k pairs
@@ -449,8 +455,9 @@ class TriangleMesh:
             lo += len(idx)
             c = int(lens[idx].max())
             cand = np.full((len(idx), c), -1, np.int64)
-            for r, i in enumerate(idx):
-                cand[r, :lens[i]] = lists[i]
+            row = np.repeat(np.arange(len(idx)), lens[idx])
+            col = np.arange(len(row)) - np.repeat(np.cumsum(lens[idx]) - lens[idx], lens[idx])
+            cand[row, col] = flat[np.repeat(offset[idx], lens[idx]) + col]
             Q, b, f, dd = self._project(P[idx], cand)[:4]
             better = dd < d2[idx]
             w = idx[better]

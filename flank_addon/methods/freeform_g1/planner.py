@@ -97,6 +97,61 @@ class Layout:
         self.fair = np.concatenate(fair) if fair else np.zeros((0, 3), np.int64)
 
 
+class SparsePattern:
+    """CSR assembly of a Jacobian whose (row, column) entries are the same at every evaluation.
+
+    ``scipy.sparse.csr_matrix((vals, (rows, cols)))`` sorts the entries of every row and adds up repeated
+    (row, column) pairs each time; with the pattern fixed only the values change, so the order of that sort
+    (it compares the columns only, so it does not depend on the values) is found once, and each evaluation
+    gathers and adds the values in that same order.  The matrices are the same, bit for bit, as scipy's
+    (the optimiser's path depends on every last bit of them)."""
+
+    def __init__(self, rows, cols, shape):
+        self.rows, self.cols, self.shape = rows.copy(), cols.copy(), tuple(shape)
+        n = len(rows)
+        # scipy's own conversion on the entry numbers 0 .. n - 1 (exact in float64) shows where each entry goes
+        order = np.argsort(rows, kind="stable")                 # by row, in input order within a row
+        count = np.bincount(rows, minlength=shape[0])
+        index_dtype = sp.csr_matrix((np.zeros(n), (rows, cols)), shape=shape).indices.dtype
+        indptr = np.zeros(shape[0] + 1, index_dtype)
+        np.cumsum(count, out=indptr[1:])
+        probe = sp.csr_matrix((order.astype(float), cols[order].astype(index_dtype), indptr), shape=shape)
+        probe.sort_indices()
+        perm = probe.data.astype(np.int64)
+        r, c = rows[perm], cols[perm]
+        new = np.r_[True, (r[1:] != r[:-1]) | (c[1:] != c[:-1])] if n else np.zeros(0, bool)
+        start = np.flatnonzero(new)
+        group = np.cumsum(new) - 1
+        rank = np.arange(n) - start[group]
+        # repeated pairs are added left to right: the first, then the second, ...
+        self.first = perm[start]
+        self.repeats = [(group[rank == k], perm[rank == k]) for k in range(1, int(rank.max(initial=0)) + 1)]
+        self.indices = c[start].astype(index_dtype)
+        self.indptr = np.zeros(shape[0] + 1, index_dtype)
+        np.cumsum(np.bincount(r[start], minlength=shape[0]), out=self.indptr[1:])
+
+    def matches(self, rows, cols, shape):
+        return (tuple(shape) == self.shape and np.array_equal(rows, self.rows)
+                and np.array_equal(cols, self.cols))
+
+    def matrix(self, vals):
+        data = vals[self.first]
+        for group, entries in self.repeats:
+            data[group] += vals[entries]
+        J = sp.csr_matrix((data, self.indices.copy(), self.indptr.copy()), shape=self.shape)
+        J.has_sorted_indices = True
+        J.has_canonical_format = True
+        return J
+
+
+def assemble(pattern, vals, rows, cols, shape):
+    """CSR matrix of the entries (vals, (rows, cols)), repeated pairs added, through ``pattern`` (a
+    :class:`SparsePattern` or None) when it holds the same entries; returns (matrix, the pattern used)."""
+    if pattern is None or not pattern.matches(rows, cols, shape):
+        pattern = SparsePattern(rows, cols, shape)
+    return pattern.matrix(vals), pattern
+
+
 # ============================================================================ rails
 def rails(m, normals, layout, r1, r2):
     """Eq. (10): tip and base sphere centres a, b (R, 3) of every ruling from the m-grid (P, 3)."""
@@ -164,6 +219,7 @@ class Objective:
         self.report = report
         self.n_eval = 0
         self._cache = (None, None)
+        self._pattern = None                  # the Jacobian's entries (see SparsePattern)
         # time derivative of the rails at the rulings: the natural cubic spline's, a linear map of the
         # rail points for the time parameters of the start (held for this solve)
         a0, b0 = rails(np.asarray(m_ini if m_start is None else m_start, float), self.nrm, layout, r1, r2)
@@ -172,6 +228,11 @@ class Objective:
             sl = slice(layout.ruling_start[k], layout.ruling_start[k + 1])
             blocks.append(sp.csr_matrix(rail_derivative_matrix(_time_params(a0[sl], b0[sl]))))
         self.D = sp.block_diag(blocks, format="csr") if blocks else sp.csr_matrix((0, 0))
+        # the rows of D at the G1 pairs' lower (+1) and upper (-1) rulings, the same at every evaluation
+        self.D_pairs = {}
+        for sgn, idx in ((1.0, layout.g1_pairs[:, 0]), (-1.0, layout.g1_pairs[:, 1])):
+            rows_of_d = self.D[idx]
+            self.D_pairs[sgn] = (rows_of_d, rows_of_d.tocoo())
 
     # -------------------------------------------------------------- packing
     def pack(self, m, tool=None):
@@ -301,7 +362,8 @@ class Objective:
             row0 += 3 * len(tr)
 
         f = np.concatenate(res)
-        J = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(row0, nv))
+        J, self._pattern = assemble(self._pattern, np.concatenate(vals), np.concatenate(rows), np.concatenate(cols),
+                                    (row0, nv))
         self._cache = (x.copy(), (f, J))
         return f, J
 
@@ -343,7 +405,7 @@ class Objective:
             add(rr, np.repeat(xyz(lay.gb[idx])[:, None, :], 3, axis=1), Js)
             add(rr, np.repeat(xyz(lay.ga[idx])[:, None, :], 3, axis=1), -Js)
             # y_t = D rail: b for the lower strip's base end (sgn +), a for the upper strip's tip end
-            Dsub = D[idx].tocoo()
+            Didx, Dsub = self.D_pairs[sgn]
             rail = lay.gb if sgn > 0 else lay.ga
             coef = Dsub.data[:, None, None] * Jt[Dsub.row]                         # (nnz, 3, 3)
             add(np.repeat(rows3[Dsub.row][:, :, None], 3, axis=2),
@@ -352,7 +414,7 @@ class Objective:
                 if k in col_of:
                     dys = db[k][idx] - da[k][idx]
                     drail = (db if sgn > 0 else da)[k]
-                    dyt = D[idx] @ drail
+                    dyt = Didx @ drail
                     add(rows3, np.full(rows3.shape, col_of[k]),
                         np.einsum("pij,pj->pi", Js, dys) + np.einsum("pij,pj->pi", Jt, dyt)
                         + (Jdr if k == "r2" else -Jdr))
@@ -756,13 +818,15 @@ def plan_freeform(vertices, faces, *, direction=None, point=None, field_vectors=
     full_tool = {"r1": r1 + (tool_e["r1"] - r1e), "r2": tool_e["r2"], "L": tool_e["L"] / engagement,
                  "shank_radius": sr, "shank_length": float(shank_length)}
     engaged = {"r1": tool_e["r1"], "r2": tool_e["r2"], "L": tool_e["L"]}
+    # every strip's rulings in one query each (rows are independent; large queries use both cores)
+    err_all = ruling_errors(mesh, a_all, b_all, tool_e["r1"], tool_e["r2"], K)
+    err_ini_all = ruling_errors(mesh, a_ini, b_ini, r1e, r2e, K)
     for k, st in enumerate(strips):
         sl = slice(layout.ruling_start[k], layout.ruling_start[k + 1])
         a, b = a_all[sl], b_all[sl]
         strips_ab.append((a, b))
         cols.append(st.columns)
-        err = ruling_errors(mesh, a, b, tool_e["r1"], tool_e["r2"], K)
-        err_ini = ruling_errors(mesh, a_ini[sl], b_ini[sl], r1e, r2e, K)
+        err, err_ini = err_all[sl], err_ini_all[sl]
         coll = collision_check(mesh, a, b, full_tool, engaged)
         u = (b - a) / np.linalg.norm(b - a, axis=1, keepdims=True)
         shank_end = b[0] + u[0] * max(float(shank_length), 0.0)
