@@ -254,13 +254,16 @@ class TriangleMesh:
             need[at_row, j0] = False                 # projected already
             slack_out = np.where(valid, np.sqrt(lb2) - reach, -np.inf)
             ri, ci = np.nonzero(need)
+            reach_of = reach[ri, ci]
         else:
             reach = r0[li] + 1e-13 * np.sqrt(w2)
             slack_out = slack - decay
             slack_out[li, lc] = np.sqrt(lb2) - reach
             need = lb2 <= reach * reach
             ri, ci = li[need], lc[need]
+            reach_of = reach[need]
         Q, bary, dd = self._exact(P[ri], f[ri, ci])
+        slack_out[ri, ci] = np.sqrt(dd) - reach_of        # a projected face's distance: a tighter bound still
         d2 = np.full((n, c), np.inf)
         d2[ri, ci] = dd
         d2[at_row, j0] = d0

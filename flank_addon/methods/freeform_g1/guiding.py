@@ -457,9 +457,13 @@ def propagate_direction(vertices, faces, direction, point=None, method="transpor
     Returns a :class:`GuidingField`.
     """
     V, F = validate_mesh(vertices, faces)
+    return _propagate(V, F, direction, point, method, diffusion_time, vertex_normals(V, F))
+
+
+def _propagate(V, F, direction, point, method, diffusion_time, N):
+    """:func:`propagate_direction` on a mesh that :func:`validate_mesh` accepted, with its vertex normals N."""
     d = _check_direction("direction", direction)
     src = central_vertex(V, F, point)
-    N = vertex_normals(V, F)
     t0 = _tilt_check("direction", d[None], N[src:src + 1], "central vertex", [src])[0]
     if method == "projection":
         X = _tilt_check("the projected direction", np.broadcast_to(d, V.shape).copy(), N, "vertex")
@@ -985,8 +989,9 @@ def guiding_curves(vertices, faces, *, direction=None, point=None, field_vectors
     max_gap = 2 * spacing if max_gap is None else float(max_gap)
     timings["validate"] = time.perf_counter() - t0
     t0 = time.perf_counter()
+    N = vertex_normals(V, F)
     if direction is not None:
-        fld = propagate_direction(V, F, direction, point, method, diffusion_time)
+        fld = _propagate(V, F, direction, point, method, diffusion_time, N)
         src = fld.source
     else:
         fld = field_from_vectors(V, F, field_vectors)
@@ -997,7 +1002,6 @@ def guiding_curves(vertices, faces, *, direction=None, point=None, field_vectors
     timings["function"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     levels = level_values(fun.values, spacing, 0.0)
-    N = vertex_normals(V, F)
     edges, face_edges, _ = mesh_edges(F, len(V))
     curves = []
     for lv in levels:
