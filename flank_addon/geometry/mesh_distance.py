@@ -215,10 +215,12 @@ class TriangleMesh:
         or the column ``start`` (n,) given.  Leaving out faces that cannot be the closest never changes the
         answer, the first least distance in the row's order.
 
-        ``slack`` (n, c) out: a lower bound of bound - reach of each candidate (-inf where unknown).  Both the
-        bound and the distance to a fixed face change by at most the move of P, so a row asked again at a
-        point ``moved`` (n,) away from the last, starting from the face it found then, passes the last slack
-        in: candidates whose slack exceeds twice the move are left out without a look."""
+        ``slack`` (n, c) out: a lower bound of (distance - reach) of each candidate: the distance itself where
+        the face was projected, else its bound (-inf where unknown).  Both the bound and the distance to a
+        fixed face change by at most the move of P, so a row asked again at a point ``moved`` (n,) away from
+        the last, starting from the face it found then, passes the last slack in: candidates whose slack
+        exceeds twice the move are left out without a look (late in an optimisation, when the points move
+        little, most neighbours of the face found)."""
         n, c = cand.shape
         valid = cand >= 0
         f = np.where(valid, cand, 0)
