@@ -118,6 +118,17 @@ def _run_blocks(n, chunk, block, parallel):
         list(_pool().map(block, parts))
 
 
+def _bound2(wx, wy, wz, g):
+    """Squared lower bound of the distance from points P to faces, with w = P - centroid and the faces' rows g
+    (centroid, unit normal, thickness, radius; see :meth:`TriangleMesh._project`)."""
+    ux, uy, uz = g[..., 3], g[..., 4], g[..., 5]
+    pd = wx * ux + wy * uy + wz * uz
+    qx, qy, qz = wx - pd * ux, wy - pd * uy, wz - pd * uz
+    along = np.maximum(np.abs(pd) - g[..., 6], 0.0)
+    across = np.maximum(np.sqrt(qx * qx + qy * qy + qz * qz) - g[..., 7], 0.0)
+    return along * along + across * across
+
+
 class TriangleMesh:
     """A triangle mesh prepared for foot-point queries.
 
@@ -243,13 +254,8 @@ class TriangleMesh:
             w2 = wx * wx + wy * wy + wz * wz
         f0 = f[at_row, j0]
         Q0, bary0, d0 = self._exact(P, f0)
-        ux, uy, uz = g[..., 3], g[..., 4], g[..., 5]
-        pd = wx * ux + wy * uy + wz * uz
-        qx, qy, qz = wx - pd * ux, wy - pd * uy, wz - pd * uz
-        along = np.maximum(np.abs(pd) - g[..., 6], 0.0)
-        across = np.maximum(np.sqrt(qx * qx + qy * qy + qz * qz) - g[..., 7], 0.0)
+        lb2 = _bound2(wx, wy, wz, g)
         r0 = np.sqrt(d0) * (1 + 1e-9) + 1e-12 * self.size
-        lb2 = along * along + across * across
         if start is None:
             reach = r0[:, None] + 1e-13 * np.sqrt(w2)
             need = (lb2 <= reach * reach) & valid
@@ -463,10 +469,24 @@ class TriangleMesh:
             row = np.repeat(np.arange(len(idx)), lens[idx])
             col = np.arange(len(row)) - np.repeat(np.cumsum(lens[idx]) - lens[idx], lens[idx])
             cand[row, col] = flat[np.repeat(offset[idx], lens[idx]) + col]
-            Q, b, f, dd = self._project(P[idx], cand)[:4]
-            better = dd < d2[idx]
-            w = idx[better]
-            foot[w], bary[w], face[w], d2[w] = Q[better], b[better], f[better], dd[better]
+            # faces that could be strictly nearer than the foot found (the bound of _project, reached from it)
+            g = self._face_rows[np.where(cand >= 0, cand, 0)]
+            Pi = P[idx]
+            wx, wy, wz = Pi[:, 0, None] - g[..., 0], Pi[:, 1, None] - g[..., 1], Pi[:, 2, None] - g[..., 2]
+            reach = (np.sqrt(d2[idx]) * (1 + 1e-9) + 1e-12 * self.size)[:, None] + 1e-13 * np.sqrt(
+                wx * wx + wy * wy + wz * wz)
+            need = (_bound2(wx, wy, wz, g) <= reach * reach) & (cand >= 0) & (cand != face[idx][:, None])
+            ri, ci = np.nonzero(need)
+            Q, b, dd = self._exact(Pi[ri], cand[ri, ci])
+            dm = np.full(cand.shape, np.inf)
+            dm[ri, ci] = dd
+            j = np.argmin(dm, axis=1)                  # the first least in the row's order, as _project finds
+            at = np.full(cand.shape, -1, np.int64)
+            at[ri, ci] = np.arange(len(ri))
+            k = at[np.arange(len(idx)), j]
+            better = (k >= 0) & (dm[np.arange(len(idx)), j] < d2[idx])
+            w, k = idx[better], k[better]
+            foot[w], bary[w], face[w], d2[w] = Q[k], b[k], cand[better, j[better]], dd[k]
 
     def signed_distance(self, points, exact=False):
         """Signed distances (n,) of points (n, 3): + on the normals' side."""
