@@ -100,6 +100,34 @@ def test_pruned_candidates_give_the_closest_candidate_face():
         P = P2
 
 
+def test_faces_of_no_area_are_their_edges():
+    # a repeated corner and three collinear corners: Ericson's region formulas divide 0 by 0 there; the closest
+    # point is on an edge, checked against 20,001 samples of each edge (before, such rows came out as the origin)
+    rng = np.random.default_rng(3)
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 2, 0], [3, 0, 1], [1.5, 0, 0.5]], float)
+    F = np.array([[0, 1, 2], [3, 3, 4], [0, 4, 5]])       # a triangle, a repeated corner, collinear corners
+    P = rng.uniform(-1, 4, size=(300, 3))
+    t = np.linspace(0, 1, 20001)[:, None]
+    nearest = []
+    for f in F:
+        A, B, C = (np.repeat(V[i][None], len(P), 0) for i in f)
+        Q, bary = closest_on_triangles(P, A, B, C)
+        got = np.linalg.norm(Q - P, axis=1)
+        if f[0] == 0 and f[1] == 1:                       # the proper triangle: its closest points as they are
+            nearest.append(got)
+            continue
+        X = V[f]
+        edges = np.concatenate([X[i] + t * (X[(i + 1) % 3] - X[i]) for i in range(3)])
+        dense = np.sqrt(((P[:, None, :] - edges[None]) ** 2).sum(2)).min(1)
+        assert np.isfinite(Q).all() and np.allclose(bary.sum(1), 1.0) and np.allclose(bary @ X, Q)
+        assert np.all(got <= dense + 1e-12) and np.all(got >= dense - 2e-4)
+        nearest.append(dense)
+    # the mesh's exact foot points are then the nearest of its faces' closest points
+    fp = TriangleMesh(V, F).foot_points(P, exact=True)
+    least = np.min(nearest, axis=0)
+    assert np.all(np.abs(fp["distance"]) <= least + 1e-12) and np.all(np.abs(fp["distance"]) >= least - 2e-4)
+
+
 def test_a_face_too_thin_for_a_unit_normal_is_still_found():
     # the sliver's cross product squared underflows, so its computed normal is not of length 1: the plane part
     # of the bound must not be used for it (the small triangle beside it has the nearer centroid)

@@ -83,12 +83,34 @@ def closest_on_triangles(P, A, B, C):
             den = va[m] + vb[m] + vc[m]
             vv, ww = vb[m] / den, vc[m] / den
             u[m], v[m], w[m] = 1 - vv - ww, vv, ww
-    u, v, w = np.nan_to_num(u), np.nan_to_num(v), np.nan_to_num(w)
+    bad = np.flatnonzero(~(np.isfinite(u) & np.isfinite(v) & np.isfinite(w)))
     Q = np.empty((n, 3))
     Q[:, 0] = u * ax + v * bx + w * cx
     Q[:, 1] = u * ay + v * by + w * cy
     Q[:, 2] = u * az + v * bz + w * cz
-    return Q, np.stack([u, v, w], axis=1)
+    bary = np.stack([u, v, w], axis=1)
+    if len(bad):
+        # a triangle of no area (repeated or collinear corners) divided 0 by 0: it is its three edges
+        Q[bad], bary[bad] = _closest_on_edges(P[bad], A[bad], B[bad], C[bad])
+    return Q, bary
+
+
+def _closest_on_edges(P, A, B, C):
+    """Closest points on the edges AB, BC, CA of triangles (all (n, 3)) and their barycentric coordinates."""
+    corners = (A, B, C)
+    best_d2 = np.full(len(P), np.inf)
+    Q, bary = np.zeros((len(P), 3)), np.zeros((len(P), 3))
+    for i, j in ((0, 1), (1, 2), (2, 0)):
+        X, D = corners[i], corners[j] - corners[i]
+        L2 = (D * D).sum(1)
+        t = np.clip(((P - X) * D).sum(1) / np.where(L2 > 0, L2, 1.0), 0.0, 1.0)
+        q = X + t[:, None] * D
+        d2 = ((P - q) ** 2).sum(1)
+        nearer = d2 < best_d2
+        best_d2[nearer], Q[nearer] = d2[nearer], q[nearer]
+        bary[nearer] = 0.0
+        bary[nearer, i], bary[nearer, j] = 1.0 - t[nearer], t[nearer]
+    return Q, bary
 
 
 _POOL = {}
@@ -116,17 +138,6 @@ def _run_blocks(n, chunk, block, parallel):
         block(parts[0])
     else:
         list(_pool().map(block, parts))
-
-
-def _bound2(wx, wy, wz, g):
-    """Squared lower bound of the distance from points P to faces, with w = P - centroid and the faces' rows g
-    (centroid, unit normal, thickness, radius; see :meth:`TriangleMesh._project`)."""
-    ux, uy, uz = g[..., 3], g[..., 4], g[..., 5]
-    pd = wx * ux + wy * uy + wz * uz
-    qx, qy, qz = wx - pd * ux, wy - pd * uy, wz - pd * uz
-    along = np.maximum(np.abs(pd) - g[..., 6], 0.0)
-    across = np.maximum(np.sqrt(qx * qx + qy * qy + qz * qz) - g[..., 7], 0.0)
-    return along * along + across * across
 
 
 class TriangleMesh:
@@ -226,12 +237,12 @@ class TriangleMesh:
         or the column ``start`` (n,) given.  Leaving out faces that cannot be the closest never changes the
         answer, the first least distance in the row's order.
 
-        ``slack`` (n, c) out: a lower bound of (distance - reach) of each candidate: the distance itself where
-        the face was projected, else its bound (-inf where unknown).  Both the bound and the distance to a
-        fixed face change by at most the move of P, so a row asked again at a point ``moved`` (n,) away from
-        the last, starting from the face it found then, passes the last slack in: candidates whose slack
-        exceeds twice the move are left out without a look (late in an optimisation, when the points move
-        little, most neighbours of the face found)."""
+        ``slack`` (n, c) out: a lower bound of bound - reach of each candidate (-inf where unknown).  Both the
+        bound and the distance to a fixed face change by at most the move of P, so a row asked again at a
+        point ``moved`` (n,) away from the last, starting from the face it found then, passes the last slack
+        in: candidates whose slack exceeds twice the move are left out without a look.  (Not the computed
+        distance of a projected face: on a sliver, or far from the origin, it can change by more than the
+        move, and a remembered query would then answer differently from a fresh one.)"""
         n, c = cand.shape
         valid = cand >= 0
         f = np.where(valid, cand, 0)
@@ -254,24 +265,26 @@ class TriangleMesh:
             w2 = wx * wx + wy * wy + wz * wz
         f0 = f[at_row, j0]
         Q0, bary0, d0 = self._exact(P, f0)
-        lb2 = _bound2(wx, wy, wz, g)
+        ux, uy, uz = g[..., 3], g[..., 4], g[..., 5]
+        pd = wx * ux + wy * uy + wz * uz
+        qx, qy, qz = wx - pd * ux, wy - pd * uy, wz - pd * uz
+        along = np.maximum(np.abs(pd) - g[..., 6], 0.0)
+        across = np.maximum(np.sqrt(qx * qx + qy * qy + qz * qz) - g[..., 7], 0.0)
         r0 = np.sqrt(d0) * (1 + 1e-9) + 1e-12 * self.size
+        lb2 = along * along + across * across
         if start is None:
             reach = r0[:, None] + 1e-13 * np.sqrt(w2)
             need = (lb2 <= reach * reach) & valid
             need[at_row, j0] = False                 # projected already
             slack_out = np.where(valid, np.sqrt(lb2) - reach, -np.inf)
             ri, ci = np.nonzero(need)
-            reach_of = reach[ri, ci]
         else:
             reach = r0[li] + 1e-13 * np.sqrt(w2)
             slack_out = slack - decay
             slack_out[li, lc] = np.sqrt(lb2) - reach
             need = lb2 <= reach * reach
             ri, ci = li[need], lc[need]
-            reach_of = reach[need]
         Q, bary, dd = self._exact(P[ri], f[ri, ci])
-        slack_out[ri, ci] = np.sqrt(dd) - reach_of        # a projected face's distance: a tighter bound still
         d2 = np.full((n, c), np.inf)
         d2[ri, ci] = dd
         d2[at_row, j0] = d0
@@ -469,24 +482,10 @@ class TriangleMesh:
             row = np.repeat(np.arange(len(idx)), lens[idx])
             col = np.arange(len(row)) - np.repeat(np.cumsum(lens[idx]) - lens[idx], lens[idx])
             cand[row, col] = flat[np.repeat(offset[idx], lens[idx]) + col]
-            # faces that could be strictly nearer than the foot found (the bound of _project, reached from it)
-            g = self._face_rows[np.where(cand >= 0, cand, 0)]
-            Pi = P[idx]
-            wx, wy, wz = Pi[:, 0, None] - g[..., 0], Pi[:, 1, None] - g[..., 1], Pi[:, 2, None] - g[..., 2]
-            reach = (np.sqrt(d2[idx]) * (1 + 1e-9) + 1e-12 * self.size)[:, None] + 1e-13 * np.sqrt(
-                wx * wx + wy * wy + wz * wz)
-            need = (_bound2(wx, wy, wz, g) <= reach * reach) & (cand >= 0) & (cand != face[idx][:, None])
-            ri, ci = np.nonzero(need)
-            Q, b, dd = self._exact(Pi[ri], cand[ri, ci])
-            dm = np.full(cand.shape, np.inf)
-            dm[ri, ci] = dd
-            j = np.argmin(dm, axis=1)                  # the first least in the row's order, as _project finds
-            at = np.full(cand.shape, -1, np.int64)
-            at[ri, ci] = np.arange(len(ri))
-            k = at[np.arange(len(idx)), j]
-            better = (k >= 0) & (dm[np.arange(len(idx)), j] < d2[idx])
-            w, k = idx[better], k[better]
-            foot[w], bary[w], face[w], d2[w] = Q[k], b[k], cand[better, j[better]], dd[k]
+            Q, b, f, dd = self._project(P[idx], cand)[:4]
+            better = dd < d2[idx]
+            w = idx[better]
+            foot[w], bary[w], face[w], d2[w] = Q[better], b[better], f[better], dd[better]
 
     def signed_distance(self, points, exact=False):
         """Signed distances (n,) of points (n, 3): + on the normals' side."""

@@ -104,7 +104,8 @@ class SparsePattern:
     (row, column) pairs each time; with the pattern fixed only the values change, so the order of that sort
     (it compares the columns only, so it does not depend on the values) is found once, and each evaluation
     gathers and adds the values in that same order.  The matrices are the same, bit for bit, as scipy's
-    (the optimiser's path depends on every last bit of them)."""
+    (the optimiser's path depends on every last bit of them); only where two NaNs are added may the sign or
+    payload of the NaN differ."""
 
     def __init__(self, rows, cols, shape):
         self.rows, self.cols, self.shape = rows.copy(), cols.copy(), tuple(shape)
