@@ -128,6 +128,28 @@ def test_faces_of_no_area_are_their_edges():
     assert np.all(np.abs(fp["distance"]) <= least + 1e-12) and np.all(np.abs(fp["distance"]) >= least - 2e-4)
 
 
+@pytest.mark.parametrize("height", [0.0, 1e-12, 1e-8, 1e-5, 1e-3, 0.5])
+def test_points_over_the_long_edge_of_a_sliver_are_as_far_as_the_plane(height):
+    # C lies `height` off the long edge AB (length 112): a point over AB, off the plane by `off`, is exactly
+    # `off` from the triangle.  Ericson's region tests put up to 31% of such points at the far corner by
+    # rounding (wrong by up to 92 at height 1e-8); slivers are measured as their plane inside their edges
+    rng = np.random.default_rng(0)
+    A, B = np.array([85.71428571428571, 28.57142857142857, 4.540164689476524]), np.array([0.0, 100.0, 0.0])
+    u = np.cross(B - A, [0.3, 0.1, 0.9])
+    C = A + 0.33 * (B - A) + height * u / np.linalg.norm(u)
+    n = np.cross(B - A, u)                                # the plane's normal, well defined at any height
+    n /= np.linalg.norm(n)
+    for off in (0.0, 1e-3, 1.0):
+        P = A + rng.random(5000)[:, None] * (B - A) + off * n
+        Q, bary = closest_on_triangles(P, *(np.repeat(X[None], len(P), 0) for X in (A, B, C)))
+        assert np.abs(np.linalg.norm(P - Q, axis=1) - off).max() < 1e-12 * np.linalg.norm(B - A)
+        assert (bary >= 0).all() and np.allclose(bary.sum(1), 1.0) and np.allclose(bary @ np.stack([A, B, C]), Q)
+    # and a mesh of it answers the same
+    mesh = TriangleMesh(np.stack([A, B, C]), np.array([[0, 1, 2]]))
+    fp = mesh.foot_points(P, exact=True)
+    assert np.abs(np.abs(fp["distance"]) - 1.0).max() < 1e-12 * np.linalg.norm(B - A)
+
+
 def test_a_face_too_thin_for_a_unit_normal_is_still_found():
     # the sliver's cross product squared underflows, so its computed normal is not of length 1: the plane part
     # of the bound must not be used for it (the small triangle beside it has the nearer centroid)

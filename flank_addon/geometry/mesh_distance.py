@@ -30,9 +30,26 @@ from scipy.spatial import cKDTree
 FACE, EDGE, VERTEX = 0, 1, 2
 
 
-def closest_on_triangles(P, A, B, C):
+SLIVER = 1e-2     # a triangle lower than this fraction of its longest edge is a sliver (see closest_on_triangles)
+
+
+def sliver_rows(A, B, C):
+    """Whether each triangle ABC (n, 3 each) is a sliver: twice its area below SLIVER x its longest edge squared."""
+    ab, ac, bc = B - A, C - A, C - B
+    cross = np.cross(ab, ac)
+    longest = np.maximum(np.maximum((ab * ab).sum(1), (ac * ac).sum(1)), (bc * bc).sum(1))
+    return np.sqrt((cross * cross).sum(1)) < SLIVER * longest
+
+
+def closest_on_triangles(P, A, B, C, sliver=None):
     """Closest points on triangles ABC to points P, all (n, 3); returns (points (n, 3),
-    barycentric (n, 3)).  Region tests of Ericson, Real-Time Collision Detection 5.1.5."""
+    barycentric (n, 3)).  Region tests of Ericson, Real-Time Collision Detection 5.1.5.
+
+    Those tests decide between regions by the signs of differences of products; on a sliver (a very obtuse or
+    thin triangle) a point near its long edge can land in the far corner's region by rounding (a point on the
+    edge of a triangle 1e-7 of its length high came out up to 0.3 of that length away).  Slivers (``sliver``
+    (n,) bool, default :func:`sliver_rows`; False: none) are measured as their plane inside the three edges
+    instead."""
     px, py, pz = P[:, 0], P[:, 1], P[:, 2]
     ax, ay, az = A[:, 0], A[:, 1], A[:, 2]
     bx, by, bz = B[:, 0], B[:, 1], B[:, 2]
@@ -92,6 +109,32 @@ def closest_on_triangles(P, A, B, C):
     if len(bad):
         # a triangle of no area (repeated or collinear corners) divided 0 by 0: it is its three edges
         Q[bad], bary[bad] = _closest_on_edges(P[bad], A[bad], B[bad], C[bad])
+    thin = () if sliver is False else np.flatnonzero(sliver_rows(A, B, C) if sliver is None else sliver)
+    if len(thin):
+        Q[thin], bary[thin] = _closest_on_sliver(P[thin], A[thin], B[thin], C[thin])
+    return Q, bary
+
+
+def _closest_on_sliver(P, A, B, C):
+    """Closest points and barycentric coordinates on slivers ABC: the nearest of the three edges' closest points
+    and, where the projection onto the plane falls inside (by the signs of the three sub-areas), the point of
+    the triangle with the projection's barycentric coordinates.  Both are points of the triangle, measured
+    directly: a sliver's computed normal may be poor (its cross product is small), which may cost accuracy
+    inside, but never gives a point nearer than the triangle."""
+    Q, bary = _closest_on_edges(P, A, B, C)
+    n = np.cross(B - A, C - A)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        n = n / np.sqrt((n * n).sum(1))[:, None]
+        X = P - ((P - A) * n).sum(1)[:, None] * n
+        areas = np.stack([(np.cross(B - X, C - X) * n).sum(1), (np.cross(C - X, A - X) * n).sum(1),
+                          (np.cross(A - X, B - X) * n).sum(1)], axis=1)
+        total = areas.sum(1)
+        inside = np.flatnonzero(np.all(areas >= 0, axis=1) & (total > 0))
+    if len(inside):
+        w = areas[inside] / total[inside, None]
+        Y = w[:, 0:1] * A[inside] + w[:, 1:2] * B[inside] + w[:, 2:3] * C[inside]
+        nearer = ((P[inside] - Y) ** 2).sum(1) < ((P[inside] - Q[inside]) ** 2).sum(1)
+        Q[inside[nearer]], bary[inside[nearer]] = Y[nearer], w[nearer]
     return Q, bary
 
 
@@ -178,6 +221,8 @@ class TriangleMesh:
         # arithmetic, are what a candidate costs): centroid, unit normal, thickness, radius; and the corners
         self._face_rows = np.ascontiguousarray(np.c_[self.centroids, unit, self.face_thickness, self.face_radii])
         self._corner_rows = np.ascontiguousarray(np.c_[A, B, C])
+        self._sliver = sliver_rows(A, B, C)
+        self._any_sliver = bool(self._sliver.any())
         self._vtree = cKDTree(V if self._tree_vertices is None else V[used])
         self._near_memo = None            # the last query's nearest vertices and candidates, see _candidates
         self._near_lock = threading.Lock()
@@ -220,7 +265,7 @@ class TriangleMesh:
     def _exact(self, P, f):
         """Closest points, barycentric coordinates and squared distances of points P (m, 3) on faces f (m,)."""
         K = self._corner_rows[f]
-        Q, bary = closest_on_triangles(P, K[:, 0:3], K[:, 3:6], K[:, 6:9])
+        Q, bary = closest_on_triangles(P, K[:, 0:3], K[:, 3:6], K[:, 6:9], self._any_sliver and self._sliver[f])
         return Q, bary, ((P - Q) ** 2).sum(1)
 
     def _project(self, P, cand, start=None, slack=None, moved=None):
