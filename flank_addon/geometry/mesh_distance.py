@@ -34,11 +34,12 @@ SLIVER = 1e-2     # a triangle lower than this fraction of its longest edge is a
 
 
 def sliver_rows(A, B, C):
-    """Whether each triangle ABC (n, 3 each) is a sliver: twice its area below SLIVER x its longest edge squared."""
+    """Whether each triangle ABC (n, 3 each) is a sliver: twice its area at most SLIVER x its longest edge squared
+    (so every triangle of no area is one, a single point too)."""
     ab, ac, bc = B - A, C - A, C - B
     cross = np.cross(ab, ac)
     longest = np.maximum(np.maximum((ab * ab).sum(1), (ac * ac).sum(1)), (bc * bc).sum(1))
-    return np.sqrt((cross * cross).sum(1)) < SLIVER * longest
+    return np.sqrt((cross * cross).sum(1)) <= SLIVER * longest
 
 
 def closest_on_triangles(P, A, B, C, sliver=None):
@@ -100,15 +101,12 @@ def closest_on_triangles(P, A, B, C, sliver=None):
             den = va[m] + vb[m] + vc[m]
             vv, ww = vb[m] / den, vc[m] / den
             u[m], v[m], w[m] = 1 - vv - ww, vv, ww
-    bad = np.flatnonzero(~(np.isfinite(u) & np.isfinite(v) & np.isfinite(w)))
     Q = np.empty((n, 3))
     Q[:, 0] = u * ax + v * bx + w * cx
     Q[:, 1] = u * ay + v * by + w * cy
     Q[:, 2] = u * az + v * bz + w * cz
     bary = np.stack([u, v, w], axis=1)
-    if len(bad):
-        # a triangle of no area (repeated or collinear corners) divided 0 by 0: it is its three edges
-        Q[bad], bary[bad] = _closest_on_edges(P[bad], A[bad], B[bad], C[bad])
+    # slivers, and triangles of no area (repeated or collinear corners: 0 / 0 above), are measured again
     thin = () if sliver is False else np.flatnonzero(sliver_rows(A, B, C) if sliver is None else sliver)
     if len(thin):
         Q[thin], bary[thin] = _closest_on_sliver(P[thin], A[thin], B[thin], C[thin])
