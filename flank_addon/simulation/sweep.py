@@ -757,7 +757,8 @@ def helical_distance(tool, points, v0, handedness="right", step=None, iters=None
     Only the times inside the tool's window (:meth:`RevolvingTool.time_windows`) are searched: they
     are sampled densely (points move at most ``step`` between samples) and the best sample is
     polished on its neighbouring interval by ``iters`` golden-section steps (default: the tool's
-    ``golden_iters``), then ``polish`` parabolic-interpolation steps.  Points whose helix never comes
+    ``golden_iters``), then ``polish`` parabolic-interpolation steps; so is every other sampled minimum
+    whose interval could hold a lower value.  Points whose helix never comes
     within ``cutoff`` (scalar or (N,)) of the tool get exactly ``cutoff`` (a lower bound of D), t* = nan;
     points whose time samples already prove D >= cutoff get ``cutoff`` too, t* = their least sample's time.
     """
@@ -822,16 +823,51 @@ def helical_distance(tool, points, v0, handedness="right", step=None, iters=None
                                                  best[keep], speed[keep])
         tool = tool.rows(keep)
         rows = np.arange(len(x))
-    a = T[rows, np.maximum(k - 1, 0)]
-    b = T[rows, np.minimum(k + 1, n - 1)]
+    lo_j, hi_j = np.maximum(k - 1, 0), np.minimum(k + 1, n - 1)
+    fm, tm = _refine_bracket(tool, x, v0, handedness, T[rows, lo_j], T[rows, hi_j], D[rows, lo_j], D[rows, hi_j],
+                             iters, polish, speed)
+    better = fm < best
+    best, best_t = np.where(better, fm, best), np.where(better, tm, best_t)
+    # another basin of the samples may hold a lower value between its samples than the least sample's basin:
+    # two minima of the distance along the helix that differ by less than the samples resolve (the sampled
+    # values of a smooth minimum sit above it by up to a quarter of the rise to their higher neighbour, those
+    # of a kink by up to half of it).  Every other sampled minimum that could be lower is refined too.
+    # (Sampled minima next to a sample that was never measured are left alone: it was pruned because it cannot
+    # come near the least value.)
+    mid, left, right = D[:, 1:-1], D[:, :-2], D[:, 2:]
+    with np.errstate(invalid="ignore"):
+        maybe = (np.isfinite(left) & np.isfinite(right) & (mid <= left) & (mid < right)
+                 & (mid - 0.5 * np.maximum(left - mid, right - mid) <= best[:, None]))
+    inner = (k > 0) & (k < n - 1)
+    maybe[rows[inner], k[inner] - 1] = False               # the least sample's own basin, refined above
+    rr, jj = np.nonzero(maybe)
+    jj = jj + 1
+    if len(rr):
+        lo_j, hi_j = np.maximum(jj - 1, 0), np.minimum(jj + 1, n - 1)
+        fm2, tm2 = _refine_bracket(tool.rows(rr), x[rr], v0, handedness, T[rr, lo_j], T[rr, hi_j], D[rr, lo_j],
+                                   D[rr, hi_j], iters, polish, speed[rr])
+        fm2, tm2 = np.minimum(fm2, D[rr, jj]), np.where(fm2 < D[rr, jj], tm2, T[rr, jj])
+        order = np.lexsort((fm2, rr))             # per row, its least second basin first
+        first = np.r_[True, rr[order][1:] != rr[order][:-1]]
+        r2, f2, t2 = rr[order][first], fm2[order][first], tm2[order][first]
+        lower = f2 < best[r2]
+        best[r2[lower]], best_t[r2[lower]] = f2[lower], t2[lower]
+    out_d[idx] = np.minimum(best, cutoff[idx])
+    out_t[idx] = best_t
+    return out_d, out_t
+
+
+def _refine_bracket(tool, x, v0, handedness, a, b, fa, fb, iters, polish, speed):
+    """Least distance of each row's helix on its time bracket [a, b] (values fa, fb at the ends): ``iters``
+    golden-section steps, then ``polish`` steps of successive parabolic interpolation (the distance along
+    the helix is C1 near a minimum outside the tool, so this converges fast where golden section would need
+    ~20 more evaluations for the same accuracy).  Returns (value, time) per row."""
     ft = tool.tracker(x, v0, handedness) if hasattr(tool, "tracker") else None
 
     def f(t):
         if ft is not None:
             return ft.at(t)
         return tool.signed_distance(screw_motion(x, t, v0, handedness))
-
-    fa, fb = D[rows, np.maximum(k - 1, 0)], D[rows, np.minimum(k + 1, n - 1)]
 
     # golden-section search on [a, b] (vectorised over the points), endpoint values tracked
     c = a + GOLDEN * (b - a)
@@ -851,9 +887,6 @@ def helical_distance(tool, points, v0, handedness="right", step=None, iters=None
         if ft is not None and it in (5, 12):
             # every later time lies in [a, b], which holds the last one: the helix moves at most speed (b - a)
             ft.narrow(speed * (b - a) * (1 + 1e-9))
-    # then successive parabolic interpolation on the best point and its neighbours: the distance
-    # along the helix is C1 near a minimum outside the tool, so this converges fast where golden
-    # section would need ~20 more evaluations for the same accuracy
     X = np.stack([a, c, d, b], axis=1)
     F = np.stack([fa, fc, fd, fb], axis=1)
     r = np.arange(len(X))
@@ -874,11 +907,7 @@ def helical_distance(tool, points, v0, handedness="right", step=None, iters=None
         order = np.argsort(X, axis=1)
         X, F = X[r[:, None], order], F[r[:, None], order]
     jm = np.argmin(F, axis=1)
-    fm, tm = F[r, jm], X[r, jm]
-    better = fm < best
-    out_d[idx] = np.minimum(np.where(better, fm, best), cutoff[idx])
-    out_t[idx] = np.where(better, tm, best_t)
-    return out_d, out_t
+    return F[r, jm], X[r, jm]
 
 
 def _least_samples(tool, Q, strides=(16, 4, 1)):
