@@ -840,10 +840,9 @@ def helical_distance(tool, points, v0, handedness="right", step=None, iters=None
                  & (mid - 0.5 * np.maximum(left - mid, right - mid) <= best[:, None]))
     inner = (k > 0) & (k < n - 1)
     maybe[rows[inner], k[inner] - 1] = False               # the least sample's own basin, refined above
-    rr, jj = np.nonzero(maybe)
-    jj = jj + 1
+    rr, lo_j = np.nonzero(maybe)                           # column j of mid is sample j + 1, inside [j, j + 2]
+    jj, hi_j = lo_j + 1, lo_j + 2
     if len(rr):
-        lo_j, hi_j = np.maximum(jj - 1, 0), np.minimum(jj + 1, n - 1)
         fm2, tm2 = _refine_bracket(tool.rows(rr), x[rr], v0, handedness, T[rr, lo_j], T[rr, hi_j], D[rr, lo_j],
                                    D[rr, hi_j], iters, polish, speed[rr])
         fm2, tm2 = np.minimum(fm2, D[rr, jj]), np.where(fm2 < D[rr, jj], tm2, T[rr, jj])
