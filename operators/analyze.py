@@ -1,5 +1,9 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""flank.analyze_rotor -- recover axis, v0, handedness and flanks of the active mesh."""
+"""flank.analyze_rotor -- recover axis, v0, handedness and flanks of the active mesh.
+
+The analysis of a large mesh takes a second or more (1.3 s for 350k triangles), so from the UI it runs modal
+(operators/modal.py): the mesh is read on the main thread, analysed in a worker thread with progress and Esc,
+and the attributes and properties are written on the main thread at the end."""
 import json
 import time
 
@@ -8,6 +12,7 @@ import numpy as np
 
 from .common import (CLASS_COLORS, clear_flank_props, mesh_world_arrays, remove_attributes, set_color_attr,
                      set_float_attr)
+from .modal import ModalPlannerMixin
 
 CURVATURE_ATTR = "gaussian_curvature"
 CLASS_ATTR = "curvature_class"
@@ -22,12 +27,14 @@ def _write_attributes(mesh, K, cls):
     mesh.update()
 
 
-class FLANK_OT_analyze_rotor(bpy.types.Operator):
+class FLANK_OT_analyze_rotor(ModalPlannerMixin, bpy.types.Operator):
     """Analyze the active mesh as a helical rotor: axis, v0, handedness, profile, flanks, curvature"""
 
     bl_idname = "flank.analyze_rotor"
     bl_label = "Analyze Rotor"
     bl_options = {'REGISTER', 'UNDO'}
+    _title = "Rotor analysis"
+    _object_name = ""
 
     @classmethod
     def poll(cls, context):
@@ -39,40 +46,64 @@ class FLANK_OT_analyze_rotor(bpy.types.Operator):
             return False
         return True
 
-    def execute(self, context):
-        from ..flank_addon.geometry import rotor_analysis
+    def _compute_failed(self, ex):
+        from ..flank_addon.geometry.rotor_analysis import NotHelicalError
 
+        if isinstance(ex, NotHelicalError):
+            return "'{}' is not a helical rotor: {}".format(self._object_name, ex)
+        return "Rotor analysis failed: {}: {}".format(type(ex).__name__, ex)
+
+    def _prepare(self, context):
+        """The active mesh's world-space triangles (on the main thread: the worker never touches Blender data)."""
         obj = context.active_object
         if obj is None or obj.type != 'MESH':
             self.report({'ERROR'}, "Select a mesh object to analyze")
-            return {'CANCELLED'}
+            return None
         if len(obj.data.vertices) < 4 or len(obj.data.polygons) < 2:
             self.report({'ERROR'}, "Mesh '{}' has too little geometry to analyze".format(obj.name))
-            return {'CANCELLED'}
-
+            return None
         if obj.mode != 'OBJECT':
             self.report({'ERROR'}, "Switch '{}' to Object Mode before analyzing".format(obj.name))
-            return {'CANCELLED'}
-        t0 = time.perf_counter()
+            return None
+        self._object_name = obj.name
         try:
             verts, faces = mesh_world_arrays(obj)
-            res = rotor_analysis.analyze_mesh(verts, faces)
-            K, cls = res.vertex_curvature(verts)
-            K = np.asarray(K, dtype=np.float64).reshape(-1)
-            cls = np.asarray(cls).reshape(-1).astype(np.int64)
-            if len(K) != len(verts) or len(cls) != len(verts):
-                raise ValueError("vertex_curvature returned {} / {} values for {} vertices".format(
-                    len(K), len(cls), len(verts)))
-            summary = res.to_dict()
-            summary_json = json.dumps(summary, default=_json_default)
-        except rotor_analysis.NotHelicalError as ex:
-            self.report({'ERROR'}, "'{}' is not a helical rotor: {}".format(obj.name, ex))
-            return {'CANCELLED'}
         except Exception as ex:
             self.report({'ERROR'}, "Rotor analysis failed: {}: {}".format(type(ex).__name__, ex))
-            return {'CANCELLED'}
-        dt = time.perf_counter() - t0
+            return None
+        return dict(name=obj.name, verts=verts, faces=faces, vertex_count=len(obj.data.vertices),
+                    started=time.perf_counter())
 
+    def _compute(self, job, progress):
+        """The analysis, the curvature at every vertex and the summary: pure numpy/scipy (a worker thread)."""
+        from ..flank_addon.geometry import rotor_analysis
+        from ..flank_addon.progress import reporter
+
+        report = reporter(progress)
+        report(0.0, "axis, pitch and profile")
+        verts = job["verts"]
+        res = rotor_analysis.analyze_mesh(verts, job["faces"])
+        report(0.8, "curvature")
+        K, cls = res.vertex_curvature(verts)
+        K = np.asarray(K, dtype=np.float64).reshape(-1)
+        cls = np.asarray(cls).reshape(-1).astype(np.int64)
+        if len(K) != len(verts) or len(cls) != len(verts):
+            raise ValueError("vertex_curvature returned {} / {} values for {} vertices".format(
+                len(K), len(cls), len(verts)))
+        summary_json = json.dumps(res.to_dict(), default=_json_default)
+        report(1.0, "done")
+        return dict(res=res, K=K, cls=cls, summary_json=summary_json)
+
+    def _build(self, context, job, result):
+        """Curvature attributes and the analysis on the object (the main thread)."""
+        obj = bpy.data.objects.get(job["name"])
+        if obj is None or obj.type != 'MESH' or len(obj.data.vertices) != job["vertex_count"] \
+                or obj.mode != 'OBJECT':
+            self.report({'ERROR'}, "Rotor analysis: '{}' was removed or edited while it was analysed; nothing "
+                                   "was changed".format(job["name"]))
+            return {'CANCELLED'}
+        res, K, cls = result["res"], result["K"], result["cls"]
+        dt = time.perf_counter() - job["started"]
         mesh = obj.data
         try:
             _write_attributes(mesh, K, cls)
@@ -101,7 +132,7 @@ class FLANK_OT_analyze_rotor(bpy.types.Operator):
         obj["flank_flanks"] = [int(x) for x in flanks.ravel()]
         obj["flank_flank_count"] = int(len(flanks))
         obj["flank_to_world"] = [float(x) for x in np.asarray(res.to_world, dtype=np.float64).ravel()]
-        obj["flank_analysis"] = summary_json
+        obj["flank_analysis"] = result["summary_json"]
 
         ignored = [m.name for m in obj.modifiers if m.show_viewport]
         if ignored:

@@ -9,6 +9,7 @@ import numpy as np
 from bpy.props import IntProperty
 
 from .common import count_limit_error
+from .modal import ModalPlannerMixin
 from .sources import rotor_source, to_rotor_frame, workpiece_object
 from .units import length_text
 
@@ -46,7 +47,7 @@ class FLANK_UL_flanks(bpy.types.UIList):
         row.label(text="hyperbolic {:.0f} %".format(100.0 * item.hyperbolic_fraction))
 
 
-class FLANK_OT_refresh_flanks(bpy.types.Operator):
+class FLANK_OT_refresh_flanks(ModalPlannerMixin, bpy.types.Operator):
     """Fill the flank list of the active rotor: every flank with its valley and the share of its profile where
     a cone can touch the surface along a curve (hyperbolic points)"""
 
@@ -57,26 +58,42 @@ class FLANK_OT_refresh_flanks(bpy.types.Operator):
     samples: IntProperty(name="Samples", description="Profile samples per flank of the Dupin analysis (8 .. 5000)",
                          default=200, soft_min=8, soft_max=5000)
 
-    def execute(self, context):
-        from ..flank_addon.tooling.cutter_selection import flank_dupin
+    _title = "Flank list"
 
+    def _prepare(self, context):
         settings = _settings(self, context, "Flank list")
         if settings is None:
-            return {'CANCELLED'}
+            return None
         msg = count_limit_error("samples", self.samples, 8, 5000)
         src = _rotor(workpiece_object(context)) if msg is None else msg
         if isinstance(src, str):
             self.report({'ERROR'}, "Flank list: " + src)
-            return {'CANCELLED'}
-        surface, flanks, s = src["surface"], src["flanks"], float(src["scale"])
+            return None
+        return dict(surface=src["surface"], flanks=src["flanks"], scale=float(src["scale"]), name=src["obj"].name,
+                    samples=int(self.samples))
+
+    def _compute_failed(self, ex):
+        return "Flank list: Dupin analysis failed: {}: {}".format(type(ex).__name__, ex)
+
+    def _compute(self, job, progress):
+        """The Dupin analysis of every flank: pure numpy (a worker thread when run from the UI)."""
+        from ..flank_addon.progress import reporter
+        from ..flank_addon.tooling.cutter_selection import flank_dupin
+
+        report = reporter(progress)
+        surface, flanks, s = job["surface"], job["flanks"], job["scale"]
         rows = []
-        try:
-            for k in range(len(flanks)):
-                d = flank_dupin(surface, flanks, k, n=int(self.samples))
-                rows.append((k, tuple(float(v) for v in flanks[k]), float(d.hyperbolic_fraction),
-                             float(d.a_min) * s if np.isfinite(d.a_min) else 0.0))
-        except Exception as ex:
-            self.report({'ERROR'}, "Flank list: Dupin analysis failed: {}: {}".format(type(ex).__name__, ex))
+        for k in range(len(flanks)):
+            report(k / max(len(flanks), 1), "Dupin analysis of flank {} of {}".format(k + 1, len(flanks)))
+            d = flank_dupin(surface, flanks, k, n=job["samples"])
+            rows.append((k, tuple(float(v) for v in flanks[k]), float(d.hyperbolic_fraction),
+                         float(d.a_min) * s if np.isfinite(d.a_min) else 0.0))
+        report(1.0, "done")
+        return rows
+
+    def _build(self, context, job, rows):
+        settings = _settings(self, context, "Flank list")
+        if settings is None:
             return {'CANCELLED'}
         settings.flank_list.clear()
         for k, (u0, u1), frac, a_min in rows:
@@ -84,11 +101,11 @@ class FLANK_OT_refresh_flanks(bpy.types.Operator):
             item.name = "Flank {}".format(k)
             item.flank, item.valley, item.u_start, item.u_end = k, k // 2, u0, u1
             item.hyperbolic_fraction, item.a_min = frac, a_min
-        settings.flank_list_rotor = src["obj"].name
+        settings.flank_list_rotor = job["name"]
         if not 0 <= settings.flank_index < len(rows):
             settings.flank_index = min(max(int(settings.sf_flank), 0), len(rows) - 1) if rows else -1
         self.report({'INFO'}, "Flank list of '{}': {} flanks, hyperbolic {}".format(
-            src["obj"].name, len(rows), ", ".join("{:.0f} %".format(100.0 * r[2]) for r in rows)))
+            job["name"], len(rows), ", ".join("{:.0f} %".format(100.0 * r[2]) for r in rows)))
         return {'FINISHED'}
 
 

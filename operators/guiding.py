@@ -15,6 +15,7 @@ from bpy.props import EnumProperty, StringProperty
 from mathutils import Matrix
 
 from .common import typed
+from .modal import ModalPlannerMixin
 from .sources import surface_object, surface_source
 from .tool_settings import freeform_tool
 from .units import length_text
@@ -107,9 +108,10 @@ def remove_guiding_preview():
             bpy.data.curves.remove(cu)
 
 
-def _guiding_curves(context, props, run_tool):
-    """(surface source, guiding curves, polylines) for the settings ``props`` and the tool; raises ValueError."""
-    from ..flank_addon.methods.freeform_g1.guiding import guiding_curves
+def guiding_job(context, props, run_tool):
+    """What the guiding curves for the settings ``props`` and the tool need, read from Blender on the main thread:
+    a dict of plain values (the surface source keeps its object only for names and the transform); raises
+    ValueError with a clear message on bad input."""
     from ..flank_addon.methods.freeform_g1.planner import engaged_cone
 
     run_tool = types.SimpleNamespace(**vars(run_tool), spacing=props.spacing, engagement=props.engagement)
@@ -124,19 +126,26 @@ def _guiding_curves(context, props, run_tool):
                                 typed(props.engagement))
     spacing = typed(props.spacing) / s if typed(props.spacing) > 0.0 else None
     F = src["F"][:, ::-1] if props.flip_normals else src["F"]
-    gc = guiding_curves(src["V"], F, r1=r1e, r2=r2e, L=Le, spacing=spacing, **gi)
+    return dict(src=src, name=src["obj"].name, V=src["V"], F=F, kwargs=dict(r1=r1e, r2=r2e, L=Le, spacing=spacing,
+                                                                           **gi))
+
+
+def compute_guiding(job):
+    """(guiding curves, polylines) of a :func:`guiding_job`: pure numpy/scipy, no Blender data (a worker thread
+    may run it); raises ValueError when there is no curve."""
+    from ..flank_addon.methods.freeform_g1.guiding import guiding_curves
+
+    gc = guiding_curves(job["V"], job["F"], **job["kwargs"])
     polylines = [pl.points for c in gc.curves for pl in c.polylines if len(pl.points) >= 2]
     if not polylines:
         raise ValueError("no guiding curve at spacing d = {:.6g} on '{}' (a smaller tool or spacing)".format(
-            gc.spacing * s, src["obj"].name))
-    return src, gc, polylines
+            gc.spacing * job["src"]["scale"], job["name"]))
+    return gc, polylines
 
 
-def build_guiding_preview(context, props, run_tool):
-    """Compute the guiding curves for ``props`` (scene settings or an operator) on the active mesh and show them
-    as the curve object PREVIEW_NAME (replacing the earlier one) -> message (str) of what was drawn; raises
-    ValueError with a clear message on bad input."""
-    src, gc, polylines = _guiding_curves(context, props, run_tool)
+def show_guiding_preview(context, job, gc, polylines):
+    """The curve object PREVIEW_NAME (replacing the earlier one) for computed guiding curves -> message (str)."""
+    src = job["src"]
     s = src["scale"]
     cu = bpy.data.curves.new(PREVIEW_NAME, 'CURVE')
     try:
@@ -155,13 +164,21 @@ def build_guiding_preview(context, props, run_tool):
         raise
     if ob.name != PREVIEW_NAME:
         ob.name = PREVIEW_NAME
-    ob[PREVIEW_PROP] = src["obj"].name
+    ob[PREVIEW_PROP] = job["name"]
     ob[PREVIEW_PROP + "_spacing"] = float(gc.spacing * s)
     ob[PREVIEW_PROP + "_curves"] = len(gc.curves)
     ob.matrix_world = Matrix(src["to_world"].tolist())
     ob.color = COLOR_GUIDING
     return "{} guiding curves ({} polylines) {} apart on '{}'".format(
-        len(gc.curves), len(polylines), length_text(gc.spacing * s, context.scene), src["obj"].name)
+        len(gc.curves), len(polylines), length_text(gc.spacing * s, context.scene), job["name"])
+
+
+def build_guiding_preview(context, props, run_tool):
+    """Compute the guiding curves for ``props`` (scene settings or an operator) on the active mesh and show them
+    as the curve object PREVIEW_NAME (replacing the earlier one) -> message (str) of what was drawn; raises
+    ValueError with a clear message on bad input."""
+    job = guiding_job(context, props, run_tool)
+    return show_guiding_preview(context, job, *compute_guiding(job))
 
 
 class SettingsView:
@@ -191,24 +208,44 @@ def preview_message():
     return _preview_state.get("message", ""), bool(_preview_state.get("error", False))
 
 
-class FLANK_OT_preview_guiding(bpy.types.Operator):
+class FLANK_OT_preview_guiding(ModalPlannerMixin, bpy.types.Operator):
     """Show the guiding curves the free-form planner would use as a curve object on the active mesh (replaced on
     every run), from the Free-form G1 settings and the Tool panel's end mill"""
 
     bl_idname = "flank.preview_guiding"
     bl_label = "Preview Guiding Curves"
     bl_options = {'REGISTER', 'UNDO'}
+    _title = "Guiding preview"
 
-    def execute(self, context):
+    def _prepare(self, context):
         settings = getattr(context.scene, "flank_settings", None)
         if settings is None:
             self.report({'ERROR'}, "Guiding preview: the Flank settings are not registered")
-            return {'CANCELLED'}
+            return None
         try:
-            text = build_guiding_preview(context, SettingsView(settings), freeform_tool(settings))
+            return guiding_job(context, SettingsView(settings), freeform_tool(settings))
         except ValueError as ex:
             self.report({'ERROR'}, "Guiding preview: {}".format(ex))
+        except Exception as ex:
+            self.report({'ERROR'}, "Guiding preview failed: {}: {}".format(type(ex).__name__, ex))
+        return None
+
+    def _compute(self, job, progress):
+        from ..flank_addon.progress import reporter
+
+        report = reporter(progress)
+        report(0.0, "guiding field and curves")
+        out = compute_guiding(job)
+        report(1.0, "done")
+        return out
+
+    def _build(self, context, job, result):
+        if bpy.data.objects.get(job["name"]) is None:
+            self.report({'ERROR'}, "Guiding preview: '{}' was removed while the curves were computed; nothing was "
+                                   "changed".format(job["name"]))
             return {'CANCELLED'}
+        try:
+            text = show_guiding_preview(context, job, *result)
         except Exception as ex:
             self.report({'ERROR'}, "Guiding preview failed: {}: {}".format(type(ex).__name__, ex))
             return {'CANCELLED'}

@@ -15,6 +15,7 @@ import bpy
 import numpy as np
 
 from .common import count_limit_error, linear_keys, set_color_attr, set_float_attr, typed
+from .modal import ModalPlannerMixin
 from .properties import paraboloid_props
 from .result_builder import COLOR_ENVELOPE, COLOR_TOOL, RunBuilder
 from .shapes import revolved_mesh
@@ -78,12 +79,12 @@ def _overcut_band(sec):
             np.vstack([quads_up, quads_up[:, ::-1] + 2 * k]), np.tile(np.r_[overcut, overcut], 2))
 
 
-def _groove(op, R, a, b, p, turns, n):
+def _groove(part, R, a, b, p, turns, n):
     """The core's section(s), groove surface mesh and lens -> dict, or raises the core's errors."""
     from ..flank_addon.methods.paraboloid_groove.groove import groove_section, groove_surface
 
-    sec = groove_section(R, a, b, p, n=n, part=op.part)
-    full = sec if op.part == "full" else groove_section(R, a, b, p, n=n, part="full")
+    sec = groove_section(R, a, b, p, n=n, part=part)
+    full = sec if part == "full" else groove_section(R, a, b, p, n=n, part="full")
     surf = groove_surface(R, a, b, p, n=n, handedness="right")
     n_u = int(min(max(64, 2 * n), 4096))
     n_t = int(max(8, math.ceil(96 * turns))) + 1
@@ -116,13 +117,14 @@ def _animate_tool(run, context, lens_mesh, R, v0, turns):
     return frames
 
 
-class FLANK_OT_paraboloid_groove(bpy.types.Operator):
+class FLANK_OT_paraboloid_groove(ModalPlannerMixin, bpy.types.Operator):
     """Machine a helical groove with a paraboloid (lens) end mill: the groove surface, the tool and its motion,
     and the swept section against the tool's own section with the overcut between them"""
 
     bl_idname = "flank.paraboloid_groove"
     bl_label = "Paraboloid Groove"
     bl_options = {'REGISTER', 'UNDO'}
+    _title = "Paraboloid groove"
 
     __annotations__ = paraboloid_props()
 
@@ -134,29 +136,40 @@ class FLANK_OT_paraboloid_groove(bpy.types.Operator):
             msg = "constant a = {:g} is out of range (|a| < {:g}): the lens would have no width".format(a, A_LIMIT)
         return msg
 
-    def execute(self, context):
+    def _compute_failed(self, ex):
         from ..flank_addon.methods.paraboloid_groove.groove import ParaboloidError
 
-        t0 = time.perf_counter()
+        if isinstance(ex, ParaboloidError):
+            return "Paraboloid groove: {}".format(ex)
+        return "Paraboloid groove failed: {}: {}".format(type(ex).__name__, ex)
+
+    def _prepare(self, context):
         # single precision: the paper case a = -0.05 gives the intercepts -8 / -32 exactly from the typed decimals
         R, a, b, p = (typed(v) for v in (self.radius, self.a, self.b, self.pitch))
         turns, n = float(self.turns), int(self.resolution)
         msg = self._check(a, turns, n)
         if msg is not None:
             self.report({'ERROR'}, "Paraboloid groove: " + msg)
-            return {'CANCELLED'}
-        try:
-            g = _groove(self, R, a, b, p, turns, n)
-        except ParaboloidError as ex:
-            self.report({'ERROR'}, "Paraboloid groove: {}".format(ex))
-            return {'CANCELLED'}
-        except Exception as ex:
-            self.report({'ERROR'}, "Paraboloid groove failed: {}: {}".format(type(ex).__name__, ex))
-            return {'CANCELLED'}
+            return None
+        return dict(params=(R, a, b, p, turns), n=n, part=str(self.part), started=time.perf_counter())
+
+    def _compute(self, job, progress):
+        """Sections, groove surface and lens: pure numpy (a worker thread when run from the UI)."""
+        from ..flank_addon.progress import reporter
+
+        report = reporter(progress)
+        report(0.0, "swept section and groove surface")
+        R, a, b, p, turns = job["params"]
+        g = _groove(job["part"], R, a, b, p, turns, job["n"])
+        report(1.0, "done")
+        return g
+
+    def _build(self, context, job, g):
+        R, a, b, p, turns = job["params"]
         run = RunBuilder(context, "flank_groove_", RUN_KEY, COLLECTION, key_prop=RUN_KEY_PROP)
         made = {}
         replaced = run.build(self, "paraboloid groove objects",
-                             lambda: self._fill(run, context, g, (R, a, b, p, turns), made))
+                             lambda: self._fill(run, context, g, job["params"], made, job["part"]))
         if replaced is None:
             return {'CANCELLED'}
         run.show(made["groove"])
@@ -165,11 +178,12 @@ class FLANK_OT_paraboloid_groove(bpy.types.Operator):
                               "section intercepts x = {:.6g} and {:.6g}, max overcut {:.4g} at x = {:.6g} ({}), "
                               "{} keyframes{}, in {:.2f}s".format(
                                   R, a, b, p, g["rho"], g["intercepts"][0], g["intercepts"][1], g["max_overcut"],
-                                  float(x[k_max]), self.part, made["keys"],
-                                  ", replaced the earlier groove" if replaced else "", time.perf_counter() - t0))
+                                  float(x[k_max]), job["part"], made["keys"],
+                                  ", replaced the earlier groove" if replaced else "",
+                                  time.perf_counter() - job["started"]))
         return {'FINISHED'}
 
-    def _fill(self, run, context, g, params, made):
+    def _fill(self, run, context, g, params, made, part):
         """Groove surface, lens tool, sections, overcut band, the moving tool and the properties."""
         R, a, b, p, turns = params
         sec, x = g["sec"], np.asarray(g["sec"].x)
@@ -190,7 +204,7 @@ class FLANK_OT_paraboloid_groove(bpy.types.Operator):
         run.color_by_attribute(band.data)
         frames = _animate_tool(run, context, tool.data, R, p / (2.0 * np.pi), turns)
         made["keys"] = len(frames)
-        props = dict(R=R, a=a, b=b, pitch=p, v0=p / (2.0 * np.pi), turns=turns, part=str(self.part),
+        props = dict(R=R, a=a, b=b, pitch=p, v0=p / (2.0 * np.pi), turns=turns, part=part,
                      handedness="right", equator_radius=g["rho"], intercepts=g["intercepts"],
                      max_overcut=g["max_overcut"], max_overcut_x=float(x[g["k_max"]]),
                      frames=[int(frames[0]), int(frames[-1])])

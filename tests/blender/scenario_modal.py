@@ -10,7 +10,8 @@ background) and only records ``modal_handler_add`` (a handler in a window withou
 the operator).  Everything else -- ``_prepare``, the worker thread, ``_build``, the reports, the undo push
 of bpy.ops -- is the real operator.
 
-Recorded: per modal() call its event, result, main-thread milliseconds, the job state, the percentage and the
+Recorded: per modal() call its event, result, main-thread milliseconds (wall clock, and the main thread's CPU
+time), the job state, the percentage and the
 status text; a census of bpy.data / the scene before and after; the result collection of a synchronous run
 and of a modal run to compare."""
 import hashlib
@@ -144,11 +145,13 @@ def _drive(self, context, plan, rec):
         else:
             ev = Event('TIMER')
         n_pct, n_txt = len(wm.percent), len(ws.texts)
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.thread_time()
         r = self.modal(ctx, ev)
         ms = 1000.0 * (time.perf_counter() - t)
+        cpu_ms = 1000.0 * (time.thread_time() - c)      # the main thread's own work, whatever else loads the machine
         state_after = job.poll()[0]
-        calls.append(dict(event=ev.type, ms=ms, result=sorted(r), state_before=state_before, state_after=state_after,
+        calls.append(dict(event=ev.type, ms=ms, cpu_ms=cpu_ms, result=sorted(r), state_before=state_before,
+                          state_after=state_after,
                           percent=wm.percent[-1] if len(wm.percent) > n_pct else None,
                           status=ws.texts[-1] if len(ws.texts) > n_txt else "<unchanged>"))
         if ev.type == 'TIMER' and r == {'RUNNING_MODAL'} and state_before == "running":

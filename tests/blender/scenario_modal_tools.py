@@ -1,0 +1,157 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Analyze Rotor (flank.analyze_rotor), Generate Rotor (flank.generate_rotor), Preview Guiding Curves
+(flank.preview_guiding), the flank list (flank.refresh_flanks) and Paraboloid Groove (flank.paraboloid_groove) through the modal Run path (operators/modal.py), for test_blender_modal_tools.py.
+
+Each operator's ``execute`` is replaced for one call by scenario_modal's driver (``_start_modal`` + ``modal()``
+with TIMER / ESC events and a stand-in context), as in scenario_modal_checks: a synchronous run, ESC and closing
+(a census of bpy.data and the scene before and after; not for Generate, the flank list and Paraboloid Groove,
+whose workers are too quick to race ESC against), and a modal run to the end,
+whose result is compared with the synchronous one.  The sizes are a user's: a rotor of 280,000 triangles (its analysis takes over a second) and
+a free-form surface of 20,000.  The analysis cache is emptied before every run, so each one analyses."""
+import time
+
+import driver
+import scenario_modal as sm
+
+
+def _digest_array(np, arr):
+    return sm._digest(np.ascontiguousarray(arr).tobytes())
+
+
+def _analysis_state(bpy, np, name):
+    ob = bpy.data.objects[name]
+    return dict(props={k: sm._plain(ob[k]) for k in ob.keys() if k.startswith("flank_")},
+                curvature=_digest_array(np, driver._float_attr(np, ob.data, "gaussian_curvature")),
+                attrs=sorted(a.name for a in ob.data.attributes))
+
+
+def _rotor_state(bpy, np):
+    obs = sorted((o for o in bpy.data.objects if o.get("flank_source") == "generated"), key=lambda o: o.name)
+    if not obs:
+        return None
+    ob = obs[-1]                     # the newest rotor (names grow .001, .002 ...)
+    return dict(count=len(obs), faces=len(ob.data.polygons), co=_digest_array(np, driver._mesh_co(np, ob)),
+                props={k: sm._plain(ob[k]) for k in ob.keys() if k.startswith("flank_")},
+                selected=ob.select_get(), active=bpy.context.view_layer.objects.active == ob)
+
+
+def _preview_state(bpy, np):
+    ob = next((o for o in bpy.data.objects if o.get("flank_guiding_preview") is not None), None)
+    if ob is None:
+        return None
+    pts = []
+    for sp in ob.data.splines:
+        co = np.empty(4 * len(sp.points), dtype=np.float32)
+        sp.points.foreach_get("co", co)
+        pts.append(_digest_array(np, co))
+    return dict(name=ob.name, splines=len(ob.data.splines), points=sm._digest(pts),
+                props={k: sm._plain(ob[k]) for k in ob.keys()})
+
+
+def _flank_list_state(bpy):
+    s = bpy.context.scene.flank_settings
+    return dict(rotor=s.flank_list_rotor, index=s.flank_index,
+                rows=[[i.name, i.flank, i.valley, repr(i.u_start), repr(i.u_end), repr(i.hyperbolic_fraction),
+                       repr(i.a_min)] for i in s.flank_list])
+
+
+def _groove_state(bpy, np):
+    coll = next((c for c in bpy.data.collections if c.get("flank_groove_key") == "groove"), None)
+    if coll is None:
+        return None
+    meshes = {o.name.split(".")[0]: _digest_array(np, driver._mesh_co(np, o)) for o in coll.objects
+              if o.type == 'MESH'}
+    return dict(objects=sorted(o.name for o in coll.objects), meshes=meshes,
+                props={k: sm._plain(coll[k]) for k in coll.keys() if k.startswith("flank_")})
+
+
+def _exercise(bpy, np, op, cls, kw, select, state, before_each=lambda: None, cancel=True):
+    out = {}
+    select()
+    before_each()
+    t0 = time.perf_counter()
+    ret, err = driver._run_op(op, **kw)
+    out["sync"] = dict(result=ret, error=err, seconds=time.perf_counter() - t0, state=state())
+    for plan in ("esc", "close") if cancel else ():
+        select()
+        before_each()
+        bpy.context.view_layer.update()
+        before = sm.census(bpy, np)
+        rec = sm._call(bpy, op, cls, plan, **kw)
+        after = sm.census(bpy, np)
+        rec.update(census_equal=before == after, census_diff=sm._census_diff(before, after))
+        out[plan] = rec
+    select()
+    before_each()
+    rec = sm._call(bpy, op, cls, "finish", **kw)
+    rec["state"] = state()
+    out["finish"] = rec
+    return out
+
+
+def scenario(bpy, res, args):
+    import numpy as np
+
+    mods = {name: __import__(driver.MODULE + ".operators." + name, fromlist=["x"])
+            for name in ("analyze", "generate", "guiding", "flank_list", "paraboloid", "modal")}
+    analysis = __import__(driver.MODULE + ".flank_addon.geometry.rotor_analysis", fromlist=["x"])
+    mixin = mods["modal"].ModalPlannerMixin
+    classes = dict(analyze=mods["analyze"].FLANK_OT_analyze_rotor, generate=mods["generate"].FLANK_OT_generate_rotor,
+                   preview=mods["guiding"].FLANK_OT_preview_guiding, flank_list=mods["flank_list"].FLANK_OT_refresh_flanks,
+                   paraboloid=mods["paraboloid"].FLANK_OT_paraboloid_groove)
+    res["mixin"] = {k: issubclass(c, mixin) for k, c in classes.items()}
+    res["timer_step"] = mods["modal"].TIMER_STEP
+    empty = bpy.data.objects.new("Flank Selection Holder", None)       # something to select before a generate
+    bpy.context.scene.collection.objects.link(empty)
+
+    def select_empty():
+        sm.driver_select(bpy, empty)
+
+    # the defaults, 280k triangles: the worker needs only 20-40 ms, too little to race ESC against it (the mixin's
+    # ESC and close are shown on the other two); the mesh is built on the main thread
+    gen_kw = dict(kind="asymmetric", part="female")
+    res["generate"] = _exercise(bpy, np, bpy.ops.flank.generate_rotor, classes["generate"], gen_kw, select_empty,
+                                lambda: _rotor_state(bpy, np), cancel=False)
+    rotor = sorted(o.name for o in bpy.data.objects if o.get("flank_source") == "generated")[0]
+    res["rotor_faces"] = len(bpy.data.objects[rotor].data.polygons)
+
+    def select_rotor():
+        sm.driver_select(bpy, bpy.data.objects[rotor])
+
+    res["analyze"] = _exercise(bpy, np, bpy.ops.flank.analyze_rotor, classes["analyze"], {}, select_rotor,
+                               lambda: _analysis_state(bpy, np, rotor), before_each=analysis._CACHE.clear)
+    # the flank list of the analysed rotor (the Dupin analysis of its 12 flanks) and the paraboloid groove, both at
+    # their defaults: their workers need 10-60 ms, too little to race ESC against
+    settings = bpy.context.scene.flank_settings
+    settings.flank_list.clear()
+    res["flank_list"] = _exercise(bpy, np, bpy.ops.flank.refresh_flanks, classes["flank_list"], {}, select_rotor,
+                                  lambda: _flank_list_state(bpy), cancel=False)
+    res["paraboloid"] = _exercise(bpy, np, bpy.ops.flank.paraboloid_groove, classes["paraboloid"], {}, select_rotor,
+                                  lambda: _groove_state(bpy, np), cancel=False)
+    # a mesh that is not a rotor: the worker's failure is reported as the synchronous run reports it
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32)
+    sphere = bpy.context.active_object.name
+
+    def select_sphere():
+        sm.driver_select(bpy, bpy.data.objects[sphere])
+
+    select_sphere()
+    before = sm.census(bpy, np)
+    rec = sm._call(bpy, bpy.ops.flank.analyze_rotor, classes["analyze"], "finish")
+    rec["census_equal"] = before == sm.census(bpy, np)
+    res["analyze_failed"] = rec
+    select_sphere()
+    ret, err = driver._run_op(bpy.ops.flank.analyze_rotor)
+    res["analyze_failed_sync"] = dict(result=ret, error=err)
+
+    # the guiding curves of a 20,000-triangle surface
+    driver._run_op(bpy.ops.flank.add_test_surface, kind="parabolic_blade", size=1.0, resolution=125)
+    surface = bpy.context.active_object.name
+
+    def select_surface():
+        sm.driver_select(bpy, bpy.data.objects[surface])
+
+    res["surface_faces"] = len(bpy.data.objects[surface].data.polygons)
+    res["preview"] = _exercise(bpy, np, bpy.ops.flank.preview_guiding, classes["preview"], {}, select_surface,
+                               lambda: _preview_state(bpy, np))
+    res["patched_left"] = ["__enter__" in c.execute.__qualname__ for c in classes.values()]
