@@ -91,8 +91,11 @@ class FLANK_OT_analyze_rotor(ModalPlannerMixin, bpy.types.Operator):
             raise ValueError("vertex_curvature returned {} / {} values for {} vertices".format(
                 len(K), len(cls), len(verts)))
         summary_json = json.dumps(res.to_dict(), default=_json_default)
+        # the whole analysis with the key of the mesh it belongs to: a planner in a later session takes it
+        # instead of analysing the unchanged mesh again on the main thread (rotor_analysis.analyze_mesh, known=)
+        record_json = json.dumps(res.to_record())
         report(1.0, "done")
-        return dict(res=res, K=K, cls=cls, summary_json=summary_json)
+        return dict(res=res, K=K, cls=cls, summary_json=summary_json, record_json=record_json)
 
     def _build(self, context, job, result):
         """Curvature attributes and the analysis on the object (the main thread)."""
@@ -133,6 +136,7 @@ class FLANK_OT_analyze_rotor(ModalPlannerMixin, bpy.types.Operator):
         obj["flank_flank_count"] = int(len(flanks))
         obj["flank_to_world"] = [float(x) for x in np.asarray(res.to_world, dtype=np.float64).ravel()]
         obj["flank_analysis"] = result["summary_json"]
+        obj["flank_analysis_record"] = result["record_json"]
 
         ignored = [m.name for m in obj.modifiers if m.show_viewport]
         if ignored:

@@ -11,6 +11,7 @@ PROP_KEYS = (
     "flank_source", "flank_kind", "flank_part", "flank_lobes", "flank_scale", "flank_lead", "flank_length",
     "flank_v0", "flank_handedness", "flank_axis", "flank_axis_point", "flank_residual", "flank_threshold",
     "flank_flanks", "flank_flank_count", "flank_outer_radius", "flank_to_world", "flank_analysis",
+    "flank_analysis_record",
 )
 
 # RGBA per curvature class (+1 elliptic, 0 parabolic, -1 hyperbolic)

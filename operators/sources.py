@@ -1,6 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """What an operator works on: the rotor (a generated rotor rebuilt from its custom properties, or an analysed
 mesh analysed again) or the free-form surface mesh, read from Blender into the planner's terms."""
+import json
+
 import bpy
 import numpy as np
 
@@ -76,7 +78,13 @@ def _analyzed_rotor(obj):
 
     try:
         verts, faces = mesh_world_arrays(obj)
-        a = analyze_mesh(verts, faces)
+        # Analyze Rotor's record: taken when the mesh is still the one it was made from (a file opened again
+        # needs no second analysis on the main thread), ignored otherwise
+        try:
+            known = json.loads(obj.get("flank_analysis_record", "null"))
+        except (TypeError, ValueError):
+            known = None
+        a = analyze_mesh(verts, faces, known=known)
         surface, flanks = a.surface, a.flank_ranges()
         to_world = np.asarray(a.to_world, dtype=np.float64)
     except NotHelicalError as ex:

@@ -59,6 +59,39 @@ class RotorAnalysis:
     surface: object = field(repr=False, default=None)
     mesh_repairs: dict = field(default_factory=dict)   # what :func:`weld_mesh` merged, dropped or found
     shafts: list = field(default_factory=list)   # [{"z_range": [a, b], "radius": r}] beyond the body (rotor frame)
+    content_key: str = None      # SHA-256 of the mesh, options and code it was made from (see analyze_mesh)
+
+    def to_record(self):
+        """Everything the analysis holds, as JSON-able values (floats round-trip exactly through JSON), with the
+        content key of the mesh it was made from: :func:`analyze_mesh` (``known=``) takes it back instead of
+        analysing that same mesh again."""
+        return {"record": "flank-rotor-analysis/1", "key": self.content_key,
+                "axis_point": self.axis_point.tolist(), "axis_direction": self.axis_direction.tolist(),
+                "v0": float(self.v0), "handedness": self.handedness, "residual": float(self.residual),
+                "threshold": float(self.threshold), "tangency_residual": float(self.tangency_residual),
+                "to_world": np.asarray(self.to_world, float).tolist(), "profile": np.asarray(self.profile, float).tolist(),
+                "flanks": [[int(i), int(j)] for i, j in self.flanks], "outer_radius": float(self.outer_radius),
+                "lobes": int(self.lobes), "helical_area_fraction": float(self.helical_area_fraction),
+                "body_z": [float(z) for z in self.body_z], "mesh_repairs": dict(self.mesh_repairs),
+                "shafts": [dict(sh) for sh in self.shafts]}
+
+    @classmethod
+    def from_record(cls, rec):
+        """The analysis of a :meth:`to_record` dict (its surface made again from the profile)."""
+        from .helical_surface import shared_surface
+
+        if not isinstance(rec, dict) or rec.get("record") != "flank-rotor-analysis/1":
+            raise ValueError("not a rotor analysis record (flank-rotor-analysis/1)")
+        prof = np.array(rec["profile"], float)
+        a = cls(axis_point=np.array(rec["axis_point"], float), axis_direction=np.array(rec["axis_direction"], float),
+                v0=rec["v0"], handedness=rec["handedness"], residual=rec["residual"], threshold=rec["threshold"],
+                tangency_residual=rec["tangency_residual"], to_world=np.array(rec["to_world"], float), profile=prof,
+                flanks=[list(f) for f in rec["flanks"]], outer_radius=rec["outer_radius"], lobes=rec["lobes"],
+                helical_area_fraction=rec["helical_area_fraction"], body_z=tuple(rec["body_z"]),
+                mesh_repairs=dict(rec["mesh_repairs"]), shafts=[dict(sh) for sh in rec["shafts"]],
+                content_key=rec.get("key"))
+        a.surface = shared_surface(SplineProfile(prof), a.v0, a.handedness)
+        return a
 
     def extent(self):
         """The finite rotor in its rotor frame, as flank-plan/1's optional ``rotor.extent``: the helical
@@ -460,7 +493,7 @@ def _from_npz(path):
     return a
 
 
-def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD):
+def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD, known=None):
     """Estimate the helical motion of a rotor mesh and extract its profile and flanks.
 
     Args:
@@ -473,7 +506,10 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD):
     The analysis of a mesh is kept by the SHA-256 of its numbers, the options and the analysing code (the
     last :data:`CACHE_SIZE` in memory; with the environment variable ``FLANK_CACHE_DIR`` naming a
     directory, also there across runs): the same mesh again returns an equal copy at once (a mesh hashes in
-    about 1/50 of its analysis).
+    about 1/50 of its analysis).  ``known``: a :meth:`RotorAnalysis.to_record` kept with the mesh (Blender
+    stores it on the object); it is taken instead of analysing when its key is this mesh's, so a rotor
+    analysed in an earlier session is not analysed again.  A record of another mesh (or of other options or
+    code) is ignored.
     """
     import copy
     import os
@@ -485,6 +521,14 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD):
         key = _cache_key(verts, faces, n_profile, threshold)
     if key is not None and key in _CACHE:
         return copy.deepcopy(_CACHE[key])
+    if key is not None and isinstance(known, dict) and known.get("key") == key:
+        try:
+            found = RotorAnalysis.from_record(known)
+        except (KeyError, TypeError, ValueError):
+            found = None                   # a damaged record: analyse
+        if found is not None:
+            _remember(key, found)
+            return copy.deepcopy(found)
     folder = os.environ.get(CACHE_DIR_ENV, "")
     path = os.path.join(folder, "analysis-" + key + ".npz") if key is not None and folder else None
     if path is not None and os.path.isfile(path):
@@ -493,10 +537,12 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD):
         except (OSError, ValueError, KeyError):
             found = None
         if found is not None:
+            found.content_key = key
             _remember(key, found)
             return copy.deepcopy(found)
     result = _analyze_mesh(verts, faces, n_profile, threshold)
     if key is not None:
+        result.content_key = key
         _remember(key, result)
         if path is not None:
             try:

@@ -120,6 +120,24 @@ def scenario(bpy, res, args):
 
     res["analyze"] = _exercise(bpy, np, bpy.ops.flank.analyze_rotor, classes["analyze"], {}, select_rotor,
                                lambda: _analysis_state(bpy, np, rotor), before_each=analysis._CACHE.clear)
+    # a planner reading the analysed rotor in a later session (nothing in memory): from the record Analyze Rotor kept
+    # on the object, and, for comparison, without it (analysed again on the main thread)
+    sources = __import__(driver.MODULE + ".operators.sources", fromlist=["x"])
+    ob = bpy.data.objects[rotor]
+
+    def source():
+        analysis._CACHE.clear()
+        t0 = time.perf_counter()
+        src = sources.rotor_source(ob)
+        return dict(seconds=time.perf_counter() - t0, flanks=[[repr(u) for u in f] for f in src["flanks"]],
+                    v0=repr(src["surface"].v0), to_world=[repr(x) for x in np.ravel(src["to_world"])],
+                    profile=_digest_array(np, src["surface"].profile.points))
+
+    res["source_from_record"] = source()
+    record = ob["flank_analysis_record"]
+    del ob["flank_analysis_record"]
+    res["source_analysed"] = source()
+    ob["flank_analysis_record"] = record
     # the flank list of the analysed rotor (the Dupin analysis of its 12 flanks) and the paraboloid groove, both at
     # their defaults: their workers need 10-60 ms, too little to race ESC against
     settings = bpy.context.scene.flank_settings

@@ -82,3 +82,11 @@ def test_a_failed_analysis_is_reported_like_the_synchronous_run_and_changes_noth
     assert sync["result"] is None and "is not a helical rotor" in sync["error"], sync
     assert rec["op_error"] == sync["error"], (rec["op_error"], sync["error"])
     assert "Traceback" not in rec["op_error"]
+
+
+def test_a_planner_takes_the_analysis_kept_on_the_object_instead_of_analysing_again(mt):
+    """A planner reads an analysed rotor on the main thread when it starts; in a later session (nothing in memory)
+    the record Analyze Rotor kept on the object stands for the analysis of the unchanged mesh."""
+    rec, fresh = mt["source_from_record"], mt["source_analysed"]
+    assert {k: v for k, v in rec.items() if k != "seconds"} == {k: v for k, v in fresh.items() if k != "seconds"}
+    assert fresh["seconds"] > 0.5 and rec["seconds"] < 0.25, (rec["seconds"], fresh["seconds"])
