@@ -15,6 +15,7 @@ from bpy.props import EnumProperty, StringProperty
 from mathutils import Matrix
 
 from .common import typed
+from .jobs import PlannerJob
 from .modal import ModalPlannerMixin
 from .sources import surface_object, surface_source
 from .tool_settings import freeform_tool
@@ -191,17 +192,94 @@ class SettingsView:
         return getattr(self._s, "ff_" + name)
 
 
-def refresh_guiding_preview(context):
-    """The live preview: redraw from the scene settings; errors are kept for the panel, never raised."""
+def _error_text(ex):
+    return str(ex) if isinstance(ex, ValueError) else "{}: {}".format(type(ex).__name__, ex)
+
+
+# the live preview off the UI thread: the settings of the newest change (read on the main thread), the worker of
+# the change before, and whether the timer that draws the result is registered
+_live = {"pending": None, "job": None, "inputs": None}
+LIVE_STEP = 0.1
+
+
+def refresh_guiding_preview(context, background=None):
+    """The live preview: redraw from the scene settings; errors are kept for the panel, never raised.
+
+    With an interface (``background`` False; default: not ``bpy.app.background``) a property update only reads
+    the settings and the surface (10-20 ms for 20,000 triangles); the curves are computed in a worker thread and
+    drawn by a timer (:func:`live_preview_tick`).  Changes that come while a worker runs (a dragged slider) are
+    taken together: the running one's result is dropped and only the newest settings are computed next.  Without
+    an interface (no event loop runs timers) the preview is drawn at once."""
     settings = getattr(context.scene, "flank_settings", None)
     if settings is None:
         return
+    background = bpy.app.background if background is None else background
+    if background:
+        try:
+            _preview_state["message"] = build_guiding_preview(context, SettingsView(settings),
+                                                              freeform_tool(settings))
+            _preview_state["error"] = False
+        except Exception as ex:              # shown in the panel; a property update must not raise
+            _preview_state.update(message=_error_text(ex), error=True)
+        return
+    if _live["job"] is not None:
+        _live["job"].cancel()                # its settings are out of date: nothing of it is drawn
     try:
-        _preview_state["message"] = build_guiding_preview(context, SettingsView(settings), freeform_tool(settings))
-        _preview_state["error"] = False
-    except Exception as ex:                  # shown in the panel; a property update must not raise
-        _preview_state["message"] = str(ex) if isinstance(ex, ValueError) else "{}: {}".format(type(ex).__name__, ex)
-        _preview_state["error"] = True
+        _live["pending"] = guiding_job(context, SettingsView(settings), freeform_tool(settings))
+    except Exception as ex:
+        _live["pending"] = None
+        _preview_state.update(message=_error_text(ex), error=True)
+        return
+    _preview_state.update(message="computing the guiding curves ...", error=False)
+    if not bpy.app.timers.is_registered(live_preview_tick):
+        bpy.app.timers.register(live_preview_tick, first_interval=0.0)
+
+
+def live_preview_tick():
+    """The live preview's timer: start a worker on the newest settings, draw its curves when it is done ->
+    seconds to the next call, or None when there is nothing left to do."""
+    job = _live["job"]
+    if job is not None:
+        state = job.poll()[0]
+        if state == "running":
+            return LIVE_STEP
+        inputs = _live["inputs"]
+        _live.update(job=None, inputs=None)
+        if state == "finished" and _live["pending"] is None:
+            if bpy.data.objects.get(inputs["name"]) is None:
+                _preview_state.update(message="'{}' was removed".format(inputs["name"]), error=True)
+            else:
+                try:
+                    _preview_state.update(message=show_guiding_preview(bpy.context, inputs, *job.result), error=False)
+                except Exception as ex:
+                    _preview_state.update(message=_error_text(ex), error=True)
+        elif state == "failed" and _live["pending"] is None:
+            _preview_state.update(message=_error_text(job.error), error=True)
+        _redraw_sidebars()
+    inputs = _live["pending"]
+    if inputs is not None:
+        _live.update(pending=None, inputs=inputs,
+                     job=PlannerJob(lambda progress, inputs=inputs: compute_guiding(inputs)))
+        return LIVE_STEP
+    return None
+
+
+def stop_live_preview():
+    """Drop a live preview that is waiting or computing (nothing of it is drawn) and its timer."""
+    if _live["job"] is not None:
+        _live["job"].cancel()
+    _live.update(pending=None, job=None, inputs=None)
+    if bpy.app.timers.is_registered(live_preview_tick):
+        bpy.app.timers.unregister(live_preview_tick)
+
+
+def _redraw_sidebars():
+    """The panel shows the preview's message: redraw the 3D views' sidebars once the timer changed it."""
+    wm = getattr(bpy.context, "window_manager", None)
+    for window in (wm.windows if wm is not None else ()):
+        for area in window.screen.areas:
+            if area.type == 'VIEW_3D':
+                area.tag_redraw()
 
 
 def preview_message():
@@ -262,6 +340,7 @@ class FLANK_OT_clear_guiding_preview(bpy.types.Operator):
     bl_options = {'REGISTER', 'UNDO'}
 
     def execute(self, context):
+        stop_live_preview()
         n = len(_preview_objects())
         remove_guiding_preview()
         settings = getattr(context.scene, "flank_settings", None)
@@ -383,4 +462,13 @@ class FLANK_OT_pick_guiding_direction(bpy.types.Operator):
 
 
 classes = (FLANK_OT_preview_guiding, FLANK_OT_clear_guiding_preview, FLANK_OT_pick_guiding_direction)
-register, unregister = bpy.utils.register_classes_factory(classes)
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(classes)
+
+
+def register():
+    _register_classes()
+
+
+def unregister():
+    stop_live_preview()          # a live preview still computing: its timer must not call into an unloaded module
+    _unregister_classes()

@@ -172,4 +172,42 @@ def scenario(bpy, res, args):
     res["surface_faces"] = len(bpy.data.objects[surface].data.polygons)
     res["preview"] = _exercise(bpy, np, bpy.ops.flank.preview_guiding, classes["preview"], {}, select_surface,
                                lambda: _preview_state(bpy, np))
+    # the live preview: a property update reads the settings and the surface, a worker computes the curves and a
+    # timer draws them (driven here by hand: timers do not run without an interface); two quick changes draw once
+    guiding = mods["guiding"]
+    s = bpy.context.scene.flank_settings
+    s.ff_live_preview = False
+    select_surface()
+    refs = []
+    for d in ((1.0, 0.0, 0.0), (0.6, 0.8, 0.0)):
+        s.ff_direction = d
+        guiding.refresh_guiding_preview(bpy.context, background=True)
+        refs.append(_preview_state(bpy, np))
+    guiding.remove_guiding_preview()
+    drawn = []
+    real_show = guiding.show_guiding_preview
+    guiding.show_guiding_preview = lambda *a: drawn.append(1) or real_show(*a)
+    try:
+        updates, ticks = [], []
+        for d in ((1.0, 0.0, 0.0), (0.6, 0.8, 0.0)):
+            s.ff_direction = d
+            t0 = time.perf_counter()
+            guiding.refresh_guiding_preview(bpy.context, background=False)
+            updates.append(1000.0 * (time.perf_counter() - t0))
+        registered = bpy.app.timers.is_registered(guiding.live_preview_tick)
+        t_start = time.perf_counter()
+        while time.perf_counter() - t_start < 60.0:
+            t0, c0 = time.perf_counter(), time.thread_time()
+            nxt = guiding.live_preview_tick()
+            ticks.append(dict(ms=1000.0 * (time.perf_counter() - t0), cpu_ms=1000.0 * (time.thread_time() - c0),
+                              next=nxt))
+            if nxt is None:
+                break
+            time.sleep(nxt)
+        res["live"] = dict(updates_ms=updates, ticks=ticks, registered=registered, drawn=len(drawn),
+                           state=_preview_state(bpy, np), refs=refs, message=list(guiding.preview_message()))
+    finally:
+        guiding.show_guiding_preview = real_show
+        guiding.stop_live_preview()
+    res["live"]["timer_left"] = bpy.app.timers.is_registered(guiding.live_preview_tick)
     res["patched_left"] = ["__enter__" in c.execute.__qualname__ for c in classes.values()]

@@ -90,3 +90,16 @@ def test_a_planner_takes_the_analysis_kept_on_the_object_instead_of_analysing_ag
     rec, fresh = mt["source_from_record"], mt["source_analysed"]
     assert {k: v for k, v in rec.items() if k != "seconds"} == {k: v for k, v in fresh.items() if k != "seconds"}
     assert fresh["seconds"] > 0.5 and rec["seconds"] < 0.25, (rec["seconds"], fresh["seconds"])
+
+
+def test_the_live_guiding_preview_computes_off_the_main_thread_and_draws_the_newest_settings(mt):
+    """A property update reads the settings and the surface only; the worker computes, a timer draws: two quick
+    changes (a dragged slider) draw once, with the second change's curves, those the synchronous preview draws."""
+    lv = mt["live"]
+    assert lv["registered"] and not lv["timer_left"]
+    assert lv["refs"][0] != lv["refs"][1]                  # the two directions give two different sets of curves
+    assert lv["drawn"] == 1 and lv["state"] == lv["refs"][1], lv
+    assert lv["message"][1] is False and "guiding curves" in lv["message"][0]
+    assert max(lv["updates_ms"]) < FRAME_MS, lv["updates_ms"]
+    assert max(t["cpu_ms"] for t in lv["ticks"]) < FRAME_MS, lv["ticks"]
+    assert len(lv["ticks"]) >= 3 and lv["ticks"][-1]["next"] is None
