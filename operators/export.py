@@ -12,6 +12,7 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatVectorProperty, IntProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper
 
+from .modal import ModalPlannerMixin
 from .runs import run_plan
 
 FORMAT_ITEMS = (
@@ -25,12 +26,13 @@ FORMAT_ITEMS = (
 EXTENSIONS = {"PLAN": ".json", "CL": ".apt", "CSV": ".csv", "STL": ".stl", "PLY": ".ply"}
 
 
-class FLANK_OT_export_results(bpy.types.Operator, ExportHelper):
+class FLANK_OT_export_results(ModalPlannerMixin, bpy.types.Operator, ExportHelper):
     """Export a planning run: its plan, CL data, error profile or envelope strips (rotor frame, plan units)"""
 
     bl_idname = "flank.export_results"
     bl_label = "Export Flank Results"
     bl_options = {'REGISTER'}
+    _run_name = ""
 
     filename_ext = ".json"
     filter_glob: StringProperty(default="*.json;*.apt;*.cl;*.csv;*.stl;*.ply", options={'HIDDEN'})
@@ -47,8 +49,14 @@ class FLANK_OT_export_results(bpy.types.Operator, ExportHelper):
     z_range: FloatVectorProperty(name="Z0, Z1", description="Rotor-frame z range of the tool tip in the plan's "
                                                             "length unit, Z0 < Z1", size=2, default=(0.0, 1.0))
 
+    # set by invoke: after the file browser the export runs modal like the planners (the error profile verifies
+    # the plan: 0.35 s for a double-flank run); a script's call (execute) writes before it returns
+    modal_after_browser: BoolProperty(default=False, options={'HIDDEN', 'SKIP_SAVE'})
+    _title = "Export"
+
     def invoke(self, context, event):
         self.filename_ext = EXTENSIONS[self.format]
+        self.modal_after_browser = True
         return ExportHelper.invoke(self, context, event)
 
     def check(self, context):
@@ -56,16 +64,23 @@ class FLANK_OT_export_results(bpy.types.Operator, ExportHelper):
         return ExportHelper.check(self, context)
 
     def execute(self, context):
-        from ..flank_addon import exports
-        from ..flank_addon.io.plan import plan_text
+        if self.modal_after_browser and not bpy.app.background and context.window_manager is not None \
+                and context.window is not None:
+            self.modal_after_browser = False
+            return self._start_modal(context)
+        return ModalPlannerMixin.execute(self, context)
 
-        t0 = time.perf_counter()
+    def _compute_failed(self, ex):
+        return "Export of '{}' failed: {}: {}".format(self._run_name, type(ex).__name__, ex)
+
+    def _prepare(self, context):
+        """The run's plan and the checked options (the main thread)."""
         if not self.filepath:
             self.report({'ERROR'}, "Export: no file given (filepath is empty)")
-            return {'CANCELLED'}
+            return None
         if not 1 <= int(self.steps) <= 100000:
             self.report({'ERROR'}, "Export: steps = {} is outside the limits 1..100000".format(int(self.steps)))
-            return {'CANCELLED'}
+            return None
         z_range = None
         if self.use_z_range:
             # single-precision property: the decimals that were typed (7 digits)
@@ -73,52 +88,77 @@ class FLANK_OT_export_results(bpy.types.Operator, ExportHelper):
             if not all(math.isfinite(v) for v in z_range) or not z_range[1] > z_range[0]:
                 self.report({'ERROR'}, "Export: the z range {:g} .. {:g} must be finite with Z0 < Z1".format(
                     *z_range))
-                return {'CANCELLED'}
+                return None
         found = run_plan(context, self.collection)
         if isinstance(found, str):
             self.report({'ERROR'}, "Export: " + found)
-            return {'CANCELLED'}
+            return None
         coll, plan = found
+        self._run_name = coll.name
         n = len(plan["strips"])
         strip = int(self.strip)
         if strip > n:
             self.report({'ERROR'}, "Export: strip = {} does not exist: run '{}' has strips 1..{}".format(
                 strip, coll.name, n))
-            return {'CANCELLED'}
-        k = None if strip == 0 else strip - 1
+            return None
         path = bpy.path.abspath(self.filepath)
         folder = os.path.dirname(path) or "."
         if not os.path.isdir(folder):
             self.report({'ERROR'}, "Export: the folder '{}' does not exist".format(folder))
-            return {'CANCELLED'}
-        fmt = self.format
-        written = []
-        tmp = tempfile.mkdtemp(prefix=".flank_export_", dir=folder) if os.access(folder, os.W_OK) else None
-        if tmp is None:
+            return None
+        if not os.access(folder, os.W_OK):
             self.report({'ERROR'}, "Export: the folder '{}' is not writable".format(folder))
+            return None
+        return dict(t0=time.perf_counter(), plan=plan, run=coll.name, n=n, k=None if strip == 0 else strip - 1,
+                    fmt=self.format, steps=int(self.steps), z_range=z_range, path=path, folder=folder)
+
+    def _compute(self, job, progress):
+        """The file's content: text, or the strips' meshes (a worker thread when run from the UI; nothing is
+        written here, so a cancelled export leaves no file behind)."""
+        from ..flank_addon import exports
+        from ..flank_addon.io.plan import plan_text
+        from ..flank_addon.progress import reporter
+
+        report = reporter(progress)
+        plan, fmt, k = job["plan"], job["fmt"], job["k"]
+        report(0.0, {"PLAN": "plan", "CL": "CL data", "CSV": "verifying the plan"}.get(fmt, "envelope strips"))
+        if fmt == "PLAN":
+            return dict(text=plan_text(plan), what="plan, {} strips".format(job["n"]))
+        if fmt == "CL":
+            text = exports.cl_data(plan, strip=k, steps=job["steps"], z_range=job["z_range"])
+            return dict(text=text, what="CL data, {} GOTO steps".format(text.count("\nGOTO/")))
+        if fmt == "CSV":
+            text = exports.error_profile_csv(plan)
+            return dict(text=text, what="error profile, {} points".format(text.count("\n") - 1))
+        meshes = exports.strip_meshes(plan, strip=k, z_range=job["z_range"], n_t=min(job["steps"], 2000) + 1)
+        return dict(meshes=meshes, what="{} strip envelope(s) as {}".format(len(meshes), fmt))
+
+    def _build(self, context, job, content):
+        """Write the file(s): into a temporary folder first, moved into place only when all of it succeeded."""
+        from ..flank_addon.io.mesh_files import write_ply, write_stl
+
+        path, folder, fmt = job["path"], job["folder"], job["fmt"]
+        written = []
+        try:
+            tmp = tempfile.mkdtemp(prefix=".flank_export_", dir=folder)
+        except OSError as ex:
+            self.report({'ERROR'}, "Export: the folder '{}' is not writable: {}".format(folder, ex))
             return {'CANCELLED'}
         try:
-            # everything is written into a temporary folder first and moved only when all of it succeeded
-            if fmt in ("PLAN", "CL", "CSV"):
-                if fmt == "PLAN":
-                    text, what = plan_text(plan), "plan, {} strips".format(n)
-                elif fmt == "CL":
-                    text = exports.cl_data(plan, strip=k, steps=int(self.steps), z_range=z_range)
-                    what = "CL data, {} GOTO steps".format(text.count("\nGOTO/"))
-                else:
-                    text = exports.error_profile_csv(plan)
-                    what = "error profile, {} points".format(text.count("\n") - 1)
+            if "text" in content:
                 staged = os.path.join(tmp, os.path.basename(path))
                 with open(staged, "w", encoding="utf-8") as fh:
-                    fh.write(text)
+                    fh.write(content["text"])
                 pairs = [(staged, path)]
             else:
                 stem = os.path.splitext(os.path.basename(path))[0]
                 ext = fmt.lower()
-                staged = exports.write_strip_meshes(plan, os.path.join(tmp, stem), ext, strip=k, z_range=z_range,
-                                                    n_t=min(int(self.steps), 2000) + 1)
-                pairs = [(p, os.path.join(folder, os.path.basename(p))) for p in staged]
-                what = "{} strip envelope(s) as {}".format(len(pairs), fmt)
+                writer = {"stl": write_stl, "ply": write_ply}[ext]
+                pairs = []
+                for k, v, f in content["meshes"]:
+                    staged = os.path.join(tmp, "{}_{}.{}".format(stem, k, ext))
+                    writer(staged, v, f)
+                    pairs.append((staged, os.path.join(folder, os.path.basename(staged))))
             for src, dst in pairs:
                 os.replace(src, dst)
                 written.append(dst)
@@ -128,12 +168,12 @@ class FLANK_OT_export_results(bpy.types.Operator, ExportHelper):
                     os.remove(p)
                 except OSError:
                     pass
-            self.report({'ERROR'}, "Export of '{}' failed: {}: {}".format(coll.name, type(ex).__name__, ex))
+            self.report({'ERROR'}, "Export of '{}' failed: {}: {}".format(job["run"], type(ex).__name__, ex))
             return {'CANCELLED'}
         finally:
             shutil.rmtree(tmp, ignore_errors=True)
         self.report({'INFO'}, "Exported '{}': {} to {} ({:.2f} s)".format(
-            coll.name, what, ", ".join(os.path.basename(p) for p in written), time.perf_counter() - t0))
+            job["run"], content["what"], ", ".join(os.path.basename(p) for p in written), time.perf_counter() - job["t0"]))
         return {'FINISHED'}
 
 

@@ -107,13 +107,11 @@ def strip_mesh(plan, strip, n_s=80, n_t=97, z_range=None, branch="auto"):
     return np.concatenate(verts), np.concatenate(faces).astype(np.int64)
 
 
-def write_strip_meshes(plan, prefix, fmt="stl", strip=None, z_range=None, **kw):
-    """Write each strip's envelope (or one strip's) to PREFIX_<k>.stl|.ply; returns the paths."""
-    from ..io.mesh_files import write_ply, write_stl
-
-    writer = {"stl": write_stl, "ply": write_ply}[fmt]
+def strip_meshes(plan, strip=None, z_range=None, **kw):
+    """Each strip's envelope (or one strip's) as a triangle mesh: [(k, vertices (N, 3), faces (M, 3))].  A
+    free-form plan's envelopes leave out the triangles beyond the surface's border (NaN deviation)."""
     ks = range(len(plan["strips"])) if strip is None else [_get_strip(plan, strip)[0]]
-    paths = []
+    out = []
     if is_mesh_plan(plan):
         if z_range is not None:
             raise ValueError("a z range applies to rotor plans only (this is a free-form plan)")
@@ -123,14 +121,23 @@ def write_strip_meshes(plan, prefix, fmt="stl", strip=None, z_range=None, **kw):
             q = envs[k]["faces"]
             tri = np.concatenate([q[:, [0, 1, 2]], q[:, [0, 2, 3]]])
             ok = np.isfinite(envs[k]["deviation"])[tri].all(1)
-            path = f"{prefix}_{k}.{fmt}"
-            writer(path, envs[k]["vertices"], tri[ok])
-            paths.append(path)
-        return paths
+            out.append((k, envs[k]["vertices"], tri[ok]))
+        return out
     for k in ks:
         v, f = strip_mesh(plan, k, z_range=z_range, **kw)
         if not len(f):
             raise ValueError(f"strip {k}: the tool has no real characteristic under the screw motion")
+        out.append((k, v, f))
+    return out
+
+
+def write_strip_meshes(plan, prefix, fmt="stl", strip=None, z_range=None, **kw):
+    """Write each strip's envelope (or one strip's) to PREFIX_<k>.stl|.ply; returns the paths."""
+    from ..io.mesh_files import write_ply, write_stl
+
+    writer = {"stl": write_stl, "ply": write_ply}[fmt]
+    paths = []
+    for k, v, f in strip_meshes(plan, strip=strip, z_range=z_range, **kw):
         path = f"{prefix}_{k}.{fmt}"
         writer(path, v, f)
         paths.append(path)

@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Analyze Rotor (flank.analyze_rotor), Generate Rotor (flank.generate_rotor), Preview Guiding Curves
-(flank.preview_guiding), the flank list (flank.refresh_flanks) and Paraboloid Groove (flank.paraboloid_groove) through the modal Run path (operators/modal.py), for test_blender_modal_tools.py.
+(flank.preview_guiding), the flank list (flank.refresh_flanks), Paraboloid Groove (flank.paraboloid_groove) and
+Export Results after its file browser (flank.export_results) through the modal Run path (operators/modal.py), for test_blender_modal_tools.py.
 
 Each operator's ``execute`` is replaced for one call by scenario_modal's driver (``_start_modal`` + ``modal()``
 with TIMER / ESC events and a stand-in context), as in scenario_modal_checks: a synchronous run, ESC and closing
@@ -8,6 +9,7 @@ with TIMER / ESC events and a stand-in context), as in scenario_modal_checks: a 
 whose workers are too quick to race ESC against), and a modal run to the end,
 whose result is compared with the synchronous one.  The sizes are a user's: a rotor of 280,000 triangles (its analysis takes over a second) and
 a free-form surface of 20,000.  The analysis cache is emptied before every run, so each one analyses."""
+import os
 import time
 
 import driver
@@ -93,12 +95,12 @@ def scenario(bpy, res, args):
     import numpy as np
 
     mods = {name: __import__(driver.MODULE + ".operators." + name, fromlist=["x"])
-            for name in ("analyze", "generate", "guiding", "flank_list", "paraboloid", "modal")}
+            for name in ("analyze", "generate", "guiding", "flank_list", "paraboloid", "export", "modal")}
     analysis = __import__(driver.MODULE + ".flank_addon.geometry.rotor_analysis", fromlist=["x"])
     mixin = mods["modal"].ModalPlannerMixin
     classes = dict(analyze=mods["analyze"].FLANK_OT_analyze_rotor, generate=mods["generate"].FLANK_OT_generate_rotor,
                    preview=mods["guiding"].FLANK_OT_preview_guiding, flank_list=mods["flank_list"].FLANK_OT_refresh_flanks,
-                   paraboloid=mods["paraboloid"].FLANK_OT_paraboloid_groove)
+                   paraboloid=mods["paraboloid"].FLANK_OT_paraboloid_groove, export=mods["export"].FLANK_OT_export_results)
     res["mixin"] = {k: issubclass(c, mixin) for k, c in classes.items()}
     res["timer_step"] = mods["modal"].TIMER_STEP
     empty = bpy.data.objects.new("Flank Selection Holder", None)       # something to select before a generate
@@ -146,6 +148,31 @@ def scenario(bpy, res, args):
                                   lambda: _flank_list_state(bpy), cancel=False)
     res["paraboloid"] = _exercise(bpy, np, bpy.ops.flank.paraboloid_groove, classes["paraboloid"], {}, select_rotor,
                                   lambda: _groove_state(bpy, np), cancel=False)
+    # Export Results after its file browser: the error profile of a double-flank run verifies the plan (0.35 s)
+    select_rotor()
+    driver._run_op(bpy.ops.flank.plan_double_flank)
+    run = next(c.name for c in bpy.data.collections if "flank_plan_json" in c and c.get("flank_df_key"))
+    folder = os.path.abspath("exports")
+    os.makedirs(folder)
+    exp = {}
+
+    def exported(name):
+        path = os.path.join(folder, name)
+        return open(path).read() if os.path.isfile(path) else None
+
+    t0 = time.perf_counter()
+    ret, err = driver._run_op(bpy.ops.flank.export_results, format="CSV", collection=run,
+                              filepath=os.path.join(folder, "sync.csv"))
+    exp["sync"] = dict(result=ret, error=err, seconds=time.perf_counter() - t0)
+    for plan in ("esc", "close", "finish"):
+        before = sm.census(bpy, np)
+        rec = sm._call(bpy, bpy.ops.flank.export_results, classes["export"], plan, format="CSV", collection=run,
+                       filepath=os.path.join(folder, plan + ".csv"))
+        rec["census_equal"] = before == sm.census(bpy, np)
+        exp[plan] = rec
+    exp["files"] = sorted(os.listdir(folder))
+    exp["same_text"] = exported("finish.csv") == exported("sync.csv") and exported("sync.csv") is not None
+    res["export"] = exp
     # a mesh that is not a rotor: the worker's failure is reported as the synchronous run reports it
     bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32)
     sphere = bpy.context.active_object.name

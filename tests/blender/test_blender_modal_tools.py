@@ -22,8 +22,8 @@ def mt(extension_zip, tmp_path_factory):
 
 
 def test_the_operators_use_the_modal_mixin_on_a_users_sizes(mt):
-    assert mt["mixin"] == {op: True for op in OPS}
-    assert mt["patched_left"] == [False] * len(OPS)
+    assert mt["mixin"] == dict({op: True for op in OPS}, export=True)
+    assert mt["patched_left"] == [False] * (len(OPS) + 1)
     assert mt["rotor_faces"] > 250_000 and mt["surface_faces"] >= 20_000
     # what makes modal worth it: the synchronous analysis holds the main thread for over a second
     assert mt["analyze"]["sync"]["seconds"] > 0.5
@@ -103,3 +103,19 @@ def test_the_live_guiding_preview_computes_off_the_main_thread_and_draws_the_new
     assert max(lv["updates_ms"]) < FRAME_MS, lv["updates_ms"]
     assert max(t["cpu_ms"] for t in lv["ticks"]) < FRAME_MS, lv["ticks"]
     assert len(lv["ticks"]) >= 3 and lv["ticks"][-1]["next"] is None
+
+
+def test_export_after_the_file_browser_writes_the_same_file_off_the_main_thread_and_nothing_when_cancelled(mt):
+    """The error profile of a double-flank run verifies the plan: the modal export writes what the synchronous one
+    writes, Esc and closing write nothing (no file, no temporary folder), and no call holds the main thread."""
+    ex = mt["export"]
+    assert ex["sync"]["result"] == ["FINISHED"] and ex["sync"]["seconds"] > 0.15, ex["sync"]
+    assert ex["files"] == ["finish.csv", "sync.csv"] and ex["same_text"], ex["files"]
+    for plan in ("esc", "close"):
+        rec = ex[plan]
+        assert rec["start"] == ["RUNNING_MODAL"] and rec["final"] == ["CANCELLED"] and rec["census_equal"], rec
+        assert rec["thread_alive"] is False and rec["timers_left"] == 0
+    rec = ex["finish"]
+    assert rec["final"] == ["FINISHED"] and rec["op_result"] == ["FINISHED"], rec
+    assert max(c["cpu_ms"] for c in rec["calls"]) < FRAME_MS, rec["calls"]
+    assert rec["start_ms"] < FRAME_MS, rec["start_ms"]
