@@ -173,7 +173,8 @@ class FLANK_OT_export_results(ModalPlannerMixin, bpy.types.Operator, ExportHelpe
         finally:
             shutil.rmtree(tmp, ignore_errors=True)
         self.report({'INFO'}, "Exported '{}': {} to {} ({:.2f} s)".format(
-            job["run"], content["what"], ", ".join(os.path.basename(p) for p in written), time.perf_counter() - job["t0"]))
+            job["run"], content["what"], ", ".join(os.path.basename(p) for p in written),
+            time.perf_counter() - job["t0"]))
         return {'FINISHED'}
 
 

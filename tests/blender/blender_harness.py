@@ -90,3 +90,22 @@ def run_scenario(zip_path, scenario, tmp_dir, **options):
     assert res.get("ok"), "scenario {} failed:\n{}\n--- log ---\n{}".format(
         scenario, res.get("exception"), proc.stdout[-6000:])
     return res
+
+
+def assert_cancelled_cleanly(rec, timer_step, plan):
+    """A modal run (scenario_modal's driver) ended by ESC (``plan`` "esc") or by closing ("close"): it started
+    like the UI starts it, ended CANCELLED with bpy.data and the scene as before, and left no worker, timer,
+    progress or status text behind."""
+    assert rec["driven"] and rec["start"] == ["RUNNING_MODAL"] and rec["has_job"], rec
+    assert rec["wm_calls_start"] == [["event_timer_add", timer_step, True], ["progress_begin", 0, 100],
+                                     ["modal_handler_add"]], rec["wm_calls_start"]
+    assert "Esc cancels" in rec["status_start"]
+    assert rec["final"] == ["CANCELLED"], rec
+    assert rec["census_equal"], rec["census_diff"]
+    assert rec["thread_alive"] is False and rec["timers_left"] == 0 and rec["operator_job_cleared"]
+    assert rec["wm_calls"][-2:] == [["event_timer_remove"], ["progress_end"]]
+    assert rec["status_last"] is None and not rec.get("timed_out")
+    if plan == "esc":
+        esc = [c for c in rec["calls"] if c["event"] == "ESC"]
+        assert len(esc) == 1 and esc[0]["result"] == ["RUNNING_MODAL"] and "cancelling" in esc[0]["status"]
+        assert rec["job_state"] == "cancelled" and rec["job_result_none"]

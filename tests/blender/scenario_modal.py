@@ -338,12 +338,13 @@ def _find_run(bpy, pre, key):
     return next((c for c in bpy.data.collections if c.get(pre + "key") == key), None)
 
 
-def cancelled_runs(bpy, np, op, cls, kw, select):
+def cancelled_runs(bpy, np, op, cls, kw, select, before_each=lambda: None):
     """{"esc": record, "close": record}: the modal run ended by Esc and by closing, each with the census of
     bpy.data before and after it (equal: the cancelled run left nothing)."""
     out = {}
     for plan in ("esc", "close"):
         select()
+        before_each()
         bpy.context.view_layer.update()
         before = census(bpy, np)
         rec = _call(bpy, op, cls, plan, **kw)
@@ -351,6 +352,26 @@ def cancelled_runs(bpy, np, op, cls, kw, select):
         rec.update(census_equal=before == after, census_diff=_census_diff(before, after),
                    census_sizes={k: len(v) for k, v in before.items() if isinstance(v, (list, dict))})
         out[plan] = rec
+    return out
+
+
+def exercise_tool(bpy, np, op, cls, kw, select, state, before_each=lambda: None, cancel=True):
+    """A synchronous run, then (with ``cancel``) ESC / close with the census around them, and a modal run to the
+    end; ``state()`` describes the result of each finished run, ``before_each()`` runs before every run (e.g.
+    to empty a cache)."""
+    out = {}
+    select()
+    before_each()
+    t0 = time.perf_counter()
+    ret, err = driver._run_op(op, **kw)
+    out["sync"] = dict(result=ret, error=err, seconds=time.perf_counter() - t0, state=state())
+    if cancel:
+        out.update(cancelled_runs(bpy, np, op, cls, kw, select, before_each))
+    select()
+    before_each()
+    rec = _call(bpy, op, cls, "finish", **kw)
+    rec["state"] = state()
+    out["finish"] = rec
     return out
 
 

@@ -8,7 +8,6 @@ unchanged, a modal run to the end makes what the synchronous run makes, and the 
 ``modal()`` call held the main thread."""
 import json
 import os
-import time
 
 import driver
 import scenario_modal as sm
@@ -49,21 +48,6 @@ def _region_state(bpy, np, key):
                 props={k: sm._plain(coll[k]) for k in coll.keys() if k.startswith("flank_cr_") and k not in skip})
 
 
-def _exercise(bpy, np, op, cls, kw, select, state):
-    """A synchronous run, then ESC / close (census before and after) and a modal run to the end."""
-    out = {}
-    select()
-    t0 = time.perf_counter()
-    ret, err = driver._run_op(op, **kw)
-    out["sync"] = dict(result=ret, error=err, seconds=time.perf_counter() - t0, state=state())
-    out.update(sm.cancelled_runs(bpy, np, op, cls, kw, select))
-    select()
-    rec = sm._call(bpy, op, cls, "finish", **kw)
-    rec["state"] = state()
-    out["finish"] = rec
-    return out
-
-
 def scenario(bpy, res, args):
     import numpy as np
 
@@ -94,14 +78,15 @@ def scenario(bpy, res, args):
         fh.write(run["flank_plan_json"])
     run_name = run.name
 
-    res["verify"] = _exercise(bpy, np, bpy.ops.flank.verify_plan, classes["verify"], dict(filepath=plan_path),
-                              select, lambda: _verify_state(bpy, np, rotor_name))
-    res["error_plot"] = _exercise(bpy, np, bpy.ops.flank.error_plot, classes["error_plot"],
-                                  dict(collection=run_name, width=640, height=400), select,
-                                  lambda: _plot_state(bpy, np, run_name))
-    res["cutter_region"] = _exercise(bpy, np, bpy.ops.flank.cutter_region, classes["cutter_region"],
-                                     dict(flank=1, r1=0.05, r2=0.08, alpha=0.1001674211615598, grid=(12, 16, 16)),
-                                     select, lambda: _region_state(bpy, np, "{}|1".format(rotor_name)))
+    res["verify"] = sm.exercise_tool(bpy, np, bpy.ops.flank.verify_plan, classes["verify"],
+                                     dict(filepath=plan_path), select, lambda: _verify_state(bpy, np, rotor_name))
+    res["error_plot"] = sm.exercise_tool(bpy, np, bpy.ops.flank.error_plot, classes["error_plot"],
+                                         dict(collection=run_name, width=640, height=400), select,
+                                         lambda: _plot_state(bpy, np, run_name))
+    res["cutter_region"] = sm.exercise_tool(bpy, np, bpy.ops.flank.cutter_region, classes["cutter_region"],
+                                            dict(flank=1, r1=0.05, r2=0.08, alpha=0.1001674211615598,
+                                                 grid=(12, 16, 16)),
+                                            select, lambda: _region_state(bpy, np, "{}|1".format(rotor_name)))
     # a failure in the worker is reported as the synchronous run reports it, and changes nothing
     select()
     bad = os.path.join(os.path.abspath(os.getcwd()), "bad_plan.json")

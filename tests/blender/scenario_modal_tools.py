@@ -1,14 +1,15 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Analyze Rotor (flank.analyze_rotor), Generate Rotor (flank.generate_rotor), Preview Guiding Curves
 (flank.preview_guiding), the flank list (flank.refresh_flanks), Paraboloid Groove (flank.paraboloid_groove) and
-Export Results after its file browser (flank.export_results) through the modal Run path (operators/modal.py), for test_blender_modal_tools.py.
+Export Results after its file browser (flank.export_results) through the modal Run path (operators/modal.py), for
+test_blender_modal_tools.py.
 
 Each operator's ``execute`` is replaced for one call by scenario_modal's driver (``_start_modal`` + ``modal()``
 with TIMER / ESC events and a stand-in context), as in scenario_modal_checks: a synchronous run, ESC and closing
 (a census of bpy.data and the scene before and after; not for Generate, the flank list and Paraboloid Groove,
-whose workers are too quick to race ESC against), and a modal run to the end,
-whose result is compared with the synchronous one.  The sizes are a user's: a rotor of 280,000 triangles (its analysis takes over a second) and
-a free-form surface of 20,000.  The analysis cache is emptied before every run, so each one analyses."""
+whose workers are too quick to race ESC against), and a modal run to the end, whose result is compared with the
+synchronous one.  The sizes are a user's: a rotor of 280,000 triangles (its analysis takes over a second) and a
+free-form surface of 20,000.  The analysis cache is emptied before every run, so each one analyses."""
 import os
 import time
 
@@ -67,30 +68,6 @@ def _groove_state(bpy, np):
                 props={k: sm._plain(coll[k]) for k in coll.keys() if k.startswith("flank_")})
 
 
-def _exercise(bpy, np, op, cls, kw, select, state, before_each=lambda: None, cancel=True):
-    out = {}
-    select()
-    before_each()
-    t0 = time.perf_counter()
-    ret, err = driver._run_op(op, **kw)
-    out["sync"] = dict(result=ret, error=err, seconds=time.perf_counter() - t0, state=state())
-    for plan in ("esc", "close") if cancel else ():
-        select()
-        before_each()
-        bpy.context.view_layer.update()
-        before = sm.census(bpy, np)
-        rec = sm._call(bpy, op, cls, plan, **kw)
-        after = sm.census(bpy, np)
-        rec.update(census_equal=before == after, census_diff=sm._census_diff(before, after))
-        out[plan] = rec
-    select()
-    before_each()
-    rec = sm._call(bpy, op, cls, "finish", **kw)
-    rec["state"] = state()
-    out["finish"] = rec
-    return out
-
-
 def scenario(bpy, res, args):
     import numpy as np
 
@@ -99,8 +76,10 @@ def scenario(bpy, res, args):
     analysis = __import__(driver.MODULE + ".flank_addon.geometry.rotor_analysis", fromlist=["x"])
     mixin = mods["modal"].ModalPlannerMixin
     classes = dict(analyze=mods["analyze"].FLANK_OT_analyze_rotor, generate=mods["generate"].FLANK_OT_generate_rotor,
-                   preview=mods["guiding"].FLANK_OT_preview_guiding, flank_list=mods["flank_list"].FLANK_OT_refresh_flanks,
-                   paraboloid=mods["paraboloid"].FLANK_OT_paraboloid_groove, export=mods["export"].FLANK_OT_export_results)
+                   preview=mods["guiding"].FLANK_OT_preview_guiding,
+                   flank_list=mods["flank_list"].FLANK_OT_refresh_flanks,
+                   paraboloid=mods["paraboloid"].FLANK_OT_paraboloid_groove,
+                   export=mods["export"].FLANK_OT_export_results)
     res["mixin"] = {k: issubclass(c, mixin) for k, c in classes.items()}
     res["timer_step"] = mods["modal"].TIMER_STEP
     empty = bpy.data.objects.new("Flank Selection Holder", None)       # something to select before a generate
@@ -112,16 +91,16 @@ def scenario(bpy, res, args):
     # the defaults, 280k triangles: the worker needs only 20-40 ms, too little to race ESC against it (the mixin's
     # ESC and close are shown on the other two); the mesh is built on the main thread
     gen_kw = dict(kind="asymmetric", part="female")
-    res["generate"] = _exercise(bpy, np, bpy.ops.flank.generate_rotor, classes["generate"], gen_kw, select_empty,
-                                lambda: _rotor_state(bpy, np), cancel=False)
+    res["generate"] = sm.exercise_tool(bpy, np, bpy.ops.flank.generate_rotor, classes["generate"], gen_kw,
+                                       select_empty, lambda: _rotor_state(bpy, np), cancel=False)
     rotor = sorted(o.name for o in bpy.data.objects if o.get("flank_source") == "generated")[0]
     res["rotor_faces"] = len(bpy.data.objects[rotor].data.polygons)
 
     def select_rotor():
         sm.driver_select(bpy, bpy.data.objects[rotor])
 
-    res["analyze"] = _exercise(bpy, np, bpy.ops.flank.analyze_rotor, classes["analyze"], {}, select_rotor,
-                               lambda: _analysis_state(bpy, np, rotor), before_each=analysis._CACHE.clear)
+    res["analyze"] = sm.exercise_tool(bpy, np, bpy.ops.flank.analyze_rotor, classes["analyze"], {}, select_rotor,
+                                      lambda: _analysis_state(bpy, np, rotor), before_each=analysis._CACHE.clear)
     # a planner reading the analysed rotor in a later session (nothing in memory): from the record Analyze Rotor kept
     # on the object, and, for comparison, without it (analysed again on the main thread)
     sources = __import__(driver.MODULE + ".operators.sources", fromlist=["x"])
@@ -144,10 +123,10 @@ def scenario(bpy, res, args):
     # their defaults: their workers need 10-60 ms, too little to race ESC against
     settings = bpy.context.scene.flank_settings
     settings.flank_list.clear()
-    res["flank_list"] = _exercise(bpy, np, bpy.ops.flank.refresh_flanks, classes["flank_list"], {}, select_rotor,
-                                  lambda: _flank_list_state(bpy), cancel=False)
-    res["paraboloid"] = _exercise(bpy, np, bpy.ops.flank.paraboloid_groove, classes["paraboloid"], {}, select_rotor,
-                                  lambda: _groove_state(bpy, np), cancel=False)
+    res["flank_list"] = sm.exercise_tool(bpy, np, bpy.ops.flank.refresh_flanks, classes["flank_list"], {},
+                                         select_rotor, lambda: _flank_list_state(bpy), cancel=False)
+    res["paraboloid"] = sm.exercise_tool(bpy, np, bpy.ops.flank.paraboloid_groove, classes["paraboloid"], {},
+                                         select_rotor, lambda: _groove_state(bpy, np), cancel=False)
     # Export Results after its file browser: the error profile of a double-flank run verifies the plan (0.35 s)
     select_rotor()
     driver._run_op(bpy.ops.flank.plan_double_flank)
@@ -168,7 +147,8 @@ def scenario(bpy, res, args):
         before = sm.census(bpy, np)
         rec = sm._call(bpy, bpy.ops.flank.export_results, classes["export"], plan, format="CSV", collection=run,
                        filepath=os.path.join(folder, plan + ".csv"))
-        rec["census_equal"] = before == sm.census(bpy, np)
+        after = sm.census(bpy, np)
+        rec.update(census_equal=before == after, census_diff=sm._census_diff(before, after))
         exp[plan] = rec
     exp["files"] = sorted(os.listdir(folder))
     exp["same_text"] = exported("finish.csv") == exported("sync.csv") and exported("sync.csv") is not None
@@ -197,8 +177,8 @@ def scenario(bpy, res, args):
         sm.driver_select(bpy, bpy.data.objects[surface])
 
     res["surface_faces"] = len(bpy.data.objects[surface].data.polygons)
-    res["preview"] = _exercise(bpy, np, bpy.ops.flank.preview_guiding, classes["preview"], {}, select_surface,
-                               lambda: _preview_state(bpy, np))
+    res["preview"] = sm.exercise_tool(bpy, np, bpy.ops.flank.preview_guiding, classes["preview"], {},
+                                      select_surface, lambda: _preview_state(bpy, np))
     # the live preview: a property update reads the settings and the surface, a worker computes the curves and a
     # timer draws them (driven here by hand: timers do not run without an interface); two quick changes draw once
     guiding = mods["guiding"]

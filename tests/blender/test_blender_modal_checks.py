@@ -6,7 +6,7 @@ closing leave bpy.data and the scene exactly as before, a modal run to the end m
 makes, and a failure in the worker is reported as the synchronous run reports it."""
 import pytest
 
-from blender_harness import run_scenario
+from blender_harness import assert_cancelled_cleanly, run_scenario
 
 FRAME_MS = 100.0
 OPS = ("verify", "error_plot", "cutter_region")
@@ -33,20 +33,7 @@ def test_background_run_is_synchronous_and_finishes(mc, op):
 @pytest.mark.parametrize("op", OPS)
 @pytest.mark.parametrize("plan", ["esc", "close"])
 def test_cancel_leaves_everything_as_before(mc, op, plan):
-    rec = mc[op][plan]
-    assert rec["driven"] and rec["start"] == ["RUNNING_MODAL"] and rec["has_job"], rec
-    assert rec["wm_calls_start"] == [["event_timer_add", mc["timer_step"], True], ["progress_begin", 0, 100],
-                                     ["modal_handler_add"]], rec["wm_calls_start"]
-    assert "Esc cancels" in rec["status_start"]
-    assert rec["final"] == ["CANCELLED"], rec
-    assert rec["census_equal"], rec["census_diff"]
-    assert rec["thread_alive"] is False and rec["timers_left"] == 0 and rec["operator_job_cleared"]
-    assert rec["wm_calls"][-2:] == [["event_timer_remove"], ["progress_end"]]
-    assert rec["status_last"] is None and not rec.get("timed_out")
-    if plan == "esc":
-        esc = [c for c in rec["calls"] if c["event"] == "ESC"]
-        assert len(esc) == 1 and esc[0]["result"] == ["RUNNING_MODAL"] and "cancelling" in esc[0]["status"]
-        assert rec["job_state"] == "cancelled" and rec["job_result_none"]
+    assert_cancelled_cleanly(mc[op][plan], mc["timer_step"], plan)
 
 
 @pytest.mark.parametrize("op", OPS)
