@@ -39,6 +39,10 @@ import pytest  # noqa: E402
 
 from flank_addon.geometry.rotors import builtin_by_name  # noqa: E402
 
+# the Blender tests that compare with the core run it in the test interpreter; the compatibility venvs
+# (make test-compat) have no scipy on purpose, so that the extension's bundled scipy is what Blender imports
+CORE_NEEDS_SCIPY = "comparing with the core needs scipy in the test interpreter (the bpy-only venvs have none)"
+
 # ---------------------------------------------------------------------------------------------- fixtures
 
 
@@ -46,6 +50,7 @@ from flank_addon.geometry.rotors import builtin_by_name  # noqa: E402
 def builtin():
     """``builtin(name) -> (rotor, surface)``: a built-in rotor of default size and its helical surface, made
     once per process, so the surface's lazy foot-point tables (~1.6 s) are built once too."""
+    pytest.importorskip("scipy", reason=CORE_NEEDS_SCIPY)
     made = {}
 
     def get(name):
