@@ -462,36 +462,20 @@ def _cache_key(verts, faces, n_profile, threshold):
 
 
 def _to_npz(a, path):
+    """The disk cache's file of an analysis: its :meth:`RotorAnalysis.to_record`, written whole or not at all."""
     import json
     import os
 
     tmp = path + ".tmp.npz"
-    np.savez(tmp, axis_point=a.axis_point, axis_direction=a.axis_direction, to_world=a.to_world, profile=a.profile,
-             meta=np.array(json.dumps({
-                 "v0": a.v0, "handedness": a.handedness, "residual": a.residual, "threshold": a.threshold,
-                 "flanks": [[int(i), int(j)] for i, j in a.flanks], "outer_radius": a.outer_radius,
-                 "lobes": a.lobes, "helical_area_fraction": a.helical_area_fraction,
-                 "body_z": [float(z) for z in a.body_z], "tangency_residual": a.tangency_residual,
-                 "mesh_repairs": a.mesh_repairs, "shafts": a.shafts})))
+    np.savez(tmp, record=np.array(json.dumps(a.to_record())))
     os.replace(tmp, path)
 
 
 def _from_npz(path):
     import json
 
-    from .helical_surface import shared_surface
-
     with np.load(path) as z:
-        meta = json.loads(str(z["meta"]))
-        prof = z["profile"].copy()
-        a = RotorAnalysis(axis_point=z["axis_point"].copy(), axis_direction=z["axis_direction"].copy(), v0=meta["v0"],
-                          handedness=meta["handedness"], residual=meta["residual"], threshold=meta["threshold"],
-                          tangency_residual=meta["tangency_residual"], to_world=z["to_world"].copy(), profile=prof,
-                          flanks=meta["flanks"], outer_radius=meta["outer_radius"], lobes=meta["lobes"],
-                          helical_area_fraction=meta["helical_area_fraction"], body_z=tuple(meta["body_z"]),
-                          mesh_repairs=meta["mesh_repairs"], shafts=meta["shafts"])
-    a.surface = shared_surface(SplineProfile(prof), a.v0, a.handedness)
-    return a
+        return RotorAnalysis.from_record(json.loads(str(z["record"])))
 
 
 def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD, known=None):
@@ -535,7 +519,7 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD, kno
     if path is not None and os.path.isfile(path):
         try:
             found = _from_npz(path)
-        except (OSError, ValueError, KeyError):
+        except (OSError, ValueError, KeyError, TypeError):
             found = None
         if found is not None:
             found.content_key = key
