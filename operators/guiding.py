@@ -196,8 +196,8 @@ def _error_text(ex):
     return str(ex) if isinstance(ex, ValueError) else "{}: {}".format(type(ex).__name__, ex)
 
 
-# the live preview off the UI thread: the settings of the newest change (read on the main thread), the worker of
-# the change before, and whether the timer that draws the result is registered
+# the live preview off the UI thread: the settings of the newest change (read on the main thread, not started
+# yet), and the worker running on an earlier change with the settings it was given
 _live = {"pending": None, "job": None, "inputs": None}
 LIVE_STEP = 0.1
 

@@ -355,41 +355,31 @@ def cancelled_runs(bpy, np, op, cls, kw, select, before_each=lambda: None):
     return out
 
 
-def exercise_tool(bpy, np, op, cls, kw, select, state, before_each=lambda: None, cancel=True):
+def exercise_tool(bpy, np, op, cls, kw, select, state, before_each=lambda: None, cancel=True, field="state"):
     """A synchronous run, then (with ``cancel``) ESC / close with the census around them, and a modal run to the
-    end; ``state()`` describes the result of each finished run, ``before_each()`` runs before every run (e.g.
-    to empty a cache)."""
+    end; ``state()`` describes the result of each finished run (kept as ``field``), ``before_each()`` runs before
+    every run (e.g. to empty a cache)."""
     out = {}
     select()
     before_each()
     t0 = time.perf_counter()
     ret, err = driver._run_op(op, **kw)
-    out["sync"] = dict(result=ret, error=err, seconds=time.perf_counter() - t0, state=state())
+    out["sync"] = {"result": ret, "error": err, "seconds": time.perf_counter() - t0, field: state()}
     if cancel:
         out.update(cancelled_runs(bpy, np, op, cls, kw, select, before_each))
     select()
     before_each()
     rec = _call(bpy, op, cls, "finish", **kw)
-    rec["state"] = state()
+    rec[field] = state()
     out["finish"] = rec
     return out
 
 
 def _exercise(bpy, np, op, cls, kw, pre, key, select):
-    """sync run, then ESC / close / modal-to-the-end / a failing modal run; census around the cancelled ones."""
-    out = {}
-    select()
-    t0 = time.perf_counter()
-    ret, err = driver._run_op(op, **kw)
-    out["sync"] = dict(result=ret, error=err, seconds=time.perf_counter() - t0,
-                       run=_run_summary(_find_run(bpy, pre, key), pre))
-    out.update(cancelled_runs(bpy, np, op, cls, kw, select))
-    # the same planning modal, to the end: FINISHED and the same strips as the synchronous run
-    select()
-    rec = _call(bpy, op, cls, "finish", **kw)
-    rec["run"] = _run_summary(_find_run(bpy, pre, key), pre)
-    out["finish"] = rec
-    return out
+    """sync run, then ESC / close / modal-to-the-end; census around the cancelled ones; each finished run's result
+    collection as ``run``."""
+    return exercise_tool(bpy, np, op, cls, kw, select, lambda: _run_summary(_find_run(bpy, pre, key), pre),
+                         field="run")
 
 
 def scenario(bpy, res, args):
