@@ -3,9 +3,13 @@
 planning run, rendered headless from the run's stored plan by the same code as ``python -m flank_addon
 render`` (``flank_addon.report.report_geometry``).  The render happens in a temporary scene that is removed again:
 the file gains no data-block and the user's scenes are not touched."""
-import bpy
-from bpy.props import EnumProperty, IntProperty, StringProperty
+import os
+import time
 
+import bpy
+from bpy.props import BoolProperty, EnumProperty, IntProperty, StringProperty
+
+from .modal import ModalPlannerMixin
 from .runs import run_plan
 
 ENGINE_ITEMS = (
@@ -14,7 +18,7 @@ ENGINE_ITEMS = (
 )
 
 
-class FLANK_OT_render_report(bpy.types.Operator):
+class FLANK_OT_render_report(ModalPlannerMixin, bpy.types.Operator):
     """Render a report PNG of a planning run: the rotor, its strips coloured by signed error, a legend and a
     title with the tolerance and the plan's max / min errors (works without a display; the scene is not
     changed)"""
@@ -31,52 +35,100 @@ class FLANK_OT_render_report(bpy.types.Operator):
     height: IntProperty(name="Height", description="Resolution Y in pixels", default=800, min=64, max=8192)
     engine: EnumProperty(name="Engine", items=ENGINE_ITEMS, default="WORKBENCH",
                          description="Render engine (neither needs a GPU)")
+    # set by invoke: after the file browser the geometry is computed in a worker thread (execute alone, from
+    # scripts and in the background, runs all of it at once)
+    modal_after_browser: BoolProperty(default=False, options={'HIDDEN', 'SKIP_SAVE'})
+    _title = "Render report"
 
     def invoke(self, context, event):
         if bpy.app.background or context.window is None:      # no file browser without a window
             return self.execute(context)
+        self.modal_after_browser = True
         context.window_manager.fileselect_add(self)
         return {'RUNNING_MODAL'}
 
     def execute(self, context):
-        import os
+        if self.modal_after_browser and not bpy.app.background and context.window_manager is not None \
+                and context.window is not None:
+            self.modal_after_browser = False
+            return self._start_modal(context)
+        return ModalPlannerMixin.execute(self, context)
 
+    def _compute_failed(self, ex):
+        return "Render report of '{}' failed: {}".format(self._run_name, ex)
+
+    def _prepare(self, context):
+        """The run's plan, the checked size, engine and file, the units and title (the main thread)."""
         from ..flank_addon.io.plan import is_mesh_plan
-        from ..flank_addon.report.report_geometry import display_units
-        from .report_scene import render_freeform_report, render_plan_report
+        from ..flank_addon.io.png import check_output
+        from ..flank_addon.report.report_geometry import check_render_args, display_units
 
         found = run_plan(context, self.collection)
         if isinstance(found, str):
             self.report({'ERROR'}, "Render report: " + found)
-            return {'CANCELLED'}
+            return None
         coll, plan = found
+        self._run_name = coll.name
         if not self.filepath:
             self.report({'ERROR'}, "Render report: no file given (filepath is empty)")
-            return {'CANCELLED'}
+            return None
         path = bpy.path.abspath(self.filepath)
         if not path.lower().endswith(".png"):
             path += ".png"
-        us = context.scene.unit_settings
         try:
-            if is_mesh_plan(plan):
-                from ..flank_addon.report.freeform_geometry import freeform_title
-
-                units = display_units(plan, us.system, us.scale_length,
-                                      scale=float(coll.get("flank_ff_length_scale", 1.0) or 1.0))
-                info = render_freeform_report(plan, path, width=int(self.width), height=int(self.height),
-                                              engine=self.engine, units=units,
-                                              title=freeform_title(plan, coll.name))
-            else:
-                units = display_units(plan, us.system, us.scale_length)
-                info = render_plan_report(plan, path, width=int(self.width), height=int(self.height),
-                                          engine=self.engine, units=units,
-                                          title="{}: {}".format(coll.name, plan.get("method", "")))
-        except Exception as ex:                     # reported, never a traceback; nothing is left behind
+            engine = check_render_args(int(self.width), int(self.height), None, self.engine)
+            path = check_output(path)
+        except ValueError as ex:
             self.report({'ERROR'}, "Render report of '{}' failed: {}".format(coll.name, ex))
+            return None
+        us = context.scene.unit_settings
+        mesh_plan = is_mesh_plan(plan)
+        if mesh_plan:
+            from ..flank_addon.report.freeform_geometry import freeform_title
+
+            units = display_units(plan, us.system, us.scale_length,
+                                  scale=float(coll.get("flank_ff_length_scale", 1.0) or 1.0))
+            title = freeform_title(plan, coll.name)
+        else:
+            units = display_units(plan, us.system, us.scale_length)
+            title = "{}: {}".format(coll.name, plan.get("method", ""))
+        return dict(t0=time.perf_counter(), plan=plan, run=coll.name, path=path, width=int(self.width),
+                    height=int(self.height), engine=engine, units=units, title=title, mesh_plan=mesh_plan)
+
+    def _compute(self, job, progress):
+        """The picture without Blender data: geometry, exact strip distances and colours, camera, legend (a
+        worker thread when run from the UI)."""
+        from ..flank_addon.progress import reporter
+        from ..flank_addon.report import report_geometry as rg
+
+        report = reporter(progress)
+        report(0.0, "strip distances")
+        plan = job["plan"]
+        if job["mesh_plan"]:
+            from ..flank_addon.report.freeform_geometry import freeform_geometry
+
+            geo = freeform_geometry(plan, None)
+        else:
+            geo = rg.report_geometry(plan)
+        report(0.8, "camera and legend")
+        picture = rg.report_picture(geo, job["width"], job["height"], title=job["title"], units=job["units"],
+                                    engine=job["engine"])
+        report(1.0, "rendering")
+        return picture
+
+    def _build(self, context, job, picture):
+        """Build the temporary scene, render it and write the PNG (Blender's renderer runs on the main
+        thread); the scene is removed again whatever happens."""
+        from .report_scene import draw_report
+
+        try:
+            info = draw_report(picture, job["path"])
+        except Exception as ex:                     # reported, never a traceback; nothing is left behind
+            self.report({'ERROR'}, "Render report of '{}' failed: {}".format(job["run"], ex))
             return {'CANCELLED'}
         self.report({'INFO'}, "Report of '{}' written to {} ({} x {}, {}, {:.1f} s): {}".format(
-            coll.name, os.path.abspath(path), info["width"], info["height"], info["engine"].title(),
-            info["seconds"], info["title"][1]))
+            job["run"], os.path.abspath(job["path"]), info["width"], info["height"], info["engine"].title(),
+            time.perf_counter() - job["t0"], info["title"][1]))
         return {'FINISHED'}
 
 

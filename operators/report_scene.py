@@ -162,21 +162,12 @@ def _new_scene(made, width, height, engine):
             _attribute_material(made, "Flank Report Label", emission=True))
 
 
-def _add_geometry(sc, made, geo, surface_mat):
-    """Rotor and drawn strip parts -> (strip parts, points the camera must frame)."""
-    tol, R = geo["tolerance"], geo["outer_radius"]
-    rv, rf = geo["rotor"]
+def _add_geometry(sc, made, picture, surface_mat):
+    """The rotor and the drawn strip parts of ``picture`` (:func:`report_geometry.report_picture`)."""
+    rv, rf = picture["rotor"]
     _mesh_object(sc, made, "Report Rotor", rv, rf, (0.62, 0.62, 0.64, 1.0), surface_mat)
-    pts = [np.asarray(rv)[::7]]
-    limit = rg.air_limit(tol, R)
-    parts = [rg.strip_part(v, f, d, n, limit) for v, f, d, n in geo["strips"]]
-    for k, (v, f, d, n) in enumerate(parts):
-        if len(f):
-            dv = rg.display_strip(v, d, n, R)
-            _mesh_object(sc, made, "Report Strip {}".format(k + 1), dv, f, deviation_colors(d, tol), surface_mat,
-                         smooth=True)
-            pts.append(dv)
-    return parts, np.concatenate(pts), limit
+    for name, verts, faces, colors in picture["strips"]:
+        _mesh_object(sc, made, name, verts, faces, colors, surface_mat, smooth=True)
 
 
 def _add_camera(sc, made, M, ortho, clip_end, R):
@@ -261,44 +252,61 @@ def _remove_made(made, fonts_before, had_render_result, tmp_png):
         os.remove(tmp_png)
 
 
-def render_plan_report(plan, path, width=1280, height=800, tolerance=None, title=None, geometry=None,
-                       engine="WORKBENCH", units=None):
-    """Render the report picture of ``plan`` to the PNG ``path``.
-
-    engine: 'WORKBENCH' (default) or 'CYCLES' (CPU, 16 samples); units: (factor, unit) from
-    ``report_geometry.display_units`` (default: the plan's unit).  Nothing stays behind in Blender: a temporary
-    scene with its objects, meshes, camera, world (and for Cycles materials and a light) is made, rendered and
-    removed, and so is the builtin font if the file had none.  Returns dict(seconds, width, height, engine,
-    legend (bar box [x0, y0, x1, y1) top-left origin, tick labels and positions, band names), title (two
-    lines), max_error, min_error, tolerance (plan units), units); the same dict is stored in the PNG."""
+def report_picture(plan, width=1280, height=800, tolerance=None, title=None, geometry=None, engine="WORKBENCH",
+                   units=None):
+    """What :func:`draw_report` renders, computed by the core without Blender data (a worker thread may run
+    it): the arguments checked, the geometry of ``plan`` (or the given ``geometry``) and
+    :func:`report_geometry.report_picture`."""
     engine = rg.check_render_args(width, height, tolerance, engine)
+    geo = geometry if geometry is not None else rg.report_geometry(plan, tolerance=tolerance)
+    return rg.report_picture(geo, width, height, title=title, units=units, engine=engine)
+
+
+def draw_report(picture, path):
+    """Render ``picture`` (:func:`report_picture`) to the PNG ``path`` -> its ``info`` dict with ``seconds``.
+
+    Nothing stays behind in Blender: a temporary scene with its objects, meshes, camera, world (and for Cycles
+    materials and a light) is made, rendered and removed, and so is the builtin font if the file had none."""
     path = check_output(path)
     t0 = time.perf_counter()
-    geo = geometry if geometry is not None else rg.report_geometry(plan, tolerance=tolerance)
-    units = tuple(units) if units is not None else (1.0, geo["unit"])
-    tol, R = geo["tolerance"], geo["outer_radius"]
-    lay = rg.legend_layout(width, height)
-    lines = rg.title_lines(geo, units, title, len(geo["strips"]))
-    legend = rg.legend_labels(lay, tol, units)
+    width, height, R, engine = picture["width"], picture["height"], picture["R"], picture["info"]["engine"]
+    M, ppu, lay = picture["camera"], picture["ppu"], picture["layout"]
     made = {k: [] for k in _KINDS}
     fonts_before = {f.as_pointer() for f in bpy.data.fonts}
     had_render_result = bpy.data.images.get("Render Result") is not None
     tmp_png = "{}.render{}.png".format(path, os.getpid())
     try:
         sc, surface_mat, label_mat = _new_scene(made, width, height, engine)
-        parts, pts, limit = _add_geometry(sc, made, geo, surface_mat)
-        w = rg.choose_view(parts, R, geo.get("occluders"), limit)
-        M, ppu, ortho, clip_end = rg.camera_frame(pts, w, width, height, lay["region"], R)
-        _add_camera(sc, made, M, ortho, clip_end, R)
+        _add_geometry(sc, made, picture, surface_mat)
+        _add_camera(sc, made, M, picture["ortho"], picture["clip_end"], R)
         if engine == "CYCLES":
             _add_sun(sc, made, M)
-        _add_labels(sc, made, lay, lines, legend, lambda px, py: rg.at_pixel(M, ppu, width, height, R, px, py),
-                    ppu, width, label_mat)
-        rgba = rg.paint_legend(_render_pixels(sc, made, tmp_png, width, height), lay, tol, legend[0], legend[1])
-        info = rg.report_info(geo, lay, width, height, engine, lines, units, legend)
+        _add_labels(sc, made, lay, picture["lines"], picture["legend"],
+                    lambda px, py: rg.at_pixel(M, ppu, width, height, R, px, py), ppu, width, label_mat)
+        legend = picture["legend"]
+        rgba = rg.paint_legend(_render_pixels(sc, made, tmp_png, width, height), lay, picture["tolerance"],
+                               legend[0], legend[1])
+        info = dict(picture["info"])
         write_png(path, rgba, {rg.REPORT_KEY: json.dumps(info, ensure_ascii=False)})
     finally:
         _remove_made(made, fonts_before, had_render_result, tmp_png)
+    info["seconds"] = time.perf_counter() - t0
+    return info
+
+
+def render_plan_report(plan, path, width=1280, height=800, tolerance=None, title=None, geometry=None,
+                       engine="WORKBENCH", units=None):
+    """Render the report picture of ``plan`` to the PNG ``path``: :func:`report_picture`, then
+    :func:`draw_report`.
+
+    engine: 'WORKBENCH' (default) or 'CYCLES' (CPU, 16 samples); units: (factor, unit) from
+    ``report_geometry.display_units`` (default: the plan's unit).  Returns dict(seconds, width, height, engine,
+    legend (bar box [x0, y0, x1, y1) top-left origin, tick labels and positions, band names), title (two
+    lines), max_error, min_error, tolerance (plan units), units); the same dict is stored in the PNG."""
+    t0 = time.perf_counter()
+    engine = rg.check_render_args(width, height, tolerance, engine)
+    check_output(path)
+    info = draw_report(report_picture(plan, width, height, tolerance, title, geometry, engine, units), path)
     info["seconds"] = time.perf_counter() - t0
     return info
 

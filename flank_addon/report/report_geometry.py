@@ -332,6 +332,37 @@ def report_info(geo, lay, width, height, engine, lines, units, legend):
                             names=[t for _, t in names]))
 
 
+def report_picture(geo, width, height, title=None, units=None, engine="WORKBENCH"):
+    """Everything the report's scene shows, from :func:`report_geometry` (or a free-form ``geometry``) alone,
+    without Blender: the rotor mesh, the drawn strip parts with their display vertices and exact colours, the
+    view and camera, the legend's layout and labels, the title lines and the report's numbers (``info``).
+
+    A scene builder (the extension's ``operators/report_scene.py``) only turns this into Blender data and
+    renders it; the work here can run in a worker thread while Blender's main thread stays free."""
+    from ..simulation.verify import deviation_colors
+
+    units = tuple(units) if units is not None else (1.0, geo["unit"])
+    tol, R = geo["tolerance"], geo["outer_radius"]
+    lay = legend_layout(width, height)
+    lines = title_lines(geo, units, title, len(geo["strips"]))
+    legend = legend_labels(lay, tol, units)
+    rv, rf = geo["rotor"]
+    limit = air_limit(tol, R)
+    parts = [strip_part(v, f, d, n, limit) for v, f, d, n in geo["strips"]]
+    drawn, pts = [], [np.asarray(rv)[::7]]
+    for k, (v, f, d, n) in enumerate(parts):
+        if len(f):
+            dv = display_strip(v, d, n, R)
+            drawn.append(("Report Strip {}".format(k + 1), dv, f, deviation_colors(d, tol)))
+            pts.append(dv)
+    pts = np.concatenate(pts)
+    w = choose_view(parts, R, geo.get("occluders"), limit)
+    M, ppu, ortho, clip_end = camera_frame(pts, w, width, height, lay["region"], R)
+    return dict(width=width, height=height, R=R, tolerance=tol, rotor=(rv, rf), strips=drawn, camera=M, ppu=ppu,
+                ortho=ortho, clip_end=clip_end, layout=lay, lines=lines, legend=legend,
+                info=report_info(geo, lay, width, height, engine, lines, units, legend))
+
+
 def at_pixel(M, ppu, width, height, R, px, py):
     """4x4 matrix at pixel (px, py) (top-left origin) in the plane of the camera ``M`` (:func:`camera_frame`),
     R in front of the camera."""

@@ -72,14 +72,16 @@ def scenario(bpy, res, args):
     import numpy as np
 
     mods = {name: __import__(driver.MODULE + ".operators." + name, fromlist=["x"])
-            for name in ("analyze", "generate", "guiding", "flank_list", "paraboloid", "export", "modal")}
+            for name in ("analyze", "generate", "guiding", "flank_list", "paraboloid", "export", "render_report",
+                         "modal")}
     analysis = __import__(driver.MODULE + ".flank_addon.geometry.rotor_analysis", fromlist=["x"])
     mixin = mods["modal"].ModalPlannerMixin
     classes = dict(analyze=mods["analyze"].FLANK_OT_analyze_rotor, generate=mods["generate"].FLANK_OT_generate_rotor,
                    preview=mods["guiding"].FLANK_OT_preview_guiding,
                    flank_list=mods["flank_list"].FLANK_OT_refresh_flanks,
                    paraboloid=mods["paraboloid"].FLANK_OT_paraboloid_groove,
-                   export=mods["export"].FLANK_OT_export_results)
+                   export=mods["export"].FLANK_OT_export_results,
+                   render=mods["render_report"].FLANK_OT_render_report)
     res["mixin"] = {k: issubclass(c, mixin) for k, c in classes.items()}
     res["timer_step"] = mods["modal"].TIMER_STEP
     empty = bpy.data.objects.new("Flank Selection Holder", None)       # something to select before a generate
@@ -153,6 +155,44 @@ def scenario(bpy, res, args):
     exp["files"] = sorted(os.listdir(folder))
     exp["same_text"] = exported("finish.csv") == exported("sync.csv") and exported("sync.csv") is not None
     res["export"] = exp
+    # Render Report after its file browser: the worker computes the picture (the strips' exact distances to the
+    # rotor, camera, legend); the main thread builds the temporary scene and renders it
+    rep, render_cls = {}, classes["render"]
+    kw = dict(collection=run, width=640, height=400)
+    t0 = time.perf_counter()
+    ret, err = driver._run_op(bpy.ops.flank.render_report, filepath=os.path.join(folder, "sync.png"), **kw)
+    rep["sync"] = dict(result=ret, error=err, seconds=time.perf_counter() - t0)
+    real_compute = render_cls._compute
+
+    def slow_compute(op, job, progress):        # Esc and closing must land while the worker runs
+        for _ in range(50):
+            if progress is not None and progress(0.0, "waiting") is False:
+                break
+            time.sleep(0.01)
+        return real_compute(op, job, progress)
+
+    for plan in ("esc", "close", "finish"):
+        render_cls._compute = slow_compute if plan != "finish" else real_compute
+        try:
+            before = sm.census(bpy, np)
+            rec = sm._call(bpy, bpy.ops.flank.render_report, render_cls, plan,
+                           filepath=os.path.join(folder, plan + ".png"), **kw)
+            after = sm.census(bpy, np)
+        finally:
+            render_cls._compute = real_compute
+        rec.update(census_equal=before == after, census_diff=sm._census_diff(before, after))
+        rep[plan] = rec
+    rep["files"] = sorted(f for f in os.listdir(folder) if f.endswith(".png"))
+    png_io = driver._core("io.png")
+
+    def picture(name):
+        path = os.path.join(folder, name)
+        if not os.path.isfile(path):
+            return None
+        return dict(pixels=_digest_array(np, png_io.read_png(path)), meta=png_io.read_png_text(path))
+
+    rep["sync_picture"], rep["finish_picture"] = picture("sync.png"), picture("finish.png")
+    res["render"] = rep
     # a mesh that is not a rotor: the worker's failure is reported as the synchronous run reports it
     bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32)
     sphere = bpy.context.active_object.name

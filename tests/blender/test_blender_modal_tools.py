@@ -22,8 +22,8 @@ def mt(extension_zip, tmp_path_factory):
 
 
 def test_the_operators_use_the_modal_mixin_on_a_users_sizes(mt):
-    assert mt["mixin"] == dict({op: True for op in OPS}, export=True)
-    assert mt["patched_left"] == [False] * (len(OPS) + 1)
+    assert mt["mixin"] == dict({op: True for op in OPS}, export=True, render=True)
+    assert mt["patched_left"] == [False] * (len(OPS) + 2)
     assert mt["rotor_faces"] > 250_000 and mt["surface_faces"] >= 20_000
     # what makes modal worth it: the synchronous analysis holds the main thread for over a second
     assert mt["analyze"]["sync"]["seconds"] > 0.5
@@ -104,3 +104,25 @@ def test_export_after_the_file_browser_writes_the_same_file_off_the_main_thread_
     assert rec["final"] == ["FINISHED"] and rec["op_result"] == ["FINISHED"], rec
     assert max(c["cpu_ms"] for c in rec["calls"]) < FRAME_MS, rec["calls"]
     assert rec["start_ms"] < FRAME_MS, rec["start_ms"]
+
+
+def test_render_report_computes_the_picture_off_the_main_thread_and_renders_the_same_png(mt):
+    """After the file browser the worker computes the picture (the strips' exact distances, camera, legend); the
+    main thread only builds the temporary scene and renders it -- Blender's renderer runs there. Esc and closing
+    leave no file and bpy.data as it was; the PNG equals the synchronous one pixel for pixel, with the same
+    numbers."""
+    rep = mt["render"]
+    assert rep["sync"]["result"] == ["FINISHED"], rep["sync"]
+    assert rep["files"] == ["finish.png", "sync.png"], rep["files"]
+    for plan in ("esc", "close"):
+        assert_cancelled_cleanly(rep[plan], mt["timer_step"], plan)
+    rec = rep["finish"]
+    assert rec["final"] == ["FINISHED"] and rec["op_result"] == ["FINISHED"], rec
+    assert rec["census_equal"], rec["census_diff"]
+    assert rep["finish_picture"] is not None and rep["finish_picture"] == rep["sync_picture"]
+    assert rec["start_ms"] < FRAME_MS, rec["start_ms"]
+    *polls, build = rec["calls"]
+    assert polls and max(c["cpu_ms"] for c in polls) < FRAME_MS, polls
+    # what stays on the main thread is the scene and the render: less than the synchronous run, which also
+    # computed the picture there
+    assert build["ms"] < 1000.0 * rep["sync"]["seconds"], (build, rep["sync"])
