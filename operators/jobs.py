@@ -68,6 +68,55 @@ class PlannerJob:
         return self.poll()[0]
 
 
+# what a first click imports: the rotor reader on the main thread (scipy.spatial through helical_surface,
+# 0.2 s), the planners and their scipy parts in the worker; names with a leading dot are in the extension
+WARM_MODULES = (".flank_addon.geometry.helical_surface", ".flank_addon.geometry.rotor_analysis",
+                ".flank_addon.simulation.verify", ".flank_addon.methods.single_flank.planner",
+                ".flank_addon.methods.double_flank.planner", ".flank_addon.methods.freeform_g1.planner",
+                ".flank_addon.methods.formed_cutter.cutter_profile", "scipy.optimize", "scipy.interpolate")
+
+_warm_up = None
+_warm_up_lock = threading.Lock()
+
+
+class WarmUp:
+    """Imports ``names`` (relative to ``package`` where they start with a dot) in a daemon thread, so that the
+    first click of a session does not import them on Blender's main thread.  ``imported``: the names done;
+    ``failed``: {name: exception} -- kept, never raised (the click that needs the module reports it)."""
+
+    def __init__(self, package, names):
+        self.names, self.imported, self.failed = tuple(names), [], {}
+        self.started = time.perf_counter()
+        self.elapsed = None
+        self._thread = threading.Thread(target=self._run, args=(package,), name="flank-warm-up", daemon=True)
+        self._thread.start()
+
+    def _run(self, package):
+        import importlib
+
+        for name in self.names:
+            try:
+                importlib.import_module(name, package if name.startswith(".") else None)
+            except BaseException as ex:      # a broken install shows when an operator imports it
+                self.failed[name] = ex
+            else:
+                self.imported.append(name)
+        self.elapsed = time.perf_counter() - self.started
+
+    def wait(self, timeout=None):
+        self._thread.join(timeout)
+        return not self._thread.is_alive()
+
+
+def warm_up(package, names=WARM_MODULES):
+    """Start the one :class:`WarmUp` of this process (the extension's ``package``); later calls return it."""
+    global _warm_up
+    with _warm_up_lock:
+        if _warm_up is None:
+            _warm_up = WarmUp(package, names)
+        return _warm_up
+
+
 # No classes, and no bpy on purpose (tests/test_jobs.py loads this file without Blender): nothing to register.
 classes = ()
 

@@ -8,6 +8,15 @@ import bpy
 SPACE, REGION, CATEGORY = 'VIEW_3D', 'UI', "Flank"
 
 
+def warm_up_when_shown():
+    """The sidebar tab is shown: import what a first click needs in a worker thread, once (in the background
+    there is no interface to keep free, and a script imports what it uses)."""
+    if not bpy.app.background:
+        from ..operators.jobs import warm_up
+
+        warm_up(__package__.rpartition(".")[0])
+
+
 def settings_and_operator(layout, context, operator, icon, names, prefix=""):
     """Draw the scene settings ``prefix + name`` and a button for ``operator`` that carries them.
 

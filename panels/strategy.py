@@ -3,7 +3,7 @@
 (one big button that runs the chosen strategy's planner with the Tool and Strategy settings)."""
 import bpy
 
-from .common import CATEGORY, REGION, SPACE
+from .common import CATEGORY, REGION, SPACE, warm_up_when_shown
 
 STRATEGY_TOOL_TEXT = {"SINGLE": "a tapered or cylindrical end mill", "DOUBLE": "the custom (double-flank) tool",
                       "TWO_PATHS": "the custom (double-flank) tool", "FORMED": "a formed disc cutter",
@@ -47,6 +47,7 @@ class FLANK_PT_run(bpy.types.Panel):
         from ..operators.sources import surface_object, workpiece_object
         from ..operators.ui_ops import run_call
 
+        warm_up_when_shown()                        # this panel has no header: drawn whenever the tab is
         layout = self.layout
         settings = getattr(context.scene, "flank_settings", None)
         if settings is None:

@@ -115,3 +115,14 @@ def test_the_tick_measure_sees_a_worker_that_holds_the_lock():
     job = jobs.PlannerJob(hog, Cancelled)
     held, _ = _tick_while_running(job)
     assert job.state == "finished" and max(held) > 0.1, f"the longest hold seen was {max(held) * 1000:.0f} ms"
+
+
+def test_warm_up_imports_in_a_thread_once_and_keeps_a_failure():
+    """The sidebar's warm-up: relative names are the extension's, a module that fails to import is kept (the
+    click that needs it reports it), and the process has one warm-up however often the tab is drawn."""
+    w = jobs.WarmUp("flank_addon", (".progress", "json", "flank_no_such_module"))
+    assert w.wait(60)
+    assert w.imported == [".progress", "json"] and list(w.failed) == ["flank_no_such_module"]
+    assert isinstance(w.failed["flank_no_such_module"], ImportError) and w.elapsed >= 0
+    first = jobs.warm_up("flank_addon", (".progress",))
+    assert jobs.warm_up("flank_addon", ("json",)) is first and first.wait(60) and first.imported == [".progress"]

@@ -11,6 +11,7 @@ whose workers are too quick to race ESC against), and a modal run to the end, wh
 synchronous one.  The sizes are a user's: a rotor of 280,000 triangles (its analysis takes over a second) and a
 free-form surface of 20,000.  The analysis cache is emptied before every run, so each one analyses."""
 import os
+import sys
 import time
 
 import driver
@@ -73,7 +74,7 @@ def scenario(bpy, res, args):
 
     mods = {name: __import__(driver.MODULE + ".operators." + name, fromlist=["x"])
             for name in ("analyze", "generate", "guiding", "flank_list", "paraboloid", "export", "render_report",
-                         "modal")}
+                         "modal", "jobs", "sources")}
     analysis = __import__(driver.MODULE + ".flank_addon.geometry.rotor_analysis", fromlist=["x"])
     mixin = mods["modal"].ModalPlannerMixin
     classes = dict(analyze=mods["analyze"].FLANK_OT_analyze_rotor, generate=mods["generate"].FLANK_OT_generate_rotor,
@@ -92,10 +93,20 @@ def scenario(bpy, res, args):
 
     # the defaults, 280k triangles: the worker needs only 20-40 ms, too little to race ESC against it (the mixin's
     # ESC and close are shown on the other two); the mesh is built on the main thread
+    # the sidebar's warm-up (started when the tab is shown, never in the background): what a first click imports
+    jobs = mods["jobs"]
+    shown = [name for name in jobs.WARM_MODULES if (driver.MODULE + name if name[0] == "." else name) in sys.modules]
+    warm = jobs.warm_up(driver.MODULE)
+    res["warm_up"] = dict(loaded_before=shown, done=warm.wait(120), imported=list(warm.imported),
+                          failed={k: repr(v) for k, v in warm.failed.items()}, names=list(jobs.WARM_MODULES),
+                          seconds=warm.elapsed, once=jobs.warm_up(driver.MODULE) is warm)
     gen_kw = dict(kind="asymmetric", part="female")
     res["generate"] = sm.exercise_tool(bpy, np, bpy.ops.flank.generate_rotor, classes["generate"], gen_kw,
                                        select_empty, lambda: _rotor_state(bpy, np), cancel=False)
     rotor = sorted(o.name for o in bpy.data.objects if o.get("flank_source") == "generated")[0]
+    t0 = time.perf_counter()
+    mods["sources"].rotor_source(bpy.data.objects[rotor])           # a planner's first read of the session
+    res["warm_up"]["first_read_ms"] = 1000.0 * (time.perf_counter() - t0)
     res["rotor_faces"] = len(bpy.data.objects[rotor].data.polygons)
 
     def select_rotor():
