@@ -121,8 +121,8 @@ def test_render_report_computes_the_picture_off_the_main_thread_and_renders_the_
     assert rec["census_equal"], rec["census_diff"]
     assert rep["finish_picture"] is not None and rep["finish_picture"] == rep["sync_picture"]
     assert rec["start_ms"] < FRAME_MS, rec["start_ms"]
-    *polls, build = rec["calls"]
-    assert polls and max(c["cpu_ms"] for c in polls) < FRAME_MS, polls
+    *polls, build = rec["calls"]                # no poll at all where the worker is done within the first tick
+    assert all(c["cpu_ms"] < FRAME_MS for c in polls), polls
     # what stays on the main thread is the scene and the render: less than the synchronous run, which also
     # computed the picture there
     assert build["ms"] < 1000.0 * rep["sync"]["seconds"], (build, rep["sync"])
