@@ -18,7 +18,6 @@ from mathutils import Matrix
 
 from ..flank_addon.io.png import check_output, write_png
 from ..flank_addon.report import report_geometry as rg
-from ..flank_addon.simulation.verify import deviation_colors
 
 _KINDS = ("objects", "meshes", "cameras", "lights", "materials", "worlds", "images", "scenes")
 
