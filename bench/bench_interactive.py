@@ -8,7 +8,8 @@ tree's ``flank_addon`` is byte-compiled first, as an installed extension is afte
 operation also runs on that tree, alternating with this one in the same loop, so both see the same machine
 load; the figures are the minima over the repeats and the ratio of the minima.
 
-    PYTHONPATH=. .venv/bin/python bench/bench_interactive.py [--base /tmp/base] [--repeat 3] [--only NAME,...] [--warm]
+    PYTHONPATH=. .venv/bin/python bench/bench_interactive.py [--base /tmp/base] [--repeat 3] [--only NAME,...]
+        [--warm | --imported]
 
 Operations (goals in brackets):
   double-flank   plan double-flank --builtin asymmetric-female --valley 0 (defaults, with the simulated
@@ -34,6 +35,13 @@ RUNNER = r"""
 import json, sys, time
 t0 = time.perf_counter()
 from flank_addon import cli
+if sys.argv[2] == "imported":     # what the Flank tab's warm-up imported before the click (operators/jobs.py)
+    import importlib
+    for name in json.loads(sys.argv[3]):
+        try:
+            importlib.import_module(name)
+        except ImportError:
+            pass
 t1 = time.perf_counter()
 c1 = time.process_time()
 import contextlib, io
@@ -116,12 +124,25 @@ GOALS = {"double-flank": 0.6, "verify": 0.5, "single-flank": 2.0, "freeform": 2.
          "two-paths-m": 1.5}
 
 
-def run(tree, argv, out_dir, warm=False):
+def warm_up_modules():
+    """The modules the Blender extension imports in a worker thread when its sidebar tab is shown
+    (``operators/jobs.py``: WARM_MODULES, its own names relative to the extension), as the command line names
+    them."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("flank_jobs", HERE / "operators" / "jobs.py")
+    jobs = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(jobs)
+    return [name[1:] if name.startswith(".") else name for name in jobs.WARM_MODULES]
+
+
+def run(tree, argv, out_dir, warm=False, imported=False):
     env = dict(os.environ, PYTHONPATH=str(tree))
     if argv[0] == "plan":       # each tree writes its own plans
         argv = argv[:-1] + [str(out_dir / tree.name / Path(argv[-1]).name)]
-    p = subprocess.run([sys.executable, "-c", RUNNER, json.dumps(argv), "warm" if warm else "cold"], env=env,
-                       cwd=str(tree), capture_output=True, text=True)
+    mode = "warm" if warm else "imported" if imported else "cold"
+    p = subprocess.run([sys.executable, "-c", RUNNER, json.dumps(argv), mode, json.dumps(warm_up_modules())],
+                       env=env, cwd=str(tree), capture_output=True, text=True)
     if p.returncode != 0:
         raise RuntimeError(f"{tree}: {' '.join(argv)} failed:\n{p.stderr[-3000:]}")
     res = json.loads(p.stdout.strip().splitlines()[-1])
@@ -139,6 +160,9 @@ def main():
     ap.add_argument("--warm", action="store_true", help="time the second click in one process (what a click "
                                                         "costs in a Blender session: modules loaded, a mesh's "
                                                         "analysis kept)")
+    ap.add_argument("--imported", action="store_true", help="time the first click after the modules that the "
+                                                            "Blender extension imports when its sidebar tab is "
+                                                            "shown (what a first click costs in Blender)")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
@@ -164,7 +188,7 @@ def main():
             imports = []
             for _ in range(args.repeat):
                 for t in trees:
-                    r = run(t, ops[name], d, args.warm)
+                    r = run(t, ops[name], d, args.warm, args.imported)
                     times[t].append(r["run_s"])
                     cpus[t].append(r["cpu_s"])
                     if t == HERE:
