@@ -104,9 +104,10 @@ def scenario(bpy, res, args):
     res["generate"] = sm.exercise_tool(bpy, np, bpy.ops.flank.generate_rotor, classes["generate"], gen_kw,
                                        select_empty, lambda: _rotor_state(bpy, np), cancel=False)
     rotor = sorted(o.name for o in bpy.data.objects if o.get("flank_source") == "generated")[0]
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.thread_time()
     mods["sources"].rotor_source(bpy.data.objects[rotor])           # a planner's first read of the session
-    res["warm_up"]["first_read_ms"] = 1000.0 * (time.perf_counter() - t0)
+    res["warm_up"].update(first_read_ms=1000.0 * (time.perf_counter() - t0),
+                          first_read_cpu_ms=1000.0 * (time.thread_time() - c0))
     res["rotor_faces"] = len(bpy.data.objects[rotor].data.polygons)
 
     def select_rotor():
@@ -249,9 +250,9 @@ def scenario(bpy, res, args):
         updates, ticks = [], []
         for d in ((1.0, 0.0, 0.0), (0.6, 0.8, 0.0)):
             s.ff_direction = d
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.thread_time()
             guiding.refresh_guiding_preview(bpy.context, background=False)
-            updates.append(1000.0 * (time.perf_counter() - t0))
+            updates.append(dict(ms=1000.0 * (time.perf_counter() - t0), cpu_ms=1000.0 * (time.thread_time() - c0)))
         registered = bpy.app.timers.is_registered(guiding.live_preview_tick)
         t_start = time.perf_counter()
         while time.perf_counter() - t_start < 60.0:
@@ -262,7 +263,7 @@ def scenario(bpy, res, args):
             if nxt is None:
                 break
             time.sleep(nxt)
-        res["live"] = dict(updates_ms=updates, ticks=ticks, registered=registered, drawn=len(drawn),
+        res["live"] = dict(updates=updates, ticks=ticks, registered=registered, drawn=len(drawn),
                            state=_preview_state(bpy, np), refs=refs, message=list(guiding.preview_message()))
     finally:
         guiding.show_guiding_preview = real_show

@@ -44,7 +44,8 @@ def test_modal_run_to_the_end_equals_the_synchronous_run_and_never_blocks(mc, op
     running = [c for c in rec["calls"] if c["state_before"] == "running" and c["result"] == ["RUNNING_MODAL"]]
     assert running, rec["calls"]
     assert max(c["ms"] for c in running) < FRAME_MS, running
-    assert rec["start_ms"] < FRAME_MS + 150.0, rec["start_ms"]      # reading the inputs on the main thread
+    # reading the inputs on the main thread, in its own CPU time (the wall clock doubles under the parallel run)
+    assert rec["start_cpu_ms"] < FRAME_MS + 150.0, (rec["start_cpu_ms"], rec["start_ms"])
     assert rec["percents"] and max(rec["percents"]) <= 100
     assert any("%" in (c["status"] or "") for c in running if c["status"] != "<unchanged>")
 

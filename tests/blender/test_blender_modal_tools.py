@@ -60,7 +60,8 @@ def test_modal_run_to_the_end_equals_the_synchronous_run_and_never_blocks(mt, op
         running = [c for c in rec["calls"] if c["state_before"] == "running" and c["result"] == ["RUNNING_MODAL"]]
         assert running, rec["calls"]
         assert rec["percents"] and max(rec["percents"]) <= 100
-    assert rec["start_ms"] < FRAME_MS + 150.0, rec["start_ms"]      # reading the inputs on the main thread
+    # reading the inputs on the main thread, in its own CPU time (the wall clock doubles under the parallel run)
+    assert rec["start_cpu_ms"] < FRAME_MS + 150.0, (rec["start_cpu_ms"], rec["start_ms"])
 
 
 def test_a_failed_analysis_is_reported_like_the_synchronous_run_and_changes_nothing(mt):
@@ -87,7 +88,7 @@ def test_the_live_guiding_preview_computes_off_the_main_thread_and_draws_the_new
     assert lv["refs"][0] != lv["refs"][1]                  # the two directions give two different sets of curves
     assert lv["drawn"] == 1 and lv["state"] == lv["refs"][1], lv
     assert lv["message"][1] is False and "guiding curves" in lv["message"][0]
-    assert max(lv["updates_ms"]) < FRAME_MS, lv["updates_ms"]
+    assert max(u["cpu_ms"] for u in lv["updates"]) < FRAME_MS, lv["updates"]
     assert max(t["cpu_ms"] for t in lv["ticks"]) < FRAME_MS, lv["ticks"]
     assert len(lv["ticks"]) >= 3 and lv["ticks"][-1]["next"] is None
 
@@ -103,7 +104,7 @@ def test_export_after_the_file_browser_writes_the_same_file_off_the_main_thread_
     rec = ex["finish"]
     assert rec["final"] == ["FINISHED"] and rec["op_result"] == ["FINISHED"], rec
     assert max(c["cpu_ms"] for c in rec["calls"]) < FRAME_MS, rec["calls"]
-    assert rec["start_ms"] < FRAME_MS, rec["start_ms"]
+    assert rec["start_cpu_ms"] < FRAME_MS, (rec["start_cpu_ms"], rec["start_ms"])
 
 
 def test_render_report_computes_the_picture_off_the_main_thread_and_renders_the_same_png(mt):
@@ -120,7 +121,7 @@ def test_render_report_computes_the_picture_off_the_main_thread_and_renders_the_
     assert rec["final"] == ["FINISHED"] and rec["op_result"] == ["FINISHED"], rec
     assert rec["census_equal"], rec["census_diff"]
     assert rep["finish_picture"] is not None and rep["finish_picture"] == rep["sync_picture"]
-    assert rec["start_ms"] < FRAME_MS, rec["start_ms"]
+    assert rec["start_cpu_ms"] < FRAME_MS, (rec["start_cpu_ms"], rec["start_ms"])
     *polls, build = rec["calls"]                # no poll at all where the worker is done within the first tick
     assert all(c["cpu_ms"] < FRAME_MS for c in polls), polls
     # what stays on the main thread is the scene and the render: less than the synchronous run, which also
@@ -135,4 +136,4 @@ def test_the_warm_up_imports_what_a_first_click_needs_so_its_read_stays_under_a_
     w = mt["warm_up"]
     assert ".flank_addon.geometry.helical_surface" not in w["loaded_before"], w["loaded_before"]
     assert w["done"] and w["failed"] == {} and w["imported"] == w["names"] and w["once"], w
-    assert w["first_read_ms"] < FRAME_MS, w
+    assert w["first_read_cpu_ms"] < FRAME_MS, w
