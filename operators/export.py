@@ -63,13 +63,6 @@ class FLANK_OT_export_results(ModalPlannerMixin, bpy.types.Operator, ExportHelpe
         self.filename_ext = EXTENSIONS[self.format]
         return ExportHelper.check(self, context)
 
-    def execute(self, context):
-        if self.modal_after_browser and not bpy.app.background and context.window_manager is not None \
-                and context.window is not None:
-            self.modal_after_browser = False
-            return self._start_modal(context)
-        return ModalPlannerMixin.execute(self, context)
-
     def _compute_failed(self, ex):
         return "Export of '{}' failed: {}: {}".format(self._run_name, type(ex).__name__, ex)
 

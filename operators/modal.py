@@ -10,10 +10,11 @@ An operator using :class:`ModalPlannerMixin` splits its work in three:
 - ``_build(context, job, result)`` on the main thread: creates the Blender data, reports, returns
   the operator's result set.
 
-``execute`` (scripts, ``bpy.app.background``, redo) runs the three in a row.  ``invoke`` from the UI
-starts the worker and returns RUNNING_MODAL; a 0.1 s timer updates the window manager's progress
-(percent) and the status bar text; ESC cancels: the planner stops at its next progress report and
-nothing is built, so the scene is exactly as before.  Under ``bpy.app.background`` invoke is
+``execute`` (scripts, ``bpy.app.background``, redo) runs the three in a row; after a file browser (the
+operator's hidden ``modal_after_browser``, set by its ``invoke``) it starts the modal run instead.
+``invoke`` from the UI starts the worker and returns RUNNING_MODAL; a 0.1 s timer updates the window
+manager's progress (percent) and the status bar text; ESC cancels: the planner stops at its next progress
+report and nothing is built, so the scene is exactly as before.  Under ``bpy.app.background`` invoke is
 ``execute``.
 """
 import bpy
@@ -38,6 +39,12 @@ class ModalPlannerMixin:
     def execute(self, context):
         from ..flank_addon.progress import Cancelled
 
+        # an operator with a file browser sets its hidden ``modal_after_browser`` in invoke: Blender calls execute
+        # when the file is chosen, and from the UI that run goes to the worker like a planner's
+        if getattr(self, "modal_after_browser", False) and not bpy.app.background \
+                and context.window_manager is not None and context.window is not None:
+            self.modal_after_browser = False
+            return self._start_modal(context)
         job = self._prepare(context)
         if job is None:
             return {'CANCELLED'}

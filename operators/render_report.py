@@ -47,13 +47,6 @@ class FLANK_OT_render_report(ModalPlannerMixin, bpy.types.Operator):
         context.window_manager.fileselect_add(self)
         return {'RUNNING_MODAL'}
 
-    def execute(self, context):
-        if self.modal_after_browser and not bpy.app.background and context.window_manager is not None \
-                and context.window is not None:
-            self.modal_after_browser = False
-            return self._start_modal(context)
-        return ModalPlannerMixin.execute(self, context)
-
     def _compute_failed(self, ex):
         return "Render report of '{}' failed: {}".format(self._run_name, ex)
 
