@@ -13,14 +13,11 @@ import driver
 import scenario_modal as sm
 
 
-def _digest_attr(np, mesh, name):
-    vals = driver._float_attr(np, mesh, name)
-    return None if vals is None else sm._digest(np.ascontiguousarray(vals, dtype=np.float32).tobytes())
-
-
 def _verify_state(bpy, np, name):
     ob = bpy.data.objects[name]
-    return dict(deviation=_digest_attr(np, ob.data, "machined_deviation"),
+    dev = driver._float_attr(np, ob.data, "machined_deviation")
+    # the values themselves: a verification in another thread may round the last bit of a deviation differently
+    return dict(deviation=None if dev is None else [float(v) for v in dev],
                 props={k: sm._plain(ob[k]) for k in ob.keys() if k.startswith("flank_verify_")
                        and k not in ("flank_verify_elapsed", "flank_verify_summary")},
                 summary={k: v for k, v in json.loads(ob["flank_verify_summary"]).items() if k != "elapsed_s"}
