@@ -128,7 +128,7 @@ class FLANK_OT_export_results(ModalPlannerMixin, bpy.types.Operator, ExportHelpe
 
     def _build(self, context, job, content):
         """Write the file(s): into a temporary folder first, moved into place only when all of it succeeded."""
-        from ..flank_addon.io.mesh_files import write_ply, write_stl
+        from ..flank_addon.exports import write_meshes
 
         path, folder, fmt = job["path"], job["folder"], job["fmt"]
         written = []
@@ -145,13 +145,8 @@ class FLANK_OT_export_results(ModalPlannerMixin, bpy.types.Operator, ExportHelpe
                 pairs = [(staged, path)]
             else:
                 stem = os.path.splitext(os.path.basename(path))[0]
-                ext = fmt.lower()
-                writer = {"stl": write_stl, "ply": write_ply}[ext]
-                pairs = []
-                for k, v, f in content["meshes"]:
-                    staged = os.path.join(tmp, "{}_{}.{}".format(stem, k, ext))
-                    writer(staged, v, f)
-                    pairs.append((staged, os.path.join(folder, os.path.basename(staged))))
+                staged = write_meshes(content["meshes"], os.path.join(tmp, stem), fmt.lower())
+                pairs = [(p, os.path.join(folder, os.path.basename(p))) for p in staged]
             for src, dst in pairs:
                 os.replace(src, dst)
                 written.append(dst)

@@ -131,14 +131,19 @@ def strip_meshes(plan, strip=None, z_range=None, **kw):
     return out
 
 
-def write_strip_meshes(plan, prefix, fmt="stl", strip=None, z_range=None, **kw):
-    """Write each strip's envelope (or one strip's) to PREFIX_<k>.stl|.ply; returns the paths."""
+def write_meshes(meshes, prefix, fmt="stl"):
+    """Write meshes [(k, vertices, faces)] (:func:`strip_meshes`) to PREFIX_<k>.stl|.ply; returns the paths."""
     from ..io.mesh_files import write_ply, write_stl
 
     writer = {"stl": write_stl, "ply": write_ply}[fmt]
     paths = []
-    for k, v, f in strip_meshes(plan, strip=strip, z_range=z_range, **kw):
+    for k, v, f in meshes:
         path = f"{prefix}_{k}.{fmt}"
         writer(path, v, f)
         paths.append(path)
     return paths
+
+
+def write_strip_meshes(plan, prefix, fmt="stl", strip=None, z_range=None, **kw):
+    """Write each strip's envelope (or one strip's) to PREFIX_<k>.stl|.ply; returns the paths."""
+    return write_meshes(strip_meshes(plan, strip=strip, z_range=z_range, **kw), prefix, fmt)
