@@ -251,23 +251,12 @@ def _remove_made(made, fonts_before, had_render_result, tmp_png):
         os.remove(tmp_png)
 
 
-def report_picture(plan, width=1280, height=800, tolerance=None, title=None, geometry=None, engine="WORKBENCH",
-                   units=None):
-    """What :func:`draw_report` renders, computed by the core without Blender data (a worker thread may run
-    it): the arguments checked, the geometry of ``plan`` (or the given ``geometry``) and
-    :func:`report_geometry.report_picture`."""
-    engine = rg.check_render_args(width, height, tolerance, engine)
-    geo = geometry if geometry is not None else rg.report_geometry(plan, tolerance=tolerance)
-    return rg.report_picture(geo, width, height, title=title, units=units, engine=engine)
-
-
 def draw_report(picture, path):
-    """Render ``picture`` (:func:`report_picture`) to the PNG ``path`` -> its ``info`` dict with ``seconds``.
+    """Render ``picture`` (:func:`report_geometry.report_picture`) to the PNG ``path`` -> its ``info`` dict.
 
     Nothing stays behind in Blender: a temporary scene with its objects, meshes, camera, world (and for Cycles
     materials and a light) is made, rendered and removed, and so is the builtin font if the file had none."""
     path = check_output(path)
-    t0 = time.perf_counter()
     width, height, R, engine = picture["width"], picture["height"], picture["R"], picture["info"]["engine"]
     M, ppu, lay = picture["camera"], picture["ppu"], picture["layout"]
     made = {k: [] for k in _KINDS}
@@ -289,14 +278,13 @@ def draw_report(picture, path):
         write_png(path, rgba, {rg.REPORT_KEY: json.dumps(info, ensure_ascii=False)})
     finally:
         _remove_made(made, fonts_before, had_render_result, tmp_png)
-    info["seconds"] = time.perf_counter() - t0
     return info
 
 
 def render_plan_report(plan, path, width=1280, height=800, tolerance=None, title=None, geometry=None,
                        engine="WORKBENCH", units=None):
-    """Render the report picture of ``plan`` to the PNG ``path``: :func:`report_picture`, then
-    :func:`draw_report`.
+    """Render the report picture of ``plan`` (or of the given ``geometry``) to the PNG ``path``:
+    :func:`report_geometry.report_picture`, then :func:`draw_report`.
 
     engine: 'WORKBENCH' (default) or 'CYCLES' (CPU, 16 samples); units: (factor, unit) from
     ``report_geometry.display_units`` (default: the plan's unit).  Returns dict(seconds, width, height, engine,
@@ -305,7 +293,8 @@ def render_plan_report(plan, path, width=1280, height=800, tolerance=None, title
     t0 = time.perf_counter()
     engine = rg.check_render_args(width, height, tolerance, engine)
     check_output(path)
-    info = draw_report(report_picture(plan, width, height, tolerance, title, geometry, engine, units), path)
+    geo = geometry if geometry is not None else rg.report_geometry(plan, tolerance=tolerance)
+    info = draw_report(rg.report_picture(geo, width, height, title=title, units=units, engine=engine), path)
     info["seconds"] = time.perf_counter() - t0
     return info
 
