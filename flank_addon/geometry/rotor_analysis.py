@@ -506,25 +506,24 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD, kno
         key = _cache_key(verts, faces, n_profile, threshold)
     if key is not None and key in _CACHE:
         return copy.deepcopy(_CACHE[key])
+    # the analysis kept elsewhere: the caller's record of this mesh, else the disk cache (a damaged one: analyse)
+    found = None
     if key is not None and isinstance(known, dict) and known.get("key") == key:
         try:
             found = RotorAnalysis.from_record(known)
         except (KeyError, TypeError, ValueError):
-            found = None                   # a damaged record: analyse
-        if found is not None:
-            _remember(key, found)
-            return copy.deepcopy(found)
+            pass
     folder = os.environ.get(CACHE_DIR_ENV, "")
     path = os.path.join(folder, "analysis-" + key + ".npz") if key is not None and folder else None
-    if path is not None and os.path.isfile(path):
+    if found is None and path is not None and os.path.isfile(path):
         try:
             found = _from_npz(path)
         except (OSError, ValueError, KeyError, TypeError):
-            found = None
-        if found is not None:
-            found.content_key = key
-            _remember(key, found)
-            return copy.deepcopy(found)
+            pass
+    if found is not None:
+        found.content_key = key
+        _remember(key, found)
+        return copy.deepcopy(found)
     result = _analyze_mesh(verts, faces, n_profile, threshold)
     if key is not None:
         result.content_key = key
