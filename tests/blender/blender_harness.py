@@ -92,6 +92,12 @@ def run_scenario(zip_path, scenario, tmp_dir, **options):
     return res
 
 
+def running_polls(rec):
+    """The modal() calls of a driven run (scenario_modal's record) made while the worker was running that kept the
+    run going: the progress polls and the ESC key, not the final build."""
+    return [c for c in rec["calls"] if c["state_before"] == "running" and c["result"] == ["RUNNING_MODAL"]]
+
+
 def assert_cancelled_cleanly(rec, timer_step, plan):
     """A modal run (scenario_modal's driver) ended by ESC (``plan`` "esc") or by closing ("close"): it started
     like the UI starts it, ended CANCELLED with bpy.data and the scene as before, and left no worker, timer,

@@ -7,7 +7,7 @@ makes, and a failure in the worker is reported as the synchronous run reports it
 import numpy as np
 import pytest
 
-from blender_harness import assert_cancelled_cleanly, run_scenario
+from blender_harness import assert_cancelled_cleanly, run_scenario, running_polls
 
 FRAME_MS = 100.0
 OPS = ("verify", "error_plot", "cutter_region")
@@ -88,7 +88,7 @@ def test_modal_run_to_the_end_equals_the_synchronous_run_and_never_blocks(mc, op
         _assert_same_verification(rec["state"], mc[op]["sync"]["state"])
     else:
         assert rec["state"] == mc[op]["sync"]["state"]
-    running = [c for c in rec["calls"] if c["state_before"] == "running" and c["result"] == ["RUNNING_MODAL"]]
+    running = running_polls(rec)
     assert running, rec["calls"]
     assert max(c["ms"] for c in running) < FRAME_MS, running
     # reading the inputs on the main thread, in its own CPU time (the wall clock doubles under the parallel run)

@@ -9,7 +9,7 @@ rotor's 280,000 triangles take about 50 ms there), and a failure in the worker i
 run reports it."""
 import pytest
 
-from blender_harness import assert_cancelled_cleanly, run_scenario
+from blender_harness import assert_cancelled_cleanly, run_scenario, running_polls
 
 FRAME_MS = 100.0
 OPS = ("analyze", "generate", "preview", "flank_list", "paraboloid")
@@ -57,7 +57,7 @@ def test_modal_run_to_the_end_equals_the_synchronous_run_and_never_blocks(mt, op
     assert rec["calls"] and max(c["cpu_ms"] for c in rec["calls"]) < FRAME_MS, rec["calls"]
     assert max(c["ms"] for c in rec["calls"]) < 3 * FRAME_MS, rec["calls"]
     if op not in SHORT:
-        running = [c for c in rec["calls"] if c["state_before"] == "running" and c["result"] == ["RUNNING_MODAL"]]
+        running = running_polls(rec)
         assert running, rec["calls"]
         assert rec["percents"] and max(rec["percents"]) <= 100
     # reading the inputs on the main thread, in its own CPU time (the wall clock doubles under the parallel run)

@@ -5,7 +5,7 @@ context).  ESC and closing leave bpy.data and the scene exactly as before, a mod
 synchronous run, a core error in the worker is reported as the synchronous run reports it."""
 import pytest
 
-from blender_harness import run_scenario
+from blender_harness import run_scenario, running_polls
 
 
 @pytest.fixture(scope="module")
@@ -47,7 +47,7 @@ def test_modal_run_to_the_end_equals_the_synchronous_run(mc):
         assert run[key] == sync[key], key
     # progress: percentages reported while the worker ran, and no modal() call held the UI for 100 ms
     assert rec["percents"] and max(rec["percents"]) <= 100
-    running = [c for c in rec["calls"] if c["state_before"] == "running" and c["result"] == ["RUNNING_MODAL"]]
+    running = running_polls(rec)
     assert running and max(c["ms"] for c in running) < 100.0, running
 
 
