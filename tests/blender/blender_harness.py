@@ -98,6 +98,16 @@ def running_polls(rec):
     return [c for c in rec["calls"] if c["state_before"] == "running" and c["result"] == ["RUNNING_MODAL"]]
 
 
+def assert_failure_reported_like_sync(rec, sync, phrase):
+    """A modal run whose worker failed (``rec``) ended CANCELLED with bpy.data as before and reported exactly what
+    the synchronous run of the same input (``sync``: its result and error) reports, which names ``phrase``, and
+    no traceback."""
+    assert rec["final"] == ["CANCELLED"] and rec["census_equal"], rec
+    assert sync["result"] is None and phrase in sync["error"], sync
+    assert rec["op_error"] == sync["error"], (rec["op_error"], sync["error"])
+    assert "Traceback" not in rec["op_error"]
+
+
 def assert_cancelled_cleanly(rec, timer_step, plan):
     """A modal run (scenario_modal's driver) ended by ESC (``plan`` "esc") or by closing ("close"): it started
     like the UI starts it, ended CANCELLED with bpy.data and the scene as before, and left no worker, timer,
