@@ -98,29 +98,39 @@ def place(item):
     return seg + np.array([float(item["x"]), float(item["baseline"])])
 
 
-def draw_text_items(rgba, items):
-    """Draw the text items into ``rgba`` (H, W, 4) float, top row first, colours encoded as its pixels; values
-    are rounded to k / 255 again (an 8-bit image or PNG holds them exactly).  Returns the boxes drawn, one per
-    item (None for an item with no ink inside the picture).  No data-block is left behind."""
+def text_outlines(items):
+    """Each item's outline placed in the picture (:func:`place`): Blender's part of drawing the text, for the main
+    thread.  No data-block is left behind."""
     fonts_before = {f.as_pointer() for f in bpy.data.fonts}
-    boxes = []
     try:
-        for item in items:
-            seg = place(item)
-            box = text_box(seg, rgba.shape)
-            boxes.append(box)
-            if box is None:
-                continue
-            x0, y0, x1, y1 = box
-            a = _coverage(seg, x0, y0, x1 - x0, y1 - y0)[..., None] * float(item["color"][3])
-            col = np.asarray(item["color"][:3], dtype=np.float64)
-            rgba[y0:y1, x0:x1, :3] = rgba[y0:y1, x0:x1, :3] * (1.0 - a) + col * a
+        return [place(item) for item in items]
     finally:
         for font in list(bpy.data.fonts):           # the built-in font the text objects loaded
             if font.as_pointer() not in fonts_before and font.users == 0:
                 bpy.data.fonts.remove(font)
+
+
+def fill_text(rgba, items, outlines):
+    """Fill the items' placed ``outlines`` into ``rgba`` (H, W, 4) float, top row first, in the items' colours;
+    values are rounded to k / 255 again (an 8-bit image or PNG holds them exactly).  numpy only: any thread may
+    run it.  Returns the boxes drawn, one per item (None for an item with no ink inside the picture)."""
+    boxes = []
+    for item, seg in zip(items, outlines):
+        box = text_box(seg, rgba.shape)
+        boxes.append(box)
+        if box is None:
+            continue
+        x0, y0, x1, y1 = box
+        a = _coverage(seg, x0, y0, x1 - x0, y1 - y0)[..., None] * float(item["color"][3])
+        col = np.asarray(item["color"][:3], dtype=np.float64)
+        rgba[y0:y1, x0:x1, :3] = rgba[y0:y1, x0:x1, :3] * (1.0 - a) + col * a
     rgba[..., :3] = np.rint(np.clip(rgba[..., :3], 0.0, 1.0) * 255.0) / 255.0
     return boxes
+
+
+def draw_text_items(rgba, items):
+    """Draw the text items into ``rgba`` (see :func:`fill_text`) on the main thread, in one go."""
+    return fill_text(rgba, items, text_outlines(items))
 
 
 classes = ()

@@ -10,6 +10,11 @@ An operator using :class:`ModalPlannerMixin` splits its work in three:
 - ``_build(context, job, result)`` on the main thread: creates the Blender data, reports, returns
   the operator's result set.
 
+An operator whose work needs Blender in the middle (e.g. Blender's font for a chart's text, between drawing
+the chart and encoding it) defines ``_next_stage(context, job, result)``: called on the main thread with a
+worker's result, it returns the next worker's function ``(progress) -> result``, or None when ``_build``
+comes next.  So the main thread does only the Blender part, and each of its turns stays short.
+
 ``execute`` (scripts, ``bpy.app.background``, redo) runs the three in a row; after a file browser (the
 operator's hidden ``modal_after_browser``, set by its ``invoke``) it starts the modal run instead.
 ``invoke`` from the UI starts the worker and returns RUNNING_MODAL; a 0.1 s timer updates the window
@@ -48,14 +53,24 @@ class ModalPlannerMixin:
         job = self._prepare(context)
         if job is None:
             return {'CANCELLED'}
-        try:
-            result = self._compute(job, None)
-        except Cancelled:
-            return {'CANCELLED'}
-        except Exception as ex:                                    # never a traceback for the user
-            self.report({'ERROR'}, self._compute_failed(ex))
-            return {'CANCELLED'}
+        stage = (lambda progress: self._compute(job, progress))
+        while stage is not None:
+            try:
+                result = stage(None)
+            except Cancelled:
+                return {'CANCELLED'}
+            except Exception as ex:                                    # never a traceback for the user
+                self.report({'ERROR'}, self._compute_failed(ex))
+                return {'CANCELLED'}
+            stage = self._next_stage(context, job, result)
+            if stage is False:
+                return {'CANCELLED'}
         return self._build(context, job, result)
+
+    def _next_stage(self, context, job, result):
+        """The next worker's function after ``result`` (main thread), None: build now, False: the stage reported
+        an error and nothing is built (see the module docstring)."""
+        return None
 
     def invoke(self, context, event):
         if bpy.app.background or context.window_manager is None or context.window is None:
@@ -111,6 +126,17 @@ class ModalPlannerMixin:
             context.window_manager.progress_update(int(round(100 * fraction)))
             self._status(context, "{}: {:3.0f}%  {}  (Esc cancels)".format(self._title, 100 * fraction, message))
             return {'RUNNING_MODAL'}
+        if state == "finished":
+            from ..flank_addon.progress import Cancelled
+
+            stage = self._next_stage(context, self._prepared, job.result)
+            if stage:
+                self._job = PlannerJob(stage, Cancelled)
+                return {'RUNNING_MODAL'}
+            if stage is False:
+                self._finish(context)
+                self._job = self._prepared = None
+                return {'CANCELLED'}
         self._finish(context)
         self._job = None
         if state == "cancelled":

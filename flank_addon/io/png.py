@@ -15,9 +15,13 @@ def _chunk(tag, data):
 
 
 def write_png(path, rgba, text=None):
-    """Write (H, W, 4) uint8, top row first, as an 8-bit RGBA PNG (every row with the 'Up' filter: the byte
-    difference to the row above), atomically.  ``text``: dict keyword -> str, stored as uncompressed UTF-8
-    iTXt chunks."""
+    """Write (H, W, 4) uint8, top row first, as an 8-bit RGBA PNG (:func:`png_bytes`), atomically."""
+    atomic_write(path, png_bytes(rgba, text))
+
+
+def png_bytes(rgba, text=None):
+    """The PNG file of (H, W, 4) uint8, top row first: 8-bit RGBA, every row with the 'Up' filter (the byte
+    difference to the row above).  ``text``: dict keyword -> str, stored as uncompressed UTF-8 iTXt chunks."""
     a = np.ascontiguousarray(rgba, dtype=np.uint8)
     h, w = a.shape[:2]
     rows = a.reshape(h, w * 4)
@@ -26,8 +30,7 @@ def write_png(path, rgba, text=None):
     png = b"\x89PNG\r\n\x1a\n" + _chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 6, 0, 0, 0))
     for key, value in (text or {}).items():
         png += _chunk(b"iTXt", key.encode("latin-1") + b"\x00\x00\x00\x00\x00" + value.encode("utf-8"))
-    png += _chunk(b"IDAT", zlib.compress(raw, 6)) + _chunk(b"IEND", b"")
-    atomic_write(path, png)
+    return png + _chunk(b"IDAT", zlib.compress(raw, 6)) + _chunk(b"IEND", b"")
 
 
 def _chunks(path):

@@ -133,6 +133,7 @@ def _drive(self, context, plan, rec):
     running_polls, esc_sent, t_start = 0, False, time.perf_counter()
     while True:
         time.sleep(TIMER_STEP)
+        job = self._job or job           # an operator with stages starts a new worker after each (see modal.py)
         state_before = job.poll()[0]
         if plan == "close" and running_polls >= 1:
             t = time.perf_counter()

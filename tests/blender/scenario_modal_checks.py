@@ -78,7 +78,7 @@ def scenario(bpy, res, args):
     res["verify"] = sm.exercise_tool(bpy, np, bpy.ops.flank.verify_plan, classes["verify"],
                                      dict(filepath=plan_path), select, lambda: _verify_state(bpy, np, rotor_name))
     res["error_plot"] = sm.exercise_tool(bpy, np, bpy.ops.flank.error_plot, classes["error_plot"],
-                                         dict(collection=run_name, width=640, height=400), select,
+                                         dict(collection=run_name, width=1920, height=1080), select,   # a full-HD plot
                                          lambda: _plot_state(bpy, np, run_name))
     res["cutter_region"] = sm.exercise_tool(bpy, np, bpy.ops.flank.cutter_region, classes["cutter_region"],
                                             dict(flank=1, r1=0.05, r2=0.08, alpha=0.1001674211615598,

@@ -91,6 +91,11 @@ def test_modal_run_to_the_end_equals_the_synchronous_run_and_never_blocks(mc, op
     running = running_polls(rec)
     assert running, rec["calls"]
     assert max(c["ms"] for c in running) < FRAME_MS, running
+    # the main thread's turns after the worker (Error Plot: its text in Blender's font between two workers, then
+    # storing the PNG as the image) stay under a frame too, in the main thread's CPU time (at 1920 x 1080 the
+    # plot's text, PNG and image took 226 ms in one turn when the main thread drew and encoded them)
+    after = [c for c in rec["calls"] if c["state_before"] != "running"]
+    assert after and max(c["cpu_ms"] for c in after) < FRAME_MS, after
     # reading the inputs on the main thread, in its own CPU time (the wall clock doubles under the parallel run)
     assert rec["start_cpu_ms"] < FRAME_MS + 150.0, (rec["start_cpu_ms"], rec["start_ms"])
     assert rec["percents"] and max(rec["percents"]) <= 100
