@@ -73,7 +73,8 @@ class PlannerJob:
 WARM_MODULES = (".flank_addon.geometry.helical_surface", ".flank_addon.geometry.rotor_analysis",
                 ".flank_addon.simulation.verify", ".flank_addon.methods.single_flank.planner",
                 ".flank_addon.methods.double_flank.planner", ".flank_addon.methods.freeform_g1.planner",
-                ".flank_addon.methods.formed_cutter.cutter_profile", "scipy.optimize", "scipy.interpolate")
+                ".flank_addon.methods.formed_cutter.cutter_profile", ".flank_addon.machining.machine",
+                ".flank_addon.posts", "scipy.optimize", "scipy.interpolate")
 
 _warm_up = None
 _warm_up_lock = threading.Lock()

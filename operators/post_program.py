@@ -62,8 +62,8 @@ def _machine_and_post(op):
     return (machine.flipped() if op.flip_rotor else machine), post
 
 
-def _plan_mm(context, coll, plan):
-    """(plan in mm, k mm per plan length unit), or an error message."""
+def _mm_per_unit(context, coll, plan):
+    """k mm per plan length unit, or an error message (the scaling itself is the worker's, :func:`_plan_mm`)."""
     if plan.get("surface") is not None:
         return "'{}' is a free-form run: whole-rotor machine programs are made from rotor plans".format(coll.name)
     if plan["rotor"].get("extent") is None:
@@ -73,10 +73,15 @@ def _plan_mm(context, coll, plan):
     k = rounded((float(s) if s else 1.0) * mm_per_scene_unit(context.scene))
     if not (math.isfinite(k) and k > 0.0):
         return "run '{}': its length scale {!r} gives no millimetres".format(coll.name, s)
+    return k
+
+
+def _plan_mm(coll_name, plan, k):
+    """The plan in mm (any thread: 30 ms for a double-flank plan on the 280,000-triangle rotor)."""
     try:
-        return plan_in_mm(plan, k), k
+        return plan_in_mm(plan, k)
     except (ValueError, KeyError, TypeError) as ex:
-        return "the plan of '{}' cannot be scaled to mm: {}".format(coll.name, ex)
+        raise ValueError("the plan of '{}' cannot be scaled to mm: {}".format(coll_name, ex)) from None
 
 
 def _time_text(seconds):
@@ -128,13 +133,13 @@ class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
         msg = msg or (lobes if isinstance(lobes, str) else None)
         found = run_plan(context, self.collection) if msg is None else msg
         mp = _machine_and_post(self) if not isinstance(found, str) else found
-        mm = _plan_mm(context, *found) if not isinstance(mp, str) else mp
-        if isinstance(mm, str):
-            self.report({'ERROR'}, "Post program: " + mm)
+        k = _mm_per_unit(context, *found) if not isinstance(mp, str) else mp
+        if isinstance(k, str):
+            self.report({'ERROR'}, "Post program: " + k)
             return None
-        (coll, plan), (machine, post), (plan_mm, k) = found, mp, mm
+        (coll, plan), (machine, post) = found, mp
         rotor_name = run_prop(coll, "rotor")
-        return dict(t0=time.perf_counter(), coll=coll.name, plan=plan_mm, to_world=plan["rotor"]["to_world"], k=k,
+        return dict(t0=time.perf_counter(), coll=coll.name, plan=plan, to_world=plan["rotor"]["to_world"], k=k,
                     machine=machine, post=post, lobes=lobes, clearance=float(self.clearance), filepath=path,
                     data=cutting_data_of(self.tool_flutes, self.tool_cutting_speed_m_min,
                                          self.tool_feed_per_tooth_mm, self.tool_max_rpm),
@@ -147,6 +152,7 @@ class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
         from ..flank_addon.machining.machine import MachineError
         from .program import post_program
 
+        job = dict(job, plan=_plan_mm(job["coll"], job["plan"], job["k"]))     # lengths in mm, here: not on the UI
         try:
             return post_program(job)
         except MachineError as ex:                  # beyond an axis' travel: maybe the scene's unit
