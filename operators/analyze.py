@@ -72,7 +72,7 @@ class FLANK_OT_analyze_rotor(ModalPlannerMixin, bpy.types.Operator):
             self.report({'ERROR'}, "Rotor analysis failed: {}: {}".format(type(ex).__name__, ex))
             return None
         return dict(name=obj.name, verts=verts, faces=faces, vertex_count=len(obj.data.vertices),
-                    started=time.perf_counter())
+                    matrix=[float(x) for row in obj.matrix_world for x in row], started=time.perf_counter())
 
     def _compute(self, job, progress):
         """The analysis, the curvature at every vertex and the summary: pure numpy/scipy (a worker thread)."""
@@ -137,6 +137,8 @@ class FLANK_OT_analyze_rotor(ModalPlannerMixin, bpy.types.Operator):
         obj["flank_to_world"] = [float(x) for x in np.asarray(res.to_world, dtype=np.float64).ravel()]
         obj["flank_analysis"] = result["summary_json"]
         obj["flank_analysis_record"] = result["record_json"]
+        # where the object stood: moved or turned later, a planner moves this analysis with it (sources.py)
+        obj["flank_analysis_matrix"] = job["matrix"]
 
         ignored = [m.name for m in obj.modifiers if m.show_viewport]
         if ignored:

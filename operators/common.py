@@ -11,7 +11,7 @@ PROP_KEYS = (
     "flank_source", "flank_kind", "flank_part", "flank_lobes", "flank_scale", "flank_lead", "flank_length",
     "flank_v0", "flank_handedness", "flank_axis", "flank_axis_point", "flank_residual", "flank_threshold",
     "flank_flanks", "flank_flank_count", "flank_outer_radius", "flank_to_world", "flank_analysis",
-    "flank_analysis_record",
+    "flank_analysis_record", "flank_analysis_matrix",
 )
 
 # RGBA per curvature class (+1 elliptic, 0 parabolic, -1 hyperbolic)
@@ -116,29 +116,54 @@ def point_mesh(name, points):
     return mesh
 
 
-def mesh_world_arrays(obj):
-    """World-space vertices (N,3 float64) and triangles (M,3 int) of a mesh object's base mesh.
+def mesh_world_arrays(obj, matrix=None):
+    """World-space vertices (N,3 float64) and triangles (M,3 int) of a mesh object's base mesh (placed by
+    ``matrix``, 4 x 4, instead of the object's ``matrix_world`` if given).
 
     Analysis results are therefore stored in world coordinates (axis, v0 in scene units, to_world).
     """
-    mesh = obj.data
-    n = len(mesh.vertices)
-    co = np.empty(n * 3, dtype=np.float64)
-    mesh.vertices.foreach_get("co", co)
-    co = co.reshape(n, 3)
-    mw = np.array(obj.matrix_world, dtype=np.float64)
-    verts = co @ mw[:3, :3].T + mw[:3, 3]
-    mesh.calc_loop_triangles()
-    tris = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
-    mesh.loop_triangles.foreach_get("vertices", tris)
-    return verts, tris.reshape(-1, 3)
+    co, tris = mesh_local_arrays(obj)
+    return placed(co, obj.matrix_world if matrix is None else matrix), tris
+
+
+def mesh_local_arrays(obj):
+    """The base mesh's vertices in its own frame (N,3 float64) and its triangles (M,3 int)."""
+    return mesh_vertices(obj.data), mesh_triangles(obj.data)
+
+
+def placed(co, matrix):
+    """Vertices (N, 3) moved by the 4 x 4 ``matrix`` (as :func:`mesh_world_arrays` places them)."""
+    mw = np.array(matrix, dtype=np.float64)
+    return co @ mw[:3, :3].T + mw[:3, 3]
 
 
 def mesh_vertices(mesh):
-    """(N, 3) float64 vertex coordinates of a mesh."""
-    co = np.empty(len(mesh.vertices) * 3, dtype=np.float64)
-    mesh.vertices.foreach_get("co", co)
-    return co.reshape(-1, 3)
+    """(N, 3) float64 vertex coordinates of a mesh.  Read in Blender's own single precision and widened by numpy:
+    the same numbers as asking Blender for doubles, which converts one by one (0.3 ms instead of 16 ms for
+    140,000 vertices)."""
+    co = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+    attr = mesh.attributes.get("position")
+    if attr is not None and attr.data_type == 'FLOAT_VECTOR' and attr.domain == 'POINT':
+        attr.data.foreach_get("vector", co)
+    else:
+        mesh.vertices.foreach_get("co", co)
+    return co.astype(np.float64).reshape(-1, 3)
+
+
+def mesh_triangles(mesh):
+    """(M, 3) int32 vertex indices of the mesh's triangles, Blender's triangulation.  Where every face is already a
+    triangle, that is each face's corners in order: read from the corners' vertex attribute at once (0.7 ms
+    instead of 32 ms through ``loop_triangles`` for 280,000 triangles; the same array)."""
+    n_corners, n_faces = len(mesh.loops), len(mesh.polygons)
+    corner_vert = mesh.attributes.get(".corner_vert")
+    if n_faces and n_corners == 3 * n_faces and corner_vert is not None and corner_vert.domain == 'CORNER':
+        tris = np.empty(n_corners, dtype=np.int32)
+        corner_vert.data.foreach_get("value", tris)
+        return tris.reshape(-1, 3)
+    mesh.calc_loop_triangles()
+    tris = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
+    mesh.loop_triangles.foreach_get("vertices", tris)
+    return tris.reshape(-1, 3)
 
 
 # ---------------------------------------------------------------------------------------------- attributes

@@ -6,7 +6,7 @@ import json
 import bpy
 import numpy as np
 
-from .common import mesh_world_arrays
+from .common import mesh_local_arrays, mesh_triangles, mesh_vertices, placed
 
 # custom properties that point from a result object to the rotor / surface it was made from
 RESULT_ROTOR_KEYS = ("flank_sf_rotor", "flank_df_rotor", "flank_cr_rotor", "flank_cutter_rotor", "flank_ff_source")
@@ -73,18 +73,37 @@ def _generated_rotor(obj):
                 kind="{}-{}".format(rotor.kind, rotor.part))
 
 
+def _placed_then(obj, co, known):
+    """(the world vertices the analysis record was made from, the motion from there to now) when the object
+    moved since Analyze Rotor, else None: the analysis then moves with the object instead of being made again
+    on the main thread (a second for 280,000 triangles).  ``co``: the mesh's own vertices."""
+    then = obj.get("flank_analysis_matrix")
+    if not isinstance(known, dict) or then is None or len(then) != 16:
+        return None
+    m_then = np.array([float(x) for x in then]).reshape(4, 4)
+    m_now = np.array(obj.matrix_world, dtype=np.float64)
+    if np.array_equal(m_then, m_now):
+        return None
+    try:
+        motion = m_now @ np.linalg.inv(m_then)
+    except np.linalg.LinAlgError:
+        return None
+    return placed(co, m_then), motion
+
+
 def _analyzed_rotor(obj):
     from ..flank_addon.geometry.rotor_analysis import NotHelicalError, analyze_mesh
 
     try:
-        verts, faces = mesh_world_arrays(obj)
+        co, faces = mesh_local_arrays(obj)
+        verts = placed(co, obj.matrix_world)
         # Analyze Rotor's record: taken when the mesh is still the one it was made from (a file opened again
         # needs no second analysis on the main thread), ignored otherwise
         try:
             known = json.loads(obj.get("flank_analysis_record", "null"))
         except (TypeError, ValueError):
             known = None
-        a = analyze_mesh(verts, faces, known=known)
+        a = analyze_mesh(verts, faces, known=known, known_at=_placed_then(obj, co, known))
         surface, flanks = a.surface, a.flank_ranges()
         to_world = np.asarray(a.to_world, dtype=np.float64)
     except NotHelicalError as ex:
@@ -165,13 +184,12 @@ def surface_object(context, role_key="flank_ff_role", source_key="flank_ff_sourc
 
 def _triangles(mesh, selected_only):
     """(triangles (m, 3), their polygon indices) of a mesh, only those of selected faces if asked."""
-    mesh.calc_loop_triangles()
-    m = len(mesh.loop_triangles)
-    tris = np.empty(3 * m, dtype=np.int64)
-    mesh.loop_triangles.foreach_get("vertices", tris)
-    poly = np.empty(m, dtype=np.int64)
-    mesh.loop_triangles.foreach_get("polygon_index", poly)
-    tris = tris.reshape(m, 3)
+    tris = mesh_triangles(mesh).astype(np.int64)
+    if len(tris) == len(mesh.polygons) and 3 * len(tris) == len(mesh.loops):     # every face a triangle, in order
+        poly = np.arange(len(tris), dtype=np.int64)
+    else:
+        poly = np.empty(len(tris), dtype=np.int64)
+        mesh.loop_triangles.foreach_get("polygon_index", poly)        # mesh_triangles made them
     if selected_only:
         sel = np.zeros(len(mesh.polygons), dtype=bool)
         mesh.polygons.foreach_get("select", sel)
@@ -216,9 +234,7 @@ def surface_source(obj, selected_only=False, field_attribute="", preview_prop=""
         return "'{}' has no faces".format(obj.name)
     if n > MAX_SURFACE_VERTICES:
         return "'{}' has {} vertices, above the limit {}".format(obj.name, n, MAX_SURFACE_VERTICES)
-    co = np.empty(3 * n, dtype=np.float64)
-    mesh.vertices.foreach_get("co", co)
-    co = co.reshape(n, 3)
+    co = mesh_vertices(mesh)
     if not np.isfinite(co).all():
         return "'{}' has vertices that are not finite numbers (NaN or infinity)".format(obj.name)
     tris, poly = _triangles(mesh, selected_only)

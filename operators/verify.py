@@ -13,7 +13,7 @@ import time
 import bpy
 import numpy as np
 
-from .common import new_mesh_from_arrays, remove_attributes, remove_ids, set_color_attr, set_float_attr
+from .common import mesh_vertices, new_mesh_from_arrays, remove_attributes, remove_ids, set_color_attr, set_float_attr
 from .modal import ModalPlannerMixin
 from .properties import verify_props
 from .shapes import axis_frame, revolved_mesh
@@ -204,11 +204,10 @@ class FLANK_OT_verify_plan(ModalPlannerMixin, bpy.types.Operator):
             self.report({'ERROR'}, plan)
             return None
         mesh = obj.data
-        co = np.empty(len(mesh.vertices) * 3, dtype=np.float64)
-        mesh.vertices.foreach_get("co", co)
+        co = mesh_vertices(mesh)
         # single-precision properties: recover the typed decimal (7 significant digits)
         tol_in, search_in = (float("{:.7g}".format(v)) for v in (self.tolerance, self.search))
-        return dict(t0=time.perf_counter(), obj_name=obj.name, path=path, plan=plan, co=co.reshape(-1, 3),
+        return dict(t0=time.perf_counter(), obj_name=obj.name, path=path, plan=plan, co=co,
                     mw=np.array(obj.matrix_world, dtype=np.float64), tol_in=tol_in, search_in=search_in)
 
     # ------------------------------------------------------------------ worker thread

@@ -100,3 +100,71 @@ def test_a_record_kept_with_the_mesh_stands_for_its_analysis(monkeypatch):
     assert calls == [1, 1, 1]
     with pytest.raises(ValueError, match="flank-rotor-analysis/1"):
         ra.RotorAnalysis.from_record({"record": "something else"})
+
+
+def _turn(deg, axis, shift):
+    """A rigid motion (4 x 4): a turn by ``deg`` about the unit ``axis`` through the origin, then ``shift``."""
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    k = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    t = np.radians(deg)
+    m = np.eye(4)
+    m[:3, :3] = np.eye(3) + np.sin(t) * k + (1 - np.cos(t)) * (k @ k)
+    m[:3, 3] = shift
+    return m
+
+
+def test_a_record_moves_with_a_turned_and_shifted_mesh_instead_of_being_made_again(monkeypatch):
+    monkeypatch.setattr(ra, "_CACHE", {})
+    monkeypatch.delenv(ra.CACHE_DIR_ENV, raising=False)
+    v, f = _mesh()
+    record = json.loads(json.dumps(ra.analyze_mesh(v, f).to_record()))
+    m = _turn(37.0, (0.3, -1.0, 0.4), (12.5, -40.0, 7.25))
+    moved = v @ m[:3, :3].T + m[:3, 3]
+    reference = ra._analyze_mesh(moved, np.asarray(f, int), 2048, ra.RESIDUAL_THRESHOLD)   # analysed where it is now
+
+    monkeypatch.setattr(ra, "_CACHE", {})
+    calls = []
+    real = ra._analyze_mesh
+    monkeypatch.setattr(ra, "_analyze_mesh", lambda *a: calls.append(1) or real(*a))
+    got = ra.analyze_mesh(moved, f, known=record, known_at=(v, m))
+    assert calls == []
+    assert got.content_key == ra._cache_key(moved, f, 2048, ra.RESIDUAL_THRESHOLD)
+    # the rotor frame's numbers are the record's; the placement is the moved mesh's own analysis to rounding
+    assert np.array_equal(got.profile, np.asarray(record["profile"])) and got.flanks == record["flanks"]
+    assert got.v0 == record["v0"] and got.outer_radius == record["outer_radius"] and got.handedness == record["handedness"]
+    # the same rotor where it stands now as its own analysis there, to rounding.  That analysis picks its rotor
+    # frame's x axis (and so the profile's first point and the flanks' numbers) from the axis direction alone, so
+    # the two frames may differ by a turn about the axis: the frames share the axis and the origin, and the
+    # profile turned by that angle lies on the other's
+    R = reference.outer_radius
+    assert abs(got.v0 - reference.v0) < 1e-9 * R and abs(got.outer_radius - reference.outer_radius) < 1e-9 * R
+    assert np.abs(np.subtract(got.body_z, reference.body_z)).max() < 1e-9 * R
+    turn = np.linalg.solve(reference.to_world, got.to_world)              # got's rotor frame -> reference's
+    assert np.abs(turn[:3, 2] - [0.0, 0.0, 1.0]).max() < 1e-9 and np.abs(turn[:3, 3]).max() < 1e-9 * R
+    assert np.abs(turn[2, :3] - [0.0, 0.0, 1.0]).max() < 1e-9
+    p = got.profile @ turn[:2, :2].T
+    q0, q1 = reference.profile, np.roll(reference.profile, -1, axis=0)
+    e = q1 - q0
+    t = np.clip(np.einsum("pqk,qk->pq", p[:, None, :] - q0[None], e) / np.einsum("qk,qk->q", e, e), 0.0, 1.0)
+    gap = np.linalg.norm(p[:, None, :] - (q0[None] + t[..., None] * e[None]), axis=2).min(axis=1)
+    assert gap.max() < 1e-5 * R, gap.max() / R
+    # every mesh vertex has the same rotor-frame coordinates in the moved analysis as in the record
+    back = np.linalg.solve(got.to_world, np.c_[moved, np.ones(len(moved))].T).T[:, :3]
+    before = np.linalg.solve(np.asarray(record["to_world"]), np.c_[v, np.ones(len(v))].T).T[:, :3]
+    assert np.abs(back - before).max() < 1e-9 * R
+
+    # not taken: a motion that scales or mirrors, or vertices that are not the record's (an edited mesh)
+    for motion, then in ((np.diag([2.0, 2.0, 2.0, 1.0]) @ m, v), (np.diag([-1.0, 1.0, 1.0, 1.0]) @ m, v)):
+        monkeypatch.setattr(ra, "_CACHE", {})
+        ra.analyze_mesh(v @ motion[:3, :3].T + motion[:3, 3], f, known=record, known_at=(then, motion))
+    assert calls == [1, 1]
+    edited = v.copy()
+    edited[5, 2] += 1e-6
+    monkeypatch.setattr(ra, "_CACHE", {})
+    ra.analyze_mesh(moved, f, known=record, known_at=(edited, m))
+    assert calls == [1, 1, 1]
+    assert ra.rigid_motion(np.diag([1.0, 1.0, 1.0 + 1e-5, 1.0])) is None
+    # a turn through single precision (Blender's object matrices) is taken, made orthonormal
+    single = ra.rigid_motion(m.astype(np.float32))
+    rot = single[:3, :3]
+    assert np.abs(rot.T @ rot - np.eye(3)).max() < 1e-14 and np.abs(single - m).max() < 1e-6 * np.abs(m).max()

@@ -478,7 +478,7 @@ def _from_npz(path):
         return RotorAnalysis.from_record(json.loads(str(z["record"])))
 
 
-def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD, known=None):
+def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD, known=None, known_at=None):
     """Estimate the helical motion of a rotor mesh and extract its profile and flanks.
 
     Args:
@@ -494,7 +494,11 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD, kno
     about 1/50 of its analysis).  ``known``: a :meth:`RotorAnalysis.to_record` kept with the mesh (Blender
     stores it on the object); it is taken instead of analysing when its key is this mesh's, so a rotor
     analysed in an earlier session is not analysed again.  A record of another mesh (or of other options or
-    code) is ignored.
+    code) is ignored.  ``known_at`` = (vertices, motion): the record was made from this mesh with these
+    vertices (the same faces), and the 4 x 4 ``motion`` moves them to ``verts`` (a Blender object moved or
+    turned since it was analysed).  When the record's key is theirs and the motion is rigid, the analysis is
+    the record's moved with it, without analysing again (the same profile and flanks, the placement composed
+    with the motion); a motion that scales, shears or mirrors is not taken.
     """
     import copy
     import os
@@ -520,6 +524,8 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD, kno
             found = _from_npz(path)
         except (OSError, ValueError, KeyError, TypeError):
             pass
+    if found is None and key is not None and isinstance(known, dict) and known_at is not None:
+        found = _moved_record(known, known_at, faces, n_profile, threshold)
     if found is not None:
         found.content_key = key
         _remember(key, found)
@@ -536,6 +542,43 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD, kno
                 pass
         return copy.deepcopy(result)
     return result
+
+
+def rigid_motion(motion, tol=1e-6):
+    """The 4 x 4 ``motion`` if it is a rotation and a translation, else None: its 3 x 3 part orthonormal within
+    ``tol`` with determinant +1, its last row 0 0 0 1.  Returned with the nearest rotation in place of the 3 x 3
+    part (a turn that went through single precision, as Blender's object matrices do, is orthonormal only to a few
+    1e-7), so what it moves stays rigid."""
+    m = np.array(motion, float)
+    if m.shape != (4, 4) or not np.isfinite(m).all() or not np.array_equal(m[3], [0.0, 0.0, 0.0, 1.0]):
+        return None
+    rot = m[:3, :3]
+    if np.abs(rot.T @ rot - np.eye(3)).max() > tol or np.linalg.det(rot) <= 0:
+        return None
+    u, _, vt = np.linalg.svd(rot)
+    m[:3, :3] = u @ vt
+    return m
+
+
+def _moved_record(known, known_at, faces, n_profile, threshold):
+    """The analysis of ``known`` moved by ``known_at``'s motion when the record is of its vertices (see
+    :func:`analyze_mesh`), else None."""
+    then, motion = known_at
+    m = rigid_motion(motion)
+    then = np.asarray(then, float)
+    if m is None or then.ndim != 2 or then.shape[1] != 3:
+        return None
+    if _cache_key(then, faces, n_profile, threshold) != known.get("key"):
+        return None
+    try:
+        a = RotorAnalysis.from_record(known)
+    except (KeyError, TypeError, ValueError):
+        return None
+    # the rotor frame, the profile, the flanks and every length stay; only the placement in the model moves
+    a.to_world = m @ np.asarray(a.to_world, float)
+    a.axis_point = m[:3, :3] @ np.asarray(a.axis_point, float) + m[:3, 3]
+    a.axis_direction = m[:3, :3] @ np.asarray(a.axis_direction, float)
+    return a
 
 
 def _remember(key, analysis):

@@ -158,6 +158,25 @@ def scenario(bpy, res, args):
     del ob["flank_analysis_record"]
     res["source_analysed"] = source()
     ob["flank_analysis_record"] = record
+    # the rotor moved and turned after Analyze Rotor, in a later session: the record moves with the object
+    before = sources.rotor_source(ob)
+    location, rotation = tuple(ob.location), tuple(ob.rotation_euler)
+    ob.location = (0.3, -0.2, 0.15)
+    ob.rotation_euler = (0.2, -0.5, 1.1)
+    bpy.context.view_layer.update()
+    analysis._CACHE.clear()
+    t0, c0 = time.perf_counter(), time.thread_time()
+    moved = sources.rotor_source(ob)
+    seconds, cpu = time.perf_counter() - t0, time.thread_time() - c0
+    motion = np.array(ob.matrix_world) @ np.linalg.inv(np.asarray(record_matrix := ob["flank_analysis_matrix"]).reshape(4, 4))
+    res["source_moved"] = dict(
+        seconds=seconds, cpu_seconds=cpu, record_matrix=[float(x) for x in record_matrix],
+        flanks_same=[[repr(u) for u in f] for f in moved["flanks"]] == [[repr(u) for u in f] for f in before["flanks"]],
+        profile_same=_digest_array(np, moved["surface"].profile.points) == _digest_array(np, before["surface"].profile.points),
+        v0_same=moved["surface"].v0 == before["surface"].v0,
+        to_world_gap=float(np.abs(np.asarray(moved["to_world"]) - motion @ np.asarray(before["to_world"])).max()))
+    ob.location, ob.rotation_euler = location, rotation
+    bpy.context.view_layer.update()
     # the flank list of the analysed rotor (the Dupin analysis of its 12 flanks) and the paraboloid groove, both at
     # their defaults: their workers need 10-60 ms, too little to race ESC against
     settings = bpy.context.scene.flank_settings
