@@ -158,6 +158,25 @@ def scenario(bpy, res, args):
     del ob["flank_analysis_record"]
     res["source_analysed"] = source()
     ob["flank_analysis_record"] = record
+    # the quick reads of a mesh (single precision widened; triangles from the corners where every face is one) give
+    # Blender's own arrays: the rotor's triangles, and a cube's quads through Blender's triangulation
+    common = __import__(driver.MODULE + ".operators.common", fromlist=["x"])
+    bpy.ops.mesh.primitive_cube_add()
+    cube = bpy.context.active_object
+    reads = {}
+    for name, me in (("rotor", ob.data), ("cube", cube.data)):
+        co = np.empty(3 * len(me.vertices))
+        me.vertices.foreach_get("co", co)
+        me.calc_loop_triangles()
+        tris = np.empty(3 * len(me.loop_triangles), dtype=np.int64)
+        me.loop_triangles.foreach_get("vertices", tris)
+        reads[name] = dict(co=bool(np.array_equal(common.mesh_vertices(me), co.reshape(-1, 3))),
+                           tris=bool(np.array_equal(common.mesh_triangles(me), tris.reshape(-1, 3))),
+                           faces=len(me.polygons), triangles=len(tris) // 3)
+    res["mesh_reads"] = reads
+    cube_mesh = cube.data
+    bpy.data.objects.remove(cube)
+    bpy.data.meshes.remove(cube_mesh)
     # the rotor moved and turned after Analyze Rotor, in a later session: the record moves with the object
     before = sources.rotor_source(ob)
     location, rotation = tuple(ob.location), tuple(ob.rotation_euler)

@@ -88,6 +88,13 @@ def test_a_rotor_moved_after_its_analysis_is_not_analysed_again_on_the_main_thre
     assert len(m["record_matrix"]) == 16 and m["record_matrix"][15] == 1.0
 
 
+def test_the_quick_mesh_reads_give_blenders_own_arrays(mt):
+    r = mt["mesh_reads"]
+    assert r["rotor"] == dict(co=True, tris=True, faces=r["rotor"]["triangles"], triangles=r["rotor"]["triangles"]), r
+    assert r["rotor"]["faces"] > 100000
+    assert r["cube"] == dict(co=True, tris=True, faces=6, triangles=12), r
+
+
 def test_the_live_guiding_preview_computes_off_the_main_thread_and_draws_the_newest_settings(mt):
     """A property update reads the settings and the surface only; the worker computes, a timer draws: two quick
     changes (a dragged slider) draw once, with the second change's curves, those the synchronous preview draws."""
