@@ -186,7 +186,7 @@ class FLANK_OT_plan_freeform(ModalPlannerMixin, bpy.types.Operator):
         kinks = g1.freeform_kinks(plan, mesh=mesh)
         tools = _tool_meshes(g1, plan)
         report(1.0, "done")
-        return dict(plan=plan, envs=envs, kinks=kinks, tools=tools)
+        return dict(plan=plan, envs=envs, kinks=kinks, tools=tools, plan_json=json.dumps(plan))   # off the main thread
 
     # ------------------------------------------------------------------ main thread: results
     def _build(self, context, job, out):
@@ -211,7 +211,7 @@ class FLANK_OT_plan_freeform(ModalPlannerMixin, bpy.types.Operator):
                        length_scale=float(s), length_unit=plan["length_unit"], elapsed=float(summary["elapsed_s"]),
                        total_elapsed=time.perf_counter() - job["t0"], summary=json.dumps(dict(summary))),
                   [run.collection])
-        run.collection[PLAN_JSON_PROP] = json.dumps(plan)
+        run.collection[PLAN_JSON_PROP] = out["plan_json"]
         run.show(made["tools"][0] if made["tools"] else None)
 
         def L(v):

@@ -410,7 +410,7 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
         return dict(res=res, envs=envs, sweeps=sweeps, env_elapsed=env_elapsed, frames=frames,
                     tool_meshes=[meshes[i] for i in which], strip_tools=[names[i] if names else "" for i in which],
                     first_tool=cones[which[0]], chart=_error_chart(res, surface, u_range, job["z0"]),
-                    coverage=_coverage(res, job))
+                    coverage=_coverage(res, job), plan_json=json.dumps(res.plan))   # encoded off the main thread
 
     # ------------------------------------------------------------------ main thread: results
     def _build(self, context, job, out):
@@ -430,7 +430,7 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
         props = self._props(job, out, rotor, made)
         run.store(props, [run.collection, rotor] + made["tools"], clear=[rotor])
         # the run's plan (flank-plan/1) travels with its collection: exports and reports read it from there
-        run.collection[PLAN_JSON_PROP] = json.dumps(res.plan)
+        run.collection[PLAN_JSON_PROP] = out["plan_json"]
         run.show(made["tools"][0])
         unc = "covered {:.1f} %{}".format(100.0 * res.covered_fraction, "" if res.complete else ", uncovered " +
                                            _ranges_text(merge_ranges(res.uncovered)))
