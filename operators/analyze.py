@@ -80,9 +80,9 @@ class FLANK_OT_analyze_rotor(ModalPlannerMixin, bpy.types.Operator):
         from ..flank_addon.progress import reporter
 
         report = reporter(progress)
-        report(0.0, "axis, pitch and profile")
         verts = job["verts"]
-        res = rotor_analysis.analyze_mesh(verts, job["faces"])
+        # stage by stage, so Esc stops it within a stage (a few tenths of a second) instead of at its end
+        res = rotor_analysis.analyze_mesh(verts, job["faces"], progress=reporter(progress, 0.0, 0.8))
         report(0.8, "curvature")
         K, cls = res.vertex_curvature(verts)
         K = np.asarray(K, dtype=np.float64).reshape(-1)

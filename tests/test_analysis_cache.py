@@ -168,3 +168,29 @@ def test_a_record_moves_with_a_turned_and_shifted_mesh_instead_of_being_made_aga
     single = ra.rigid_motion(m.astype(np.float32))
     rot = single[:3, :3]
     assert np.abs(rot.T @ rot - np.eye(3)).max() < 1e-14 and np.abs(single - m).max() < 1e-6 * np.abs(m).max()
+
+
+def test_the_analysis_reports_its_stages_and_a_cancel_keeps_nothing(monkeypatch):
+    from flank_addon.progress import Cancelled, reporter
+
+    monkeypatch.setattr(ra, "_CACHE", {})
+    monkeypatch.delenv(ra.CACHE_DIR_ENV, raising=False)
+    v, f = _mesh()
+    seen = []
+    done = ra.analyze_mesh(v, f, progress=reporter(lambda x, msg: seen.append((x, msg))))
+    fractions = [x for x, _ in seen]
+    assert len(seen) >= 6 and fractions == sorted(fractions) and fractions[0] == 0.0 and fractions[-1] < 1.0
+    _assert_equal(done, ra._analyze_mesh(np.asarray(v, float), np.asarray(f, int), 2048, ra.RESIDUAL_THRESHOLD))
+    # the caller says stop at the third stage: the analysis ends there, and neither memory nor disk keeps anything
+    monkeypatch.setattr(ra, "_CACHE", {})
+    calls = []
+
+    def stop_at_third(x, msg):
+        calls.append(msg)
+        return len(calls) < 3
+
+    w = v.copy()
+    w[0, 0] += 1e-9
+    with pytest.raises(Cancelled):
+        ra.analyze_mesh(w, f, progress=reporter(stop_at_third))
+    assert len(calls) == 3 and ra._CACHE == {}

@@ -478,7 +478,8 @@ def _from_npz(path):
         return RotorAnalysis.from_record(json.loads(str(z["record"])))
 
 
-def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD, known=None, known_at=None):
+def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD, known=None, known_at=None,
+                 progress=None):
     """Estimate the helical motion of a rotor mesh and extract its profile and flanks.
 
     Args:
@@ -498,7 +499,9 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD, kno
     vertices (the same faces), and the 4 x 4 ``motion`` moves them to ``verts`` (a Blender object moved or
     turned since it was analysed).  When the record's key is theirs and the motion is rigid, the analysis is
     the record's moved with it, without analysing again (the same profile and flanks, the placement composed
-    with the motion); a motion that scales, shears or mirrors is not taken.
+    with the motion); a motion that scales, shears or mirrors is not taken.  ``progress``: a report function
+    ``(fraction, message)`` (``flank_addon.progress.reporter``) called between the analysis' stages; the
+    ``Cancelled`` it raises stops the analysis, and nothing is kept.
     """
     import copy
     import os
@@ -530,7 +533,7 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD, kno
         found.content_key = key
         _remember(key, found)
         return copy.deepcopy(found)
-    result = _analyze_mesh(verts, faces, n_profile, threshold)
+    result = _analyze_mesh(verts, faces, n_profile, threshold, progress)
     if key is not None:
         result.content_key = key
         _remember(key, result)
@@ -588,8 +591,9 @@ def _remember(key, analysis):
         _CACHE.pop(next(iter(_CACHE)))
 
 
-def _analyze_mesh(verts, faces, n_profile, threshold):
+def _analyze_mesh(verts, faces, n_profile, threshold, progress=None):
     """:func:`analyze_mesh` without its cache."""
+    report = progress or (lambda fraction, message: None)
     if verts.ndim != 2 or verts.shape[1] != 3 or len(verts) < 4:
         raise NotHelicalError(f"mesh needs at least 4 vertices with 3 coordinates, got shape {verts.shape}")
     if faces.ndim != 2 or faces.shape[1] != 3 or len(faces) < 4:
@@ -598,9 +602,11 @@ def _analyze_mesh(verts, faces, n_profile, threshold):
         raise NotHelicalError("mesh vertices contain NaN or inf")
     if faces.min() < 0 or faces.max() >= len(verts):
         raise NotHelicalError(f"face indices must lie in 0 .. {len(verts) - 1}, got {faces.min()} .. {faces.max()}")
+    report(0.0, "welding the mesh")
     verts, faces, repairs = weld_mesh(verts, faces)
     if len(faces) < 4:
         raise NotHelicalError(f"mesh has {len(faces)} triangles with an area after welding; at least 4 are needed")
+    report(0.15, "vertex normals")
     normals, areas = vertex_normals(verts, faces)
     if areas.sum() <= 0:
         raise NotHelicalError("mesh has no area")
@@ -615,6 +621,7 @@ def _analyze_mesh(verts, faces, n_profile, threshold):
         speed = np.linalg.norm(vel, axis=1)
         return np.abs(np.einsum("ij,ij->i", vel, normals)) / np.maximum(speed, 1e-300)
 
+    report(0.2, "screw motion")
     # robust start: iteratively reweighted (Cauchy) so end faces cannot drag the first fit
     for _ in range(12):
         d, a, k, evals = fit_screw_motion(P[valid], normals[valid], weights[valid])
@@ -675,6 +682,7 @@ def _analyze_mesh(verts, faces, n_profile, threshold):
         raise NotHelicalError(
             f"not helical: v0 = {v0:.3g} is below {MIN_PITCH_RATIO:g} x outer radius ({outer:.3g}); "
             f"this is a surface of revolution ({quote})")
+    report(0.45, "profile")
     # profile points: exact helical vertices nearest to one axial level at mid body, screwed into
     # z = 0.  The level is a vertex's own z, so a mesh built from rings contributes exactly one ring
     # (no pitch-error noise between copies of the same profile point).
@@ -714,6 +722,7 @@ def _analyze_mesh(verts, faces, n_profile, threshold):
     counts = np.bincount(cluster)
     pts = np.stack([np.bincount(cluster, cloud[:, c]) for c in range(2)], -1)[counts > 0] / counts[counts > 0, None]
     spline = SplineProfile(pts)
+    report(0.7, "pitch and flanks")
     # pitch refinement: vertices far from the profile level must screw back onto the profile
     helical_verts = va[body_mask_all(keep, normals, d)] - level
     v0 = _refine_pitch(spline, helical_verts, v0, hand, outer)
@@ -735,6 +744,7 @@ def _analyze_mesh(verts, faces, n_profile, threshold):
         prof = np.roll(prof, -start, axis=0)
         flanks = [[a - start, b - start] for a, b in flanks]
     final = SplineProfile(prof)
+    report(0.8, "body and shafts")
     bz = body_extent(final, va, v0, hand, (0.0, z1 - z0), max(50.0 * residual, 2e-4) * outer)
     shafts = shaft_cylinders(va, bz[0], bz[1], 1e-6 * outer)
     # shared by equal rotors (the CLI and the operators plan on this surface; a report of the plan reuses it)
