@@ -623,7 +623,8 @@ def _analyze_mesh(verts, faces, n_profile, threshold, progress=None):
 
     report(0.2, "screw motion")
     # robust start: iteratively reweighted (Cauchy) so end faces cannot drag the first fit
-    for _ in range(12):
+    for it in range(12):
+        report(0.2 + 0.02 * it, "screw motion")
         d, a, k, evals = fit_screw_motion(P[valid], normals[valid], weights[valid])
         rel = residuals(d, a, k)
         sigma = max(float(np.median(rel[valid])), 1e-9)
