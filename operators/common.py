@@ -116,14 +116,13 @@ def point_mesh(name, points):
     return mesh
 
 
-def mesh_world_arrays(obj, matrix=None):
-    """World-space vertices (N,3 float64) and triangles (M,3 int) of a mesh object's base mesh (placed by
-    ``matrix``, 4 x 4, instead of the object's ``matrix_world`` if given).
+def mesh_world_arrays(obj):
+    """World-space vertices (N,3 float64) and triangles (M,3 int) of a mesh object's base mesh.
 
     Analysis results are therefore stored in world coordinates (axis, v0 in scene units, to_world).
     """
     co, tris = mesh_local_arrays(obj)
-    return placed(co, obj.matrix_world if matrix is None else matrix), tris
+    return placed(co, obj.matrix_world), tris
 
 
 def mesh_local_arrays(obj):
@@ -156,7 +155,8 @@ def mesh_triangles(mesh):
     instead of 32 ms through ``loop_triangles`` for 280,000 triangles; the same array)."""
     n_corners, n_faces = len(mesh.loops), len(mesh.polygons)
     corner_vert = mesh.attributes.get(".corner_vert")
-    if n_faces and n_corners == 3 * n_faces and corner_vert is not None and corner_vert.domain == 'CORNER':
+    if n_faces and n_corners == 3 * n_faces and corner_vert is not None and corner_vert.domain == 'CORNER' \
+            and corner_vert.data_type == 'INT':
         tris = np.empty(n_corners, dtype=np.int32)
         corner_vert.data.foreach_get("value", tris)
         return tris.reshape(-1, 3)

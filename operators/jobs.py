@@ -16,12 +16,12 @@ class PlannerJob:
     """``compute(progress)`` in a daemon thread.  States: 'running', 'finished' (``result``),
     'cancelled', 'failed' (``error``: the exception)."""
 
-    def __init__(self, compute, cancelled_type=None):
+    def __init__(self, compute, cancelled_type=None, fraction=0.0, message="starting"):
         self._compute = compute
         self._cancelled_type = cancelled_type
         self._lock = threading.Lock()
         self._cancel = threading.Event()
-        self.fraction, self.message = 0.0, "starting"
+        self.fraction, self.message = float(fraction), str(message)     # a later stage starts where the last ended
         self.state, self.result, self.error = "running", None, None
         self.started = time.perf_counter()
         self.elapsed = None
@@ -69,7 +69,8 @@ class PlannerJob:
 
 
 # what a first click imports: the rotor reader on the main thread (scipy.spatial through helical_surface,
-# 0.2 s), the planners and their scipy parts in the worker; names with a leading dot are in the extension
+# 0.2 s), the planners and their scipy parts in the worker, the machine and post modules on Post Program's main
+# thread; names with a leading dot are in the extension
 WARM_MODULES = (".flank_addon.geometry.helical_surface", ".flank_addon.geometry.rotor_analysis",
                 ".flank_addon.simulation.verify", ".flank_addon.methods.single_flank.planner",
                 ".flank_addon.methods.double_flank.planner", ".flank_addon.methods.freeform_g1.planner",

@@ -12,8 +12,9 @@ An operator using :class:`ModalPlannerMixin` splits its work in three:
 
 An operator whose work needs Blender in the middle (e.g. Blender's font for a chart's text, between drawing
 the chart and encoding it) defines ``_next_stage(context, job, result)``: called on the main thread with a
-worker's result, it returns the next worker's function ``(progress) -> result``, or None when ``_build``
-comes next.  So the main thread does only the Blender part, and each of its turns stays short.
+worker's result, it returns the next worker's function ``(progress) -> result``, None when ``_build``
+comes next, or False when it reported an error (nothing is built).  So the main thread does only the Blender
+part, and each of its turns stays short.
 
 ``execute`` (scripts, ``bpy.app.background``, redo) runs the three in a row; after a file browser (the
 operator's hidden ``modal_after_browser``, set by its ``invoke``) it starts the modal run instead.
@@ -33,6 +34,7 @@ class ModalPlannerMixin:
     _job = None
     _timer = None
     _prepared = None
+    _shown = (0.0, "starting")           # the last progress shown, where a next stage's worker starts
     _title = "Planning"
 
     def _compute_failed(self, ex):
@@ -62,7 +64,11 @@ class ModalPlannerMixin:
             except Exception as ex:                                    # never a traceback for the user
                 self.report({'ERROR'}, self._compute_failed(ex))
                 return {'CANCELLED'}
-            stage = self._next_stage(context, job, result)
+            try:
+                stage = self._next_stage(context, job, result)
+            except Exception as ex:                                    # never a traceback for the user
+                self.report({'ERROR'}, self._compute_failed(ex))
+                return {'CANCELLED'}
             if stage is False:
                 return {'CANCELLED'}
         return self._build(context, job, result)
@@ -123,15 +129,20 @@ class ModalPlannerMixin:
             return {'PASS_THROUGH'}
         state, fraction, message = job.poll()
         if state == "running":
+            self._shown = (fraction, message)
             context.window_manager.progress_update(int(round(100 * fraction)))
             self._status(context, "{}: {:3.0f}%  {}  (Esc cancels)".format(self._title, 100 * fraction, message))
             return {'RUNNING_MODAL'}
         if state == "finished":
             from ..flank_addon.progress import Cancelled
 
-            stage = self._next_stage(context, self._prepared, job.result)
+            try:
+                stage = self._next_stage(context, self._prepared, job.result)
+            except Exception as ex:                                # never a traceback, never a running timer
+                self.report({'ERROR'}, self._compute_failed(ex))
+                stage = False
             if stage:
-                self._job = PlannerJob(stage, Cancelled)
+                self._job = PlannerJob(stage, Cancelled, *self._shown)     # the bar goes on from where it was
                 return {'RUNNING_MODAL'}
             if stage is False:
                 self._finish(context)

@@ -240,7 +240,6 @@ class FLANK_OT_error_plot(ModalPlannerMixin, bpy.types.Operator):
         reported, nothing left behind)."""
         from ..flank_addon.io.files import atomic_write
 
-        h, w = shape[:2]
         wrote = False
         img = plot_image(coll.name)
         created = img is None
@@ -248,8 +247,8 @@ class FLANK_OT_error_plot(ModalPlannerMixin, bpy.types.Operator):
             if path is not None:
                 atomic_write(path, png)
                 wrote = True
-            if created:
-                img = bpy.data.images.new(image_name(coll.name), w, h, alpha=True)
+            if created:       # 1 x 1: its size and pixels come from the PNG packed next
+                img = bpy.data.images.new(image_name(coll.name), 1, 1, alpha=True)
             # the image is the worker's PNG, packed into the .blend as it is: Blender reads its pixels from there
             # (as from a packed image file) when they are drawn.  Packing pixels set here instead would encode them
             # again on the main thread (0.09-0.16 s at 1920 x 1080).  Switching the source to generated and back

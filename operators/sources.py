@@ -77,16 +77,15 @@ def _placed_then(obj, co, known):
     """(the world vertices the analysis record was made from, the motion from there to now) when the object
     moved since Analyze Rotor, else None: the analysis then moves with the object instead of being made again
     on the main thread (a second for 280,000 triangles).  ``co``: the mesh's own vertices."""
-    then = obj.get("flank_analysis_matrix")
-    if not isinstance(known, dict) or then is None or len(then) != 16:
+    if not isinstance(known, dict):
         return None
-    m_then = np.array([float(x) for x in then]).reshape(4, 4)
-    m_now = np.array(obj.matrix_world, dtype=np.float64)
-    if np.array_equal(m_then, m_now):
-        return None
-    try:
+    try:                        # a property that is not 16 numbers (edited by hand, another tool): not taken
+        m_then = np.array([float(x) for x in obj.get("flank_analysis_matrix")], dtype=np.float64).reshape(4, 4)
+        m_now = np.array(obj.matrix_world, dtype=np.float64)
+        if np.array_equal(m_then, m_now) or not np.isfinite(m_then).all():
+            return None
         motion = m_now @ np.linalg.inv(m_then)
-    except np.linalg.LinAlgError:
+    except (TypeError, ValueError, np.linalg.LinAlgError):
         return None
     return placed(co, m_then), motion
 

@@ -129,13 +129,19 @@ def test_a_record_moves_with_a_turned_and_shifted_mesh_instead_of_being_made_aga
     got = ra.analyze_mesh(moved, f, known=record, known_at=(v, m))
     assert calls == []
     assert got.content_key == ra._cache_key(moved, f, 2048, ra.RESIDUAL_THRESHOLD)
+    # never kept under the moved mesh's key: an analysis of that mesh without the record is its own
+    assert ra._CACHE == {}
+    _assert_equal(reference, ra.analyze_mesh(moved, f))
+    assert calls == [1]
+    assert ra.analyze_mesh(moved, f, known=record, known_at=(v, m)).to_record() == got.to_record()
+    calls.clear()
     # the rotor frame's numbers are the record's; the placement is the moved mesh's own analysis to rounding
     assert np.array_equal(got.profile, np.asarray(record["profile"])) and got.flanks == record["flanks"]
     assert got.v0 == record["v0"] and got.outer_radius == record["outer_radius"] and got.handedness == record["handedness"]
     # the same rotor where it stands now as its own analysis there, to rounding.  That analysis picks its rotor
     # frame's x axis (and so the profile's first point and the flanks' numbers) from the axis direction alone, so
-    # the two frames may differ by a turn about the axis: the frames share the axis and the origin, and the
-    # profile turned by that angle lies on the other's
+    # here (a turn that keeps the axis' orientation rule) the two frames differ by a turn about the axis: they
+    # share the axis and the origin, and the profile turned by that angle lies on the other's
     R = reference.outer_radius
     assert abs(got.v0 - reference.v0) < 1e-9 * R and abs(got.outer_radius - reference.outer_radius) < 1e-9 * R
     assert np.abs(np.subtract(got.body_z, reference.body_z)).max() < 1e-9 * R
@@ -152,6 +158,23 @@ def test_a_record_moves_with_a_turned_and_shifted_mesh_instead_of_being_made_aga
     back = np.linalg.solve(got.to_world, np.c_[moved, np.ones(len(moved))].T).T[:, :3]
     before = np.linalg.solve(np.asarray(record["to_world"]), np.c_[v, np.ones(len(v))].T).T[:, :3]
     assert np.abs(back - before).max() < 1e-9 * R
+
+    # turned end for end: the moved record keeps its frame (the vertices' rotor-frame coordinates), where an
+    # analysis of the turned mesh reverses the axis and starts at the other end
+    flip = _turn(180.0, (1.0, 0.0, 0.0), (0.0, 0.0, 5.0))
+    flipped = v @ flip[:3, :3].T + flip[:3, 3]
+    monkeypatch.setattr(ra, "_CACHE", {})
+    kept = ra.analyze_mesh(flipped, f, known=record, known_at=(v, flip))
+    assert calls == []
+    back = np.linalg.solve(kept.to_world, np.c_[flipped, np.ones(len(v))].T).T[:, :3]
+    assert np.abs(back - before).max() < 1e-9 * R
+    fresh = ra.analyze_mesh(flipped, f)
+    assert calls == [1] and float(fresh.axis_direction @ kept.axis_direction) < -0.999999
+    # an analysis from the other end samples its profile at another ring of vertices: the pitch differs by 4e-8 of
+    # 15.3 and the outer radius by 2.7e-5 of 25 (1.1e-6 R), what the mesh's facets leave open; the moved record
+    # keeps the numbers the plans were made with
+    assert abs(fresh.v0 - kept.v0) < 1e-8 * R and abs(fresh.outer_radius - kept.outer_radius) < 1e-5 * R
+    calls.clear()
 
     # not taken: a motion that scales or mirrors, or vertices that are not the record's (an edited mesh)
     for motion, then in ((np.diag([2.0, 2.0, 2.0, 1.0]) @ m, v), (np.diag([-1.0, 1.0, 1.0, 1.0]) @ m, v)):

@@ -498,8 +498,10 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD, kno
     code) is ignored.  ``known_at`` = (vertices, motion): the record was made from this mesh with these
     vertices (the same faces), and the 4 x 4 ``motion`` moves them to ``verts`` (a Blender object moved or
     turned since it was analysed).  When the record's key is theirs and the motion is rigid, the analysis is
-    the record's moved with it, without analysing again (the same profile and flanks, the placement composed
-    with the motion); a motion that scales, shears or mirrors is not taken.  ``progress``: a report function
+    the record's moved with it, without analysing again: the record's rotor frame, profile and flank numbers,
+    its placement composed with the motion.  (An analysis of the moved mesh would choose its frame anew: turned
+    about the axis, or reversed for a rotor turned end for end.)  A motion that scales, shears or mirrors is not
+    taken.  ``progress``: a report function
     ``(fraction, message)`` (``flank_addon.progress.reporter``) called between the analysis' stages; the
     ``Cancelled`` it raises stops the analysis, and nothing is kept.
     """
@@ -511,6 +513,15 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD, kno
     key = None
     if verts.ndim == 2 and faces.ndim == 2:
         key = _cache_key(verts, faces, n_profile, threshold)
+    if key is not None and isinstance(known, dict) and known_at is not None and known.get("key") != key:
+        # the caller's record moved with its mesh stands for the analysis whatever else was made of this placement
+        # (it keeps the record's rotor frame and flank numbers, where analysing the moved mesh would pick its own);
+        # it is made again at each call (a hash and a profile spline) and never kept under this mesh's key, so
+        # what memory and the disk cache hold stays the analysis of the mesh as it is
+        moved = _moved_record(known, known_at, faces, n_profile, threshold)
+        if moved is not None:
+            moved.content_key = key
+            return moved
     if key is not None and key in _CACHE:
         return copy.deepcopy(_CACHE[key])
     # the analysis kept elsewhere: the caller's record of this mesh, else the disk cache (a damaged one: analyse)
@@ -527,8 +538,6 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD, kno
             found = _from_npz(path)
         except (OSError, ValueError, KeyError, TypeError):
             pass
-    if found is None and key is not None and isinstance(known, dict) and known_at is not None:
-        found = _moved_record(known, known_at, faces, n_profile, threshold)
     if found is not None:
         found.content_key = key
         _remember(key, found)
@@ -631,6 +640,7 @@ def _analyze_mesh(verts, faces, n_profile, threshold, progress=None):
         weights = areas / (1.0 + (rel / sigma) ** 2)
     keep = valid & (rel <= max(10 * sigma, 1e-6))
     for _ in range(8):
+        report(0.44, "screw motion, trimmed")
         d, a, k, evals = fit_screw_motion(P[keep], normals[keep], areas[keep])
         rel = residuals(d, a, k)
         med = float(np.median(rel[keep]))

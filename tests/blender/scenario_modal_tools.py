@@ -168,11 +168,16 @@ def scenario(bpy, res, args):
         co = np.empty(3 * len(me.vertices))
         me.vertices.foreach_get("co", co)
         me.calc_loop_triangles()
-        tris = np.empty(3 * len(me.loop_triangles), dtype=np.int64)
+        tris = np.empty(3 * len(me.loop_triangles), dtype=np.int32)
+        c0 = time.thread_time()
         me.loop_triangles.foreach_get("vertices", tris)
+        c1 = time.thread_time()
+        quick = common.mesh_triangles(me)
+        c2 = time.thread_time()
         reads[name] = dict(co=bool(np.array_equal(common.mesh_vertices(me), co.reshape(-1, 3))),
-                           tris=bool(np.array_equal(common.mesh_triangles(me), tris.reshape(-1, 3))),
-                           faces=len(me.polygons), triangles=len(tris) // 3)
+                           tris=bool(np.array_equal(quick, tris.reshape(-1, 3))),
+                           faces=len(me.polygons), triangles=len(tris) // 3,
+                           ms=dict(loop_triangles=1000.0 * (c1 - c0), quick=1000.0 * (c2 - c1)))
     res["mesh_reads"] = reads
     cube_mesh = cube.data
     bpy.data.objects.remove(cube)

@@ -89,10 +89,15 @@ def test_a_rotor_moved_after_its_analysis_is_not_analysed_again_on_the_main_thre
 
 
 def test_the_quick_mesh_reads_give_blenders_own_arrays(mt):
-    r = mt["mesh_reads"]
+    r = {k: dict(v) for k, v in mt["mesh_reads"].items()}
+    ms = r["rotor"].pop("ms")
+    r["cube"].pop("ms")
     assert r["rotor"] == dict(co=True, tris=True, faces=r["rotor"]["triangles"], triangles=r["rotor"]["triangles"]), r
     assert r["rotor"]["faces"] > 100000
     assert r["cube"] == dict(co=True, tris=True, faces=6, triangles=12), r
+    # the rotor's triangles came the quick way (the corners' attribute), not through loop_triangles: 0.7 ms
+    # against 32 ms when measured on their own
+    assert ms["quick"] < 0.25 * ms["loop_triangles"], ms
 
 
 def test_the_live_guiding_preview_computes_off_the_main_thread_and_draws_the_newest_settings(mt):
