@@ -130,10 +130,12 @@ def _drive(self, context, plan, rec):
     t = time.perf_counter()
     r = self.modal(ctx, Event('MOUSEMOVE'))
     rec["mousemove"] = dict(result=sorted(r), ms=1000.0 * (time.perf_counter() - t))
-    running_polls, esc_sent, t_start = 0, False, time.perf_counter()
+    running_polls, esc_sent, t_start, first_job, workers = 0, False, time.perf_counter(), job, [job]
     while True:
         time.sleep(TIMER_STEP)
         job = self._job or job           # an operator with stages starts a new worker after each (see modal.py)
+        if job is not workers[-1]:
+            workers.append(job)
         state_before = job.poll()[0]
         if plan == "close" and running_polls >= 1:
             t = time.perf_counter()
@@ -144,6 +146,8 @@ def _drive(self, context, plan, rec):
             break
         if plan == "esc" and running_polls >= 1 and not esc_sent:
             ev, esc_sent = Event('ESC', 'PRESS'), True
+        elif plan == "esc_next_stage" and job is not first_job and state_before == "running" and not esc_sent:
+            ev, esc_sent = Event('ESC', 'PRESS'), True           # Esc while a later stage's worker runs
         else:
             ev = Event('TIMER')
         n_pct, n_txt = len(wm.percent), len(ws.texts)
@@ -167,6 +171,7 @@ def _drive(self, context, plan, rec):
             break
     job.wait(60)
     rec.update(calls=calls, final=sorted(r), thread_alive=job._thread.is_alive(), job_state=job.poll()[0],
+               workers=len(workers),
                job_result_none=job.result is None, job_elapsed=job.elapsed,
                wm_calls=wm.calls, timers_left=len(wm.timers), status_last=ws.texts[-1] if ws.texts else "<none>",
                operator_job_cleared=self._job is None, percents=wm.percent)

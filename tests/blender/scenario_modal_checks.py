@@ -8,6 +8,8 @@ unchanged, a modal run to the end makes what the synchronous run makes, and the 
 ``modal()`` call held the main thread."""
 import json
 import os
+import sys
+import time
 
 import driver
 import scenario_modal as sm
@@ -84,6 +86,47 @@ def scenario(bpy, res, args):
                                             dict(flank=1, r1=0.05, r2=0.08, alpha=0.1001674211615598,
                                                  grid=(12, 16, 16)),
                                             select, lambda: _region_state(bpy, np, "{}|1".format(rotor_name)))
+    # Error Plot's stages: Esc while the second worker (text and PNG) runs, and a failure of the text's layout on
+    # the main thread between the workers; either leaves bpy.data as it was and writes no file
+    plot_cls = classes["error_plot"]
+    real_next = plot_cls._next_stage
+    png = os.path.join(os.path.abspath(os.getcwd()), "staged_plot.png")
+
+    def slow_second_stage(op, context, job, out):
+        stage = real_next(op, context, job, out)
+        if not stage:
+            return stage
+
+        def slow(progress):
+            for _ in range(10):                    # Esc must land while this worker runs
+                time.sleep(0.05)
+                progress(0.95, "text and PNG")
+            return stage(progress)
+        return slow
+
+    def no_font(items):
+        raise RuntimeError("no font for the chart's text")
+
+    staged = {}
+    for name, patch in (("esc_next_stage", ("_next_stage", slow_second_stage)), ("text_fails", None)):
+        select()
+        before = sm.census(bpy, np)
+        mod = sys.modules[plot_cls.__module__]
+        if patch:
+            setattr(plot_cls, *patch)
+        else:
+            real_outlines, mod.text_outlines = mod.text_outlines, no_font
+        try:
+            rec = sm._call(bpy, bpy.ops.flank.error_plot, plot_cls, "esc_next_stage" if patch else "finish",
+                           collection=run_name, width=640, height=400, filepath=png)
+        finally:
+            if patch:
+                plot_cls._next_stage = real_next
+            else:
+                mod.text_outlines = real_outlines
+        rec.update(census_equal=before == sm.census(bpy, np), png_written=os.path.exists(png))
+        staged[name] = rec
+    res["error_plot_stages"] = staged
     # a failure in the worker is reported as the synchronous run reports it, and changes nothing
     select()
     bad = os.path.join(os.path.abspath(os.getcwd()), "bad_plan.json")

@@ -105,3 +105,19 @@ def test_modal_run_to_the_end_equals_the_synchronous_run_and_never_blocks(mc, op
 def test_worker_failure_is_reported_like_the_synchronous_run(mc):
     rec, sync = mc["verify_failed"], mc["verify_failed_sync"]
     assert_failure_reported_like_sync(rec, sync, "does not lie on the plan's rotor")
+
+
+def test_error_plot_stages_cancel_and_fail_without_leaving_anything(mc):
+    """Esc while Error Plot's second worker (text and PNG) runs, and a failure of the text's layout on the main
+    thread between its two workers: each ends CANCELLED, stops the timer and the progress, leaves bpy.data as it
+    was and writes no PNG."""
+    esc, failed = mc["error_plot_stages"]["esc_next_stage"], mc["error_plot_stages"]["text_fails"]
+    for rec in (esc, failed):
+        assert rec["final"] == ["CANCELLED"] and rec["census_equal"] and not rec["png_written"], rec
+        assert rec["timers_left"] == 0 and rec["wm_calls"][-2:] == [["event_timer_remove"], ["progress_end"]]
+        assert rec["operator_job_cleared"] and rec["status_last"] is None
+    assert esc["workers"] == 2 and [c["event"] for c in esc["calls"]].count("ESC") == 1
+    esc_call = next(c for c in esc["calls"] if c["event"] == "ESC")
+    assert esc_call["state_before"] == "running" and esc["job_state"] == "cancelled"
+    assert failed["workers"] == 1 and "no font for the chart's text" in (failed["op_error"] or ""), failed
+    assert "Traceback" not in (failed["op_error"] or "")
