@@ -14,7 +14,8 @@ An operator whose work needs Blender in the middle (e.g. Blender's font for a ch
 the chart and encoding it) defines ``_next_stage(context, job, result)``: called on the main thread with a
 worker's result, it returns the next worker's function ``(progress) -> result``, None when ``_build``
 comes next, or False when it reported an error (nothing is built).  So the main thread does only the Blender
-part, and each of its turns stays short.
+part, and each of its turns stays short.  Whatever Blender data a stage made for a later one, ``_discard(job)``
+removes when the run ends without a build (Esc, closing, a failure).
 
 ``execute`` (scripts, ``bpy.app.background``, redo) runs the three in a row; after a file browser (the
 operator's hidden ``modal_after_browser``, set by its ``invoke``) it starts the modal run instead.
@@ -56,27 +57,35 @@ class ModalPlannerMixin:
         if job is None:
             return {'CANCELLED'}
         stage = (lambda progress: self._compute(job, progress))
-        while stage is not None:
-            try:
-                result = stage(None)
-            except Cancelled:
-                return {'CANCELLED'}
-            except Exception as ex:                                    # never a traceback for the user
-                self.report({'ERROR'}, self._compute_failed(ex))
-                return {'CANCELLED'}
-            try:
-                stage = self._next_stage(context, job, result)
-            except Exception as ex:                                    # never a traceback for the user
-                self.report({'ERROR'}, self._compute_failed(ex))
-                return {'CANCELLED'}
-            if stage is False:
-                return {'CANCELLED'}
-        return self._build(context, job, result)
+        try:
+            while stage is not None:
+                try:
+                    result = stage(None)
+                except Cancelled:
+                    return {'CANCELLED'}
+                except Exception as ex:                                    # never a traceback for the user
+                    self.report({'ERROR'}, self._compute_failed(ex))
+                    return {'CANCELLED'}
+                try:
+                    stage = self._next_stage(context, job, result)
+                except Exception as ex:                                    # never a traceback for the user
+                    self.report({'ERROR'}, self._compute_failed(ex))
+                    return {'CANCELLED'}
+                if stage is False:
+                    return {'CANCELLED'}
+            job["built"] = True
+            return self._build(context, job, result)
+        finally:
+            if not job.get("built"):
+                self._discard(job)
 
     def _next_stage(self, context, job, result):
         """The next worker's function after ``result`` (main thread), None: build now, False: the stage reported
         an error and nothing is built (see the module docstring)."""
         return None
+
+    def _discard(self, job):
+        """Remove what the stages made for later ones when the run ends without a build (main thread)."""
 
     def invoke(self, context, event):
         if bpy.app.background or context.window_manager is None or context.window is None:
@@ -146,14 +155,19 @@ class ModalPlannerMixin:
                 return {'RUNNING_MODAL'}
             if stage is False:
                 self._finish(context)
+                self._discard(self._prepared)
                 self._job = self._prepared = None
                 return {'CANCELLED'}
         self._finish(context)
         self._job = None
         if state == "cancelled":
+            self._discard(self._prepared)
+            self._prepared = None
             self.report({'WARNING'}, "{}: cancelled; nothing was changed".format(self._title))
             return {'CANCELLED'}
         if state == "failed":
+            self._discard(self._prepared)
+            self._prepared = None
             self.report({'ERROR'}, self._compute_failed(job.error))
             return {'CANCELLED'}
         try:
@@ -166,6 +180,9 @@ class ModalPlannerMixin:
         if self._job is not None:
             self._job.cancel()
             self._job = None
+        if self._prepared is not None:
+            self._discard(self._prepared)
+            self._prepared = None
         self._finish(context)
 
 

@@ -106,17 +106,56 @@ class FLANK_OT_render_report(ModalPlannerMixin, bpy.types.Operator):
         report(0.8, "camera and legend")
         picture = rg.report_picture(geo, job["width"], job["height"], title=job["title"], units=job["units"],
                                     engine=job["engine"])
-        report(1.0, "rendering")
+        report(1.0, "scene")
         return picture
 
-    def _build(self, context, job, picture):
-        """Build the temporary scene, render it and write the PNG (Blender's renderer runs on the main
-        thread); the scene is removed again whatever happens."""
-        from .report_scene import draw_report
+    # ------------------------------------------------------------------ main thread: Blender's turns
+    def _next_stage(self, context, job, out):
+        """Blender's part in two turns of the main thread, a worker after each: the temporary scene; then the
+        render, saved as raw pixels, and the scene removed.  The last worker reads the pixels, paints the legend
+        and encodes the PNG, so the build only writes the file."""
+        from .report_scene import report_png, report_scene_end, report_scene_render, report_scene_start, tga_pixels
 
+        if "picture" not in job:                          # the worker's picture: make its scene
+            job["picture"] = out
+            try:
+                job["scene"] = report_scene_start(out, job["path"])
+            except Exception as ex:                     # reported, never a traceback; nothing is left behind
+                self.report({'ERROR'}, "Render report of '{}' failed: {}".format(job["run"], ex))
+                return False
+            return lambda progress: None                  # back to the UI between building and rendering
+        if job.get("scene") is not None:                  # render it
+            state = job["scene"]
+            try:
+                tga = report_scene_render(state)
+            except Exception as ex:
+                self.report({'ERROR'}, "Render report of '{}' failed: {}".format(job["run"], ex))
+                return False
+            finally:
+                report_scene_end(state)
+                job["scene"] = None
+            picture = job["picture"]
+
+            def finish(progress):
+                return report_png(picture, tga_pixels(tga, picture["width"], picture["height"]))
+            return finish
+        return None
+
+    def _discard(self, job):
+        if job and job.get("scene") is not None:
+            from .report_scene import report_scene_end
+
+            report_scene_end(job["scene"])
+            job["scene"] = None
+
+    def _build(self, context, job, out):
+        """Write the finished PNG (the scene is gone already)."""
+        from ..flank_addon.io.files import atomic_write
+
+        png, info = out
         try:
-            info = draw_report(picture, job["path"])
-        except Exception as ex:                     # reported, never a traceback; nothing is left behind
+            atomic_write(job["path"], png)
+        except OSError as ex:                         # reported, never a traceback
             self.report({'ERROR'}, "Render report of '{}' failed: {}".format(job["run"], ex))
             return {'CANCELLED'}
         self.report({'INFO'}, "Report of '{}' written to {} ({} x {}, {}, {:.1f} s): {}".format(

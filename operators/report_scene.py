@@ -16,7 +16,8 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-from ..flank_addon.io.png import check_output, write_png
+from ..flank_addon.io.files import atomic_write
+from ..flank_addon.io.png import check_output, png_bytes
 from ..flank_addon.report import report_geometry as rg
 
 _KINDS = ("objects", "meshes", "cameras", "lights", "materials", "worlds", "images", "scenes")
@@ -134,7 +135,7 @@ def _new_scene(made, width, height, engine):
     made["scenes"].append(sc)
     r = sc.render
     r.resolution_x, r.resolution_y, r.resolution_percentage = width, height, 100
-    r.image_settings.file_format = 'PNG'
+    r.image_settings.file_format = 'TARGA_RAW'        # read back by tga_pixels, in any thread
     r.image_settings.color_mode = 'RGBA'
     r.film_transparent = False
     r.dither_intensity = 0.0           # no noise: exact flat colours, small PNGs
@@ -210,26 +211,7 @@ def _add_labels(sc, made, lay, lines, legend, at, ppu, width, label_mat):
               material=label_mat)
 
 
-def _render_pixels(sc, made, tmp_png, width, height):
-    """Render the scene -> (H, W, 4) uint8, top row first, read back from the saved PNG."""
-    bpy.ops.render.render(write_still=False, scene=sc.name)
-    img = bpy.data.images.get("Render Result")
-    if img is None:
-        raise RuntimeError("the render produced no image")
-    img.save_render(filepath=tmp_png, scene=sc)
-    loaded = bpy.data.images.load(tmp_png, check_existing=False)
-    made["images"].append(loaded)
-    iw, ih = loaded.size
-    if (iw, ih) != (width, height):
-        raise RuntimeError(f"the render is {iw} x {ih}, not {width} x {height}")
-    px = np.empty(iw * ih * 4, np.float32)
-    loaded.pixels.foreach_get(px)
-    rgba = np.round(255.0 * px.reshape(ih, iw, 4)[::-1]).astype(np.uint8)
-    rgba[..., 3] = 255
-    return rgba
-
-
-def _remove_made(made, fonts_before, had_render_result, tmp_png):
+def _remove_made(made, fonts_before, had_render_result, tmp):
     for key in _KINDS:
         coll = getattr(bpy.data, key)
         for block in made[key]:
@@ -247,37 +229,95 @@ def _remove_made(made, fonts_before, had_render_result, tmp_png):
                 bpy.data.images.remove(img)
             except (ReferenceError, RuntimeError):
                 pass
-    if os.path.exists(tmp_png):
-        os.remove(tmp_png)
+    if os.path.exists(tmp):
+        os.remove(tmp)
+
+
+def report_scene_start(picture, path):
+    """The temporary scene of ``picture`` (:func:`report_geometry.report_picture`), to be rendered into the PNG
+    ``path`` -> its state for :func:`report_scene_render`; :func:`report_scene_end` removes it whatever
+    happens (here, if building it fails)."""
+    path = check_output(path)
+    width, height, R, engine = picture["width"], picture["height"], picture["R"], picture["info"]["engine"]
+    M, ppu, lay = picture["camera"], picture["ppu"], picture["layout"]
+    state = dict(made={k: [] for k in _KINDS}, fonts_before={f.as_pointer() for f in bpy.data.fonts},
+                 had_render_result=bpy.data.images.get("Render Result") is not None,
+                 tmp="{}.render{}.tga".format(path, os.getpid()), scene=None, width=width, height=height)
+    try:
+        sc, surface_mat, label_mat = _new_scene(state["made"], width, height, engine)
+        _add_geometry(sc, state["made"], picture, surface_mat)
+        _add_camera(sc, state["made"], M, picture["ortho"], picture["clip_end"], R)
+        if engine == "CYCLES":
+            _add_sun(sc, state["made"], M)
+        _add_labels(sc, state["made"], lay, picture["lines"], picture["legend"],
+                    lambda px, py: rg.at_pixel(M, ppu, width, height, R, px, py), ppu, width, label_mat)
+    except BaseException:
+        report_scene_end(state)
+        raise
+    state["scene"] = sc
+    return state
+
+
+def report_scene_render(state):
+    """Render the scene -> its pixels as the bytes of an uncompressed TGA file (:func:`tga_pixels` reads them,
+    in any thread: Blender only renders and writes the file here)."""
+    sc = state["scene"]
+    bpy.ops.render.render(write_still=False, scene=sc.name)
+    img = bpy.data.images.get("Render Result")
+    if img is None:
+        raise RuntimeError("the render produced no image")
+    img.save_render(filepath=state["tmp"], scene=sc)
+    with open(state["tmp"], "rb") as fh:
+        return fh.read()
+
+
+def report_scene_end(state):
+    """Remove everything :func:`report_scene_start` made (the scene, its objects and data, the loaded font, the
+    render result if there was none before, the temporary file)."""
+    _remove_made(state["made"], state["fonts_before"], state["had_render_result"], state["tmp"])
+    state["scene"] = None
+
+
+def tga_pixels(data, width, height):
+    """(H, W, 4) uint8, top row first, of an uncompressed 32-bit TGA file's bytes (as Blender's TARGA_RAW writes:
+    blue, green, red, alpha; rows from the bottom unless the header says from the top); alpha set to 255."""
+    head = np.frombuffer(data[:18], np.uint8)
+    w, h = int(head[12]) | int(head[13]) << 8, int(head[14]) | int(head[15]) << 8
+    if head[2] != 2 or head[16] != 32:
+        raise RuntimeError(f"the render was not saved as an uncompressed 32-bit TGA (type {head[2]}, {head[16]} bits)")
+    if (w, h) != (width, height):
+        raise RuntimeError(f"the render is {w} x {h}, not {width} x {height}")
+    start = 18 + int(head[0])
+    px = np.frombuffer(data[start:start + 4 * w * h], np.uint8).reshape(h, w, 4)
+    if not head[17] & 0x20:                    # bottom-left origin
+        px = px[::-1]
+    rgba = np.ascontiguousarray(px[..., [2, 1, 0, 3]])
+    rgba[..., 3] = 255
+    return rgba
+
+
+def report_png(picture, rgba):
+    """The finished report: the legend bar painted into the render's pixels -> (PNG bytes with the report's
+    numbers in a text chunk, info).  numpy only: any thread."""
+    lay, legend = picture["layout"], picture["legend"]
+    rgba = rg.paint_legend(rgba, lay, picture["tolerance"], legend[0], legend[1])
+    info = dict(picture["info"])
+    return png_bytes(rgba, {rg.REPORT_KEY: json.dumps(info, ensure_ascii=False)}), info
 
 
 def draw_report(picture, path):
     """Render ``picture`` (:func:`report_geometry.report_picture`) to the PNG ``path`` -> its ``info`` dict.
 
     Nothing stays behind in Blender: a temporary scene with its objects, meshes, camera, world (and for Cycles
-    materials and a light) is made, rendered and removed, and so is the builtin font if the file had none."""
-    path = check_output(path)
-    width, height, R, engine = picture["width"], picture["height"], picture["R"], picture["info"]["engine"]
-    M, ppu, lay = picture["camera"], picture["ppu"], picture["layout"]
-    made = {k: [] for k in _KINDS}
-    fonts_before = {f.as_pointer() for f in bpy.data.fonts}
-    had_render_result = bpy.data.images.get("Render Result") is not None
-    tmp_png = "{}.render{}.png".format(path, os.getpid())
+    materials and a light) is made, rendered and removed, and so is the builtin font if the file had none.
+    (``flank.render_report`` runs the same steps, the Blender ones in separate turns of the main thread.)"""
+    state = report_scene_start(picture, path)
     try:
-        sc, surface_mat, label_mat = _new_scene(made, width, height, engine)
-        _add_geometry(sc, made, picture, surface_mat)
-        _add_camera(sc, made, M, picture["ortho"], picture["clip_end"], R)
-        if engine == "CYCLES":
-            _add_sun(sc, made, M)
-        _add_labels(sc, made, lay, picture["lines"], picture["legend"],
-                    lambda px, py: rg.at_pixel(M, ppu, width, height, R, px, py), ppu, width, label_mat)
-        legend = picture["legend"]
-        rgba = rg.paint_legend(_render_pixels(sc, made, tmp_png, width, height), lay, picture["tolerance"],
-                               legend[0], legend[1])
-        info = dict(picture["info"])
-        write_png(path, rgba, {rg.REPORT_KEY: json.dumps(info, ensure_ascii=False)})
+        tga = report_scene_render(state)
     finally:
-        _remove_made(made, fonts_before, had_render_result, tmp_png)
+        report_scene_end(state)
+    png, info = report_png(picture, tga_pixels(tga, picture["width"], picture["height"]))
+    atomic_write(check_output(path), png)
     return info
 
 

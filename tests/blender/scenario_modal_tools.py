@@ -236,7 +236,8 @@ def scenario(bpy, res, args):
     exp["compared"] = _compare_csv(exported("finish.csv"), exported("sync.csv"))
     res["export"] = exp
     # Render Report after its file browser: the worker computes the picture (the strips' exact distances to the
-    # rotor, camera, legend); the main thread builds the temporary scene and renders it
+    # rotor, camera, legend); the main thread builds the temporary scene, then renders it in a later turn; a
+    # worker reads the pixels back and encodes the PNG
     rep, render_cls = {}, classes["render"]
     kw = dict(collection=run, width=640, height=400)
     t0 = time.perf_counter()
@@ -262,6 +263,33 @@ def scenario(bpy, res, args):
             render_cls._compute = real_compute
         rec.update(census_equal=before == after, census_diff=sm._census_diff(before, after))
         rep[plan] = rec
+    # Esc while the temporary scene stands between its build and the render (the next worker slowed down): the
+    # scene goes, nothing is written
+    real_next = render_cls._next_stage
+
+    def slow_next(op, context, job, out):
+        stage = real_next(op, context, job, out)
+        if not stage:
+            return stage
+
+        def slow(progress):
+            for _ in range(10):
+                time.sleep(0.05)
+                if progress is not None and progress(0.5, "waiting") is False:
+                    break
+            return stage(progress)
+        return slow
+
+    render_cls._next_stage = slow_next
+    try:
+        before = sm.census(bpy, np)
+        rec = sm._call(bpy, bpy.ops.flank.render_report, render_cls, "esc_next_stage",
+                       filepath=os.path.join(folder, "esc_next_stage.png"), **kw)
+        rec.update(census_equal=before == sm.census(bpy, np), temporary_files=sorted(
+            f for f in os.listdir(folder) if ".render" in f))
+    finally:
+        render_cls._next_stage = real_next
+    rep["esc_next_stage"] = rec
     rep["files"] = sorted(f for f in os.listdir(folder) if f.endswith(".png"))
     png_io = driver._core("io.png")
 
