@@ -182,7 +182,7 @@ def scenario(bpy, res, args):
     cube_mesh = cube.data
     bpy.data.objects.remove(cube)
     bpy.data.meshes.remove(cube_mesh)
-    # the rotor moved and turned after Analyze Rotor, in a later session: the record moves with the object
+    # the rotor moved and turned after Analyze Rotor, in a later Blender session: the record moves with the object
     before = sources.rotor_source(ob)
     location, rotation = tuple(ob.location), tuple(ob.rotation_euler)
     ob.location = (0.3, -0.2, 0.15)

@@ -78,7 +78,7 @@ def test_a_planner_takes_the_analysis_kept_on_the_object_instead_of_analysing_ag
 
 
 def test_a_rotor_moved_after_its_analysis_is_not_analysed_again_on_the_main_thread(mt):
-    """Moved and turned after Analyze Rotor (a new session: nothing in memory), the rotor's analysis is the record's
+    """Moved and turned after Analyze Rotor (a new Blender session: nothing in memory), the rotor's analysis is the record's
     moved with the object: the same profile, flanks and pitch, the placement composed with the motion.  Analysing
     the moved mesh again took 0.97 s of the main thread's CPU (280,000 triangles)."""
     m = mt["source_moved"]
