@@ -108,12 +108,14 @@ def test_modal_run_to_the_end_equals_the_synchronous_run(modal, op):
 
 @pytest.mark.parametrize("op", OPS)
 def test_no_frame_is_blocked_while_the_planner_runs(modal, op):
-    """Each modal() call while the worker runs (progress polls, ESC) returns within 100 ms."""
+    """Each modal() call while the worker runs (progress polls, ESC) returns within 100 ms: its wall clock less the
+    time the main thread and the worker spent waiting for a core (the other test worker's Blender loads both cores;
+    a worker holding the interpreter lock while it computes still counts)."""
     worst = 0.0
     for plan in ("esc", "close", "finish"):
         calls = _running_calls(modal[op][plan])
         assert calls, plan
-        worst = max([worst] + [c["ms"] for c in calls])
+        worst = max([worst] + [c["held_ms"] for c in calls])
     assert worst < FRAME_MS, "modal() held the main thread {:.1f} ms".format(worst)
 
 

@@ -90,7 +90,7 @@ def test_modal_run_to_the_end_equals_the_synchronous_run_and_never_blocks(mc, op
         assert rec["state"] == mc[op]["sync"]["state"]
     running = running_polls(rec)
     assert running, rec["calls"]
-    assert max(c["ms"] for c in running) < FRAME_MS, running
+    assert max(c["held_ms"] for c in running) < FRAME_MS, running   # wall clock without waits for a core
     # the main thread's turns after the worker (Error Plot: its text in Blender's font between two workers, then
     # storing the PNG as the image) stay under a frame too, in the main thread's CPU time (at 1920 x 1080 the
     # plot's text, PNG and image took 226 ms in one turn when the main thread drew and encoded them)

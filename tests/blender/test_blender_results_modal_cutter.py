@@ -48,7 +48,7 @@ def test_modal_run_to_the_end_equals_the_synchronous_run(mc):
     # progress: percentages reported while the worker ran, and no modal() call held the UI for 100 ms
     assert rec["percents"] and max(rec["percents"]) <= 100
     running = running_polls(rec)
-    assert running and max(c["ms"] for c in running) < 100.0, running
+    assert running and max(c["held_ms"] for c in running) < 100.0, running   # without waits for a core
 
 
 def test_worker_error_is_reported_like_the_synchronous_run(mc):
