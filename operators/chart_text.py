@@ -14,6 +14,8 @@ seconds, while this works in background mode and gives the same pixels everywher
 import bpy
 import numpy as np
 
+from .common import mesh_vertices
+
 ALIGN = {"left": 'LEFT', "center": 'CENTER', "right": 'RIGHT'}
 SAMPLES = 4                        # coverage samples per pixel along x and y
 
@@ -31,8 +33,7 @@ def text_outline(text, size, align="left"):
         ob = bpy.data.objects.new("Chart Text", cu)
         me = ob.to_mesh()
         try:
-            co = np.empty(len(me.vertices) * 3, dtype=np.float64)
-            me.vertices.foreach_get("co", co)
+            co = mesh_vertices(me)
             ed = np.empty(len(me.edges) * 2, dtype=np.int64)
             me.edges.foreach_get("vertices", ed)
         finally:
@@ -41,7 +42,7 @@ def text_outline(text, size, align="left"):
         if ob is not None:
             bpy.data.objects.remove(ob)
         bpy.data.curves.remove(cu)
-    return co.reshape(-1, 3)[:, :2][ed.reshape(-1, 2)]
+    return co[:, :2][ed.reshape(-1, 2)]
 
 
 def _coverage(seg, x0, y0, w, h):

@@ -56,7 +56,7 @@ class ModalPlannerMixin:
         job = self._prepare(context)
         if job is None:
             return {'CANCELLED'}
-        stage = (lambda progress: self._compute(job, progress))
+        stage, built = (lambda progress: self._compute(job, progress)), False
         try:
             while stage is not None:
                 try:
@@ -73,10 +73,10 @@ class ModalPlannerMixin:
                     return {'CANCELLED'}
                 if stage is False:
                     return {'CANCELLED'}
-            job["built"] = True
+            built = True
             return self._build(context, job, result)
         finally:
-            if not job.get("built"):
+            if not built:
                 self._discard(job)
 
     def _next_stage(self, context, job, result):

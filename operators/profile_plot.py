@@ -211,20 +211,20 @@ class FLANK_OT_error_plot(ModalPlannerMixin, bpy.types.Operator):
 
             reporter(progress)(0.95, "text and PNG")
             fill_text(rgba, info["texts"], outlines)
-            return rgba.shape, info, png_bytes(to_png_bytes(rgba))
+            return info, png_bytes(to_png_bytes(rgba))
 
         return finish_png
 
     # ------------------------------------------------------------------ main thread: results
     def _build(self, context, job, out):
         """The image and the PNG of the finished chart; the image shown; the report."""
-        shape, info, png = out
+        info, png = out
         w, h, path = job["width"], job["height"], job["path"]
         coll = bpy.data.collections.get(job["coll_name"])
         if coll is None:
             self.report({'ERROR'}, "Error plot: the run '{}' was removed while plotting".format(job["coll_name"]))
             return {'CANCELLED'}
-        img = self._store(coll, shape, info, png, path)
+        img = self._store(coll, info, png, path)
         if img is None:
             return {'CANCELLED'}
         area = show_in_image_editor(context, img)
@@ -235,7 +235,7 @@ class FLANK_OT_error_plot(ModalPlannerMixin, bpy.types.Operator):
             where, ", wrote {}".format(os.path.basename(path)) if path else "", time.perf_counter() - job["t0"]))
         return {'FINISHED'}
 
-    def _store(self, coll, shape, info, png, path):
+    def _store(self, coll, info, png, path):
         """The PNG file, then the image (made or reused) holding the same PNG, packed -> image, or None (error
         reported, nothing left behind)."""
         from ..flank_addon.io.files import atomic_write

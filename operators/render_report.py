@@ -113,24 +113,18 @@ class FLANK_OT_render_report(ModalPlannerMixin, bpy.types.Operator):
     def _next_stage(self, context, job, out):
         """Blender's part in two turns of the main thread, a worker after each: the temporary scene; then the
         render, saved as raw pixels, and the scene removed.  The last worker reads the pixels, paints the legend
-        and encodes the PNG, so the build only writes the file."""
+        and encodes the PNG, so the build only writes the file.  A failure here is reported by the mixin
+        (:meth:`_compute_failed`), which then discards the scene."""
         from .report_scene import report_png, report_scene_end, report_scene_render, report_scene_start, tga_pixels
 
         if "picture" not in job:                          # the worker's picture: make its scene
             job["picture"] = out
-            try:
-                job["scene"] = report_scene_start(out, job["path"])
-            except Exception as ex:                     # reported, never a traceback; nothing is left behind
-                self.report({'ERROR'}, "Render report of '{}' failed: {}".format(job["run"], ex))
-                return False
+            job["scene"] = report_scene_start(out, job["path"])          # removes what it made if it fails
             return lambda progress: None                  # back to the UI between building and rendering
         if job.get("scene") is not None:                  # render it
             state = job["scene"]
             try:
                 tga = report_scene_render(state)
-            except Exception as ex:
-                self.report({'ERROR'}, "Render report of '{}' failed: {}".format(job["run"], ex))
-                return False
             finally:
                 report_scene_end(state)
                 job["scene"] = None
@@ -156,7 +150,7 @@ class FLANK_OT_render_report(ModalPlannerMixin, bpy.types.Operator):
         try:
             atomic_write(job["path"], png)
         except OSError as ex:                         # reported, never a traceback
-            self.report({'ERROR'}, "Render report of '{}' failed: {}".format(job["run"], ex))
+            self.report({'ERROR'}, self._compute_failed(ex))
             return {'CANCELLED'}
         self.report({'INFO'}, "Report of '{}' written to {} ({} x {}, {}, {:.1f} s): {}".format(
             job["run"], os.path.abspath(job["path"]), info["width"], info["height"], info["engine"].title(),

@@ -242,7 +242,7 @@ def report_scene_start(picture, path):
     M, ppu, lay = picture["camera"], picture["ppu"], picture["layout"]
     state = dict(made={k: [] for k in _KINDS}, fonts_before={f.as_pointer() for f in bpy.data.fonts},
                  had_render_result=bpy.data.images.get("Render Result") is not None,
-                 tmp="{}.render{}.tga".format(path, os.getpid()), scene=None, width=width, height=height)
+                 tmp="{}.render{}.tga".format(path, os.getpid()), scene=None, path=path)
     try:
         sc, surface_mat, label_mat = _new_scene(state["made"], width, height, engine)
         _add_geometry(sc, state["made"], picture, surface_mat)
@@ -317,7 +317,7 @@ def draw_report(picture, path):
     finally:
         report_scene_end(state)
     png, info = report_png(picture, tga_pixels(tga, picture["width"], picture["height"]))
-    atomic_write(check_output(path), png)
+    atomic_write(state["path"], png)
     return info
 
 

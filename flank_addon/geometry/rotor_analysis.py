@@ -630,7 +630,6 @@ def _analyze_mesh(verts, faces, n_profile, threshold, progress=None):
         speed = np.linalg.norm(vel, axis=1)
         return np.abs(np.einsum("ij,ij->i", vel, normals)) / np.maximum(speed, 1e-300)
 
-    report(0.2, "screw motion")
     # robust start: iteratively reweighted (Cauchy) so end faces cannot drag the first fit
     for it in range(12):
         report(0.2 + 0.02 * it, "screw motion")
