@@ -27,7 +27,7 @@ from mathutils import Matrix
 from .common import point_mesh, set_color_attr, set_float_attr, set_int_attr, typed
 from .modal import ModalPlannerMixin
 from .result_builder import RunBuilder
-from .sources import rotor_source
+from .sources import AnalysisNeeded, rotor_source
 
 PROP_PREFIX = "flank_cr_"
 ADMISSIBLE_ATTR = "admissible"          # FLOAT point attribute of the cloud and the marker: 1 admissible, 0 not
@@ -159,7 +159,9 @@ class FLANK_OT_cutter_region(ModalPlannerMixin, bpy.types.Operator):
         t0 = time.perf_counter()
         self._scene_defaults(context)
         msg = self._check_inputs()
-        src = rotor_source(context.active_object, PROP_PREFIX) if msg is None else msg
+        src = rotor_source(context.active_object, PROP_PREFIX, defer=self._defer_analysis) if msg is None else msg
+        if isinstance(src, AnalysisNeeded):
+            return self._analysis_first(src)
         if not isinstance(src, str) and not 0 <= int(self.flank) < len(src["flanks"]):
             src = "flank = {} is outside 0..{} (rotor '{}' has {} flanks)".format(
                 int(self.flank), len(src["flanks"]) - 1, src["obj"].name, len(src["flanks"]))

@@ -28,7 +28,7 @@ from .properties import double_flank_props
 from .result_builder import COLOR_CHART, COLOR_TOOL, RunBuilder, finite_runs
 from .runs import PLAN_JSON_PROP
 from .shapes import axis_frame
-from .sources import rotor_source, with_extent
+from .sources import AnalysisNeeded, rotor_source, with_extent
 
 PROP_PREFIX = "flank_df_"
 ERROR_ATTR = "error"                   # FLOAT point attribute of the error chart (scene units, unscaled)
@@ -204,7 +204,9 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
         """Properties and rotor -> job dict, or None (error reported)."""
         t0 = time.perf_counter()
         msg = _check_inputs(self)
-        src = rotor_source(context.active_object, PROP_PREFIX) if msg is None else msg
+        src = rotor_source(context.active_object, PROP_PREFIX, defer=self._defer_analysis) if msg is None else msg
+        if isinstance(src, AnalysisNeeded):
+            return self._analysis_first(src)
         msg = src if isinstance(src, str) else _check_rotor(self, src)
         if msg is not None:
             self.report({'ERROR'}, "Double flank: " + msg)

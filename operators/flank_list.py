@@ -10,7 +10,7 @@ from bpy.props import IntProperty
 
 from .common import count_limit_error
 from .modal import ModalPlannerMixin
-from .sources import rotor_source, to_rotor_frame, workpiece_object
+from .sources import AnalysisNeeded, rotor_source, to_rotor_frame, workpiece_object
 from .units import length_text
 
 
@@ -31,10 +31,10 @@ def _settings(op, context, what):
     return settings
 
 
-def _rotor(obj, edit_mode_ok=False):
+def _rotor(obj, edit_mode_ok=False, defer=False):
     if obj is None:
         return "Select a rotor (made by Generate Rotor, or a mesh after Analyze Rotor)"
-    return rotor_source(obj, "flank_ui_", edit_mode_ok)
+    return rotor_source(obj, "flank_ui_", edit_mode_ok, defer)
 
 
 class FLANK_UL_flanks(bpy.types.UIList):
@@ -65,7 +65,9 @@ class FLANK_OT_refresh_flanks(ModalPlannerMixin, bpy.types.Operator):
         if settings is None:
             return None
         msg = count_limit_error("samples", self.samples, 8, 5000)
-        src = _rotor(workpiece_object(context)) if msg is None else msg
+        src = _rotor(workpiece_object(context), defer=self._defer_analysis) if msg is None else msg
+        if isinstance(src, AnalysisNeeded):
+            return self._analysis_first(src)
         if isinstance(src, str):
             self.report({'ERROR'}, "Flank list: " + src)
             return None
@@ -109,49 +111,55 @@ class FLANK_OT_refresh_flanks(ModalPlannerMixin, bpy.types.Operator):
         return {'FINISHED'}
 
 
-class FLANK_OT_pick_flank_cursor(bpy.types.Operator):
+class FLANK_OT_pick_flank_cursor(ModalPlannerMixin, bpy.types.Operator):
     """Pick the flank nearest to the 3D cursor (the cursor is screwed along its helix into the rotor's
     transverse section; the flank holding the nearest profile point is taken)"""
 
     bl_idname = "flank.pick_flank_cursor"
     bl_label = "Flank at 3D Cursor"
     bl_options = {'REGISTER', 'UNDO'}
+    _title = "Pick flank"
 
-    def execute(self, context):
-        from ..flank_addon.methods.single_flank.planner import flank_of_point
-
-        settings = _settings(self, context, "Pick flank")
-        if settings is None:
-            return {'CANCELLED'}
-        src = _rotor(workpiece_object(context))
+    def _prepare(self, context):
+        if _settings(self, context, "Pick flank") is None:
+            return None
+        src = _rotor(workpiece_object(context), defer=self._defer_analysis)
+        if isinstance(src, AnalysisNeeded):
+            return self._analysis_first(src)         # a rotor changed since Analyze Rotor: analysed in a worker
         if isinstance(src, str):
             self.report({'ERROR'}, "Pick flank: " + src)
-            return {'CANCELLED'}
+            return None
         cursor = np.array(context.scene.cursor.location, dtype=np.float64)
         if not np.isfinite(cursor).all():
             self.report({'ERROR'}, "Pick flank: the 3D cursor is not at a finite location")
+            return None
+        return dict(src=src, point=to_rotor_frame(src["display"], cursor[None, :])[0])
+
+    @staticmethod
+    def _compute(job, progress):
+        from ..flank_addon.methods.single_flank.planner import flank_of_point
+
+        src, p = job["src"], job["point"]
+        return int(flank_of_point(src["surface"], src["flanks"], p)), _profile_distance(src["surface"], p)
+
+    def _build(self, context, job, found):
+        settings = _settings(self, context, "Pick flank")
+        if settings is None:
             return {'CANCELLED'}
-        p = to_rotor_frame(src["display"], cursor[None, :])[0]
-        try:
-            k = int(flank_of_point(src["surface"], src["flanks"], p))
-        except ValueError as ex:
-            self.report({'ERROR'}, "Pick flank: {}".format(ex))
-            return {'CANCELLED'}
+        src, (k, dist) = job["src"], found
         settings.flank_index = k      # its update aims sf_flank and df_valley at it
-        dist = _profile_distance(src["surface"], p) * float(src["scale"])
-        R = float(src["surface"].outer_radius) * float(src["scale"])
+        s = float(src["scale"])
+        R = float(src["surface"].outer_radius) * s
         msg = "Flank {} (valley {}) of '{}': the 3D cursor is {} from the rotor surface".format(
-            k, k // 2, src["obj"].name, length_text(dist, context.scene, src["unit"], float(src["scale"])))
-        self.report({'WARNING'} if dist > 0.1 * R else {'INFO'}, msg)
+            k, k // 2, src["obj"].name, length_text(dist * s, context.scene, src["unit"], s))
+        self.report({'WARNING'} if dist * s > 0.1 * R else {'INFO'}, msg)
         return {'FINISHED'}
 
 
-def _votes(src, obj, centres):
-    """Flank votes of the selected faces' centres (object coordinates) -> (Counter, number of faces)."""
+def _votes(src, world):
+    """Flank votes of the selected faces' centres (world coordinates) -> Counter."""
     from ..flank_addon.methods.single_flank.planner import flank_of_point
 
-    mw = np.array(obj.matrix_world, dtype=np.float64)
-    world = np.array(centres, dtype=np.float64) @ mw[:3, :3].T + mw[:3, 3]
     votes = Counter()
     for p in to_rotor_frame(src["display"], world):
         if not np.isfinite(p).all():
@@ -163,45 +171,59 @@ def _votes(src, obj, centres):
     return votes
 
 
-class FLANK_OT_pick_flank_faces(bpy.types.Operator):
+class FLANK_OT_pick_flank_faces(ModalPlannerMixin, bpy.types.Operator):
     """Pick the flank under the selected faces (Edit Mode): each selected face's centre votes for its nearest
     flank, the flank with most votes is taken"""
 
     bl_idname = "flank.pick_flank_faces"
     bl_label = "Flank of Selected Faces"
     bl_options = {'REGISTER', 'UNDO'}
+    _title = "Pick flank"
 
-    def execute(self, context):
+    def _prepare(self, context):
         import bmesh
 
-        settings = _settings(self, context, "Pick flank")
-        if settings is None:
-            return {'CANCELLED'}
+        if _settings(self, context, "Pick flank") is None:
+            return None
         obj = context.active_object
         if obj is None or obj.type != 'MESH' or obj.mode != 'EDIT':
             self.report({'ERROR'}, "Pick flank: select faces of the rotor mesh in Edit Mode (active object: {})"
                         .format("none" if obj is None else "'{}' in {} mode".format(obj.name, obj.mode.title())))
-            return {'CANCELLED'}
+            return None
         bm = bmesh.from_edit_mesh(obj.data)
         centres = [tuple(f.calc_center_median()) for f in bm.faces if f.select]
         if not centres:
             self.report({'ERROR'}, "Pick flank: no face of '{}' is selected".format(obj.name))
-            return {'CANCELLED'}
+            return None
         if obj.get("flank_source") == "analyzed":
-            obj.update_from_editmode()     # the analysis is run again on the mesh data
-        src = _rotor(obj, edit_mode_ok=True)
+            obj.update_from_editmode()     # the analysis reads the mesh data
+        src = _rotor(obj, edit_mode_ok=True, defer=self._defer_analysis)
+        if isinstance(src, AnalysisNeeded):
+            return self._analysis_first(src)         # an edited rotor mesh: analysed in a worker
         if isinstance(src, str):
             self.report({'ERROR'}, "Pick flank: " + src)
+            return None
+        mw = np.array(obj.matrix_world, dtype=np.float64)
+        world = np.array(centres, dtype=np.float64) @ mw[:3, :3].T + mw[:3, 3]
+        return dict(src=src, name=obj.name, world=world)
+
+    @staticmethod
+    def _compute(job, progress):
+        return _votes(job["src"], job["world"])
+
+    def _build(self, context, job, votes):
+        settings = _settings(self, context, "Pick flank")
+        if settings is None:
             return {'CANCELLED'}
-        votes = _votes(src, obj, centres)
+        n_faces = len(job["world"])
         if not votes:
-            self.report({'ERROR'}, "Pick flank: none of the {} selected faces lies near a flank".format(len(centres)))
+            self.report({'ERROR'}, "Pick flank: none of the {} selected faces lies near a flank".format(n_faces))
             return {'CANCELLED'}
         k, n = votes.most_common(1)[0]
         settings.flank_index = k
         others = ", ".join("flank {}: {}".format(f, c) for f, c in sorted(votes.items()) if f != k)
         self.report({'INFO'}, "Flank {} (valley {}) of '{}': {} of {} selected faces{}".format(
-            k, k // 2, obj.name, n, len(centres), " (" + others + ")" if others else ""))
+            k, k // 2, job["name"], n, n_faces, " (" + others + ")" if others else ""))
         return {'FINISHED'}
 
 

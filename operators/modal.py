@@ -17,6 +17,12 @@ comes next, or False when it reported an error (nothing is built).  So the main 
 part, and each of its turns stays short.  Whatever Blender data a stage made for a later one, ``_discard(job)``
 removes when the run ends without a build (Esc, closing, a failure).
 
+A planner whose analysed rotor must be analysed again (its mesh changed since Analyze Rotor) gets an
+``AnalysisNeeded`` from ``rotor_source(..., defer=self._defer_analysis)``; its ``_prepare`` returns
+``self._analysis_first(needed)``.  The analysis is then the first worker, and ``_prepare`` runs again on the
+same object when it ends, now reading the rotor from the analysis cache: a second of analysis never blocks
+Blender.
+
 ``execute`` (scripts, ``bpy.app.background``, redo) runs the three in a row; after a file browser (the
 operator's hidden ``modal_after_browser``, set by its ``invoke``) it starts the modal run instead.
 ``invoke`` from the UI starts the worker and returns RUNNING_MODAL; a 0.1 s timer updates the window
@@ -24,11 +30,25 @@ manager's progress (percent) and the status bar text; ESC cancels: the planner s
 report and nothing is built, so the scene is exactly as before.  Under ``bpy.app.background`` invoke is
 ``execute``.
 """
+import time
+
 import bpy
 
 from .jobs import PlannerJob
 
 TIMER_STEP = 0.1
+_ANALYSIS_FIRST = "analysis_first"     # a job that analyses its rotor before ``_prepare`` can read it
+
+
+class _ActiveObject:
+    """The context with the object the run was started on as its active object (the user may have selected
+    another one while the rotor was analysed)."""
+
+    def __init__(self, context, obj):
+        self._context, self.active_object, self.object = context, obj, obj
+
+    def __getattr__(self, name):
+        return getattr(self._context, name)
 
 
 class ModalPlannerMixin:
@@ -37,6 +57,7 @@ class ModalPlannerMixin:
     _prepared = None
     _shown = (0.0, "starting")           # the last progress shown, where a next stage's worker starts
     _title = "Planning"
+    _defer_analysis = True               # rotor_source(..., defer=): False while _prepare runs after the analysis
 
     def _compute_failed(self, ex):
         """Message for an exception of _compute (ValueError: the planner's own message)."""
@@ -56,7 +77,7 @@ class ModalPlannerMixin:
         job = self._prepare(context)
         if job is None:
             return {'CANCELLED'}
-        stage, built = (lambda progress: self._compute(job, progress)), False
+        stage, built = self._first_stage(job), False
         try:
             while stage is not None:
                 try:
@@ -64,12 +85,12 @@ class ModalPlannerMixin:
                 except Cancelled:
                     return {'CANCELLED'}
                 except Exception as ex:                                    # never a traceback for the user
-                    self.report({'ERROR'}, self._compute_failed(ex))
+                    self.report({'ERROR'}, self._failure(ex))
                     return {'CANCELLED'}
                 try:
-                    stage = self._next_stage(context, job, result)
+                    stage = self._after_stage(context, job, result)
                 except Exception as ex:                                    # never a traceback for the user
-                    self.report({'ERROR'}, self._compute_failed(ex))
+                    self.report({'ERROR'}, self._failure(ex))
                     return {'CANCELLED'}
                 if stage is False:
                     return {'CANCELLED'}
@@ -78,6 +99,46 @@ class ModalPlannerMixin:
         finally:
             if not built:
                 self._discard(job)
+
+    def _failure(self, ex):
+        from .sources import RotorSourceError
+
+        if isinstance(ex, RotorSourceError):           # the rotor's analysis in the first worker
+            return "{}: {}".format(self._title, ex)
+        return self._compute_failed(ex)
+
+    def _analysis_first(self, needed):
+        """The job of a run whose rotor is analysed first (``needed``: an ``AnalysisNeeded``)."""
+        return {_ANALYSIS_FIRST: needed, "t0": time.perf_counter()}
+
+    def _first_stage(self, job):
+        needed = job.get(_ANALYSIS_FIRST)
+        if needed is not None:
+            return needed.run
+        return lambda progress: self._compute(job, progress)
+
+    def _after_stage(self, context, job, result):
+        """After a worker (main thread): the planner's own job once its rotor is analysed, else _next_stage."""
+        needed = job.pop(_ANALYSIS_FIRST, None)
+        if needed is None:
+            return self._next_stage(context, job, result)
+        obj = bpy.data.objects.get(needed.name)
+        if obj is None:
+            self.report({'ERROR'}, "{}: '{}' was removed while its rotor was analysed".format(
+                self._title, needed.name))
+            return False
+        self._defer_analysis = False     # the analysis is in the cache now (an edit since: analysed here)
+        try:
+            prepared = self._prepare(_ActiveObject(context, obj))
+        finally:
+            self._defer_analysis = True
+        if prepared is None:
+            return False
+        if "t0" in prepared:
+            prepared["t0"] = job["t0"]   # the run's time includes the analysis
+        job.clear()
+        job.update(prepared)
+        return lambda progress: self._compute(job, progress)
 
     def _next_stage(self, context, job, result):
         """The next worker's function after ``result`` (main thread), None: build now, False: the stage reported
@@ -104,7 +165,7 @@ class ModalPlannerMixin:
         if job is None:
             return {'CANCELLED'}
         self._prepared = job
-        self._job = PlannerJob(lambda progress: self._compute(job, progress), Cancelled)
+        self._job = PlannerJob(self._first_stage(job), Cancelled)
         wm = context.window_manager
         self._timer = wm.event_timer_add(TIMER_STEP, window=context.window)
         wm.progress_begin(0, 100)
@@ -146,9 +207,9 @@ class ModalPlannerMixin:
             from ..flank_addon.progress import Cancelled
 
             try:
-                stage = self._next_stage(context, self._prepared, job.result)
+                stage = self._after_stage(context, self._prepared, job.result)
             except Exception as ex:                                # never a traceback, never a running timer
-                self.report({'ERROR'}, self._compute_failed(ex))
+                self.report({'ERROR'}, self._failure(ex))
                 stage = False
             if stage:
                 self._job = PlannerJob(stage, Cancelled, *self._shown)     # the bar goes on from where it was
@@ -168,7 +229,7 @@ class ModalPlannerMixin:
         if state == "failed":
             self._discard(self._prepared)
             self._prepared = None
-            self.report({'ERROR'}, self._compute_failed(job.error))
+            self.report({'ERROR'}, self._failure(job.error))
             return {'CANCELLED'}
         try:
             return self._build(context, self._prepared, job.result)

@@ -31,7 +31,7 @@ from .properties import single_flank_props
 from .result_builder import COLOR_CHART, COLOR_TOOL, RunBuilder, finite_runs
 from .runs import PLAN_JSON_PROP
 from .shapes import axis_frame, revolved_mesh
-from .sources import rotor_source, with_extent
+from .sources import AnalysisNeeded, rotor_source, with_extent
 from .units import mm_per_scene_unit
 
 PROP_PREFIX = "flank_sf_"
@@ -347,7 +347,9 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
         """Properties, rotor and tool -> job dict, or None (error reported)."""
         t0 = time.perf_counter()
         msg = _check_inputs(self)
-        src = rotor_source(context.active_object, PROP_PREFIX) if msg is None else msg
+        src = rotor_source(context.active_object, PROP_PREFIX, defer=self._defer_analysis) if msg is None else msg
+        if isinstance(src, AnalysisNeeded):
+            return self._analysis_first(src)
         if isinstance(src, str):
             self.report({'ERROR'}, "Single flank: " + src)
             return None

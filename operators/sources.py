@@ -90,8 +90,46 @@ def _placed_then(obj, co, known):
     return placed(co, m_then), motion
 
 
-def _analyzed_rotor(obj):
-    from ..flank_addon.geometry.rotor_analysis import NotHelicalError, analyze_mesh
+class AnalysisNeeded:
+    """An analysed rotor whose mesh is not the one Analyze Rotor recorded (scaled, mirrored or edited since, or
+    a record of older analysing code): the analysis runs in a worker (:meth:`run`, about a second for 280,000
+    triangles) before the operator reads the rotor again, now from the analysis cache.  ``name``: the object
+    the operator was started on (a result object or the rotor itself)."""
+
+    def __init__(self, name, rotor_name, verts, faces):
+        self.name, self.rotor_name, self.verts, self.faces = name, rotor_name, verts, faces
+
+    def run(self, progress):
+        """The analysis, kept in the analysis cache (worker thread); the rotor's own message if it is not
+        helical."""
+        from ..flank_addon.geometry.rotor_analysis import NotHelicalError, analyze_mesh
+        from ..flank_addon.progress import Cancelled, reporter
+
+        stage = reporter(progress)
+
+        def report(fraction, message):
+            stage(fraction, "analysing '{}' again (its mesh changed since Analyze Rotor): {}".format(
+                self.rotor_name, message))
+
+        report(0.0, "reading")
+        try:
+            analyze_mesh(self.verts, self.faces, progress=report)
+        except NotHelicalError as ex:
+            raise RotorSourceError("'{}' is not a helical rotor: {}".format(self.rotor_name, ex)) from None
+        except Cancelled:
+            raise
+        except Exception as ex:
+            raise RotorSourceError("Cannot analyze '{}' again: {}: {}".format(
+                self.rotor_name, type(ex).__name__, ex)) from None
+
+
+class RotorSourceError(ValueError):
+    """The rotor cannot be read: the operator reports its title and this message, as when it is read on the main
+    thread."""
+
+
+def _analyzed_rotor(obj, defer=False):
+    from ..flank_addon.geometry.rotor_analysis import NotHelicalError, analysis_at_hand, analyze_mesh
 
     try:
         co, faces = mesh_local_arrays(obj)
@@ -102,7 +140,13 @@ def _analyzed_rotor(obj):
             known = json.loads(obj.get("flank_analysis_record", "null"))
         except (TypeError, ValueError):
             known = None
-        a = analyze_mesh(verts, faces, known=known, known_at=_placed_then(obj, co, known))
+        known_at = _placed_then(obj, co, known)
+        if defer:
+            a = analysis_at_hand(verts, faces, known=known, known_at=known_at)
+            if a is None:
+                return AnalysisNeeded(obj.name, obj.name, verts, faces)
+        else:
+            a = analyze_mesh(verts, faces, known=known, known_at=known_at)
         surface, flanks = a.surface, a.flank_ranges()
         to_world = np.asarray(a.to_world, dtype=np.float64)
     except NotHelicalError as ex:
@@ -140,11 +184,13 @@ def with_extent(plan, extent):
     return plan
 
 
-def rotor_source(obj, prop_prefix="", edit_mode_ok=False):
+def rotor_source(obj, prop_prefix="", edit_mode_ok=False, defer=False):
     """The rotor a planning operator works on -> dict (obj, surface, flanks, display, to_world, scale, z_range,
     extent (a plan's rotor.extent, or None), unit, kind), or an error message (str).  ``obj`` may be a generated
     rotor, an analysed mesh, or a result object whose ``<prop_prefix>rotor`` names its rotor; ``edit_mode_ok``:
-    the caller synced an object in Edit Mode (update_from_editmode)."""
+    the caller synced an object in Edit Mode (update_from_editmode).  ``defer``: an analysed mesh that must be
+    analysed again gives an :class:`AnalysisNeeded` instead of blocking the caller for the analysis."""
+    started_on = obj.name if obj is not None else ""
     if obj is not None and prop_prefix and prop_prefix + "rotor" in obj and obj.get("flank_source") is None:
         other = bpy.data.objects.get(obj[prop_prefix + "rotor"])  # a result object: use its rotor
         if other is not None:
@@ -158,7 +204,10 @@ def rotor_source(obj, prop_prefix="", edit_mode_ok=False):
     if src == "generated":
         return _generated_rotor(obj)
     if src == "analyzed":
-        return _analyzed_rotor(obj)
+        found = _analyzed_rotor(obj, defer)
+        if isinstance(found, AnalysisNeeded):
+            found.name = started_on
+        return found
     return ("'{}' is not a rotor (flank_source = {!r}): select a rotor made by Generate Rotor or run "
             "Analyze Rotor on the mesh first".format(obj.name, src))
 

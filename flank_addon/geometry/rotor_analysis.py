@@ -20,6 +20,8 @@ back into the plane z = 0 of the rotor frame, ordered along a
 connectivity-based slice of the mesh at mid body, so triangle sag does not
 enter the profile.
 """
+import copy
+import os
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -505,15 +507,55 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD, kno
     ``(fraction, message)`` (``flank_addon.progress.reporter``) called between the analysis' stages; the
     ``Cancelled`` it raises stops the analysis, and nothing is kept.
     """
-    import copy
-    import os
-
     verts = np.asarray(verts, float)
     faces = np.asarray(faces, int)
-    key = None
+    key = _mesh_key(verts, faces, n_profile, threshold)
+    found = _at_hand(verts, faces, key, n_profile, threshold, known, known_at)
+    if found is not None:
+        return found
+    result = _analyze_mesh(verts, faces, n_profile, threshold, progress)
+    if key is None:
+        return result
+    result.content_key = key
+    _remember(key, result)
+    path = _disk_path(key)
+    if path is not None:
+        try:
+            os.makedirs(os.path.dirname(path), exist_ok=True)
+            _to_npz(result, path)
+        except OSError:
+            pass
+    return copy.deepcopy(result)
+
+
+def analysis_at_hand(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD, known=None, known_at=None):
+    """What :func:`analyze_mesh` returns when it need not analyse, else None: the record moved with its mesh,
+    the analysis in memory, the caller's record of this mesh, or the disk cache's.  A caller on a user interface's
+    thread asks this first and, on None, runs :func:`analyze_mesh` where it cannot block (about a second for
+    280,000 triangles against the hash's few tens of milliseconds)."""
+    verts = np.asarray(verts, float)
+    faces = np.asarray(faces, int)
+    return _at_hand(verts, faces, _mesh_key(verts, faces, n_profile, threshold), n_profile, threshold, known,
+                    known_at)
+
+
+def _mesh_key(verts, faces, n_profile, threshold):
     if verts.ndim == 2 and faces.ndim == 2:
-        key = _cache_key(verts, faces, n_profile, threshold)
-    if key is not None and isinstance(known, dict) and known_at is not None and known.get("key") != key:
+        return _cache_key(verts, faces, n_profile, threshold)
+    return None
+
+
+def _disk_path(key):
+    """The disk cache's file of the analysis with ``key`` (None without ``FLANK_CACHE_DIR`` or a key)."""
+    folder = os.environ.get(CACHE_DIR_ENV, "")
+    return os.path.join(folder, "analysis-" + key + ".npz") if key is not None and folder else None
+
+
+def _at_hand(verts, faces, key, n_profile, threshold, known, known_at):
+    """:func:`analysis_at_hand` with the mesh's key already made."""
+    if key is None:
+        return None
+    if isinstance(known, dict) and known_at is not None and known.get("key") != key:
         # the caller's record moved with its mesh stands for the analysis whatever else was made of this placement
         # (it keeps the record's rotor frame and flank numbers, where analysing the moved mesh would pick its own);
         # it is made again at each call (a hash and a profile spline) and never kept under this mesh's key, so
@@ -522,38 +564,26 @@ def analyze_mesh(verts, faces, n_profile=2048, threshold=RESIDUAL_THRESHOLD, kno
         if moved is not None:
             moved.content_key = key
             return moved
-    if key is not None and key in _CACHE:
+    if key in _CACHE:
         return copy.deepcopy(_CACHE[key])
     # the analysis kept elsewhere: the caller's record of this mesh, else the disk cache (a damaged one: analyse)
     found = None
-    if key is not None and isinstance(known, dict) and known.get("key") == key:
+    if isinstance(known, dict) and known.get("key") == key:
         try:
             found = RotorAnalysis.from_record(known)
         except (KeyError, TypeError, ValueError):
             pass
-    folder = os.environ.get(CACHE_DIR_ENV, "")
-    path = os.path.join(folder, "analysis-" + key + ".npz") if key is not None and folder else None
+    path = _disk_path(key)
     if found is None and path is not None and os.path.isfile(path):
         try:
             found = _from_npz(path)
         except (OSError, ValueError, KeyError, TypeError):
             pass
-    if found is not None:
-        found.content_key = key
-        _remember(key, found)
-        return copy.deepcopy(found)
-    result = _analyze_mesh(verts, faces, n_profile, threshold, progress)
-    if key is not None:
-        result.content_key = key
-        _remember(key, result)
-        if path is not None:
-            try:
-                os.makedirs(folder, exist_ok=True)
-                _to_npz(result, path)
-            except OSError:
-                pass
-        return copy.deepcopy(result)
-    return result
+    if found is None:
+        return None
+    found.content_key = key
+    _remember(key, found)
+    return copy.deepcopy(found)
 
 
 def rigid_motion(motion, tol=1e-6):

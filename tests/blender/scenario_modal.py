@@ -166,6 +166,8 @@ def _drive(self, context, plan, rec):
             ev, esc_sent = Event('ESC', 'PRESS'), True           # Esc while a later stage's worker runs
         else:
             ev = Event('TIMER')
+        if running_polls >= 1 and "while_running" in rec:
+            rec.pop("while_running")()     # what the user does while the worker runs (e.g. select another object)
         n_pct, n_txt = len(wm.percent), len(ws.texts)
         tids = (threading.get_native_id(), getattr(job._thread, "native_id", None))
         q = _run_queue_ms(tids)

@@ -207,6 +207,60 @@ def scenario(bpy, res, args):
     settings.flank_list.clear()
     res["flank_list"] = sm.exercise_tool(bpy, np, bpy.ops.flank.refresh_flanks, classes["flank_list"], {},
                                          select_rotor, lambda: _flank_list_state(bpy), cancel=False)
+    # scaled after Analyze Rotor, the rotor's mesh is no longer the record's: a planner analyses it again in its
+    # first worker, then reads it on the main thread from the analysis cache.  The reference: the same rotor
+    # analysed on the main thread, as before, and its flank list
+    ob.scale = (2.0, 2.0, 2.0)
+    bpy.context.view_layer.update()
+    analysis._CACHE.clear()
+    reference = sources.rotor_source(ob)
+    scaled = dict(reference_flanks=[[repr(float(np.float32(u))) for u in f] for f in reference["flanks"]])  # as stored
+    for plan in ("esc", "finish"):
+        analysis._CACHE.clear()
+        select_rotor()
+        settings.flank_list.clear()
+        bpy.context.view_layer.update()
+        before = sm.census(bpy, np)
+        rec = sm._call(bpy, bpy.ops.flank.refresh_flanks, classes["flank_list"], plan)
+        rec["census_equal"] = before == sm.census(bpy, np)
+        rec["cached_after"] = len(analysis._CACHE)
+        rec["state"] = _flank_list_state(bpy)
+        scaled[plan] = rec
+    # the user selects another object while the rotor is analysed: the run still lists the rotor's flanks
+    analysis._CACHE.clear()
+    select_rotor()
+    settings.flank_list.clear()
+    bpy.ops.mesh.primitive_cube_add(location=(9.0, 0.0, 0.0))
+    other = bpy.context.active_object
+    select_rotor()
+    with sm._Patched(classes["flank_list"], "finish") as rec:
+        rec["while_running"] = lambda: sm.driver_select(bpy, other)
+        ret, err = driver._run_op(bpy.ops.flank.refresh_flanks)
+    scaled["other_selected"] = dict(final=rec["final"], workers=rec["workers"], op_error=err,
+                                    active_after=bpy.context.active_object.name, state=_flank_list_state(bpy))
+    other_mesh = other.data
+    bpy.data.objects.remove(other)
+    bpy.data.meshes.remove(other_mesh)
+    # Flank at 3D Cursor on the scaled rotor: the same worker first; the flank the rotor analysed on the main
+    # thread gives for the cursor
+    flank_of_point = __import__(driver.MODULE + ".flank_addon.methods.single_flank.planner",
+                                fromlist=["x"]).flank_of_point
+    cursor = bpy.context.scene.cursor
+    cursor.location = (0.4, 2.1, 1.3)
+    p = sources.to_rotor_frame(reference["display"], np.array([tuple(cursor.location)]))[0]
+    analysis._CACHE.clear()
+    select_rotor()
+    settings.flank_index = -1
+    rec = sm._call(bpy, bpy.ops.flank.pick_flank_cursor, mods["flank_list"].FLANK_OT_pick_flank_cursor, "finish")
+    scaled["pick"] = dict(final=rec["final"], workers=rec["workers"], op_error=rec["op_error"],
+                          start_cpu_ms=rec["start_cpu_ms"], max_cpu_ms=max(c["cpu_ms"] for c in rec["calls"]),
+                          flank=settings.flank_index,
+                          reference=int(flank_of_point(reference["surface"], reference["flanks"], p)))
+    cursor.location = (0.0, 0.0, 0.0)
+    res["scaled"] = scaled
+    analysis._CACHE.clear()
+    ob.scale = (1.0, 1.0, 1.0)
+    bpy.context.view_layer.update()
     res["paraboloid"] = sm.exercise_tool(bpy, np, bpy.ops.flank.paraboloid_groove, classes["paraboloid"], {},
                                          select_rotor, lambda: _groove_state(bpy, np), cancel=False)
     # Export Results after its file browser: the error profile of a double-flank run verifies the plan (0.35 s)

@@ -88,6 +88,33 @@ def test_a_rotor_moved_after_its_analysis_is_not_analysed_again_on_the_main_thre
     assert len(m["record_matrix"]) == 16 and m["record_matrix"][15] == 1.0
 
 
+def test_a_rotor_scaled_after_its_analysis_is_analysed_again_in_the_planners_worker(mt):
+    """Scaled after Analyze Rotor, the rotor's mesh is not the record's: analysed on the main thread when a planner
+    started, it held Blender for about a second (280,000 triangles).  Now the planner's first worker analyses it
+    and the main thread reads it from the analysis cache: the flank list equals the one of the rotor analysed on
+    the main thread, no call holds a frame, Esc during the analysis keeps nothing, and selecting another object
+    meanwhile does not change what is planned."""
+    sc = mt["scaled"]
+    fin, esc = sc["finish"], sc["esc"]
+    assert fin["final"] == ["FINISHED"] and fin["workers"] == 2, (fin["final"], fin["op_error"], fin["workers"])
+    rows = fin["state"]["rows"]
+    assert [[r[3], r[4]] for r in rows] == sc["reference_flanks"], (rows, sc["reference_flanks"])
+    assert fin["start_cpu_ms"] < FRAME_MS, fin["start_cpu_ms"]
+    assert max(c["cpu_ms"] for c in fin["calls"]) < FRAME_MS, fin["calls"]
+    analysing = [c for c in running_polls(fin) if "analysing" in c["status"]]
+    assert analysing and all(c["held_ms"] < FRAME_MS for c in running_polls(fin)), fin["calls"]
+    assert fin["cached_after"] == 1
+    assert esc["final"] == ["CANCELLED"] and esc["census_equal"] and esc["cached_after"] == 0, esc
+    assert esc["workers"] == 1 and esc["state"]["rows"] == []
+    other = sc["other_selected"]
+    assert other["final"] == ["FINISHED"] and other["workers"] == 2 and other["active_after"].startswith("Cube"), other
+    assert other["state"] == fin["state"], (other["state"], fin["state"])
+    pick = sc["pick"]
+    assert pick["final"] == ["FINISHED"] and pick["workers"] == 2, pick
+    assert pick["flank"] == pick["reference"] >= 0, pick
+    assert pick["start_cpu_ms"] < FRAME_MS and pick["max_cpu_ms"] < FRAME_MS, pick
+
+
 def test_the_quick_mesh_reads_give_blenders_own_arrays(mt):
     r = {k: dict(v) for k, v in mt["mesh_reads"].items()}
     ms = r["rotor"].pop("ms")
