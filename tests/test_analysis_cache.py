@@ -217,3 +217,33 @@ def test_the_analysis_reports_its_stages_and_a_cancel_keeps_nothing(monkeypatch)
     with pytest.raises(Cancelled):
         ra.analyze_mesh(w, f, progress=reporter(stop_at_third))
     assert len(calls) == 3 and ra._CACHE == {}
+
+
+def test_what_is_at_hand_never_analyses(tmp_path, monkeypatch):
+    """``analysis_at_hand`` (what a user interface asks on its main thread) gives the analysis that memory, the
+    mesh's record, a record moved with the mesh or the disk cache hold, equal to ``analyze_mesh``'s, and None
+    -- without analysing -- when none does."""
+    monkeypatch.setattr(ra, "_CACHE", {})
+    monkeypatch.delenv(ra.CACHE_DIR_ENV, raising=False)
+    v, f = _mesh()
+    calls = []
+    real = ra._analyze_mesh
+    monkeypatch.setattr(ra, "_analyze_mesh", lambda *a: calls.append(1) or real(*a))
+    assert ra.analysis_at_hand(v, f) is None and calls == [] and ra._CACHE == {}
+    analysed = ra.analyze_mesh(v, f)
+    assert calls == [1]
+    _assert_equal(analysed, ra.analysis_at_hand(v, f))                                     # memory
+    record = json.loads(json.dumps(analysed.to_record()))
+    monkeypatch.setattr(ra, "_CACHE", {})
+    _assert_equal(analysed, ra.analysis_at_hand(v, f, known=record))                       # the mesh's record
+    monkeypatch.setattr(ra, "_CACHE", {})
+    m = _turn(20.0, (1.0, 0.5, 0.0), (3.0, 0.0, -2.0))
+    moved = v @ m[:3, :3].T + m[:3, 3]
+    _assert_equal(ra.analyze_mesh(moved, f, known=record, known_at=(v, m)),
+                  ra.analysis_at_hand(moved, f, known=record, known_at=(v, m)))           # moved with the mesh
+    assert ra.analysis_at_hand(2.0 * v, f, known=record, known_at=(v, np.diag([2.0, 2, 2, 1]))) is None  # scaled
+    monkeypatch.setenv(ra.CACHE_DIR_ENV, str(tmp_path / "cache"))
+    ra.analyze_mesh(v, f, n_profile=1024)
+    monkeypatch.setattr(ra, "_CACHE", {})
+    _assert_equal(ra.analyze_mesh(v, f, n_profile=1024), ra.analysis_at_hand(v, f, n_profile=1024))   # disk
+    assert calls == [1, 1]
