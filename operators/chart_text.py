@@ -9,8 +9,9 @@ even-odd coverage at 4 x 4 samples per pixel (anti-aliased).
 
 Why not ``blf.bind_imbuf`` + ``blf.draw_buffer``: Blender 4.2 LTS (the oldest Blender this extension supports)
 has neither (they came in 4.5), and an ImBuf's pixels can only be read back through a file.  Why not a render of
-the text objects (as the report picture does): that needs a render engine with a GPU or Cycles and takes
-seconds, while this works in background mode and gives the same pixels everywhere."""
+text objects: that needs a render engine with a GPU or Cycles and runs on the main thread, while this works in
+background mode, fills the glyphs in any thread and gives the same pixels everywhere.  The report picture's
+labels are drawn the same way, over its render."""
 import bpy
 import numpy as np
 

@@ -128,10 +128,10 @@ class FLANK_OT_render_report(ModalPlannerMixin, bpy.types.Operator):
             finally:
                 report_scene_end(state)
                 job["scene"] = None
-            picture = job["picture"]
+            picture, labels = job["picture"], state["labels"]
 
             def finish(progress):
-                return report_png(picture, tga_pixels(tga, picture["width"], picture["height"]))
+                return report_png(picture, tga_pixels(tga, picture["width"], picture["height"]), labels)
             return finish
         return None
 

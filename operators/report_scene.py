@@ -3,8 +3,10 @@
 
 Everything the picture shows is computed by the core without Blender (``flank_addon.report.report_geometry``:
 the geometry, the camera, the legend's layout, labels and exact colours); this module only turns it into a
-temporary scene, renders it (Workbench by default, or Cycles on the CPU), paints the legend bar into the
-pixels and removes every data-block it made, whatever happens.  ``flank.render_report`` and the command
+temporary scene, renders it (Workbench by default, or Cycles on the CPU), lays the labels out in Blender's font
+and removes every data-block it made, whatever happens.  The rest is numpy, for any thread: the Workbench
+render's edges are smoothed (``flank_addon.report.antialias``), the legend bar painted and the labels filled in
+(``chart_text``).  ``flank.render_report`` and the command
 ``python -m flank_addon render`` both call :func:`render_plan_report`.
 """
 import json
@@ -19,6 +21,8 @@ from mathutils import Matrix
 from ..flank_addon.io.files import atomic_write
 from ..flank_addon.io.png import check_output, png_bytes
 from ..flank_addon.report import report_geometry as rg
+from ..flank_addon.report.antialias import fxaa
+from .chart_text import fill_text, text_outlines
 
 _KINDS = ("objects", "meshes", "cameras", "lights", "materials", "worlds", "images", "scenes")
 
@@ -61,32 +65,8 @@ def _mesh_object(sc, made, name, verts, faces, rgba, material=None, smooth=False
     return _link(sc, made, name, me, material)
 
 
-def _text(sc, made, to_world, body, size, align='LEFT', material=None):
-    """A text mesh of height ``size`` in the plane of the 4x4 ``to_world`` (baseline at its origin): Blender's
-    own font, converted to a mesh so that Workbench and Cycles draw it like any other object."""
-    cu = bpy.data.curves.new("Report Label", 'FONT')
-    cu.body = body
-    cu.size = size
-    cu.align_x = align
-    tmp = bpy.data.objects.new("Report Label", cu)
-    try:
-        sc.collection.objects.link(tmp)
-        me = bpy.data.meshes.new_from_object(tmp)
-    finally:
-        bpy.data.objects.remove(tmp)
-        bpy.data.curves.remove(cu)
-    made["meshes"].append(me)
-    _paint(me, rg.TEXT_RGBA)
-    ob = _link(sc, made, "Report Label", me, material)
-    for ray in ("diffuse", "glossy", "transmission", "volume_scatter", "shadow"):   # Cycles: camera only
-        if hasattr(ob, "visible_" + ray):
-            setattr(ob, "visible_" + ray, False)
-    ob.matrix_world = Matrix(np.asarray(to_world, float).tolist())
-    return ob
-
-
-def _attribute_material(made, name, emission):
-    """Cycles: a material showing the 'report_color' attribute (lit, or as emission for the labels)."""
+def _attribute_material(made, name):
+    """Cycles: a lit material showing the 'report_color' attribute."""
     mat = bpy.data.materials.new(name)
     made["materials"].append(mat)
     if mat.node_tree is None:
@@ -97,13 +77,9 @@ def _attribute_material(made, name, emission):
     out = nt.nodes.new("ShaderNodeOutputMaterial")
     attr = nt.nodes.new("ShaderNodeAttribute")
     attr.attribute_name = "report_color"
-    if emission:
-        sh = nt.nodes.new("ShaderNodeEmission")
-        nt.links.new(attr.outputs["Color"], sh.inputs["Color"])
-    else:
-        sh = nt.nodes.new("ShaderNodeBsdfPrincipled")
-        nt.links.new(attr.outputs["Color"], sh.inputs["Base Color"])
-        sh.inputs["Roughness"].default_value = 0.5
+    sh = nt.nodes.new("ShaderNodeBsdfPrincipled")
+    nt.links.new(attr.outputs["Color"], sh.inputs["Base Color"])
+    sh.inputs["Roughness"].default_value = 0.5
     nt.links.new(sh.outputs[0], out.inputs["Surface"])
     return mat
 
@@ -129,8 +105,8 @@ def _cycles_world(world):
 
 
 def _new_scene(made, width, height, engine):
-    """The temporary scene with its render settings and world -> (scene, surface material, label material);
-    the materials are None for Workbench, which shows the colour attribute directly."""
+    """The temporary scene with its render settings and world -> (scene, surface material); the material is
+    None for Workbench, which shows the colour attribute directly."""
     sc = bpy.data.scenes.new("Flank Report (temporary)")
     made["scenes"].append(sc)
     r = sc.render
@@ -149,8 +125,12 @@ def _new_scene(made, width, height, engine):
         sh = sc.display.shading
         sh.light, sh.color_type = 'STUDIO', 'VERTEX'
         sh.show_cavity = sh.show_object_outline = False
-        sc.display.render_aa = 'FXAA'      # as smooth as 8 samples here, at less than half the time
-        return sc, None, None
+        # no anti-aliasing pass in Blender: its single-pass anti-aliasing took longer than the render itself on
+        # the main thread (at 1280 x 800 the render call took 285-400 ms with it, 96-132 ms without); report_png
+        # smooths the edges in numpy instead (any thread), and the text is drawn there with its own coverage
+        sc.display.render_aa = 'OFF'
+        r.use_compositing = r.use_sequencer = False
+        return sc, None
     r.engine = 'CYCLES'
     if not hasattr(sc, "cycles"):
         raise ValueError("Cycles is not available in this Blender")
@@ -158,8 +138,7 @@ def _new_scene(made, width, height, engine):
     sc.cycles.samples = 16
     sc.cycles.use_denoising = True
     _cycles_world(world)
-    return (sc, _attribute_material(made, "Flank Report Surface", emission=False),
-            _attribute_material(made, "Flank Report Label", emission=True))
+    return sc, _attribute_material(made, "Flank Report Surface")
 
 
 def _add_geometry(sc, made, picture, surface_mat):
@@ -194,21 +173,26 @@ def _add_sun(sc, made, M):
     lamp.matrix_world = L
 
 
-def _add_labels(sc, made, lay, lines, legend, at, ppu, width, label_mat):
+def _label_items(lay, lines, legend, width):
+    """The picture's text -- title, subtitle, tick labels, band names, the bar's caption -- as chart text items
+    (``chart_text``: anchor and baseline in pixels, font size in pixels, colour as the PNG stores it)."""
     fs = lay["fs"]
     mx = lay["margin"][0]
     _, ticks, tick_text, names = legend
-    _text(sc, made, at(mx, lay["title"][0]), lines[0], 1.5 * fs / ppu, material=label_mat)
-    _text(sc, made, at(mx, lay["title"][1]), lines[1], fs / ppu, material=label_mat)
-    for (x, _), txt in zip(ticks, tick_text):
-        _text(sc, made, at(x, lay["tick_base"]), txt, 0.85 * fs / ppu, 'CENTER', label_mat)
-    for x, txt in names:
-        _text(sc, made, at(x, lay["names_base"]), txt, 0.9 * fs / ppu, 'CENTER', label_mat)
+    colour = tuple(float(c) / 255.0 for c in rg.srgb_bytes(rg.TEXT_RGBA[:3])) + (1.0,)
+
+    def item(text, x, baseline, size, align="left"):
+        return dict(text=str(text), x=float(x), baseline=float(baseline), size=float(size), align=align,
+                    color=colour)
+
+    items = [item(lines[0], mx, lay["title"][0], 1.5 * fs), item(lines[1], mx, lay["title"][1], fs)]
+    items += [item(txt, x, lay["tick_base"], 0.85 * fs, "center") for (x, _), txt in zip(ticks, tick_text)]
+    items += [item(txt, x, lay["names_base"], 0.9 * fs, "center") for x, txt in names]
     caption = "signed distance strip - rotor"
     bx0, by0, bx1, by1 = lay["bar"]
     if bx1 + 1.5 * fs + 0.5 * fs * len(caption) < width - mx:
-        _text(sc, made, at(bx1 + 1.5 * fs, 0.5 * (by0 + by1) + 0.35 * fs), caption, 0.85 * fs / ppu,
-              material=label_mat)
+        items.append(item(caption, bx1 + 1.5 * fs, 0.5 * (by0 + by1) + 0.35 * fs, 0.85 * fs))
+    return items
 
 
 def _remove_made(made, fonts_before, had_render_result, tmp):
@@ -239,18 +223,19 @@ def report_scene_start(picture, path):
     happens (here, if building it fails)."""
     path = check_output(path)
     width, height, R, engine = picture["width"], picture["height"], picture["R"], picture["info"]["engine"]
-    M, ppu, lay = picture["camera"], picture["ppu"], picture["layout"]
+    M, lay = picture["camera"], picture["layout"]
     state = dict(made={k: [] for k in _KINDS}, fonts_before={f.as_pointer() for f in bpy.data.fonts},
                  had_render_result=bpy.data.images.get("Render Result") is not None,
                  tmp="{}.render{}.tga".format(path, os.getpid()), scene=None, path=path)
     try:
-        sc, surface_mat, label_mat = _new_scene(state["made"], width, height, engine)
+        sc, surface_mat = _new_scene(state["made"], width, height, engine)
         _add_geometry(sc, state["made"], picture, surface_mat)
         _add_camera(sc, state["made"], M, picture["ortho"], picture["clip_end"], R)
         if engine == "CYCLES":
             _add_sun(sc, state["made"], M)
-        _add_labels(sc, state["made"], lay, picture["lines"], picture["legend"],
-                    lambda px, py: rg.at_pixel(M, ppu, width, height, R, px, py), ppu, width, label_mat)
+        # the text is laid out here in Blender's font and filled in by report_png (any thread), anti-aliased
+        items = _label_items(lay, picture["lines"], picture["legend"], width)
+        state["labels"] = (items, text_outlines(items))
     except BaseException:
         report_scene_end(state)
         raise
@@ -296,11 +281,17 @@ def tga_pixels(data, width, height):
     return rgba
 
 
-def report_png(picture, rgba):
-    """The finished report: the legend bar painted into the render's pixels -> (PNG bytes with the report's
-    numbers in a text chunk, info).  numpy only: any thread."""
+def report_png(picture, rgba, labels):
+    """The finished report: the render's edges smoothed (Workbench), the legend bar painted and the text filled
+    into the render's pixels -> (PNG bytes with the report's numbers in a text chunk, info).  ``labels``: the
+    state's ``labels`` (:func:`report_scene_start`).  numpy only: any thread."""
     lay, legend = picture["layout"], picture["legend"]
+    if picture["info"]["engine"] == "WORKBENCH":                # rendered without anti-aliasing (_new_scene)
+        rgba = fxaa(rgba)
     rgba = rg.paint_legend(rgba, lay, picture["tolerance"], legend[0], legend[1])
+    ink = rgba.astype(np.float64) / 255.0
+    fill_text(ink, *labels)
+    rgba = np.rint(ink * 255.0).astype(np.uint8)
     info = dict(picture["info"])
     return png_bytes(rgba, {rg.REPORT_KEY: json.dumps(info, ensure_ascii=False)}), info
 
@@ -316,7 +307,7 @@ def draw_report(picture, path):
         tga = report_scene_render(state)
     finally:
         report_scene_end(state)
-    png, info = report_png(picture, tga_pixels(tga, picture["width"], picture["height"]))
+    png, info = report_png(picture, tga_pixels(tga, picture["width"], picture["height"]), state["labels"])
     atomic_write(state["path"], png)
     return info
 

@@ -157,8 +157,9 @@ def test_export_after_the_file_browser_writes_the_same_file_off_the_main_thread_
 
 def test_render_report_computes_the_picture_off_the_main_thread_and_renders_the_same_png(mt):
     """After the file browser the worker computes the picture (the strips' exact distances, camera, legend); the
-    main thread builds the temporary scene in one turn and renders it in the next (Blender's renderer runs
-    there), and a worker reads the pixels back, paints the legend and encodes the PNG. Esc and closing -- also
+    main thread builds the temporary scene and lays the labels out in one turn and renders it in the next
+    (Blender's renderer runs there), and a worker reads the pixels back, smooths the edges, paints the legend,
+    fills the labels in and encodes the PNG. Esc and closing -- also
     while the scene stands between its two turns -- leave no file and bpy.data as it was; the PNG equals the
     synchronous one pixel for pixel, with the same numbers."""
     rep = mt["render"]
@@ -176,8 +177,10 @@ def test_render_report_computes_the_picture_off_the_main_thread_and_renders_the_
     scene, render, build = [c for c in rec["calls"] if c["state_before"] == "finished"]
     assert scene["cpu_ms"] < FRAME_MS and build["cpu_ms"] < FRAME_MS, (scene, build)
     # the render's turn is the one Blender keeps: less than the synchronous run, which also computed the picture,
-    # built the scene and encoded the PNG there
+    # built the scene and encoded the PNG there; without Blender's anti-aliasing pass (the worker smooths the
+    # edges) its own CPU stays under a frame at 640 x 400 (39-58 ms; the wall clock 74-89 ms on a quiet machine)
     assert render["ms"] < 1000.0 * rep["sync"]["seconds"], (render, rep["sync"])
+    assert render["cpu_ms"] < FRAME_MS, render
     esc = rep["esc_next_stage"]
     assert_cancelled_cleanly(esc, mt["timer_step"], "esc")
     assert esc["workers"] == 2 and esc["temporary_files"] == [], esc
