@@ -71,7 +71,8 @@ def _groove_state(bpy, np):
 
 def _compare_csv(got, want):
     """Two CSV texts of a verification: the same rows and fields, the numbers equal to 1e-12 of their size
-    (+1e-15) -- two verifications of one plan in one process may round the last bit of a deviation differently.
+    (+1e-12 R) -- two verifications of one plan in one process may round the last bits of a deviation
+    differently: a deviation near 0 is the difference of coordinates about R in size (seen: 1.09e-15 R).
     -> dict(rows, same, largest difference)."""
     if got is None or want is None:
         return dict(rows=None, same=False, largest=None)
@@ -90,7 +91,7 @@ def _compare_csv(got, want):
                 continue
             diff = abs(fu - fv)
             largest = max(largest, diff)
-            same &= diff <= 1e-12 * max(abs(fu), abs(fv)) + 1e-15
+            same &= diff <= 1e-12 * max(abs(fu), abs(fv)) + 1e-12
     return dict(rows=len(a), same=same, largest=largest)
 
 
