@@ -4,7 +4,7 @@ import time
 
 import bpy
 
-from .common import count_limit_error, new_mesh_from_arrays, select_only
+from .common import count_limit_error, finish_mesh, mesh_without_edges, select_only
 from .modal import ModalPlannerMixin
 from .properties import generator_props
 
@@ -50,12 +50,35 @@ class FLANK_OT_generate_rotor(ModalPlannerMixin, bpy.types.Operator):
         report(1.0, "done")
         return rotor, verts, faces
 
-    def _build(self, context, job, result):
-        """The mesh object with the rotor's helix data (the main thread)."""
+    # ------------------------------------------------------------------ main thread: two turns
+    def _next_stage(self, context, job, result):
+        """The mesh's vertices and triangles in one turn of the main thread, its edges and the object in the next
+        (:meth:`_build`): for the default 280,000 triangles about 27 and 35 ms instead of 63 ms in one."""
+        if "mesh" in job:
+            return None
         rotor, verts, faces = result
-        name = "Rotor_{}_{}".format(job["kind"], job["part"])
         try:
-            mesh = new_mesh_from_arrays(name, verts, faces)
+            mesh, suspect = mesh_without_edges("Rotor_{}_{}".format(job["kind"], job["part"]), verts, faces)
+        except Exception as ex:
+            self.report({'ERROR'}, "Could not build the rotor mesh: {}".format(ex))
+            return False
+        job.update(mesh=mesh.name, suspect=suspect, rotor=rotor, n_verts=len(verts))
+        return lambda progress: result               # back to the interface, then the build
+
+    def _discard(self, job):
+        mesh = bpy.data.meshes.get(job.get("mesh", "")) if job else None
+        if mesh is not None and mesh.users == 0:
+            bpy.data.meshes.remove(mesh)
+
+    def _build(self, context, job, result):
+        """The mesh's edges and the object with the rotor's helix data (the main thread)."""
+        rotor = job["rotor"]
+        name = "Rotor_{}_{}".format(job["kind"], job["part"])
+        mesh = bpy.data.meshes.get(job["mesh"])
+        try:
+            if mesh is None:
+                raise RuntimeError("its data was removed while it was built")
+            finish_mesh(mesh, job["suspect"])
         except Exception as ex:
             self.report({'ERROR'}, "Could not build the rotor mesh: {}".format(ex))
             return {'CANCELLED'}
@@ -88,7 +111,7 @@ class FLANK_OT_generate_rotor(ModalPlannerMixin, bpy.types.Operator):
 
         dt = time.perf_counter() - job["started"]
         self.report({'INFO'}, "Generated {}: {} lobes, v0={:.6g}, {}-handed, {} vertices in {:.2f}s".format(
-            name, rotor.lobes, rotor.v0, hand_name, len(verts), dt))
+            name, rotor.lobes, rotor.v0, hand_name, job["n_verts"], dt))
         return {'FINISHED'}
 
 

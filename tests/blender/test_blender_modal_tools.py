@@ -4,9 +4,9 @@
 second), its generation, the guiding curves of a 20,000-triangle surface, the Dupin analysis of 12 flanks and the
 groove run in a worker thread; no modal() call holds Blender's main
 thread for 100 ms or more while they run, ESC and closing leave bpy.data and the scene exactly as before, a modal
-run to the end makes what the synchronous run makes (its last call, which builds the result, included: the
-rotor's 280,000 triangles take about 50 ms there), and a failure in the worker is reported as the synchronous
-run reports it."""
+run to the end makes what the synchronous run makes (its last calls, which build the result, included: the
+rotor's 280,000 triangles are built in two turns of 33-41 and 16-32 ms), and a failure in the worker is reported
+as the synchronous run reports it."""
 import pytest
 
 from blender_harness import assert_cancelled_cleanly, assert_failure_reported_like_sync, run_scenario, running_polls
@@ -51,9 +51,10 @@ def test_modal_run_to_the_end_equals_the_synchronous_run_and_never_blocks(mt, op
     if op == "generate":                  # the modal run made the second rotor, the synchronous one the first
         assert (sync.pop("count"), state.pop("count")) == (1, 2), (mt[op]["sync"]["state"], rec["state"])
     assert state == sync
-    # no call holds the main thread for a frame: not the polls, and not the last one, which builds the result
-    # (a 280,000-triangle rotor mesh: about 50 ms).  The build is measured in the main thread's CPU time: under
-    # the parallel test run the other worker's Blender shares the two cores, and the wall clock doubles
+    # no call holds the main thread for a frame: not the polls, and not the last ones, which build the result
+    # (a 280,000-triangle rotor mesh: two turns of 33-41 and 16-32 ms; 51-64 ms when it was one, and 112.6 ms once
+    # when the other test worker's Blender shared the two cores).  The build is measured in the main thread's CPU
+    # time: under the parallel test run the other worker's Blender shares the two cores, and the wall clock doubles
     assert rec["calls"] and max(c["cpu_ms"] for c in rec["calls"]) < FRAME_MS, rec["calls"]
     assert max(c["ms"] for c in rec["calls"]) < 3 * FRAME_MS, rec["calls"]
     if op not in SHORT:
