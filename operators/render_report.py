@@ -111,16 +111,21 @@ class FLANK_OT_render_report(ModalPlannerMixin, bpy.types.Operator):
 
     # ------------------------------------------------------------------ main thread: Blender's turns
     def _next_stage(self, context, job, out):
-        """Blender's part in two turns of the main thread, a worker after each: the temporary scene; then the
-        render, saved as raw pixels, and the scene removed.  The last worker reads the pixels, paints the legend
-        and encodes the PNG, so the build only writes the file.  A failure here is reported by the mixin
+        """Blender's part in three turns of the main thread, a worker after each: the temporary scene; the labels'
+        layout in Blender's font; then the render, saved as raw pixels, and the scene removed.  The last worker
+        reads the pixels, smooths the edges, paints the legend, fills the labels in and encodes the PNG, so the
+        build only writes the file.  A failure here is reported by the mixin
         (:meth:`_compute_failed`), which then discards the scene."""
-        from .report_scene import report_png, report_scene_end, report_scene_render, report_scene_start, tga_pixels
+        from .report_scene import (report_png, report_scene_end, report_scene_labels, report_scene_render,
+                                   report_scene_start, tga_pixels)
 
         if "picture" not in job:                          # the worker's picture: make its scene
             job["picture"] = out
             job["scene"] = report_scene_start(out, job["path"])          # removes what it made if it fails
             return lambda progress: None                  # back to the UI between building and rendering
+        if job.get("scene") is not None and "labels" not in job["scene"]:   # the labels' layout, a turn of its own
+            report_scene_labels(job["scene"], job["picture"])
+            return lambda progress: None
         if job.get("scene") is not None:                  # render it
             state = job["scene"]
             try:

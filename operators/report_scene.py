@@ -233,14 +233,18 @@ def report_scene_start(picture, path):
         _add_camera(sc, state["made"], M, picture["ortho"], picture["clip_end"], R)
         if engine == "CYCLES":
             _add_sun(sc, state["made"], M)
-        # the text is laid out here in Blender's font and filled in by report_png (any thread), anti-aliased
-        items = _label_items(lay, picture["lines"], picture["legend"], width)
-        state["labels"] = (items, text_outlines(items))
     except BaseException:
         report_scene_end(state)
         raise
     state["scene"] = sc
     return state
+
+
+def report_scene_labels(state, picture):
+    """Lay the picture's labels out in Blender's font (``state["labels"]``, for :func:`report_png`, which fills
+    them in from any thread): a turn of its own in ``flank.render_report``, about 15 ms."""
+    items = _label_items(picture["layout"], picture["lines"], picture["legend"], picture["width"])
+    state["labels"] = (items, text_outlines(items))
 
 
 def report_scene_render(state):
@@ -304,6 +308,7 @@ def draw_report(picture, path):
     (``flank.render_report`` runs the same steps, the Blender ones in separate turns of the main thread.)"""
     state = report_scene_start(picture, path)
     try:
+        report_scene_labels(state, picture)
         tga = report_scene_render(state)
     finally:
         report_scene_end(state)

@@ -158,11 +158,11 @@ def test_export_after_the_file_browser_writes_the_same_file_off_the_main_thread_
 
 def test_render_report_computes_the_picture_off_the_main_thread_and_renders_the_same_png(mt):
     """After the file browser the worker computes the picture (the strips' exact distances, camera, legend); the
-    main thread builds the temporary scene and lays the labels out in one turn and renders it in the next
+    main thread builds the temporary scene in one turn, lays the labels out in the next and renders it in a third
     (Blender's renderer runs there), and a worker reads the pixels back, smooths the edges, paints the legend,
-    fills the labels in and encodes the PNG. Esc and closing -- also
-    while the scene stands between its two turns -- leave no file and bpy.data as it was; the PNG equals the
-    synchronous one pixel for pixel, with the same numbers."""
+    fills the labels in and encodes the PNG. Esc and closing -- also while the scene stands between its turns --
+    leave no file and bpy.data as it was; the PNG equals the synchronous one pixel for pixel, with the same
+    numbers."""
     rep = mt["render"]
     assert rep["sync"]["result"] == ["FINISHED"], rep["sync"]
     assert rep["files"] == ["finish.png", "sync.png"], rep["files"]
@@ -175,8 +175,8 @@ def test_render_report_computes_the_picture_off_the_main_thread_and_renders_the_
     assert rec["start_cpu_ms"] < FRAME_MS, (rec["start_cpu_ms"], rec["start_ms"])
     polls = [c for c in rec["calls"] if c["state_before"] == "running"]     # none where a worker ends within a tick
     assert all(c["cpu_ms"] < FRAME_MS for c in polls), polls
-    scene, render, build = [c for c in rec["calls"] if c["state_before"] == "finished"]
-    assert scene["cpu_ms"] < FRAME_MS and build["cpu_ms"] < FRAME_MS, (scene, build)
+    scene, labels, render, build = [c for c in rec["calls"] if c["state_before"] == "finished"]
+    assert max(scene["cpu_ms"], labels["cpu_ms"], build["cpu_ms"]) < FRAME_MS, (scene, labels, build)
     # the render's turn is the one Blender keeps: less than the synchronous run, which also computed the picture,
     # built the scene and encoded the PNG there; without Blender's anti-aliasing pass (the worker smooths the
     # edges) its own CPU stays under a frame at 640 x 400 (39-58 ms; the wall clock 74-89 ms on a quiet machine)
