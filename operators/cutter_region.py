@@ -78,6 +78,7 @@ class FLANK_OT_cutter_region(ModalPlannerMixin, bpy.types.Operator):
     bl_label = "Check Tool"
     bl_options = {'REGISTER', 'UNDO'}
     _title = "Check tool"
+    _source_title = "Cutter region"
 
     flank: IntProperty(name="Flank", description="Flank index of the rotor (0 .. flanks - 1); default: the "
                                                  "Single Flank setting", default=1, soft_min=0, soft_max=24)

@@ -133,7 +133,7 @@ class FLANK_OT_pick_flank_cursor(ModalPlannerMixin, bpy.types.Operator):
         if not np.isfinite(cursor).all():
             self.report({'ERROR'}, "Pick flank: the 3D cursor is not at a finite location")
             return None
-        return dict(src=src, point=to_rotor_frame(src["display"], cursor[None, :])[0])
+        return dict(src=src, name=src["obj"].name, point=to_rotor_frame(src["display"], cursor[None, :])[0])
 
     @staticmethod
     def _compute(job, progress):
@@ -151,7 +151,7 @@ class FLANK_OT_pick_flank_cursor(ModalPlannerMixin, bpy.types.Operator):
         s = float(src["scale"])
         R = float(src["surface"].outer_radius) * s
         msg = "Flank {} (valley {}) of '{}': the 3D cursor is {} from the rotor surface".format(
-            k, k // 2, src["obj"].name, length_text(dist * s, context.scene, src["unit"], s))
+            k, k // 2, job["name"], length_text(dist * s, context.scene, src["unit"], s))
         self.report({'WARNING'} if dist * s > 0.1 * R else {'INFO'}, msg)
         return {'FINISHED'}
 

@@ -57,6 +57,7 @@ class ModalPlannerMixin:
     _prepared = None
     _shown = (0.0, "starting")           # the last progress shown, where a next stage's worker starts
     _title = "Planning"
+    _source_title = None                 # how _prepare's rotor messages begin (None: _title)
     _defer_analysis = True               # rotor_source(..., defer=): False while _prepare runs after the analysis
 
     def _compute_failed(self, ex):
@@ -103,8 +104,8 @@ class ModalPlannerMixin:
     def _failure(self, ex):
         from .sources import RotorSourceError
 
-        if isinstance(ex, RotorSourceError):           # the rotor's analysis in the first worker
-            return "{}: {}".format(self._title, ex)
+        if isinstance(ex, RotorSourceError):           # the rotor's analysis in the first worker: as _prepare says it
+            return "{}: {}".format(self._source_title or self._title, ex)
         return self._compute_failed(ex)
 
     def _analysis_first(self, needed):
@@ -136,6 +137,7 @@ class ModalPlannerMixin:
             return False
         if "t0" in prepared:
             prepared["t0"] = job["t0"]   # the run's time includes the analysis
+        self._shown = (0.0, "starting")  # the planner's bar starts afresh, not at the analysis' last message
         job.clear()
         job.update(prepared)
         return lambda progress: self._compute(job, progress)

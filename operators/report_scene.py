@@ -203,7 +203,7 @@ def _remove_made(made, fonts_before, had_render_result, tmp):
                 coll.remove(block)
             except (ReferenceError, RuntimeError):
                 pass
-    for font in list(bpy.data.fonts):           # the builtin font the labels loaded
+    for font in list(bpy.data.fonts):           # a font the scene loaded (the labels' layout removes its own)
         if font.as_pointer() not in fonts_before and font.users == 0:
             bpy.data.fonts.remove(font)
     if not had_render_result:
@@ -288,7 +288,7 @@ def tga_pixels(data, width, height):
 def report_png(picture, rgba, labels):
     """The finished report: the render's edges smoothed (Workbench), the legend bar painted and the text filled
     into the render's pixels -> (PNG bytes with the report's numbers in a text chunk, info).  ``labels``: the
-    state's ``labels`` (:func:`report_scene_start`).  numpy only: any thread."""
+    state's ``labels`` (:func:`report_scene_labels`).  numpy only: any thread."""
     lay, legend = picture["layout"], picture["legend"]
     if picture["info"]["engine"] == "WORKBENCH":                # rendered without anti-aliasing (_new_scene)
         rgba = fxaa(rgba)

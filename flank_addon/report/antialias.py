@@ -6,8 +6,8 @@ itself (at 1280 x 800 the render call took 285-400 ms with it, 96-132 ms without
 thread.  The render now comes without it and :func:`fxaa` smooths the edges in the worker that encodes the
 PNG (the picture's text is drawn there afterwards, with its own coverage).
 
-The method is fast approximate anti-aliasing (T. Lottes, "FXAA", NVIDIA white paper, 2009; the "quality"
-version 3.11): a pixel whose neighbourhood has contrast lies on an edge, horizontal or vertical by the larger
+The method is fast approximate anti-aliasing (T. Lottes, "FXAA", NVIDIA white paper, 2009; here its
+"quality" version 3.11 of 2011): a pixel whose neighbourhood has contrast lies on an edge, horizontal or vertical by the larger
 second differences of luma; the edge's two ends are searched along it (in growing steps, at the middle
 between the pixel's row and the one across the edge), and the pixel's colour is taken from a point moved
 across the edge by how far it lies from the nearer end -- more near the end of a stair step, so a shallow
@@ -21,7 +21,7 @@ import numpy as np
 EDGE_THRESHOLD_MIN = 0.0312
 EDGE_THRESHOLD = 0.166
 SUBPIX = 0.75                                          # how much a lone pixel is blended (0: never)
-# the steps of the search for an edge's ends, in pixels (the paper's default quality preset 12)
+# the steps of the search for an edge's ends, in pixels (FXAA 3.11's quality preset 39)
 STEPS = (1.0, 1.0, 1.0, 1.0, 1.0, 1.5, 2.0, 2.0, 2.0, 2.0, 4.0, 8.0)
 LUMA = np.array([0.299, 0.587, 0.114], np.float32)     # Rec. 601 weights of the stored (display) values
 
