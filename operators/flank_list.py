@@ -8,7 +8,7 @@ import bpy
 import numpy as np
 from bpy.props import IntProperty
 
-from .common import count_limit_error
+from .common import count_limit_error, placed
 from .modal import ModalPlannerMixin
 from .sources import AnalysisNeeded, rotor_source, to_rotor_frame, workpiece_object
 from .units import length_text
@@ -203,9 +203,7 @@ class FLANK_OT_pick_flank_faces(ModalPlannerMixin, bpy.types.Operator):
         if isinstance(src, str):
             self.report({'ERROR'}, "Pick flank: " + src)
             return None
-        mw = np.array(obj.matrix_world, dtype=np.float64)
-        world = np.array(centres, dtype=np.float64) @ mw[:3, :3].T + mw[:3, 3]
-        return dict(src=src, name=obj.name, world=world)
+        return dict(src=src, name=obj.name, world=placed(np.array(centres, dtype=np.float64), obj.matrix_world))
 
     @staticmethod
     def _compute(job, progress):

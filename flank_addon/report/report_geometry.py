@@ -361,11 +361,3 @@ def report_picture(geo, width, height, title=None, units=None, engine="WORKBENCH
     return dict(width=width, height=height, R=R, tolerance=tol, rotor=(rv, rf), strips=drawn, camera=M, ppu=ppu,
                 ortho=ortho, clip_end=clip_end, layout=lay, lines=lines, legend=legend,
                 info=report_info(geo, lay, width, height, engine, lines, units, legend))
-
-
-def at_pixel(M, ppu, width, height, R, px, py):
-    """4x4 matrix at pixel (px, py) (top-left origin) in the plane of the camera ``M`` (:func:`camera_frame`),
-    R in front of the camera."""
-    T = M.copy()
-    T[:3, 3] = M[:3, 3] + M[:3, :3] @ [(px - 0.5 * width) / ppu, (0.5 * height - py) / ppu, -R]
-    return T
