@@ -171,6 +171,9 @@ def _drive(self, context, plan, rec):
         n_pct, n_txt = len(wm.percent), len(ws.texts)
         tids = (threading.get_native_id(), getattr(job._thread, "native_id", None))
         q = _run_queue_ms(tids)
+        # what modal() is about to see, read last: the worker may end (or stop after Esc) while the driver does the
+        # bookkeeping above, and a state read before it would then record the final call as made while running
+        state_before = job.poll()[0]
         t, c = time.perf_counter(), time.thread_time()
         r = self.modal(ctx, ev)
         ms = 1000.0 * (time.perf_counter() - t)
