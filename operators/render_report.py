@@ -111,34 +111,45 @@ class FLANK_OT_render_report(ModalPlannerMixin, bpy.types.Operator):
 
     # ------------------------------------------------------------------ main thread: Blender's turns
     def _next_stage(self, context, job, out):
-        """Blender's part in three turns of the main thread, a worker after each: the temporary scene; the labels'
-        layout in Blender's font; then the render, saved as raw pixels, and the scene removed.  The last worker
-        reads the pixels, smooths the edges, paints the legend, fills the labels in and encodes the PNG, so the
-        build only writes the file.  A failure here is reported by the mixin
-        (:meth:`_compute_failed`), which then discards the scene."""
-        from .report_scene import (report_png, report_scene_end, report_scene_labels, report_scene_render,
-                                   report_scene_start, tga_pixels)
+        """Blender's part in short turns of the main thread, back to the UI after each: the temporary scene; the
+        labels' layout in Blender's font; a render of 16 x 10 pixels that prepares the meshes for drawing; then
+        one turn per tile of the picture (Workbench: at most 256,000 pixels each, ``report_scene.report_tiles``),
+        each rendered and saved as raw pixels; after the last the scene is removed.  The last worker puts the
+        tiles together, smooths the edges, paints the legend, fills the labels in and encodes the PNG, so the
+        build only writes the file.  A failure here is reported by the mixin (:meth:`_compute_failed`), which
+        then discards the scene."""
+        from .report_scene import (report_png, report_scene_labels, report_scene_prepare,
+                                   report_scene_render, report_scene_start, report_tiles, tiled_pixels)
+
+        def back_to_the_ui(progress):
+            return None
 
         if "picture" not in job:                          # the worker's picture: make its scene
             job["picture"] = out
             job["scene"] = report_scene_start(out, job["path"])          # removes what it made if it fails
-            return lambda progress: None                  # back to the UI between building and rendering
-        if job.get("scene") is not None and "labels" not in job["scene"]:   # the labels' layout, a turn of its own
-            report_scene_labels(job["scene"], job["picture"])
-            return lambda progress: None
-        if job.get("scene") is not None:                  # render it
-            state = job["scene"]
-            try:
-                tga = report_scene_render(state)
-            finally:
-                report_scene_end(state)
-                job["scene"] = None
-            picture, labels = job["picture"], state["labels"]
+            job["tiles"], job["pieces"] = report_tiles(out), []
+            return back_to_the_ui
+        state = job.get("scene")
+        if state is None:
+            return None
+        if "labels" not in state:                         # the labels' layout
+            report_scene_labels(state, job["picture"])
+            return back_to_the_ui
+        if not state.get("prepared"):
+            report_scene_prepare(state)
+            state["prepared"] = True
+            return back_to_the_ui
+        tile = job["tiles"][len(job["pieces"])]
+        job["pieces"].append((tile, report_scene_render(state, tile)))
+        if len(job["pieces"]) < len(job["tiles"]):
+            return back_to_the_ui
+        self._discard(job)
+        picture, labels, pieces = job["picture"], state["labels"], job["pieces"]
 
-            def finish(progress):
-                return report_png(picture, tga_pixels(tga, picture["width"], picture["height"]), labels)
-            return finish
-        return None
+        def finish(progress):
+            rgba = tiled_pixels(pieces, picture["width"], picture["height"])
+            return report_png(picture, rgba, labels)
+        return finish
 
     def _discard(self, job):
         if job and job.get("scene") is not None:

@@ -9,8 +9,8 @@ from flank_addon.io.plan import write_plan
 from flank_addon.io.png import read_png, read_png_text, write_png
 from flank_addon.report.report_geometry import (BAR_SPLIT, REPORT_KEY, air_limit, bar_colors, bar_deviations,
                                                 choose_view, display_strip, display_units, format_length,
-                                                legend_colors, legend_layout, report_geometry, srgb_bytes,
-                                                strip_part)
+                                                legend_colors, legend_layout, render_tiles, report_geometry,
+                                                srgb_bytes, strip_part, tile_camera)
 from flank_addon.simulation.verify import DEVIATION_COLORS, deviation_colors
 
 
@@ -139,6 +139,50 @@ def test_overcut_strips_are_red_and_drawn(plan_file, tmp_path, capsys):
     top = read_png(out)[:info["legend"]["band_rows"][0] - 10, :, :3].astype(int)
     red = (top[..., 0] > top[..., 1] + 40) & (top[..., 0] > top[..., 2] + 40)
     assert red.sum() > 300
+
+
+@pytest.mark.parametrize("width,height,limit", [(1280, 800, 256000), (1281, 799, 100000), (401, 803, 40000),
+                                                (64, 8192, 100000), (97, 61, 1), (640, 400, 256000)])
+def test_render_tiles_cover_the_picture_once(width, height, limit):
+    tiles = render_tiles(width, height, limit)
+    count = np.zeros((height, width), int)
+    for x0, y0, x1, y1 in tiles:
+        assert 0 <= x0 < x1 <= width and 0 <= y0 < y1 <= height
+        assert (x1 - x0) * (y1 - y0) <= limit
+        count[y0:y1, x0:x1] += 1
+    assert (count == 1).all()
+    w = {x1 - x0 for x0, _, x1, _ in tiles}
+    h = {y1 - y0 for _, y0, _, y1 in tiles}
+    assert max(w) - min(w) <= 1 and max(h) - min(h) <= 1, (w, h)
+    # no more tiles than needed: a grid with one column or one row fewer would exceed the limit
+    nx, ny = len({t[0] for t in tiles}), len({t[1] for t in tiles})
+    assert len(tiles) == nx * ny
+
+    def fits(columns, rows):
+        return -(-width // columns) * -(-height // rows) <= limit
+    assert (nx == 1 or not fits(nx - 1, ny)) and (ny == 1 or not fits(nx, ny - 1)), (nx, ny)
+
+
+def test_tile_camera_keeps_every_pixel_centre():
+    """Blender's orthographic frame: the larger side spans the ortho scale, the shift is measured in it.  Each
+    tile's pixel centres, placed by its own camera, are the picture's pixel centres."""
+    width, height, ortho = 1281, 799, 3.7
+
+    def centre(i, j, w, h, scale, sx, sy):        # pixel (column i, row j from the top) -> view-plane point
+        p = scale / max(w, h)
+        return sx * scale + (i + 0.5 - 0.5 * w) * p, sy * scale + (0.5 * h - j - 0.5) * p
+
+    for tile in render_tiles(width, height, 40000) + [(0, 0, width, height)]:
+        w, h, scale, sx, sy = tile_camera(tile, width, height, ortho)
+        x0, y0, x1, y1 = tile
+        assert (w, h) == (x1 - x0, y1 - y0)
+        for i, j in ((0, 0), (w - 1, h - 1), (w // 2, 0), (0, h - 1)):
+            a = centre(i, j, w, h, scale, sx, sy)
+            b = centre(x0 + i, y0 + j, width, height, ortho, 0.0, 0.0)
+            assert abs(a[0] - b[0]) < 1e-12 and abs(a[1] - b[1]) < 1e-12, (tile, i, j, a, b)
+    assert tile_camera((0, 0, width, height), width, height, ortho) == (width, height, ortho, 0.0, 0.0)
+    with pytest.raises(ValueError, match="0 x 10"):
+        render_tiles(0, 10)
 
 
 def test_air_parts_are_not_drawn():

@@ -291,10 +291,10 @@ def scenario(bpy, res, args):
     exp["compared"] = _compare_csv(exported("finish.csv"), exported("sync.csv"))
     res["export"] = exp
     # Render Report after its file browser: the worker computes the picture (the strips' exact distances to the
-    # rotor, camera, legend); the main thread builds the temporary scene, then renders it in a later turn; a
-    # worker reads the pixels back and encodes the PNG
+    # rotor, camera, legend); the main thread builds the temporary scene, then renders it in later turns, one
+    # tile each (the default size, 1280 x 800: four tiles); a worker puts the pixels together and encodes the PNG
     rep, render_cls = {}, classes["render"]
-    kw = dict(collection=run, width=640, height=400)
+    kw = dict(collection=run, width=1280, height=800)
     t0 = time.perf_counter()
     ret, err = driver._run_op(bpy.ops.flank.render_report, filepath=os.path.join(folder, "sync.png"), **kw)
     rep["sync"] = dict(result=ret, error=err, seconds=time.perf_counter() - t0)

@@ -95,6 +95,32 @@ def scenario(bpy, res, args):
         renders[label] = out
     res["renders"] = renders
 
+    # ---------------------------------------------------------------- tiles against the picture in one piece
+    # Workbench renders the picture in tiles, each with the camera narrowed and shifted onto its pixels; rendered
+    # whole by the same scene, the pixels must be the same but for rounding (shading within a level or two, and
+    # now and then a pixel whose centre lies on a silhouette edge within rounding, which flips)
+    import importlib
+
+    rs = importlib.import_module(driver.MODULE + ".operators.report_scene")
+    geo = rr.report_geometry(plan)
+    tiled = {}
+    for width, height, limit in ((1281, 799, 100000), (401, 803, 40000), (1280, 800, rr.TILE_PIXELS)):
+        picture = rr.report_picture(geo, width, height)
+        c0 = census(bpy)
+        state = rs.report_scene_start(picture, os.path.join(tmp, "tiles.png"))
+        try:
+            whole = rs.tga_pixels(rs.report_scene_render(state), width, height)
+            tiles = rr.render_tiles(width, height, limit)
+            pieces = [(t, rs.report_scene_render(state, t)) for t in tiles]
+        finally:
+            rs.report_scene_end(state)
+        d = np.abs(rs.tiled_pixels(pieces, width, height).astype(int) - whole.astype(int)).max(axis=-1)
+        tiled["{}x{}".format(width, height)] = dict(
+            tiles=len(tiles), sizes=sorted({(t[2] - t[0], t[3] - t[1]) for t in tiles}), differing=int((d > 0).sum()),
+            over_2=int((d > 2).sum()), pixels=int(d.size), surface=int((whole[..., :3] < 200).any(axis=-1).sum()),
+            changed=diff(c0, census(bpy)))
+    res["tiled"] = tiled
+
     # ---------------------------------------------------------------- INVOKE_DEFAULT without a window: runs
     p = os.path.join(tmp, "report_invoke.png")
     try:

@@ -158,11 +158,12 @@ def test_export_after_the_file_browser_writes_the_same_file_off_the_main_thread_
 
 def test_render_report_computes_the_picture_off_the_main_thread_and_renders_the_same_png(mt):
     """After the file browser the worker computes the picture (the strips' exact distances, camera, legend); the
-    main thread builds the temporary scene in one turn, lays the labels out in the next and renders it in a third
-    (Blender's renderer runs there), and a worker reads the pixels back, smooths the edges, paints the legend,
-    fills the labels in and encodes the PNG. Esc and closing -- also while the scene stands between its turns --
-    leave no file and bpy.data as it was; the PNG equals the synchronous one pixel for pixel, with the same
-    numbers."""
+    main thread builds the temporary scene in one turn, lays the labels out in the next, prepares the meshes for
+    drawing with a render of 16 x 10 pixels in a third, then renders the picture in tiles, one per turn (Blender's
+    renderer runs there: at the default 1280 x 800, four tiles of 640 x 400), and a worker puts them together,
+    smooths the edges, paints the legend, fills the labels in and encodes the PNG. Esc and closing -- also while
+    the scene stands between its turns -- leave no file and bpy.data as it was; the PNG equals the synchronous one
+    pixel for pixel, with the same numbers."""
     rep = mt["render"]
     assert rep["sync"]["result"] == ["FINISHED"], rep["sync"]
     assert rep["files"] == ["finish.png", "sync.png"], rep["files"]
@@ -175,12 +176,14 @@ def test_render_report_computes_the_picture_off_the_main_thread_and_renders_the_
     assert rec["start_cpu_ms"] < FRAME_MS, (rec["start_cpu_ms"], rec["start_ms"])
     polls = [c for c in rec["calls"] if c["state_before"] == "running"]     # none where a worker ends within a tick
     assert all(c["cpu_ms"] < FRAME_MS for c in polls), polls
-    scene, labels, render, build = [c for c in rec["calls"] if c["state_before"] == "finished"]
-    assert max(scene["cpu_ms"], labels["cpu_ms"], build["cpu_ms"]) < FRAME_MS, (scene, labels, build)
-    # the render's turn is the one Blender keeps: less than the synchronous run, which also computed the picture,
-    # built the scene and encoded the PNG there (without Blender's anti-aliasing pass, the worker smooths the
-    # edges: 74-89 ms at 640 x 400 on a quiet machine, docs/benchmarks.md; not a timed assertion here)
-    assert render["ms"] < 1000.0 * rep["sync"]["seconds"], (render, rep["sync"])
+    turns = [c for c in rec["calls"] if c["state_before"] == "finished"]
+    assert len(turns) == 8, turns                 # scene, labels, preparing render, 4 tiles, build
+    scene, labels, prepare, tiles, build = turns[0], turns[1], turns[2], turns[3:7], turns[7]
+    # each turn of the main thread in its CPU time (the wall clock counts the other test worker's Blender too); a
+    # tile's render call took 38-76 ms of wall clock on a quiet machine, the whole picture in one 120-145 ms
+    # (docs/benchmarks.md)
+    for turn in (scene, labels, prepare, *tiles, build):
+        assert turn["cpu_ms"] < FRAME_MS, turns
     esc = rep["esc_next_stage"]
     assert_cancelled_cleanly(esc, mt["timer_step"], "esc")
     assert esc["workers"] == 2 and esc["temporary_files"] == [], esc

@@ -65,6 +65,19 @@ def test_report_leaves_nothing_behind(rep, label):
     assert r["same_scene"] and r["same_active"]
 
 
+def test_tiles_make_the_picture_rendered_in_one_piece(rep):
+    """Workbench renders the report in tiles, one per turn of Blender's main thread: put together they are the
+    picture rendered whole, but for rounding -- shading within two levels, and a few pixels whose centre lies on
+    a silhouette edge (up to 5 of about a million found; a tile one pixel off would move every edge)."""
+    t = rep["tiled"]
+    assert t["1280x800"]["tiles"] == 4 and t["1280x800"]["sizes"] == [[640, 400]], t
+    assert t["1281x799"]["tiles"] == 12 and t["401x803"]["tiles"] == 10, t
+    for size, r in t.items():
+        assert r["changed"] == {}, (size, r["changed"])
+        assert r["surface"] > 0.1 * r["pixels"], (size, r)        # the rotor fills the picture, not background
+        assert r["differing"] < 0.002 * r["pixels"] and r["over_2"] < 1e-4 * r["pixels"], (size, r)
+
+
 def test_invoke_without_a_window_renders(rep):
     assert rep["invoke"]["result"] == ["FINISHED"] and rep["invoke"]["file"], rep["invoke"]
 
