@@ -5,7 +5,7 @@ import time
 import bpy
 
 from .common import count_limit_error, finish_mesh, mesh_without_edges, select_only
-from .modal import ModalPlannerMixin
+from .modal import ModalPlannerMixin, next_turn
 from .properties import generator_props
 
 
@@ -63,7 +63,7 @@ class FLANK_OT_generate_rotor(ModalPlannerMixin, bpy.types.Operator):
             self.report({'ERROR'}, "Could not build the rotor mesh: {}".format(ex))
             return False
         job.update(mesh=mesh.name, suspect=suspect, rotor=rotor, n_verts=len(verts))
-        return lambda progress: result               # back to the interface, then the build
+        return next_turn(result)                     # back to the interface, then the build
 
     def _discard(self, job):
         mesh = bpy.data.meshes.get(job.get("mesh", "")) if job else None

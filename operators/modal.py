@@ -15,7 +15,10 @@ the chart and encoding it) defines ``_next_stage(context, job, result)``: called
 worker's result, it returns the next worker's function ``(progress) -> result``, None when ``_build``
 comes next, or False when it reported an error (nothing is built).  So the main thread does only the Blender
 part, and each of its turns stays short.  Whatever Blender data a stage made for a later one, ``_discard(job)``
-removes when the run ends without a build (Esc, closing, a failure).
+removes when the run ends without a build (Esc, closing, a failure).  A stage that needs no worker, only a
+turn of the interface before the next part on the main thread (a render in tiles, a mesh built in two turns),
+returns :func:`next_turn`: the timer then ticks every ``TURN_STEP`` until a real worker runs again, so such
+turns follow each other as soon as Blender has handled its events and redrawn, not a timer step apart.
 
 A planner whose analysed rotor must be analysed again (its mesh changed since Analyze Rotor) gets an
 ``AnalysisNeeded`` from ``rotor_source(..., defer=self._defer_analysis)``; its ``_prepare`` returns
@@ -37,7 +40,17 @@ import bpy
 from .jobs import PlannerJob
 
 TIMER_STEP = 0.1
+TURN_STEP = 0.01        # the timer while the next stage is only a turn of the interface (next_turn)
 _ANALYSIS_FIRST = "analysis_first"     # a job that analyses its rotor before ``_prepare`` can read it
+
+
+def next_turn(result=None):
+    """The stage that gives Blender's interface a turn and passes ``result`` on to the next main-thread part
+    (``_next_stage`` or ``_build``), without work in a thread."""
+    def turn(progress):
+        return result
+    turn.interface_turn = True
+    return turn
 
 
 class _ActiveObject:
@@ -54,6 +67,7 @@ class _ActiveObject:
 class ModalPlannerMixin:
     _job = None
     _timer = None
+    _timer_step = None
     _prepared = None
     _shown = (0.0, "starting")           # the last progress shown, where a next stage's worker starts
     _title = "Planning"
@@ -170,6 +184,7 @@ class ModalPlannerMixin:
         self._job = PlannerJob(self._first_stage(job), Cancelled)
         wm = context.window_manager
         self._timer = wm.event_timer_add(TIMER_STEP, window=context.window)
+        self._timer_step = TIMER_STEP
         wm.progress_begin(0, 100)
         wm.modal_handler_add(self)
         self._status(context, "{}: starting (Esc cancels)".format(self._title))
@@ -182,6 +197,15 @@ class ModalPlannerMixin:
                 ws.status_text_set(text)
             except (AttributeError, RuntimeError, TypeError):
                 pass
+
+    def _tick(self, context, step):
+        """The timer at ``step`` seconds (one timer at a time)."""
+        if self._timer is None or self._timer_step == step:
+            return
+        wm = context.window_manager
+        wm.event_timer_remove(self._timer)
+        self._timer = wm.event_timer_add(step, window=context.window)
+        self._timer_step = step
 
     def _finish(self, context):
         wm = context.window_manager
@@ -215,6 +239,7 @@ class ModalPlannerMixin:
                 stage = False
             if stage:
                 self._job = PlannerJob(stage, Cancelled, *self._shown)     # the bar goes on from where it was
+                self._tick(context, TURN_STEP if getattr(stage, "interface_turn", False) else TIMER_STEP)
                 return {'RUNNING_MODAL'}
             if stage is False:
                 self._finish(context)

@@ -9,7 +9,7 @@ import time
 import bpy
 from bpy.props import BoolProperty, EnumProperty, IntProperty, StringProperty
 
-from .modal import ModalPlannerMixin
+from .modal import ModalPlannerMixin, next_turn
 from .runs import run_plan
 
 ENGINE_ITEMS = (
@@ -111,38 +111,39 @@ class FLANK_OT_render_report(ModalPlannerMixin, bpy.types.Operator):
 
     # ------------------------------------------------------------------ main thread: Blender's turns
     def _next_stage(self, context, job, out):
-        """Blender's part in short turns of the main thread, back to the UI after each: the temporary scene; the
-        labels' layout in Blender's font; a render of 16 x 10 pixels that prepares the meshes for drawing; then
-        one turn per tile of the picture (Workbench: at most 256,000 pixels each, ``report_scene.report_tiles``),
-        each rendered and saved as raw pixels; after the last the scene is removed.  The last worker puts the
+        """Blender's part in short turns of the main thread, back to the UI after each (``next_turn``): the
+        temporary scene; the labels' layout in Blender's font; a render of 16 x 10 pixels that prepares the
+        meshes for drawing; then one turn per tile of the picture (Workbench: at most 256,000 pixels each,
+        ``report_scene.report_tiles``), each rendered and read back as raw pixels; after the last the scene is
+        removed.  The last worker puts the
         tiles together, smooths the edges, paints the legend, fills the labels in and encodes the PNG, so the
         build only writes the file.  A failure here is reported by the mixin (:meth:`_compute_failed`), which
         then discards the scene."""
         from .report_scene import (report_png, report_scene_labels, report_scene_prepare,
                                    report_scene_render, report_scene_start, report_tiles, tiled_pixels)
 
-        def back_to_the_ui(progress):
-            return None
-
         if "picture" not in job:                          # the worker's picture: make its scene
             job["picture"] = out
             job["scene"] = report_scene_start(out, job["path"])          # removes what it made if it fails
             job["tiles"], job["pieces"] = report_tiles(out), []
-            return back_to_the_ui
+            return next_turn()
         state = job.get("scene")
         if state is None:
             return None
         if "labels" not in state:                         # the labels' layout
             report_scene_labels(state, job["picture"])
-            return back_to_the_ui
+            return next_turn()
         if not state.get("prepared"):
             report_scene_prepare(state)
             state["prepared"] = True
-            return back_to_the_ui
+            return next_turn()
         tile = job["tiles"][len(job["pieces"])]
         job["pieces"].append((tile, report_scene_render(state, tile)))
         if len(job["pieces"]) < len(job["tiles"]):
-            return back_to_the_ui
+            if self._timer is not None:                   # a modal run: the status bar says how far it is
+                self._status(context, "{}: rendered {} of {} tiles  (Esc cancels)".format(
+                    self._title, len(job["pieces"]), len(job["tiles"])))
+            return next_turn()
         self._discard(job)
         picture, labels, pieces = job["picture"], state["labels"], job["pieces"]
 

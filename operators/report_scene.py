@@ -284,13 +284,18 @@ def report_scene_render(state, tile=None):
         r, cam = sc.render, sc.camera.data
         r.resolution_x, r.resolution_y, cam.ortho_scale, cam.shift_x, cam.shift_y = rg.tile_camera(
             tile, state["width"], state["height"], state["ortho"])
-    bpy.ops.render.render(write_still=False, scene=sc.name)
+    done = bpy.ops.render.render(write_still=False, scene=sc.name)
+    if 'FINISHED' not in done:        # else save_render would save the previous tile's pixels again
+        raise RuntimeError("Blender's render of the report ended {}".format(", ".join(sorted(done))))
     img = bpy.data.images.get("Render Result")
     if img is None:
         raise RuntimeError("the render produced no image")
     img.save_render(filepath=state["tmp"], scene=sc)
-    with open(state["tmp"], "rb") as fh:
-        return fh.read()
+    try:
+        with open(state["tmp"], "rb") as fh:
+            return fh.read()
+    finally:
+        os.remove(state["tmp"])           # nothing beside the report between the turns
 
 
 def report_scene_end(state):

@@ -153,7 +153,8 @@ def _drive(self, context, plan, rec):
         if job is not workers[-1]:
             workers.append(job)
         state_before = job.poll()[0]
-        if plan == "close" and running_polls >= 1:
+        if (plan == "close" and running_polls >= 1) or (plan == "close_next_stage" and job is not first_job
+                                                         and state_before == "running"):
             t = time.perf_counter()
             self.cancel(ctx)
             calls.append(dict(event="cancel()", ms=1000.0 * (time.perf_counter() - t), state_before=state_before,

@@ -318,33 +318,39 @@ def scenario(bpy, res, args):
             render_cls._compute = real_compute
         rec.update(census_equal=before == after, census_diff=sm._census_diff(before, after))
         rep[plan] = rec
-    # Esc while the temporary scene stands between its build and the render (the next worker slowed down): the
-    # scene goes, nothing is written
+    # Esc while the temporary scene stands between its build and the render (the next worker slowed down), and
+    # Esc and closing after the first tile (the stage after it slowed down): the scene goes, nothing is written
     real_next = render_cls._next_stage
 
-    def slow_next(op, context, job, out):
-        stage = real_next(op, context, job, out)
-        if not stage:
-            return stage
+    def slowed_after(tiles):
+        def slow_next(op, context, job, out):
+            stage = real_next(op, context, job, out)
+            if not stage or len(job.get("pieces", ())) < tiles:
+                return stage
+            job.setdefault("slowed_at_tiles", len(job["pieces"]))
+            rep.setdefault("slowed_at_tiles", []).append(len(job["pieces"]))
 
-        def slow(progress):
-            for _ in range(10):
-                time.sleep(0.05)
-                if progress is not None and progress(0.5, "waiting") is False:
-                    break
-            return stage(progress)
-        return slow
+            def slow(progress):
+                for _ in range(10):
+                    time.sleep(0.05)
+                    if progress is not None and progress(0.5, "waiting") is False:
+                        break
+                return stage(progress)
+            return slow
+        return slow_next
 
-    render_cls._next_stage = slow_next
-    try:
-        before = sm.census(bpy, np)
-        rec = sm._call(bpy, bpy.ops.flank.render_report, render_cls, "esc_next_stage",
-                       filepath=os.path.join(folder, "esc_next_stage.png"), **kw)
-        rec.update(census_equal=before == sm.census(bpy, np), temporary_files=sorted(
-            f for f in os.listdir(folder) if ".render" in f))
-    finally:
-        render_cls._next_stage = real_next
-    rep["esc_next_stage"] = rec
+    for name, plan, tiles in (("esc_next_stage", "esc_next_stage", 0), ("esc_after_tile", "esc_next_stage", 1),
+                              ("close_after_tile", "close_next_stage", 1)):
+        render_cls._next_stage = slowed_after(tiles)
+        try:
+            before = sm.census(bpy, np)
+            rec = sm._call(bpy, bpy.ops.flank.render_report, render_cls, plan,
+                           filepath=os.path.join(folder, name + ".png"), **kw)
+            rec.update(census_equal=before == sm.census(bpy, np), temporary_files=sorted(
+                f for f in os.listdir(folder) if ".render" in f))
+        finally:
+            render_cls._next_stage = real_next
+        rep[name] = rec
     rep["files"] = sorted(f for f in os.listdir(folder) if f.endswith(".png"))
     png_io = driver._core("io.png")
 

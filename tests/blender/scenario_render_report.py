@@ -104,7 +104,8 @@ def scenario(bpy, res, args):
     rs = importlib.import_module(driver.MODULE + ".operators.report_scene")
     geo = rr.report_geometry(plan)
     tiled = {}
-    for width, height, limit in ((1281, 799, 100000), (401, 803, 40000), (1280, 800, rr.TILE_PIXELS)):
+    for width, height, limit in ((1281, 799, 100000), (401, 803, 40000), (1280, 800, rr.TILE_PIXELS),
+                                 (800, 1280, rr.TILE_PIXELS)):
         picture = rr.report_picture(geo, width, height)
         c0 = census(bpy)
         state = rs.report_scene_start(picture, os.path.join(tmp, "tiles.png"))

@@ -184,9 +184,20 @@ def test_render_report_computes_the_picture_off_the_main_thread_and_renders_the_
     # (docs/benchmarks.md)
     for turn in (scene, labels, prepare, *tiles, build):
         assert turn["cpu_ms"] < FRAME_MS, turns
+    # between those turns the timer ticks every 0.01 s (the interface's turn, not a 0.1 s poll), then 0.1 s again
+    # for the worker that puts the tiles together
+    steps = [c[1] for c in rec["wm_calls"] if c[0] == "event_timer_add"]
+    assert steps == [mt["timer_step"], 0.01, mt["timer_step"]], rec["wm_calls"]
     esc = rep["esc_next_stage"]
     assert_cancelled_cleanly(esc, mt["timer_step"], "esc")
     assert esc["workers"] == 2 and esc["temporary_files"] == [], esc
+    # Esc and closing after the first of the four tiles (the scene, its render result and the tile read back)
+    assert rep["slowed_at_tiles"] == [0, 1, 1], rep["slowed_at_tiles"]
+    for name, plan in (("esc_after_tile", "esc"), ("close_after_tile", "close")):
+        rec = rep[name]
+        assert_cancelled_cleanly(rec, mt["timer_step"], plan)
+        assert rec["workers"] == 5 and rec["temporary_files"] == [], rec
+    assert rep["files"] == ["finish.png", "sync.png"], rep["files"]
 
 
 def test_the_warm_up_imports_what_a_first_click_needs_so_its_read_stays_under_a_frame(mt):

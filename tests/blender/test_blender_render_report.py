@@ -72,6 +72,7 @@ def test_tiles_make_the_picture_rendered_in_one_piece(rep):
     t = rep["tiled"]
     assert t["1280x800"]["tiles"] == 4 and t["1280x800"]["sizes"] == [[640, 400]], t
     assert t["1281x799"]["tiles"] == 12 and t["401x803"]["tiles"] == 10, t
+    assert t["800x1280"]["tiles"] == 4 and t["800x1280"]["sizes"] == [[400, 640]], t     # tiles taller than wide
     for size, r in t.items():
         assert r["changed"] == {}, (size, r["changed"])
         assert r["surface"] > 0.1 * r["pixels"], (size, r)        # the rotor fills the picture, not background
