@@ -280,7 +280,7 @@ def report_scene_render(state, tile=None):
     -> the pixels as the bytes of an uncompressed TGA file (:func:`tga_pixels` reads them, in any thread:
     Blender only renders and writes the file here)."""
     sc = state["scene"]
-    if tile is not None:
+    if tile is not None and tuple(tile) != (0, 0, state["width"], state["height"]):   # else the scene's own camera
         r, cam = sc.render, sc.camera.data
         r.resolution_x, r.resolution_y, cam.ortho_scale, cam.shift_x, cam.shift_y = rg.tile_camera(
             tile, state["width"], state["height"], state["ortho"])
