@@ -18,6 +18,7 @@ import time
 import bpy
 import numpy as np
 
+from ..flank_addon.geometry.rows import used_vertices
 from .common import count_limit_error, set_float_attr, typed
 from .guiding import COLOR_GUIDING, check_tool, guiding_inputs, planning_surface, size_check
 from .modal import ModalPlannerMixin
@@ -106,9 +107,9 @@ def _fill_run(run, job, out, made):
         tris = quad_triangles(env["faces"], np.isfinite(V).all(axis=1))
         if len(tris) == 0:
             continue
-        used, inv = np.unique(tris, return_inverse=True)
+        used, F = used_vertices(tris, len(V))
         dev = np.asarray(env["deviation"], dtype=np.float64)[used] * s
-        eo = run.add_strip("FF Strip {}".format(k + 1), V[used], inv.reshape(-1, 3), dev, job["tol_in"],
+        eo = run.add_strip("FF Strip {}".format(k + 1), V[used], F, dev, job["tol_in"],
                            to_world, k)
         fin = dev[np.isfinite(dev)]
         eo[PROP_PREFIX + "deviation_range"] = [float(fin.min()), float(fin.max())] if len(fin) else []

@@ -6,6 +6,7 @@ import json
 import bpy
 import numpy as np
 
+from ..flank_addon.geometry.rows import used_vertices
 from .common import mesh_local_arrays, mesh_triangles, mesh_vertices, placed
 
 # custom properties that point from a result object to the rotor / surface it was made from
@@ -288,11 +289,11 @@ def surface_source(obj, selected_only=False, field_attribute="", preview_prop=""
     tris, poly = _triangles(mesh, selected_only)
     if not len(tris):
         return "'{}' has no selected faces (Selected Faces Only is on)".format(obj.name)
-    used, F = np.unique(tris, return_inverse=True)
+    used, F = used_vertices(tris, n)
     field = _field(obj, field_attribute, used, poly) if field_attribute else None
     if isinstance(field, str):
         return field
-    return dict(obj=obj, V=co[used], F=F.reshape(-1, 3), to_world=parts[0], scale=parts[1], field=field)
+    return dict(obj=obj, V=co[used], F=F, to_world=parts[0], scale=parts[1], field=field)
 
 
 classes = ()

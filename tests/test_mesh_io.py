@@ -133,3 +133,25 @@ def test_float32_merge_equals_the_general_unique_rows():
     assert np.array_equal(u, u_ref) and np.array_equal(np.signbit(u), np.signbit(u_ref))
     assert np.array_equal(inv, inv_ref)
     assert np.array_equal(u[inv], a.astype(np.float64))
+
+
+@pytest.mark.parametrize("unused", [0, 1, 300])
+def test_used_vertices_equal_numpy_unique(unused):
+    """The vertices that faces use and the faces renumbered into them, by counting: numpy's sorted unique and
+    its inverse exactly, with every vertex used, one unused, or many (a selection of faces)."""
+    from flank_addon.geometry.rows import used_vertices
+
+    rng = np.random.default_rng(unused)
+    n = 1000
+    keep = np.sort(rng.permutation(n)[:n - unused])
+    cover = np.resize(keep, -(-len(keep) // 3) * 3).reshape(-1, 3)          # every kept vertex appears
+    faces = np.concatenate([cover, keep[rng.integers(0, len(keep), (5000, 3))]])[rng.permutation(5000 + len(cover))]
+    used, F = used_vertices(faces, n)
+    ref, inv = np.unique(faces, return_inverse=True)
+    assert np.array_equal(used, ref) and np.array_equal(used, keep)
+    assert F.shape == faces.shape and np.array_equal(F.ravel(), inv.ravel())
+    assert np.array_equal(used[F], faces)
+    with pytest.raises(ValueError, match="outside 0..999"):
+        used_vertices(np.array([[0, 1, 1000]]), n)
+    u0, f0 = used_vertices(np.zeros((0, 3), int), 5)
+    assert len(u0) == 0 and f0.shape == (0, 3)
