@@ -26,7 +26,7 @@ from .common import count_limit_error, set_color_attr, set_float_attr, typed
 from .modal import ModalPlannerMixin
 from .properties import double_flank_props
 from .result_builder import COLOR_CHART, COLOR_TOOL, RunBuilder, finite_runs
-from .runs import PLAN_JSON_PROP
+from .runs import PLAN_JSON_PROP, keep_plan, run_plan_fields
 from .shapes import axis_frame
 from .sources import AnalysisNeeded, rotor_source, with_extent
 
@@ -238,7 +238,7 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
         frames = [_tool_frame(p) for p in res.paths]
         charts = [res.errors_along_axis(k) for k in range(len(res.paths))]
         # the plan as the run keeps it, encoded here: 25 ms off the main thread's build (a 1 MB plan)
-        return dict(res=res, env=env, tools=tools, frames=frames, charts=charts, plan_json=json.dumps(res.plan))
+        return dict(res=res, env=env, tools=tools, frames=frames, charts=charts, **run_plan_fields(res.plan))
 
     # ------------------------------------------------------------------ main thread: results
     def _build(self, context, job, out):
@@ -259,6 +259,7 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
         run.store(props, [run.collection, rotor] + made["tools"], clear=[rotor])
         # the run's plan (flank-plan/1) travels with its collection: exports and reports read it from there
         run.collection[PLAN_JSON_PROP] = out["plan_json"]
+        keep_plan(run.collection, out["plan_json"], out["plan_checked"])   # read by exports, reports, posts
         run.show(made["tools"][0])
         self._report_done(job, out, rotor, props, made, replaced)
         return {'FINISHED'}

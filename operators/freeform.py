@@ -24,7 +24,7 @@ from .guiding import COLOR_GUIDING, check_tool, guiding_inputs, planning_surface
 from .modal import ModalPlannerMixin
 from .properties import freeform_props
 from .result_builder import COLOR_TOOL, RunBuilder
-from .runs import PLAN_JSON_PROP
+from .runs import PLAN_JSON_PROP, keep_plan, run_plan_fields
 from .shapes import axis_frame, revolved_mesh
 from .units import length_text
 
@@ -187,7 +187,7 @@ class FLANK_OT_plan_freeform(ModalPlannerMixin, bpy.types.Operator):
         kinks = g1.freeform_kinks(plan, mesh=mesh)
         tools = _tool_meshes(g1, plan)
         report(1.0, "done")
-        return dict(plan=plan, envs=envs, kinks=kinks, tools=tools, plan_json=json.dumps(plan))   # off the main thread
+        return dict(plan=plan, envs=envs, kinks=kinks, tools=tools, **run_plan_fields(plan))   # off the main thread
 
     # ------------------------------------------------------------------ main thread: results
     def _build(self, context, job, out):
@@ -213,6 +213,7 @@ class FLANK_OT_plan_freeform(ModalPlannerMixin, bpy.types.Operator):
                        total_elapsed=time.perf_counter() - job["t0"], summary=json.dumps(dict(summary))),
                   [run.collection])
         run.collection[PLAN_JSON_PROP] = out["plan_json"]
+        keep_plan(run.collection, out["plan_json"], out["plan_checked"])   # read by exports, reports, posts
         run.show(made["tools"][0] if made["tools"] else None)
 
         def L(v):

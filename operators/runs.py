@@ -63,8 +63,35 @@ def find_run(context, name=""):
     return runs[-1]
 
 
+# Plans already parsed and checked, by run: a free-form plan holds its surface (1.3 MB of JSON for 20,000
+# triangles, 40-60 ms to parse and check on the main thread), and several operators read the same run's plan
+_PLANS = {}                       # run collection name -> ((length, hash) of its plan text, the plan)
+PLANS_KEPT = 4                    # runs whose plans are kept
+PLAN_CHARS_KEPT = 32_000_000      # a longer plan text is parsed each time (its parsed form holds ~10x the memory)
+
+
+def _text_key(text):
+    return len(text), hash(text)
+
+
+def keep_plan(coll, text, plan):
+    """Remember ``plan`` -- ``text`` parsed and checked (``validate_plan(json.loads(text))``, e.g. in a planner's
+    worker) -- as the plan of the run ``coll``, whose stored plan text is ``text``: :func:`run_plan` then returns
+    it while that text is unchanged."""
+    _PLANS.pop(coll.name, None)
+    if len(text) > PLAN_CHARS_KEPT:
+        return
+    _PLANS[coll.name] = (_text_key(text), plan)
+    while len(_PLANS) > PLANS_KEPT:
+        _PLANS.pop(next(iter(_PLANS)))
+
+
 def run_plan(context, name=""):
-    """(collection, plan dict) of the run :func:`find_run` picks, or an error message (str)."""
+    """(collection, plan dict) of the run :func:`find_run` picks, or an error message (str).
+
+    The plan is parsed once per stored text (``keep_plan``; hashing the text takes 0.2-0.3 ms per MB): calls that
+    read the same run share one dict, so a caller reads it and never changes it (it copies it first, as
+    ``machining.rotor_body.scale_plan`` does)."""
     import json
 
     from ..flank_addon.io.plan import PlanError, validate_plan
@@ -72,10 +99,28 @@ def run_plan(context, name=""):
     coll = find_run(context, name)
     if isinstance(coll, str):
         return coll
+    text = coll[PLAN_JSON_PROP]
+    kept = _PLANS.get(coll.name)
+    if kept is not None and isinstance(text, str) and kept[0] == _text_key(text):
+        return coll, kept[1]
     try:
-        return coll, validate_plan(json.loads(coll[PLAN_JSON_PROP]))
-    except (ValueError, PlanError) as ex:
+        plan = validate_plan(json.loads(text))
+    except (ValueError, TypeError, PlanError) as ex:
         return "the plan stored on '{}' is not valid: {}".format(coll.name, ex)
+    keep_plan(coll, text, plan)
+    return coll, plan
+
+
+def run_plan_fields(plan):
+    """A planner's result fields for its run's plan (any thread, so its worker does it): ``plan_json``, the text
+    stored on the run, and ``plan_checked``, that text parsed and checked again, as :func:`run_plan` would (for
+    :func:`keep_plan`; a dict of its own, not the planner's)."""
+    import json
+
+    from ..flank_addon.io.plan import validate_plan
+
+    text = json.dumps(plan)
+    return dict(plan_json=text, plan_checked=validate_plan(json.loads(text)))
 
 
 def run_prop(coll, name):

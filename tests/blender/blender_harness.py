@@ -125,3 +125,12 @@ def assert_cancelled_cleanly(rec, timer_step, plan):
         esc = [c for c in rec["calls"] if c["event"] == "ESC"]
         assert len(esc) == 1 and esc[0]["result"] == ["RUNNING_MODAL"] and "cancelling" in esc[0]["status"]
         assert rec["job_state"] == "cancelled" and rec["job_result_none"]
+
+
+def assert_plans_kept(kept, at_least=1):
+    """Every run plan the extension keeps parsed (``driver.plans_kept``) is still its run's stored text, parsed
+    and checked again, number for number: no operator changed the shared plan it read."""
+    live = {name: k for name, k in kept.items() if not k.get("removed")}
+    assert len(live) >= at_least, kept
+    for name, k in live.items():
+        assert k["current"] and k["equal"], (name, k)

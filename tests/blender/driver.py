@@ -233,6 +233,26 @@ def _core(name):
     return importlib.import_module("{}.flank_addon.{}".format(MODULE, name))
 
 
+def plans_kept(bpy):
+    """The runs' plans the extension keeps parsed (``operators/runs.py``), checked against their stored text after
+    whatever the scenario ran on them: {run: dict(current (the kept text is the stored one), equal (the kept plan
+    is the text parsed and checked again, number for number))}.  A caller that changed a shared plan shows here."""
+    import importlib
+
+    runs = importlib.import_module("{}.operators.runs".format(MODULE))
+    validate_plan = _core("io.plan").validate_plan
+    out = {}
+    for name, (key, plan) in list(runs._PLANS.items()):
+        coll = bpy.data.collections.get(name)
+        text = coll.get(runs.PLAN_JSON_PROP) if coll is not None else None
+        if text is None:
+            out[name] = dict(current=False, equal=None, removed=True)
+            continue
+        fresh = validate_plan(json.loads(text))
+        out[name] = dict(current=key == runs._text_key(text), equal=json.dumps(fresh) == json.dumps(plan))
+    return out
+
+
 def _float_attr(np, mesh, name):
     attr = mesh.attributes.get(name)
     if attr is None:

@@ -203,3 +203,4 @@ def scenario(bpy, res, args):
     ret, err = driver._run_op(bpy.ops.flank.error_plot, width=640, height=360)
     res["after_reload"] = dict(result=ret, error=err, new_images=len(bpy.data.images) - n_img,
                                size=list(mod.plot_image(run_name).size))
+    res["plans_kept"] = driver.plans_kept(bpy)     # after every operator that read a run's plan

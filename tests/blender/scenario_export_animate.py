@@ -43,6 +43,23 @@ def scenario(bpy, res, args):
     plan = json.loads(coll["flank_plan_json"])
     res["run"] = dict(name=coll.name, strips=len(plan["strips"]), valid=bool(plan_mod.validate_plan(plan)),
                       sf_strips=coll.get("flank_sf_strips"))
+    # the run's plan is kept parsed from the planner's worker on; a changed stored text is parsed again
+    import importlib
+
+    runs = importlib.import_module(driver.MODULE + ".operators.runs")
+    kept_at_build = coll.name in runs._PLANS
+    c1, p1 = runs.run_plan(bpy.context, coll.name)
+    _, p2 = runs.run_plan(bpy.context, coll.name)
+    text = coll["flank_plan_json"]
+    changed = json.loads(text)
+    changed["summary"]["elapsed_s"] = 123.25
+    coll["flank_plan_json"] = json.dumps(changed)
+    _, p3 = runs.run_plan(bpy.context, coll.name)
+    coll["flank_plan_json"] = text
+    _, p4 = runs.run_plan(bpy.context, coll.name)
+    res["plan_cache"] = dict(kept_at_build=kept_at_build, shared=p1 is p2, equal=json.dumps(p1) == json.dumps(plan),
+                             changed=p3["summary"]["elapsed_s"], restored=p4["summary"]["elapsed_s"],
+                             stored=plan["summary"]["elapsed_s"])
 
     # ---------------------------------------------------------------- exports vs the core writers
     out = {}
@@ -206,3 +223,4 @@ def scenario(bpy, res, args):
         bad[name] = dict(result=r, error=e, new={k: b1[k] - b0[k] for k in b0})
     res["animate_bad"] = bad
     res["bl_options"] = sorted(bpy.types.FLANK_OT_animate_strip.bl_options)
+    res["plans_kept"] = driver.plans_kept(bpy)     # after every operator that read a run's plan

@@ -371,4 +371,5 @@ def scenario(bpy, res, args):
     out["test_surfaces"] = {k: _call(bpy, bpy.ops.flank.add_test_surface, kind=k, size=1.0, resolution=8)
                             for k, _, _ in surfaces.SURFACE_ITEMS}
     out["bad_surface"] = _call(bpy, bpy.ops.flank.add_test_surface, kind="bump", size=float("nan"))
+    out["plans_kept"] = driver.plans_kept(bpy)     # after every operator that read a run's plan
     res["freeform"] = out

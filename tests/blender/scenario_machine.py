@@ -250,3 +250,4 @@ def scenario(bpy, res, args):
                            extent=src.get("extent") if isinstance(src, dict) else None,
                            seconds=time.perf_counter() - t0)
     res["seconds_total"] = time.perf_counter() - t_start
+    res["plans_kept"] = driver.plans_kept(bpy)     # after every operator that read a run's plan

@@ -427,3 +427,4 @@ def scenario(bpy, res, args):
         guiding.stop_live_preview()
     res["live"]["timer_left"] = bpy.app.timers.is_registered(guiding.live_preview_tick)
     res["patched_left"] = ["__enter__" in c.execute.__qualname__ for c in classes.values()]
+    res["plans_kept"] = driver.plans_kept(bpy)     # after every operator that read a run's plan

@@ -439,3 +439,4 @@ def scenario(bpy, res, args):
                                           bpy.data.objects[dcoll["flank_df_rotor"]], "flank_df_", 0)
     res["reload"] = sv
     res["leftover_staging"] = [f for f in _listing(tmp) if f.startswith(".flank_export_")]
+    res["plans_kept"] = driver.plans_kept(bpy)     # after every operator that read a run's plan

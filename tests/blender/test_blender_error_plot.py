@@ -6,7 +6,7 @@ the rows the errors map to, the axis unit follows the scene (mm, µm below 1 mm)
 as PNG on request and survives save + reload."""
 import pytest
 
-from blender_harness import run_scenario
+from blender_harness import assert_plans_kept, run_scenario
 
 
 @pytest.fixture(scope="module")
@@ -123,3 +123,9 @@ def test_packed_image_survives_save_and_reload(ep):
     a = ep["after_reload"]
     assert a["result"] == ["FINISHED"], a["error"]
     assert a["new_images"] == 0 and a["size"] == [640, 360]
+
+
+def test_the_kept_plans_are_the_stored_ones(ep):
+    """Operators read a run's plan from the one the extension keeps parsed: after all of them ran, each kept plan
+    is still its run's stored text parsed again, number for number (none of them changed the shared plan)."""
+    assert_plans_kept(ep["plans_kept"])

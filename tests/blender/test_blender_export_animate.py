@@ -4,7 +4,7 @@ the files equal the core writers' output on the run's stored plan, and the movin
 motion S_t exactly while the tool stays put."""
 import pytest
 
-from blender_harness import run_scenario
+from blender_harness import assert_plans_kept, run_scenario
 
 
 @pytest.fixture(scope="module")
@@ -116,3 +116,17 @@ def test_tool_presets_are_real_end_mills_in_mm(ea):
     assert ui["tool_settings_cm"] == pytest.approx([0.3, (3.0 + 30.0 * math.tan(math.radians(3.0))) / 10, 0.5],
                                                    rel=1e-6)
     assert ui["bad_preset"]["result"] is None and "taper = 60" in ui["bad_preset"]["error"]
+
+
+def test_the_kept_plans_are_the_stored_ones(ea):
+    """Operators read a run's plan from the one the extension keeps parsed: after all of them ran, each kept plan
+    is still its run's stored text parsed again, number for number (none of them changed the shared plan)."""
+    assert_plans_kept(ea["plans_kept"])
+
+
+def test_a_runs_plan_is_parsed_once_per_stored_text(ea):
+    """The planner's worker parses its plan once more for the run; later reads share it while the stored text is
+    the same, and a changed text is read afresh."""
+    c = ea["plan_cache"]
+    assert c["kept_at_build"] and c["shared"] and c["equal"], c
+    assert c["changed"] == 123.25 and c["restored"] == c["stored"] != 123.25, c

@@ -6,7 +6,7 @@ preview (and its live update), direction picking, a vector-attribute field, sele
 import numpy as np
 import pytest
 
-from blender_harness import run_scenario
+from blender_harness import assert_plans_kept, run_scenario
 
 S = 2.0
 NOTHING = {"objects": 0, "meshes": 0, "collections": 0, "curves": 0, "images": 0}
@@ -193,3 +193,9 @@ def test_test_surfaces(ff):
                for v in ff["test_surfaces"].values())
     assert ff["add_surface"]["result"] == ["FINISHED"]
     assert ff["bad_surface"]["result"] is None and "size = nan" in ff["bad_surface"]["error"]
+
+
+def test_the_kept_plans_are_the_stored_ones(ff):
+    """Operators read a run's plan from the one the extension keeps parsed: after all of them ran, each kept plan
+    is still its run's stored text parsed again, number for number (none of them changed the shared plan)."""
+    assert_plans_kept(ff["plans_kept"])

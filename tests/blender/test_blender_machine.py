@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from blender_harness import run_scenario
+from blender_harness import assert_plans_kept, run_scenario
 from machining.machining_helpers import rs274_times, run_rs274
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -233,3 +233,9 @@ def test_the_scenario_stays_quick(mc):
     assert mc["plan"]["seconds"] < 30.0 and mc["seconds_total"] < 90.0
     print("plan {:.1f} s, post {:.1f} s, scenario {:.1f} s".format(mc["plan"]["seconds"], mc["post"]["seconds"],
                                                                     mc["seconds_total"]))
+
+
+def test_the_kept_plans_are_the_stored_ones(mc):
+    """Operators read a run's plan from the one the extension keeps parsed: after all of them ran, each kept plan
+    is still its run's stored text parsed again, number for number (none of them changed the shared plan)."""
+    assert_plans_kept(mc["plans_kept"])

@@ -9,7 +9,8 @@ rotor's 280,000 triangles are built in two turns of 33-41 and 16-32 ms), and a f
 as the synchronous run reports it."""
 import pytest
 
-from blender_harness import assert_cancelled_cleanly, assert_failure_reported_like_sync, run_scenario, running_polls
+from blender_harness import (assert_cancelled_cleanly, assert_failure_reported_like_sync, assert_plans_kept,
+                             run_scenario, running_polls)
 
 FRAME_MS = 100.0
 OPS = ("analyze", "generate", "preview", "flank_list", "paraboloid")
@@ -208,3 +209,9 @@ def test_the_warm_up_imports_what_a_first_click_needs_so_its_read_stays_under_a_
     assert ".flank_addon.geometry.helical_surface" not in w["loaded_before"], w["loaded_before"]
     assert w["done"] and w["failed"] == {} and w["imported"] == w["names"] and w["once"], w
     assert w["first_read_cpu_ms"] < FRAME_MS, w
+
+
+def test_the_kept_plans_are_the_stored_ones(mt):
+    """Operators read a run's plan from the one the extension keeps parsed: after all of them ran, each kept plan
+    is still its run's stored text parsed again, number for number (none of them changed the shared plan)."""
+    assert_plans_kept(mt["plans_kept"])

@@ -8,7 +8,7 @@ import os
 
 import pytest
 
-from blender_harness import run_scenario
+from blender_harness import assert_plans_kept, run_scenario
 
 NOTHING = {"objects": 0, "meshes": 0, "actions": 0, "collections": 0, "texts": 0}
 
@@ -210,3 +210,9 @@ def test_plans_and_animation_survive_save_and_reload(rx):
     assert sv["plans_kept"] and all(sv["plans_kept"].values()), sv["plans_kept"]
     assert sv["export"]["result"] == ["FINISHED"] and sv["export"]["same_bytes"] is True
     _screw_ok(sv["animation"])
+
+
+def test_the_kept_plans_are_the_stored_ones(rx):
+    """Operators read a run's plan from the one the extension keeps parsed: after all of them ran, each kept plan
+    is still its run's stored text parsed again, number for number (none of them changed the shared plan)."""
+    assert_plans_kept(rx["plans_kept"])
