@@ -68,7 +68,8 @@ def find_run(context, name=""):
 _PLANS = {}                       # run collection name -> ((length, hash) of its plan text, the plan)
 PLANS_KEPT = 4                    # runs whose plans are kept at most
 PLAN_CHARS_KEPT = 32_000_000      # their texts' length together at most: a parsed plan holds about 4.6 times its
-                                  # text's size in memory (5.9 MB for the bump's 1.28 MB), so at most ~150 MB
+                                  # text's size in memory (5.9 MB for the bump's 1.28 MB; more where it is mostly
+                                  # face indices), so about 150-250 MB at most
 
 
 def _text_key(text):
@@ -180,4 +181,9 @@ def replace_run(parent, coll, key_prop, key, name, names=()):
 
 
 classes = ()
-register, unregister = bpy.utils.register_classes_factory(classes)
+register, _unregister_classes = bpy.utils.register_classes_factory(classes)
+
+
+def unregister():
+    _unregister_classes()
+    _PLANS.clear()                # the kept plans go with the extension

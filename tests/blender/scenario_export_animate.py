@@ -47,7 +47,7 @@ def scenario(bpy, res, args):
     import importlib
 
     runs = importlib.import_module(driver.MODULE + ".operators.runs")
-    kept_at_build = coll.name in runs._PLANS
+    kept_at_build = runs._PLANS[coll.name][1] if coll.name in runs._PLANS else None
     c1, p1 = runs.run_plan(bpy.context, coll.name)
     _, p2 = runs.run_plan(bpy.context, coll.name)
     text = coll["flank_plan_json"]
@@ -57,7 +57,8 @@ def scenario(bpy, res, args):
     _, p3 = runs.run_plan(bpy.context, coll.name)
     coll["flank_plan_json"] = text
     _, p4 = runs.run_plan(bpy.context, coll.name)
-    res["plan_cache"] = dict(kept_at_build=kept_at_build, shared=p1 is p2, equal=json.dumps(p1) == json.dumps(plan),
+    res["plan_cache"] = dict(kept_at_build=kept_at_build is not None, read_the_kept=p1 is kept_at_build,
+                             shared=p1 is p2, equal=json.dumps(p1) == json.dumps(plan),
                              changed=p3["summary"]["elapsed_s"], restored=p4["summary"]["elapsed_s"],
                              stored=plan["summary"]["elapsed_s"])
 

@@ -128,5 +128,5 @@ def test_a_runs_plan_is_parsed_once_per_stored_text(ea):
     """The planner's worker parses its plan once more for the run; later reads share it while the stored text is
     the same, and a changed text is read afresh."""
     c = ea["plan_cache"]
-    assert c["kept_at_build"] and c["shared"] and c["equal"], c
+    assert c["kept_at_build"] and c["read_the_kept"] and c["shared"] and c["equal"], c
     assert c["changed"] == 123.25 and c["restored"] == c["stored"] != 123.25, c
