@@ -94,24 +94,30 @@ def run_plan(context, name=""):
     The plan is parsed once per stored text (``keep_plan``; hashing the text takes 0.2-0.3 ms per MB): calls that
     read the same run share one dict, so a caller reads it and never changes it (it copies it first, as
     ``machining.rotor_body.scale_plan`` does)."""
+    coll = find_run(context, name)
+    if isinstance(coll, str):
+        return coll
+    plan = stored_plan(coll)
+    return plan if isinstance(plan, str) else (coll, plan)
+
+
+def stored_plan(coll):
+    """The plan stored on the run ``coll``, kept parsed (see :func:`run_plan`), or an error message (str)."""
     import json
 
     from ..flank_addon.io.plan import PlanError, validate_plan
 
-    coll = find_run(context, name)
-    if isinstance(coll, str):
-        return coll
-    text = coll[PLAN_JSON_PROP]
+    text = coll.get(PLAN_JSON_PROP)
     kept = _PLANS.get(coll.name)
     if kept is not None and isinstance(text, str) and kept[0] == _text_key(text):
         _PLANS[coll.name] = _PLANS.pop(coll.name)       # the last read is kept longest
-        return coll, kept[1]
+        return kept[1]
     try:
         plan = validate_plan(json.loads(text))
     except (ValueError, TypeError, PlanError) as ex:
         return "the plan stored on '{}' is not valid: {}".format(coll.name, ex)
     keep_plan(coll, text, plan)
-    return coll, plan
+    return plan
 
 
 def run_plan_fields(plan):

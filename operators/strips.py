@@ -9,7 +9,7 @@ import bpy
 import numpy as np
 from bpy.props import StringProperty
 
-from .runs import PLAN_JSON_PROP, find_run, result_runs
+from .runs import PLAN_JSON_PROP, find_run, result_runs, stored_plan
 from .units import length_text
 
 PREFIXES = ("flank_sf_", "flank_df_", "flank_ff_")
@@ -150,11 +150,10 @@ def strip_rows(coll):
     hit = _ROWS_CACHE.get(coll.name)
     if hit is not None and hit[0] == cache_key:
         return hit[1]
-    try:
-        plan = json.loads(text)
-        strips = plan["strips"]
-    except (ValueError, KeyError, TypeError):
+    plan = stored_plan(coll)          # kept parsed since the planner's build: no parse in a panel's draw
+    if isinstance(plan, str):
         return None
+    strips = plan["strips"]
     scale = float(coll.get(pre + "length_scale", 1.0) or 1.0)
     covered, uncovered = _sf_covered(coll, plan, len(strips)) if pre == "flank_sf_" else (None, [])
     rows = {k: dict(max=float(st["reported_max_error"]) * scale, min=float(st["reported_min_error"]) * scale,
