@@ -26,7 +26,7 @@ from .common import count_limit_error, set_color_attr, set_float_attr, typed
 from .modal import ModalPlannerMixin
 from .properties import double_flank_props
 from .result_builder import COLOR_CHART, COLOR_TOOL, RunBuilder, finite_runs
-from .runs import PLAN_JSON_PROP, keep_plan, run_plan_fields
+from .runs import run_plan_fields, store_plan
 from .shapes import axis_frame
 from .sources import AnalysisNeeded, rotor_source, with_extent
 
@@ -258,8 +258,7 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
         props = self._props(job, out, rotor, made)
         run.store(props, [run.collection, rotor] + made["tools"], clear=[rotor])
         # the run's plan (flank-plan/1) travels with its collection: exports and reports read it from there
-        run.collection[PLAN_JSON_PROP] = out["plan_json"]
-        keep_plan(run.collection, out["plan_json"], out["plan_checked"])   # read by exports, reports, posts
+        store_plan(run.collection, out)
         run.show(made["tools"][0])
         self._report_done(job, out, rotor, props, made, replaced)
         return {'FINISHED'}

@@ -24,7 +24,7 @@ from .guiding import COLOR_GUIDING, check_tool, guiding_inputs, planning_surface
 from .modal import ModalPlannerMixin
 from .properties import freeform_props
 from .result_builder import COLOR_TOOL, RunBuilder
-from .runs import PLAN_JSON_PROP, keep_plan, run_plan_fields
+from .runs import run_plan_fields, store_plan
 from .shapes import axis_frame, revolved_mesh
 from .units import length_text
 
@@ -212,8 +212,7 @@ class FLANK_OT_plan_freeform(ModalPlannerMixin, bpy.types.Operator):
                        length_scale=float(s), length_unit=plan["length_unit"], elapsed=float(summary["elapsed_s"]),
                        total_elapsed=time.perf_counter() - job["t0"], summary=json.dumps(dict(summary))),
                   [run.collection])
-        run.collection[PLAN_JSON_PROP] = out["plan_json"]
-        keep_plan(run.collection, out["plan_json"], out["plan_checked"])   # read by exports, reports, posts
+        store_plan(run.collection, out)       # read by exports, reports, posts
         run.show(made["tools"][0] if made["tools"] else None)
 
         def L(v):

@@ -123,13 +123,20 @@ def stored_plan(coll):
 def run_plan_fields(plan):
     """A planner's result fields for its run's plan (any thread, so its worker does it): ``plan_json``, the text
     stored on the run, and ``plan_checked``, that text parsed and checked again, as :func:`run_plan` would (for
-    :func:`keep_plan`; a dict of its own, not the planner's)."""
+    :func:`store_plan`; a dict of its own, not the planner's)."""
     import json
 
     from ..flank_addon.io.plan import validate_plan
 
     text = json.dumps(plan)
     return dict(plan_json=text, plan_checked=validate_plan(json.loads(text)))
+
+
+def store_plan(coll, fields):
+    """Store a planner's plan on its run ``coll`` and keep it parsed: ``fields`` holds :func:`run_plan_fields`'
+    ``plan_json`` and ``plan_checked`` (the main thread, in the planner's build)."""
+    coll[PLAN_JSON_PROP] = fields["plan_json"]
+    keep_plan(coll, fields["plan_json"], fields["plan_checked"])
 
 
 def run_prop(coll, name):

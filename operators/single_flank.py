@@ -29,7 +29,7 @@ from .common import count_limit_error, set_color_attr, set_float_attr, set_int_a
 from .modal import ModalPlannerMixin
 from .properties import single_flank_props
 from .result_builder import COLOR_CHART, COLOR_TOOL, RunBuilder, finite_runs
-from .runs import PLAN_JSON_PROP, keep_plan, run_plan_fields
+from .runs import run_plan_fields, store_plan
 from .shapes import axis_frame, revolved_mesh
 from .sources import AnalysisNeeded, rotor_source, with_extent
 from .units import mm_per_scene_unit
@@ -432,8 +432,7 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
         props = self._props(job, out, rotor, made)
         run.store(props, [run.collection, rotor] + made["tools"], clear=[rotor])
         # the run's plan (flank-plan/1) travels with its collection: exports and reports read it from there
-        run.collection[PLAN_JSON_PROP] = out["plan_json"]
-        keep_plan(run.collection, out["plan_json"], out["plan_checked"])   # read by exports, reports, posts
+        store_plan(run.collection, out)
         run.show(made["tools"][0])
         unc = "covered {:.1f} %{}".format(100.0 * res.covered_fraction, "" if res.complete else ", uncovered " +
                                            _ranges_text(merge_ranges(res.uncovered)))

@@ -293,13 +293,11 @@ def render_tiles(width, height, limit=TILE_PIXELS):
     if width < 1 or height < 1 or limit < 1:
         raise ValueError(f"tiles of a {width} x {height} picture with at most {limit} pixels each")
     nx = ny = 1
-    while -(-width // nx) * -(-height // ny) > limit:
+    while -(-width // nx) * -(-height // ny) > limit:     # ends by 1 x 1 pixel tiles at the latest
         if width / nx >= height / ny and nx < width:
             nx += 1
-        elif ny < height:
+        else:                                             # here ny < height, or the tiles would be 1 pixel
             ny += 1
-        else:
-            nx += 1
     xs = [round(i * width / nx) for i in range(nx + 1)]
     ys = [round(j * height / ny) for j in range(ny + 1)]
     return [(xs[i], ys[j], xs[i + 1], ys[j + 1]) for j in range(ny) for i in range(nx)]
