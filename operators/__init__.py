@@ -11,7 +11,8 @@ Modules, bottom up (a module imports only those listed before it):
 
 - ``common`` (meshes, attributes, removal, F-curves), ``materials`` (the shared attribute material),
   ``units`` (lengths as people read them), ``shapes`` (tool frames, screw motion, surfaces of revolution),
-  ``jobs`` / ``modal`` (the planner off the UI thread), ``tool_settings`` (the Tool panel's end mill);
+  ``jobs`` / ``modal`` (the planner off the UI thread), ``report_process`` (a Cycles report rendered by
+  a separate Blender), ``tool_settings`` (the Tool panel's end mill);
 - ``runs`` (result runs in the scene), ``sources`` (rotor and surface read from Blender),
   ``result_builder`` (the shared builder), ``strips`` (the Results lists), ``guiding`` (free-form guiding
   direction and preview);
@@ -29,12 +30,13 @@ import bpy
 
 from . import (analyze, animate, chart_text, common, cutter_region, double_flank, export, flank_list,
                formed_cutter, freeform, generate, guiding, jobs, materials, modal, paraboloid, post_program,
-               profile_plot, program, program_scene, properties, render_report, report_scene, result_builder, runs,
-               sample_surfaces, shapes, single_flank, sources, strips, tool_preview, tool_settings, ui_ops, units,
-               verify)
+               profile_plot, program, program_scene, properties, render_report, report_process, report_scene,
+               result_builder, runs, sample_surfaces, shapes, single_flank, sources, strips, tool_preview,
+               tool_settings, ui_ops, units, verify)
 
 MODULES = (
-    common, materials, units, shapes, jobs, modal, tool_settings, runs, sources, result_builder, chart_text,
+    common, materials, units, shapes, jobs, report_process, modal, tool_settings, runs, sources, result_builder,
+    chart_text,
     properties,            # FLANK_PG_flank, FLANK_PG_settings: before everything that uses them
     strips, guiding,
     generate, analyze, verify, single_flank, double_flank, formed_cutter, paraboloid, freeform, sample_surfaces,

@@ -115,7 +115,7 @@ class FLANK_OT_render_report(ModalPlannerMixin, bpy.types.Operator):
         temporary scene; the labels' layout in Blender's font; a render of 16 x 10 pixels that prepares the
         meshes for drawing; then one turn per tile of the picture (Workbench: at most 256,000 pixels each,
         ``report_scene.report_tiles``), each rendered and read back as raw pixels; after the last the scene is
-        removed.  The last worker puts the tiles together, smooths the edges, paints the legend, fills the labels
+        removed.  Cycles renders in a separate Blender instead (:meth:`_cycles_stage`).  The last worker puts the tiles together, smooths the edges, paints the legend, fills the labels
         in and encodes the PNG, so the build only writes the file.  A failure here is reported by the mixin
         (:meth:`_compute_failed`), which then discards the scene."""
         from .report_scene import (report_png, report_scene_labels, report_scene_prepare,
@@ -132,6 +132,8 @@ class FLANK_OT_render_report(ModalPlannerMixin, bpy.types.Operator):
         if "labels" not in state:                         # the labels' layout
             report_scene_labels(state, job["picture"])
             return next_turn()
+        if job["picture"]["info"]["engine"] == "CYCLES":
+            return self._cycles_stage(job, state)
         if not state.get("prepared"):
             report_scene_prepare(state)
             state["prepared"] = True
@@ -149,6 +151,26 @@ class FLANK_OT_render_report(ModalPlannerMixin, bpy.types.Operator):
         def finish(progress):
             rgba = tiled_pixels(pieces, picture["width"], picture["height"])
             return report_png(picture, rgba, labels)
+        return finish
+
+    def _cycles_stage(self, job, state):
+        """Cycles: the scene goes to a .blend file and is removed at once; the last worker renders that file in
+        a separate Blender (``report_process``: Esc kills it), then finishes the PNG as for Workbench."""
+        import sys
+
+        from .report_process import render_in_child
+        from .report_scene import report_png, report_scene_file, tga_pixels
+        from ..flank_addon.progress import reporter
+
+        blend, scene = report_scene_file(state)
+        out = state["tmp"][:-len(".tga")] + ".cycles.tga"
+        self._discard(job)
+        picture, labels = job["picture"], state["labels"]
+        binary, python = bpy.app.binary_path, sys.executable
+
+        def finish(progress):
+            data = render_in_child(blend, scene, out, reporter(progress), binary, python)
+            return report_png(picture, tga_pixels(data, picture["width"], picture["height"]), labels)
         return finish
 
     def _discard(self, job):

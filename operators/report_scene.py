@@ -298,6 +298,21 @@ def report_scene_render(state, tile=None):
         os.remove(state["tmp"])           # nothing beside the report between the turns
 
 
+def report_scene_file(state):
+    """Write the scene (with its objects, meshes, materials, camera, light and world) to a .blend file beside the
+    report, for a separate Blender to render (``report_process``) -> (the file's path, the scene's name).  A few
+    milliseconds on the main thread; the caller removes the file."""
+    sc = state["scene"]
+    blend = state["tmp"][:-len(".tga")] + ".blend"
+    try:
+        bpy.data.libraries.write(blend, {sc}, path_remap='NONE', fake_user=False, compress=False)
+    except BaseException:
+        if os.path.exists(blend):
+            os.remove(blend)
+        raise
+    return blend, sc.name
+
+
 def report_scene_end(state):
     """Remove everything :func:`report_scene_start` made (the scene, its objects and data, the loaded font, the
     render result if there was none before, the temporary file)."""

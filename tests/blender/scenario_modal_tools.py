@@ -361,6 +361,35 @@ def scenario(bpy, res, args):
         return dict(pixels=_digest_array(np, png_io.read_png(path)), meta=png_io.read_png_text(path))
 
     rep["sync_picture"], rep["finish_picture"] = picture("sync.png"), picture("finish.png")
+    # Cycles renders in a separate Blender: the main thread writes the scene's file, a worker waits for that
+    # process, which Esc and closing kill; every process the runs start is recorded (the real one, observed)
+    rp = __import__(driver.MODULE + ".operators.report_process", fromlist=["x"])
+    children, real_child = [], rp.ChildRender.__init__
+
+    def recorded_child(child, command, files=()):
+        real_child(child, command, files)
+        children.append(child.process)
+
+    cyc, ckw = {}, dict(collection=run, width=320, height=200, engine='CYCLES')
+    rp.ChildRender.__init__ = recorded_child
+    try:
+        ret, err = driver._run_op(bpy.ops.flank.render_report, filepath=os.path.join(folder, "cycles_sync.png"),
+                                  **ckw)
+        cyc["sync"] = dict(result=ret, error=err, children=[p.returncode for p in children])
+        for plan in ("finish", "esc_next_stage", "close_next_stage"):
+            n0 = len(children)
+            before = sm.census(bpy, np)
+            rec = sm._call(bpy, bpy.ops.flank.render_report, render_cls, plan,
+                           filepath=os.path.join(folder, "cycles_{}.png".format(plan)), **ckw)
+            rec.update(census_equal=before == sm.census(bpy, np), temporary_files=sorted(
+                f for f in os.listdir(folder) if ".render" in f), children=[p.returncode for p in children[n0:]],
+                running=len(rp.running()))
+            cyc[plan] = rec
+    finally:
+        rp.ChildRender.__init__ = real_child
+    cyc["files"] = sorted(f for f in os.listdir(folder) if f.startswith("cycles_"))
+    cyc["sync_picture"], cyc["finish_picture"] = picture("cycles_sync.png"), picture("cycles_finish.png")
+    rep["cycles"] = cyc
     res["render"] = rep
     # a mesh that is not a rotor: the worker's failure is reported as the synchronous run reports it
     bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32)

@@ -139,6 +139,16 @@ def scenario(bpy, res, args):
     out = dict(result=ret, error=err, seconds=time.perf_counter() - t0, changed=diff(c0, census(bpy)))
     if os.path.exists(p):
         out.update(png_facts(np, rr, p, plan["tolerance"]))
+        # the operator's Cycles render ran in a separate Blender; the same picture rendered in this one
+        png_io = driver._core("io.png")
+        here = os.path.join(tmp, "cycles_here.png")
+        rs.render_plan_report(plan, here, 320, 200, title="{}: {}".format(coll.name, plan["method"]),
+                              engine="CYCLES", units=rr.display_units(plan, us.system, us.scale_length))
+        a, b = png_io.read_png(p).astype(int), png_io.read_png(here).astype(int)
+        d = np.abs(a - b).max(axis=-1)
+        out.update(here_differing=int((d > 0).sum()), here_max_diff=int(d.max()),
+                   surface=int((a[..., :3] < 200).any(axis=-1).sum()))
+        os.remove(here)
     res["cycles"] = out
 
     # ---------------------------------------------------------------- bad input: an error, no file, no data

@@ -201,6 +201,33 @@ def test_render_report_computes_the_picture_off_the_main_thread_and_renders_the_
     assert rep["files"] == ["finish.png", "sync.png"], rep["files"]
 
 
+def test_a_cycles_report_renders_in_a_separate_blender_that_esc_and_closing_stop(mt):
+    """Cycles holds Blender's main thread for the whole render (42 s at 1280 x 800 on two cores): the report's
+    scene goes to a .blend file in one short turn, and a separate Blender renders it while a worker waits.  The
+    modal run makes the synchronous run's PNG; Esc and closing while that Blender renders kill it and leave no
+    file, no process and bpy.data as it was."""
+    cyc = mt["render"]["cycles"]
+    assert cyc["sync"]["result"] == ["FINISHED"] and cyc["sync"]["children"] == [0], cyc["sync"]
+    rec = cyc["finish"]
+    assert rec["final"] == ["FINISHED"] and rec["op_result"] == ["FINISHED"], rec
+    assert rec["census_equal"] and rec["temporary_files"] == [] and rec["running"] == 0, rec
+    assert rec["children"] == [0], rec["children"]          # one process, which ended well
+    assert cyc["finish_picture"] is not None and cyc["finish_picture"] == cyc["sync_picture"]
+    assert rec["start_cpu_ms"] < FRAME_MS, (rec["start_cpu_ms"], rec["start_ms"])
+    assert all(c["cpu_ms"] < FRAME_MS for c in rec["calls"]), rec["calls"]
+    turns = [c for c in rec["calls"] if c["state_before"] == "finished"]
+    assert len(turns) == 4, turns                 # scene, labels, the scene's file, build
+    # the worker that waits reports the other Blender's progress
+    assert any(c["status"].startswith("Render report:") and "Cycles" in c["status"] for c in rec["calls"]
+               if c["state_before"] == "running" and isinstance(c["status"], str)), rec["calls"]
+    for plan, kind in (("esc_next_stage", "esc"), ("close_next_stage", "close")):
+        rec = cyc[plan]
+        assert_cancelled_cleanly(rec, mt["timer_step"], kind)
+        assert rec["temporary_files"] == [] and rec["running"] == 0, rec
+        assert len(rec["children"]) == 1 and rec["children"][0] < 0, rec["children"]    # killed by a signal
+    assert cyc["files"] == ["cycles_finish.png", "cycles_sync.png"], cyc["files"]
+
+
 def test_the_warm_up_imports_what_a_first_click_needs_so_its_read_stays_under_a_frame(mt):
     """Shown the sidebar, the extension imports the rotor reader (scipy.spatial, 0.2 s on the main thread of a
     first click before) and the planners in a worker thread, once; a planner's first read of the session then

@@ -84,11 +84,15 @@ def test_invoke_without_a_window_renders(rep):
 
 
 def test_cycles_report(rep):
+    """Cycles renders in a separate Blender (the main thread would be held for the whole render): its picture is
+    the one this Blender renders of the same scene, pixel for pixel, and nothing stays behind."""
     r = rep["cycles"]
     assert r["result"] == ["FINISHED"], r["error"]
     assert r["shape"] == [200, 320, 4] and r["bar_max_diff"] == 0
     assert r["meta"]["engine"] == "CYCLES" and "±1 µm" in r["meta"]["title"][1]
     assert r["changed"] == {}, r["changed"]
+    assert r["surface"] > 5000, r                  # the rotor is in the picture, not only the background
+    assert r["here_differing"] == 0, (r["here_differing"], r["here_max_diff"])
 
 
 @pytest.mark.parametrize("label,words", [("missing_folder", "does not exist"), ("folder", "is a folder"),
