@@ -10,7 +10,8 @@ and reads the pixels back (:func:`render_in_child`).  Esc kills that process.  W
 tiles are short enough for the main thread (``report_scene.report_tiles``).
 
 The second Blender is ``bpy.app.binary_path`` run in the background with factory settings; Blender as a Python
-module (the ``bpy`` wheel, whose ``binary_path`` is empty) runs the same script in its own Python instead.
+module (the ``bpy`` wheel, whose ``binary_path`` is empty) runs the same script in its own Python instead.  (On
+Windows it opens no console window.)
 """
 import atexit
 import os
@@ -21,8 +22,10 @@ import time
 from collections import deque
 
 # run by the second Blender: open the scene's file, render that scene, save the render as the TGA the caller
-# reads (the paths and the scene's name follow "--"; the statistics lines give the progress)
+# reads (the paths and the scene's name follow "--"; the statistics lines give the progress).  It leaves at once
+# when the file is saved: Blender 4.2 as a Python module crashed in its teardown after a Cycles render.
 CHILD_SCRIPT = """\
+import os
 import sys
 import bpy
 blend, scene, out = sys.argv[sys.argv.index("--") + 1:][:3]
@@ -33,6 +36,8 @@ done = bpy.ops.render.render(write_still=False, scene=sc.name)
 if "FINISHED" not in done:
     raise RuntimeError("the render ended " + ", ".join(sorted(done)))
 bpy.data.images["Render Result"].save_render(filepath=out, scene=sc)
+sys.stdout.flush()
+os._exit(0)
 """
 
 STATS_PREFIX = "flank-render-stats:"
@@ -83,7 +88,8 @@ class ChildRender:
         self.lines = deque(maxlen=30)
         try:
             self.process = subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                                            stderr=subprocess.STDOUT, text=True, errors="replace", bufsize=1)
+                                            stderr=subprocess.STDOUT, text=True, errors="replace", bufsize=1,
+                                            creationflags=getattr(subprocess, "CREATE_NO_WINDOW", 0))
         except OSError as ex:
             raise RuntimeError("could not start Blender for the Cycles render ({}): {}".format(command[0], ex)) \
                 from None

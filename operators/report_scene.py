@@ -304,6 +304,8 @@ def report_scene_file(state):
     milliseconds on the main thread; the caller removes the file."""
     sc = state["scene"]
     blend = state["tmp"][:-len(".tga")] + ".blend"
+    # Blender 5.2 crashed writing a scene whose view layer was never evaluated (a new scene that no window shows)
+    sc.view_layers[0].update()
     try:
         bpy.data.libraries.write(blend, {sc}, path_remap='NONE', fake_user=False, compress=False)
     except BaseException:
