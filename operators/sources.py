@@ -233,12 +233,8 @@ def surface_object(context, role_key="flank_ff_role", source_key="flank_ff_sourc
 
 def _triangles(mesh, selected_only):
     """(triangles (m, 3), their polygon indices) of a mesh, only those of selected faces if asked."""
-    tris = mesh_triangles(mesh).astype(np.int64)
-    if len(tris) == len(mesh.polygons) and 3 * len(tris) == len(mesh.loops):     # every face a triangle, in order
-        poly = np.arange(len(tris), dtype=np.int64)
-    else:
-        poly = np.empty(len(tris), dtype=np.int64)
-        mesh.loop_triangles.foreach_get("polygon_index", poly)        # mesh_triangles made them
+    tris, poly = mesh_triangles(mesh, with_faces=True)
+    tris, poly = tris.astype(np.int64), poly.astype(np.int64)
     if selected_only:
         sel = np.zeros(len(mesh.polygons), dtype=bool)
         mesh.polygons.foreach_get("select", sel)

@@ -161,28 +161,66 @@ def scenario(bpy, res, args):
     ob["flank_analysis_record"] = record
     # the quick reads of a mesh (single precision widened; triangles from the corners where every face is one) give
     # Blender's own arrays: the rotor's triangles, and a cube's quads through Blender's triangulation
+    # and meshes of quads (and triangles) through Blender's split of each quad: a 500,000-quad grid shaken until a
+    # quarter of its quads are concave or folded, one whose corners sit on a half-unit lattice (many quads with
+    # three corners in a line, split by rounding: read from Blender one by one), a cylinder with n-gon caps
     common = __import__(driver.MODULE + ".operators.common", fromlist=["x"])
-    bpy.ops.mesh.primitive_cube_add()
-    cube = bpy.context.active_object
+    rng = np.random.default_rng(7)
+    made = []
+
+    def added(op, **kw):
+        op(**kw)
+        made.append(bpy.context.active_object)
+        return made[-1].data
+
+    def shaken(me, scale, lattice=None):
+        co = common.mesh_vertices(me)
+        co += rng.normal(scale=scale, size=co.shape)
+        if lattice:
+            co = np.round(co / lattice) * lattice
+        me.attributes["position"].data.foreach_set("vector", co.astype(np.float32).ravel())
+        me.update()
+        return me
+
+    meshes = (("rotor", ob.data), ("cube", added(bpy.ops.mesh.primitive_cube_add)),
+              ("grid", shaken(added(bpy.ops.mesh.primitive_grid_add, x_subdivisions=708, y_subdivisions=708,
+                                    size=2.0), 0.0012)),
+              ("lattice", shaken(added(bpy.ops.mesh.primitive_grid_add, x_subdivisions=40, y_subdivisions=40,
+                                       size=40.0), 0.5, lattice=0.5)),
+              ("ngons", added(bpy.ops.mesh.primitive_cylinder_add, vertices=64, end_fill_type='NGON')))
     reads = {}
-    for name, me in (("rotor", ob.data), ("cube", cube.data)):
+    for name, me in meshes:
         co = np.empty(3 * len(me.vertices))
         me.vertices.foreach_get("co", co)
         me.calc_loop_triangles()
         tris = np.empty(3 * len(me.loop_triangles), dtype=np.int32)
+        faces = np.empty(len(me.loop_triangles), dtype=np.int32)
         c0 = time.thread_time()
         me.loop_triangles.foreach_get("vertices", tris)
+        me.loop_triangles.foreach_get("polygon_index", faces)
         c1 = time.thread_time()
-        quick = common.mesh_triangles(me)
+        quick, quick_faces = common.mesh_triangles(me, with_faces=True)
         c2 = time.thread_time()
+        sizes = np.empty(len(me.polygons), dtype=np.int32)
+        me.polygons.foreach_get("loop_total", sizes)
+        corners = np.empty(len(me.loops), dtype=np.int32)
+        me.loops.foreach_get("vertex_index", corners)
+        split = dict(unsure=-1, flipped=-1)
+        if sizes.max() <= 4:
+            made_here, unsure, first = common.tris_and_quads(corners, sizes, common.mesh_vertices(me))
+            quads = first[sizes == 4]
+            split = dict(unsure=len(unsure), flipped=int((made_here[quads, 2] != made_here[quads + 1, 1]).sum()))
         reads[name] = dict(co=bool(np.array_equal(common.mesh_vertices(me), co.reshape(-1, 3))),
                            tris=bool(np.array_equal(quick, tris.reshape(-1, 3))),
-                           faces=len(me.polygons), triangles=len(tris) // 3,
+                           tri_faces=bool(np.array_equal(quick_faces, faces)),
+                           faces=len(me.polygons), triangles=len(tris) // 3, quads=int((sizes == 4).sum()),
+                           largest_face=int(sizes.max()), **split,
                            ms=dict(loop_triangles=1000.0 * (c1 - c0), quick=1000.0 * (c2 - c1)))
     res["mesh_reads"] = reads
-    cube_mesh = cube.data
-    bpy.data.objects.remove(cube)
-    bpy.data.meshes.remove(cube_mesh)
+    for obj in made:
+        me = obj.data
+        bpy.data.objects.remove(obj)
+        bpy.data.meshes.remove(me)
     # the rotor moved and turned after Analyze Rotor, in a later Blender session: the record moves with the object
     before = sources.rotor_source(ob)
     location, rotation = tuple(ob.location), tuple(ob.rotation_euler)

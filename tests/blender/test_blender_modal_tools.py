@@ -118,15 +118,28 @@ def test_a_rotor_scaled_after_its_analysis_is_analysed_again_in_the_planners_wor
 
 
 def test_the_quick_mesh_reads_give_blenders_own_arrays(mt):
+    """Vertices, triangles and each triangle's face read the quick way are Blender's own (``loop_triangles``, read
+    item by item): a rotor of triangles, a cube, a 500,000-quad grid shaken until many quads are concave or folded
+    (Blender's split of each made in numpy), a lattice whose quads often have three corners in a line (their
+    split decided by rounding, so read from Blender one by one) and a cylinder with n-gon caps (read from
+    Blender)."""
     r = {k: dict(v) for k, v in mt["mesh_reads"].items()}
-    ms = r["rotor"].pop("ms")
-    r["cube"].pop("ms")
-    assert r["rotor"] == dict(co=True, tris=True, faces=r["rotor"]["triangles"], triangles=r["rotor"]["triangles"]), r
-    assert r["rotor"]["faces"] > 100000
-    assert r["cube"] == dict(co=True, tris=True, faces=6, triangles=12), r
-    # the rotor's triangles came the quick way (the corners' attribute), not through loop_triangles: 0.7 ms
-    # against 32 ms when measured on their own
-    assert ms["quick"] < 0.25 * ms["loop_triangles"], ms
+    ms = {k: v.pop("ms") for k, v in r.items()}
+    for name, read in r.items():
+        assert read["co"] and read["tris"] and read["tri_faces"], (name, read)
+    assert r["rotor"]["faces"] == r["rotor"]["triangles"] > 100000 and r["rotor"]["quads"] == 0, r["rotor"]
+    assert r["cube"]["faces"] == 6 and r["cube"]["triangles"] == 12, r["cube"]
+    grid = r["grid"]
+    assert grid["quads"] == grid["faces"] > 490000 and grid["triangles"] == 2 * grid["faces"], grid
+    assert grid["flipped"] > 0.05 * grid["quads"], grid                              # the other diagonal, often
+    assert 0 < grid["unsure"] < 1e-3 * grid["quads"], grid        # a few near-degenerate quads asked one by one
+    lattice = r["lattice"]
+    assert 0 < lattice["unsure"] <= 5000 and lattice["flipped"] > 0, lattice
+    assert r["ngons"]["largest_face"] == 64 and r["ngons"]["unsure"] == -1, r["ngons"]
+    # the rotor's triangles came from the corners' attribute (0.7 ms against 32 ms through loop_triangles when
+    # measured on their own), the grid's from the corners and Blender's rule for quads
+    assert ms["rotor"]["quick"] < 0.25 * ms["rotor"]["loop_triangles"], ms
+    assert ms["grid"]["quick"] < 0.5 * ms["grid"]["loop_triangles"], ms
 
 
 def test_the_live_guiding_preview_computes_off_the_main_thread_and_draws_the_newest_settings(mt):
