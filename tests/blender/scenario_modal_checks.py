@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Verify (flank.verify_plan), Error Plot (flank.error_plot) and Check Tool (flank.cutter_region) through the
-modal Run path (operators/modal.py), for test_blender_modal_checks.py.
+"""Verify (flank.verify_plan), Error Plot (flank.error_plot), Check Tool (flank.cutter_region) and Post Program
+(flank.post_program) through the modal Run path (operators/modal.py), for test_blender_modal_checks.py.
 
 Each operator's ``execute`` is replaced for one call by scenario_modal's driver (``_start_modal`` + ``modal()``
 with TIMER / ESC events and a stand-in context): ESC and closing leave a full census of bpy.data and the scene
@@ -36,6 +36,21 @@ def _plot_state(bpy, np, run_name):
                 props={k: sm._plain(img[k]) for k in img.keys() if k.startswith("flank_plot_")})
 
 
+def _post_state(bpy, np, run_name, path):
+    """The run's program: its properties (but the time the posting took), the file, the path mesh and the
+    animation's data-blocks."""
+    coll = bpy.data.collections[run_name]
+    props = {k: sm._plain(coll[k]) for k in coll.keys() if k.startswith("flank_prog_") and k != "flank_prog_elapsed"}
+    if not props:
+        return None
+    text = open(path).read() if os.path.isfile(path) else None
+    path_ob = next((o for o in coll.all_objects if o.type == 'MESH' and "motion" in o.data.attributes), None)
+    return dict(props=props, file=None if text is None else sm._digest(text), lines=None if text is None else
+                len(text.splitlines()), path=None if path_ob is None else dict(
+                    edges=len(path_ob.data.edges), co=sm._digest(driver._mesh_co(np, path_ob).tobytes())),
+                objects=len(coll.all_objects), actions=len(bpy.data.actions))
+
+
 def _region_state(bpy, np, key):
     coll = next((c for c in bpy.data.collections if c.get("flank_cr_key") == key), None)
     if coll is None:
@@ -51,10 +66,11 @@ def scenario(bpy, res, args):
     import numpy as np
 
     mods = {name: __import__(driver.MODULE + ".operators." + name, fromlist=["x"])
-            for name in ("verify", "profile_plot", "cutter_region", "modal")}
+            for name in ("verify", "profile_plot", "cutter_region", "post_program", "modal")}
     mixin = mods["modal"].ModalPlannerMixin
     classes = dict(verify=mods["verify"].FLANK_OT_verify_plan, error_plot=mods["profile_plot"].FLANK_OT_error_plot,
-                   cutter_region=mods["cutter_region"].FLANK_OT_cutter_region)
+                   cutter_region=mods["cutter_region"].FLANK_OT_cutter_region,
+                   post=mods["post_program"].FLANK_OT_post_program)
     res["mixin"] = {k: issubclass(c, mixin) for k, c in classes.items()}
     res["timer_step"] = mods["modal"].TIMER_STEP
 
@@ -86,6 +102,40 @@ def scenario(bpy, res, args):
                                             dict(flank=1, r1=0.05, r2=0.08, alpha=0.1001674211615598,
                                                  grid=(12, 16, 16)),
                                             select, lambda: _region_state(bpy, np, "{}|1".format(rotor_name)))
+    # Post Program: that run as a whole-rotor program (every lobe) for the default machine and post, with its path
+    # and animation; before each run the program file the run before left is noted and removed
+    program = os.path.join(os.path.abspath(os.getcwd()), "modal_program.ngc")
+    program_seen = []
+
+    def no_program():
+        program_seen.append(os.path.exists(program))
+        if program_seen[-1]:
+            os.remove(program)
+
+    us = bpy.context.scene.unit_settings
+    units = us.system, us.scale_length
+    us.system, us.scale_length = 'METRIC', 0.001              # the rotor's outer radius is 1 mm
+    post_cls, post_kw = classes["post"], dict(collection=run_name, filepath=program)
+    real_compute, real_attr = post_cls._compute, post_cls.__dict__["_compute"]       # a static method
+
+    def slow_compute(job, progress):            # Esc and closing must land while the worker runs (0.1 s alone)
+        for _ in range(50):
+            if progress is not None and progress(0.0, "waiting") is False:
+                break
+            time.sleep(0.01)
+        return real_compute(job, progress)
+
+    try:
+        res["post"] = sm.exercise_tool(bpy, np, bpy.ops.flank.post_program, post_cls, post_kw, select,
+                                       lambda: _post_state(bpy, np, run_name, program), before_each=no_program,
+                                       cancel=False)
+        post_cls._compute = staticmethod(slow_compute)
+        res["post"].update(sm.cancelled_runs(bpy, np, bpy.ops.flank.post_program, post_cls, post_kw, select,
+                                             no_program))
+    finally:
+        post_cls._compute = real_attr
+        us.system, us.scale_length = units
+    res["post_files"] = program_seen + [os.path.exists(program)]     # before sync, finish, Esc, closing; after
     # Error Plot's stages: Esc while the second worker (text and PNG) runs, and a failure of the text's layout on
     # the main thread between the workers; either leaves bpy.data as it was and writes no file
     plot_cls = classes["error_plot"]

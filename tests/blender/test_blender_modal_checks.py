@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Verify, Error Plot and Check Tool run modal from the UI like the planners (operators/modal.ModalPlannerMixin):
+"""Verify, Error Plot, Check Tool and Post Program run modal from the UI like the planners (operators/modal.ModalPlannerMixin):
 driven headless by scenario_modal_checks.py with scenario_modal's driver (TIMER / ESC events, a stand-in context).
 Progress is shown while the worker runs, no modal() call holds Blender's main thread for 100 ms or more, ESC and
 closing leave bpy.data and the scene exactly as before, a modal run to the end makes what the synchronous run
@@ -10,7 +10,7 @@ import pytest
 from blender_harness import assert_cancelled_cleanly, assert_failure_reported_like_sync, run_scenario, running_polls
 
 FRAME_MS = 100.0
-OPS = ("verify", "error_plot", "cutter_region")
+OPS = ("verify", "error_plot", "cutter_region", "post")
 
 
 def _numbers(v):
@@ -61,10 +61,19 @@ def mc(extension_zip, tmp_path_factory):
     return run_scenario(extension_zip, "modal_checks", tmp_path_factory.mktemp("modal_checks"))
 
 
-def test_the_three_operators_use_the_modal_mixin(mc):
-    assert mc["mixin"] == dict(verify=True, error_plot=True, cutter_region=True)
+def test_the_four_operators_use_the_modal_mixin(mc):
+    assert mc["mixin"] == dict(verify=True, error_plot=True, cutter_region=True, post=True)
     assert mc["run"]["result"] == ["FINISHED"], mc["run"]
-    assert mc["patched_left"] == [False, False, False]
+    assert mc["patched_left"] == [False] * 4
+
+
+def test_post_program_writes_its_file_only_when_it_finishes(mc):
+    """The program file appears with the synchronous run and the modal run to the end, never with Esc or
+    closing; the program posted is a whole-rotor one (every lobe) with its path and animation."""
+    assert mc["post_files"] == [False, True, True, False, False], mc["post_files"]
+    state = mc["post"]["finish"]["state"]
+    assert state["file"] is not None and state["lines"] > 30 and state["path"]["edges"] > 100, state
+    assert state["props"]["flank_prog_lobes"] == list(range(6)) and state["props"]["flank_prog_passes"] == 6, state
 
 
 @pytest.mark.parametrize("op", OPS)
