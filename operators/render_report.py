@@ -115,9 +115,10 @@ class FLANK_OT_render_report(ModalPlannerMixin, bpy.types.Operator):
         temporary scene; the labels' layout in Blender's font; a render of 16 x 10 pixels that prepares the
         meshes for drawing; then one turn per tile of the picture (Workbench: at most 256,000 pixels each,
         ``report_scene.report_tiles``), each rendered and read back as raw pixels; after the last the scene is
-        removed.  Cycles renders in a separate Blender instead (:meth:`_cycles_stage`).  The last worker puts the tiles together, smooths the edges, paints the legend, fills the labels
-        in and encodes the PNG, so the build only writes the file.  A failure here is reported by the mixin
-        (:meth:`_compute_failed`), which then discards the scene."""
+        removed.  Cycles renders in a separate Blender instead (:meth:`_cycles_stage`).  The last worker puts the
+        tiles together, smooths the edges, paints the legend, fills the labels in and encodes the PNG, so the
+        build only writes the file.  A failure here is reported by the mixin (:meth:`_compute_failed`), which
+        then discards the scene."""
         from .report_scene import (report_png, report_scene_labels, report_scene_prepare,
                                    report_scene_render, report_scene_start, report_tiles, tiled_pixels)
 
