@@ -126,16 +126,24 @@ def scenario(bpy, res, args):
         return real_compute(job, progress)
 
     try:
+        # the synchronous run, then Esc, closing and the modal run to the end with the worker slowed down (its
+        # progress is shown while it runs; alone it ends before the first poll)
         res["post"] = sm.exercise_tool(bpy, np, bpy.ops.flank.post_program, post_cls, post_kw, select,
                                        lambda: _post_state(bpy, np, run_name, program), before_each=no_program,
                                        cancel=False)
         post_cls._compute = staticmethod(slow_compute)
         res["post"].update(sm.cancelled_runs(bpy, np, bpy.ops.flank.post_program, post_cls, post_kw, select,
                                              no_program))
+        select()
+        no_program()
+        rec = sm._call(bpy, bpy.ops.flank.post_program, post_cls, "finish", **post_kw)
+        rec["state"] = _post_state(bpy, np, run_name, program)
+        res["post"]["finish"] = rec
     finally:
         post_cls._compute = real_attr
         us.system, us.scale_length = units
-    res["post_files"] = program_seen + [os.path.exists(program)]     # before sync, finish, Esc, closing; after
+    # before the synchronous run, its modal run to the end (not kept), Esc, closing, the modal run to the end; after
+    res["post_files"] = program_seen + [os.path.exists(program)]
     # Error Plot's stages: Esc while the second worker (text and PNG) runs, and a failure of the text's layout on
     # the main thread between the workers; either leaves bpy.data as it was and writes no file
     plot_cls = classes["error_plot"]

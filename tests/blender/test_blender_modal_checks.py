@@ -70,7 +70,7 @@ def test_the_four_operators_use_the_modal_mixin(mc):
 def test_post_program_writes_its_file_only_when_it_finishes(mc):
     """The program file appears with the synchronous run and the modal run to the end, never with Esc or
     closing; the program posted is a whole-rotor one (every lobe) with its path and animation."""
-    assert mc["post_files"] == [False, True, True, False, False], mc["post_files"]
+    assert mc["post_files"] == [False, True, True, False, False, True], mc["post_files"]
     state = mc["post"]["finish"]["state"]
     assert state["file"] is not None and state["lines"] > 30 and state["path"]["edges"] > 100, state
     assert state["props"]["flank_prog_lobes"] == list(range(6)) and state["props"]["flank_prog_passes"] == 6, state
