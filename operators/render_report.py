@@ -169,8 +169,10 @@ class FLANK_OT_render_report(ModalPlannerMixin, bpy.types.Operator):
         picture, labels = job["picture"], state["labels"]
         binary, python = bpy.app.binary_path, sys.executable
 
+        notes = job.setdefault("notes", [])            # e.g. a Blender that cannot denoise renders without
+
         def finish(progress):
-            data = render_in_child(blend, scene, out, reporter(progress), binary, python)
+            data = render_in_child(blend, scene, out, reporter(progress), binary, python, notes=notes)
             return report_png(picture, tga_pixels(data, picture["width"], picture["height"]), labels)
         return finish
 
@@ -191,9 +193,10 @@ class FLANK_OT_render_report(ModalPlannerMixin, bpy.types.Operator):
         except OSError as ex:                         # reported, never a traceback
             self.report({'ERROR'}, self._compute_failed(ex))
             return {'CANCELLED'}
-        self.report({'INFO'}, "Report of '{}' written to {} ({} x {}, {}, {:.1f} s): {}".format(
+        self.report({'INFO'}, "Report of '{}' written to {} ({} x {}, {}, {:.1f} s): {}{}".format(
             job["run"], os.path.abspath(job["path"]), info["width"], info["height"], info["engine"].title(),
-            time.perf_counter() - job["t0"], info["title"][1]))
+            time.perf_counter() - job["t0"], info["title"][1],
+            "".join("; " + note for note in job.get("notes", ()))))
         return {'FINISHED'}
 
 

@@ -22,8 +22,11 @@ import time
 from collections import deque
 
 # run by the second Blender: open the scene's file, render that scene, save the render as the TGA the caller
-# reads (the paths and the scene's name follow "--"; the statistics lines give the progress).  It leaves at once
-# when the file is saved: Blender 4.2 as a Python module crashed in its teardown after a Cycles render.
+# reads (the paths and the scene's name follow "--").  Progress: Blender's own executable prints its render
+# statistics in the background ('Fra:1 Mem:... | Sample 5/16'); Blender as a Python module does not, but passes
+# them to the render_stats handlers.  A Blender whose build or CPU cannot denoise (Debian's 3.4: "Build without
+# OpenImageDenoiser") renders without the denoiser and says so.  The script leaves at once when the file is
+# saved: Blender 4.2 as a Python module crashed in its teardown after a Cycles render.
 CHILD_SCRIPT = """\
 import os
 import sys
@@ -31,8 +34,17 @@ import bpy
 blend, scene, out = sys.argv[sys.argv.index("--") + 1:][:3]
 bpy.ops.wm.open_mainfile(filepath=blend, load_ui=False)
 sc = bpy.data.scenes[scene]
-bpy.app.handlers.render_stats.append(lambda text: print("flank-render-stats:", text, flush=True))
-done = bpy.ops.render.render(write_still=False, scene=sc.name)
+bpy.app.handlers.render_stats.append(
+    lambda *args: isinstance(args[0] if args else None, str) and print("flank-render-stats:", args[0], flush=True))
+try:
+    done = bpy.ops.render.render(write_still=False, scene=sc.name)
+except RuntimeError as ex:
+    if not (sc.render.engine == "CYCLES" and sc.cycles.use_denoising and "denois" in str(ex).lower()):
+        raise
+    print("flank-render-note: rendered without denoising (" + " ".join(str(ex).replace("Error: ", "").split())
+          + ")", flush=True)
+    sc.cycles.use_denoising = False
+    done = bpy.ops.render.render(write_still=False, scene=sc.name)
 if "FINISHED" not in done:
     raise RuntimeError("the render ended " + ", ".join(sorted(done)))
 bpy.data.images["Render Result"].save_render(filepath=out, scene=sc)
@@ -41,8 +53,10 @@ os._exit(0)
 """
 
 STATS_PREFIX = "flank-render-stats:"
+NOTE_PREFIX = "flank-render-note:"
 _SAMPLE = re.compile(r"Sample (\d+)/(\d+)")
-_REMAINING = re.compile(r"Remaining: ([\d:.]+)")
+_REMAINING = re.compile(r"Remaining:\s*([\d:.]+)")
+_EXCEPTION = re.compile(r"^\s*(?:Error: )?(?:Python: )?([A-Za-z_][\w.]*(?:Error|Exception)): (.+)$")
 POLL_SECONDS = 0.05            # how often the waiting worker reports progress and sees Esc
 _live = {}                     # running processes -> their temporary files (stopped on unregister and exit)
 _live_lock = threading.Lock()
@@ -62,12 +76,16 @@ def render_command(blend, scene, out, binary_path, python):
 
 
 def sample_progress(line):
-    """(fraction, message, seconds left) of one output line of the child, or None: Cycles' statistics report
-    samples as 'Sample 5/16', after the first with Cycles' estimate 'Remaining: 00:22.20'; the other statistics
-    (kernels, BVH) are shown as they are."""
-    if not line.startswith(STATS_PREFIX):
+    """(fraction, message, seconds left) of one output line of the child, or None where it is no statistics
+    line.  Statistics lines are Blender's own ('Fra:1 Mem:8.2M ... | Remaining:00:22.20 | ... | Sample 5/16') or
+    the script's ('flank-render-stats: ...'): Cycles reports its samples as 'Sample 5/16' (after the first with
+    its estimate of the time left), the other statistics (kernels, BVH) are shown as they are."""
+    if line.startswith(STATS_PREFIX):
+        text = line[len(STATS_PREFIX):].strip()
+    elif line.startswith("Fra:"):
+        text = line.strip()
+    else:
         return None
-    text = line[len(STATS_PREFIX):].strip()
     m = _SAMPLE.search(text)
     if m:
         done, total = int(m.group(1)), int(m.group(2))
@@ -76,7 +94,7 @@ def sample_progress(line):
                                                 enumerate(reversed(left.group(1).split(":"))))
         return (done / total if total > 0 else 0.0), "Cycles: sample {} of {}".format(done, total), seconds
     last = text.rsplit("|", 1)[-1].strip()
-    return None if not last or last.startswith("Mem") else (None, "Cycles: " + last, None)
+    return None if not last or last.startswith(("Mem", "Fra:")) else (None, "Cycles: " + last, None)
 
 
 class ChildRender:
@@ -85,7 +103,8 @@ class ChildRender:
 
     def __init__(self, command, files=()):
         self.fraction, self.message, self.done_at = 0.0, "Cycles: starting Blender", None
-        self.lines = deque(maxlen=30)
+        self.lines = deque(maxlen=60)
+        self.notes = []
         try:
             self.process = subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
                                             stderr=subprocess.STDOUT, text=True, errors="replace", bufsize=1,
@@ -101,9 +120,12 @@ class ChildRender:
     def _read(self):
         for line in self.process.stdout:
             line = line.rstrip("\n")
+            if line.startswith(NOTE_PREFIX):
+                self.notes.append(line[len(NOTE_PREFIX):].strip())
+                continue
             seen = sample_progress(line)
             if seen is None:
-                if line.strip() and not line.startswith(STATS_PREFIX):
+                if line.strip() and not line.startswith((STATS_PREFIX, "Fra:")):
                     self.lines.append(line)
                 continue
             fraction, message, seconds = seen
@@ -135,14 +157,21 @@ class ChildRender:
         return code
 
     def failure(self, code):
-        """The error message of a process that ended with ``code`` (the last lines it wrote)."""
-        # Blender's own notes on reading the file and a traceback's frames say nothing to the user; the
-        # exception's line does
-        said = [ln.strip() for ln in self.lines if not ln.startswith(("Warning: Library file", "Read blend",
-                                                                      "Traceback", " ", "\t"))
-                and "| Read blend" not in ln]
-        tail = " / ".join(said[-3:]) if said else "no output"
-        return "the Cycles render in a separate Blender ended with exit code {}: {}".format(code, tail)
+        """The error message of a process that ended with ``code``: the last exception it printed, else its last
+        'Error: ' line, else its last lines (Blender's notes on reading the file, a traceback's frames and the
+        script Blender echoes are left out)."""
+        lines = [ln.strip() for ln in self.lines]
+        said = next((m.group(1) + ": " + m.group(2).replace("Error: ", "") for m in
+                     (_EXCEPTION.match(ln) for ln in reversed(lines)) if m), None)
+        if said is None:
+            said = next((ln[len("Error: "):] for ln in reversed(lines) if ln.startswith("Error: ")
+                         and not ln.startswith(("Error: script failed", "Error: Python: Traceback"))), None)
+        if said is None:
+            rest = [ln for ln in lines if ln and not ln.startswith(("Warning: Library file", "Read blend",
+                                                                     "Traceback", "File "))
+                    and "| Read blend" not in ln]
+            said = " / ".join(rest[-3:]) if rest else "no output"
+        return "the Cycles render in a separate Blender ended with exit code {}: {}".format(code, said)
 
 
 def _stop(process):
@@ -153,14 +182,17 @@ def _stop(process):
         _live.pop(process, None)
 
 
-def render_in_child(blend, scene, out, report, binary_path, python):
+def render_in_child(blend, scene, out, report, binary_path, python, notes=None):
     """Render ``scene`` of the .blend file ``blend`` in a separate Blender (:func:`render_command`) -> the bytes
     of the TGA it saved to ``out``.  ``report(fraction, message)`` is called while it runs and cancels it by
-    raising.  Both files are removed whatever happens."""
+    raising; the child's notes (a render without the denoiser) are appended to the list ``notes``.  Both files
+    are removed whatever happens."""
     files = (os.fspath(blend), os.fspath(out))
     try:
         child = ChildRender(render_command(blend, scene, out, binary_path, python), files)
         code = child.wait(report)
+        if notes is not None:
+            notes.extend(child.notes)
         if code != 0 or not os.path.isfile(out):
             raise RuntimeError(child.failure(code))
         with open(out, "rb") as fh:

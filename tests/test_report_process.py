@@ -34,6 +34,19 @@ if behave == "fail":
     print('  File "<string>", line 5, in <module>', flush=True)
     print("KeyError: 'bpy_prop_collection[key]: key \\"" + scene + "\\" not found'", flush=True)
     sys.exit(1)
+if behave == "blender_fail":      # Blender's own executable: the error, the traceback, the script echoed back
+    print("Error: Build without OpenImageDenoiser", flush=True)
+    print("Error: Python: Traceback (most recent call last):", flush=True)
+    print('  File "<string>", line 8, in <module>', flush=True)
+    print("RuntimeError: Error: Build without OpenImageDenoiser", flush=True)
+    print("", flush=True)
+    print("Error: script failed, expr: 'import os", flush=True)
+    print("import sys", flush=True)
+    print("os._exit(0)", flush=True)
+    print("', exiting.", flush=True)
+    sys.exit(1)
+if behave == "note":
+    print("flank-render-note: rendered without denoising (Build without OpenImageDenoiser)", flush=True)
 if behave != "no_file":
     with open(out, "wb") as fh:
         fh.write(b"pixels of " + scene.encode())
@@ -74,6 +87,11 @@ def test_the_command_runs_blender_or_blender_as_a_python_module():
     ("flank-render-stats: Mem: 2M | Updating Scene BVH | Building BVH 0%", (None, "Cycles: Building BVH 0%", None)),
     ("flank-render-stats: Mem: 13M", None),
     ("Read blend: /x/s.blend", None),
+    # Blender's own executable prints its statistics itself
+    ("Fra:1 Mem:40.14M (Peak 40.14M) | Time:00:00.18 | Remaining:00:01.14 | Mem:16.85M, Peak:16.85M | "
+     "Flank Report (temporary), ViewLayer | Sample 1/16", (1 / 16, "Cycles: sample 1 of 16", 1.14)),
+    ("Fra:1 Mem:8.75M (Peak 8.75M) | Time:00:00.03 | Mem:0.00M, Peak:0.00M | Flank Report (temporary), ViewLayer | "
+     "Updating Lights", (None, "Cycles: Updating Lights", None)),
 ])
 def test_progress_is_read_from_the_render_statistics(line, seen):
     assert rp.sample_progress(line) == seen
@@ -95,6 +113,7 @@ def test_the_pixels_come_back_and_both_files_go(fake_blender, tmp_path):
 @pytest.mark.parametrize("behave,words", [
     ("fail", "exit code 1: KeyError: 'bpy_prop_collection[key]: key \"Flank Report\" not found'"),
     ("no_file", "exit code 0: no output"),
+    ("blender_fail", "exit code 1: RuntimeError: Build without OpenImageDenoiser"),
 ])
 def test_a_failed_render_is_a_clear_error_and_leaves_no_file(fake_blender, tmp_path, monkeypatch, behave, words):
     monkeypatch.setenv("FAKE_BEHAVE", behave)
@@ -102,8 +121,18 @@ def test_a_failed_render_is_a_clear_error_and_leaves_no_file(fake_blender, tmp_p
     with pytest.raises(RuntimeError) as err:
         rp.render_in_child(blend, "Flank Report", out, lambda f, m: None, fake_blender, None)
     assert str(err.value).startswith("the Cycles render in a separate Blender ended with ") and words in str(err.value)
-    assert "Read blend" not in str(err.value) and "Traceback" not in str(err.value) and "File" not in str(err.value)
+    text = str(err.value)
+    assert "Read blend" not in text and "Traceback" not in text and "File" not in text and "exiting" not in text
     assert os.listdir(tmp_path) == ["blender"]
+
+
+def test_the_childs_notes_reach_the_caller(fake_blender, tmp_path, monkeypatch):
+    """A Blender that cannot denoise renders without the denoiser and says so; the operator reports it."""
+    monkeypatch.setenv("FAKE_BEHAVE", "note")
+    blend, out = _files(tmp_path)
+    notes = []
+    assert rp.render_in_child(blend, "S", out, lambda f, m: None, fake_blender, None, notes=notes) == b"pixels of S"
+    assert notes == ["rendered without denoising (Build without OpenImageDenoiser)"]
 
 
 def test_a_missing_blender_is_a_clear_error(tmp_path):
