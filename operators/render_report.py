@@ -14,7 +14,8 @@ from .runs import run_plan
 
 ENGINE_ITEMS = (
     ("WORKBENCH", "Workbench", "Fast, flat studio lighting; the strips show their exact error colours", 0),
-    ("CYCLES", "Cycles (CPU)", "Path traced on the CPU, 16 samples, denoised; slower", 1),
+    ("CYCLES", "Cycles (CPU)", "Path traced on the CPU, 16 samples, denoised, by a second Blender in the "
+                               "background (Esc stops it); slower", 1),
 )
 
 
