@@ -29,6 +29,7 @@ from .result_builder import COLOR_CHART, COLOR_TOOL, RunBuilder, finite_runs
 from .runs import run_plan_fields, store_plan
 from .shapes import axis_frame
 from .sources import AnalysisNeeded, rotor_source, with_extent
+from .strips import store_strip_rows
 
 PROP_PREFIX = "flank_df_"
 ERROR_ATTR = "error"                   # FLOAT point attribute of the error chart (scene units, unscaled)
@@ -259,6 +260,7 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
         run.store(props, [run.collection, rotor] + made["tools"], clear=[rotor])
         # the run's plan (flank-plan/1) travels with its collection: exports and reports read it from there
         store_plan(run.collection, out)
+        store_strip_rows(run.collection)      # the strips list of a later session: no plan to parse
         run.show(made["tools"][0])
         self._report_done(job, out, rotor, props, made, replaced)
         return {'FINISHED'}

@@ -26,6 +26,7 @@ from .properties import freeform_props
 from .result_builder import COLOR_TOOL, RunBuilder
 from .runs import run_plan_fields, store_plan
 from .shapes import axis_frame, revolved_mesh
+from .strips import store_strip_rows
 from .units import length_text
 
 PROP_PREFIX = "flank_ff_"
@@ -213,6 +214,7 @@ class FLANK_OT_plan_freeform(ModalPlannerMixin, bpy.types.Operator):
                        total_elapsed=time.perf_counter() - job["t0"], summary=json.dumps(dict(summary))),
                   [run.collection])
         store_plan(run.collection, out)       # read by exports, reports, posts
+        store_strip_rows(run.collection)      # the strips list of a later session: no plan to parse
         run.show(made["tools"][0] if made["tools"] else None)
 
         def L(v):

@@ -32,6 +32,7 @@ from .result_builder import COLOR_CHART, COLOR_TOOL, RunBuilder, finite_runs
 from .runs import run_plan_fields, store_plan
 from .shapes import axis_frame, revolved_mesh
 from .sources import AnalysisNeeded, rotor_source, with_extent
+from .strips import store_strip_rows
 from .units import mm_per_scene_unit
 
 PROP_PREFIX = "flank_sf_"
@@ -433,6 +434,7 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
         run.store(props, [run.collection, rotor] + made["tools"], clear=[rotor])
         # the run's plan (flank-plan/1) travels with its collection: exports and reports read it from there
         store_plan(run.collection, out)
+        store_strip_rows(run.collection)      # the strips list of a later session: no plan to parse
         run.show(made["tools"][0])
         unc = "covered {:.1f} %{}".format(100.0 * res.covered_fraction, "" if res.complete else ", uncovered " +
                                            _ranges_text(merge_ranges(res.uncovered)))

@@ -14,6 +14,7 @@ from .units import length_text
 
 PREFIXES = ("flank_sf_", "flank_df_", "flank_ff_")
 _ROWS_CACHE = {}
+ROWS_PROP = "flank_strip_rows"      # the strips list's rows, stored by the planner's build (store_strip_rows)
 
 
 def run_kind(coll):
@@ -140,7 +141,8 @@ def _sf_residual(coll):
 
 def strip_rows(coll):
     """The numbers of a run's strips list: {strip: dict(max, min (scene units), collision, covered (text))} plus
-    the run's unit and scale, parsed once per run (the plan text does not change)."""
+    the run's unit and scale, worked out once per run (the plan text does not change): from the rows the
+    planner's build stored (:func:`store_strip_rows`), else from the run's plan."""
     kind = run_kind(coll)
     text = coll.get(PLAN_JSON_PROP) if coll is not None else None
     if kind is None or not text:
@@ -150,9 +152,19 @@ def strip_rows(coll):
     hit = _ROWS_CACHE.get(coll.name)
     if hit is not None and hit[0] == cache_key:
         return hit[1]
-    plan = stored_plan(coll)          # kept parsed since the planner's build: no parse in a panel's draw
-    if isinstance(plan, str):
-        return None
+    out = _stored_rows(coll, pre, text)
+    if out is None:
+        # the plan, kept parsed since the planner's build; parsed here only for a run stored without its rows
+        plan = stored_plan(coll)
+        if isinstance(plan, str):
+            return None
+        out = _plan_rows(coll, pre, key, plan)
+    _ROWS_CACHE.clear()
+    _ROWS_CACHE[coll.name] = (cache_key, out)
+    return out
+
+
+def _plan_rows(coll, pre, key, plan):
     strips = plan["strips"]
     scale = float(coll.get(pre + "length_scale", 1.0) or 1.0)
     covered, uncovered = _sf_covered(coll, plan, len(strips)) if pre == "flank_sf_" else (None, [])
@@ -160,13 +172,44 @@ def strip_rows(coll):
                     collision=bool(st.get("collision")), covered=_covered_text(pre, coll, k, st, covered),
                     tool=_tool_name(plan, k))
             for k, st in enumerate(strips)}
-    out = dict(pre=pre, key=key, rows=rows, uncovered=uncovered, unit=str(coll.get(pre + "length_unit", "mm")),
-               scale=scale, tolerance=float(coll.get(pre + "tolerance", 0.0) or 0.0))
+    out = dict(pre=pre, key=key, rows=rows, uncovered=[list(u) for u in uncovered],
+               unit=str(coll.get(pre + "length_unit", "mm")), scale=scale,
+               tolerance=float(coll.get(pre + "tolerance", 0.0) or 0.0))
     if pre == "flank_sf_":
         out.update(_sf_residual(coll))
-    _ROWS_CACHE.clear()
-    _ROWS_CACHE[coll.name] = (cache_key, out)
     return out
+
+
+def _rows_key(coll, pre, text):
+    """What the stored rows belong to: the plan text's length and the run's planning time."""
+    return [len(text), str(coll.get(pre + "total_elapsed", ""))]
+
+
+def _stored_rows(coll, pre, text):
+    """The rows :func:`store_strip_rows` stored with the run, or None (none stored, or for another plan)."""
+    raw = coll.get(ROWS_PROP)
+    if not isinstance(raw, str):
+        return None
+    try:
+        stored = json.loads(raw)
+        if stored["key"] != _rows_key(coll, pre, text):
+            return None
+        out = dict(stored["rows"])
+        out["rows"] = {int(k): row for k, row in out["rows"].items()}
+    except (ValueError, KeyError, TypeError, AttributeError):
+        return None
+    return out
+
+
+def store_strip_rows(coll):
+    """A planner's build, after its objects and properties: store the strips list's rows on the run (a few
+    hundred bytes a strip), so that the Results panel of a later session draws them without parsing the plan,
+    whose text holds a free-form run's whole surface (11.7 MB for 200,000 triangles: 0.3 s)."""
+    info = strip_rows(coll)                  # from the plan the build keeps parsed: no parse here
+    if info is None:
+        return
+    pre = info["pre"]
+    coll[ROWS_PROP] = json.dumps(dict(key=_rows_key(coll, pre, coll[PLAN_JSON_PROP]), rows=info))
 
 
 class FLANK_UL_strips(bpy.types.UIList):

@@ -423,11 +423,31 @@ def scenario(bpy, res, args):
     blend = os.path.join(tmp, "runs.blend")
     names = {c_.name: c_["flank_plan_json"] for c_ in bpy.data.collections if "flank_plan_json" in c_}
     dname = d.get("collection")
+    strips_mod = __import__(driver.MODULE + ".operators.strips", fromlist=["x"])
+    runs_mod = __import__(driver.MODULE + ".operators.runs", fromlist=["x"])
+    rows_before = {n: json.dumps(strips_mod.strip_rows(bpy.data.collections[n]), sort_keys=True) for n in names}
     bpy.ops.wm.save_as_mainfile(filepath=blend)
     bpy.ops.wm.open_mainfile(filepath=blend)
     sv["plans_kept"] = {n: (bpy.data.collections.get(n) is not None
                             and bpy.data.collections[n].get("flank_plan_json") == text_)
                         for n, text_ in names.items()}
+    # the strips list of a later session (nothing kept parsed): the rows the build stored, no plan parsed; and
+    # for a run stored without them (an older file), from its plan
+    rows = {}
+    for n in names:
+        runs_mod._PLANS.clear()
+        strips_mod._ROWS_CACHE.clear()
+        coll_ = bpy.data.collections[n]
+        got = json.dumps(strips_mod.strip_rows(coll_), sort_keys=True)
+        rows[n] = dict(stored=strips_mod.ROWS_PROP in coll_, same=got == rows_before[n], parsed=len(runs_mod._PLANS),
+                       strips=len(json.loads(got)["rows"]))
+        stored = coll_[strips_mod.ROWS_PROP]
+        del coll_[strips_mod.ROWS_PROP]
+        strips_mod._ROWS_CACHE.clear()
+        rows[n].update(without_same=json.dumps(strips_mod.strip_rows(coll_), sort_keys=True) == rows_before[n],
+                       without_parsed=len(runs_mod._PLANS))
+        coll_[strips_mod.ROWS_PROP] = stored
+    sv["strip_rows"] = rows
     if dname:
         p = os.path.join(tmp, "df_after_reload.json")
         sv["export"] = dict(zip(("result", "error"), run_op(bpy.ops.flank.export_results, format="PLAN",

@@ -212,6 +212,17 @@ def test_plans_and_animation_survive_save_and_reload(rx):
     _screw_ok(sv["animation"])
 
 
+def test_the_strips_list_of_a_later_session_needs_no_plan_parsed(rx):
+    """The build stores the strips list's rows with the run: in a later session (nothing kept parsed) the
+    Results panel shows the same rows without parsing the plan; a run stored without them parses its plan."""
+    rows = rx["reload"]["strip_rows"]
+    assert len(rows) >= 2, rows
+    for name, r in rows.items():
+        assert r == dict(stored=True, same=True, parsed=0, strips=r["strips"], without_same=True,
+                         without_parsed=1), (name, r)
+        assert r["strips"] >= 1, (name, r)
+
+
 def test_the_kept_plans_are_the_stored_ones(rx):
     """Operators read a run's plan from the one the extension keeps parsed: after all of them ran, each kept plan
     is still its run's stored text parsed again, number for number (none of them changed the shared plan)."""
