@@ -93,7 +93,10 @@ def sample_progress(line):
         seconds = None if left is None else sum(float(v) * 60.0 ** i for i, v in
                                                 enumerate(reversed(left.group(1).split(":"))))
         return (done / total if total > 0 else 0.0), "Cycles: sample {} of {}".format(done, total), seconds
-    last = text.rsplit("|", 1)[-1].strip()
+    parts = [p.strip() for p in text.split("|")]
+    last = parts[-1]
+    if len(parts) > 1 and parts[-2].startswith("Synchronizing"):    # '... | Synchronizing object | <its name>'
+        last = parts[-2]
     return None if not last or last.startswith(("Mem", "Fra:")) else (None, "Cycles: " + last, None)
 
 
@@ -107,7 +110,8 @@ class ChildRender:
         self.notes = []
         try:
             self.process = subprocess.Popen(command, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                                            stderr=subprocess.STDOUT, text=True, errors="replace", bufsize=1,
+                                            stderr=subprocess.STDOUT, text=True, encoding="utf-8",
+                                            errors="replace", bufsize=1,
                                             creationflags=getattr(subprocess, "CREATE_NO_WINDOW", 0))
         except OSError as ex:
             raise RuntimeError("could not start Blender for the Cycles render ({}): {}".format(command[0], ex)) \
@@ -118,12 +122,16 @@ class ChildRender:
         self._reader.start()
 
     def _read(self):
+        # the pipe is drained to its end whatever a line holds: a child blocked on a full pipe would hang
         for line in self.process.stdout:
             line = line.rstrip("\n")
             if line.startswith(NOTE_PREFIX):
                 self.notes.append(line[len(NOTE_PREFIX):].strip())
                 continue
-            seen = sample_progress(line)
+            try:
+                seen = sample_progress(line)
+            except ValueError:                # a statistics line of an unexpected form: no progress from it
+                continue
             if seen is None:
                 if line.strip() and not line.startswith((STATS_PREFIX, "Fra:")):
                     self.lines.append(line)
@@ -154,6 +162,8 @@ class ChildRender:
         finally:
             _stop(self.process)
             self._reader.join(1.0)
+            if not self._reader.is_alive():
+                self.process.stdout.close()
         return code
 
     def failure(self, code):
@@ -189,6 +199,7 @@ def render_in_child(blend, scene, out, report, binary_path, python, notes=None):
     are removed whatever happens."""
     files = (os.fspath(blend), os.fspath(out))
     try:
+        report(0.0, "Cycles: starting Blender")         # a cancel already asked for starts no Blender
         child = ChildRender(render_command(blend, scene, out, binary_path, python), files)
         code = child.wait(report)
         if notes is not None:

@@ -9,6 +9,7 @@ render's edges are smoothed (``flank_addon.report.antialias``), the legend bar p
 (``chart_text``).  ``flank.render_report`` and the command
 ``python -m flank_addon render`` both call :func:`render_plan_report`.
 """
+import itertools
 import json
 import math
 import os
@@ -25,6 +26,9 @@ from ..flank_addon.report.antialias import fxaa
 from .chart_text import fill_text, text_outlines
 
 _KINDS = ("objects", "meshes", "cameras", "lights", "materials", "worlds", "images", "scenes")
+# numbers each report's temporary files: a Cycles report renders for tens of seconds in a second Blender while
+# another report of the same picture may start
+_RUNS = itertools.count(1)
 
 
 def _paint(me, rgba):
@@ -226,8 +230,8 @@ def report_scene_start(picture, path):
     M, lay = picture["camera"], picture["layout"]
     state = dict(made={k: [] for k in _KINDS}, fonts_before={f.as_pointer() for f in bpy.data.fonts},
                  had_render_result=bpy.data.images.get("Render Result") is not None,
-                 tmp="{}.render{}.tga".format(path, os.getpid()), scene=None, path=path, width=width,
-                 height=height, ortho=picture["ortho"])
+                 tmp="{}.render{}-{}.tga".format(path, os.getpid(), next(_RUNS)), scene=None, path=path,
+                 width=width, height=height, ortho=picture["ortho"])
     try:
         sc, surface_mat = _new_scene(state["made"], width, height, engine)
         _add_geometry(sc, state["made"], picture, surface_mat)

@@ -438,9 +438,10 @@ def scenario(bpy, res, args):
         runs_mod._PLANS.clear()
         strips_mod._ROWS_CACHE.clear()
         coll_ = bpy.data.collections[n]
-        got = json.dumps(strips_mod.strip_rows(coll_), sort_keys=True)
+        info = strips_mod.strip_rows(coll_)
+        got = json.dumps(info, sort_keys=True)
         rows[n] = dict(stored=strips_mod.ROWS_PROP in coll_, same=got == rows_before[n], parsed=len(runs_mod._PLANS),
-                       strips=len(json.loads(got)["rows"]))
+                       strips=len(info["rows"]), int_keys=all(isinstance(k, int) for k in info["rows"]))
         stored = coll_[strips_mod.ROWS_PROP]
         del coll_[strips_mod.ROWS_PROP]
         strips_mod._ROWS_CACHE.clear()

@@ -230,8 +230,8 @@ def test_a_cycles_report_renders_in_a_separate_blender_that_esc_and_closing_stop
     assert all(c["cpu_ms"] < FRAME_MS for c in rec["calls"]), rec["calls"]
     turns = [c for c in rec["calls"] if c["state_before"] == "finished"]
     assert len(turns) == 4, turns                 # scene, labels, the scene's file, build
-    # the worker that waits reports the other Blender's progress
-    assert any(c["status"].startswith("Render report:") and "Cycles" in c["status"] for c in rec["calls"]
+    # the worker that waits reports the other Blender's progress: its samples, read from its output
+    assert any(c["status"].startswith("Render report:") and "Cycles: sample " in c["status"] for c in rec["calls"]
                if c["state_before"] == "running" and isinstance(c["status"], str)), rec["calls"]
     for plan, kind in (("esc_next_stage", "esc"), ("close_next_stage", "close")):
         rec = cyc[plan]
