@@ -144,14 +144,18 @@ def strip_rows(coll):
     the run's unit and scale, worked out once per run (the plan text does not change): from the rows the
     planner's build stored (:func:`store_strip_rows`), else from the run's plan."""
     kind = run_kind(coll)
-    text = coll.get(PLAN_JSON_PROP) if coll is not None else None
-    if kind is None or not text:
+    if kind is None or PLAN_JSON_PROP not in coll:
         return None
     pre, key = kind
-    cache_key = (coll.name, len(text), str(coll.get(pre + "total_elapsed", "")))
+    # every row of the list asks at every redraw: the key does not read the plan text (a free-form run's holds its
+    # surface: reading 11.7 MB of it took 1-8 ms a time); a new plan comes with a new planning time
+    cache_key = (coll.name, coll.as_pointer(), str(coll.get(pre + "total_elapsed", "")))
     hit = _ROWS_CACHE.get(coll.name)
     if hit is not None and hit[0] == cache_key:
         return hit[1]
+    text = coll.get(PLAN_JSON_PROP)
+    if not text:
+        return None
     out = _stored_rows(coll, pre, text)
     if out is None:
         # the plan, kept parsed since the planner's build; parsed here only for a run stored without its rows
