@@ -146,7 +146,8 @@ def mesh_world_arrays(obj):
 
 def mesh_local_arrays(obj):
     """The base mesh's vertices in its own frame (N,3 float64) and its triangles (M,3 int)."""
-    return mesh_vertices(obj.data), mesh_triangles(obj.data)
+    co = mesh_vertices(obj.data)
+    return co, mesh_triangles(obj.data, co=co)
 
 
 def placed(co, matrix):
@@ -168,9 +169,10 @@ def mesh_vertices(mesh):
     return co.astype(np.float64).reshape(-1, 3)
 
 
-def mesh_triangles(mesh, with_faces=False):
+def mesh_triangles(mesh, with_faces=False, co=None):
     """(M, 3) int32 vertex indices of the mesh's triangles, Blender's triangulation (``loop_triangles``), and with
-    ``with_faces`` also (M,) int32 the face of each.
+    ``with_faces`` also (M,) int32 the face of each.  ``co``: the mesh's vertices (:func:`mesh_vertices`) where the
+    caller has read them already (a mesh with quads needs them).
 
     Reading ``loop_triangles`` item by item is slow (0.12-0.3 s for a million triangles), so it is the last
     resort.  Where every face is a triangle, the triangles are each face's corners in order, read from the
@@ -197,7 +199,7 @@ def mesh_triangles(mesh, with_faces=False):
         if len(sizes) == n_faces and sizes.max(initial=3) <= 4:
             corners = np.empty(n_corners, dtype=np.int32)
             corner_vert.data.foreach_get("value", corners)
-            tris, unsure, first = tris_and_quads(corners, sizes, mesh_vertices(mesh))
+            tris, unsure, first = tris_and_quads(corners, sizes, mesh_vertices(mesh) if co is None else co)
             if len(unsure) <= MAX_UNSURE_QUADS:
                 lt = mesh.loop_triangles
                 for k in first[unsure].tolist():         # Blender's own split where rounding decides it

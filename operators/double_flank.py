@@ -26,10 +26,10 @@ from .common import count_limit_error, set_color_attr, set_float_attr, typed
 from .modal import ModalPlannerMixin
 from .properties import double_flank_props
 from .result_builder import COLOR_CHART, COLOR_TOOL, RunBuilder, finite_runs
-from .runs import run_plan_fields, store_plan
+from .runs import run_plan_fields
 from .shapes import axis_frame
 from .sources import AnalysisNeeded, rotor_source, with_extent
-from .strips import store_strip_rows
+from .strips import store_run_plan
 
 PROP_PREFIX = "flank_df_"
 ERROR_ATTR = "error"                   # FLOAT point attribute of the error chart (scene units, unscaled)
@@ -258,9 +258,9 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
             return {'CANCELLED'}
         props = self._props(job, out, rotor, made)
         run.store(props, [run.collection, rotor] + made["tools"], clear=[rotor])
-        # the run's plan (flank-plan/1) travels with its collection: exports and reports read it from there
-        store_plan(run.collection, out)
-        store_strip_rows(run.collection)      # the strips list of a later session: no plan to parse
+        # the run's plan (flank-plan/1) travels with its collection: exports, reports, posts and the strips list
+        # read it from there
+        store_run_plan(run.collection, out)
         run.show(made["tools"][0])
         self._report_done(job, out, rotor, props, made, replaced)
         return {'FINISHED'}

@@ -24,9 +24,9 @@ from .guiding import COLOR_GUIDING, check_tool, guiding_inputs, planning_surface
 from .modal import ModalPlannerMixin
 from .properties import freeform_props
 from .result_builder import COLOR_TOOL, RunBuilder
-from .runs import run_plan_fields, store_plan
+from .runs import run_plan_fields
 from .shapes import axis_frame, revolved_mesh
-from .strips import store_strip_rows
+from .strips import store_run_plan
 from .units import length_text
 
 PROP_PREFIX = "flank_ff_"
@@ -213,8 +213,7 @@ class FLANK_OT_plan_freeform(ModalPlannerMixin, bpy.types.Operator):
                        length_scale=float(s), length_unit=plan["length_unit"], elapsed=float(summary["elapsed_s"]),
                        total_elapsed=time.perf_counter() - job["t0"], summary=json.dumps(dict(summary))),
                   [run.collection])
-        store_plan(run.collection, out)       # read by exports, reports, posts
-        store_strip_rows(run.collection)      # the strips list of a later session: no plan to parse
+        store_run_plan(run.collection, out)   # read by exports, reports, posts and the strips list
         run.show(made["tools"][0] if made["tools"] else None)
 
         def L(v):

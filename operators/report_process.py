@@ -216,9 +216,7 @@ def _remove(files):
     for path in files:
         try:
             os.remove(path)
-        except FileNotFoundError:
-            pass
-        except OSError:        # a file another program holds open: it is only a leftover, never the report
+        except OSError:        # gone already, or held open by another program: a leftover, never the report
             pass
 
 

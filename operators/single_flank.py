@@ -29,10 +29,10 @@ from .common import count_limit_error, set_color_attr, set_float_attr, set_int_a
 from .modal import ModalPlannerMixin
 from .properties import single_flank_props
 from .result_builder import COLOR_CHART, COLOR_TOOL, RunBuilder, finite_runs
-from .runs import run_plan_fields, store_plan
+from .runs import run_plan_fields
 from .shapes import axis_frame, revolved_mesh
 from .sources import AnalysisNeeded, rotor_source, with_extent
-from .strips import store_strip_rows
+from .strips import store_run_plan
 from .units import mm_per_scene_unit
 
 PROP_PREFIX = "flank_sf_"
@@ -432,9 +432,9 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
         res = out["res"]
         props = self._props(job, out, rotor, made)
         run.store(props, [run.collection, rotor] + made["tools"], clear=[rotor])
-        # the run's plan (flank-plan/1) travels with its collection: exports and reports read it from there
-        store_plan(run.collection, out)
-        store_strip_rows(run.collection)      # the strips list of a later session: no plan to parse
+        # the run's plan (flank-plan/1) travels with its collection: exports, reports, posts and the strips list
+        # read it from there
+        store_run_plan(run.collection, out)
         run.show(made["tools"][0])
         unc = "covered {:.1f} %{}".format(100.0 * res.covered_fraction, "" if res.complete else ", uncovered " +
                                            _ranges_text(merge_ranges(res.uncovered)))

@@ -231,9 +231,10 @@ def surface_object(context, role_key="flank_ff_role", source_key="flank_ff_sourc
     return obj
 
 
-def _triangles(mesh, selected_only):
-    """(triangles (m, 3), their polygon indices) of a mesh, only those of selected faces if asked."""
-    tris, poly = mesh_triangles(mesh, with_faces=True)
+def _triangles(mesh, selected_only, co):
+    """(triangles (m, 3), their polygon indices) of a mesh whose vertices are ``co``, only those of selected faces
+    if asked."""
+    tris, poly = mesh_triangles(mesh, with_faces=True, co=co)
     tris, poly = tris.astype(np.int64), poly.astype(np.int64)
     if selected_only:
         sel = np.zeros(len(mesh.polygons), dtype=bool)
@@ -282,7 +283,7 @@ def surface_source(obj, selected_only=False, field_attribute="", preview_prop=""
     co = mesh_vertices(mesh)
     if not np.isfinite(co).all():
         return "'{}' has vertices that are not finite numbers (NaN or infinity)".format(obj.name)
-    tris, poly = _triangles(mesh, selected_only)
+    tris, poly = _triangles(mesh, selected_only, co)
     if not len(tris):
         return "'{}' has no selected faces (Selected Faces Only is on)".format(obj.name)
     used, F = used_vertices(tris, n)

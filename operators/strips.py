@@ -9,7 +9,7 @@ import bpy
 import numpy as np
 from bpy.props import StringProperty
 
-from .runs import PLAN_JSON_PROP, find_run, result_runs, stored_plan
+from .runs import PLAN_JSON_PROP, find_run, result_runs, store_plan, stored_plan
 from .units import length_text
 
 PREFIXES = ("flank_sf_", "flank_df_", "flank_ff_")
@@ -205,10 +205,18 @@ def _stored_rows(coll, pre, text):
     return out
 
 
+def store_run_plan(coll, fields):
+    """A planner's build, after its objects and properties: store its plan on the run and keep it parsed
+    (``runs.store_plan``, ``fields`` from ``runs.run_plan_fields``), then the strips list's rows
+    (:func:`store_strip_rows`)."""
+    store_plan(coll, fields)
+    store_strip_rows(coll)
+
+
 def store_strip_rows(coll):
-    """A planner's build, after its objects and properties: store the strips list's rows on the run (a few
-    hundred bytes a strip), so that the Results panel of a later session draws them without parsing the plan,
-    whose text holds a free-form run's whole surface (11.7 MB for 200,000 triangles: 0.3 s)."""
+    """Store the strips list's rows on the run (a few hundred bytes a strip), so that the Results panel of a later
+    session draws them without parsing the plan, whose text holds a free-form run's whole surface (11.7 MB for
+    200,000 triangles: 0.3 s)."""
     info = strip_rows(coll)                  # from the plan the build keeps parsed: no parse here
     if info is None:
         return
