@@ -162,7 +162,7 @@ class FLANK_OT_cutter_region(ModalPlannerMixin, bpy.types.Operator):
         msg = self._check_inputs()
         src = rotor_source(context.active_object, PROP_PREFIX, defer=self._defer_analysis) if msg is None else msg
         if isinstance(src, AnalysisNeeded):
-            return self._analysis_first(src)
+            return self._read_first(src)
         if not isinstance(src, str) and not 0 <= int(self.flank) < len(src["flanks"]):
             src = "flank = {} is outside 0..{} (rotor '{}' has {} flanks)".format(
                 int(self.flank), len(src["flanks"]) - 1, src["obj"].name, len(src["flanks"]))

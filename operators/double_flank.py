@@ -207,7 +207,7 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
         msg = _check_inputs(self)
         src = rotor_source(context.active_object, PROP_PREFIX, defer=self._defer_analysis) if msg is None else msg
         if isinstance(src, AnalysisNeeded):
-            return self._analysis_first(src)
+            return self._read_first(src)
         msg = src if isinstance(src, str) else _check_rotor(self, src)
         if msg is not None:
             self.report({'ERROR'}, "Double flank: " + msg)

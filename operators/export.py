@@ -13,7 +13,7 @@ from bpy.props import BoolProperty, EnumProperty, FloatVectorProperty, IntProper
 from bpy_extras.io_utils import ExportHelper
 
 from .modal import ModalPlannerMixin
-from .runs import run_plan
+from .runs import PlanNeeded, run_plan
 
 FORMAT_ITEMS = (
     ("PLAN", "Plan (JSON)", "The run's flank-plan/1 file", 0),
@@ -82,7 +82,9 @@ class FLANK_OT_export_results(ModalPlannerMixin, bpy.types.Operator, ExportHelpe
                 self.report({'ERROR'}, "Export: the z range {:g} .. {:g} must be finite with Z0 < Z1".format(
                     *z_range))
                 return None
-        found = run_plan(context, self.collection)
+        found = run_plan(context, self.collection, defer=self._defer_analysis)
+        if isinstance(found, PlanNeeded):
+            return self._read_first(found)           # a long plan not read yet: in a worker first
         if isinstance(found, str):
             self.report({'ERROR'}, "Export: " + found)
             return None

@@ -67,7 +67,7 @@ class FLANK_OT_refresh_flanks(ModalPlannerMixin, bpy.types.Operator):
         msg = count_limit_error("samples", self.samples, 8, 5000)
         src = _rotor(workpiece_object(context), defer=self._defer_analysis) if msg is None else msg
         if isinstance(src, AnalysisNeeded):
-            return self._analysis_first(src)
+            return self._read_first(src)
         if isinstance(src, str):
             self.report({'ERROR'}, "Flank list: " + src)
             return None
@@ -125,7 +125,7 @@ class FLANK_OT_pick_flank_cursor(ModalPlannerMixin, bpy.types.Operator):
             return None
         src = _rotor(workpiece_object(context), defer=self._defer_analysis)
         if isinstance(src, AnalysisNeeded):
-            return self._analysis_first(src)         # a rotor changed since Analyze Rotor: analysed in a worker
+            return self._read_first(src)         # a rotor changed since Analyze Rotor: analysed in a worker
         if isinstance(src, str):
             self.report({'ERROR'}, "Pick flank: " + src)
             return None
@@ -199,7 +199,7 @@ class FLANK_OT_pick_flank_faces(ModalPlannerMixin, bpy.types.Operator):
             obj.update_from_editmode()     # the analysis reads the mesh data
         src = _rotor(obj, edit_mode_ok=True, defer=self._defer_analysis)
         if isinstance(src, AnalysisNeeded):
-            return self._analysis_first(src)         # an edited rotor mesh: analysed in a worker
+            return self._read_first(src)         # an edited rotor mesh: analysed in a worker
         if isinstance(src, str):
             self.report({'ERROR'}, "Pick flank: " + src)
             return None

@@ -22,9 +22,12 @@ turns follow each other as soon as Blender has handled its events and redrawn, n
 
 A planner whose analysed rotor must be analysed again (its mesh changed since Analyze Rotor) gets an
 ``AnalysisNeeded`` from ``rotor_source(..., defer=self._defer_analysis)``; its ``_prepare`` returns
-``self._analysis_first(needed)``.  The analysis is then the first worker, and ``_prepare`` runs again on the
+``self._read_first(needed)``.  The analysis is then the first worker, and ``_prepare`` runs again on the
 same object when it ends, now reading the rotor from the analysis cache: a second of analysis never blocks
-Blender.
+Blender.  A run's long plan that is not kept parsed (a file opened again) is read the same way: ``run_plan(...,
+defer=self._defer_analysis)`` gives a ``PlanNeeded``.  Either has ``run(progress)`` (the worker), ``resume(result)``
+(main thread: None, or an error message), ``name`` (the object made active again for the second ``_prepare``,
+None: none) and ``doing`` (what the worker did, for the message when that object is gone).
 
 ``execute`` (scripts, ``bpy.app.background``, redo) runs the three in a row; after a file browser (the
 operator's hidden ``modal_after_browser``, set by its ``invoke``) it starts the modal run instead.
@@ -41,7 +44,7 @@ from .jobs import PlannerJob
 
 TIMER_STEP = 0.1
 TURN_STEP = 0.01        # the timer while the next stage is only a turn of the interface (next_turn)
-_ANALYSIS_FIRST = "analysis_first"     # a job that analyses its rotor before ``_prepare`` can read it
+_READ_FIRST = "read_first"     # a job that reads its data in a worker before ``_prepare`` can run again
 
 
 def next_turn(result=None):
@@ -122,36 +125,40 @@ class ModalPlannerMixin:
             return "{}: {}".format(self._source_title or self._title, ex)
         return self._compute_failed(ex)
 
-    def _analysis_first(self, needed):
-        """The job of a run whose rotor is analysed first (``needed``: an ``AnalysisNeeded``)."""
-        return {_ANALYSIS_FIRST: needed, "t0": time.perf_counter()}
+    def _read_first(self, needed):
+        """The job of a run whose data is read in a worker first (``needed``: an ``AnalysisNeeded`` or a
+        ``PlanNeeded``)."""
+        return {_READ_FIRST: needed, "t0": time.perf_counter()}
 
     def _first_stage(self, job):
-        needed = job.get(_ANALYSIS_FIRST)
+        needed = job.get(_READ_FIRST)
         if needed is not None:
             return needed.run
         return lambda progress: self._compute(job, progress)
 
     def _after_stage(self, context, job, result):
-        """After a worker (main thread): the planner's own job once its rotor is analysed, else _next_stage."""
-        needed = job.pop(_ANALYSIS_FIRST, None)
+        """After a worker (main thread): the operator's own job once its data is read, else _next_stage."""
+        needed = job.pop(_READ_FIRST, None)
         if needed is None:
             return self._next_stage(context, job, result)
-        obj = bpy.data.objects.get(needed.name)
-        if obj is None:
-            self.report({'ERROR'}, "{}: '{}' was removed while its rotor was analysed".format(
-                self._title, needed.name))
+        msg, obj = needed.resume(result), None
+        if msg is None and needed.name is not None:
+            obj = bpy.data.objects.get(needed.name)
+            if obj is None:
+                msg = "'{}' was removed while {}".format(needed.name, needed.doing)
+        if msg is not None:
+            self.report({'ERROR'}, "{}: {}".format(self._title, msg))
             return False
-        self._defer_analysis = False     # the analysis is in the cache now (an edit since: analysed here)
+        self._defer_analysis = False     # the data is kept now (changed since: read here)
         try:
-            prepared = self._prepare(_ActiveObject(context, obj))
+            prepared = self._prepare(_ActiveObject(context, obj) if obj is not None else context)
         finally:
             self._defer_analysis = True
         if prepared is None:
             return False
         if "t0" in prepared:
             prepared["t0"] = job["t0"]   # the run's time includes the analysis
-        self._shown = (0.0, "starting")  # the planner's bar starts afresh, not at the analysis' last message
+        self._shown = (0.0, "starting")  # the planner's bar starts afresh, not at the reading's last message
         job.clear()
         job.update(prepared)
         return lambda progress: self._compute(job, progress)

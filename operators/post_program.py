@@ -23,7 +23,7 @@ from .modal import ModalPlannerMixin
 from .program import check_numbers, cutting_data_of, key_frames, parse_lobes, plan_in_mm, rounded, tool_outline
 from .program_scene import ANIM_ROLE, ProgramBuild, program_objects, store_program
 from .properties import post_program_props
-from .runs import remove_animation, run_plan, run_prop
+from .runs import PlanNeeded, remove_animation, run_plan, run_prop
 from .units import mm_per_scene_unit
 
 __all__ = ["FLANK_OT_post_program", "check_filepath"]
@@ -131,7 +131,9 @@ class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
         msg = msg or check_numbers(self)
         lobes = parse_lobes(self.lobes) if msg is None else None
         msg = msg or (lobes if isinstance(lobes, str) else None)
-        found = run_plan(context, self.collection) if msg is None else msg
+        found = run_plan(context, self.collection, defer=self._defer_analysis) if msg is None else msg
+        if isinstance(found, PlanNeeded):
+            return self._read_first(found)           # a long plan not read yet: in a worker first
         mp = _machine_and_post(self) if not isinstance(found, str) else found
         k = _mm_per_unit(context, *found) if not isinstance(mp, str) else mp
         if isinstance(k, str):

@@ -15,7 +15,7 @@ from bpy.props import BoolProperty, IntProperty, StringProperty
 
 from .chart_text import fill_text, text_outlines
 from .modal import ModalPlannerMixin
-from .runs import run_plan
+from .runs import PlanNeeded, run_plan
 
 IMAGE_PREFIX = "Flank Error Plot"
 RUN_PROP = "flank_plot_run"            # image custom property: the run (collection name) the plot shows
@@ -128,8 +128,8 @@ class FLANK_OT_error_plot(ModalPlannerMixin, bpy.types.Operator):
         w, h = int(self.width), int(self.height)
         if not (320 <= w <= 4096 and 200 <= h <= 4096):
             return "size {} x {} is outside 320 x 200 .. 4096 x 4096".format(w, h)
-        found = run_plan(context, self.collection)
-        if isinstance(found, str):
+        found = run_plan(context, self.collection, defer=self._defer_analysis)
+        if isinstance(found, (str, PlanNeeded)):
             return found
         coll, plan = found
         if "rotor" not in plan:
@@ -150,6 +150,8 @@ class FLANK_OT_error_plot(ModalPlannerMixin, bpy.types.Operator):
 
         t0 = time.perf_counter()
         found = self._inputs(context)
+        if isinstance(found, PlanNeeded):
+            return self._read_first(found)           # a long plan not read yet: in a worker first
         if isinstance(found, str):
             self.report({'ERROR'}, "Error plot: " + found)
             return None

@@ -10,7 +10,7 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, IntProperty, StringProperty
 
 from .modal import ModalPlannerMixin, next_turn
-from .runs import run_plan
+from .runs import PlanNeeded, run_plan
 
 ENGINE_ITEMS = (
     ("WORKBENCH", "Workbench", "Fast, flat studio lighting; the strips show their exact error colours", 0),
@@ -57,7 +57,9 @@ class FLANK_OT_render_report(ModalPlannerMixin, bpy.types.Operator):
         from ..flank_addon.io.png import check_output
         from ..flank_addon.report.report_geometry import check_render_args, display_units
 
-        found = run_plan(context, self.collection)
+        found = run_plan(context, self.collection, defer=self._defer_analysis)
+        if isinstance(found, PlanNeeded):
+            return self._read_first(found)           # a long plan not read yet: in a worker first
         if isinstance(found, str):
             self.report({'ERROR'}, "Render report: " + found)
             return None

@@ -67,9 +67,9 @@ def find_run(context, name=""):
 # triangles, 40-60 ms to parse and check on the main thread), and several operators read the same run's plan
 _PLANS = {}                       # run collection name -> ((length, hash) of its plan text, the plan)
 PLANS_KEPT = 4                    # runs whose plans are kept at most
-PLAN_CHARS_KEPT = 32_000_000      # their texts' length together at most: a parsed plan holds about 4.6 times its
-                                  # text's size in memory (5.9 MB for the bump's 1.28 MB; more where it is mostly
-                                  # face indices), so about 150-250 MB at most
+PLAN_CHARS_KEPT = 32_000_000      # their texts' length together at most, but the last one read is always kept:
+                                  # a parsed plan holds about 4.6 times its text's size in memory (5.9 MB for the
+                                  # bump's 1.28 MB; more where it is mostly face indices), so about 150-250 MB
 
 
 def _text_key(text):
@@ -81,15 +81,20 @@ def keep_plan(coll, text, plan):
     worker) -- as the plan of the run ``coll``, whose stored plan text is ``text``: :func:`run_plan` then returns
     it while that text is unchanged."""
     _PLANS.pop(coll.name, None)
-    if len(text) > PLAN_CHARS_KEPT:               # parsed each time it is read
-        return
     _PLANS[coll.name] = (_text_key(text), plan)
-    while len(_PLANS) > PLANS_KEPT or sum(key[0] for key, _ in _PLANS.values()) > PLAN_CHARS_KEPT:
-        _PLANS.pop(next(iter(_PLANS)))            # the one read longest ago first
+    while len(_PLANS) > 1 and (len(_PLANS) > PLANS_KEPT
+                               or sum(key[0] for key, _ in _PLANS.values()) > PLAN_CHARS_KEPT):
+        _PLANS.pop(next(iter(_PLANS)))            # the one read longest ago first; the last one read stays
 
 
-def run_plan(context, name=""):
-    """(collection, plan dict) of the run :func:`find_run` picks, or an error message (str).
+# a plan text longer than this is read in a worker (:class:`PlanNeeded`) when an operator defers it: about
+# 25 ms of parsing and checking, and a free-form plan of 200,000 triangles (11.7 MB) takes 0.3 s
+DEFER_CHARS = 1_000_000
+
+
+def run_plan(context, name="", defer=False):
+    """(collection, plan dict) of the run :func:`find_run` picks, or an error message (str), or with ``defer``
+    a :class:`PlanNeeded` for a long plan text that is not kept parsed yet.
 
     The plan is parsed once per stored text (``keep_plan``; hashing the text takes 0.2-0.3 ms per MB): calls that
     read the same run share one dict, so a caller reads it and never changes it (it copies it first, as
@@ -97,27 +102,78 @@ def run_plan(context, name=""):
     coll = find_run(context, name)
     if isinstance(coll, str):
         return coll
-    plan = stored_plan(coll)
+    plan = stored_plan(coll, defer)
+    if isinstance(plan, PlanNeeded):
+        ob = None if name else context.active_object        # the run is found again the way it was found now
+        plan.name = ob.name if ob is not None else None
+        return plan
     return plan if isinstance(plan, str) else (coll, plan)
 
 
-def stored_plan(coll):
-    """The plan stored on the run ``coll``, kept parsed (see :func:`run_plan`), or an error message (str)."""
+def stored_plan(coll, defer=False):
+    """The plan stored on the run ``coll``, kept parsed (see :func:`run_plan`), or an error message (str), or
+    with ``defer`` a :class:`PlanNeeded` if the text is longer than ``DEFER_CHARS`` and not kept parsed."""
     import json
-
-    from ..flank_addon.io.plan import PlanError, validate_plan
 
     text = coll.get(PLAN_JSON_PROP)
     kept = _PLANS.get(coll.name)
     if kept is not None and isinstance(text, str) and kept[0] == _text_key(text):
         _PLANS[coll.name] = _PLANS.pop(coll.name)       # the last read is kept longest
         return kept[1]
-    try:
-        plan = validate_plan(json.loads(text))
-    except (ValueError, TypeError, PlanError) as ex:
-        return "the plan stored on '{}' is not valid: {}".format(coll.name, ex)
-    keep_plan(coll, text, plan)
+    if defer and isinstance(text, str) and len(text) > DEFER_CHARS:
+        return PlanNeeded(coll.name, text)
+    plan = _checked_plan(coll.name, text, json.loads)
+    if not isinstance(plan, str):
+        keep_plan(coll, text, plan)
     return plan
+
+
+def _checked_plan(run_name, text, loads):
+    """``validate_plan(loads(text))``, or the message (str) of a text that is not a valid plan."""
+    from ..flank_addon.io.plan import PlanError, validate_plan
+
+    try:
+        return validate_plan(loads(text))
+    except (ValueError, TypeError, PlanError) as ex:
+        return "the plan stored on '{}' is not valid: {}".format(run_name, ex)
+
+
+class PlanNeeded:
+    """The plan of the run ``run_name``, whose stored ``text`` is long and not kept parsed (a file opened again:
+    11.7 MB for a free-form plan on 200,000 triangles): :meth:`run` parses and checks it in a worker, in pieces
+    (:func:`..flank_addon.io.json_pieces.loads_in_pieces`), so Blender's interface keeps running; then the
+    operator's ``_prepare`` runs again and finds it kept (``ModalPlannerMixin._read_first``).  ``name``: the
+    active object the operator was started with (None: none), made active again for that second ``_prepare``."""
+
+    doing = "its run's plan was read"
+
+    def __init__(self, run_name, text):
+        self.run_name, self.text, self.name = run_name, text, None
+
+    def run(self, progress):
+        """The plan checked, or the message (str) of a text that is not a valid plan (worker thread)."""
+        import json
+
+        from ..flank_addon.io.json_pieces import loads_in_pieces
+        from ..flank_addon.progress import reporter
+
+        if progress is None:                             # a script or background run: no interface to keep going
+            return _checked_plan(self.run_name, self.text, json.loads)
+        report = reporter(progress)
+        message = "reading the plan of '{}' ({:.1f} MB)".format(self.run_name, len(self.text) / 1e6)
+        report(0.0, message)
+        return _checked_plan(self.run_name, self.text,
+                             lambda text: loads_in_pieces(text, progress=lambda f: report(0.9 * f, message)))
+
+    def resume(self, plan):
+        """Keep the plan the worker read (main thread) -> None, or an error message (str)."""
+        if isinstance(plan, str):
+            return plan
+        coll = bpy.data.collections.get(self.run_name)
+        if coll is None or PLAN_JSON_PROP not in coll:
+            return "run '{}' was removed while its plan was read".format(self.run_name)
+        keep_plan(coll, self.text, plan)     # a text changed since is not this one's: read again by _prepare
+        return None
 
 
 def run_plan_fields(plan):

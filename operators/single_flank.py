@@ -350,7 +350,7 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
         msg = _check_inputs(self)
         src = rotor_source(context.active_object, PROP_PREFIX, defer=self._defer_analysis) if msg is None else msg
         if isinstance(src, AnalysisNeeded):
-            return self._analysis_first(src)
+            return self._read_first(src)
         if isinstance(src, str):
             self.report({'ERROR'}, "Single flank: " + src)
             return None

@@ -97,8 +97,14 @@ class AnalysisNeeded:
     triangles) before the operator reads the rotor again, now from the analysis cache.  ``name``: the object
     the operator was started on (a result object or the rotor itself)."""
 
+    doing = "its rotor was analysed"
+
     def __init__(self, name, rotor_name, verts, faces):
         self.name, self.rotor_name, self.verts, self.faces = name, rotor_name, verts, faces
+
+    def resume(self, result):
+        """Nothing to do on the main thread: the analysis is in the cache (``ModalPlannerMixin._read_first``)."""
+        return None
 
     def run(self, progress):
         """The analysis, kept in the analysis cache (worker thread); the rotor's own message if it is not

@@ -185,6 +185,49 @@ def scenario(bpy, res, args):
         rec.update(census_equal=before == sm.census(bpy, np), png_written=os.path.exists(png))
         staged[name] = rec
     res["error_plot_stages"] = staged
+    # a long plan that is not kept parsed (a file opened again) is read in a worker before Error Plot's own stages:
+    # with the limit below this run's plan (0.9 MB), the modal run and the synchronous run start from an empty
+    # cache; then a stored text that is not valid JSON is reported, changing nothing
+    runs_mod = sys.modules[driver.MODULE + ".operators.runs"]
+    real_defer, real_read = runs_mod.DEFER_CHARS, runs_mod.PlanNeeded.run
+    runs_mod.DEFER_CHARS = 100_000
+
+    def slow_read(needed, progress):               # alone it ends before the first poll: its status is shown
+        out = real_read(needed, progress)
+        for _ in range(30):
+            if progress is not None:
+                progress(0.95, "reading the plan of '{}'".format(needed.run_name))
+            time.sleep(0.01)
+        return out
+
+    runs_mod.PlanNeeded.run = slow_read
+    plan_read = dict(text_chars=len(run["flank_plan_json"]))
+    try:
+        kw = dict(collection=run_name, width=1920, height=1080)
+        for how in ("modal", "sync"):
+            select()
+            runs_mod._PLANS.clear()
+            if how == "modal":
+                rec = sm._call(bpy, bpy.ops.flank.error_plot, plot_cls, "finish", **kw)
+            else:
+                ret, err = driver._run_op(bpy.ops.flank.error_plot, **kw)
+                rec = dict(op_result=ret, op_error=err)
+            rec.update(state=_plot_state(bpy, np, run_name), kept=run_name in runs_mod._PLANS)
+            plan_read[how] = rec
+        good = run["flank_plan_json"]
+        run["flank_plan_json"] = good[:-200_000]
+        try:
+            select()
+            runs_mod._PLANS.clear()
+            before = sm.census(bpy, np)
+            rec = sm._call(bpy, bpy.ops.flank.error_plot, plot_cls, "finish", **kw)
+            rec.update(census_equal=before == sm.census(bpy, np), kept=run_name in runs_mod._PLANS)
+            plan_read["broken"] = rec
+        finally:
+            run["flank_plan_json"] = good
+    finally:
+        runs_mod.DEFER_CHARS, runs_mod.PlanNeeded.run = real_defer, real_read
+    res["plan_read"] = plan_read
     # a failure in the worker is reported as the synchronous run reports it, and changes nothing
     select()
     bad = os.path.join(os.path.abspath(os.getcwd()), "bad_plan.json")

@@ -130,3 +130,27 @@ def test_error_plot_stages_cancel_and_fail_without_leaving_anything(mc):
     assert esc_call["state_before"] == "running" and esc["job_state"] == "cancelled"
     assert failed["workers"] == 1 and "no font for the chart's text" in (failed["op_error"] or ""), failed
     assert "Traceback" not in (failed["op_error"] or "")
+
+
+def test_a_long_plan_not_kept_parsed_is_read_in_a_worker_first(mc):
+    """A file opened again keeps no parsed plans: a long plan text is read in a worker, in pieces, before Error
+    Plot's own stages (the run's 0.9 MB plan, with the limit lowered to 100,000 characters for the test).  The
+    modal run shows the reading, never holds the main thread for a frame and draws what the synchronous run
+    draws; both keep the plan parsed for the next operator.  A stored text that is not valid JSON is reported and
+    changes nothing."""
+    pr = mc["plan_read"]
+    assert pr["text_chars"] > 100_000
+    rec, sync = pr["modal"], pr["sync"]
+    assert sync["op_result"] == ["FINISHED"] and sync["kept"], sync
+    assert rec["final"] == ["FINISHED"] and rec["op_result"] == ["FINISHED"] and rec["kept"], rec["op_error"]
+    assert rec["state"] == sync["state"] == mc["error_plot"]["sync"]["state"]
+    assert rec["workers"] == 3, rec["workers"]            # the plan, then the chart's two workers
+    statuses = [c["status"] for c in rec["calls"]] + [rec["status_start"]]
+    assert any("reading the plan of '{}'".format(mc["run"]["name"]) in (s or "") for s in statuses), statuses
+    assert max(c["held_ms"] for c in running_polls(rec)) < FRAME_MS
+    after = [c for c in rec["calls"] if c["state_before"] != "running"]
+    assert after and max(c["cpu_ms"] for c in after) < FRAME_MS, after
+    broken = pr["broken"]
+    assert broken["final"] == ["CANCELLED"] and broken["census_equal"] and not broken["kept"], broken
+    assert "the plan stored on '{}' is not valid".format(mc["run"]["name"]) in (broken["op_error"] or ""), broken
+    assert "Traceback" not in (broken["op_error"] or "")

@@ -209,6 +209,8 @@ def test_plans_and_animation_survive_save_and_reload(rx):
     sv = rx["reload"]
     assert sv["plans_kept"] and all(sv["plans_kept"].values()), sv["plans_kept"]
     assert sv["export"]["result"] == ["FINISHED"] and sv["export"]["same_bytes"] is True
+    # nothing was kept parsed and the plan counted as long: read first (runs.PlanNeeded), then kept for the next
+    assert sv["export"]["read_first"] and sv["export"]["kept"], sv["export"]
     _screw_ok(sv["animation"])
 
 

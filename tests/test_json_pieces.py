@@ -1,0 +1,137 @@
+"""Reading long JSON in pieces (flank_addon/io/json_pieces.py): the value ``json.loads`` gives, bit for bit and
+type for type, with no call of the C scanner longer than a piece (plus one element), on plan-shaped documents in
+every layout the product writes and on JSON built to mislead the cuts."""
+import json
+import math
+
+import numpy as np
+import pytest
+
+from flank_addon.io import json_pieces
+from flank_addon.io.json_pieces import loads_in_pieces
+from flank_addon.io.plan import plan_text
+
+
+def _same(a, b):
+    """Equal as json.loads' results are: the same types, dict key order, float bits (-0.0, nan) and values."""
+    if type(a) is not type(b):
+        return False
+    if isinstance(a, dict):
+        return list(a) == list(b) and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, list):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+    if isinstance(a, float):
+        return (math.isnan(a) and math.isnan(b)) or (a == b and math.copysign(1, a) == math.copysign(1, b))
+    return a == b
+
+
+def _plan_like(n_vertices=3000, n_strips=7, seed=3):
+    """A free-form plan's shape: a surface of [x, y, z] rows and [i, j, k] faces, strips with rulings (pairs of
+    points), nested tool dicts, strings that hold brackets and commas, and every kind of JSON scalar."""
+    rng = np.random.default_rng(seed)
+    V = rng.normal(size=(n_vertices, 3)) * 10.0 ** rng.integers(-8, 8, size=(n_vertices, 1))
+    V[0, 0], V[1, 1] = -0.0, 1e-320                       # a negative zero and a subnormal
+    F = rng.integers(0, n_vertices, size=(2 * n_vertices, 3))
+    strips = []
+    for k in range(n_strips):
+        strips.append({"rulings": rng.normal(size=(40 + 9 * k, 2, 3)).tolist(), "radii": [0.01, 0.03],
+                       "tool": {"kind": "cone", "r1": 0.01, "note": "a }, { and ], [ in a string"},
+                       "shafts": [{"z_range": [0, 1], "radius": 2.5}, {"z_range": [3, 4], "radius": 2}],
+                       "collision": bool(k % 2), "kink_to_next_deg": None if k == n_strips - 1 else 0.25 * k,
+                       "label": "strip \"{}\" \\ \u00e9\u4e2d \ud83d\ude00".format(k), "big": 2 ** 70 + k})
+    return {"schema": "flank-plan/1", "method": "freeform-g1-cone", "length_unit": "mm",
+            "surface": {"kind": "mesh", "vertices": V.tolist(), "faces": F.tolist()},
+            "tool": {"kind": "cone", "r1": 0.01, "r2": 0.03}, "strips": strips, "empty": [], "nothing": {},
+            "nested": [[[1, [2, [3, []]]], {"a": [{}]}]] * 50,
+            "summary": {"max_error": 1.5e-5, "min_error": -2e-6, "elapsed_s": 2.2}}
+
+
+LAYOUTS = {
+    "stored on a run (json.dumps)": json.dumps,
+    "plan file (plan_text)": plan_text,
+    "indented": lambda d: json.dumps(d, indent=2),
+    "compact": lambda d: json.dumps(d, separators=(",", ":")),
+    "not ascii": lambda d: json.dumps(d, ensure_ascii=False),
+}
+
+
+@pytest.mark.parametrize("layout", list(LAYOUTS))
+@pytest.mark.parametrize("piece", [64, 700, 5000, json_pieces.PIECE])
+def test_same_value_as_json_loads_in_bounded_calls(monkeypatch, layout, piece):
+    text = LAYOUTS[layout](_plan_like())
+    want = json.loads(text)
+    consumed = []
+    real = json_pieces._DECODER
+
+    class Counting:
+        def raw_decode(self, s, idx=0):
+            value, end = real.raw_decode(s, idx)
+            consumed.append(end - idx)
+            return value, end
+
+        def decode(self, s):
+            consumed.append(len(s))
+            return real.decode(s)
+
+    monkeypatch.setattr(json_pieces, "_DECODER", Counting())
+    got = loads_in_pieces(text, piece=max(piece, 64))
+    assert _same(got, want)
+    if piece < len(text):
+        # never the whole text at once; at most a piece plus the longest element that had to be read whole (a strip)
+        longest_strip = max(len(json.dumps(s)) for s in want["strips"]) * 2
+        assert len(consumed) > 1 and max(consumed) <= max(piece, 64) + longest_strip, (max(consumed), len(text))
+    if piece <= 5000:
+        assert len(consumed) > len(text) / (piece + 2 * max(len(json.dumps(s)) for s in want["strips"]))
+
+
+def test_short_text_is_one_call_and_scalars_and_top_level_arrays_read():
+    assert loads_in_pieces('{"a": [1, 2.5, "x"]}') == {"a": [1, 2.5, "x"]}
+    for doc in ([0.1 * k for k in range(20000)], [[k, -k] for k in range(5000)], "s" * 1000, 12345, None,
+                [{"k": k} for k in range(3000)], [[[k]] for k in range(3000)]):
+        text = json.dumps(doc)
+        assert _same(loads_in_pieces(text, piece=256), json.loads(text)), type(doc)
+    text = "  \n" + json.dumps([1.5] * 4000) + " \n\t"
+    assert _same(loads_in_pieces(text, piece=128), json.loads(text))
+    nan = loads_in_pieces(json.dumps([float("nan"), float("inf"), -float("inf")] * 400), piece=128)
+    assert math.isnan(nan[0]) and nan[1] == math.inf and nan[2] == -math.inf and len(nan) == 1200
+
+
+def test_cuts_that_do_not_fall_between_elements_are_not_taken():
+    """Elements whose text repeats the cut inside them: rows of different depth, strings holding the
+    separator, and elements longer than a piece."""
+    irregular = [[k, [k, k + 1]] if k % 3 else [[k], k] for k in range(4000)]
+    strings = ["], [" * (k % 5) + "]], [[" + '\\"' * (k % 3) for k in range(4000)]
+    long_rows = [list(range(300 + k)) for k in range(60)]
+    mixed = [{"a": [1, {"b": "}, {"}]}, [2, [3]], "]", 4.5, None] * 800
+    for doc in (irregular, strings, long_rows, mixed, {"x": irregular, "y": {"z": strings, "w": long_rows}}):
+        text = json.dumps(doc)
+        assert _same(loads_in_pieces(text, piece=300), json.loads(text))
+
+
+@pytest.mark.parametrize("bad", ['{"a": [1, 2, 3', '{"a": [1, 2,, 3]}', '[1, 2] x', '{"a" 1}', '[' + '1, ' * 3000,
+                                 '[' + '"x", ' * 3000 + '}', '{"a": [' + '[1, 2], ' * 3000 + '[3, 4]}'])
+def test_invalid_json_raises_json_loads_error(bad):
+    with pytest.raises(json.JSONDecodeError) as want:
+        json.loads(bad)
+    with pytest.raises(json.JSONDecodeError) as got:
+        loads_in_pieces(bad, piece=100)
+    assert str(got.value) == str(want.value)
+
+
+def test_progress_reports_the_share_read_and_can_stop_the_reading():
+    text = json.dumps(_plan_like())
+    seen = []
+    loads_in_pieces(text, piece=4096, progress=seen.append)
+    assert len(seen) > 20 and all(0.0 <= f <= 1.0 for f in seen) and seen == sorted(seen) and seen[-1] > 0.9
+
+    class Stop(Exception):
+        pass
+
+    def stop(fraction):
+        if fraction > 0.5:
+            raise Stop
+
+    with pytest.raises(Stop):
+        loads_in_pieces(text, piece=4096, progress=stop)
+    with pytest.raises(TypeError, match="reads a str"):
+        loads_in_pieces(text.encode())
