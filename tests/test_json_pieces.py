@@ -135,3 +135,12 @@ def test_progress_reports_the_share_read_and_can_stop_the_reading():
         loads_in_pieces(text, piece=4096, progress=stop)
     with pytest.raises(TypeError, match="reads a str"):
         loads_in_pieces(text.encode())
+
+
+def test_arrays_of_one_long_element_and_long_last_values():
+    """A long array whose only element is longer than a piece (no comma follows it anywhere), and long values at
+    the very end of the text."""
+    for doc in ([[list(range(20000))]], {"a": [[list(range(20000))]]}, [list(range(20000))],
+                {"a": 1, "z": [[0.5] * 20000]}, [{"k": list(range(20000))}]):
+        text = json.dumps(doc)
+        assert _same(loads_in_pieces(text, piece=256), json.loads(text)), str(doc)[:40]

@@ -105,21 +105,22 @@ class _Reader:
             return out, j + 1
         first, e = self.value(j)
         out.append(first)
-        # the cut: what lies between the first element's last closing brackets and the second element's
-        # opening one (e.g. "]], [[" between [[x, y, z], [x, y, z]] and the next such pair)
-        k = e
+        k = e                                  # where the first element's closing brackets start
         while k > j and text[k - 1] in "]}":
             k -= 1
-        j2 = self.skip(self.skip(e) + 1)
-        opener = text[j2] if j2 < self.n and text[j2] in '[{"' else ""
-        cut = (text[k:j2] + opener, text.index(",", e) - k)       # (text, where its comma is)
+        cut = None
         while True:
-            j = self.skip(e)
-            if text[j] == "]":
-                return out, j + 1
-            if text[j] != ",":
+            comma = self.skip(e)
+            if text[comma] == "]":
+                return out, comma + 1
+            if text[comma] != ",":
                 raise _NotHere
-            j = self.skip(j + 1)
+            j = self.skip(comma + 1)
+            if cut is None:
+                # what lies between the first element's closing brackets and the second one's opening bracket
+                # (e.g. "]], [[" between [[x, y, z], [x, y, z]] and the next such pair), and where its comma is
+                opener = text[j] if text[j] in '[{"' else ""
+                cut = (text[k:j] + opener, comma - k)
             run = self.run(j, cut)
             if run is None:                    # no cut fitted: one element, and the next run tries again
                 v, e = self.value(j)
