@@ -9,7 +9,8 @@ from bpy.props import IntProperty, StringProperty
 from mathutils import Matrix
 
 from .common import hide_objects, iter_fcurves, key_screw_motion, linear_keys, remove_ids
-from .runs import ANIM_HID, ANIM_ROLE, remove_animation, run_plan, run_prop
+from .modal import ModalPlannerMixin
+from .runs import ANIM_HID, ANIM_ROLE, PlanNeeded, remove_animation, run_plan, run_prop
 from .shapes import axis_frame
 
 # (role property, strip property) of the planners' result objects: single flank numbers strips, double
@@ -46,10 +47,14 @@ def _time_range(plan, k, rotor_obj, Dinv, v0):
     return (z_tip - z.max() - margin) / v0, (z_tip - z.min() + margin) / v0
 
 
-class FLANK_OT_animate_strip(bpy.types.Operator):
+class FLANK_OT_animate_strip(ModalPlannerMixin, bpy.types.Operator):
     """Animate one strip of a planning run: the rotor (a linked copy, with the strip's envelope) screws past the
     fixed tool and shank over the frame range, so playback shows the cut.  Re-running replaces the run's
     animation; the original rotor is hidden, not moved"""
+
+    # The animation is made in one turn of the main thread (no worker); only a long plan that is not kept parsed
+    # (a file opened again) is read first in a worker, as the other operators that read a run's plan do.
+    _title = "Animate strip"
 
     bl_idname = "flank.animate_strip"
     bl_label = "Animate Strip"
@@ -61,24 +66,43 @@ class FLANK_OT_animate_strip(bpy.types.Operator):
     frame_start: IntProperty(name="Start Frame", default=1)
     frame_end: IntProperty(name="End Frame", default=250)
 
-    def execute(self, context):
-        from ..flank_addon.io.plan import is_mesh_plan
+    def invoke(self, context, event):
+        # modal only while a long plan is read: otherwise the animation is made at once, as from a script
+        if isinstance(run_plan(context, self.collection, defer=True), PlanNeeded):
+            return ModalPlannerMixin.invoke(self, context, event)
+        return self.execute(context)
 
+    def _prepare(self, context):
+        """The run, its plan and the strip -> job, or None (error reported)."""
         fs, fe = int(self.frame_start), int(self.frame_end)
-        found = run_plan(context, self.collection) if fe > fs else \
+        found = run_plan(context, self.collection, defer=self._defer_analysis) if fe > fs else \
             "end frame {} must be after the start frame {}".format(fe, fs)
+        if isinstance(found, PlanNeeded):
+            return self._read_first(found)           # a long plan not read yet: in a worker first
         if isinstance(found, str):
             self.report({'ERROR'}, "Animate strip: " + found)
-            return {'CANCELLED'}
+            return None
         coll, plan = found
         n, k = len(plan["strips"]), int(self.strip) - 1
         if not 0 <= k < n:
             self.report({'ERROR'}, "Animate strip: strip = {} does not exist: run '{}' has strips 1..{}".format(
                 int(self.strip), coll.name, n))
+            return None
+        return dict(coll=coll.name, plan=plan, k=k, fs=fs, fe=fe)
+
+    @staticmethod
+    def _compute(job, progress):
+        return None                                  # nothing off the main thread: the animation is Blender data
+
+    def _build(self, context, job, result):
+        from ..flank_addon.io.plan import is_mesh_plan
+
+        coll = bpy.data.collections.get(job["coll"])
+        if coll is None:
+            self.report({'ERROR'}, "Animate strip: run '{}' was removed".format(job["coll"]))
             return {'CANCELLED'}
-        if is_mesh_plan(plan):
-            return self._animate_tool(coll, plan, k, fs, fe)
-        return self._animate_rotor(coll, plan, k, fs, fe)
+        args = (coll, job["plan"], job["k"], job["fs"], job["fe"])
+        return self._animate_tool(*args) if is_mesh_plan(job["plan"]) else self._animate_rotor(*args)
 
     def _animate_rotor(self, coll, plan, k, fs, fe):
         """A rotor plan: a linked copy of the rotor (and of the strip's envelopes) screws past the fixed tool."""

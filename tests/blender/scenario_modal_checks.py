@@ -214,6 +214,22 @@ def scenario(bpy, res, args):
                 rec = dict(op_result=ret, op_error=err)
             rec.update(state=_plot_state(bpy, np, run_name), kept=run_name in runs_mod._PLANS)
             plan_read[how] = rec
+        # Animate Strip, which has no worker of its own: the reading first, then the animation in one turn
+        anim_cls = sys.modules[driver.MODULE + ".operators.animate"].FLANK_OT_animate_strip
+        for how in ("modal", "sync"):
+            select()
+            runs_mod._PLANS.clear()
+            if how == "modal":
+                rec = sm._call(bpy, bpy.ops.flank.animate_strip, anim_cls, "finish", collection=run_name, strip=1,
+                               frame_start=1, frame_end=40)
+            else:
+                ret, err = driver._run_op(bpy.ops.flank.animate_strip, collection=run_name, strip=1, frame_start=1,
+                                          frame_end=40)
+                rec = dict(op_result=ret, op_error=err)
+            motion = [o for o in bpy.data.collections[run_name].objects if o.get("flank_anim_role") == "motion"]
+            rec.update(kept=run_name in runs_mod._PLANS, motion=[(o.name, sm._plain(o["flank_anim_time"]))
+                                                                 for o in motion])
+            plan_read["animate_" + how] = rec
         good = run["flank_plan_json"]
         run["flank_plan_json"] = good[:-200_000]
         try:
