@@ -26,8 +26,8 @@ A planner whose analysed rotor must be analysed again (its mesh changed since An
 same object when it ends, now reading the rotor from the analysis cache: a second of analysis never blocks
 Blender.  A run's long plan that is not kept parsed (a file opened again) is read the same way: ``run_plan(...,
 defer=self._defer_analysis)`` gives a ``PlanNeeded``.  Either has ``run(progress)`` (the worker), ``resume(result)``
-(main thread: None, or an error message), ``name`` (the object made active again for the second ``_prepare``,
-None: none) and ``doing`` (what the worker did, for the message when that object is gone).
+(main thread: None, or an error message), ``name`` (the object made active again for the second ``_prepare``;
+None: no active object, as when it started) and ``doing`` (what the worker did, for the message when that object is gone).
 
 ``execute`` (scripts, ``bpy.app.background``, redo) runs the three in a row; after a file browser (the
 operator's hidden ``modal_after_browser``, set by its ``invoke``) it starts the modal run instead.
@@ -151,7 +151,7 @@ class ModalPlannerMixin:
             return False
         self._defer_analysis = False     # the data is kept now (changed since: read here)
         try:
-            prepared = self._prepare(_ActiveObject(context, obj) if obj is not None else context)
+            prepared = self._prepare(_ActiveObject(context, obj))     # obj None: no active object, as at the start
         finally:
             self._defer_analysis = True
         if prepared is None:

@@ -40,6 +40,7 @@ class FLANK_OT_render_report(ModalPlannerMixin, bpy.types.Operator):
     # scripts and in the background, runs all of it at once)
     modal_after_browser: BoolProperty(default=False, options={'HIDDEN', 'SKIP_SAVE'})
     _title = "Render report"
+    _run_name = ""                   # the run, once _prepare has found it (a failure before names none)
 
     def invoke(self, context, event):
         if bpy.app.background or context.window is None:      # no file browser without a window

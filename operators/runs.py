@@ -104,7 +104,7 @@ def run_plan(context, name="", defer=False):
         return coll
     plan = stored_plan(coll, defer)
     if isinstance(plan, PlanNeeded):
-        ob = None if name else context.active_object        # the run is found again the way it was found now
+        ob = context.active_object        # active again for the second _prepare (None: none), which finds this run
         plan.name = ob.name if ob is not None else None
         return plan
     return plan if isinstance(plan, str) else (coll, plan)
@@ -134,7 +134,7 @@ def _checked_plan(run_name, text, loads):
 
     try:
         return validate_plan(loads(text))
-    except (ValueError, TypeError, PlanError) as ex:
+    except (ValueError, TypeError, OverflowError, RecursionError, PlanError) as ex:
         return "the plan stored on '{}' is not valid: {}".format(run_name, ex)
 
 
@@ -143,7 +143,8 @@ class PlanNeeded:
     11.7 MB for a free-form plan on 200,000 triangles): :meth:`run` parses and checks it in a worker, in pieces
     (:func:`..flank_addon.io.json_pieces.loads_in_pieces`), so Blender's interface keeps running; then the
     operator's ``_prepare`` runs again and finds it kept (``ModalPlannerMixin._read_first``).  ``name``: the
-    active object the operator was started with (None: none), made active again for that second ``_prepare``."""
+    active object the operator was started with (None: none), made active again for that second ``_prepare``, so
+    that it finds the same run whatever the user selected meanwhile."""
 
     doing = "its run's plan was read"
 
@@ -155,15 +156,23 @@ class PlanNeeded:
         import json
 
         from ..flank_addon.io.json_pieces import loads_in_pieces
-        from ..flank_addon.progress import reporter
+        from ..flank_addon.progress import Cancelled, reporter
 
         if progress is None:                             # a script or background run: no interface to keep going
-            return _checked_plan(self.run_name, self.text, json.loads)
-        report = reporter(progress)
-        message = "reading the plan of '{}' ({:.1f} MB)".format(self.run_name, len(self.text) / 1e6)
-        report(0.0, message)
-        return _checked_plan(self.run_name, self.text,
-                             lambda text: loads_in_pieces(text, progress=lambda f: report(0.9 * f, message)))
+            loads = json.loads
+        else:
+            report = reporter(progress)
+            message = "reading the plan of '{}' ({:.1f} MB)".format(self.run_name, len(self.text) / 1e6)
+            report(0.0, message)
+
+            def loads(text):
+                return loads_in_pieces(text, progress=lambda f: report(0.9 * f, message))
+        try:
+            return _checked_plan(self.run_name, self.text, loads)
+        except Cancelled:
+            raise
+        except Exception as ex:                          # reported by the operator (resume), never a traceback
+            return "cannot read the plan stored on '{}': {}: {}".format(self.run_name, type(ex).__name__, ex)
 
     def resume(self, plan):
         """Keep the plan the worker read (main thread) -> None, or an error message (str)."""
@@ -172,7 +181,8 @@ class PlanNeeded:
         coll = bpy.data.collections.get(self.run_name)
         if coll is None or PLAN_JSON_PROP not in coll:
             return "run '{}' was removed while its plan was read".format(self.run_name)
-        keep_plan(coll, self.text, plan)     # a text changed since is not this one's: read again by _prepare
+        if coll[PLAN_JSON_PROP] == self.text:   # else a new plan was stored meanwhile: _prepare reads that one
+            keep_plan(coll, self.text, plan)
         return None
 
 

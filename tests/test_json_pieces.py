@@ -109,6 +109,8 @@ def test_cuts_that_do_not_fall_between_elements_are_not_taken():
 
 
 @pytest.mark.parametrize("bad", ['{"a": [1, 2, 3', '{"a": [1, 2,, 3]}', '[1, 2] x', '{"a" 1}', '[' + '1, ' * 3000,
+                                 '[' + '0, ' * 3000 + ']', '{"faces": [' + '[0, 1, 2], ' * 3000 + ']}',
+                                 '{' + '"k": 1, ' * 3000 + '}',
                                  '[' + '"x", ' * 3000 + '}', '{"a": [' + '[1, 2], ' * 3000 + '[3, 4]}'])
 def test_invalid_json_raises_json_loads_error(bad):
     with pytest.raises(json.JSONDecodeError) as want:
@@ -144,3 +146,49 @@ def test_arrays_of_one_long_element_and_long_last_values():
                 {"a": 1, "z": [[0.5] * 20000]}, [{"k": list(range(20000))}]):
         text = json.dumps(doc)
         assert _same(loads_in_pieces(text, piece=256), json.loads(text)), str(doc)[:40]
+
+
+def test_deep_nesting_reads_as_json_loads_does():
+    """Nested deeper than the reader's own Python frames go: the value (or error) of json.loads."""
+    for depth in (400, 900):
+        text = "[" * depth + ", ".join(map(str, range(3000))) + "]" * depth
+        assert loads_in_pieces(text, piece=256) == json.loads(text)
+
+
+@pytest.mark.parametrize("name", ["first element alone", "first separator alone", "alternating", "irregular"])
+def test_arrays_whose_cuts_miss_cost_a_few_readings_of_the_text(monkeypatch, name):
+    """When the cut taken from one element does not fit the next ones, elements are read one at a time and the cut
+    is taken again from them; the cuts that missed (their failed parses included) cost a few times the text."""
+    doc_text = {"first element alone": json.dumps([[[0]]] + [[0]] * 20000),
+                "first separator alone": "[0, " + ",".join(["0"] * 20000) + "]",
+                "alternating": json.dumps([[k] if k % 2 else [[k]] for k in range(10000)]),
+                "irregular": json.dumps([[k, [k]] if k % 3 else {"a": [k]} for k in range(6000)])}[name]
+    scanned = []
+    real = json_pieces._DECODER
+
+    class Counting:
+        def raw_decode(self, s, idx=0):
+            try:
+                value, end = real.raw_decode(s, idx)
+            except json.JSONDecodeError as ex:
+                scanned.append(ex.pos - idx)
+                raise
+            scanned.append(end - idx)
+            return value, end
+
+        def decode(self, s):
+            scanned.append(len(s))
+            return real.decode(s)
+
+    searched = []
+
+    class Text(str):                 # the searches for cuts: the characters each one went through
+        def find(self, sub, start=0):
+            at = str.find(self, sub, start)
+            searched.append((at if at >= 0 else len(self)) - start)
+            return at
+
+    monkeypatch.setattr(json_pieces, "_DECODER", Counting())
+    assert _same(loads_in_pieces(Text(doc_text), piece=512), json.loads(doc_text))
+    assert sum(scanned) < 6 * len(doc_text), (sum(scanned), len(doc_text))
+    assert sum(searched) < 6 * len(doc_text), (sum(searched), len(doc_text))

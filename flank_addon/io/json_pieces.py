@@ -45,8 +45,9 @@ def loads_in_pieces(text, piece=PIECE, progress=None):
         value, end = reader.value(start)
         if reader.skip(end) != len(text):
             raise _NotHere
-    except (json.JSONDecodeError, _NotHere, IndexError):
-        return _DECODER.decode(text)          # not valid JSON: json.loads' own message (or, if it is, its value)
+    except (json.JSONDecodeError, _NotHere, IndexError, RecursionError):
+        # not valid JSON, or nested deeper than this reader's Python frames go: json.loads' own message or value
+        return _DECODER.decode(text)
     return value
 
 
@@ -54,6 +55,8 @@ class _Reader:
     def __init__(self, text, piece, progress):
         self.text, self.piece, self.progress = text, max(int(piece), 64), progress
         self.n = len(text)
+        self.absent = {}                       # cut pattern -> where on it is not found in the text
+        self.reported = 0
 
     def skip(self, i):
         text, n = self.text, self.n
@@ -62,7 +65,8 @@ class _Reader:
         return i
 
     def report(self, i):
-        if self.progress is not None:
+        if self.progress is not None and i - self.reported >= self.piece:
+            self.reported = i
             self.progress(i / self.n)
 
     def value(self, i):
@@ -103,12 +107,9 @@ class _Reader:
         j = self.skip(i + 1)
         if text[j] == "]":
             return out, j + 1
-        first, e = self.value(j)
-        out.append(first)
-        k = e                                  # where the first element's closing brackets start
-        while k > j and text[k - 1] in "]}":
-            k -= 1
-        cut = None
+        v, e = self.value(j)
+        out.append(v)
+        k, cut, alone_until = self.closers(j, e), None, 0
         while True:
             comma = self.skip(e)
             if text[comma] == "]":
@@ -116,21 +117,34 @@ class _Reader:
             if text[comma] != ",":
                 raise _NotHere
             j = self.skip(comma + 1)
+            if text[j] == "]":                 # a trailing comma: not JSON (a run would read it as the end)
+                raise _NotHere
             if cut is None:
-                # what lies between the first element's closing brackets and the second one's opening bracket
+                # what lies between the last element's closing brackets and the next one's opening bracket
                 # (e.g. "]], [[" between [[x, y, z], [x, y, z]] and the next such pair), and where its comma is
-                opener = text[j] if text[j] in '[{"' else ""
-                cut = (text[k:j] + opener, comma - k)
-            run = self.run(j, cut)
-            if run is None:                    # no cut fitted: one element, and the next run tries again
+                cut = (text[k:j] + (text[j] if text[j] in '[{"' else ""), comma - k)
+            run = self.run(j, cut) if j >= alone_until else None
+            if run is None:
+                # no cut fitted: this element alone, and the cut taken from it; runs are tried again a piece on,
+                # so that the cuts that missed cost at most a few times the text read alone
                 v, e = self.value(j)
                 out.append(v)
+                self.report(e)
+                if j >= alone_until:
+                    alone_until = e + self.piece
+                k, cut = self.closers(j, e), None
                 continue
             values, e, closed = run
             out.extend(values)
             self.report(e)
             if closed:
                 return out, e
+
+    def closers(self, j, e):
+        """Where the closing brackets of the element text[j:e] start."""
+        while e > j and self.text[e - 1] in "]}":
+            e -= 1
+        return e
 
     def run(self, j, cut):
         """Elements from ``j`` on, about a piece of them: (values, end, closed) -- ``closed`` when the array's
@@ -140,8 +154,9 @@ class _Reader:
         pattern, comma = cut
         at = min(j + self.piece, self.n)
         for _ in range(_CUTS_TRIED):
-            p = text.find(pattern, at)
+            p = text.find(pattern, at) if at < self.absent.get(pattern, self.n + 1) else -1
             if p < 0:
+                self.absent[pattern] = min(at, self.absent.get(pattern, at))
                 p = self.n                     # the rest of the text: the array ends in it
                 if p - j > 2 * self.piece:
                     return None

@@ -367,9 +367,12 @@ def _rows_array(rows, dtype=None, slice_rows=16384):
     types combine as the whole list's would (ints and a float: float)."""
     if not isinstance(rows, list) or len(rows) <= slice_rows:
         return np.asarray(rows, dtype)
-    parts = [np.asarray(rows[i:i + slice_rows], dtype) for i in range(0, len(rows), slice_rows)]
-    if len({p.shape[1:] for p in parts}) != 1:
-        raise ValueError("rows of different lengths")
+    try:
+        parts = [np.asarray(rows[i:i + slice_rows], dtype) for i in range(0, len(rows), slice_rows)]
+    except (ValueError, OverflowError):
+        parts = None
+    if parts is None or len({p.shape[1:] for p in parts}) != 1:
+        return np.asarray(rows, dtype)      # not rows of one length: what the whole list gives (numpy's message)
     return np.concatenate(parts)
 
 
