@@ -10,6 +10,9 @@ collections, which hold the interpreter lock too, for a time that grows with eve
   main thread   ``validate_plan(json.loads(text))`` in the operator's ``_prepare`` (how a run's plan was read)
   worker, whole the same in a worker thread: the C scanner holds the interpreter lock for the whole text
   worker, pieces ``runs.PlanNeeded``'s read: ``validate_plan(loads_in_pieces(text))`` in a worker
+  store, whole   a planner's worker making the run's text and its checked plan (``runs.run_plan_fields``) as
+                 it did: ``validate_plan(json.loads(json.dumps(plan)))``
+  store, pieces  as it does now: ``validate_plan(loads_in_pieces(dumps_in_pieces(plan)))``
 
     PYTHONPATH=. .venv/bin/python bench/bench_plan_read.py [--repeat 3] [--resolution 316]
 """
@@ -25,7 +28,7 @@ HERE = Path(__file__).resolve().parents[1]
 
 RUNNER = r"""
 import gc, json, sys, threading, time
-from flank_addon.io.json_pieces import loads_in_pieces
+from flank_addon.io.json_pieces import dumps_in_pieces, loads_in_pieces
 from flank_addon.io.plan import validate_plan
 
 text, mode = open(sys.argv[1]).read(), sys.argv[2]
@@ -46,8 +49,13 @@ def ticking(work):
     return longest, done[0]
 
 
+plan = json.loads(text) if mode.startswith("store") else None
 t = time.perf_counter()
-if mode == "main":
+if mode == "store-whole":                           # a planner's worker: the run's text, read back and checked
+    wait, checked = ticking(lambda: validate_plan(json.loads(json.dumps(plan))))
+elif mode == "store-pieces":
+    wait, checked = ticking(lambda: validate_plan(loads_in_pieces(dumps_in_pieces(plan))))
+elif mode == "main":
     plan = validate_plan(json.loads(text))
     wait = time.perf_counter() - t
 elif mode == "whole":
@@ -56,7 +64,7 @@ else:
     wait, plan = ticking(lambda: validate_plan(loads_in_pieces(text, progress=lambda f: None)))
 took = time.perf_counter() - t
 full = gc.get_stats()[2]["collections"] - full_before
-same = plan == json.loads(text) if mode == "pieces" else True
+same = plan == json.loads(text) if mode == "pieces" else checked == plan if mode == "store-pieces" else True
 print(json.dumps({"chars": len(text), "wait_s": wait, "took_s": took, "full_gc": full, "same": same}))
 """
 
@@ -101,19 +109,20 @@ def main():
             tris, chars = make_plan(d, args.resolution)
         print(f"plan text {chars / 1e6:.1f} MB (surface {tris} triangles)")
         env = dict(os.environ, PYTHONPATH=str(HERE))
-        runs = {mode: [] for mode in ("main", "whole", "pieces")}
+        runs = {mode: [] for mode in ("main", "whole", "pieces", "store-whole", "store-pieces")}
         for _ in range(args.repeat):
             for mode in runs:                    # alternating, so that each sees the same machine load
                 p = subprocess.run([sys.executable, "-c", RUNNER, str(d / "plan.json"), mode], env=env,
                                    capture_output=True, text=True, check=True)
                 runs[mode].append(json.loads(p.stdout.strip().splitlines()[-1]))
-    print("                  longest wait of the main thread (s)   reading (s)       full collections")
-    for mode, label in (("main", "main thread"), ("whole", "worker, whole"), ("pieces", "worker, pieces")):
+    print("                  longest wait of the main thread (s)   time (s)          full collections")
+    for mode, label in (("main", "main thread"), ("whole", "worker, whole"), ("pieces", "worker, pieces"),
+                        ("store-whole", "store, whole"), ("store-pieces", "store, pieces")):
         waits, took = [r["wait_s"] for r in runs[mode]], [r["took_s"] for r in runs[mode]]
         full = [r["full_gc"] for r in runs[mode]]
         print(f"  {label:16s}  {min(waits):7.3f} .. {max(waits):7.3f}                  "
               f"{min(took):6.3f} .. {max(took):6.3f}    {min(full)} .. {max(full)}")
-    print("the pieces read the same plan:", all(r["same"] for r in runs["pieces"]))
+    print("the pieces read the same plan:", all(r["same"] for r in runs["pieces"] + runs["store-pieces"]))
 
 
 if __name__ == "__main__":

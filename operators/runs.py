@@ -189,13 +189,14 @@ class PlanNeeded:
 def run_plan_fields(plan):
     """A planner's result fields for its run's plan (any thread, so its worker does it): ``plan_json``, the text
     stored on the run, and ``plan_checked``, that text parsed and checked again, as :func:`run_plan` would (for
-    :func:`store_plan`; a dict of its own, not the planner's)."""
-    import json
-
+    :func:`store_plan`; a dict of its own, not the planner's).  Written and read in pieces
+    (``flank_addon.io.json_pieces``), so that Blender's interface runs meanwhile: at once, an 11.7 MB free-form
+    plan held it for about 0.4 s to write and 0.3 s to read."""
+    from ..flank_addon.io.json_pieces import dumps_in_pieces, loads_in_pieces
     from ..flank_addon.io.plan import validate_plan
 
-    text = json.dumps(plan)
-    return dict(plan_json=text, plan_checked=validate_plan(json.loads(text)))
+    text = dumps_in_pieces(plan)
+    return dict(plan_json=text, plan_checked=validate_plan(loads_in_pieces(text)))
 
 
 def store_plan(coll, fields):

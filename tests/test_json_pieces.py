@@ -192,3 +192,37 @@ def test_arrays_whose_cuts_miss_cost_a_few_readings_of_the_text(monkeypatch, nam
     assert _same(loads_in_pieces(Text(doc_text), piece=512), json.loads(doc_text))
     assert sum(scanned) < 6 * len(doc_text), (sum(scanned), len(doc_text))
     assert sum(searched) < 6 * len(doc_text), (sum(searched), len(doc_text))
+
+
+@pytest.mark.parametrize("items", [1, 7, 100, json_pieces.ITEMS])
+def test_written_in_pieces_is_json_dumps_text(monkeypatch, items):
+    """The same characters as json.dumps, with no call of the encoder on more than ``items`` list elements (or
+    one member of an object, or one element of a list of objects)."""
+    doc = _plan_like(n_vertices=5000)
+    written = []
+    real = json.dumps
+
+    def counting(obj, *a, **kw):
+        written.append(len(obj) if isinstance(obj, (list, tuple)) and len(obj) > 1 else 1)
+        return real(obj, *a, **kw)
+
+    monkeypatch.setattr(json_pieces.json, "dumps", counting)
+    text = json_pieces.dumps_in_pieces(doc, items=items)
+    monkeypatch.setattr(json_pieces.json, "dumps", real)
+    assert text == json.dumps(doc)
+    assert max(written) <= max(items, 50)      # 50: the "nested" field, a list of lists of lists read whole
+    assert len(written) >= 15000 / items            # the 5,000 vertex and 10,000 face rows
+
+
+def test_written_in_pieces_edge_cases():
+    odd = {1: 2, "b": 3}                        # a key that is not a string: json.dumps writes "1"
+    for doc in ([], {}, [[]], {"a": []}, odd, [odd] * 10, [{"x": 1}, 2, [3]], (1, 2), [(1, [2, 3])] * 9,
+                {"k": (1, {"z": float("nan")})}, "s\u00e9", None, 3, [1.5] * 50, {"a": [[1, 2]] * 50, "b": {"c": [{}] * 3}},
+                [{"d": [{"e": []}]}] * 20):
+        assert json_pieces.dumps_in_pieces(doc, items=7) == json.dumps(doc), doc
+    with pytest.raises(TypeError, match="not JSON serializable"):
+        json_pieces.dumps_in_pieces({"a": [1] * 20 + [np.float32(1.0)]}, items=7)
+    loop = []
+    loop.append({"again": loop})
+    with pytest.raises(ValueError, match="Circular reference"):
+        json_pieces.dumps_in_pieces(loop, items=7)

@@ -60,6 +60,7 @@ import math
 import numpy as np
 
 from .files import atomic_write
+from .json_pieces import dumps_in_pieces
 
 SCHEMA = "flank-plan/1"
 TOOL_KINDS = ("cone", "revolved", "disc", "paraboloid")
@@ -384,11 +385,12 @@ def is_mesh_plan(plan):
 def plan_text(plan):
     """The JSON text of a plan: one line per top-level field and per strip.  Readable in a text editor and
     written by the json module's C encoder (an indented dump goes through its pure-Python encoder: about
-    five times slower on a plan with a 20,000-triangle surface)."""
+    five times slower on a plan with a 20,000-triangle surface), in pieces (:func:`.json_pieces.dumps_in_pieces`:
+    an export writes it in a worker while Blender's interface runs)."""
     def field(key, value):
         if key == "strips" and isinstance(value, list) and value:
-            return "{}: [\n{}\n ]".format(json.dumps(key), ",\n".join("  " + json.dumps(s) for s in value))
-        return "{}: {}".format(json.dumps(key), json.dumps(value))
+            return "{}: [\n{}\n ]".format(json.dumps(key), ",\n".join("  " + dumps_in_pieces(s) for s in value))
+        return "{}: {}".format(json.dumps(key), dumps_in_pieces(value))
 
     return "{\n" + ",\n".join(" " + field(k, v) for k, v in plan.items()) + "\n}\n"
 
