@@ -9,10 +9,14 @@ collections, which hold the interpreter lock too, for a time that grows with eve
 
   main thread   ``validate_plan(json.loads(text))`` in the operator's ``_prepare`` (how a run's plan was read)
   worker, whole the same in a worker thread: the C scanner holds the interpreter lock for the whole text
-  worker, pieces ``runs.PlanNeeded``'s read: ``validate_plan(loads_in_pieces(text))`` in a worker
+  worker, pieces ``runs.PlanNeeded``'s read: ``rows_as_tuples(validate_plan(loads_in_pieces(text)))`` in a
+                 worker
   store, whole   a planner's worker making the run's text and its checked plan (``runs.run_plan_fields``) as
                  it did: ``validate_plan(json.loads(json.dumps(plan)))``
-  store, pieces  as it does now: ``validate_plan(loads_in_pieces(dumps_in_pieces(plan)))``
+  store, pieces  as it does now: ``rows_as_tuples(validate_plan(loads_in_pieces(dumps_in_pieces(plan))))``
+
+and then, with the plan read (kept, as Blender keeps the last runs' plans), what a full collection of the garbage
+collector takes (the least of three).
 
     PYTHONPATH=. .venv/bin/python bench/bench_plan_read.py [--repeat 3] [--resolution 316]
 """
@@ -29,7 +33,7 @@ HERE = Path(__file__).resolve().parents[1]
 RUNNER = r"""
 import gc, json, sys, threading, time
 from flank_addon.io.json_pieces import dumps_in_pieces, loads_in_pieces
-from flank_addon.io.plan import validate_plan
+from flank_addon.io.plan import rows_as_tuples, validate_plan
 
 text, mode = open(sys.argv[1]).read(), sys.argv[2]
 full_before = gc.get_stats()[2]["collections"]     # counted, not timed: a gc callback is Python code, and running
@@ -54,18 +58,29 @@ t = time.perf_counter()
 if mode == "store-whole":                           # a planner's worker: the run's text, read back and checked
     wait, checked = ticking(lambda: validate_plan(json.loads(json.dumps(plan))))
 elif mode == "store-pieces":
-    wait, checked = ticking(lambda: validate_plan(loads_in_pieces(dumps_in_pieces(plan))))
+    wait, checked = ticking(lambda: rows_as_tuples(validate_plan(loads_in_pieces(dumps_in_pieces(plan)))))
 elif mode == "main":
     plan = validate_plan(json.loads(text))
     wait = time.perf_counter() - t
 elif mode == "whole":
     wait, plan = ticking(lambda: validate_plan(json.loads(text)))
 else:
-    wait, plan = ticking(lambda: validate_plan(loads_in_pieces(text, progress=lambda f: None)))
+    wait, plan = ticking(lambda: rows_as_tuples(validate_plan(loads_in_pieces(text, progress=lambda f: None))))
 took = time.perf_counter() - t
 full = gc.get_stats()[2]["collections"] - full_before
-same = plan == json.loads(text) if mode == "pieces" else checked == plan if mode == "store-pieces" else True
-print(json.dumps({"chars": len(text), "wait_s": wait, "took_s": took, "full_gc": full, "same": same}))
+kept_gc = []
+for _ in range(3):
+    t = time.perf_counter()
+    gc.collect()
+    kept_gc.append(time.perf_counter() - t)
+if mode == "pieces":
+    same = json.dumps(plan) == json.dumps(json.loads(text))
+elif mode == "store-pieces":
+    same = json.dumps(checked) == json.dumps(plan)
+else:
+    same = True
+print(json.dumps({"chars": len(text), "wait_s": wait, "took_s": took, "full_gc": full, "same": same,
+                  "kept_gc_s": min(kept_gc)}))
 """
 
 
@@ -115,13 +130,14 @@ def main():
                 p = subprocess.run([sys.executable, "-c", RUNNER, str(d / "plan.json"), mode], env=env,
                                    capture_output=True, text=True, check=True)
                 runs[mode].append(json.loads(p.stdout.strip().splitlines()[-1]))
-    print("                  longest wait of the main thread (s)   time (s)          full collections")
+    print("                  longest wait of the main thread (s)   time (s)          full collections  then one (ms)")
     for mode, label in (("main", "main thread"), ("whole", "worker, whole"), ("pieces", "worker, pieces"),
                         ("store-whole", "store, whole"), ("store-pieces", "store, pieces")):
         waits, took = [r["wait_s"] for r in runs[mode]], [r["took_s"] for r in runs[mode]]
         full = [r["full_gc"] for r in runs[mode]]
         print(f"  {label:16s}  {min(waits):7.3f} .. {max(waits):7.3f}                  "
-              f"{min(took):6.3f} .. {max(took):6.3f}    {min(full)} .. {max(full)}")
+              f"{min(took):6.3f} .. {max(took):6.3f}    {min(full)} .. {max(full)}            "
+              f"{1e3 * min(r['kept_gc_s'] for r in runs[mode]):5.1f} .. {1e3 * max(r['kept_gc_s'] for r in runs[mode]):5.1f}")
     print("the pieces read the same plan:", all(r["same"] for r in runs["pieces"] + runs["store-pieces"]))
 
 

@@ -226,3 +226,43 @@ def test_written_in_pieces_edge_cases():
     loop.append({"again": loop})
     with pytest.raises(ValueError, match="Circular reference"):
         json_pieces.dumps_in_pieces(loop, items=7)
+
+
+def test_rows_to_lists_is_tolist():
+    rng = np.random.default_rng(5)
+    for a in (rng.normal(size=(1000, 3)), rng.integers(0, 99, size=(1001, 3)), rng.normal(size=(37, 2, 3)),
+              np.arange(1000.0), np.zeros((0, 3)), np.float64(2.5), np.array([[True, False]] * 300)):
+        got, want = json_pieces.rows_to_lists(a, rows=64), a.tolist()
+        assert got == want and json.dumps(got) == json.dumps(want)
+        if isinstance(want, list) and want and isinstance(want[0], list):
+            assert type(got[0][0]) is type(want[0][0])
+
+
+def test_lists_to_array_converts_as_asarray_does():
+    rows_int, rows_mixed = [[k, k + 1, k + 2] for k in range(100)], [[1, 2, 3]] * 50 + [[1.5, 2, 3]] * 50
+    for rows, dtype in ((rows_int, None), (rows_int, float), (rows_mixed, None), (rows_int, np.int64),
+                        ([[True, 2, 3]] * 100, None), ([[2 ** 70, 1, 2]] * 100, None), ([], float)):
+        got, want = json_pieces.lists_to_array(rows, dtype, slice_rows=7), np.asarray(rows, dtype)
+        assert got.dtype == want.dtype and got.shape == want.shape and (got == want).all()
+    for bad in ([[1, 2, 3]] * 5 + [[1, 2]] * 5, [[1, 2, 3]] * 3 + [[1, 2]], [[10 ** 400, 1, 2]] + [[1, 2]] * 9):
+        with pytest.raises(ValueError) as got:
+            json_pieces.lists_to_array(bad, float, slice_rows=2)
+        with pytest.raises(ValueError) as want:
+            np.asarray(bad, float)
+        assert str(got.value) == str(want.value)
+
+
+def test_a_kept_plans_surface_rows_are_tuples_and_its_text_is_the_same():
+    import gc
+
+    from flank_addon.io.plan import rows_as_tuples
+
+    doc = _plan_like(n_vertices=4000)
+    text = json.dumps(doc)
+    kept = rows_as_tuples(json.loads(text), slice_rows=300)
+    assert json.dumps(kept) == text
+    assert all(type(r) is tuple for r in kept["surface"]["vertices"] + kept["surface"]["faces"])
+    assert kept["surface"]["vertices"] == [tuple(r) for r in doc["surface"]["vertices"]]
+    gc.collect()
+    assert not any(gc.is_tracked(r) for r in kept["surface"]["faces"][:100])   # no work for the collector
+    assert rows_as_tuples({"rotor": {}}) == {"rotor": {}}

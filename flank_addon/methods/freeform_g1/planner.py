@@ -49,6 +49,7 @@ from scipy.optimize import least_squares
 from . import guiding as _guiding
 from .initial_rulings import initial_rulings
 from ...geometry.mesh_distance import TriangleMesh
+from ...io.json_pieces import lists_to_array, rows_to_lists
 from ...progress import reporter, substage
 
 METHOD = "freeform-g1-cone"
@@ -862,7 +863,7 @@ def plan_freeform(vertices, faces, *, direction=None, point=None, field_vectors=
         "schema": SCHEMA,
         "method": METHOD,
         "length_unit": length_unit,
-        "surface": {"kind": "mesh", "vertices": mesh.vertices.tolist(), "faces": mesh.faces.tolist(),
+        "surface": {"kind": "mesh", "vertices": rows_to_lists(mesh.vertices), "faces": rows_to_lists(mesh.faces),
                     "tool_side": "normals"},
         "target_flanks": [],
         "tool": {"kind": "cone", "r1": full_tool["r1"], "r2": full_tool["r2"], "length": full_tool["L"],
@@ -937,7 +938,7 @@ def mesh_sections(mesh, bases, n_sections=3, per_strip=40):
 def plan_mesh(plan):
     """TriangleMesh of a free-form plan's surface."""
     s = plan["surface"]
-    return TriangleMesh(np.asarray(s["vertices"], float), np.asarray(s["faces"], np.int64))
+    return TriangleMesh(lists_to_array(s["vertices"], float), lists_to_array(s["faces"], np.int64))
 
 
 def freeform_envelopes(plan, n_s=9, n_t=None, mesh=None):
