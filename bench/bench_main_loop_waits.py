@@ -1,12 +1,12 @@
-"""Blender's main loop while the free-form planner runs on a large surface: the longest time the interface does
-not answer.
+"""Blender's main loop while the planners run on large inputs: the longest time the interface does not answer.
 
 The modal operators plan in a worker thread, but a worker that holds Python's interpreter lock for long (a
 single call of the json module or numpy on a large list, a garbage collection over a large heap) stops every
 Python part of Blender's interface meanwhile.  This runs ``tests/blender/scenario_main_loop_waits.py``: Blender
-as a module with the extension installed from its zip, a bump of 2 x resolution^2 triangles (default 316:
-199,712 triangles), the free-form planner's modal run with the main thread turning every millisecond and polling
-the operator every 0.1 s, as Blender's main loop does.  It prints the longest waits between two turns with the
+as a module with the extension installed from its zip; the main thread turns every millisecond and polls the
+operator every 0.1 s, as Blender's main loop does, during: the free-form planner on a bump of 2 x resolution^2
+triangles (default 316: 199,712 triangles); the double-flank and single-flank planners on the built-in rotor at
+Generate Rotor's defaults (279,360 triangles); Error Plot of the double-flank run.  It prints the longest waits between two turns with the
 status shown then, and the longest poll (the build of the results included).  With ``--base DIR`` (an earlier
 checkout, e.g. ``git archive <commit> | tar -x -C DIR``) that tree's extension runs too, alternating.
 
@@ -58,15 +58,19 @@ def main():
                 res = run_scenario(z, "main_loop_waits", d, resolution=args.resolution)
                 runs[name].append(res)
     first = next(iter(runs.values()))[0]
-    print("free-form planner, bump of {} triangles, {} run(s) each".format(first["triangles"], args.repeat))
-    for name, rs in runs.items():
-        for res in rs:
-            f = res["freeform"]
-            top = f["waits"][0]
-            print("  {:9s} {}  {:5.1f} s   longest wait {:6.1f} ms ({})   next {:6.1f} ms   longest poll {:5.1f} ms   "
-                  "start {:5.1f} ms".format(name, f["op_result"], f["wall_s"], top[0], top[1], f["waits"][1][0],
-                                            f["longest_poll_ms"], f["start_ms"]))
-
+    print("bump {} triangles, rotor {} triangles, {} run(s) each".format(first["triangles"],
+                                                                        first.get("rotor_triangles"), args.repeat))
+    for op in first["operators"]:
+        print(op)
+        for name, rs in runs.items():
+            for res in rs:
+                f = res["operators"].get(op)
+                if f is None:
+                    continue
+                top = f["waits"][0]
+                print("  {:9s} {}  {:5.1f} s   longest wait {:6.1f} ms ({})   next {:6.1f} ms   longest poll {:5.1f} ms"
+                      "   start {:5.1f} ms".format(name, f["op_result"], f["wall_s"], top[0], top[1],
+                                                   f["waits"][1][0], f["longest_poll_ms"], f["start_ms"]))
 
 if __name__ == "__main__":
     os.environ.setdefault("PYTHONDONTWRITEBYTECODE", "1")

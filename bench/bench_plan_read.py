@@ -10,10 +10,11 @@ collections, which hold the interpreter lock too, for a time that grows with eve
   main thread   ``validate_plan(json.loads(text))`` in the operator's ``_prepare`` (how a run's plan was read)
   worker, whole the same in a worker thread: the C scanner holds the interpreter lock for the whole text
   worker, pieces ``runs.PlanNeeded``'s read: ``rows_as_tuples(validate_plan(loads_in_pieces(text)))`` in a
-                 worker
+                 worker, the garbage collector paused (``collector_paused``)
   store, whole   a planner's worker making the run's text and its checked plan (``runs.run_plan_fields``) as
                  it did: ``validate_plan(json.loads(json.dumps(plan)))``
-  store, pieces  as it does now: ``rows_as_tuples(validate_plan(loads_in_pieces(dumps_in_pieces(plan))))``
+  store, pieces  as it does now: the text ``dumps_in_pieces(plan)``, then with the collector paused
+                 ``rows_as_tuples(validate_plan(loads_in_pieces(text)))``
 
 and then, with the plan read (kept, as Blender keeps the last runs' plans), what a full collection of the garbage
 collector takes (the least of three).
@@ -32,7 +33,7 @@ HERE = Path(__file__).resolve().parents[1]
 
 RUNNER = r"""
 import gc, json, sys, threading, time
-from flank_addon.io.json_pieces import dumps_in_pieces, loads_in_pieces
+from flank_addon.io.json_pieces import collector_paused, dumps_in_pieces, loads_in_pieces
 from flank_addon.io.plan import rows_as_tuples, validate_plan
 
 text, mode = open(sys.argv[1]).read(), sys.argv[2]
@@ -58,14 +59,21 @@ t = time.perf_counter()
 if mode == "store-whole":                           # a planner's worker: the run's text, read back and checked
     wait, checked = ticking(lambda: validate_plan(json.loads(json.dumps(plan))))
 elif mode == "store-pieces":
-    wait, checked = ticking(lambda: rows_as_tuples(validate_plan(loads_in_pieces(dumps_in_pieces(plan)))))
+    def store():
+        text_ = dumps_in_pieces(plan)
+        with collector_paused():
+            return rows_as_tuples(validate_plan(loads_in_pieces(text_)))
+    wait, checked = ticking(store)
 elif mode == "main":
     plan = validate_plan(json.loads(text))
     wait = time.perf_counter() - t
 elif mode == "whole":
     wait, plan = ticking(lambda: validate_plan(json.loads(text)))
 else:
-    wait, plan = ticking(lambda: rows_as_tuples(validate_plan(loads_in_pieces(text, progress=lambda f: None))))
+    def read():
+        with collector_paused():
+            return rows_as_tuples(validate_plan(loads_in_pieces(text, progress=lambda f: None)))
+    wait, plan = ticking(read)
 took = time.perf_counter() - t
 full = gc.get_stats()[2]["collections"] - full_before
 kept_gc = []

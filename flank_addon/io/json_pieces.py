@@ -23,6 +23,8 @@ first are the ones that follow the closing brackets an element of this array end
 elements are read one at a time.  Text that is not valid JSON is parsed again in one call, for
 ``json.loads``' own error.
 """
+import contextlib
+import gc
 import json
 
 import numpy as np
@@ -69,6 +71,25 @@ def rows_to_lists(a, rows=16384):
     for i in range(0, len(a), rows):
         out.extend(a[i:i + rows].tolist())
     return out
+
+
+@contextlib.contextmanager
+def collector_paused():
+    """Python's garbage collector off for a block that parses a long text and makes its rows tuples (e.g.
+    ``rows_as_tuples(validate_plan(loads_in_pieces(text)))``); as it was afterwards (left off if it was off).
+
+    Parsing makes a list per row (300,000 for a 200,000-triangle surface).  With the collector on, those lists
+    age into the oldest generation while they are made and set off 3-4 full collections, each over everything
+    Python holds (in Blender, up to 100 ms in which its interface waits).  Paused, they are all still young when
+    the rows become tuples and the lists are freed: the next young collection stops tracking the tuples, and no
+    full collection is due."""
+    was_on = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was_on:
+            gc.enable()
 
 
 def lists_to_array(rows, dtype=None, slice_rows=16384):

@@ -1,8 +1,9 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""For bench/bench_main_loop_waits.py (not a test): the free-form planner's modal run on a bump of
-2 x resolution^2 triangles, with the main thread run as Blender's main loop runs it -- turns of 1 ms (events,
-redraws) and a poll of the operator every 0.1 s -- recording the longest waits between two turns: the time the
-interface would not answer because a worker held Python's interpreter lock."""
+"""For bench/bench_main_loop_waits.py (not a test): modal runs with the main thread run as Blender's main loop
+runs it -- turns of 1 ms (events, redraws) and a poll of the operator every 0.1 s -- recording the longest waits
+between two turns: the time the interface would not answer because a worker held Python's interpreter lock.
+The free-form planner on a bump of 2 x resolution^2 triangles; the double-flank and single-flank planners on the
+built-in rotor at Generate Rotor's defaults, and Error Plot of the double-flank run."""
 import time
 
 import driver
@@ -26,25 +27,21 @@ def _surface_object(bpy, np, resolution):
     return ob, len(F)
 
 
-def scenario(bpy, res, args):
-    import numpy as np
-
-    ff_mod = __import__(driver.MODULE + ".operators.freeform", fromlist=["x"])
-    ob, res["triangles"] = _surface_object(bpy, np, int(args.resolution))
-    sm.driver_select(bpy, ob)
-    cls = ff_mod.FLANK_OT_plan_freeform
+def _main_loop(cls, op, kw):
+    """Run ``op(**kw)`` with ``cls.execute`` replaced by a main loop of 1 ms turns polling the modal run every
+    0.1 s -> the record: the longest waits between turns (with the status then), the longest poll, the run."""
     rec = {}
 
-    def execute(op, context):
+    def execute(self, context):
         wm = sm.WindowManager(context.window_manager)
         ws = sm.Workspace(getattr(context, "workspace", None))
         windows = list(context.window_manager.windows)
         ctx = sm.Context(context, wm, windows[0] if windows else None, ws)
         t0 = time.perf_counter()
-        r = op._start_modal(ctx)
+        r = self._start_modal(ctx)
         rec["start_ms"] = 1e3 * (time.perf_counter() - t0)
         last = next_poll = time.perf_counter()
-        waits, polls = [], []
+        waits, polls = [], [0.0]
         while r == {'RUNNING_MODAL'}:
             time.sleep(0.001)
             now = time.perf_counter()
@@ -52,18 +49,45 @@ def scenario(bpy, res, args):
             if now >= next_poll:
                 next_poll = now + 0.1
                 t = time.perf_counter()
-                r = op.modal(ctx, sm.Event('TIMER'))
+                r = self.modal(ctx, sm.Event('TIMER'))
                 polls.append(1e3 * (time.perf_counter() - t))
             last = time.perf_counter()
-        rec.update(final=sorted(r), wall_s=time.perf_counter() - t0, polls=len(polls), longest_poll_ms=max(polls),
-                   waits=sorted(((1e3 * w, m) for w, m in waits), key=lambda x: -x[0])[:8])
+        rec.update(final=sorted(r), wall_s=time.perf_counter() - t0, polls=len(polls) - 1,
+                   longest_poll_ms=max(polls),
+                   waits=sorted(((1e3 * w, m) for w, m in waits), key=lambda x: -x[0])[:8] or [(0.0, None)] * 2)
         return r
 
     cls.execute = execute
     try:
-        ret, err = driver._run_op(bpy.ops.flank.plan_freeform, r1=0.01, r2=0.03, length=0.09, samples=30,
-                                  columns=20, direction=(1.0, 0.0, 0.0))
+        ret, err = driver._run_op(op, **kw)
     finally:
         del cls.execute
     rec.update(op_result=ret, op_error=err)
-    res["freeform"] = rec
+    return rec
+
+
+def scenario(bpy, res, args):
+    import numpy as np
+
+    mods = {name: __import__(driver.MODULE + ".operators." + name, fromlist=["x"])
+            for name in ("freeform", "double_flank", "single_flank", "profile_plot")}
+    out = res["operators"] = {}
+    ob, res["triangles"] = _surface_object(bpy, np, int(args.resolution))
+    sm.driver_select(bpy, ob)
+    out["free-form, bump"] = _main_loop(mods["freeform"].FLANK_OT_plan_freeform, bpy.ops.flank.plan_freeform,
+                                        dict(r1=0.01, r2=0.03, length=0.09, samples=30, columns=20,
+                                             direction=(1.0, 0.0, 0.0)))
+    # the built-in rotor at the Generate Rotor defaults (279,360 triangles), each planner at its defaults
+    driver._run_op(bpy.ops.flank.generate_rotor)
+    rotor = bpy.context.active_object
+    res["rotor_triangles"] = sum(len(p.vertices) - 2 for p in rotor.data.polygons)
+    sm.driver_select(bpy, rotor)
+    out["double-flank"] = _main_loop(mods["double_flank"].FLANK_OT_plan_double_flank,
+                                     bpy.ops.flank.plan_double_flank, {})
+    run = next((c.name for c in bpy.data.collections if "flank_plan_json" in c
+                and c.name.startswith("Double Flank")), "")
+    sm.driver_select(bpy, rotor)
+    out["single-flank"] = _main_loop(mods["single_flank"].FLANK_OT_plan_single_flank,
+                                     bpy.ops.flank.plan_single_flank, {})
+    out["error plot, double-flank run"] = _main_loop(mods["profile_plot"].FLANK_OT_error_plot,
+                                                     bpy.ops.flank.error_plot, dict(collection=run))
