@@ -228,14 +228,15 @@ def test_written_in_pieces_edge_cases():
         json_pieces.dumps_in_pieces(loop, items=7)
 
 
-def test_rows_to_lists_is_tolist():
+def test_rows_to_tuples_are_tolist_rows():
     rng = np.random.default_rng(5)
-    for a in (rng.normal(size=(1000, 3)), rng.integers(0, 99, size=(1001, 3)), rng.normal(size=(37, 2, 3)),
-              np.arange(1000.0), np.zeros((0, 3)), np.float64(2.5), np.array([[True, False]] * 300)):
-        got, want = json_pieces.rows_to_lists(a, rows=64), a.tolist()
-        assert got == want and json.dumps(got) == json.dumps(want)
-        if isinstance(want, list) and want and isinstance(want[0], list):
-            assert type(got[0][0]) is type(want[0][0])
+    for a in (rng.normal(size=(1000, 3)), rng.integers(0, 99, size=(1001, 3)), np.zeros((0, 3)),
+              np.array([[True, False]] * 300)):
+        got, want = json_pieces.rows_to_tuples(a, rows=64), a.tolist()
+        assert got == [tuple(r) for r in want] and json.dumps(got) == json.dumps(want)
+        assert all(type(r) is tuple for r in got)
+        if want:
+            assert type(got[0][0]) is type(want[0][0])        # Python numbers, not numpy scalars
 
 
 def test_lists_to_array_converts_as_asarray_does():

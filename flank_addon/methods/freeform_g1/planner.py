@@ -49,7 +49,7 @@ from scipy.optimize import least_squares
 from . import guiding as _guiding
 from .initial_rulings import initial_rulings
 from ...geometry.mesh_distance import TriangleMesh
-from ...io.json_pieces import lists_to_array, rows_to_lists
+from ...io.json_pieces import lists_to_array, rows_to_tuples
 from ...progress import reporter, substage
 
 METHOD = "freeform-g1-cone"
@@ -863,7 +863,7 @@ def plan_freeform(vertices, faces, *, direction=None, point=None, field_vectors=
         "schema": SCHEMA,
         "method": METHOD,
         "length_unit": length_unit,
-        "surface": {"kind": "mesh", "vertices": rows_to_lists(mesh.vertices), "faces": rows_to_lists(mesh.faces),
+        "surface": {"kind": "mesh", "vertices": rows_to_tuples(mesh.vertices), "faces": rows_to_tuples(mesh.faces),
                     "tool_side": "normals"},
         "target_flanks": [],
         "tool": {"kind": "cone", "r1": full_tool["r1"], "r2": full_tool["r2"], "length": full_tool["L"],
