@@ -5,8 +5,9 @@ single call of the json module or numpy on a large list, a garbage collection ov
 Python part of Blender's interface meanwhile.  This runs ``tests/blender/scenario_main_loop_waits.py``: Blender
 as a module with the extension installed from its zip; the main thread turns every millisecond and polls the
 operator every 0.1 s, as Blender's main loop does, during: the free-form planner on a bump of 2 x resolution^2
-triangles (default 316: 199,712 triangles); the double-flank and single-flank planners on the built-in rotor at
-Generate Rotor's defaults (279,360 triangles); Error Plot of the double-flank run.  It prints the longest waits between two turns with the
+triangles (default 316: 199,712 triangles); on the built-in rotor at Generate Rotor's defaults (279,360
+triangles): Analyze Rotor, the double-flank and single-flank planners, Error Plot and Verify of the double-flank
+run, and its whole-rotor program (Post Program, the default machine and post).  It prints the longest waits between two turns with the
 status shown then, and the longest poll (the build of the results included).  With ``--base DIR`` (an earlier
 checkout, e.g. ``git archive <commit> | tar -x -C DIR``) that tree's extension runs too, alternating.
 
@@ -71,6 +72,12 @@ def main():
                 print("  {:9s} {}  {:5.1f} s   longest wait {:6.1f} ms ({})   next {:6.1f} ms   longest poll {:5.1f} ms"
                       "   start {:5.1f} ms".format(name, f["op_result"], f["wall_s"], top[0], top[1],
                                                    f["waits"][1][0], f["longest_poll_ms"], f["start_ms"]))
+    print("then one full garbage collection")
+    for name, rs in runs.items():
+        for res in rs:
+            if "full_collection_ms" in res:
+                print("  {:9s} {:6.1f} ms over {} objects".format(name, res["full_collection_ms"],
+                                                                 res["tracked_objects"]))
 
 if __name__ == "__main__":
     os.environ.setdefault("PYTHONDONTWRITEBYTECODE", "1")

@@ -2,8 +2,10 @@
 """For bench/bench_main_loop_waits.py (not a test): modal runs with the main thread run as Blender's main loop
 runs it -- turns of 1 ms (events, redraws) and a poll of the operator every 0.1 s -- recording the longest waits
 between two turns: the time the interface would not answer because a worker held Python's interpreter lock.
-The free-form planner on a bump of 2 x resolution^2 triangles; the double-flank and single-flank planners on the
-built-in rotor at Generate Rotor's defaults, and Error Plot of the double-flank run."""
+The free-form planner on a bump of 2 x resolution^2 triangles; on the built-in rotor at Generate Rotor's defaults:
+Analyze Rotor, the double-flank and single-flank planners, Error Plot and Verify of the double-flank run, and its
+whole-rotor program for the default machine and post."""
+import os
 import time
 
 import driver
@@ -70,7 +72,8 @@ def scenario(bpy, res, args):
     import numpy as np
 
     mods = {name: __import__(driver.MODULE + ".operators." + name, fromlist=["x"])
-            for name in ("freeform", "double_flank", "single_flank", "profile_plot")}
+            for name in ("freeform", "double_flank", "single_flank", "profile_plot", "analyze", "verify",
+                         "post_program")}
     out = res["operators"] = {}
     ob, res["triangles"] = _surface_object(bpy, np, int(args.resolution))
     sm.driver_select(bpy, ob)
@@ -82,6 +85,8 @@ def scenario(bpy, res, args):
     rotor = bpy.context.active_object
     res["rotor_triangles"] = sum(len(p.vertices) - 2 for p in rotor.data.polygons)
     sm.driver_select(bpy, rotor)
+    out["analyze rotor"] = _main_loop(mods["analyze"].FLANK_OT_analyze_rotor, bpy.ops.flank.analyze_rotor, {})
+    sm.driver_select(bpy, rotor)
     out["double-flank"] = _main_loop(mods["double_flank"].FLANK_OT_plan_double_flank,
                                      bpy.ops.flank.plan_double_flank, {})
     run = next((c.name for c in bpy.data.collections if "flank_plan_json" in c
@@ -91,3 +96,23 @@ def scenario(bpy, res, args):
                                      bpy.ops.flank.plan_single_flank, {})
     out["error plot, double-flank run"] = _main_loop(mods["profile_plot"].FLANK_OT_error_plot,
                                                      bpy.ops.flank.error_plot, dict(collection=run))
+    if run:
+        plan_path = os.path.join(os.path.abspath(os.getcwd()), "df_plan.json")
+        with open(plan_path, "w") as fh:
+            fh.write(bpy.data.collections[run]["flank_plan_json"])
+        sm.driver_select(bpy, rotor)
+        out["verify, double-flank plan"] = _main_loop(mods["verify"].FLANK_OT_verify_plan, bpy.ops.flank.verify_plan,
+                                                      dict(filepath=plan_path))
+        us = bpy.context.scene.unit_settings
+        us.system, us.scale_length = 'METRIC', 0.001
+        out["post program, whole rotor"] = _main_loop(
+            mods["post_program"].FLANK_OT_post_program, bpy.ops.flank.post_program,
+            dict(collection=run, filepath=os.path.join(os.path.abspath(os.getcwd()), "rotor.ngc")))
+    # what one full collection of the garbage collector costs now, with everything these runs left (the kept
+    # plans among it), and how many objects it goes through
+    import gc
+    gc.collect()
+    t = time.perf_counter()
+    gc.collect()
+    res["full_collection_ms"] = 1e3 * (time.perf_counter() - t)
+    res["tracked_objects"] = len(gc.get_objects())
