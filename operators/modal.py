@@ -150,10 +150,17 @@ class ModalPlannerMixin:
             self.report({'ERROR'}, "{}: {}".format(self._title, msg))
             return False
         self._defer_analysis = False     # the data is kept now (changed since: read here)
+        # a run's plan was read: its run, whatever became the newest meanwhile (an empty ``collection`` means the
+        # run of the active object, else the newest), for this _prepare only
+        pinned = getattr(needed, "run_name", None) if not getattr(self, "collection", "x") else None
+        if pinned:
+            self.collection = pinned
         try:
             prepared = self._prepare(_ActiveObject(context, obj))     # obj None: no active object, as at the start
         finally:
             self._defer_analysis = True
+            if pinned:
+                self.collection = ""
         if prepared is None:
             return False
         if "t0" in prepared:

@@ -242,10 +242,14 @@ def test_rows_to_tuples_are_tolist_rows():
 def test_lists_to_array_converts_as_asarray_does():
     rows_int, rows_mixed = [[k, k + 1, k + 2] for k in range(100)], [[1, 2, 3]] * 50 + [[1.5, 2, 3]] * 50
     for rows, dtype in ((rows_int, None), (rows_int, float), (rows_mixed, None), (rows_int, np.int64),
-                        ([[True, 2, 3]] * 100, None), ([[2 ** 70, 1, 2]] * 100, None), ([], float)):
-        got, want = json_pieces.lists_to_array(rows, dtype, slice_rows=7), np.asarray(rows, dtype)
+                        ([[True, 2, 3]] * 100, None), ([[2 ** 70, 1, 2]] * 100, None), ([], float),
+                        ([[8, 8, 8]] * 2 + [[2, 3, 1.5]] + [[9, 3, -2 ** 63 - 1]], None),
+                        ([["a", "bb", "c"]] * 3 + [["long text", "x", "y"]] * 3, None)):
+        got, want = json_pieces.lists_to_array(rows, dtype, slice_rows=2), np.asarray(rows, dtype)
         assert got.dtype == want.dtype and got.shape == want.shape and (got == want).all()
-    for bad in ([[1, 2, 3]] * 5 + [[1, 2]] * 5, [[1, 2, 3]] * 3 + [[1, 2]], [[10 ** 400, 1, 2]] + [[1, 2]] * 9):
+        assert [type(x) for x in got.ravel()[:12]] == [type(x) for x in want.ravel()[:12]]
+    for bad in ([[1, 2, 3]] * 5 + [[1, 2]] * 5, [[1, 2, 3]] * 3 + [[1, 2]], [[10 ** 400, 1, 2]] + [[1, 2]] * 9,
+                [[{}, 0, 0]] + [[0.0, 0, 0]] * 20 + [[0, 0]]):
         with pytest.raises(ValueError) as got:
             json_pieces.lists_to_array(bad, float, slice_rows=2)
         with pytest.raises(ValueError) as want:
@@ -267,3 +271,47 @@ def test_a_kept_plans_surface_rows_are_tuples_and_its_text_is_the_same():
     gc.collect()
     assert not any(gc.is_tracked(r) for r in kept["surface"]["faces"][:100])   # no work for the collector
     assert rows_as_tuples({"rotor": {}}) == {"rotor": {}}
+
+
+def test_collector_paused_by_overlapping_blocks_comes_back_on():
+    """Two workers reading at once: whatever order their blocks end in, the collector is on afterwards (and stays
+    off if it was off before)."""
+    import gc
+
+    assert gc.isenabled()
+    a, b = json_pieces.collector_paused(), json_pieces.collector_paused()
+    a.__enter__()
+    b.__enter__()
+    assert not gc.isenabled()
+    a.__exit__(None, None, None)
+    assert not gc.isenabled()                   # b still reads
+    b.__exit__(None, None, None)
+    assert gc.isenabled()
+    a, b = json_pieces.collector_paused(), json_pieces.collector_paused()
+    a.__enter__()
+    b.__enter__()
+    b.__exit__(None, None, None)
+    a.__exit__(None, None, None)
+    assert gc.isenabled()
+    gc.disable()
+    try:
+        with json_pieces.collector_paused():
+            pass
+        assert not gc.isenabled()
+    finally:
+        gc.enable()
+
+
+def test_a_few_long_lists_are_written_in_pieces(monkeypatch):
+    doc = {"curves": [[[k, 0.5, 1.0] for k in range(3000)], [[0.25] * 5000, [0.75] * 5000]]}
+    written = []
+    real = json.dumps
+
+    def counting(obj, *a, **kw):
+        written.append(len(obj) if isinstance(obj, (list, tuple)) else 1)
+        return real(obj, *a, **kw)
+
+    monkeypatch.setattr(json_pieces.json, "dumps", counting)
+    text = json_pieces.dumps_in_pieces(doc, items=100)
+    monkeypatch.setattr(json_pieces.json, "dumps", real)
+    assert text == json.dumps(doc) and max(written) <= 100

@@ -8,8 +8,8 @@ In pieces of a few milliseconds each, the interpreter switches threads between p
 can report and cancel.
 
 Writing (:func:`dumps_in_pieces`) is simple: an object with string keys is written member by member, a long
-list (or tuple) ``ITEMS`` elements at a time, a list of objects element by element, and the pieces are joined
-with json.dumps' own separators.
+list (or tuple) ``ITEMS`` elements at a time, a list of objects or of a few long lists element by element, and
+the pieces are joined with json.dumps' own separators.
 
 How the pieces are cut.  A container whose text fits in ``piece`` characters is parsed in one call
 (``raw_decode`` of a slice: a container is complete only with its closing bracket, so a parse that succeeds on
@@ -26,6 +26,7 @@ elements are read one at a time.  Text that is not valid JSON is parsed again in
 import contextlib
 import gc
 import json
+import threading
 
 import numpy as np
 
@@ -76,38 +77,48 @@ def rows_to_tuples(a, rows=128):
     return out
 
 
+_PAUSE_LOCK = threading.Lock()
+_pause = {"depth": 0, "was_on": False}      # blocks inside collector_paused, and the collector's state before
+
+
 @contextlib.contextmanager
 def collector_paused():
     """Python's garbage collector off for a block that parses a long text and makes its rows tuples (e.g.
-    ``rows_as_tuples(validate_plan(loads_in_pieces(text)))``); as it was afterwards (left off if it was off).
+    ``rows_as_tuples(validate_plan(loads_in_pieces(text)))``); as it was before once the last such block ends
+    (two workers may read at once: the first one in turns it off, the last one out restores it).
 
     Parsing makes a list per row (300,000 for a 200,000-triangle surface).  With the collector on, those lists
     age into the oldest generation while they are made and set off 3-4 full collections, each over everything
     Python holds (in Blender, up to 100 ms in which its interface waits).  Paused, they are all still young when
     the rows become tuples and the lists are freed: the next young collection stops tracking the tuples, and no
     full collection is due."""
-    was_on = gc.isenabled()
-    gc.disable()
+    with _PAUSE_LOCK:
+        if _pause["depth"] == 0:
+            _pause["was_on"] = gc.isenabled()
+            gc.disable()
+        _pause["depth"] += 1
     try:
         yield
     finally:
-        if was_on:
-            gc.enable()
+        with _PAUSE_LOCK:
+            _pause["depth"] -= 1
+            if _pause["depth"] == 0 and _pause["was_on"]:
+                gc.enable()
 
 
 def lists_to_array(rows, dtype=None, slice_rows=16384):
     """``np.asarray(rows, dtype)`` of a long list of rows, converted a slice at a time: one conversion holds the
-    interpreter lock while it runs (50-60 ms for the 200,000 face rows of a fine surface).  The slices' types
-    combine as the whole list's would (ints and a float: float); rows that do not convert slice by slice (of
-    different lengths) get what the whole list gives, numpy's message included."""
+    interpreter lock while it runs (50-60 ms for the 200,000 face rows of a fine surface).  Where the slices do
+    not all convert to one shape and type (rows of different lengths, ints and a float, objects), the whole list
+    is converted at once: the same array, or numpy's own message."""
     if not isinstance(rows, list) or len(rows) <= slice_rows:
         return np.asarray(rows, dtype)
     try:
         parts = [np.asarray(rows[i:i + slice_rows], dtype) for i in range(0, len(rows), slice_rows)]
-    except (ValueError, OverflowError):
+    except (ValueError, TypeError, OverflowError):
         parts = None
-    if parts is None or len({p.shape[1:] for p in parts}) != 1:
-        return np.asarray(rows, dtype)
+    if parts is None or len({(p.shape[1:], p.dtype) for p in parts}) != 1 or parts[0].dtype == object:
+        return np.asarray(rows, dtype)      # slices that differ (or of objects): as the whole list converts
     return np.concatenate(parts)
 
 
@@ -136,7 +147,8 @@ def _write(obj, parts, items):
                 parts.append(", ")
             parts.append(json.dumps(obj[n:n + items])[1:-1])
         parts.append("]")
-    elif isinstance(obj, (list, tuple)) and any(isinstance(v, dict) for v in obj):
+    elif isinstance(obj, (list, tuple)) and (any(isinstance(v, dict) for v in obj) or sum(
+            len(v) for v in obj if isinstance(v, (list, tuple))) > 4 * items):    # a few long lists
         parts.append("[")
         for n, value in enumerate(obj):
             if n:

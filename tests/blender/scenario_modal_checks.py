@@ -230,6 +230,28 @@ def scenario(bpy, res, args):
             rec.update(kept=run_name in runs_mod._PLANS, motion=[(o.name, sm._plain(o["flank_anim_time"]))
                                                                  for o in motion])
             plan_read["animate_" + how] = rec
+        # with no run named and the rotor active (in no run), the newest run is read; a newer run that appears
+        # while the plan is read does not change which run is animated (nor does the run's name stay pinned)
+        select()
+        runs_mod._PLANS.clear()
+        parent = bpy.data.collections[runs_mod.RESULTS_COLLECTION]
+
+        def newer_run():
+            newer = bpy.data.collections.new("A Newer Run")
+            parent.children.link(newer)
+            newer["flank_plan_json"] = run["flank_plan_json"]
+
+        with sm._Patched(anim_cls, "finish") as rec:
+            rec["while_running"] = newer_run
+            ret, err = driver._run_op(bpy.ops.flank.animate_strip, strip=1, frame_start=1, frame_end=40)
+        newer = bpy.data.collections.get("A Newer Run")
+        plan_read["animate_pinned"] = dict(
+            final=rec["final"], op_error=err, workers=rec["workers"], newer_made=newer is not None,
+            animated=sorted(c.name for c in bpy.data.collections
+                            if any(o.get("flank_anim_role") == "motion" for o in c.objects)),
+            collection_after=bpy.context.window_manager.operator_properties_last("flank.animate_strip").collection)
+        if newer is not None:
+            bpy.data.collections.remove(newer)
         good = run["flank_plan_json"]
         run["flank_plan_json"] = good[:-200_000]
         try:

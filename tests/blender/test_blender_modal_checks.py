@@ -163,6 +163,10 @@ def test_a_long_plan_not_kept_parsed_is_read_in_a_worker_first(mc):
     assert anim["final"] == ["FINISHED"] and anim["op_result"] == ["FINISHED"] and anim["kept"], anim["op_error"]
     assert anim["motion"] == anim_sync["motion"] and anim["workers"] == 2, (anim["motion"], anim["workers"])
     assert max(c["held_ms"] for c in running_polls(anim)) < FRAME_MS
+    pinned = pr["animate_pinned"]
+    assert pinned["final"] == ["FINISHED"] and pinned["workers"] == 2 and pinned["newer_made"], pinned
+    assert pinned["animated"] == [mc["run"]["name"]], pinned      # not "A Newer Run"
+    assert pinned["collection_after"] == "", pinned
     broken = pr["broken"]
     assert broken["final"] == ["CANCELLED"] and broken["census_equal"] and not broken["kept"], broken
     assert "the plan stored on '{}' is not valid".format(mc["run"]["name"]) in (broken["op_error"] or ""), broken
