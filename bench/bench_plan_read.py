@@ -9,12 +9,12 @@ collections, which hold the interpreter lock too, for a time that grows with eve
 
   main thread   ``validate_plan(json.loads(text))`` in the operator's ``_prepare`` (how a run's plan was read)
   worker, whole the same in a worker thread: the C scanner holds the interpreter lock for the whole text
-  worker, pieces ``runs.PlanNeeded``'s read: ``rows_as_tuples(validate_plan(loads_in_pieces(text)))`` in a
-                 worker, the garbage collector paused (``collector_paused``)
+  worker, pieces ``runs.PlanNeeded``'s read: ``parse_plan_text(text, loads_in_pieces)`` in a worker (the plan
+                 checked, its surface rows as tuples, the garbage collector paused meanwhile)
   store, whole   a planner's worker making the run's text and its checked plan (``runs.run_plan_fields``) as
                  it did: ``validate_plan(json.loads(json.dumps(plan)))``
-  store, pieces  as it does now: the text ``dumps_in_pieces(plan)``, then with the collector paused
-                 ``rows_as_tuples(validate_plan(loads_in_pieces(text)))``
+  store, pieces  as it does now: the text ``dumps_in_pieces(plan)``, then ``parse_plan_text(text,
+                 loads_in_pieces)``
 
 and then, with the plan read (kept, as Blender keeps the last runs' plans), what a full collection of the garbage
 collector takes (the least of three).
@@ -33,8 +33,8 @@ HERE = Path(__file__).resolve().parents[1]
 
 RUNNER = r"""
 import gc, json, sys, threading, time
-from flank_addon.io.json_pieces import collector_paused, dumps_in_pieces, loads_in_pieces
-from flank_addon.io.plan import rows_as_tuples, validate_plan
+from flank_addon.io.json_pieces import dumps_in_pieces, loads_in_pieces
+from flank_addon.io.plan import parse_plan_text, validate_plan
 
 text, mode = open(sys.argv[1]).read(), sys.argv[2]
 full_before = gc.get_stats()[2]["collections"]     # counted, not timed: a gc callback is Python code, and running
@@ -59,21 +59,14 @@ t = time.perf_counter()
 if mode == "store-whole":                           # a planner's worker: the run's text, read back and checked
     wait, checked = ticking(lambda: validate_plan(json.loads(json.dumps(plan))))
 elif mode == "store-pieces":
-    def store():
-        text_ = dumps_in_pieces(plan)
-        with collector_paused():
-            return rows_as_tuples(validate_plan(loads_in_pieces(text_)))
-    wait, checked = ticking(store)
+    wait, checked = ticking(lambda: parse_plan_text(dumps_in_pieces(plan), loads_in_pieces))
 elif mode == "main":
     plan = validate_plan(json.loads(text))
     wait = time.perf_counter() - t
 elif mode == "whole":
     wait, plan = ticking(lambda: validate_plan(json.loads(text)))
 else:
-    def read():
-        with collector_paused():
-            return rows_as_tuples(validate_plan(loads_in_pieces(text, progress=lambda f: None)))
-    wait, plan = ticking(read)
+    wait, plan = ticking(lambda: parse_plan_text(text, lambda t: loads_in_pieces(t, progress=lambda f: None)))
 took = time.perf_counter() - t
 full = gc.get_stats()[2]["collections"] - full_before
 kept_gc = []

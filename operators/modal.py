@@ -152,7 +152,7 @@ class ModalPlannerMixin:
         self._defer_analysis = False     # the data is kept now (changed since: read here)
         # a run's plan was read: its run, whatever became the newest meanwhile (an empty ``collection`` means the
         # run of the active object, else the newest), for this _prepare only
-        pinned = getattr(needed, "run_name", None) if not getattr(self, "collection", "x") else None
+        pinned = getattr(needed, "run_name", None) if getattr(self, "collection", None) == "" else None
         if pinned:
             self.collection = pinned
         try:

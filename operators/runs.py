@@ -129,14 +129,12 @@ def stored_plan(coll, defer=False):
 
 
 def _checked_plan(run_name, text, loads):
-    """``validate_plan(loads(text))`` with its surface rows as tuples (``rows_as_tuples``: a kept plan costs the
-    garbage collector little), or the message (str) of a text that is not a valid plan."""
-    from ..flank_addon.io.json_pieces import collector_paused
-    from ..flank_addon.io.plan import PlanError, rows_as_tuples, validate_plan
+    """``parse_plan_text(text, loads)`` (a plan to keep, its surface rows as tuples), or the message (str) of a
+    text that is not a valid plan."""
+    from ..flank_addon.io.plan import PlanError, parse_plan_text
 
     try:
-        with collector_paused():
-            return rows_as_tuples(validate_plan(loads(text)))
+        return parse_plan_text(text, loads)
     except (ValueError, TypeError, OverflowError, RecursionError, PlanError) as ex:
         return "the plan stored on '{}' is not valid: {}".format(run_name, ex)
 
@@ -195,13 +193,11 @@ def run_plan_fields(plan):
     :func:`store_plan`; a dict of its own, not the planner's).  Written and read in pieces
     (``flank_addon.io.json_pieces``), so that Blender's interface runs meanwhile: at once, an 11.7 MB free-form
     plan held it for about 0.4 s to write and 0.3 s to read."""
-    from ..flank_addon.io.json_pieces import collector_paused, dumps_in_pieces, loads_in_pieces
-    from ..flank_addon.io.plan import rows_as_tuples, validate_plan
+    from ..flank_addon.io.json_pieces import dumps_in_pieces, loads_in_pieces
+    from ..flank_addon.io.plan import parse_plan_text
 
     text = dumps_in_pieces(plan)
-    with collector_paused():
-        checked = rows_as_tuples(validate_plan(loads_in_pieces(text)))
-    return dict(plan_json=text, plan_checked=checked)
+    return dict(plan_json=text, plan_checked=parse_plan_text(text, loads_in_pieces))
 
 
 def store_plan(coll, fields):

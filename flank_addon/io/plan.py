@@ -60,7 +60,7 @@ import math
 import numpy as np
 
 from .files import atomic_write
-from .json_pieces import dumps_in_pieces, lists_to_array
+from .json_pieces import collector_paused, dumps_in_pieces, lists_to_array
 
 SCHEMA = "flank-plan/1"
 TOOL_KINDS = ("cone", "revolved", "disc", "paraboloid")
@@ -379,6 +379,15 @@ def rows_as_tuples(plan, slice_rows=16384):
                     out.extend(map(tuple, rows[i:i + slice_rows]))
                 surf[key] = out
     return plan
+
+
+def parse_plan_text(text, loads=json.loads):
+    """``validate_plan(loads(text))`` with its surface rows as tuples (:func:`rows_as_tuples`), Python's garbage
+    collector paused meanwhile (:func:`.json_pieces.collector_paused`): a plan to keep parsed for the session,
+    read without setting off full collections.  ``loads``: e.g. :func:`.json_pieces.loads_in_pieces` in a
+    worker while Blender's interface runs."""
+    with collector_paused():
+        return rows_as_tuples(validate_plan(loads(text)))
 
 
 def is_mesh_plan(plan):
