@@ -19,6 +19,8 @@ Operations (goals in brackets):
                  arbitrary pose, tool D3 L25 2 deg, tolerance 0.05 mm (read + analysis + plan)   [2 s]
   freeform       plan freeform on the 20,000-triangle bump, 11 strips x 20 rulings x 30 samples  [2 s]
   two-paths-f / two-paths-m   plan double-flank --two-paths on the asymmetric female / male    [1.5 s]
+  verify-two-paths, verify-freeform, verify-single-flank   verify of the two-paths (female), free-form and
+                 single-flank plans above ("verify of any plan")                               [0.5 s]
 """
 import argparse
 import json
@@ -101,6 +103,11 @@ def make_inputs(d):
             "bump_triangles": len(S.faces), "bump_point": ",".join(f"{x:.9f}" for x in bp)}
 
 
+# verify operations and the plan operation that writes the plan they read (this tree's plan, for every tree)
+VERIFIED = {"verify": "double-flank", "verify-two-paths": "two-paths-f", "verify-freeform": "freeform",
+            "verify-single-flank": "single-flank"}
+
+
 def operations(d, info):
     df = str(d / HERE.name / "df.json")       # verify reads the plan this tree wrote
     return {
@@ -117,11 +124,14 @@ def operations(d, info):
                         "--out", str(d / "tp_f.json")],
         "two-paths-m": ["plan", "double-flank", "--builtin", "asymmetric-male", "--valley", "0", "--two-paths",
                         "--out", str(d / "tp_m.json")],
+        "verify-two-paths": ["verify", str(d / HERE.name / "tp_f.json")],
+        "verify-freeform": ["verify", str(d / HERE.name / "ff.json")],
+        "verify-single-flank": ["verify", str(d / HERE.name / "sf.json")],
     }
 
 
 GOALS = {"double-flank": 0.6, "verify": 0.5, "single-flank": 2.0, "freeform": 2.0, "two-paths-f": 1.5,
-         "two-paths-m": 1.5}
+         "two-paths-m": 1.5, "verify-two-paths": 0.5, "verify-freeform": 0.5, "verify-single-flank": 0.5}
 
 
 def warm_up_modules():
@@ -178,9 +188,10 @@ def main():
                            stdout=subprocess.DEVNULL)
         ops = operations(d, info)
         names = [n for n in ops if not args.only or n in args.only.split(",")]
-        if "verify" in names and "double-flank" not in names:    # the verified plan is the current tree's
-            run(HERE, ops["double-flank"], d)
-        print(f"{'operation':14s} {'this tree (s)':>22s} {'import':>7s}" + (f" {'base (s)':>22s} {'ratio':>19s}"
+        for name in names:                  # a verified plan is the current tree's, written before it is read
+            if name in VERIFIED and VERIFIED[name] not in names:
+                run(HERE, ops[VERIFIED[name]], d)
+        print(f"{'operation':20s} {'this tree (s)':>22s} {'import':>7s}" + (f" {'base (s)':>22s} {'ratio':>19s}"
                                                                           if args.base else "") + "  goal")
         for name in names:
             times = {t: [] for t in trees}
@@ -196,7 +207,7 @@ def main():
                         if args.show:
                             print(r["out"])
             cur = times[HERE]
-            line = f"{name:14s} {min(cur):8.3f} ({min(cpus[HERE]):6.3f} cpu) {min(imports):7.3f}"
+            line = f"{name:20s} {min(cur):8.3f} ({min(cpus[HERE]):6.3f} cpu) {min(imports):7.3f}"
             if args.base:
                 b = times[trees[1]]
                 line += (f" {min(b):8.3f} ({min(cpus[trees[1]]):6.3f} cpu) {min(b) / min(cur):5.1f}x"

@@ -344,6 +344,63 @@ def test_parabolic_blade_guided_across_its_rulings_is_exact_and_verified_by_the_
     assert v["vertices_covered"] > 0.8 * v["vertices"]
 
 
+def _least_in_balls_one_at_a_time(P, C, Rr, lists, k, out, idx):
+    """The sweep check's search for a better sphere, one point at a time (what the vectorised search replaced)."""
+    for n, cand in enumerate(lists):
+        if len(cand) > k:
+            cand = np.asarray(cand)
+            v = np.linalg.norm(C[cand] - P[n], axis=1) - Rr[cand]
+            j = int(np.argmin(v))
+            if v[j] < out[n]:
+                out[n], idx[n] = v[j], cand[j]
+
+
+@pytest.mark.parametrize("chunk", [7, 500, 1_000_000])
+def test_sphere_search_of_all_points_at_once_is_the_search_of_one_at_a_time(chunk):
+    from scipy.spatial import cKDTree
+
+    from flank_addon.methods.freeform_g1.planner import _least_in_balls
+
+    rng = np.random.default_rng(3)
+    C = rng.uniform(-1, 1, (2000, 3))
+    Rr = rng.uniform(0.01, 0.4, 2000)
+    C[1200:1220], Rr[1200:1220] = C[100:120], Rr[100:120]    # duplicated spheres
+    P = np.r_[rng.uniform(-1.2, 1.2, (300, 3)), C[100:120] + 1e-3]
+    tree = cKDTree(C)
+    d, i = tree.query(P, k=5)
+    val = d - Rr[i]
+    rows = np.arange(len(P))
+    out0, idx0 = val[rows, np.argmin(val, axis=1)], i[rows, np.argmin(val, axis=1)]
+    lists = tree.query_ball_point(P, out0 + Rr.max() + 1e-12)
+    assert 100 < sum(len(c) > 5 for c in lists) < len(P)     # both kinds of row
+    ref_out, ref_idx = out0.copy(), idx0.copy()
+    _least_in_balls_one_at_a_time(P, C, Rr, lists, 5, ref_out, ref_idx)
+    out, idx = out0.copy(), idx0.copy()
+    _least_in_balls(P, C, Rr, lists, 5, out, idx, chunk=chunk)
+    assert np.array_equal(out.view(np.int64), ref_out.view(np.int64)) and np.array_equal(idx, ref_idx)
+    assert (out < out0).sum() > 50
+    # a tie: two equal big spheres (centres 5 and 50) beat the small one nearest to the point; the first wins
+    C2 = np.zeros((60, 3))
+    C2[:, 0] = 5.0 + np.arange(60)
+    Rr2 = np.full(60, 0.001)
+    C2[7] = (0.1, 0, 0)
+    C2[5] = C2[50] = (0, 0.5, 0)
+    Rr2[5] = Rr2[50] = 0.45
+    tree2 = cKDTree(C2)
+    P2 = np.zeros((1, 3))
+    d2, i2 = tree2.query(P2, k=1)
+    o2, j2 = np.atleast_1d(d2 - Rr2[i2]), np.atleast_1d(i2)
+    assert j2[0] == 7
+    lists2 = tree2.query_ball_point(P2, o2 + Rr2.max() + 1e-12)
+    assert sorted(lists2[0]) == [5, 7, 50]
+    _least_in_balls(P2, C2, Rr2, lists2, 1, o2, j2, chunk=chunk)
+    assert j2[0] == 5 and abs(o2[0] - 0.05) < 1e-15
+    # and against every sphere: the least |p - c| - r (the k nearest centres' values come from the kd-tree's
+    # own arithmetic, so they may differ in the last bit)
+    brute = (np.linalg.norm(P[:, None, :] - C[None, :, :], axis=2) - Rr).min(axis=1)
+    assert np.abs(out - brute).max() <= 1e-15
+
+
 def test_optimum_is_a_local_minimum_of_eq_18():
     S, mesh, lay, m0, n0 = small_problem()
     from flank_addon.methods.freeform_g1.planner import optimize
