@@ -1,10 +1,11 @@
 """Sweep simulation vs an independent brute force: rays against densely sampled, screwed tool spheres."""
 import numpy as np
 import pytest
-from scipy.optimize import minimize
+from scipy.optimize import minimize, minimize_scalar
 
 from flank_addon.geometry.screw import hand_sign, screw_motion
-from flank_addon.simulation.sweep import StripTool, helical_distance, machined_deviation, sd_sphere_frustum
+from flank_addon.simulation.sweep import (StripTool, helical_distance, helical_reach, machined_deviation,
+                                         sd_sphere_frustum)
 
 
 def ray_intervals(p, n, c1, r1, c2, r2, v0, hand, t, s):
@@ -78,8 +79,47 @@ def test_sphere_frustum_distance_matches_union_of_spheres():
 
 
 @pytest.mark.parametrize("hand", ["right", "left"])
-def test_deviation_matches_brute_force_on_random_cone_poses(hand):
-    rng = np.random.default_rng(11 if hand == "right" else 12)
+def test_rays_within_the_helical_reach_stay_within_the_distance_of_the_points_helix(hand):
+    """Every point of x + l d for l up to helical_reach lies within the radius of some S_s x (brute force over s),
+    and the reach goes well beyond the radius for rays along the helix."""
+    rng = np.random.default_rng(4 if hand == "right" else 5)
+    v0, n = 0.3, 160
+    x = np.c_[rng.uniform(-1, 1, (n, 2)), rng.uniform(-0.5, 0.5, n)]
+    d = rng.normal(size=(n, 3))
+    d[:n // 2, 2] = 0.0                                # half of them in a transverse plane, as profile normals
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    radius = 10.0 ** rng.uniform(-6, -0.5, n)
+    reach = helical_reach(x, d, radius, v0, hand)
+    assert (reach >= radius).all() and (reach <= 16 * radius).all()
+    assert np.median(reach / radius) > 1.05
+    # the distance from each ray point to the helix (its points within 3 reaches of x in time), sampled densely
+    # and the least sample polished by Brent's method on its neighbouring interval
+    ls = np.linspace(0.0, 1.0, 21)
+    worst = 0.0
+    for xi, di, ri, li in zip(x, d, radius, reach):
+        q = xi + (ls * li)[:, None] * di
+        s = np.linspace(-3 * li / v0, 3 * li / v0, 2001)
+        dist = np.linalg.norm(screw_motion(xi, s, v0, hand)[None] - q[:, None], axis=2)
+        for j, k in enumerate(np.argmin(dist, axis=1)):
+            lo, hi = s[max(k - 1, 0)], s[min(k + 1, len(s) - 1)]
+            res = minimize_scalar(lambda t: np.linalg.norm(screw_motion(xi, t, v0, hand) - q[j]), bounds=(lo, hi),
+                                  method="bounded", options={"xatol": 1e-14 * (1 + abs(lo))})
+            worst = max(worst, (min(dist[j, k], res.fun) - ri) / ri)
+    assert worst <= 1e-9, worst
+    # along the helix itself the tube reaches far: the ray x + l u / |u| at most 16 radii, limited by the bends
+    h = hand_sign(hand)
+    u = np.c_[-h * x[:, 1], h * x[:, 0], np.full(n, v0)]
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    along = helical_reach(x, u, np.full(n, 1e-4), v0, hand)
+    assert np.median(along) > 10 * 1e-4
+
+
+@pytest.mark.parametrize("hand", ["right", "left"])
+@pytest.mark.parametrize("oblique", [False, True])
+def test_deviation_matches_brute_force_on_random_cone_poses(hand, oblique):
+    """Rays along the profile normals (radial here), and turned up to 50 degrees off them: those cross the swept
+    surface at a slant, where the march steps by the helical reach rather than the distance."""
+    rng = np.random.default_rng((11 if hand == "right" else 12) + 10 * oblique)
     v0 = 0.45
     errors = []
     for _ in range(5):
@@ -91,7 +131,8 @@ def test_deviation_matches_brute_force_on_random_cone_poses(hand):
         ang = rng.uniform(-0.6, 0.6, 6)
         rad = rng.uniform(0.35, 0.6, 6)
         pts = np.c_[rad * np.cos(ang), rad * np.sin(ang)]
-        nrm = np.c_[np.cos(ang), np.sin(ang)]
+        turn = ang + (rng.uniform(-0.9, 0.9, 6) if oblique else 0.0)
+        nrm = np.c_[np.cos(turn), np.sin(turn)]
         dev = machined_deviation([tool], pts, nrm, v0, hand, max_deviation=1.0)
         for p, n, d in zip(pts, nrm, dev):
             ref = brute_deviation(p, n, c1, r1, c2, r2, v0, hand)

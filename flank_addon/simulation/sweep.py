@@ -1007,6 +1007,37 @@ def first_least(d, tie):
     return np.where(near.any(axis=0), np.argmax(near, axis=0), owner)
 
 
+def helical_reach(points, directions, radius, v0, handedness="right", most=16.0):
+    """How far each ray x + l d may go without crossing the boundary of a helically invariant solid (the swept
+    region of a screw motion) when x lies at distance ``radius`` from that boundary: points (N, 3), unit
+    directions (N, 3), radius (N,) >= 0.  Returns l (N,) with radius <= l <= ``most`` * radius.
+
+    The distance to such a solid is the same at every point S_s x of x's helix, so no boundary point lies
+    within ``radius`` of that helix.  The ray stays in that tube further than in the ball about x alone where
+    it has a component along the helix: with u = dS_s x / ds at s = 0 and sigma = (d . u) / |u|^2,
+
+        |x + l d - S_{sigma l} x| <= l |d - sigma u| + r (theta^2 / 2 + |theta|^3 / 6),  theta = sigma l,
+
+    (r the distance of x from the axis; the remainder bounds sin and cos by their Taylor terms), and the right
+    side grows with l, so every point of the ray up to the l where it equals ``radius`` is in the tube.  A
+    march by spheres alone creeps up to a surface that a helix crosses obliquely (each step a fixed fraction of
+    the rest); this one reaches it in a step or two.
+    """
+    h = hand_sign(handedness)
+    x, y = points[:, 0], points[:, 1]
+    ux, uy = -h * y, h * x
+    uu = ux * ux + uy * uy + v0 * v0
+    du = directions[:, 0] * ux + directions[:, 1] * uy + directions[:, 2] * v0
+    sigma = du / uu
+    a = np.sqrt(np.maximum(1.0 - du * du / uu, 0.0))
+    r = np.sqrt(x * x + y * y)
+    # l0 bounds l from above (the remainder only shortens it), so the remainder at l0 is a safe excess
+    l0 = np.minimum(radius / np.maximum(a, 1.0 / most), most * radius)
+    excess = r * (0.5 * sigma * sigma * l0 + np.abs(sigma) ** 3 * l0 * l0 / 6.0)
+    reach = radius / (a + excess + 1e-300)
+    return np.clip(reach, radius, np.minimum(l0, most * radius))
+
+
 def machined_deviation(tools, points, normals, v0, handedness="right", max_deviation=None, tol=1e-12,
                        progress=None):
     """Signed deviation of design points from the simulated machined surface, along their normals.
@@ -1060,7 +1091,9 @@ def machined_deviation(tools, points, normals, v0, handedness="right", max_devia
     d0 = np.min(d_tools, axis=0)
     # sphere tracing: outside the swept region D is the exact distance, so a step of D cannot jump
     # over the first crossing (a brief pass through the region included); the extra 1e-9 lets the
-    # march cross the surface instead of creeping up to it.  Inside, march outwards the same way.
+    # march cross the surface instead of creeping up to it.  Inside, march outwards the same way.  The
+    # region is helically invariant, so the step goes as far as the ray stays within D of the point's
+    # helix (:func:`helical_reach`), not only within its ball.
     lo = np.zeros(len(p))
     f_lo = d0.copy()
     hi = lo.copy()
@@ -1073,7 +1106,9 @@ def machined_deviation(tools, points, normals, v0, handedness="right", max_devia
         if not len(idx):
             break
         report(0.1 + 0.6 * (1.0 - len(idx) / n_active), "marching to the surface ({} points left)".format(len(idx)))
-        step = direction[idx] * (np.abs(f_lo[idx]) + 1e-9 * scale)
+        ray = direction[idx, None] * n[idx]
+        reach = helical_reach(p[idx] + lo[idx, None] * n[idx], ray, np.abs(f_lo[idx]), v0, handedness)
+        step = direction[idx] * (reach + 1e-9 * scale)
         lam = lo[idx] + step
         out = np.abs(lam) > max_deviation
         lam = np.clip(lam, -max_deviation, max_deviation)
