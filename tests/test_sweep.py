@@ -282,3 +282,38 @@ def test_the_lower_of_two_close_minima_along_the_helix_is_found():
             best = min(best, float(s2[k]))
         assert d[i] <= best + 1e-12 and d[i] >= best - 1e-9
         assert tool.signed_distance(screw_motion(x[i][None], t[i], v0))[0] == pytest.approx(d[i], abs=1e-15)
+
+
+def test_crossings_on_a_kink_are_found_to_the_tolerance_in_few_calls(monkeypatch):
+    """D along a ray with a kink at its root (slopes 1 and 1/40, where secant steps only creep): the open
+    crossings, a few at a time, are cut into parts and found to the tolerance in fewer calls than Illinois
+    alone needs; many at once go by Illinois."""
+    from flank_addon.simulation import sweep
+
+    def solve(rows, few):
+        monkeypatch.setattr(sweep, "FEW_CROSSINGS", few)
+        root = np.random.default_rng(rows).uniform(0.1, 0.9, rows)
+        calls = []
+
+        def D(lam, idx, bound):
+            calls.append(len(lam))
+            x = lam - root[idx]
+            f = np.where(x < 0, -x, -x / 40.0)           # + before the crossing, - after; 1-Lipschitz as D is
+            assert (np.abs(f) <= bound + 1e-15).all()    # the bound handed on holds
+            return f
+
+        lo, hi = np.full(rows, 0.05), np.full(rows, 0.95)
+        f_lo, f_hi = D(lo, np.arange(rows), np.full(rows, 1e9)), D(hi, np.arange(rows), np.full(rows, 1e9))
+        calls.clear()
+        r = sweep.illinois_roots(D, lo, hi, f_lo, f_hi, np.ones(rows, bool), 1e-12, 0.0, 1e9)
+        # a crossing stops when the secant puts it within tol / 2 of the bracket's end; on this kink the secant
+        # is off by up to the slopes' ratio: 40 * tol / 2
+        assert np.abs(r - root).max() <= 20e-12, (rows, few, np.abs(r - root).max())
+        return calls
+
+    few = sweep.FEW_CROSSINGS
+    for rows in (1, few):
+        split, illinois = solve(rows, few), solve(rows, 0)
+        assert max(split) <= sweep.SPLIT_POINTS and len(split) < 0.6 * len(illinois), (rows, split, illinois)
+    many = solve(3 * few, few)
+    assert many[0] == 3 * few                           # Illinois: one point per open crossing

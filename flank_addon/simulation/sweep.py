@@ -986,11 +986,36 @@ def illinois_roots(D, lo, hi, f_lo, f_hi, found, tol, slack, cutoff, report=None
         if report is not None:
             report(1.0 - len(idx) / n_found, "surface crossings ({} points left)".format(len(idx)))
         l, fl, h, fh = lo[idx], f_lo[idx], hi[idx], f_hi[idx]
+        bound = np.minimum(np.abs(fh) + np.abs(h - l) + slack, cutoff)
+        if len(idx) <= FEW_CROSSINGS:
+            lo[idx], f_lo[idx], hi[idx], f_hi[idx] = _split_brackets(D, idx, l, fl, h, fh, bound)
+            side[idx] = 0
+            continue
         m = false_position(l, h, fl, fh)
-        fm = D(m, idx, np.minimum(np.abs(fh) + np.abs(h - l) + slack, cutoff))
+        fm = D(m, idx, bound)
         lo[idx], f_lo[idx], hi[idx], f_hi[idx], side[idx] = illinois_update(l, fl, h, fh, m, fm, side[idx])
     root = np.where(np.abs(f_hi) <= np.abs(f_lo), hi, lo)
     return np.where(f_lo == 0, lo, root)
+
+
+# the crossings still open when this few remain are the slow ones (a kink of D at the surface, where the secant
+# steps only halve the bracket), and a call of D on a few points costs about as much as on one: each bracket is
+# cut into several parts per call instead
+FEW_CROSSINGS = 4
+SPLIT_POINTS = 16
+
+
+def _split_brackets(D, idx, l, fl, h, fh, bound):
+    """Brackets [l, h] (values fl, fh of opposite signs) of the rows idx cut into equal parts by one call of D on
+    about ``SPLIT_POINTS`` points in all: the part next to l whose far end first leaves l's sign is kept (the
+    crossing nearest to l).  Returns the new (l, fl, h, fh)."""
+    m = max(2, SPLIT_POINTS // len(idx) - 1)
+    lam = l[:, None] + (h - l)[:, None] * (np.arange(1, m + 1) / (m + 1))
+    fv = D(lam.ravel(), np.repeat(idx, m), np.repeat(bound, m)).reshape(len(idx), m)
+    L, F = np.c_[l, lam, h], np.c_[fl, fv, fh]
+    j = np.argmax(np.sign(F[:, 1:]) != np.sign(F[:, :1]), axis=1)     # fh always differs from fl
+    r = np.arange(len(idx))
+    return L[r, j], F[r, j], L[r, j + 1], F[r, j + 1]
 
 
 def first_least(d, tie):
