@@ -117,7 +117,7 @@ def test_rays_within_the_helical_reach_stay_within_the_distance_of_the_points_he
 @pytest.mark.parametrize("hand", ["right", "left"])
 @pytest.mark.parametrize("oblique", [False, True])
 def test_deviation_matches_brute_force_on_random_cone_poses(hand, oblique):
-    """Rays along the profile normals (radial here), and turned up to 50 degrees off them: those cross the swept
+    """Rays along the profile normals (radial here), and turned up to 0.9 rad off them: those cross the swept
     surface at a slant, where the march steps by the helical reach rather than the distance."""
     rng = np.random.default_rng((11 if hand == "right" else 12) + 10 * oblique)
     v0 = 0.45
