@@ -108,3 +108,28 @@ def test_periodic_spline_coefficients_equal_scipy_bit_for_bit():
         ref = np.asarray(CubicSpline(knots, closed, bc_type="periodic").c)
         assert np.array_equal(_periodic_coefficients(knots, closed), ref)
         assert np.array_equal(PeriodicCubic(knots, closed).c, ref)
+
+
+def test_spline_interval_search_is_the_clipped_search_and_scipy_evaluates_the_same():
+    """The interval of a parameter comes from one search in the inner knots; it must be the clipped search in
+    all knots for every u (knots themselves, the ends, the period, beyond, NaN), and the points scipy's spline."""
+    from scipy.interpolate import CubicSpline
+
+    rng = np.random.default_rng(7)
+    th = np.sort(rng.uniform(0, 2 * np.pi, 40))
+    prof = SplineProfile(np.c_[np.cos(th), 0.6 * np.sin(th)] * rng.uniform(0.9, 1.1, (40, 1)))
+    k = prof.knots
+    u = np.r_[k, np.nextafter(k, -np.inf), np.nextafter(k, np.inf), -1.0, -0.0, prof.period, 2 * prof.period,
+              rng.uniform(-3, 3, 500) * prof.period, np.nan]
+    old = np.clip(np.searchsorted(k, u, side="right") - 1, 0, len(k) - 2)
+    assert np.array_equal(np.searchsorted(prof._inner_knots, u, side="right"), old)
+    for wrap in (True, False):
+        w = np.mod(u[:-1], prof.period)
+        if wrap:
+            w = np.mod(w, prof.period)
+        i, s = prof._interval(u[:-1], wrap_end=wrap)
+        ref = np.clip(np.searchsorted(k, w, side="right") - 1, 0, len(k) - 2)
+        assert np.array_equal(i, ref) and np.array_equal(s, w - k[ref])
+    spline = CubicSpline(k, np.vstack([prof.points, prof.points[:1]]), bc_type="periodic")
+    v = u[np.isfinite(u)]
+    assert np.array_equal(prof.eval(v), spline(np.mod(v, prof.period)))
