@@ -399,6 +399,16 @@ def test_sphere_search_of_all_points_at_once_is_the_search_of_one_at_a_time(chun
     # own arithmetic, so they may differ in the last bit)
     brute = (np.linalg.norm(P[:, None, :] - C[None, :, :], axis=2) - Rr).min(axis=1)
     assert np.abs(out - brute).max() <= 1e-15
+    # a NaN radius leaves its rows alone (as one at a time), no rows and k = 0 are no special cases
+    Rr3 = Rr.copy()
+    Rr3[::7] = np.nan
+    for kk in (0, 5):
+        ref_out, ref_idx, out, idx = out0.copy(), idx0.copy(), out0.copy(), idx0.copy()
+        _least_in_balls_one_at_a_time(P, C, Rr3, lists, kk, ref_out, ref_idx)
+        _least_in_balls(P, C, Rr3, lists, kk, out, idx, chunk=chunk)
+        assert np.array_equal(out.view(np.int64), ref_out.view(np.int64)) and np.array_equal(idx, ref_idx)
+    empty_out, empty_idx = np.zeros(0), np.zeros(0, np.int64)
+    _least_in_balls(np.zeros((0, 3)), C, Rr, [], 5, empty_out, empty_idx, chunk=chunk)
 
 
 def test_optimum_is_a_local_minimum_of_eq_18():

@@ -284,13 +284,14 @@ def test_the_lower_of_two_close_minima_along_the_helix_is_found():
         assert tool.signed_distance(screw_motion(x[i][None], t[i], v0))[0] == pytest.approx(d[i], abs=1e-15)
 
 
-def test_crossings_on_a_kink_are_found_to_the_tolerance_in_few_calls(monkeypatch):
-    """D along a ray with a kink at its root (slopes 1 and 1/40, where secant steps only creep): the open
-    crossings, a few at a time, are cut into parts and found to the tolerance in fewer calls than Illinois
-    alone needs; many at once go by Illinois."""
+@pytest.mark.parametrize("shape", ["kink", "smooth", "linear"])
+def test_the_last_crossings_are_found_to_the_tolerance_in_few_calls(monkeypatch, shape):
+    """The open crossings, a few at a time, are cut into parts (and at the secant's point) and found to the
+    tolerance: on a kink at the root (slopes 1 and 1/40, where secant steps only creep) in far fewer calls than
+    Illinois alone needs, where D is smooth or linear in about as many; many at once go by Illinois."""
     from flank_addon.simulation import sweep
 
-    def solve(rows, few):
+    def solve(rows, few, flip=False):
         monkeypatch.setattr(sweep, "FEW_CROSSINGS", few)
         root = np.random.default_rng(rows).uniform(0.1, 0.9, rows)
         calls = []
@@ -298,22 +299,68 @@ def test_crossings_on_a_kink_are_found_to_the_tolerance_in_few_calls(monkeypatch
         def D(lam, idx, bound):
             calls.append(len(lam))
             x = lam - root[idx]
-            f = np.where(x < 0, -x, -x / 40.0)           # + before the crossing, - after; 1-Lipschitz as D is
+            if shape == "kink":
+                f = np.where(x < 0, -x, -x / 40.0)       # + before the crossing, - after; 1-Lipschitz as D is
+            elif shape == "smooth":
+                f = -0.5 * np.sin(x) - 0.3 * x * x
+            else:
+                f = -0.7 * x
             assert (np.abs(f) <= bound + 1e-15).all()    # the bound handed on holds
             return f
 
         lo, hi = np.full(rows, 0.05), np.full(rows, 0.95)
+        if flip:                                        # a bracket's ends come in either order
+            lo, hi = hi, lo
         f_lo, f_hi = D(lo, np.arange(rows), np.full(rows, 1e9)), D(hi, np.arange(rows), np.full(rows, 1e9))
         calls.clear()
         r = sweep.illinois_roots(D, lo, hi, f_lo, f_hi, np.ones(rows, bool), 1e-12, 0.0, 1e9)
-        # a crossing stops when the secant puts it within tol / 2 of the bracket's end; on this kink the secant
+        # a crossing stops when the secant puts it within tol / 2 of the bracket's end; on the kink the secant
         # is off by up to the slopes' ratio: 40 * tol / 2
         assert np.abs(r - root).max() <= 20e-12, (rows, few, np.abs(r - root).max())
         return calls
 
     few = sweep.FEW_CROSSINGS
     for rows in (1, few):
-        split, illinois = solve(rows, few), solve(rows, 0)
-        assert max(split) <= sweep.SPLIT_POINTS and len(split) < 0.6 * len(illinois), (rows, split, illinois)
+        for flip in (False, True):
+            split, illinois = solve(rows, few, flip), solve(rows, 0, flip)
+            assert max(split) <= sweep.SPLIT_POINTS, split
+            if shape == "kink":
+                assert len(split) < 0.4 * len(illinois), (rows, split, illinois)
+            else:
+                assert len(split) <= len(illinois) + 1, (rows, split, illinois)
     many = solve(3 * few, few)
     assert many[0] == 3 * few                           # Illinois: one point per open crossing
+
+
+@pytest.mark.parametrize("hand", ["right", "left"])
+def test_the_helical_march_finds_the_crossings_that_the_march_by_balls_finds(monkeypatch, hand):
+    """Thin tools (radii 4-6 thousandths), 3D points off the plane z = 0 and rays close to the tangent of the
+    mirrored helix (where a step with the wrong hand would be too long): the march by the helix's tube gives the
+    deviations of the march by balls alone (the classic sphere tracing), the same first crossings.  A reach with
+    the hand flipped jumps over the thin swept sheet on some of these rays."""
+    from flank_addon.simulation import sweep
+
+    h = hand_sign(hand)
+    rng = np.random.default_rng(3 if hand == "right" else 4)
+    ball_only = lambda points, directions, radius, v0, handedness="right", most=16.0: radius   # noqa: E731
+    worst, reached, longer = 0.0, 0, 0
+    for _ in range(6):
+        v0 = rng.uniform(0.05, 0.3)
+        c1 = np.r_[rng.uniform(0.5, 0.7), rng.uniform(-0.1, 0.1), 0.0]
+        c2 = c1 + np.r_[rng.uniform(-0.05, 0.05), rng.uniform(-0.05, 0.05), rng.uniform(0.05, 0.2)]
+        tool = StripTool(c1, c2, [0.004, 0.006])
+        n = 60
+        rad, ang = rng.uniform(0.3, 0.9, n), rng.uniform(-np.pi, np.pi, n)
+        p = np.c_[rad * np.cos(ang), rad * np.sin(ang), rng.uniform(-0.3, 0.3, n)]
+        d = np.c_[h * p[:, 1], -h * p[:, 0], np.full(n, v0)] + 0.3 * rng.normal(size=(n, 3))
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        new = machined_deviation([tool], p, d, v0, hand, max_deviation=0.5)
+        monkeypatch.setattr(sweep, "helical_reach", ball_only)
+        old = machined_deviation([tool], p, d, v0, hand, max_deviation=0.5)
+        monkeypatch.undo()
+        assert np.array_equal(np.isfinite(new), np.isfinite(old))
+        fin = np.isfinite(new)
+        worst = max(worst, float(np.abs(new[fin] - old[fin]).max(initial=0.0)))
+        reached += int(fin.sum())
+        longer += int((helical_reach(p, d, np.full(n, 0.01), v0, hand) > 0.0105).sum())
+    assert worst < 1e-9 and reached > 15 and longer > 100, (worst, reached, longer)

@@ -1006,15 +1006,21 @@ SPLIT_POINTS = 16
 
 
 def _split_brackets(D, idx, l, fl, h, fh, bound):
-    """Brackets [l, h] (values fl, fh of opposite signs) of the rows idx cut into equal parts by one call of D on
-    about ``SPLIT_POINTS`` points in all: the part next to l whose far end first leaves l's sign is kept (the
-    crossing nearest to l).  Returns the new (l, fl, h, fh)."""
-    m = max(2, SPLIT_POINTS // len(idx) - 1)
-    lam = l[:, None] + (h - l)[:, None] * (np.arange(1, m + 1) / (m + 1))
-    fv = D(lam.ravel(), np.repeat(idx, m), np.repeat(bound, m)).reshape(len(idx), m)
+    """Brackets [l, h] (values fl, fh of opposite signs) of the rows idx cut by one call of D on about
+    ``SPLIT_POINTS`` points in all: into equal parts, and at the regula-falsi point (so that a crossing where D
+    is smooth is found as fast as by the secant alone).  The part next to l whose far end first leaves l's sign
+    is kept (the crossing nearest to l).  Returns the new (l, fl, h, fh)."""
+    n = len(idx)
+    m = max(2, SPLIT_POINTS // n - 2)
+    frac = np.arange(1, m + 1) / (m + 1)
+    fp = false_position(l, h, fl, fh)
+    cuts = np.c_[l[:, None] + (h - l)[:, None] * frac, fp]
+    order = np.argsort(np.c_[np.broadcast_to(frac, (n, m)), (fp - l) / (h - l)], axis=1, kind="stable")
+    r = np.arange(n)
+    lam = cuts[r[:, None], order]                        # from l towards h
+    fv = D(lam.ravel(), np.repeat(idx, m + 1), np.repeat(bound, m + 1)).reshape(n, m + 1)
     L, F = np.c_[l, lam, h], np.c_[fl, fv, fh]
     j = np.argmax(np.sign(F[:, 1:]) != np.sign(F[:, :1]), axis=1)     # fh always differs from fl
-    r = np.arange(len(idx))
     return L[r, j], F[r, j], L[r, j + 1], F[r, j + 1]
 
 

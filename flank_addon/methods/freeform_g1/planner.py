@@ -1044,7 +1044,7 @@ def _least_in_balls(P, C, Rr, lists, k, out, idx, chunk=1_000_000):
         least = np.minimum.reduceat(v, starts)
         seg = np.repeat(np.arange(len(rows)), counts)
         at = np.flatnonzero(v == least[seg])                     # NaN rows have none: they are left alone
-        first = at[np.r_[True, seg[at][1:] != seg[at][:-1]]]    # each segment's first position of its least
+        first = at[np.diff(seg[at], prepend=-1) != 0]           # each segment's first position of its least
         pick = first[v[first] < out[rows[seg[first]]]]
         out[rows[seg[pick]]], idx[rows[seg[pick]]] = v[pick], cand[pick]
         lo = hi
