@@ -988,8 +988,8 @@ def illinois_roots(D, lo, hi, f_lo, f_hi, found, tol, slack, cutoff, report=None
         l, fl, h, fh = lo[idx], f_lo[idx], hi[idx], f_hi[idx]
         bound = np.minimum(np.abs(fh) + np.abs(h - l) + slack, cutoff)
         if len(idx) <= FEW_CROSSINGS:
+            # (the open crossings only ever become fewer: Illinois and its ``side`` are not used again)
             lo[idx], f_lo[idx], hi[idx], f_hi[idx] = _split_brackets(D, idx, l, fl, h, fh, bound)
-            side[idx] = 0
             continue
         m = false_position(l, h, fl, fh)
         fm = D(m, idx, bound)
@@ -1062,11 +1062,12 @@ def helical_reach(points, directions, radius, v0, handedness="right", most=16.0)
     sigma = du / uu
     a = np.sqrt(np.maximum(1.0 - du * du / uu, 0.0))
     r = np.sqrt(x * x + y * y)
-    # l0 bounds l from above (the remainder only shortens it), so the remainder at l0 is a safe excess
-    l0 = np.minimum(radius / np.maximum(a, 1.0 / most), most * radius)
+    # l0 (at most ``most`` radii) bounds l from above (the remainder only shortens it), so the remainder at l0 is
+    # a safe excess
+    l0 = radius / np.maximum(a, 1.0 / most)
     excess = r * (0.5 * sigma * sigma * l0 + np.abs(sigma) ** 3 * l0 * l0 / 6.0)
     reach = radius / (a + excess + 1e-300)
-    return np.clip(reach, radius, np.minimum(l0, most * radius))
+    return np.clip(reach, radius, l0)
 
 
 def machined_deviation(tools, points, normals, v0, handedness="right", max_deviation=None, tol=1e-12,
