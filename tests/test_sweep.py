@@ -364,3 +364,46 @@ def test_the_helical_march_finds_the_crossings_that_the_march_by_balls_finds(mon
         reached += int(fin.sum())
         longer += int((helical_reach(p, d, np.full(n, 0.01), v0, hand) > 0.0105).sum())
     assert worst < 1e-9 and reached > 15 and longer > 100, (worst, reached, longer)
+
+
+def test_grid_bounds_hold_the_exact_distances_and_measure_only_the_cells_asked_for():
+    """The signed-distance grid that prunes time samples is measured node by node as cells are asked for: the
+    bounds must be those of the whole grid measured at once (bit for bit, in any order of the queries), hold
+    the exact signed distances, and leave the nodes of cells never asked for unmeasured."""
+    from flank_addon.simulation.sweep import MeridianPart
+
+    rng = np.random.default_rng(17)
+    h = np.linspace(0.0, 1.0, 3001)
+    mer = np.c_[h, 0.1 + 0.05 * np.sin(7 * h) + 0.2 * h]
+    part = MeridianPart([0.1, 0.2, 0.0], [0.3, 0.1, 1.0], mer)
+    P = np.c_[rng.uniform(-0.2, 1.2, 6000), rng.uniform(0.0, 0.6, 6000)]
+    P[:1000] = np.c_[rng.uniform(0.4, 0.5, 1000), rng.uniform(0.15, 0.3, 1000)]     # a patch asked for first
+    low, high = part._grid_bounds(P[:1000])
+    lo, g, n, sd = part._grid
+    assert 0 < np.isfinite(sd).sum() < 0.05 * len(sd)
+    bounds = [(low, high)] + [part._grid_bounds(P[k:k + 700]) for k in range(1000, 6000, 700)]
+    low, high = (np.concatenate(b) for b in zip(*bounds))
+    # the reference: every node at once
+    i, j = np.divmod(np.arange(len(sd)), n[1])
+    nodes = np.c_[lo[0] + g * i.astype(float), lo[1] + g * j.astype(float)]
+    d, _ = part.polyline.distance(nodes)
+    every = np.where(nodes[:, 1] <= part.radius_at(nodes[:, 0]), -d, d)
+    known = np.isfinite(sd)
+    np.testing.assert_array_equal(sd[known], every[known])
+    f = (P - lo) / g
+    c = np.floor(f).astype(int)
+    inside = (c[:, 0] >= 0) & (c[:, 1] >= 0) & (c[:, 0] < n[0] - 1) & (c[:, 1] < n[1] - 1)
+    ref_low, ref_high = np.full(len(P), -np.inf), np.full(len(P), np.inf)
+    for a in (0, 1):
+        for b in (0, 1):
+            v = every[(c[inside, 0] + a) * n[1] + c[inside, 1] + b]
+            r = g * np.hypot(f[inside, 0] - c[inside, 0] - a, f[inside, 1] - c[inside, 1] - b) * (1 + 1e-12)
+            ref_low[inside] = np.maximum(ref_low[inside], v - r)
+            ref_high[inside] = np.minimum(ref_high[inside], v + r)
+    slack = 1e-12 * part.polyline.scale
+    np.testing.assert_array_equal(low[inside], ref_low[inside] - slack)
+    np.testing.assert_array_equal(high[inside], ref_high[inside] + slack)
+    assert np.all(np.isinf(low[~inside])) and np.all(np.isinf(high[~inside])) and inside.mean() > 0.9
+    exact = part.sd_plane(P[:, 0], P[:, 1])[0]
+    assert np.all(low <= exact) and np.all(exact <= high)
+    assert not known.all()                     # cells no query fell in stay unmeasured

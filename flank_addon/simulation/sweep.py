@@ -353,7 +353,9 @@ class MeridianPart:
     def _grid_bounds(self, p):
         """Lower and upper bounds of the signed distances of meridian-plane points p (N, 2) from the exact
         signed distances at the corners of their cell of a grid around the tool (the signed distance is
-        1-Lipschitz); -inf / +inf outside the grid."""
+        1-Lipschitz); -inf / +inf outside the grid.  A node's distance is measured the first time a cell of
+        it is asked for: the helices of one plan only pass through a small part of the grid (about a sixth
+        of it in a verify), and a node far from a dense meridian is the most expensive query there is."""
         if getattr(self, "_grid", None) is None:
             B = self.boundary
             lo, hi = B.min(axis=0), B.max(axis=0)
@@ -362,33 +364,42 @@ class MeridianPart:
             hi = hi + margin
             g = float((hi - lo).max()) / self.GRID
             n = np.maximum(np.ceil((hi - lo) / g).astype(int), 1) + 1
-            hs, rs = lo[0] + g * np.arange(n[0]), lo[1] + g * np.arange(n[1])
-            H, Rr = np.meshgrid(hs, rs, indexing="ij")
-            nodes = np.c_[H.ravel(), Rr.ravel()]
-            d, _ = self.polyline.distance(nodes)
-            sd = np.where(nodes[:, 1] <= self.radius_at(nodes[:, 0]), -d, d).reshape(n)
-            self._grid = (lo, g, n, sd)
+            self._grid = (lo, g, n, np.full(int(n[0] * n[1]), np.nan))     # flat, row-major (h, rho)
         lo, g, n, sd = self._grid
         f = (p - lo) / g
         i = np.floor(f).astype(int)
         ok = (i[:, 0] >= 0) & (i[:, 1] >= 0) & (i[:, 0] < n[0] - 1) & (i[:, 1] < n[1] - 1)
-        i = np.where(ok[:, None], i, 0)
         low = np.full(len(p), -np.inf)
         high = np.full(len(p), np.inf)
         rows = np.flatnonzero(ok)
         if len(rows):
             fr = f[rows] - i[rows]
+            base = i[rows, 0] * n[1] + i[rows, 1]
+            corners = [base + (a * n[1] + b) for a in (0, 1) for b in (0, 1)]
+            self._measure_nodes(np.concatenate(corners))
             lb = np.full(len(rows), -np.inf)
             ub = np.full(len(rows), np.inf)
-            for a in (0, 1):
-                for b in (0, 1):
-                    r = g * np.hypot(fr[:, 0] - a, fr[:, 1] - b) * (1 + 1e-12)
-                    v = sd[i[rows, 0] + a, i[rows, 1] + b]
-                    lb = np.maximum(lb, v - r)
-                    ub = np.minimum(ub, v + r)
+            for (a, b), at in zip(((0, 0), (0, 1), (1, 0), (1, 1)), corners):
+                r = g * np.hypot(fr[:, 0] - a, fr[:, 1] - b) * (1 + 1e-12)
+                v = sd[at]
+                lb = np.maximum(lb, v - r)
+                ub = np.minimum(ub, v + r)
             slack = 1e-12 * self.polyline.scale
             low[rows], high[rows] = lb - slack, ub + slack
         return low, high
+
+    def _measure_nodes(self, flat):
+        """Exact signed distances of the grid nodes ``flat`` (flat indices) not measured yet."""
+        lo, g, n, sd = self._grid
+        missing = np.isnan(sd[flat])
+        if not missing.any():
+            return
+        want = np.zeros(len(sd), bool)
+        want[flat[missing]] = True
+        todo = np.flatnonzero(want)
+        nodes = np.c_[lo[0] + g * (todo // n[1]).astype(float), lo[1] + g * (todo % n[1]).astype(float)]
+        d, _ = self.polyline.distance(nodes)
+        sd[todo] = np.where(nodes[:, 1] <= self.radius_at(nodes[:, 0]), -d, d)
 
 
 class ParaboloidPart:
@@ -1071,7 +1082,7 @@ def helical_reach(points, directions, radius, v0, handedness="right", most=16.0)
 
 
 def machined_deviation(tools, points, normals, v0, handedness="right", max_deviation=None, tol=1e-12,
-                       progress=None):
+                       progress=None, owner_tie=None):
     """Signed deviation of design points from the simulated machined surface, along their normals.
 
     Args:
@@ -1080,8 +1091,15 @@ def machined_deviation(tools, points, normals, v0, handedness="right", max_devia
             (N, 3) points anywhere with 3D unit normals (e.g. an axial section).
         max_deviation: search limit; points with no machined surface within it get +inf (uncut).
         progress: None or ``progress(fraction, message)`` (:mod:`progress`; returning False cancels).
+        owner_tie: None, or a tie width: then also which tool forms each machined point, as
+            :func:`first_least` with that tie picks it from the tools' distances at the point.
     Returns:
-        (N,) deviation: > 0 material left, < 0 overcut, +inf not reached by any tool.
+        (N,) deviation: > 0 material left, < 0 overcut, +inf not reached by any tool.  With ``owner_tie``:
+        (deviation, owner, distance), owner (N,) the tool (-1 where the deviation is +inf) and distance (N,)
+        the least D of the tools at the machined point (+inf there too).  Every root is a point where D was
+        evaluated, so both come from that evaluation: a tool left out of it (or cut off at its bound) lies
+        farther than the bound, and the bound exceeds the least value by at least 1e-9 of the points' size,
+        so it could not have been within the tie.
     """
     from ..progress import reporter
 
@@ -1111,6 +1129,9 @@ def machined_deviation(tools, points, normals, v0, handedness="right", max_devia
     if len(far) and near < cutoff:
         d_tools[:, far] = tool_distances(tools, p[far], v0, handedness, cutoff)
     relevant = d_tools < cutoff
+    # (rows, lambda, owner, least D) of every evaluation, when the owners are wanted
+    evaluated = [] if owner_tie is None else [(np.arange(len(p)), np.zeros(len(p)), first_least(d_tools, owner_tie),
+                                               d_tools.min(axis=0))]
 
     def D(lam, idx, bound):
         """min over tools of min(D(p + lam n), bound); bound must not exceed ``cutoff``.  Callers pass a
@@ -1118,7 +1139,11 @@ def machined_deviation(tools, points, normals, v0, handedness="right", max_devia
         the time windows shrink with it; tool k cannot come within bound if d_k(0) - |lam| > bound."""
         q = p[idx] + lam[:, None] * n[idx]
         mask = relevant[:, idx] & (d_tools[:, idx] - np.abs(lam) < bound)
-        return tool_distances(tools, q, v0, handedness, bound, mask).min(axis=0)
+        d = tool_distances(tools, q, v0, handedness, bound, mask)
+        least = d.min(axis=0)
+        if owner_tie is not None:
+            evaluated.append((idx, lam, first_least(d, owner_tie), least))
+        return least
 
     d0 = np.min(d_tools, axis=0)
     # sphere tracing: outside the swept region D is the exact distance, so a step of D cannot jump
@@ -1154,7 +1179,25 @@ def machined_deviation(tools, points, normals, v0, handedness="right", max_devia
     root = illinois_roots(D, lo, hi, f_lo, f_hi, found, tol, 1e-9 * scale, cutoff,
                           report=None if progress is None else reporter(progress, 0.7, 1.0))
     report(1.0, "deviation")
-    return np.where(found, root, np.inf)
+    deviation = np.where(found, root, np.inf)
+    if owner_tie is None:
+        return deviation
+    return (deviation,) + _owners_at(deviation, evaluated, len(p))
+
+
+def _owners_at(deviation, evaluated, n):
+    """(owner, distance) at each row's root, from the evaluations (rows, lambda, owner, least D) of D: a finite
+    root is one of the lambdas evaluated on its row (where one was evaluated twice, either will do: the same
+    point, the same tools)."""
+    rows, lam, who, least = (np.concatenate(column) for column in zip(*evaluated))
+    at_root = np.isfinite(deviation[rows]) & (lam == deviation[rows])
+    owner = np.full(n, -1)
+    distance = np.full(n, np.inf)
+    owner[rows[at_root]] = who[at_root]
+    distance[rows[at_root]] = least[at_root]
+    if np.isinf(distance[np.isfinite(deviation)]).any():
+        raise RuntimeError("a root of the machined surface was never evaluated")
+    return owner, distance
 
 
 def cap_safe(tool):

@@ -68,21 +68,26 @@ def verify_plan(plan, tolerance=None, search=None, all_points=False, progress=No
         target[idx] = True
         flank_of[idx] = f
     deviation = np.full(n, np.nan)
+    # which strip forms each machined point: the first within 1e-12 R of the least distance there (two strips
+    # that sweep the same surface give distances equal up to rounding), None where no tool comes within tol
+    tie = 1e-12 * outer
+    owner_at, least_at = np.full(n, -1), np.full(n, np.inf)
     ti = np.flatnonzero(target)
     stage = reporter(progress, 0.02, 0.8)
     if tools and all_points:
-        deviation = machined_deviation(tools, prof, normals, v0, hand, max_deviation=search, progress=stage)
+        deviation, owner_at, least_at = machined_deviation(tools, prof, normals, v0, hand, max_deviation=search,
+                                                           progress=stage, owner_tie=tie)
         dev_all = deviation.copy()
         deviation[~target] = np.nan
     elif tools and len(ti):
-        deviation[ti] = machined_deviation(tools, prof[ti], normals[ti], v0, hand, max_deviation=search,
-                                           progress=stage)
+        deviation[ti], owner_at[ti], least_at[ti] = machined_deviation(
+            tools, prof[ti], normals[ti], v0, hand, max_deviation=search, progress=stage, owner_tie=tie)
     # gouges anywhere on the rotor: the swept region reaches tol below the design surface
     report(0.8, "gouges")
     gouges = []
     if tools:
         below = np.c_[prof - tol * normals, np.zeros(n)]
-        d_all, which = _min_distance(tools, below, v0, hand, 0.0, 1e-12 * outer)
+        d_all, which = _min_distance(tools, below, v0, hand, 0.0, tie)
         hit = np.flatnonzero(d_all < 0)
         if len(hit):  # tool or shank: only the few gouged points need the distinction (and the bare tools)
             tool_only = [StripTool.from_strip(s, with_shank=False) for s in strips]
@@ -92,15 +97,11 @@ def verify_plan(plan, tolerance=None, search=None, all_points=False, progress=No
                            "strip": int(which[i]), "by": "tool" if d_tool[j] < 0 else "shank",
                            "target": bool(target[i])})
 
-    # per strip: where it forms the machined surface, and its errors there
+    # per strip: where it forms the machined surface (the simulation met it there), and its errors there
     report(0.9, "strips")
     per_strip = []
-    machined = np.c_[prof + np.nan_to_num(deviation, posinf=0.0, nan=0.0)[:, None] * normals, np.zeros(n)]
     ok = target & np.isfinite(deviation)
-    own = np.full(n, -1)
-    if tools and ok.any():
-        d_own, owner = _min_distance(tools, machined[ok], v0, hand, tol, 1e-12 * outer)
-        own[ok] = np.where(d_own < tol, owner, -1)
+    own = np.where(ok & (least_at < tol), owner_at, -1)
     for k, s in enumerate(strips):
         mine = own == k
         dev = deviation[mine]
