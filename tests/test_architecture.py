@@ -15,8 +15,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 CORE = "flank_addon"
 # bottom to top; a module may import its own layer and those below
-LAYERS = ("progress", "geometry", "tooling", "io", "simulation", "methods", "exports", "machining", "posts", "report",
-          "cli")
+LAYERS = ("progress", "collector", "geometry", "tooling", "io", "simulation", "methods", "exports", "machining",
+          "posts", "report", "cli")
 INTERNAL_IDS = re.compile(r"(?<![A-Za-z0-9_])s00[0-4](?![A-Za-z0-9_])|\b[Ii]ssue \d+")
 BLENDER_MODULES = {"bpy", "mathutils", "bmesh", "blf", "gpu", "imbuf", "bl_operators", "bl_ui", "bpy_extras"}
 

@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from flank_addon import collector
 from flank_addon.io import json_pieces
 from flank_addon.io.json_pieces import loads_in_pieces
 from flank_addon.io.plan import plan_text
@@ -279,7 +280,7 @@ def test_collector_paused_by_overlapping_blocks_comes_back_on():
     import gc
 
     assert gc.isenabled()
-    a, b = json_pieces.collector_paused(), json_pieces.collector_paused()
+    a, b = collector.collector_paused(), collector.collector_paused()
     a.__enter__()
     b.__enter__()
     assert not gc.isenabled()
@@ -287,7 +288,7 @@ def test_collector_paused_by_overlapping_blocks_comes_back_on():
     assert not gc.isenabled()                   # b still reads
     b.__exit__(None, None, None)
     assert gc.isenabled()
-    a, b = json_pieces.collector_paused(), json_pieces.collector_paused()
+    a, b = collector.collector_paused(), collector.collector_paused()
     a.__enter__()
     b.__enter__()
     b.__exit__(None, None, None)
@@ -295,7 +296,7 @@ def test_collector_paused_by_overlapping_blocks_comes_back_on():
     assert gc.isenabled()
     gc.disable()
     try:
-        with json_pieces.collector_paused():
+        with collector.collector_paused():
             pass
         assert not gc.isenabled()
     finally:

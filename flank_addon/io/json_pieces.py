@@ -23,10 +23,7 @@ first are the ones that follow the closing brackets an element of this array end
 elements are read one at a time.  Text that is not valid JSON is parsed again in one call, for
 ``json.loads``' own error.
 """
-import contextlib
-import gc
 import json
-import threading
 
 import numpy as np
 
@@ -75,35 +72,6 @@ def rows_to_tuples(a, rows=128):
     for i in range(0, len(a), rows):
         out.extend(map(tuple, a[i:i + rows].tolist()))
     return out
-
-
-_PAUSE_LOCK = threading.Lock()
-_pause = {"depth": 0, "was_on": False}      # blocks inside collector_paused, and the collector's state before
-
-
-@contextlib.contextmanager
-def collector_paused():
-    """Python's garbage collector off for a block that parses a long text and makes its rows tuples (e.g.
-    ``rows_as_tuples(validate_plan(loads_in_pieces(text)))``); as it was before once the last such block ends
-    (two workers may read at once: the first one in turns it off, the last one out restores it).
-
-    Parsing makes a list per row (300,000 for a 200,000-triangle surface).  With the collector on, those lists
-    age into the oldest generation while they are made and set off 3-4 full collections, each over everything
-    Python holds (in Blender, up to 100 ms in which its interface waits).  Paused, they are all still young when
-    the rows become tuples and the lists are freed: the next young collection stops tracking the tuples, and no
-    full collection is due."""
-    with _PAUSE_LOCK:
-        if _pause["depth"] == 0:
-            _pause["was_on"] = gc.isenabled()
-            gc.disable()
-        _pause["depth"] += 1
-    try:
-        yield
-    finally:
-        with _PAUSE_LOCK:
-            _pause["depth"] -= 1
-            if _pause["depth"] == 0 and _pause["was_on"]:
-                gc.enable()
 
 
 def lists_to_array(rows, dtype=None, slice_rows=16384):

@@ -59,8 +59,9 @@ import math
 
 import numpy as np
 
+from ..collector import collector_paused
 from .files import atomic_write
-from .json_pieces import collector_paused, dumps_in_pieces, lists_to_array
+from .json_pieces import dumps_in_pieces, lists_to_array
 
 SCHEMA = "flank-plan/1"
 TOOL_KINDS = ("cone", "revolved", "disc", "paraboloid")
@@ -383,7 +384,7 @@ def rows_as_tuples(plan, slice_rows=16384):
 
 def parse_plan_text(text, loads=json.loads):
     """``validate_plan(loads(text))`` with its surface rows as tuples (:func:`rows_as_tuples`), Python's garbage
-    collector paused meanwhile (:func:`.json_pieces.collector_paused`): a plan to keep parsed for the session,
+    collector paused meanwhile (:func:`..collector.collector_paused`): a plan to keep parsed for the session,
     read without setting off full collections.  ``loads``: e.g. :func:`.json_pieces.loads_in_pieces` in a
     worker while Blender's interface runs."""
     with collector_paused():
@@ -416,8 +417,12 @@ def write_plan(path, plan):
 
 
 def read_plan(path):
+    """The plan in a flank-plan file, validated (:class:`PlanError` naming the file where it is not one).  The
+    garbage collector is paused while the text is parsed (:func:`..collector.collector_paused`): the rows of a
+    plan are lists that all stay alive, and a collector running meanwhile only walks them again and again (on a
+    1.1 MB two-paths plan: 37 collections, one of them full, 22 ms of the 48 ms a read took)."""
     try:
-        with open(path) as f:
+        with open(path) as f, collector_paused():
             plan = json.load(f)
     except json.JSONDecodeError as e:
         raise PlanError(f"{path}: not valid JSON ({e})") from None

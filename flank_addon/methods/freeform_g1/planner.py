@@ -49,6 +49,7 @@ from scipy.optimize import least_squares
 
 from . import guiding as _guiding
 from .initial_rulings import initial_rulings
+from ...collector import collector_paused
 from ...geometry.mesh_distance import TriangleMesh
 from ...io.json_pieces import lists_to_array, rows_to_tuples
 from ...progress import reporter, substage
@@ -1018,9 +1019,12 @@ def sweep_deviation(plan, points=None, n_t=None, n_s=40, k=24, mesh=None):
     rows = np.arange(len(P))
     out, idx = val[rows, best], i[rows, best]
     # the nearest centres need not hold the smallest |p - y| - r (a far, big sphere can reach further):
-    # every centre within (bound + largest radius) is checked
-    lists = tree.query_ball_point(P, out + Rr.max() + 1e-12)
-    _least_in_balls(P, C, Rr, lists, int(k), out, idx)
+    # every centre within (bound + largest radius) is checked (a list per point, all freed together: the
+    # collector would only walk them)
+    with collector_paused():
+        lists = tree.query_ball_point(P, out + Rr.max() + 1e-12)
+        _least_in_balls(P, C, Rr, lists, int(k), out, idx)
+        del lists
     return out, S[idx], ~E[idx]
 
 
