@@ -93,3 +93,28 @@ def test_signed_minimum_keeps_each_groups_least_value(name):
         assert np.max(np.abs(got - least)) <= 1e-15 * span
         assert np.all(thr >= least - 1e-15 * span)
         assert exact.sum() < len(q)
+
+
+@pytest.mark.parametrize("n", [2, 3, 8, 9, 10, 64, 65, 513, 6203])
+def test_every_run_of_edges_lies_within_its_chords_bound(n):
+    """The hierarchy's pruning rests on each run of edges lying within ``fat`` of its chord (first to last
+    vertex of the run) and its representative vertex lying on the run: checked vertex by vertex on every level,
+    for lengths that end a run exactly, one vertex past it and in between."""
+    P = polylines()["spiral"][:n] if n <= 3203 else polylines()["meridian"][:n]
+    pd = PolylineDistance(P)
+    ne = len(P) - 1
+    size = 8
+    for ax, ay, cx, cy, cc, fat, rx, ry in pd.levels:
+        starts = np.arange(0, ne, size)
+        assert len(ax) == len(starts)
+        for k, s in enumerate(starts):
+            e = min(s + size, ne)
+            run = P[s:e + 1]
+            np.testing.assert_array_equal([ax[k], ay[k], cx[k], cy[k]],
+                                          [run[0, 0], run[0, 1], P[e, 0] - run[0, 0], P[e, 1] - run[0, 1]])
+            chord = np.r_[P[s:s + 1], P[e:e + 1]]
+            d = segment_distance(chord, run, np.zeros(len(run), int))
+            assert d.max() <= fat[k] and fat[k] <= d.max() * (1 + 2e-9) + 1e-300
+            assert any(np.array_equal([rx[k], ry[k]], v) for v in run)
+        size *= 8
+    assert len(pd.levels[-1][0]) <= 8

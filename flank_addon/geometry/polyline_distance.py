@@ -65,22 +65,27 @@ class PolylineDistance:
         # that close to the chord) and its middle vertex
         self.levels = []
         size = FANOUT
+        X, Y = B[:, 0].copy(), B[:, 1].copy()
         while True:
             starts = np.arange(0, ne, size)
             ends = np.minimum(starts + size, ne)            # last vertex index of each run
-            a, c = B[starts], B[ends] - B[starts]
-            cc = np.maximum(np.einsum("ij,ij->i", c, c), 1e-300)
-            owner = np.minimum(np.arange(ne + 1) // size, len(starts) - 1)
-            w = B - a[owner]
-            u = np.clip(np.einsum("ij,ij->i", w, c[owner]) / cc[owner], 0.0, 1.0)
-            off = np.linalg.norm(w - u[:, None] * c[owner], axis=1)
-            fat = np.maximum.reduceat(off, np.r_[starts, ne])[:len(starts)]
-            fat = np.maximum(fat, off[ends])                  # the run's last vertex starts the next run
-            rep = B[np.minimum(starts + size // 2, ne)]
-            self.levels.append(tuple(np.ascontiguousarray(x) for x in
-                                     (a[:, 0], a[:, 1], c[:, 0], c[:, 1], cc, fat * (1 + 1e-9), rep[:, 0],
-                                      rep[:, 1])))
-            if len(starts) <= FANOUT:
+            m = len(starts)
+            ax, ay = X[starts], Y[starts]
+            cx, cy = X[ends] - ax, Y[ends] - ay
+            cc = np.maximum(cx * cx + cy * cy, 1e-300)
+            # every vertex against the chord of its run (the runs are consecutive: repeat, not gather; the last
+            # vertex belongs to the last run)
+            counts = np.full(m, size)
+            counts[-1] = ne + 1 - size * (m - 1)
+            ox, oy, ocx, ocy = (np.repeat(v, counts) for v in (ax, ay, cx, cy))
+            wx, wy = X - ox, Y - oy
+            u = np.clip((wx * ocx + wy * ocy) / np.repeat(cc, counts), 0.0, 1.0)
+            dx, dy = wx - u * ocx, wy - u * ocy
+            off = np.sqrt(dx * dx + dy * dy)
+            fat = np.maximum.reduceat(off, starts)      # (a run's last vertex, the next one's first, is on its chord)
+            mid = np.minimum(starts + size // 2, ne)
+            self.levels.append((ax, ay, cx, cy, cc, fat * (1 + 1e-9), X[mid], Y[mid]))
+            if m <= FANOUT:
                 break
             size *= FANOUT
 
