@@ -407,3 +407,31 @@ def test_grid_bounds_hold_the_exact_distances_and_measure_only_the_cells_asked_f
     exact = part.sd_plane(P[:, 0], P[:, 1])[0]
     assert np.all(low <= exact) and np.all(exact <= high)
     assert not known.all()                     # cells no query fell in stay unmeasured
+
+
+def test_grid_bounds_of_a_call_read_the_grid_it_measured_into():
+    """Two threads that ask a new meridian part at once may both set up its grid; each call must then read the
+    nodes from the grid it measured them into (it did not: the second grid replaced the first in between, and
+    the first call's bounds came out NaN, so the tool looked absent).  The interleaving is forced here: while
+    the first call measures its nodes, a second call sets up the grid anew."""
+    from flank_addon.simulation.sweep import MeridianPart
+
+    h = np.linspace(0.0, 1.0, 500)
+    part = MeridianPart([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], np.c_[h, 0.2 + 0.1 * h])
+    P = np.c_[np.linspace(-0.1, 1.1, 200), np.linspace(0.0, 0.5, 200)]
+    reference = MeridianPart([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], np.c_[h, 0.2 + 0.1 * h])._grid_bounds(P)
+    measure = part._measure_nodes
+    calls = []
+
+    def interleaved(*args):
+        if not calls:
+            calls.append(1)
+            part._grid = None                   # as if another thread had set it up at the same moment
+            part._grid_bounds(P[:7])
+        return measure(*args)
+
+    part._measure_nodes = interleaved
+    low, high = part._grid_bounds(P)
+    assert calls and not np.isnan(low).any() and not np.isnan(high).any()
+    np.testing.assert_array_equal(low, reference[0])
+    np.testing.assert_array_equal(high, reference[1])

@@ -358,7 +358,8 @@ class MeridianPart:
         1-Lipschitz); -inf / +inf outside the grid.  A node's distance is measured the first time a cell of
         it is asked for: the helices of one plan only pass through a small part of the grid (about a sixth
         of it in a verify), and a node far from a dense meridian is the most expensive query there is."""
-        if getattr(self, "_grid", None) is None:
+        grid = getattr(self, "_grid", None)
+        if grid is None:
             B = self.boundary
             lo, hi = B.min(axis=0), B.max(axis=0)
             margin = 0.25 * float((hi - lo).max())
@@ -366,8 +367,10 @@ class MeridianPart:
             hi = hi + margin
             g = float((hi - lo).max()) / self.GRID
             n = np.maximum(np.ceil((hi - lo) / g).astype(int), 1) + 1
-            self._grid = (lo, g, n, np.full(int(n[0] * n[1]), np.nan))     # flat, row-major (h, rho)
-        lo, g, n, sd = self._grid
+            # flat, row-major (h, rho); this call keeps its own handle: a second thread that set up the grid at the
+            # same time replaces self._grid, and the nodes this call measures must land where it reads them
+            grid = self._grid = (lo, g, n, np.full(int(n[0] * n[1]), np.nan))
+        lo, g, n, sd = grid
         f = (p - lo) / g
         i = np.floor(f).astype(int)
         ok = (i[:, 0] >= 0) & (i[:, 1] >= 0) & (i[:, 0] < n[0] - 1) & (i[:, 1] < n[1] - 1)
@@ -378,7 +381,7 @@ class MeridianPart:
             fr = f[rows] - i[rows]
             base = i[rows, 0] * n[1] + i[rows, 1]
             corners = [base + (a * n[1] + b) for a in (0, 1) for b in (0, 1)]
-            self._measure_nodes(np.concatenate(corners))
+            self._measure_nodes(grid, np.concatenate(corners))
             lb = np.full(len(rows), -np.inf)
             ub = np.full(len(rows), np.inf)
             for (a, b), at in zip(((0, 0), (0, 1), (1, 0), (1, 1)), corners):
@@ -390,9 +393,9 @@ class MeridianPart:
             low[rows], high[rows] = lb - slack, ub + slack
         return low, high
 
-    def _measure_nodes(self, flat):
-        """Exact signed distances of the grid nodes ``flat`` (flat indices) not measured yet."""
-        lo, g, n, sd = self._grid
+    def _measure_nodes(self, grid, flat):
+        """Exact signed distances of the nodes ``flat`` (flat indices) of ``grid`` not measured yet."""
+        lo, g, n, sd = grid
         missing = np.isnan(sd[flat])
         if not missing.any():
             return
