@@ -435,3 +435,108 @@ def test_grid_bounds_of_a_call_read_the_grid_it_measured_into():
     assert calls and not np.isnan(low).any() and not np.isnan(high).any()
     np.testing.assert_array_equal(low, reference[0])
     np.testing.assert_array_equal(high, reference[1])
+
+
+@pytest.mark.parametrize("stacked", [False, True])
+def test_cheap_tools_measure_only_the_samples_the_search_uses(monkeypatch, stacked):
+    """Frustum tools (cheap distances) no longer have every time sample measured, only those within half a
+    chord of the least, with their neighbours (and, without times, none beyond the cap of points that answer
+    the cutoff).  The answers must be those of measuring every sample: distances, times, cutoffs, on cones with
+    sharp tips (4,001 samples per helix) and on the long tool a helix passes twice, with and without a cutoff."""
+    from flank_addon.simulation import sweep
+
+    def every_sample(tool, x, T, v0, handedness, cap=None):
+        Q = screw_motion(x[:, None, :], T, v0, handedness)
+        return np.stack([tool.rows(np.full(T.shape[1], i)).signed_distance(Q[i]) for i in range(len(x))])
+
+    rng = np.random.default_rng(31)
+    v0 = 0.45
+    sharp = [StripTool(c, c + rng.uniform([0.1, -0.2, 0.2], [0.3, 0.2, 0.4]), [0.0, rng.uniform(0.05, 0.12)],
+                       c + [0.0, 0.0, 0.5], c + [0.0, 0.0, 0.9], 0.04)
+             for c in rng.uniform([0.55, -0.1, -0.1], [0.7, 0.1, 0.1], (3, 3))]
+    twice = StripTool((1.0, 0.0, -0.4), (1.0 + 1e-6, 0.0, 3.2), [0.05, 0.05])
+    th = rng.uniform(-0.7, 0.7, 40)
+    rho = rng.uniform(0.45, 0.75, 40)
+    x = np.c_[rho * np.cos(th), rho * np.sin(th), rng.uniform(-0.05, 0.05, 40)]
+    rho2, th2 = 1.0 + rng.uniform(0.055, 0.09, 20), rng.uniform(-np.pi, np.pi, 20)
+    x2 = np.c_[rho2 * np.cos(th2), rho2 * np.sin(th2), np.zeros(20)]
+    cases = [(sharp, x), ([twice], x2)]
+    measured = []
+    real = sweep._near_least_samples
+
+    def counting(tool, xx, T, *args):
+        D = real(tool, xx, T, *args)
+        measured.append((np.isfinite(D).sum(), D.size))
+        return D
+
+    for tools, pts in cases:
+        for cutoff in (np.inf, 0.02, 0.0):
+            for times in (True, False):
+                if stacked and len(tools) > 1:
+                    which = np.repeat(np.arange(len(tools)), len(pts))
+                    tool, q = sweep.StackedTools(tools).rows(which), np.tile(pts, (len(tools), 1))
+                else:
+                    tool, q = tools[0], pts
+                monkeypatch.setattr(sweep, "_near_least_samples", counting)
+                d, t = helical_distance(tool, q, v0, cutoff=cutoff, times=times)
+                monkeypatch.setattr(sweep, "_near_least_samples", every_sample)
+                d_all, t_all = helical_distance(tool, q, v0, cutoff=cutoff, times=times)
+                np.testing.assert_allclose(d, d_all, rtol=0, atol=1e-15)
+                if times:
+                    np.testing.assert_array_equal(np.isnan(t), np.isnan(t_all))
+                    np.testing.assert_allclose(t[~np.isnan(t)], t_all[~np.isnan(t_all)], rtol=0, atol=1e-12)
+    done, total = np.sum(measured, axis=0)
+    assert done < 0.25 * total
+
+
+@pytest.mark.parametrize("capped", [False, True])
+def test_near_least_samples_keeps_every_sample_within_half_a_chord_and_its_neighbours(capped):
+    """The contract of the pruned sampling, against every sample measured: on helices past unions of balls (a
+    1-Lipschitz distance whose value changes at nearly the full speed of the point away from its minima, so the
+    gap bounds are nearly tight, and whose several minima along a helix come close to each other), every
+    sample within half a chord of its row's least value is measured with its exact value, and so are both its
+    neighbours; with a cap, that holds on the rows whose least value lies below their cap, and a row above its
+    cap has nothing measured below it."""
+    from flank_addon.simulation.sweep import _near_least_samples
+
+    class Balls:
+        def __init__(self, centres, radii):
+            self.centres, self.radii = centres, radii
+
+        def rows(self, idx):
+            return self
+
+        def signed_distance(self, q):
+            return np.min(np.linalg.norm(q[:, None, :] - self.centres[None], axis=2) - self.radii[None], axis=1)
+
+    rng = np.random.default_rng(41)
+    v0, hand = 0.3, "left"
+    kept_pairs, measured, samples = 0, 0, 0
+    for trial in range(12):
+        t_ball = rng.uniform(-2.0, 2.0, 6)
+        r_ball = rng.uniform(0.6, 0.9, 6)
+        centres = np.c_[r_ball * np.cos(-t_ball), r_ball * np.sin(-t_ball), v0 * t_ball + rng.uniform(-0.02, 0.02, 6)]
+        tool = Balls(centres, rng.uniform(0.01, 0.05, 6))
+        N, n = 30, int(rng.choice([9, 70, 257, 1500, 4001]))
+        x = np.c_[rng.uniform(0.55, 0.95, N), np.zeros(N), rng.uniform(-0.05, 0.05, N)]
+        T = np.linspace(-2.5, 2.5, n)[None, :] + rng.uniform(-0.01, 0.01, (N, 1))
+        full = tool.signed_distance(screw_motion(np.repeat(x, n, axis=0), T.ravel(), v0, hand)).reshape(N, n)
+        chord = np.linalg.norm(screw_motion(x, T[:, 1], v0, hand) - screw_motion(x, T[:, 0], v0, hand), axis=1)
+        least = full.min(axis=1)
+        cap = least + rng.uniform(-0.05, 0.05, N) if capped else None
+        D = _near_least_samples(tool, x, T, v0, hand, cap)
+        seen = np.isfinite(D)
+        np.testing.assert_array_equal(D[seen], full[seen])
+        rows = np.arange(N) if cap is None else np.flatnonzero(least < cap)
+        near = full[rows] <= (least[rows] + 0.5 * chord[rows])[:, None]
+        beside = near.copy()
+        beside[:, 1:] |= near[:, :-1]
+        beside[:, :-1] |= near[:, 1:]
+        assert seen[rows][beside].all(), (trial, n)
+        kept_pairs += int((near.sum(axis=1) > 1).sum())
+        measured, samples = measured + seen.sum(), samples + seen.size
+        if capped:
+            above = np.flatnonzero(least >= cap)
+            assert np.all(np.where(seen[above], D[above], np.inf).min(axis=1) >= cap[above])
+    assert kept_pairs > 50            # rows with more than one sample that close to their least value
+    assert measured < 0.5 * samples
