@@ -445,9 +445,10 @@ def test_cheap_tools_measure_only_the_samples_the_search_uses(monkeypatch, stack
     sharp tips (4,001 samples per helix) and on the long tool a helix passes twice, with and without a cutoff."""
     from flank_addon.simulation import sweep
 
-    def every_sample(tool, x, T, v0, handedness, cap=None):
-        Q = screw_motion(x[:, None, :], T, v0, handedness)
-        return np.stack([tool.rows(np.full(T.shape[1], i)).signed_distance(Q[i]) for i in range(len(x))])
+    def every_sample(tool, x, time_of, n, v0, handedness, cap=None):
+        r, c = np.repeat(np.arange(len(x)), n), np.tile(np.arange(n), len(x))
+        v = tool.rows(r).signed_distance(screw_motion(x[r], time_of(r, c), v0, handedness))
+        return sweep._Samples(r, c, v, n)
 
     rng = np.random.default_rng(31)
     v0 = 0.45
@@ -464,10 +465,10 @@ def test_cheap_tools_measure_only_the_samples_the_search_uses(monkeypatch, stack
     measured = []
     real = sweep._near_least_samples
 
-    def counting(tool, xx, T, *args):
-        D = real(tool, xx, T, *args)
-        measured.append((np.isfinite(D).sum(), D.size))
-        return D
+    def counting(tool, xx, time_of, n, *args):
+        samples = real(tool, xx, time_of, n, *args)
+        measured.append((len(samples.r), len(xx) * n))
+        return samples
 
     for tools, pts in cases:
         for cutoff in (np.inf, 0.02, 0.0):
@@ -511,7 +512,7 @@ def test_near_least_samples_keeps_every_sample_within_half_a_chord_and_its_neigh
 
     rng = np.random.default_rng(41)
     v0, hand = 0.3, "left"
-    kept_pairs, measured, samples = 0, 0, 0
+    kept_pairs, measured, total = 0, 0, 0
     for trial in range(12):
         t_ball = rng.uniform(-2.0, 2.0, 6)
         r_ball = rng.uniform(0.6, 0.9, 6)
@@ -524,7 +525,10 @@ def test_near_least_samples_keeps_every_sample_within_half_a_chord_and_its_neigh
         chord = np.linalg.norm(screw_motion(x, T[:, 1], v0, hand) - screw_motion(x, T[:, 0], v0, hand), axis=1)
         least = full.min(axis=1)
         cap = least + rng.uniform(-0.05, 0.05, N) if capped else None
-        D = _near_least_samples(tool, x, T, v0, hand, cap)
+        samples = _near_least_samples(tool, x, lambda r, c: T[r, c], n, v0, hand, cap)
+        D = np.full((N, n), np.inf)
+        D[samples.r, samples.c] = samples.v
+        assert np.all(np.diff(samples.r * n + samples.c) > 0)         # sorted, each sample once
         seen = np.isfinite(D)
         np.testing.assert_array_equal(D[seen], full[seen])
         rows = np.arange(N) if cap is None else np.flatnonzero(least < cap)
@@ -534,9 +538,39 @@ def test_near_least_samples_keeps_every_sample_within_half_a_chord_and_its_neigh
         beside[:, :-1] |= near[:, 1:]
         assert seen[rows][beside].all(), (trial, n)
         kept_pairs += int((near.sum(axis=1) > 1).sum())
-        measured, samples = measured + seen.sum(), samples + seen.size
+        measured, total = measured + seen.sum(), total + seen.size
         if capped:
             above = np.flatnonzero(least >= cap)
             assert np.all(np.where(seen[above], D[above], np.inf).min(axis=1) >= cap[above])
     assert kept_pairs > 50            # rows with more than one sample that close to their least value
-    assert measured < 0.5 * samples
+    assert measured < 0.5 * total
+
+
+def test_sparse_samples_answer_as_the_dense_array_does():
+    """The measured samples kept sparse (rows, columns, values): the least sample of each row and the lookups
+    are those of the dense array with +inf elsewhere, under np.argmin's rules (the first of equal values, the
+    first NaN, column 0 for a row with nothing measured); a selection of rows is renumbered."""
+    from flank_addon.simulation.sweep import _Samples
+
+    rng = np.random.default_rng(3)
+    N, n = 40, 25
+    D = np.full((N, n), np.inf)
+    seen = rng.random((N, n)) < 0.3
+    D[seen] = rng.integers(0, 4, seen.sum()).astype(float)          # many ties
+    D[5, [3, 9]] = np.nan
+    D[7] = np.inf                                                  # nothing measured
+    D[8, 0] = -np.inf
+    r, c = np.nonzero(~(D == np.inf))
+    samples = _Samples(r, c, D[r, c], n)
+    k, best = samples.least(N)
+    np.testing.assert_array_equal(k, np.argmin(D, axis=1))
+    np.testing.assert_array_equal(best, D[np.arange(N), np.argmin(D, axis=1)])
+    qr, qc = rng.integers(0, N, 500), rng.integers(0, n, 500)
+    np.testing.assert_array_equal(samples.at(qr, qc), D[qr, qc])
+    keep = np.array([1, 5, 7, 8, 30])
+    sub = samples.rows(keep)
+    D2 = np.full((len(keep), n), np.inf)
+    D2[sub.r, sub.c] = sub.v
+    np.testing.assert_array_equal(D2, D[keep])
+    empty = _Samples(np.zeros(0, int), np.zeros(0, int), np.zeros(0), n)
+    assert empty.least(3)[0].tolist() == [0, 0, 0] and np.isinf(empty.at([0, 2], [1, 1])).all()

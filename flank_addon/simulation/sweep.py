@@ -814,35 +814,43 @@ def helical_distance(tool, points, v0, handedness="right", step=None, iters=None
         iters = tool.golden_iters
     n = int(np.clip(np.max((t_hi - t_lo) * speed / step), 8, 4000)) + 1
     s = np.linspace(0.0, 1.0, n)
-    T = t_lo[:, None] + (t_hi - t_lo)[:, None] * s[None, :]
+    span = t_hi - t_lo
+
+    def time_of(r, c):
+        """The time of sample c of row r (what ``t_lo[:, None] + span[:, None] * s[None, :]`` holds there)."""
+        return t_lo[r] + span[r] * s[c]
+
     rows = np.arange(len(x))
-    arc = speed * (t_hi - t_lo) / (n - 1)
+    arc = speed * span / (n - 1)
     # a point whose least sample is this far above the cutoff answers the cutoff (``settled`` below)
     cap = None if times else cutoff[idx] + 0.5 * arc * (1.0 + 1e-9) + 2e-12 * (1.0 + np.abs(cutoff[idx]) + arc)
     if not getattr(tool, "expensive", False):
-        # every sample the search below can look at is measured, the others are not (+inf)
-        D = _near_least_samples(tool, x, T, v0, handedness, cap)
-    elif hasattr(tool, "signed_distance_pruned"):
-        # only each point's least sample and its two neighbours (the bracket of the search below) are needed:
-        # samples whose distance provably lies above the point's least value are never measured exactly
-        Q = screw_motion(x[:, None, :], T, v0, handedness)
-        D = _least_samples(tool, Q)
-        k = np.argmin(D, axis=1)
-        for j in (np.maximum(k - 1, 0), np.minimum(k + 1, n - 1)):
-            need = ~np.isfinite(D[rows, j])
-            if need.any():
-                D[rows[need], j[need]] = tool.signed_distance(Q[rows[need], j[need]])
+        # every sample the search below can look at is measured, the others are not
+        samples = _near_least_samples(tool, x, time_of, n, v0, handedness, cap)
     else:
-        # bounding spheres give a cheap lower bound; a sample whose bound exceeds the exact value
-        # at the most promising sample can never be the minimum, so it is not evaluated exactly
+        T = time_of(rows[:, None], np.arange(n)[None, :])
         Q = screw_motion(x[:, None, :], T, v0, handedness)
-        lb = tool.lower_bound(Q)
-        upper = tool.signed_distance(Q[rows, np.argmin(lb, axis=1)])
-        todo = lb <= upper[:, None]
-        D = np.full(lb.shape, np.inf)
-        D[todo] = tool.signed_distance(Q[todo])
-    k = np.argmin(D, axis=1)
-    best_t, best = T[rows, k], D[rows, k]
+        if hasattr(tool, "signed_distance_pruned"):
+            # only each point's least sample and its two neighbours (the bracket of the search below) are
+            # needed: samples whose distance provably lies above the point's least value are never measured
+            D = _least_samples(tool, Q)
+            k = np.argmin(D, axis=1)
+            for j in (np.maximum(k - 1, 0), np.minimum(k + 1, n - 1)):
+                need = ~np.isfinite(D[rows, j])
+                if need.any():
+                    D[rows[need], j[need]] = tool.signed_distance(Q[rows[need], j[need]])
+        else:
+            # bounding spheres give a cheap lower bound; a sample whose bound exceeds the exact value
+            # at the most promising sample can never be the minimum, so it is not evaluated exactly
+            lb = tool.lower_bound(Q)
+            upper = tool.signed_distance(Q[rows, np.argmin(lb, axis=1)])
+            todo = lb <= upper[:, None]
+            D = np.full(lb.shape, np.inf)
+            D[todo] = tool.signed_distance(Q[todo])
+        r, c = np.nonzero(~(D == np.inf))              # (NaN rows too, as np.argmin sees them)
+        samples = _Samples(r, c, D[r, c], n)
+    k, best = samples.least(len(x))
+    best_t = time_of(rows, k)
     # a time between two samples puts the point within half the arc between them (speed * dt / 2) of a
     # sample, and D is 1-Lipschitz: rows whose least sample lies that far above the cutoff can only answer
     # the cutoff, so they skip the search (their t* stays at the least sample)
@@ -855,13 +863,14 @@ def helical_distance(tool, points, v0, handedness="right", step=None, iters=None
         keep = np.flatnonzero(~settled)
         if not len(keep):
             return out_d, out_t
-        idx, x, T, D, k, best_t, best, speed, arc = (idx[keep], x[keep], T[keep], D[keep], k[keep], best_t[keep],
-                                                      best[keep], speed[keep], arc[keep])
+        idx, x, k, best_t, best, speed, arc, t_lo, span = (idx[keep], x[keep], k[keep], best_t[keep], best[keep],
+                                                            speed[keep], arc[keep], t_lo[keep], span[keep])
+        samples = samples.rows(keep)
         tool = tool.rows(keep)
         rows = np.arange(len(x))
     lo_j, hi_j = np.maximum(k - 1, 0), np.minimum(k + 1, n - 1)
-    fm, tm = _refine_bracket(tool, x, v0, handedness, T[rows, lo_j], T[rows, hi_j], D[rows, lo_j], D[rows, hi_j],
-                             iters, polish, speed)
+    fm, tm = _refine_bracket(tool, x, v0, handedness, time_of(rows, lo_j), time_of(rows, hi_j),
+                             samples.at(rows, lo_j), samples.at(rows, hi_j), iters, polish, speed)
     better = fm < best
     best, best_t = np.where(better, fm, best), np.where(better, tm, best_t)
     # another basin of the samples may hold a lower value between its samples than the least sample's basin:
@@ -869,22 +878,23 @@ def helical_distance(tool, points, v0, handedness="right", step=None, iters=None
     # values of a smooth minimum sit above it by up to a quarter of the rise to their higher neighbour, those
     # of a kink by up to half of it).  Every other sampled minimum that could be lower is refined too.
     # (Sampled minima next to a sample that was never measured are left alone: it was pruned because it cannot
-    # come near the least value.)
-    # (a sampled minimum within half the rise to its higher neighbour of the best lies within half a sample's arc
-    # of it, D being 1-Lipschitz: only samples within a whole arc are looked at, not all n per row)
-    rr, lo_j = np.nonzero(D[:, 1:-1] <= (best + arc * (1.0 + 1e-9) + 1e-12 * (1.0 + np.abs(best)))[:, None])
-    mid, left, right = D[rr, lo_j + 1], D[rr, lo_j], D[rr, lo_j + 2]
+    # come near the least value.)  Such a minimum lies within half a sample's arc of the best (D is
+    # 1-Lipschitz): only the samples within a whole arc of it are looked at.
+    r, c, mid = samples.r, samples.c, samples.v
+    with np.errstate(invalid="ignore"):
+        near = (c >= 1) & (c <= n - 2) & (mid <= best[r] + arc[r] * (1.0 + 1e-9) + 1e-12 * (1.0 + np.abs(best[r])))
+    rr, jj, mid = r[near], c[near], mid[near]
+    left, right = samples.at(rr, jj - 1), samples.at(rr, jj + 1)
     with np.errstate(invalid="ignore"):
         maybe = (np.isfinite(left) & np.isfinite(right) & (mid <= left) & (mid < right)
                  & (mid - 0.5 * np.maximum(left - mid, right - mid) <= best[rr]))
     inner = (k > 0) & (k < n - 1)
-    maybe &= ~(inner[rr] & (lo_j + 1 == k[rr]))           # the least sample's own basin, refined above
-    rr, lo_j = rr[maybe], lo_j[maybe]                      # mid is sample lo_j + 1, inside [lo_j, lo_j + 2]
-    jj, hi_j = lo_j + 1, lo_j + 2
+    maybe &= ~(inner[rr] & (jj == k[rr]))                  # the least sample's own basin, refined above
+    rr, jj, mid, left, right = rr[maybe], jj[maybe], mid[maybe], left[maybe], right[maybe]
     if len(rr):
-        fm2, tm2 = _refine_bracket(tool.rows(rr), x[rr], v0, handedness, T[rr, lo_j], T[rr, hi_j], D[rr, lo_j],
-                                   D[rr, hi_j], iters, polish, speed[rr])
-        fm2, tm2 = np.minimum(fm2, D[rr, jj]), np.where(fm2 < D[rr, jj], tm2, T[rr, jj])
+        fm2, tm2 = _refine_bracket(tool.rows(rr), x[rr], v0, handedness, time_of(rr, jj - 1), time_of(rr, jj + 1),
+                                   left, right, iters, polish, speed[rr])
+        fm2, tm2 = np.minimum(fm2, mid), np.where(fm2 < mid, tm2, time_of(rr, jj))
         order = np.lexsort((fm2, rr))             # per row, its least second basin first
         first = np.r_[True, rr[order][1:] != rr[order][:-1]]
         r2, f2, t2 = rr[order][first], fm2[order][first], tm2[order][first]
@@ -948,13 +958,49 @@ def _refine_bracket(tool, x, v0, handedness, a, b, fa, fb, iters, polish, speed)
     return F[r, jm], X[r, jm]
 
 
-def _near_least_samples(tool, x, T, v0, handedness, cap=None):
-    """Signed distances of the helices' time samples S_T(x) (points x (N, 3), times T (N, n), equally spaced per
-    row), +inf where a sample provably lies more than half a chord above its row's least value: the samples
-    that :func:`helical_distance` never looks at after sampling.  (It looks at the least sample, and at every
-    sampled minimum within half the rise to its higher neighbour of the least, with those neighbours; the
-    distance is 1-Lipschitz and neighbouring samples lie a chord c apart, so such a minimum lies within c / 2 of
-    the least.)
+class _Samples:
+    """The measured time samples of N helices: rows r, columns c (sorted by row, then column), values v; every
+    other sample counts as +inf."""
+
+    def __init__(self, r, c, v, n):
+        self.r, self.c, self.v, self.n = r, c, v, n
+
+    def at(self, r, c):
+        """Values of the samples (r, c), +inf where not measured."""
+        key = self.r * self.n + self.c
+        want = np.asarray(r) * self.n + np.asarray(c)
+        pos = np.minimum(np.searchsorted(key, want), max(len(key) - 1, 0))
+        found = (key[pos] == want) if len(key) else np.zeros(np.shape(want), bool)
+        return np.where(found, self.v[pos] if len(key) else np.inf, np.inf)
+
+    def least(self, N):
+        """(column, value) of each row's least sample, as ``np.argmin`` of the rows with +inf elsewhere picks it
+        (the first of equal values; the first NaN where there is one; column 0 and +inf for a row without any)."""
+        k, best = np.zeros(N, int), np.full(N, np.inf)
+        if len(self.r):
+            starts = np.flatnonzero(np.r_[True, self.r[1:] != self.r[:-1]])
+            row_min = np.minimum.reduceat(self.v, starts)             # NaN where a row has one
+            seg = np.repeat(np.arange(len(starts)), np.diff(np.r_[starts, len(self.r)]))
+            m = row_min[seg]
+            hit = np.flatnonzero((self.v == m) | (np.isnan(self.v) & np.isnan(m)))
+            first = hit[np.diff(seg[hit], prepend=-1) != 0]            # in column order: the first of each row
+            k[self.r[first]], best[self.r[first]] = self.c[first], self.v[first]
+        return k, best
+
+    def rows(self, keep):
+        """The samples of rows ``keep`` (sorted), renumbered 0, 1, ..."""
+        new = np.full(int(self.r.max()) + 1 if len(self.r) else 0, -1)
+        new[keep[keep < len(new)]] = np.flatnonzero(keep < len(new))
+        sel = new[self.r] >= 0
+        return _Samples(new[self.r[sel]], self.c[sel], self.v[sel], self.n)
+
+
+def _near_least_samples(tool, x, time_of, n, v0, handedness, cap=None):
+    """The time samples of N helices (points x (N, 3); sample c of row r at ``time_of(r, c)``, n per row, equally
+    spaced) that :func:`helical_distance` looks at after sampling, measured (:class:`_Samples`): every sample
+    within half a chord of its row's least value.  (The search looks at the least sample, and at every sampled
+    minimum within half the rise to its higher neighbour of the least, with those neighbours; the distance is
+    1-Lipschitz and neighbouring samples lie a chord c apart, so such a minimum lies within c / 2 of the least.)
 
     Coarse to fine, for tools whose distance is cheap: samples 64, 16, 4, then 1 apart.  Between two measured
     samples j < k with values a and b, no sample lies below (a + b - (k - j) c) / 2, so only the gaps where that
@@ -966,26 +1012,30 @@ def _near_least_samples(tool, x, T, v0, handedness, cap=None):
 
     ``cap`` (N,) or None: where a row's least value is at least its cap, only that is needed (the caller answers
     its cutoff there); the gaps are then cut only where they can hold a value below the cap."""
-    N, n = T.shape
-    first = screw_motion(x, T[:, 0], v0, handedness)
-    chord = np.linalg.norm(screw_motion(x, T[:, min(1, n - 1)], v0, handedness) - first, axis=1) * (1 + 1e-12) + 1e-15
-    scale = 1.0 + float(np.abs(x).max()) + abs(v0) * float(np.abs(T).max())
+    N = len(x)
+    every = np.arange(N)
+    first = screw_motion(x, time_of(every, 0), v0, handedness)
+    chord = (np.linalg.norm(screw_motion(x, time_of(every, min(1, n - 1)), v0, handedness) - first, axis=1)
+             * (1 + 1e-12) + 1e-15)
+    scale = 1.0 + float(np.abs(x).max()) + abs(v0) * float(max(np.abs(time_of(every, 0)).max(),
+                                                                 np.abs(time_of(every, n - 1)).max()))
     margin = 0.5 * chord * (1 + 1e-9) + 1e-12 * scale
-    D = np.full((N, n), np.inf)
     best = np.full(N, np.inf)
+    measured = []
     if hasattr(tool, "prepared"):
         tool.prepared()                 # once for the N rows; each batch of samples gathers from them
 
     def measure(ri, ci):
         """Measure the samples (ri, ci), ri sorted; their values."""
-        v = tool.rows(ri).signed_distance(screw_motion(x[ri], T[ri, ci], v0, handedness)) if len(ri) else np.zeros(0)
-        D[ri, ci] = v
+        v = tool.rows(ri).signed_distance(screw_motion(x[ri], time_of(ri, ci), v0, handedness)) if len(ri) \
+            else np.zeros(0)
+        measured.append((ri, ci, v))
         np.minimum(best, segment_min(v, ri, N), out=best)
         return v
 
     stride = max([s for s in (64, 16, 4) if 4 * s <= n], default=1)
     cols = np.unique(np.r_[np.arange(0, n, stride), n - 1])
-    r = np.repeat(np.arange(N), len(cols))
+    r = np.repeat(every, len(cols))
     c = np.tile(cols, N)
     v = measure(r, c)
     # gaps between consecutive measured samples of a row: (row, left, right, left value, right value)
@@ -1012,7 +1062,9 @@ def _near_least_samples(tool, x, T, v0, handedness, cap=None):
         ends_c, ends_r, ends_v, seq = ends_c[order], ends_r[order], ends_v[order], seq[order]
         inner = np.flatnonzero(seq[1:] == seq[:-1])
         gr, gl, gh, gvl, gvh = ends_r[inner], ends_c[inner], ends_c[inner + 1], ends_v[inner], ends_v[inner + 1]
-    return D
+    r, c, v = (np.concatenate(a) for a in zip(*measured))
+    order = np.lexsort((c, r))
+    return _Samples(r[order], c[order], v[order], n)
 
 
 def _least_samples(tool, Q, strides=(16, 4, 1)):
