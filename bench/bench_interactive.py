@@ -21,6 +21,11 @@ Operations (goals in brackets):
   two-paths-f / two-paths-m   plan double-flank --two-paths on the asymmetric female / male    [1.5 s]
   verify-two-paths, verify-freeform, verify-single-flank   verify of the two-paths (female), free-form and
                  single-flank plans above ("verify of any plan")                               [0.5 s]
+  three-cones    plan double-flank --builtin asymmetric-female --valley 0 --tool cones:3 (sharp-tipped
+                 cones)                                                                           [-]
+  disc-cutter    cutter --builtin nilson-male --scale 100 --center-distance 180 --swivel 20 --plan-out (the
+                 formed disc cutter as a plan, in mm)                                             [-]
+  verify-three-cones, verify-disc-cutter   verify of those two plans                            [0.5 s]
 """
 import argparse
 import json
@@ -105,7 +110,8 @@ def make_inputs(d):
 
 # verify operations and the plan operation that writes the plan they read (this tree's plan, for every tree)
 VERIFIED = {"verify": "double-flank", "verify-two-paths": "two-paths-f", "verify-freeform": "freeform",
-            "verify-single-flank": "single-flank"}
+            "verify-single-flank": "single-flank", "verify-three-cones": "three-cones",
+            "verify-disc-cutter": "disc-cutter"}
 
 
 def operations(d, info):
@@ -127,11 +133,19 @@ def operations(d, info):
         "verify-two-paths": ["verify", str(d / HERE.name / "tp_f.json")],
         "verify-freeform": ["verify", str(d / HERE.name / "ff.json")],
         "verify-single-flank": ["verify", str(d / HERE.name / "sf.json")],
+        "three-cones": ["plan", "double-flank", "--builtin", "asymmetric-female", "--valley", "0", "--tool",
+                        "cones:3", "--out", str(d / HERE.name / "c3.json")],
+        "disc-cutter": ["cutter", "--builtin", "nilson-male", "--scale", "100", "--center-distance", "180",
+                        "--swivel", "20", "--out", str(d / "cutter.csv"),
+                        "--plan-out", str(d / HERE.name / "disc.json")],
+        "verify-three-cones": ["verify", str(d / HERE.name / "c3.json")],
+        "verify-disc-cutter": ["verify", str(d / HERE.name / "disc.json")],
     }
 
 
 GOALS = {"double-flank": 0.6, "verify": 0.5, "single-flank": 2.0, "freeform": 2.0, "two-paths-f": 1.5,
-         "two-paths-m": 1.5, "verify-two-paths": 0.5, "verify-freeform": 0.5, "verify-single-flank": 0.5}
+         "two-paths-m": 1.5, "verify-two-paths": 0.5, "verify-freeform": 0.5, "verify-single-flank": 0.5,
+         "verify-three-cones": 0.5, "verify-disc-cutter": 0.5}
 
 
 def warm_up_modules():
@@ -212,7 +226,7 @@ def main():
                 b = times[trees[1]]
                 line += (f" {min(b):8.3f} ({min(cpus[trees[1]]):6.3f} cpu) {min(b) / min(cur):5.1f}x"
                          f" ({min(cpus[trees[1]]) / min(cpus[HERE]):4.1f}x cpu)")
-            print(line + f"  {GOALS[name]:.1f}", flush=True)
+            print(line + (f"  {GOALS[name]:.1f}" if GOALS.get(name) else "  -"), flush=True)
 
 
 if __name__ == "__main__":
