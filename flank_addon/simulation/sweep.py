@@ -977,20 +977,16 @@ class _Samples:
         """(column, value) of each row's least sample, as ``np.argmin`` of the rows with +inf elsewhere picks it
         (the first of equal values; the first NaN where there is one; column 0 and +inf for a row without any)."""
         k, best = np.zeros(N, int), np.full(N, np.inf)
-        if len(self.r):
-            starts = np.flatnonzero(np.r_[True, self.r[1:] != self.r[:-1]])
-            row_min = np.minimum.reduceat(self.v, starts)             # NaN where a row has one
-            seg = np.repeat(np.arange(len(starts)), np.diff(np.r_[starts, len(self.r)]))
-            m = row_min[seg]
-            hit = np.flatnonzero((self.v == m) | (np.isnan(self.v) & np.isnan(m)))
-            first = hit[np.diff(seg[hit], prepend=-1) != 0]            # in column order: the first of each row
-            k[self.r[first]], best[self.r[first]] = self.c[first], self.v[first]
+        m = segment_min(self.v, self.r, N)[self.r]                  # each sample's row least (NaN where one is)
+        hit = np.flatnonzero((self.v == m) | (np.isnan(self.v) & np.isnan(m)))
+        first = hit[np.diff(self.r[hit], prepend=-1) != 0]          # in column order: the first of each row
+        k[self.r[first]], best[self.r[first]] = self.c[first], self.v[first]
         return k, best
 
     def rows(self, keep):
         """The samples of rows ``keep`` (sorted), renumbered 0, 1, ..."""
-        new = np.full(int(self.r.max()) + 1 if len(self.r) else 0, -1)
-        new[keep[keep < len(new)]] = np.flatnonzero(keep < len(new))
+        new = np.full(max(int(self.r.max(initial=-1)), int(np.max(keep, initial=-1))) + 1, -1)
+        new[keep] = np.arange(len(keep))
         sel = new[self.r] >= 0
         return _Samples(new[self.r[sel]], self.c[sel], self.v[sel], self.n)
 
