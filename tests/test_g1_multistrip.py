@@ -190,6 +190,39 @@ def test_a_mesh_asked_again_answers_as_a_new_one():
             assert np.array_equal(got[key], ref[key]), (step, key)
 
 
+@pytest.mark.parametrize("offset", [0.0, 1e5])
+def test_small_moves_leave_out_only_faces_that_stay_farther(offset):
+    # an optimiser's late queries: every point moves by 1e-12 .. 1e-5 (less than the gaps between the closest
+    # face and its neighbours), the faces left out by their remembered gaps are never the closest; near the
+    # origin and 1e5 sizes away from it, where rounding of the coordinates is 1e-11 of the mesh
+    S = make_surface("bump", size=1.0, resolution=24)
+    V = S.vertices + offset
+    mesh = TriangleMesh(V, S.faces)
+    rng = np.random.default_rng(11)
+    uv = S.uv[rng.choice(len(S.uv), 3000)]
+    P = S.point(uv) + offset + rng.uniform(-0.05, 0.05, len(uv))[:, None] * S.normal(uv)
+    looked = []
+    for step in (0.0, 1e-12, 1e-9, 1e-7, 1e-5, 1e-5, 1e-9, 0.0):
+        P = P + step * rng.normal(size=P.shape)
+        projected = []
+        exact = mesh._exact
+
+        def counted(points, faces):
+            projected.append(len(faces))
+            return exact(points, faces)
+
+        mesh._exact = counted
+        got = mesh.foot_points(P)
+        del mesh._exact
+        ref = TriangleMesh(V, S.faces).foot_points(P)
+        for key in ref:
+            assert np.array_equal(got[key], ref[key]), (step, key)
+        looked.append(sum(projected))
+    # and the gaps do leave faces out: after moves of at most 1e-7, fewer than 75% of the faces of the first query
+    # are projected again (90% by the plane-and-disc bound alone)
+    assert max(looked[1:4] + looked[6:]) < 0.75 * looked[0]
+
+
 def test_bad_queries_and_meshes_are_named():
     with pytest.raises(ValueError, match="vertices"):
         TriangleMesh(np.zeros((2, 3)), [[0, 1, 1]])
