@@ -263,7 +263,7 @@ class TriangleMesh:
     # ------------------------------------------------------------------ queries
     def _exact(self, P, f):
         """Closest points, barycentric coordinates and squared distances of points P (m, 3) on faces f (m,)."""
-        K = self._corner_rows[f]
+        K = self._corner_rows.take(f, axis=0)      # take: a row gather 3x faster than fancy indexing
         Q, bary = closest_on_triangles(P, K[:, 0:3], K[:, 3:6], K[:, 6:9], self._any_sliver and self._sliver[f])
         return Q, bary, ((P - Q) ** 2).sum(1)
 
@@ -292,7 +292,7 @@ class TriangleMesh:
         f = np.where(valid, cand, 0)
         at_row = np.arange(n)
         if start is None:
-            g = self._face_rows[f]
+            g = self._face_rows.take(f, axis=0)
             wx, wy, wz = P[:, 0, None] - g[..., 0], P[:, 1, None] - g[..., 1], P[:, 2, None] - g[..., 2]
             w2 = wx * wx + wy * wy + wz * wz
             w2[~valid] = np.inf
@@ -303,8 +303,8 @@ class TriangleMesh:
             look = valid & (slack <= decay)
             look[at_row, j0] = False                 # projected anyway
             li, lc = np.nonzero(look)
-            g = self._face_rows[f[li, lc]]
-            pl = P[li]
+            g = self._face_rows.take(f[li, lc], axis=0)
+            pl = P.take(li, axis=0)
             wx, wy, wz = pl[:, 0] - g[:, 0], pl[:, 1] - g[:, 1], pl[:, 2] - g[:, 2]
             w2 = wx * wx + wy * wy + wz * wz
         f0 = f[at_row, j0]
@@ -328,7 +328,8 @@ class TriangleMesh:
             slack_out[li, lc] = np.sqrt(lb2) - reach
             need = lb2 <= reach * reach
             ri, ci = li[need], lc[need]
-        Q, bary, dd = self._exact(P[ri], f[ri, ci])
+        Pr = P.take(ri, axis=0)
+        Q, bary, dd = self._exact(Pr, f[ri, ci])
         d2 = np.full((n, c), np.inf)
         d2[ri, ci] = dd
         d2[at_row, j0] = d0
@@ -336,14 +337,14 @@ class TriangleMesh:
         if len(ri):
             # a projected face's own distance is a far better bound than the plane-and-disc one: on a fine
             # mesh, the neighbours of the closest face are mostly within reach of the bound, never nearer
-            self._gap_slack(slack_out, ri, ci, f[ri, ci], dd, d2[at_row, j], P[ri])
+            self._gap_slack(slack_out, ri, ci, f[ri, ci], dd, d2[at_row, j], Pr)
         at = np.full((n, c), -1, np.int64)
         at[ri, ci] = np.arange(len(ri))
         k = at[at_row, j]
         first = k < 0                                # the row's starting face is its closest
         k = np.where(first, 0, k)
         if len(ri):
-            Qb, bb = Q[k], bary[k]
+            Qb, bb = Q.take(k, axis=0), bary.take(k, axis=0)
             Qb[first], bb[first] = Q0[first], bary0[first]
         else:
             Qb, bb = Q0, bary0
@@ -376,9 +377,9 @@ class TriangleMesh:
         tol = 1e-9
         on = bary > tol
         cnt = on.sum(1)
-        out = self.face_normals[faces].copy()
+        out = self.face_normals.take(faces, axis=0)
         border = np.zeros(len(faces), bool)
-        F = self.faces[faces]
+        F = self.faces.take(faces, axis=0)
         vtx = cnt == 1
         if vtx.any():
             c = np.argmax(bary[vtx], axis=1)
@@ -508,7 +509,7 @@ class TriangleMesh:
             memo["cand"][rows, :w] = cf
             memo["slack"][rows] = -np.inf
             # start from the nearest centroid
-            c = self.centroids[np.where(cf >= 0, cf, 0)]
+            c = self.centroids.take(np.where(cf >= 0, cf, 0), axis=0)
             w2 = ((Pf[:, None, :] - c) ** 2).sum(2)
             w2[cf < 0] = np.inf
             memo["col"][rows] = np.argmin(w2, axis=1)
