@@ -93,7 +93,7 @@ def test_pruned_candidates_give_the_closest_candidate_face():
     first = np.argmax(cand >= 0, axis=1)
     out = mesh._project(P, cand, start=first, slack=np.full(cand.shape, -np.inf), moved=np.zeros(len(P)))
     check(P, *out[2:4])
-    for step in (1e-6, 1e-3, 1e-1):
+    for step in (1e-12, 1e-9, 1e-6, 1e-3, 1e-1):
         P2 = P + step * rng.normal(size=P.shape)
         out = mesh._project(P2, cand, start=out[4], slack=out[5], moved=np.linalg.norm(P2 - P, axis=1))
         check(P2, *out[2:4])
@@ -221,6 +221,20 @@ def test_small_moves_leave_out_only_faces_that_stay_farther(offset):
     # and the gaps do leave faces out: after moves of at most 1e-7, fewer than 75% of the faces of the first query
     # are projected again (90% by the plane-and-disc bound alone)
     assert max(looked[1:4] + looked[6:]) < 0.75 * looked[0]
+
+
+def test_a_sliver_keeps_its_bound_as_slack():
+    # the face below the point is projected but farther than the face above it: a proper face's slack is its
+    # gap (0.6325 - 0.51), a sliver's (1e-6 high) the plane-and-disc bound (0.49 off its plane, 0.1 outside the
+    # disc of radius 0.5 around its centroid: 0.5001 - 0.51), as its computed distance may move by more than
+    # the point does
+    for height, slack in ((0.2, math.hypot(0.4, 0.49) - 0.51), (1e-6, math.hypot(0.49, 0.1) - 0.51)):
+        V = np.array([[0, 0, 0], [1, 0, 0], [0.5, height, 0], [0, 0, 1], [1, 0, 1], [0.5, 1, 1]], float)
+        mesh = TriangleMesh(V, np.array([[0, 1, 2], [3, 4, 5]]))
+        out = mesh._project(np.array([[0.5, 0.6, 0.49]]), np.array([[0, 1]]), start=np.array([1]),
+                            slack=np.full((1, 2), -np.inf), moved=np.zeros(1))
+        assert out[2][0] == 1 and abs(out[3][0] - 0.51 ** 2) < 1e-15
+        assert abs(out[5][0, 0] - slack) < 1e-5, (height, out[5])
 
 
 def test_bad_queries_and_meshes_are_named():
