@@ -338,6 +338,13 @@ class TriangleMesh:
             # a projected face's own distance is a far better bound than the plane-and-disc one: on a fine
             # mesh, the neighbours of the closest face are mostly within reach of the bound, never nearer
             self._gap_slack(slack_out, ri, ci, f[ri, ci], dd, d2[at_row, j], Pr)
+        if self._any_sliver:
+            # every slack is measured against the row's closest face, the next query's start; a sliver's computed
+            # distance can jump by more than the point moves (1e-10 for a move of 1e-15 on one 1e-9 high), so a
+            # row whose closest face is a sliver looks at all its candidates next time
+            slack_out[self._sliver[f[at_row, j]]] = -np.inf
+        # (a NaN slack, from distances beyond the float range, would leave its face out for good)
+        np.copyto(slack_out, -np.inf, where=np.isnan(slack_out))
         at = np.full((n, c), -1, np.int64)
         at[ri, ci] = np.arange(len(ri))
         k = at[at_row, j]
@@ -369,7 +376,7 @@ class TriangleMesh:
         own = np.sqrt(dd[keep])
         noise = 1e-12 * (self.size + self._coordinate_size + np.abs(P).max(axis=1))
         gap = own - near - 1e-6 * (own + near + 2.0 * self.face_radii[faces]) - noise
-        slack[ri, ci] = np.maximum(slack[ri, ci], gap)
+        slack[ri, ci] = np.fmax(slack[ri, ci], gap)
 
     def _pseudo_normals(self, faces, bary):
         """Pseudo-normal of the feature (face / edge / vertex) a foot point lies on, and whether that
