@@ -27,6 +27,8 @@ import threading
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .runs import ranks_in_runs
+
 FACE, EDGE, VERTEX = 0, 1, 2
 
 
@@ -557,7 +559,7 @@ class TriangleMesh:
             c = int(lens[idx].max())
             cand = np.full((len(idx), c), -1, np.int64)
             row = np.repeat(np.arange(len(idx)), lens[idx])
-            col = np.arange(len(row)) - np.repeat(np.cumsum(lens[idx]) - lens[idx], lens[idx])
+            col = ranks_in_runs(lens[idx])
             cand[row, col] = flat[np.repeat(offset[idx], lens[idx]) + col]
             Q, b, f, dd = self._project(P[idx], cand)[:4]
             better = dd < d2[idx]

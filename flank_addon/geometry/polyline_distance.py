@@ -21,26 +21,10 @@ group's best upper bound is dropped as soon as the bounds show it.
 """
 import numpy as np
 
+from .runs import run_starts, segment_min
+
 FANOUT = 8
 WINDOW_TOTAL = 32768       # most edges the h-windows of one call measure; the widest rows beyond go to the hierarchy
-
-
-def _starts(keys):
-    """Indices where runs of equal sorted keys start."""
-    if not len(keys):
-        return np.zeros(0, int)
-    out = np.flatnonzero(keys[1:] != keys[:-1])
-    out += 1
-    return np.concatenate(([0], out))
-
-
-def segment_min(values, keys, n):
-    """out[k] = min(values[keys == k]) for sorted integer keys (n,), +inf where a key has no value."""
-    out = np.full(n, np.inf)
-    if len(values):
-        starts = _starts(keys)
-        out[keys[starts]] = np.minimum.reduceat(values, starts)
-    return out
 
 
 class PolylineDistance:
@@ -121,7 +105,7 @@ class PolylineDistance:
             lb = np.maximum(np.sqrt(gx * gx + gy * gy) - fat[pc], 0.0)
             lb2 = lb * lb
             wx, wy = qx - rx[pc], qy - ry[pc]
-            starts = _starts(pr)
+            starts = run_starts(pr)
             keys = pr[starts]
             if len(pr):
                 ub2[keys] = np.minimum(ub2[keys], np.minimum.reduceat(wx * wx + wy * wy, starts))
@@ -151,7 +135,7 @@ class PolylineDistance:
         d = np.full(N, np.inf)
         edge = np.zeros(N, int)
         if len(pr):
-            starts = _starts(pr)
+            starts = run_starts(pr)
             m = np.minimum.reduceat(d2, starts)
             d[pr[starts]] = np.sqrt(m)
             hit = d2 == np.repeat(m, np.diff(np.append(starts, len(pr))))

@@ -16,6 +16,8 @@ import threading
 
 import numpy as np
 
+from .runs import ranks_in_runs
+
 
 class ProfileError(ValueError):
     """Invalid profile input; the message names the offending value."""
@@ -371,7 +373,7 @@ def segments_intersect_count(poly):
     if count.sum() == 0:
         return 0
     p = np.repeat(np.arange(n), count)
-    q = p + 1 + np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
+    q = p + 1 + ranks_in_runs(count)
     I, J = order[p], order[q]
     d = mid[I] - mid[J]
     near = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] <= reach * reach

@@ -27,7 +27,8 @@ happens only inside those windows, and points whose helix never comes within the
 of the tool cost nothing.
 """
 import numpy as np
-from ..geometry.polyline_distance import PolylineDistance, segment_min
+from ..geometry.polyline_distance import PolylineDistance
+from ..geometry.runs import ranks_in_runs, segment_argmin, segment_min
 from ..geometry.screw import hand_sign, screw_motion
 
 GOLDEN = 0.5 * (3.0 - np.sqrt(5.0))
@@ -268,7 +269,7 @@ class MeridianPart:
         live = np.flatnonzero(seg_len > 0)
         count = np.maximum(1, np.ceil(seg_len[live] / self.spacing).astype(int))
         which = np.repeat(live, count)
-        j = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+        j = ranks_in_runs(count)
         frac = j * np.repeat(1.0 / count, count)
         self.boundary = np.vstack([ring[which] + frac[:, None] * seg[which], ring[-1:]])    # open polyline
         self.polyline = PolylineDistance(self.boundary)
@@ -977,10 +978,9 @@ class _Samples:
         """(column, value) of each row's least sample, as ``np.argmin`` of the rows with +inf elsewhere picks it
         (the first of equal values; the first NaN where there is one; column 0 and +inf for a row without any)."""
         k, best = np.zeros(N, int), np.full(N, np.inf)
-        m = segment_min(self.v, self.r, N)[self.r]                  # each sample's row least (NaN where one is)
-        hit = np.flatnonzero((self.v == m) | (np.isnan(self.v) & np.isnan(m)))
-        first = hit[np.diff(self.r[hit], prepend=-1) != 0]          # in column order: the first of each row
-        k[self.r[first]], best[self.r[first]] = self.c[first], self.v[first]
+        pos = segment_argmin(self.v, self.r, N)             # the samples are in column order within a row
+        has = pos >= 0
+        k[has], best[has] = self.c[pos[has]], self.v[pos[has]]
         return k, best
 
     def rows(self, keep):
@@ -1046,7 +1046,7 @@ def _near_least_samples(tool, x, time_of, n, v0, handedness, cap=None):
         gr, gl, gh, gvl, gvh = gr[keep], gl[keep], gh[keep], gvl[keep], gvh[keep]
         # cut each gap at every stride-th sample inside it
         cuts = (gh - gl - 1) // stride
-        at = np.repeat(gl, cuts) + stride * (np.arange(int(cuts.sum())) - np.repeat(np.cumsum(cuts) - cuts, cuts) + 1)
+        at = np.repeat(gl, cuts) + stride * (ranks_in_runs(cuts) + 1)
         ri = np.repeat(gr, cuts)
         vi = measure(ri, at)
         # the finer gaps: each old gap's ends with its cuts between them, in order

@@ -51,6 +51,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...geometry.flank_feet import FlankFeet
+from ...geometry.runs import ranks_in_runs
 from ...geometry.screw import screw_to_plane
 
 VARIANTS = ("min", "avg", "one-sided-1", "one-sided-2")
@@ -672,7 +673,7 @@ def _graded_polyline(P, ratio=1.1):
     # split every segment into pieces no longer than its graded target spacing
     k = np.maximum(np.ceil(seg / sig - 1e-9).astype(int), 1)
     start = np.repeat(L[:-1], k)
-    frac = np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k)
+    frac = ranks_in_runs(k)
     pos = np.r_[start + frac * np.repeat(seg / k, k), L[-1]]
     out = np.c_[np.interp(pos, L, P[:, 0]), np.interp(pos, L, P[:, 1])]
     keep = np.r_[True, np.diff(out[:, 0]) > 0]
@@ -710,7 +711,7 @@ def _refine_samples(s, r_of, tol, n_max=60000):
     scale = min(1.0, n_max / max(int(k.sum()), 1))
     k = np.maximum((k * scale).astype(int), 1)
     ds = np.diff(s)
-    frac = np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k)
+    frac = ranks_in_runs(k)
     return np.r_[np.repeat(s[:-1], k) + frac * np.repeat(ds / k, k), s[-1]]
 
 

@@ -51,6 +51,7 @@ from . import guiding as _guiding
 from .initial_rulings import initial_rulings
 from ...collector import collector_paused
 from ...geometry.mesh_distance import TriangleMesh
+from ...geometry.runs import segment_argmin
 from ...io.json_pieces import lists_to_array, rows_to_tuples
 from ...progress import reporter, substage
 
@@ -1044,13 +1045,10 @@ def _least_in_balls(P, C, Rr, lists, k, out, idx, chunk=1_000_000):
         counts = lens[rows]
         cand = np.fromiter(itertools.chain.from_iterable(lists[n] for n in rows), np.int64, int(counts.sum()))
         v = np.linalg.norm(C[cand] - P[np.repeat(rows, counts)], axis=1) - Rr[cand]
-        starts = np.r_[0, np.cumsum(counts)[:-1]]
-        least = np.minimum.reduceat(v, starts)
-        seg = np.repeat(np.arange(len(rows)), counts)
-        at = np.flatnonzero(v == least[seg])                     # NaN rows have none: they are left alone
-        first = at[np.diff(seg[at], prepend=-1) != 0]           # each segment's first position of its least
-        pick = first[v[first] < out[rows[seg[first]]]]
-        out[rows[seg[pick]]], idx[rows[seg[pick]]] = v[pick], cand[pick]
+        # each row's first least (a row with a NaN picks it, and NaN is never below out: left alone)
+        first = segment_argmin(v, np.repeat(np.arange(len(rows)), counts), len(rows))
+        lower = v[first] < out[rows]
+        out[rows[lower]], idx[rows[lower]] = v[first[lower]], cand[first[lower]]
         lo = hi
 
 
