@@ -330,8 +330,8 @@ class TriangleMesh:
             slack_out[li, lc] = np.sqrt(lb2) - reach
             need = lb2 <= reach * reach
             ri, ci = li[need], lc[need]
-        Pr = P.take(ri, axis=0)
-        Q, bary, dd = self._exact(Pr, f[ri, ci])
+        Pr, fr = P.take(ri, axis=0), f[ri, ci]
+        Q, bary, dd = self._exact(Pr, fr)
         d2 = np.full((n, c), np.inf)
         d2[ri, ci] = dd
         d2[at_row, j0] = d0
@@ -339,7 +339,7 @@ class TriangleMesh:
         if len(ri):
             # a projected face's own distance is a far better bound than the plane-and-disc one: on a fine
             # mesh, the neighbours of the closest face are mostly within reach of the bound, never nearer
-            self._gap_slack(slack_out, ri, ci, f[ri, ci], dd, d2[at_row, j], Pr)
+            self._gap_slack(slack_out, ri, ci, fr, dd, d2[at_row, j], Pr)
         if self._any_sliver:
             # every slack is measured against the row's closest face, the next query's start; a sliver's computed
             # distance can jump by more than the point moves (1e-10 for a move of 1e-15 on one 1e-9 high), so a
