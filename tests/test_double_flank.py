@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 
 from flank_addon.cli import main
-from flank_addon.methods.double_flank.planner import (AxisEvaluator, Valley, build_path, optimize_axis, phi_value,
-                                      plan_double_flank, radial_function, write_tool_csv)
+from flank_addon.methods.double_flank.planner import (AxisEvaluator, Valley, bisect_brackets, build_path,
+                                      optimize_axis, phi_value, plan_double_flank, radial_function,
+                                      write_tool_csv)
 from flank_addon.io.plan import read_plan
 from flank_addon.geometry.screw import screw_motion, screw_to_plane
 from flank_addon.simulation.verify import verify_plan
@@ -156,6 +157,56 @@ def test_radial_function_variants():
     assert radial_function(r, c, "min", cap=np.full(4, 2.5)).tolist() == [1.0, 1.0, 2.5, 2.5]
     with pytest.raises(ValueError, match="variant 'max'"):
         radial_function(r, c, "max")
+
+
+def _plain_bisection(inside_at, inside, outside, tol, max_steps=60):
+    calls = 0
+    for _ in range(max_steps):
+        m = 0.5 * (inside + outside)
+        calls += 1
+        if inside_at(np.array([m]))[0]:
+            inside = m
+        else:
+            outside = m
+        if abs(inside - outside) < tol:
+            break
+    return inside, calls
+
+
+@pytest.mark.parametrize("levels", [1, 3, 5])
+def test_batched_bisection_ends_where_the_plain_loop_does(levels):
+    """bisect_brackets asks for several halvings per call; its ends must be the plain loop's bit for bit, on
+    predicates with one change, several changes inside the bracket, brackets either way round, a tolerance
+    the halvings cannot reach (the step cap) and a bracket already below the tolerance."""
+    rng = np.random.default_rng(7)
+    for case in range(60):
+        edges = np.sort(rng.uniform(0, 1, rng.integers(1, 6)))
+
+        def inside_at(t, edges=edges):
+            return (np.searchsorted(edges, t) % 2 == 0) if case % 2 else (np.searchsorted(edges, t) % 2 == 1)
+
+        brackets = []
+        for _ in range(rng.integers(1, 4)):
+            a, b = rng.uniform(-0.2, 1.2, 2)
+            if inside_at(np.array([a]))[0] == inside_at(np.array([b]))[0]:
+                continue
+            if not inside_at(np.array([a]))[0]:
+                a, b = b, a
+            brackets.append((a, b))
+        tol = [1e-12, 1e-3, 0.0, 10.0][case % 4]
+        calls = []
+
+        def counted(t):
+            calls.append(len(t))
+            return inside_at(t)
+
+        got = bisect_brackets(counted, brackets, tol, levels=levels)
+        want = [_plain_bisection(inside_at, a, b, tol) for a, b in brackets]
+        assert got == [w for w, _ in want]
+        if brackets:
+            halvings = max(n for _, n in want)
+            assert len(calls) == -(-halvings // levels)        # one call per `levels` halvings
+            assert max(calls) <= len(brackets) * (2 ** levels - 1)
 
 
 @pytest.fixture(scope="module")
