@@ -1,11 +1,14 @@
 """Mesh -> rotor analysis on built-in rotors in random placements, plus rejection of non-helical meshes."""
 import zlib
 
+from scipy.spatial import cKDTree
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from flank_addon.geometry.rotor_analysis import NotHelicalError, analyze_mesh
+from flank_addon.geometry.rotor_analysis import (NotHelicalError, _order_along, _weld, _within_of_polyline, analyze_mesh,
+                                                 vertex_normals, weld_mesh)
 from flank_addon.geometry.rotors import builtin_by_name
 from helpers import cad_like, irregular_mesh, profile_hausdorff
 
@@ -206,3 +209,78 @@ def test_unwelded_duplicated_and_finned_meshes_analyse_like_the_clean_rotor():
         assert got.v0 == pytest.approx(clean.v0, rel=1e-9), name
         assert np.allclose(got.to_world, clean.to_world, atol=1e-9), name
         assert got.residual == pytest.approx(clean.residual, rel=1e-6, abs=1e-12), name
+
+
+def test_weld_counts_edges_of_more_than_two_faces_as_a_brute_force_count():
+    """weld_mesh against the plain definitions: unique vertex rows, faces without a repeated vertex or area
+    kept, every undirected edge counted over the kept faces; on random soups with repeated vertices, repeated
+    and collapsed faces and edges of up to six faces.  Vertex normals from the weld's cross products equal
+    those computed afresh."""
+    rng = np.random.default_rng(3)
+    for case in range(40):
+        grid = rng.integers(0, 4, (rng.integers(4, 40), 3)).astype(float)
+        v = grid[rng.integers(0, len(grid), rng.integers(4, 60))]          # exact duplicates
+        f = rng.integers(0, len(v), (rng.integers(1, 80), 3))
+        f = np.vstack([f, f[: rng.integers(0, 5)]])                           # repeated faces
+        if case % 3 == 0:
+            f[::7, 2] = f[::7, 0]                                              # collapsed faces
+        wv, wf, repairs = weld_mesh(v, f)
+        ref_v, inv = np.unique(v, axis=0, return_inverse=True)
+        ref_f = inv.reshape(-1)[f]
+        area = np.linalg.norm(np.cross(ref_v[ref_f[:, 1]] - ref_v[ref_f[:, 0]],
+                                       ref_v[ref_f[:, 2]] - ref_v[ref_f[:, 0]]), axis=1)
+        keep = (ref_f[:, 0] != ref_f[:, 1]) & (ref_f[:, 1] != ref_f[:, 2]) & (ref_f[:, 0] != ref_f[:, 2]) & (area > 0)
+        count = {}
+        for tri in ref_f[keep]:
+            for i, j in ((0, 1), (1, 2), (2, 0)):
+                e = (min(tri[i], tri[j]), max(tri[i], tri[j]))
+                count[e] = count.get(e, 0) + 1
+        assert np.array_equal(wv, ref_v) and np.array_equal(wf, ref_f[keep])
+        assert repairs == {"merged_vertices": len(v) - len(ref_v), "dropped_faces": int((~keep).sum()),
+                           "nonmanifold_edges": sum(c > 2 for c in count.values())}
+        if len(wf):
+            shared = vertex_normals(wv, wf, _weld(v, f)[3])
+            fresh = vertex_normals(wv, wf)
+            assert all(np.array_equal(a, b) for a, b in zip(shared, fresh))
+
+
+def _projections_onto_all_candidates(loop, pts):
+    """The projection of every point onto each of the 8 segments whose midpoints are nearest, the nearest
+    kept (the first on a tie): what the analysis' ordering along a profile means, without shortcuts."""
+    seg = np.roll(loop, -1, axis=0) - loop
+    L = np.linalg.norm(seg, axis=1)
+    cum = np.r_[0.0, np.cumsum(L)]
+    _, cand = cKDTree(0.5 * (loop + np.roll(loop, -1, axis=0))).query(pts, k=min(8, len(loop)))
+    cand = cand.reshape(len(pts), -1)
+    best_d, best_s = np.full(len(pts), np.inf), np.zeros(len(pts))
+    for j in range(cand.shape[1]):
+        i = cand[:, j]
+        t = np.clip(np.einsum("ij,ij->i", pts - loop[i], seg[i]) / np.maximum(L[i] ** 2, 1e-300), 0, 1)
+        d = np.linalg.norm(pts - (loop[i] + t[:, None] * seg[i]), axis=1)
+        better = d < best_d
+        best_d[better], best_s[better] = d[better], cum[i[better]] + t[better] * L[i[better]]
+    return best_s, cum[-1], best_d
+
+
+def test_ordering_along_a_profile_skips_only_candidates_that_cannot_win():
+    """_order_along leaves out the candidate segments whose midpoints are too far to win, and
+    _within_of_polyline stops at the first candidate within the tolerance: both must answer as the
+    projection onto all candidates, bit for bit; on fine and coarse closed polylines at scales 1e-3 to 1e3,
+    with repeated vertices (segments of no length), points on, near and far from them."""
+    rng = np.random.default_rng(5)
+    for case in range(40):
+        n = int(rng.integers(3, 3000))
+        th = np.sort(rng.uniform(0, 2 * np.pi, n))
+        r = 1 + 0.3 * np.sin(rng.integers(1, 6) * th)
+        loop = np.c_[r * np.cos(th), r * np.sin(th)] * 10 ** rng.uniform(-3, 3)
+        if case % 5 == 0:
+            loop[rng.integers(0, n)] = loop[rng.integers(0, n)]
+        m = int(rng.integers(1, 5000))
+        pts = loop[rng.integers(0, n, m)] * (1 + rng.normal(0, 10 ** rng.uniform(-9, -1), (m, 1)))
+        if case % 3 == 0:
+            pts += rng.normal(0, 1e-3, (m, 2)) * np.abs(loop).max()
+        want = _projections_onto_all_candidates(loop, pts)
+        got = _order_along(loop, pts)
+        assert np.array_equal(got[0], want[0]) and got[1] == want[1] and np.array_equal(got[2], want[2])
+        for tol in (0.0, float(np.median(want[2])), float(want[2].max())):
+            assert np.array_equal(_within_of_polyline(loop, pts, tol), want[2] <= tol)

@@ -159,28 +159,37 @@ def weld_mesh(verts, faces):
 
     verts (N, 3), faces (M, 3) -> (verts (N', 3), faces (M', 3), repairs dict with
     ``merged_vertices``, ``dropped_faces`` and ``nonmanifold_edges``)."""
+    return _weld(verts, faces)[:3]
+
+
+def _weld(verts, faces):
+    """:func:`weld_mesh`, and the kept faces' edge cross products (for :func:`vertex_normals`)."""
     v, inverse = unique_rows(verts)
     f = inverse.reshape(-1)[faces]
     cr = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
     keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2]) & (np.linalg.norm(cr, axis=1) > 0)
-    f = f[keep]
-    e = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
-    _, counts = np.unique(e[:, 0] * np.int64(len(v)) + e[:, 1], return_counts=True)      # one key per edge
+    if not keep.all():
+        f, cr = f[keep], cr[keep]
+    a, b = f.T, np.roll(f, -1, axis=1).T          # the edges (0, 1), (1, 2), (2, 0) of every face
+    edges = np.sort(np.minimum(a, b).ravel() * np.int64(len(v)) + np.maximum(a, b).ravel())   # one key per edge
+    # an edge of more than two faces: a key equal to the one two places on; counted once per edge
+    crowded = edges[2:][edges[2:] == edges[:-2]]
+    nonmanifold = int(np.count_nonzero(crowded[1:] != crowded[:-1]) + (len(crowded) > 0))
     return v, f, {"merged_vertices": int(len(verts) - len(v)), "dropped_faces": int((~keep).sum()),
-                  "nonmanifold_edges": int((counts > 2).sum())}
+                  "nonmanifold_edges": nonmanifold}, cr
 
 
-def vertex_normals(verts, faces):
+def vertex_normals(verts, faces, face_cross=None):
     """Area-weighted vertex normals and vertex areas (a third of the incident triangle areas).
 
     A vertex sits symmetrically inside its fan of triangles, so chord
     errors of long triangles cancel to first order; face normals at
     centroids would bias the pitch by ~0.1 % on meshes with coarse axial
-    rings.
+    rings.  ``face_cross``: the faces' edge cross products, where the caller has them.
     """
     v = np.asarray(verts, float)
     f = np.asarray(faces, int)
-    cr = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    cr = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]) if face_cross is None else face_cross
     area = np.linalg.norm(cr, axis=1) / 2
     idx = f.ravel()
     n = len(v)
@@ -193,16 +202,18 @@ def vertex_normals(verts, faces):
     return vn, va
 
 
-def fit_screw_motion(points, normals, weights):
+def fit_screw_motion(points, normals, weights, moments=None):
     """Weighted least-squares screw motion tangent to the given surface elements.
 
     Returns (d, axis_point, k, eigenvalues) with |d| = 1 and k the signed
-    advance per radian; points are assumed centred and scaled to ~1.
+    advance per radian; points are assumed centred and scaled to ~1.  ``moments``:
+    ``np.cross(points, normals)``, where the caller fits the same elements again with other weights.
     """
-    m = np.cross(points, normals)
+    m = np.cross(points, normals) if moments is None else moments
     w = weights / weights.sum()
-    Mnn = (normals * w[:, None]).T @ normals
-    Mnm = (normals * w[:, None]).T @ m
+    nw = normals * w[:, None]
+    Mnn = nw.T @ normals
+    Mnm = nw.T @ m
     Mmm = (m * w[:, None]).T @ m
     S = Mmm - Mnm.T @ np.linalg.pinv(Mnn) @ Mnm
     evals, evecs = np.linalg.eigh(S)
@@ -220,19 +231,18 @@ def slice_loops(verts, faces, origin, normal):
     s = (v - origin) @ normal
     s = np.where(s == 0, 1e-30, s)  # keep vertices off the plane
     sf = s[f]
-    cross = (np.sign(sf).sum(axis=1) != 3) & (np.sign(sf).sum(axis=1) != -3)
-    fc = f[cross]
-    seg_keys = []
+    signs = np.sign(sf).sum(axis=1)
+    fc = f[(signs != 3) & (signs != -3)]
+    seg_keys, hits = [], []
     for e0, e1 in ((0, 1), (1, 2), (2, 0)):
         a, b = fc[:, e0], fc[:, e1]
-        hit = np.sign(s[a]) != np.sign(s[b])
-        seg_keys.append(np.where(hit[:, None], np.sort(np.stack([a, b], 1), axis=1), -1))
-    keys = np.stack(seg_keys, 1)  # (F, 3 edges, 2)
-    pairs = []
-    for row in keys:
-        ks = [tuple(k) for k in row if k[0] >= 0]
-        if len(ks) == 2:
-            pairs.append(ks)
+        hits.append(np.sign(s[a]) != np.sign(s[b]))
+        seg_keys.append(np.sort(np.stack([a, b], 1), axis=1))
+    keys, hit = np.stack(seg_keys, 1), np.stack(hits, 1)  # (F, 3 edges, 2), (F, 3 edges)
+    # a face the plane crosses has two cut edges: each face's pair of them, in edge order
+    two = np.flatnonzero(hit.sum(axis=1) == 2)
+    first, second = np.argmax(hit[two], axis=1), 2 - np.argmax(hit[two, ::-1], axis=1)
+    pairs = zip(map(tuple, keys[two, first].tolist()), map(tuple, keys[two, second].tolist()))
     adj = {}
     for a, b in pairs:
         adj.setdefault(a, []).append(b)
@@ -270,28 +280,67 @@ def _frame(d, origin):
     return T
 
 
-def _order_along(loop2d, pts2d):
-    """Arc-length parameter of each point's projection onto a closed polyline."""
+def _candidate_segments(loop2d, pts2d):
+    """The segments (start a, vector, length) of a closed polyline and, per point, the 8 (or fewer) whose
+    midpoints are nearest, with the distances to those midpoints: the candidates of its projection."""
     a = loop2d
     b = np.roll(loop2d, -1, axis=0)
     seg = b - a
     L = np.linalg.norm(seg, axis=1)
-    cum = np.concatenate([[0.0], np.cumsum(L)])
-    mids = 0.5 * (a + b)
-    tree = cKDTree(mids)
+    tree = cKDTree(0.5 * (a + b))
     k = min(8, len(a))
-    _, cand = tree.query(pts2d, k=k, workers=-1 if len(pts2d) >= 4096 else 1)
+    mid_d, cand = tree.query(pts2d, k=k, workers=-1 if len(pts2d) >= 4096 else 1)
+    return a, seg, L, cand.reshape(len(pts2d), k), mid_d.reshape(len(pts2d), k)
+
+
+def _projection(a, seg, L, i, pts2d):
+    """(t, distance) of each point's projection onto its segment i (t in [0, 1] along it)."""
+    t = np.clip(np.einsum("ij,ij->i", pts2d - a[i], seg[i]) / np.maximum(L[i] ** 2, 1e-300), 0, 1)
+    proj = a[i] + t[:, None] * seg[i]
+    return t, np.linalg.norm(pts2d - proj, axis=1)
+
+
+def _order_along(loop2d, pts2d):
+    """Arc-length parameter of each point's projection onto a closed polyline (and the polyline's length,
+    and each point's distance): the nearest projection onto the 8 segments whose midpoints are nearest.
+
+    A segment lies within half its length of its midpoint, so a candidate whose midpoint is farther than
+    that beyond the nearest projection so far cannot win; it is not projected (on a fine polyline most
+    points need two or three projections, not eight).  The answer is the same: the margin covers the
+    rounding of both distances many times over."""
+    a, seg, L, cand, mid_d = _candidate_segments(loop2d, pts2d)
+    cum = np.concatenate([[0.0], np.cumsum(L)])
     best_d = np.full(len(pts2d), np.inf)
     best_s = np.zeros(len(pts2d))
-    for j in range(k):
-        i = cand[:, j]
-        t = np.clip(np.einsum("ij,ij->i", pts2d - a[i], seg[i]) / np.maximum(L[i] ** 2, 1e-300), 0, 1)
-        proj = a[i] + t[:, None] * seg[i]
-        dist = np.linalg.norm(pts2d - proj, axis=1)
-        better = dist < best_d
-        best_d[better] = dist[better]
-        best_s[better] = cum[i[better]] + t[better] * L[i[better]]
+    margin = 1e-12 * (float(np.max(np.abs(pts2d), initial=0.0)) + float(np.max(np.abs(a), initial=0.0)))
+    rows = np.arange(len(pts2d))
+    for j in range(cand.shape[1]):
+        if j:
+            rows = np.flatnonzero(mid_d[:, j] - 0.5 * L[cand[:, j]] <= best_d + margin)
+        i = cand[rows, j]
+        t, dist = _projection(a, seg, L, i, pts2d[rows])
+        better = dist < best_d[rows]
+        won = rows[better]
+        best_d[won] = dist[better]
+        best_s[won] = cum[i[better]] + t[better] * L[i[better]]
     return best_s, cum[-1], best_d
+
+
+def _within_of_polyline(loop2d, pts2d, tol):
+    """``_order_along(loop2d, pts2d)[2] <= tol``, the same answer for every point, about twice as fast: that
+    distance is the least over the candidate segments, so a point within ``tol`` of its nearest candidate
+    needs no other; only the rest go through all of them."""
+    a, seg, L, cand, _ = _candidate_segments(loop2d, pts2d)
+    _, d0 = _projection(a, seg, L, cand[:, 0], pts2d)
+    within = d0 <= tol
+    rest = np.flatnonzero(~within)
+    if len(rest):
+        best = np.full(len(rest), np.inf)
+        for j in range(cand.shape[1]):
+            _, dist = _projection(a, seg, L, cand[rest, j], pts2d[rest])
+            best = np.where(dist < best, dist, best)
+        within[rest] = best <= tol
+    return within
 
 
 def prominent_peaks(x, min_prominence):
@@ -348,7 +397,7 @@ def _refine_pitch(spline, verts_level, v0, hand, outer, n_use=20000):
     tree = cKDTree(poly)
 
     def cost(x):
-        d, _ = tree.query(screw_to_plane(pts, x, hand))
+        d, _ = tree.query(screw_to_plane(pts, x, hand), workers=-1 if len(pts) >= 4096 else 1)
         return float(np.mean(np.minimum(d, 0.01 * outer) ** 2))
 
     res = minimize_scalar(cost, bounds=(v0 * (1 - 2e-3), v0 * (1 + 2e-3)), method="bounded",
@@ -402,8 +451,7 @@ def body_extent(profile, points, v0, hand, interior, tol):
     inside it (a shaft vertex that happens to lie on the surface further out does not extend the body)."""
     p = np.asarray(points, float)
     poly = profile.sample(max(20000, 8 * len(profile.points)))
-    _, _, dist = _order_along(poly, screw_to_plane(p, v0, hand))
-    z = np.sort(p[dist <= tol, 2])
+    z = np.sort(p[_within_of_polyline(poly, screw_to_plane(p, v0, hand), tol), 2])
     lo, hi = float(interior[0]), float(interior[1])
     inside = z[(z >= lo) & (z <= hi)]
     gap = 3.0 * float(np.max(np.diff(inside))) if len(inside) > 1 else 0.0
@@ -642,11 +690,11 @@ def _analyze_mesh(verts, faces, n_profile, threshold, progress=None):
     if faces.min() < 0 or faces.max() >= len(verts):
         raise NotHelicalError(f"face indices must lie in 0 .. {len(verts) - 1}, got {faces.min()} .. {faces.max()}")
     report(0.0, "welding the mesh")
-    verts, faces, repairs = weld_mesh(verts, faces)
+    verts, faces, repairs, face_cross = _weld(verts, faces)
     if len(faces) < 4:
         raise NotHelicalError(f"mesh has {len(faces)} triangles with an area after welding; at least 4 are needed")
     report(0.15, "vertex normals")
-    normals, areas = vertex_normals(verts, faces)
+    normals, areas = vertex_normals(verts, faces, face_cross)
     if areas.sum() <= 0:
         raise NotHelicalError("mesh has no area")
     centre = np.average(verts, axis=0, weights=areas)
@@ -661,16 +709,18 @@ def _analyze_mesh(verts, faces, n_profile, threshold, progress=None):
         return np.abs(np.einsum("ij,ij->i", vel, normals)) / np.maximum(speed, 1e-300)
 
     # robust start: iteratively reweighted (Cauchy) so end faces cannot drag the first fit
+    moments = np.cross(P, normals)
+    Pv, nv, mv = P[valid], normals[valid], moments[valid]
     for it in range(12):
         report(0.2 + 0.02 * it, "screw motion")
-        d, a, k, evals = fit_screw_motion(P[valid], normals[valid], weights[valid])
+        d, a, k, evals = fit_screw_motion(Pv, nv, weights[valid], mv)
         rel = residuals(d, a, k)
         sigma = max(float(np.median(rel[valid])), 1e-9)
         weights = areas / (1.0 + (rel / sigma) ** 2)
     keep = valid & (rel <= max(10 * sigma, 1e-6))
     for _ in range(8):
         report(0.44, "screw motion, trimmed")
-        d, a, k, evals = fit_screw_motion(P[keep], normals[keep], areas[keep])
+        d, a, k, evals = fit_screw_motion(P[keep], normals[keep], areas[keep], moments[keep])
         rel = residuals(d, a, k)
         med = float(np.median(rel[keep]))
         new_keep = valid & (rel <= max(10 * med, 1e-6))

@@ -14,6 +14,9 @@ def unique_rows(a, return_counts=False):
     if n == 0:
         out = (a.copy(), np.zeros(0, np.intp))
         return out + (np.zeros(0, np.intp),) if return_counts else out
+    if _increasing_rows(a):          # already unique and in order (an STL file's vertices as read): no sort
+        out = (a.copy(), np.arange(n))
+        return out + (np.ones(n, np.intp),) if return_counts else out
     order = np.lexsort(a.T[::-1])
     s = a[order]
     first = np.empty(n, bool)
@@ -26,6 +29,19 @@ def unique_rows(a, return_counts=False):
     if return_counts:
         out += (np.diff(np.r_[np.flatnonzero(first), n]),)
     return out
+
+
+def _increasing_rows(a):
+    """Every row of a (N, k) lexicographically greater than the one before (so no two are equal); False
+    where a NaN is in the way."""
+    before, after = a[:-1], a[1:]
+    greater = np.zeros(len(after), bool)
+    tied = np.ones(len(after), bool)
+    for c in range(a.shape[1]):
+        x, y = before[:, c], after[:, c]
+        greater |= tied & (y > x)
+        tied &= y == x
+    return bool(greater.all())
 
 
 def unique_float32_triples(a32):
