@@ -26,6 +26,8 @@ Operations (goals in brackets):
   disc-cutter    cutter --builtin nilson-male --scale 100 --center-distance 180 --swivel 20 --plan-out (the
                  formed disc cutter as a plan, in mm)                                             [-]
   verify-three-cones, verify-disc-cutter   verify of those two plans                            [0.5 s]
+  analyze        analyze of the 349k-triangle rotor mesh: the reading and analysis that open the single-flank
+                 mesh plan, without its planning noise                                            [-]
 """
 import argparse
 import json
@@ -139,6 +141,7 @@ def operations(d, info):
                         "--swivel", "20", "--out", str(d / "cutter.csv"),
                         "--plan-out", str(d / HERE.name / "disc.json")],
         "verify-three-cones": ["verify", str(d / HERE.name / "c3.json")],
+        "analyze": ["analyze", str(d / "rotor.stl")],
         "verify-disc-cutter": ["verify", str(d / HERE.name / "disc.json")],
     }
 
