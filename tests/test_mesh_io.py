@@ -116,19 +116,36 @@ def test_binary_ply_truncated(tmp_path):
         read_mesh(p)
 
 
-def test_float32_merge_equals_the_general_unique_rows():
+@pytest.mark.parametrize("kind", ["pool", "mesh", "columns"])
+def test_float32_merge_equals_the_general_unique_rows(kind):
     """A binary STL's vertices are merged by an integer sort of their float32 bits; the rows, their order and
     the inverse must be those of the general lexicographic unique (signs, zeros of both signs, denormals,
-    huge and tiny values, rows equal in x and y only)."""
+    huge and tiny values, rows equal in x and y only).  "pool": rows equal in x and y come with z out of
+    order, so the sort must look at z too; "mesh": every vertex repeated, none shares x and y with
+    another, so the sort by x and y alone is the answer; "columns": rows share x and y but come in z order,
+    so it is still the answer."""
+    from unittest import mock
+
     from flank_addon.geometry.rows import unique_float32_triples, unique_rows
 
     rng = np.random.default_rng(5)
-    pool = np.array([0.0, -0.0, 1.0, -1.0, 1e-40, -1e-40, 3.4e38, -3.4e38, 1e-3, -1e-3, 2.5, -2.5], np.float32)
-    a = np.concatenate([rng.choice(pool, (3000, 3)),
-                        rng.normal(scale=50.0, size=(2000, 3)).astype(np.float32)])
-    a = np.concatenate([a, a[rng.integers(0, len(a), 2000)]])[rng.permutation(7000)]
-    u, inv = unique_float32_triples(a)
+    if kind == "pool":
+        pool = np.array([0.0, -0.0, 1.0, -1.0, 1e-40, -1e-40, 3.4e38, -3.4e38, 1e-3, -1e-3, 2.5, -2.5], np.float32)
+        a = np.concatenate([rng.choice(pool, (3000, 3)),
+                            rng.normal(scale=50.0, size=(2000, 3)).astype(np.float32)])
+        a = np.concatenate([a, a[rng.integers(0, len(a), 2000)]])[rng.permutation(7000)]
+    elif kind == "mesh":
+        v = rng.normal(scale=50.0, size=(1500, 3)).astype(np.float32)
+        v[::10] *= -0.0
+        a = v[rng.integers(0, len(v), 9000)]
+    else:
+        xy = rng.normal(size=(300, 2)).astype(np.float32)
+        z = (np.arange(4000) // 3 * 0.5 - 300).astype(np.float32)        # never falls along the rows
+        a = np.c_[xy[rng.integers(0, 300, 4000)], z]      # rows sharing x and y, and repeated ones (z in threes)
     u_ref, inv_ref = unique_rows(a.astype(np.float64))
+    with mock.patch.object(np, "lexsort", wraps=np.lexsort) as lexsort:
+        u, inv = unique_float32_triples(a)
+    assert lexsort.call_count == (1 if kind == "pool" else 0)
     assert u.dtype == np.float64
     assert np.array_equal(u, u_ref) and np.array_equal(np.signbit(u), np.signbit(u_ref))
     assert np.array_equal(inv, inv_ref)
