@@ -166,17 +166,30 @@ def _weld(verts, faces):
     """:func:`weld_mesh`, and the kept faces' edge cross products (for :func:`vertex_normals`)."""
     v, inverse = unique_rows(verts)
     f = inverse.reshape(-1)[faces]
-    cr = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    cr = _face_cross(v, f)
     keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2]) & (np.linalg.norm(cr, axis=1) > 0)
     if not keep.all():
         f, cr = f[keep], cr[keep]
-    a, b = f.T, np.roll(f, -1, axis=1).T          # the edges (0, 1), (1, 2), (2, 0) of every face
-    edges = np.sort(np.minimum(a, b).ravel() * np.int64(len(v)) + np.maximum(a, b).ravel())   # one key per edge
+    a = np.ascontiguousarray(f.T)
+    b = np.roll(a, -1, axis=0)                    # the edges (0, 1), (1, 2), (2, 0) of every face
+    edges = np.sort((np.minimum(a, b) * np.int64(len(v)) + np.maximum(a, b)).ravel(), kind="stable")  # a key each
     # an edge of more than two faces: a key equal to the one two places on; counted once per edge
     crowded = edges[2:][edges[2:] == edges[:-2]]
     nonmanifold = int(np.count_nonzero(crowded[1:] != crowded[:-1]) + (len(crowded) > 0))
     return v, f, {"merged_vertices": int(len(verts) - len(v)), "dropped_faces": int((~keep).sum()),
                   "nonmanifold_edges": nonmanifold}, cr
+
+
+def _face_cross(v, f):
+    """(p1 - p0) x (p2 - p0) of every face: what ``np.cross`` gives, bit for bit (the same products and
+    differences), with the corners gathered by ``take`` (about 4x faster for a million triangles)."""
+    p0 = v.take(f[:, 0], axis=0)
+    a, b = v.take(f[:, 1], axis=0) - p0, v.take(f[:, 2], axis=0) - p0
+    out = np.empty_like(a)
+    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    return out
 
 
 def vertex_normals(verts, faces, face_cross=None):
@@ -189,7 +202,7 @@ def vertex_normals(verts, faces, face_cross=None):
     """
     v = np.asarray(verts, float)
     f = np.asarray(faces, int)
-    cr = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]) if face_cross is None else face_cross
+    cr = _face_cross(v, f) if face_cross is None else face_cross
     area = np.linalg.norm(cr, axis=1) / 2
     idx = f.ravel()
     n = len(v)
