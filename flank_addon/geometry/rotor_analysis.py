@@ -325,20 +325,19 @@ def _projection(a, seg, L, i, pts2d):
     return t, np.linalg.norm(pts2d - proj, axis=1)
 
 
-def _order_along(loop2d, pts2d):
-    """Arc-length parameter of each point's projection onto a closed polyline (and the polyline's length,
-    and each point's distance): the nearest projection onto the 8 segments whose midpoints are nearest.
+def _nearest_projection(a, seg, L, cand, mid_d, pts2d):
+    """(distance, segment, t) of each point's nearest projection onto its candidate segments (the first of the
+    nearest on a tie, in the candidates' order).
 
     A segment lies within half its length of its midpoint, so a candidate whose midpoint is farther than
     that beyond the nearest projection so far cannot win; it is not projected (on a fine polyline most
-    points need two or three projections, not eight).  The answer is the same: the margin covers the
-    rounding of both distances many times over."""
-    a, seg, L, cand, mid_d = _candidate_segments(loop2d, pts2d)
-    cum = np.concatenate([[0.0], np.cumsum(L)])
-    best_d = np.full(len(pts2d), np.inf)
-    best_s = np.zeros(len(pts2d))
-    margin = 1e-12 * (float(np.max(np.abs(pts2d), initial=0.0)) + float(np.max(np.abs(a), initial=0.0)))
-    rows = np.arange(len(pts2d))
+    points need two or three projections, not eight).  The answer is the same: the margin, 1e-12 of the
+    coordinates, covers the rounding of both distances many times over."""
+    n = len(pts2d)
+    best_d, best_i, best_t = np.full(n, np.inf), np.zeros(n, np.intp), np.zeros(n)
+    margin = 1e-12 * (float(np.fmax.reduce(np.abs(pts2d), axis=None, initial=0.0))
+                      + float(np.fmax.reduce(np.abs(a), axis=None, initial=0.0)))
+    rows = np.arange(n)
     for j in range(cand.shape[1]):
         if j:
             rows = np.flatnonzero(mid_d[:, j] - 0.5 * L[cand[:, j]] <= best_d + margin)
@@ -346,8 +345,17 @@ def _order_along(loop2d, pts2d):
         t, dist = _projection(a, seg, L, i, pts2d[rows])
         better = dist < best_d[rows]
         won = rows[better]
-        best_d[won] = dist[better]
-        best_s[won] = cum[i[better]] + t[better] * L[i[better]]
+        best_d[won], best_i[won], best_t[won] = dist[better], i[better], t[better]
+    return best_d, best_i, best_t
+
+
+def _order_along(loop2d, pts2d):
+    """Arc-length parameter of each point's projection onto a closed polyline (and the polyline's length,
+    and each point's distance): the nearest projection onto the 8 segments whose midpoints are nearest."""
+    a, seg, L, cand, mid_d = _candidate_segments(loop2d, pts2d)
+    cum = np.concatenate([[0.0], np.cumsum(L)])
+    best_d, i, t = _nearest_projection(a, seg, L, cand, mid_d, pts2d)
+    best_s = np.where(np.isfinite(best_d), cum[i] + t * L[i], 0.0)
     return best_s, cum[-1], best_d
 
 
@@ -355,16 +363,12 @@ def _within_of_polyline(loop2d, pts2d, tol):
     """``_order_along(loop2d, pts2d)[2] <= tol``, the same answer for every point, about twice as fast: that
     distance is the least over the candidate segments, so a point within ``tol`` of its nearest candidate
     needs no other; only the rest go through all of them."""
-    a, seg, L, cand, _ = _candidate_segments(loop2d, pts2d)
+    a, seg, L, cand, mid_d = _candidate_segments(loop2d, pts2d)
     _, d0 = _projection(a, seg, L, cand[:, 0], pts2d)
     within = d0 <= tol
     rest = np.flatnonzero(~within)
     if len(rest):
-        best = np.full(len(rest), np.inf)
-        for j in range(cand.shape[1]):
-            _, dist = _projection(a, seg, L, cand[rest, j], pts2d[rest])
-            best = np.where(dist < best, dist, best)
-        within[rest] = best <= tol
+        within[rest] = _nearest_projection(a, seg, L, cand[rest], mid_d[rest], pts2d[rest])[0] <= tol
     return within
 
 
