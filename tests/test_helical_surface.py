@@ -120,6 +120,23 @@ def test_global_not_local_minimum(wavy):
     assert np.all(np.abs(fp.distance) <= bf + 1e-12)
 
 
+@pytest.mark.parametrize("hand", ["right", "left"])
+def test_point_and_normal_are_evaluate_and_normal(hand):
+    """The foot points' shared evaluation must give what evaluate and normal give apart, bit for bit (the planners'
+    warm-started feet follow every rounding), for rows, grids that broadcast, and parameters beyond one period."""
+    surf = HelicalSurface(wavy_profile(), 0.37, hand)
+    rng = np.random.default_rng(8)
+    per = surf.profile.period
+    cases = [(rng.uniform(-per, 2 * per, 500), rng.normal(scale=3.0, size=500)),
+             (rng.uniform(0, per, (7, 1)), rng.normal(size=(1, 5))),
+             (np.array([0.0, per, -0.0]), np.array([-0.0, 0.0, 1e-300]))]
+    for u, t in cases:
+        point, normal = surf.point_and_normal(u, t)
+        assert np.array_equal(point, surf.evaluate(u, t))
+        assert np.array_equal(normal, surf.normal(u, t))
+        assert np.array_equal(np.signbit(point), np.signbit(surf.evaluate(u, t)))
+
+
 def test_helicoid_and_cylinder_curvature():
     v0 = 0.4
     prof = half_disk_profile(1.0)

@@ -148,12 +148,12 @@ class FlankFeet:
                 u[off[j]:off[j + 1]], tau[off[j]:off[j + 1]], f[off[j]:off[j + 1]] = U[sel], T[sel], F[sel]
                 o += kk * n
         t = tau + q[:, 2] / s.v0
-        foot = s.evaluate(u, t)
+        foot, normal = s.point_and_normal(u, t)
         diff = q - foot
         d = np.linalg.norm(diff, axis=1)
         direction = diff / np.maximum(d, 1e-300)[:, None]
         # a query inside the rotor solid has no business in a tool axis: it never counts as interior
-        outside = np.einsum("ij,ij->i", diff, s.normal(u, t)) > 0
+        outside = np.einsum("ij,ij->i", diff, normal) > 0
         eps = np.repeat([fs.eps_u for fs in solvers], sizes)
         interior = (u > lo + eps) & (u < hi - eps) & outside
         out = []

@@ -138,6 +138,21 @@ class HelicalSurface:
         c, s = np.cos(self.hand * t), np.sin(self.hand * t)
         return np.concatenate([_rot(n0[..., :2], c, s), n0[..., 2:]], axis=-1)
 
+    def point_and_normal(self, u, t):
+        """(:meth:`evaluate`, :meth:`normal`) at the same parameters, bit for bit: the profile point and the
+        rotation are made once for both (the foot points ask for both at every call, on a few hundred rows,
+        where this takes 2/3 of the time)."""
+        u, t = np.broadcast_arrays(np.asarray(u, float), np.asarray(t, float))
+        p = self.profile.eval(u)
+        angle = self.hand * t
+        c, s = np.cos(angle), np.sin(angle)
+        x, y = p[..., 0], p[..., 1]
+        point = np.empty(p.shape[:-1] + (3,))
+        # the products of screw_motion, with the profile point's z = 0 added as it adds it
+        point[..., 0], point[..., 1], point[..., 2] = c * x - s * y, s * x + c * y, 0.0 + self.v0 * t
+        n0 = self._normal_at_t0(p, self.profile.eval(u, 1))
+        return point, np.concatenate([_rot(n0[..., :2], c, s), n0[..., 2:]], axis=-1)
+
     def _normal_at_t0(self, p, dp):
         h, v0 = self.hand, self.v0
         # x_u = (p', 0), x_t = (h J p, v0)
@@ -388,8 +403,7 @@ class HelicalSurface:
         if len(far):  # beyond the table: fall back to the robust scan
             _keep_better((u, tau, f), far, self._scan_global(q0[far]))
         t = tau + q[:, 2] / self.v0
-        foot = self.evaluate(u, t)
-        nrm = self.normal(u, t)
+        foot, nrm = self.point_and_normal(u, t)
         dist = np.sqrt(np.maximum(f, 0.0))
         side = np.einsum("ij,ij->i", q - foot, nrm)
         sign = np.where(side < 0, -1.0, 1.0)
