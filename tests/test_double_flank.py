@@ -202,11 +202,16 @@ def test_batched_bisection_ends_where_the_plain_loop_does(levels):
 
         got = bisect_brackets(counted, brackets, tol, levels=levels)
         want = [_plain_bisection(inside_at, a, b, tol) for a, b in brackets]
+        steps = int(rng.integers(-1, 4))                  # a cap below one halving leaves the brackets as they are
+        assert bisect_brackets(inside_at, brackets, tol, levels=levels, max_steps=steps) == \
+            [_plain_bisection(inside_at, a, b, tol, max_steps=steps)[0] for a, b in brackets]
         assert got == [w for w, _ in want]
         if brackets:
             halvings = max(n for _, n in want)
             assert len(calls) == -(-halvings // levels)        # one call per `levels` halvings
             assert max(calls) <= len(brackets) * (2 ** levels - 1)
+    with pytest.raises(ValueError, match="levels must be a whole number >= 1, got 0"):
+        bisect_brackets(lambda t: t < 0.5, [(0.0, 1.0)], 1e-3, levels=0)
 
 
 @pytest.fixture(scope="module")

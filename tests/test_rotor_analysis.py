@@ -245,6 +245,11 @@ def test_weld_counts_edges_of_more_than_two_faces_as_a_brute_force_count():
             shared = vertex_normals(wv, wf, _weld(v, f)[3])
             fresh = vertex_normals(wv, wf)
             assert all(np.array_equal(a, b) for a, b in zip(shared, fresh))
+    quads, square = np.array([[0, 1, 2, 3]]), np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0.0]])
+    for verts, faces in ((square, quads), (np.c_[square, np.ones(4)], quads[:, :3])):
+        for call in (weld_mesh, vertex_normals):
+            with pytest.raises(ValueError, match=r"vertices \(N, 3\) and faces \(M, 3\), got \(4, [34]\)"):
+                call(verts, faces)
 
 
 def _projections_onto_all_candidates(loop, pts):

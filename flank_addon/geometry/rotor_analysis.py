@@ -164,6 +164,7 @@ def weld_mesh(verts, faces):
 
 def _weld(verts, faces):
     """:func:`weld_mesh`, and the kept faces' edge cross products (for :func:`vertex_normals`)."""
+    _check_triangles(verts, faces)
     v, inverse = unique_rows(verts)
     f = inverse.reshape(-1)[faces]
     cr = _face_cross(v, f)
@@ -178,6 +179,13 @@ def _weld(verts, faces):
     nonmanifold = int(np.count_nonzero(crowded[1:] != crowded[:-1]) + (len(crowded) > 0))
     return v, f, {"merged_vertices": int(len(verts) - len(v)), "dropped_faces": int((~keep).sum()),
                   "nonmanifold_edges": nonmanifold}, cr
+
+
+def _check_triangles(verts, faces):
+    verts, faces = np.asarray(verts), np.asarray(faces)
+    if verts.ndim != 2 or verts.shape[1] != 3 or faces.ndim != 2 or faces.shape[1] != 3:
+        raise ValueError(f"a triangle mesh needs vertices (N, 3) and faces (M, 3), got {verts.shape} and "
+                         f"{faces.shape}")
 
 
 def _face_cross(v, f):
@@ -200,6 +208,7 @@ def vertex_normals(verts, faces, face_cross=None):
     centroids would bias the pitch by ~0.1 % on meshes with coarse axial
     rings.  ``face_cross``: the faces' edge cross products, where the caller has them.
     """
+    _check_triangles(verts, faces)
     v = np.asarray(verts, float)
     f = np.asarray(faces, int)
     cr = _face_cross(v, f) if face_cross is None else face_cross
@@ -335,11 +344,15 @@ def _nearest_projection(a, seg, L, cand, mid_d, pts2d):
     coordinates, covers the rounding of both distances many times over."""
     n = len(pts2d)
     best_d, best_i, best_t = np.full(n, np.inf), np.zeros(n, np.intp), np.zeros(n)
-    margin = 1e-12 * (float(np.fmax.reduce(np.abs(pts2d), axis=None, initial=0.0))
-                      + float(np.fmax.reduce(np.abs(a), axis=None, initial=0.0)))
+    size = float(np.fmax.reduce(np.abs(pts2d), axis=None, initial=0.0)) + float(
+        np.fmax.reduce(np.abs(a), axis=None, initial=0.0))
+    margin = 1e-12 * size
+    # the margin is relative: it holds while squared lengths are normal floats (no underflow, no overflow)
+    nonzero = L[L > 0]
+    prune = size < 1e140 and (not len(nonzero) or float(nonzero.min()) > 1e-140)
     rows = np.arange(n)
     for j in range(cand.shape[1]):
-        if j:
+        if j and prune:
             rows = np.flatnonzero(mid_d[:, j] - 0.5 * L[cand[:, j]] <= best_d + margin)
         i = cand[rows, j]
         t, dist = _projection(a, seg, L, i, pts2d[rows])

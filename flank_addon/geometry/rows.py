@@ -14,7 +14,8 @@ def unique_rows(a, return_counts=False):
     if n == 0:
         out = (a.copy(), np.zeros(0, np.intp))
         return out + (np.zeros(0, np.intp),) if return_counts else out
-    if _increasing_rows(a):          # already unique and in order (an STL file's vertices as read): no sort
+    # already unique and in order (an STL file's vertices as read): no sort
+    if a.dtype.kind in "biuf" and a.shape[1] and _increasing_rows(a):
         out = (a.copy(), np.arange(n))
         return out + (np.ones(n, np.intp),) if return_counts else out
     order = np.lexsort(a.T[::-1])

@@ -379,8 +379,10 @@ def bisect_brackets(inside_at, brackets, tol, levels=5, max_steps=60):
     Its midpoints are the plain loop's, bit for bit, but one call of ``inside_at`` asks for the next
     ``levels`` of them on every path the loop may take (2**levels - 1 per bracket): a handful of calls
     instead of one per halving, where a call costs far more than a row."""
+    if int(levels) != levels or levels < 1:
+        raise ValueError(f"levels must be a whole number >= 1, got {levels!r}")
     state = [[float(a), float(b), 0] for a, b in brackets]       # inside, outside, halvings so far
-    open_ = list(state)
+    open_ = list(state) if max_steps >= 1 else []
     while open_:
         trees, mids = [], []
         for s in open_:
@@ -417,9 +419,10 @@ def tool_extent(ev, x, flanks=(0, 1), n_scan=400, tag="extent"):
     interior (bisection to 1e-12 R on both ends).  Beyond them every foot sits on a flank's
     boundary (valley bottom or rim) and the spheres no longer shape the target flanks.
 
-    The interior test near an end is only as sharp as the feet: a foot found from another warm start
-    can answer differently within about 5e-11 R of the end (measured on the Nilson female), so the
-    ends are defined to that, not to the bisection's 1e-12 R."""
+    The interior test near an end is only as sharp as the feet, which start from the previous call's: on
+    the axes of the built-in rotors' plans another warm start moved an end by up to 6e-11 R, so the ends
+    are defined to that, not to the bisection's 1e-12 R; on axes far from an optimum, where a foot near an
+    end can also lie in another basin, by up to 2e-3 R (random axes on the asymmetric female)."""
     v = ev.valley
     # scan beyond the optimisation's samples: a tilted axis can still touch a flank there
     lam = np.linspace(0.5 * v.lam_range[0], 1.25 * v.lam_range[1], n_scan)
