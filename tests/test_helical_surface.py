@@ -122,8 +122,9 @@ def test_global_not_local_minimum(wavy):
 
 @pytest.mark.parametrize("hand", ["right", "left"])
 def test_point_and_normal_are_evaluate_and_normal(hand):
-    """The foot points' shared evaluation must give what evaluate and normal give apart, bit for bit (the planners'
-    warm-started feet follow every rounding), for rows, grids that broadcast, and parameters beyond one period."""
+    """A point and its normal, made together or apart, must be those of screw_motion and of the normal's
+    definition bit for bit (the planners' warm-started feet follow every rounding), for rows, grids that
+    broadcast, and parameters beyond one period."""
     surf = HelicalSurface(wavy_profile(), 0.37, hand)
     rng = np.random.default_rng(8)
     per = surf.profile.period
@@ -131,10 +132,19 @@ def test_point_and_normal_are_evaluate_and_normal(hand):
              (rng.uniform(0, per, (7, 1)), rng.normal(size=(1, 5))),
              (np.array([0.0, per, -0.0]), np.array([-0.0, 0.0, 1e-300]))]
     for u, t in cases:
+        # the references written out from screw_motion and the normal's definition, as the surface had them
+        ub, tb = np.broadcast_arrays(u, t)
+        p = surf.profile.eval(ub)
+        ref_point = screw_motion(np.concatenate([p, np.zeros(p.shape[:-1] + (1,))], axis=-1), tb, surf.v0, hand)
+        n0 = surf._normal_at_t0(p, surf.profile.eval(ub, 1))
+        c, s = np.cos(surf.hand * tb), np.sin(surf.hand * tb)
+        ref_normal = np.concatenate([np.stack([c * n0[..., 0] - s * n0[..., 1], s * n0[..., 0] + c * n0[..., 1]],
+                                              axis=-1), n0[..., 2:]], axis=-1)
         point, normal = surf.point_and_normal(u, t)
-        assert np.array_equal(point, surf.evaluate(u, t))
-        assert np.array_equal(normal, surf.normal(u, t))
-        assert np.array_equal(np.signbit(point), np.signbit(surf.evaluate(u, t)))
+        for got in (point, surf.evaluate(u, t)):
+            assert np.array_equal(got, ref_point) and np.array_equal(np.signbit(got), np.signbit(ref_point))
+        for got in (normal, surf.normal(u, t)):
+            assert np.array_equal(got, ref_normal)
 
 
 def test_helicoid_and_cylinder_curvature():

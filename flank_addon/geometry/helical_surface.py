@@ -26,7 +26,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .profile import points_in_polygon
-from .screw import hand_sign, hand_name, screw_motion, screw_to_plane
+from .screw import hand_name, hand_sign, screw_motion, screw_to_plane, screwed
 
 
 @dataclass
@@ -126,32 +126,31 @@ class HelicalSurface:
 
     # ------------------------------------------------------------------ evaluation
     def evaluate(self, u, t):
-        u, t = np.broadcast_arrays(np.asarray(u, float), np.asarray(t, float))
-        p = self.profile.eval(u)
-        p3 = np.concatenate([p, np.zeros(p.shape[:-1] + (1,))], axis=-1)
-        return screw_motion(p3, t, self.v0, self.hand)
+        return self._point(u, t)[0]
 
     def normal(self, u, t):
         """Unit outward normal x_u x x_t (outward for a CCW profile, either handedness)."""
         u, t = np.broadcast_arrays(np.asarray(u, float), np.asarray(t, float))
-        n0 = self._normal_at_t0(self.profile.eval(u), self.profile.eval(u, 1))
-        c, s = np.cos(self.hand * t), np.sin(self.hand * t)
-        return np.concatenate([_rot(n0[..., :2], c, s), n0[..., 2:]], axis=-1)
+        return self._turned_normal(u, self.profile.eval(u), np.cos(self.hand * t), np.sin(self.hand * t))
 
     def point_and_normal(self, u, t):
-        """(:meth:`evaluate`, :meth:`normal`) at the same parameters, bit for bit: the profile point and the
-        rotation are made once for both (the foot points ask for both at every call, on a few hundred rows,
-        where this takes 2/3 of the time)."""
+        """(:meth:`evaluate`, :meth:`normal`) at the same parameters: the profile point and the turn are made once
+        for both (the foot points ask for both at every call, on a few hundred rows, where this takes 2/3 of
+        the time)."""
+        point, u, p, c, s = self._point(u, t)
+        return point, self._turned_normal(u, p, c, s)
+
+    def _point(self, u, t):
+        """(S_t(p(u), 0), u and t broadcast, p(u), cos and sin of the turn h t)."""
         u, t = np.broadcast_arrays(np.asarray(u, float), np.asarray(t, float))
         p = self.profile.eval(u)
-        angle = self.hand * t
-        c, s = np.cos(angle), np.sin(angle)
-        x, y = p[..., 0], p[..., 1]
-        point = np.empty(p.shape[:-1] + (3,))
-        # the products of screw_motion, with the profile point's z = 0 added as it adds it
-        point[..., 0], point[..., 1], point[..., 2] = c * x - s * y, s * x + c * y, 0.0 + self.v0 * t
+        c, s = np.cos(self.hand * t), np.sin(self.hand * t)
+        return screwed(p[..., 0], p[..., 1], 0.0, t, c, s, self.v0), u, p, c, s
+
+    def _turned_normal(self, u, p, c, s):
+        """The normal at (u, t) from the profile point p = p(u) and the turn's cosine c and sine s."""
         n0 = self._normal_at_t0(p, self.profile.eval(u, 1))
-        return point, np.concatenate([_rot(n0[..., :2], c, s), n0[..., 2:]], axis=-1)
+        return np.concatenate([_rot(n0[..., :2], c, s), n0[..., 2:]], axis=-1)
 
     def _normal_at_t0(self, p, dp):
         h, v0 = self.hand, self.v0

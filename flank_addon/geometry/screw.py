@@ -40,12 +40,15 @@ def screw_motion(points, t, v0, handedness="right"):
     p = np.asarray(points, dtype=float)
     t = np.asarray(t, dtype=float)
     angle = h * t
-    c, s = np.cos(angle), np.sin(angle)
-    x, y = p[..., 0], p[..., 1]
-    # the rotation of rotate2d written straight into the result (the planners call this very often on a
-    # few points, where every numpy call counts)
+    return screwed(p[..., 0], p[..., 1], p[..., 2], t, np.cos(angle), np.sin(angle), v0)
+
+
+def screwed(x, y, z, t, c, s, v0):
+    """:func:`screw_motion` of the points (x, y, z) (arrays or scalars that broadcast), given c and s, the cosine
+    and sine of the turn h t: the rotation of rotate2d written straight into the result (the planners call this
+    very often on a few points, where every numpy call counts; a caller that has c and s already passes them)."""
     rx, ry = c * x - s * y, s * x + c * y
-    z = p[..., 2] + v0 * t
+    z = z + v0 * t
     out = np.empty(np.broadcast(rx, z).shape + (3,))
     out[..., 0], out[..., 1], out[..., 2] = rx, ry, z
     return out
