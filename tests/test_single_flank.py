@@ -208,6 +208,53 @@ def test_optimised_poses_are_local_minima(female, free_candidates):
                 assert sf.phi_value(ev, x) >= phi - 1e-12, (c.seed.u, j, sign)
 
 
+def _lockstep_problems(n, m=12, seed=3):
+    """n small constrained problems (a quartic bowl, m linear inequalities each) as one batch function."""
+    rng = np.random.default_rng(seed)
+    A, b, C = rng.normal(size=(n, m, 4)), rng.normal(size=(n, m)) - 3.0, rng.normal(size=(n, 4))
+    calls = []
+
+    def batch(X, ids):
+        calls.append(np.array(ids))
+        if np.isnan(X).any():
+            raise FloatingPointError(f"NaN pose in rows {ids.tolist()}")
+        D = X - C[ids]
+        return (np.sum(D ** 4, axis=1) + np.sum(X ** 2, axis=1), 4 * D ** 3 + 2 * X,
+                np.einsum("kmi,ki->km", A[ids], X) - b[ids], A[ids])
+    return batch, calls
+
+
+def test_lockstep_runs_are_the_independent_slsqp_runs():
+    """Every lockstep run's iterates are those of its own scipy SLSQP call, bit for bit, and every round
+    asks once for every run still going."""
+    from scipy.optimize import minimize
+    n = 9
+    batch, calls = _lockstep_problems(n)
+    X0 = np.linspace(-1.0, 1.0, 4 * n).reshape(n, 4)
+    X, iters, rounds, status, _ = sf._slsqp_lockstep(batch, X0, 12, 0)
+    assert rounds == len(calls) and rounds >= iters.max() and (status == 0).all()
+    for i in range(n):
+        one = np.array([i])
+        cons = [{"type": "ineq", "fun": lambda x: batch(x[None], one)[2][0],
+                 "jac": lambda x: batch(x[None], one)[3][0]}]
+        ref = minimize(lambda x: batch(x[None], one)[0][0], X0[i].copy(), jac=lambda x: batch(x[None], one)[1][0],
+                       method="SLSQP", constraints=cons, options={"maxiter": 60, "ftol": 1e-13})
+        assert np.array_equal(ref.x, X[i]) and ref.nit == iters[i]
+    # a round holds every run that has not finished: the sizes never grow
+    sizes = [len(c) for c in calls[:rounds]]
+    assert sizes[0] == n and all(a >= b for a, b in zip(sizes, sizes[1:]))
+
+
+def test_lockstep_stops_every_run_on_an_error_and_runs_none():
+    batch, _ = _lockstep_problems(4)
+    X0 = np.zeros((4, 4))
+    X0[2, 1] = np.nan
+    with pytest.raises(FloatingPointError, match=r"NaN pose in rows \[0, 1, 2, 3\]"):
+        sf._slsqp_lockstep(batch, X0, 12, 0)
+    X, iters, rounds, status, messages = sf._slsqp_lockstep(batch, np.zeros((0, 4)), 12, 0)
+    assert X.shape[0] == 0 and rounds == 0 and messages == []
+
+
 def test_anchored_candidates_keep_their_depth_and_cover_the_flank(female):
     r, s = female
     cands = sf.candidate_strips(s, r.flanks[1], EX62_TOOL, n_seeds=8, flank=1)

@@ -877,7 +877,11 @@ class _Lockstep:
     has asked, the calling thread evaluates all the points together by ``batch(X (k, n), ids (k,))``
     and the runs go on.  So N independent SLSQP runs cost one vectorised foot-point call per round
     instead of N, and each run's iterates are exactly those of its own ``scipy.optimize.minimize``
-    call."""
+    call.
+
+    Each run waits at its own gate (a lock the server opens with its answer) and the server at another
+    that the last run to ask opens: one thread woken per hand-over.  A shared condition woke every
+    waiting run at every answer and every question, 2.4 ms per round for 18 runs."""
 
     def __init__(self, batch, n_runs):
         self.batch = batch
@@ -886,31 +890,44 @@ class _Lockstep:
         self.answers = {}
         self.error = None
         self.evaluations = 0
-        self.cv = threading.Condition()
+        self.mutex = threading.Lock()
+        self.gates = [threading.Lock() for _ in range(n_runs)]
+        for gate in self.gates:
+            gate.acquire()
+        self.server_gate = threading.Semaphore(0 if n_runs else 1)
+
+    def _round_ready(self):
+        """Under the mutex: every run still going has asked (or none is left): the server's turn."""
+        return len(self.asked) == self.running
 
     def values(self, i, x):
         """Called by run ``i``: its values at ``x`` once the round is evaluated."""
-        with self.cv:
+        with self.mutex:
+            if self.error is not None:
+                raise self.error
             self.asked[i] = np.array(x, float)
-            self.cv.notify_all()
-            while i not in self.answers and self.error is None:
-                self.cv.wait()
+            ready = self._round_ready()
+        if ready:
+            self.server_gate.release()
+        self.gates[i].acquire()
+        with self.mutex:
             if self.error is not None:
                 raise self.error
             return self.answers.pop(i)
 
     def finished(self):
-        with self.cv:
+        with self.mutex:
             self.running -= 1
-            self.cv.notify_all()
+            ready = self._round_ready()
+        if ready:
+            self.server_gate.release()
 
     def serve(self):
         """Evaluate rounds until every run has finished (in the calling thread, so that all numerics run
         where a single-pose call would)."""
         while True:
-            with self.cv:
-                while self.running and len(self.asked) < self.running:
-                    self.cv.wait()
+            self.server_gate.acquire()
+            with self.mutex:
                 if not self.running:
                     return
                 ids = np.array(sorted(self.asked))
@@ -919,15 +936,17 @@ class _Lockstep:
             try:
                 f, g, c, dc = self.batch(X, ids)
             except BaseException as ex:       # every waiting run stops with the same error
-                with self.cv:
+                with self.mutex:
                     self.error = ex
-                    self.cv.notify_all()
+                for i in ids:
+                    self.gates[int(i)].release()
                 return
-            with self.cv:
+            with self.mutex:
                 self.evaluations += 1
                 for k, i in enumerate(ids):
                     self.answers[int(i)] = (f[k], g[k], c[k], dc[k])
-                self.cv.notify_all()
+            for i in ids:
+                self.gates[int(i)].release()
 
 
 def _slsqp_lockstep(batch, X0, m, meq, maxiter=60, ftol=1e-13):
