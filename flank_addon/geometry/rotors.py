@@ -71,6 +71,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from .angles import atan2
 from .profile import SplineProfile, points_in_polygon, signed_area
 from .screw import hand_name, hand_sign, rotate2d, screw_motion
 
@@ -578,7 +579,7 @@ def rotor_pair(kind, scale=1.0, lead=None, length=None, male_handedness="right")
 # --------------------------------------------------------------------------- mesh
 
 def _star_shaped(poly):
-    ang = np.unwrap(np.arctan2(poly[:, 1], poly[:, 0]))
+    ang = np.unwrap(atan2(poly[:, 1], poly[:, 0]))
     dang = np.diff(np.concatenate([ang, [ang[0] + 2 * np.pi]]))
     return bool(np.all(dang > 0)) and abs(ang[-1] - ang[0] + dang[-1] - 2 * np.pi) < 1e-6
 

@@ -27,6 +27,7 @@ happens only inside those windows, and points whose helix never comes within the
 of the tool cost nothing.
 """
 import numpy as np
+from ..geometry.angles import atan2
 from ..geometry.polyline_distance import PolylineDistance
 from ..geometry.runs import ranks_in_runs, segment_argmin, segment_min
 from ..geometry.screw import hand_sign, screw_motion
@@ -639,7 +640,7 @@ def time_windows(x, centres, radii, v0, handedness, margin):
     alpha = np.arccos(np.clip(kappa, -1.0, 1.0))               # angular half-width
     full = kappa <= -1.0
     # centre times of the angular window: psi = theta + h t hits the sphere's angle
-    tc = h * (np.arctan2(c[..., 1], c[..., 0]) - np.arctan2(x[:, 1], x[:, 0])[:, None])
+    tc = h * (atan2(c[..., 1], c[..., 0]) - atan2(x[:, 1], x[:, 0])[:, None])
     two_pi = 2 * np.pi
     with np.errstate(invalid="ignore"):
         k_lo = np.ceil((zw_lo - tc - alpha) / two_pi)

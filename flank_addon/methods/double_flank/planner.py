@@ -50,6 +50,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ...geometry.angles import atan2, wrapped
 from ...geometry.flank_feet import FlankFeet
 from ...geometry.runs import ranks_in_runs
 from ...geometry.screw import screw_to_plane
@@ -769,7 +770,7 @@ def _contact_samples(r_and_dr, s_init, tol, max_rounds=40, n_max=400000):
         dh, dR = np.diff(h), np.diff(R)
         Lseg = np.hypot(dh, dR)
         ang = np.arctan2(dR, dh)
-        turn = np.abs(np.angle(np.exp(1j * np.diff(ang))))
+        turn = np.abs(wrapped(np.diff(ang)))
         t_seg = np.maximum(np.r_[0.0, turn], np.r_[turn, 0.0])
         sag = Lseg * t_seg / 8.0
         # backwards or jumping contact points (hidden parts, kinks): refine them too
@@ -794,8 +795,8 @@ def _shrink_concave(mer, tol):
         return P
     d = np.diff(P, axis=0)
     L = np.hypot(d[:, 0], d[:, 1])
-    ang = np.arctan2(d[:, 1], d[:, 0])
-    turn = np.angle(np.exp(1j * np.diff(ang)))          # > 0: turning left = concave for R(h)
+    ang = atan2(d[:, 1], d[:, 0])
+    turn = wrapped(np.diff(ang))          # > 0: turning left = concave for R(h)
     sag = np.zeros(len(P))
     conc = np.maximum(turn, 0.0)
     # a vertex next to a concave turn: the adjacent chords overshoot by ~ L * turn / 8

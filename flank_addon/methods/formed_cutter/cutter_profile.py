@@ -71,6 +71,7 @@ import math
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from ...geometry.angles import atan2
 from ...geometry.profile import Arc, Line, SegmentProfile, SplineProfile
 from ...geometry.screw import hand_name, hand_sign
 
@@ -502,7 +503,7 @@ def default_tooth(profile, n=8192):
     lo = np.flatnonzero((r <= np.roll(r, 1)) & (r < np.roll(r, -1)))
     if len(lo) == 0:
         raise FormedCutterError("profile has no valley (radius minimum): nothing for a formed cutter to cut")
-    ang = np.abs(np.angle(p[lo, 0] + 1j * p[lo, 1]))
+    ang = np.abs(atan2(p[lo, 1], p[lo, 0]))
     ib = lo[np.argmin(ang)]
     i0 = ib
     while r[(i0 - 1) % n] > r[i0 % n] and (ib - i0) < n:
@@ -829,7 +830,7 @@ def _helix_crossings(pts, setup, z):
     if K == 0:
         return np.full((M, 0), np.inf), np.full((M, 0), np.nan), np.full((M, 0), np.nan)
     r = np.hypot(pts[:, 0], pts[:, 1])
-    a = np.arctan2(pts[:, 1], pts[:, 0])
+    a = atan2(pts[:, 1], pts[:, 0])
     th0 = (z / (c * v0))[:, None]                                   # (M, 1)
     w = abs(s) * r / (c * v0)                                       # (K,)
     lo = np.broadcast_to(th0 - w, (M, K))

@@ -68,6 +68,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...tooling.cone import ConePose, ConeTool
+from ...geometry.angles import contiguous
 from ...geometry.flank_feet import FlankFeet
 from ...simulation.sweep import false_position, illinois_update
 
@@ -117,6 +118,8 @@ def axis_and_jacobian(X, s, L):
     or (N, n), one row of axis parameters per pose."""
     X = np.atleast_2d(X)
     de, rho, be, ph = X.T
+    # the angles as contiguous arrays: a column's cosine may otherwise differ in the last bit from run to run
+    be, ph = contiguous(be), contiguous(ph)
     cb, sb, cp, sp = np.cos(be), np.sin(be), np.cos(ph), np.sin(ph)
     zero = np.zeros_like(de)
     er = np.stack([cp, sp, zero], -1)
@@ -142,7 +145,7 @@ def mid_radius(X, L, s=0.5):
     its gradient (N, 4) w.r.t. the Eq. (8) parameters: sqrt(delta^2 + (rho + s L)^2 cos^2 beta).  ``s``: one
     axis parameter or one per row."""
     X = np.atleast_2d(X)
-    de, rho, be = X[:, 0], X[:, 1], X[:, 2]
+    de, rho, be = X[:, 0], X[:, 1], contiguous(X[:, 2])
     w = rho + np.asarray(s, float) * L
     cb, sb = np.cos(be), np.sin(be)
     r = np.sqrt(de ** 2 + (w * cb) ** 2)
