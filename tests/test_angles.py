@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from flank_addon.geometry import angles
-from flank_addon.geometry.rotors import _star_shaped, builtin_by_name
+from flank_addon.geometry.freeform_surfaces import cylinder_patch, gear_flank
+from flank_addon.geometry.rotors import KINDS, _star_shaped, _unit_profile, builtin_by_name
 from flank_addon.methods.double_flank.planner import _contact_samples, _shrink_concave
 from flank_addon.methods.formed_cutter import cutter_profile
 from flank_addon.methods.single_flank.poses import axis_and_jacobian, mid_radius
@@ -96,4 +97,15 @@ def test_the_planners_hand_numpy_contiguous_angles(strided_calls):
     setup = cutter_profile.CutterSetup(centre_distance=1.8, swivel=math.radians(20.0), lead=2.0 * np.pi * rotor.v0,
                                        handedness=rotor.handedness)
     cutter_profile._helix_crossings(rng.uniform(0.5, 1.0, size=(30, 2)), setup, np.linspace(-0.3, 0.3, 7))
+    cutter_profile.contact_equation_profile(rotor.profile, setup, np.linspace(lo, lo + 0.1, 5), n_scan=31)
+    assert cutter_profile.arc_tooth_section().outer_radius() > 0
+    assert strided_calls == []
+    # the built-in rotors' generation (past the cache) and the free-form test surfaces' points and feet
+    for kind in KINDS:
+        for part in ("male", "female"):
+            _unit_profile.__wrapped__(kind, part, 48)
+    for surface in (cylinder_patch(resolution=6), gear_flank(resolution=6)):
+        assert np.allclose(surface.point(surface.uv[:5]), surface.vertices[:5], rtol=0, atol=1e-12)
+        if surface.closest is not None:
+            surface.closest(surface.vertices[:5] + 0.01)
     assert strided_calls == []

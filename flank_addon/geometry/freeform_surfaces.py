@@ -29,6 +29,8 @@ from typing import Callable, Optional
 
 import numpy as np
 
+from .angles import atan2, contiguous
+
 
 @dataclass(frozen=True)
 class FreeformSurface:
@@ -170,7 +172,7 @@ def cylinder_patch(size=1.0, resolution=40, radius=None, angle=math.pi / 2):
 
     def closest(p):
         p = np.atleast_2d(np.asarray(p, float))
-        th = np.arctan2(p[:, 1], p[:, 0])
+        th = atan2(p[:, 1], p[:, 0])
         q = np.c_[radius * th, p[:, 2]]
         return point(q), q
 
@@ -276,7 +278,7 @@ def gear_flank(size=1.0, resolution=40, helix_angle=math.radians(25.0), base_rad
 
     def point(q):
         q = np.atleast_2d(q)
-        phi, z = q[:, 0], q[:, 1]
+        phi, z = contiguous(q[:, 0]), q[:, 1]
         ix = rb * (np.cos(phi) + phi * np.sin(phi))
         iy = rb * (np.sin(phi) - phi * np.cos(phi))
         a = z / p

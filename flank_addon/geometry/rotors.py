@@ -376,7 +376,7 @@ class _ArcMale:
         k = (p[:, 0] * n[:, 1] - p[:, 1] * n[:, 0]) / self.d["r1"]
         if np.any(np.abs(k) > 1 + 1e-12):
             raise RotorError("internal: a male point never meets the female")
-        return np.arcsin(np.clip(k, -1.0, 1.0)) - np.arctan2(n[:, 1], n[:, 0]), p
+        return np.arcsin(np.clip(k, -1.0, 1.0)) - atan2(n[:, 1], n[:, 0]), p
 
     def female(self, s):
         """Female profile points (female frame) conjugate to the male points s."""

@@ -182,7 +182,7 @@ class Section:
         r = float(np.max(np.linalg.norm(self.sample(64), axis=1)))
         if len(self.arc_r):  # an arc may bulge beyond its samples: add the exact farthest point if inside the arc
             d = np.linalg.norm(self.arc_c, axis=1)
-            r = max(r, float(np.max(np.where(self._arc_contains(np.arctan2(self.arc_c[:, 1], self.arc_c[:, 0]))
+            r = max(r, float(np.max(np.where(self._arc_contains(atan2(self.arc_c[:, 1], self.arc_c[:, 0]))
                                              | (d == 0), d + self.arc_r, 0.0))))
         return r * (1 + 1e-9)
 
@@ -1246,7 +1246,7 @@ def contact_equation_profile(profile, setup, u, window=0.5 * math.pi, n_scan=721
         rel = np.concatenate([P2, (v0 * th)[..., None]], -1) - O
         return np.einsum("...k,...k->...", N, np.cross(rel, w)), rel
 
-    thc = -e * np.arctan2(p[:, 1], p[:, 0])
+    thc = -e * atan2(p[:, 1], p[:, 0])
     grid = thc[:, None] + np.linspace(-window, window, n_scan)[None, :]
     fg, rel = f(grid)
     sc = np.sign(fg[:, :-1]) != np.sign(fg[:, 1:])
