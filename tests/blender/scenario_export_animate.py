@@ -87,8 +87,8 @@ def scenario(bpy, res, args):
         return [[float(x) if x else None for x in ln.split(",")] for ln in t.splitlines()[1:]]
 
     def same(a, b):
-        # the verify engine runs twice (operator, here): numpy's threaded reductions inside Blender may
-        # differ in the last bits between runs, so values are compared to 1e-9 relative, not as text
+        # the verify engine runs twice (operator, here): two runs could differ in the last bits (numpy's two
+        # arctan2s, see geometry/angles.py), so values are compared to 1e-9 relative, not as text
         if len(a) != len(b):
             return False
         for ra, rb in zip(a, b):

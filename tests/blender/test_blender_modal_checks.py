@@ -29,9 +29,10 @@ def _numbers(v):
 
 def _assert_same_verification(got, want):
     """The same verification up to the last bit of a sum: the sweep's deviations of two runs of the same plan in
-    one process can differ by a few 1e-16 R (seen: 2.5e-16 R, the same in every process, in every fourth run of
-    a loop; the cause is not found yet), so numbers agree to 1e-12 of their size (+1e-15); the float32 attribute
-    to one unit in its last place."""
+    one process differed by a few 1e-16 R (seen: 2.5e-16 R, in every fourth run of a loop: numpy took its
+    vectorised or its C library's arctan2 by where an output landed, see ``geometry/angles.py``); numbers agree to
+    1e-12 of their size (+1e-15), a margin kept for other numpy builds; the float32 attribute to one unit in its
+    last place."""
     g, w = _numbers(got), _numbers(want)
     assert g.keys() == w.keys()
     assert len(g["deviation"]) == len(w["deviation"]) > 0

@@ -48,7 +48,7 @@ def test_stored_plan_equals_the_core_plan_for_the_same_inputs(rx):
     assert core["mismatches"] == [], core["mismatches"]
     assert core["strips"] == rx["sf"]["strips"] >= 2
     # same code, same inputs: mostly 0.0, but once 9.7e-8 (R = 1) under CPU load -- two runs of the optimiser in
-    # one process can differ in the last bits (numpy's SIMD sums depend on array alignment) and the stopping
+    # one process could differ in the last bits (numpy's two arctan2s, see geometry/angles.py) and the stopping
     # test turns that into 1e-7; 1e-6 R is still 1000x below the run's tolerance 1e-3
     assert core["max_diff"] < 1e-6, core
     assert core["to_world_vs_object"] < 1e-6               # the placement is the object's (single precision)
