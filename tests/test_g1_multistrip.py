@@ -504,6 +504,51 @@ def test_sphere_search_of_all_points_at_once_is_the_search_of_one_at_a_time(chun
     _least_in_balls(np.zeros((0, 3)), C, Rr, [], 5, empty_out, empty_idx, chunk=chunk)
 
 
+@pytest.mark.parametrize("cap", [5, 40, 256])
+def test_least_sphere_values_are_those_of_every_sphere(cap):
+    """The sweep check's least |p - c| - r: the nearest centres first, ball lists only where they may miss one.
+    The same values as the k nearest followed by a ball list for every point, bit for bit, and as all spheres."""
+    from scipy.spatial import cKDTree
+
+    from flank_addon.methods.freeform_g1.planner import _centres_to_ask, _least_in_balls, least_sphere_values
+
+    rng = np.random.default_rng(11)
+    C = rng.uniform(-1, 1, (3000, 3))
+    Rr = rng.uniform(0.01, 0.05, 3000)
+    Rr[::97] = 0.6                                  # a few big spheres that reach past many nearer small ones
+    C[2000:2010], Rr[2000:2010] = C[10:20], Rr[10:20]   # duplicated spheres
+    P = np.r_[rng.uniform(-1.1, 1.1, (700, 3)), C[10:20] + 1e-3]
+    out, idx = least_sphere_values(P, C, Rr, k=5, cap=cap)
+    # the search before: the k nearest, then every point's ball list
+    tree = cKDTree(C)
+    d, i = tree.query(P, k=5)
+    val = d - Rr[i]
+    rows = np.arange(len(P))
+    ref_out, ref_idx = val[rows, np.argmin(val, axis=1)], i[rows, np.argmin(val, axis=1)]
+    lists = tree.query_ball_point(P, ref_out + Rr.max() + 1e-12)
+    _least_in_balls(P, C, Rr, lists, 5, ref_out, ref_idx)
+    assert np.array_equal(out.view(np.int64), ref_out.view(np.int64))
+    brute = np.linalg.norm(P[:, None, :] - C[None, :, :], axis=2) - Rr
+    assert np.abs(out - brute.min(axis=1)).max() <= 1e-15
+    # the sphere named gives the value; between equal spheres the kd-tree's order decides, as it did before
+    assert np.abs(brute[rows, idx] - out).max() <= 1e-15
+    tie = idx != ref_idx
+    assert set(idx[tie]) | set(ref_idx[tie]) <= set(range(10, 20)) | set(range(2000, 2010))
+    assert np.array_equal(idx, ref_idx) or np.array_equal(C[idx], C[ref_idx]) and np.array_equal(Rr[idx], Rr[ref_idx])
+    assert (idx % 97 == 0).sum() > 100                 # the big spheres do win
+    # how many nearest centres it asked for: at least k, at most the cap, and about what most points need
+    kk = _centres_to_ask(tree, P, Rr, 5, Rr.max() + 1e-12, cap=cap)
+    need = tree.query_ball_point(P, out + Rr.max() + 1e-12, return_length=True)
+    assert 5 <= kk <= cap and (kk == cap or 0.85 <= (need <= kk).mean() < 1.0)
+    # fewer spheres than k, one sphere, no points
+    o2, j2 = least_sphere_values(P[:4], C[:3], Rr[:3], k=24)
+    assert np.allclose(o2, brute[:4, :3].min(axis=1), rtol=0, atol=1e-15) and np.array_equal(j2, np.argmin(brute[:4, :3], 1))
+    o1, j1 = least_sphere_values(P[:4], C[:1], Rr[:1], k=24)
+    assert np.allclose(o1, brute[:4, 0], rtol=0, atol=1e-15) and (j1 == 0).all()
+    o0, j0 = least_sphere_values(np.zeros((0, 3)), C, Rr)
+    assert o0.shape == (0,) and j0.shape == (0,)
+
+
 def test_optimum_is_a_local_minimum_of_eq_18():
     S, mesh, lay, m0, n0 = small_problem()
     from flank_addon.methods.freeform_g1.planner import optimize

@@ -978,11 +978,11 @@ def sweep_deviation(plan, points=None, n_t=None, n_s=40, k=24, mesh=None):
 
     The tool at one instant is the union of the spheres of Eq. (2) along the axis; the motion is
     sampled at n_t instants per strip (default 4 per ruling) on the same spline rails as the
-    envelopes, the axis at n_s points.  Each point's value is min |p - y| - r over the k nearest
-    sphere centres (cKDTree).  Returns (deviation (n,), index of the closest strip (n,), inside (n,)
-    True where the closest sphere is not on the border of the machined region (the first or last
-    instant of a strip, the free tip end of the first strip or base end of the last)."""
-    from scipy.spatial import cKDTree
+    envelopes, the axis at n_s points.  Each point's value is min |p - y| - r over all the spheres
+    (:func:`least_sphere_values`, which asks the kd-tree for at least the k nearest centres first).
+    Returns (deviation (n,), index of the closest strip (n,), inside (n,) True where the closest sphere
+    is not on the border of the machined region (the first or last instant of a strip, the free tip end
+    of the first strip or base end of the last)."""
     mesh = plan_mesh(plan) if mesh is None else mesh
     P = mesh.vertices if points is None else np.asarray(points, float)
     C, Rr, S, E = [], [], [], []
@@ -1012,21 +1012,54 @@ def sweep_deviation(plan, points=None, n_t=None, n_s=40, k=24, mesh=None):
             edge[:, -1] = True
         E.append(edge.ravel())
     C, Rr, S, E = np.concatenate(C), np.concatenate(Rr), np.concatenate(S), np.concatenate(E)
+    out, idx = least_sphere_values(P, C, Rr, k)
+    return out, S[idx], ~E[idx]
+
+
+def least_sphere_values(P, C, Rr, k=24, cap=256):
+    """min over the spheres (centres C (m, 3), radii Rr (m,)) of |p - c| - r for each point of P (n, 3), and the
+    sphere that gives it (the first in index order among equal values found past the nearest centres).
+
+    The kd-tree's nearest centres come first, as one array: about as many as most points have within reach
+    (:func:`_centres_to_ask`).  They need not hold the least value (a farther, bigger sphere can reach further):
+    every centre within (the value so far + the largest radius) counts.  Where the last of the nearest centres
+    already lies beyond that reach they held them all; the other rows list every centre within it."""
+    from scipy.spatial import cKDTree
+
     tree = cKDTree(C)
-    d, i = tree.query(P, k=min(int(k), len(C)))
+    reach = Rr.max() + 1e-12
+    kk = _centres_to_ask(tree, P, Rr, int(k), reach, cap=cap)
+    d, i = tree.query(P, k=kk)
     d, i = np.atleast_2d(d.T).T, np.atleast_2d(i.T).T
     val = d - Rr[i]
     best = np.argmin(val, axis=1)
     rows = np.arange(len(P))
     out, idx = val[rows, best], i[rows, best]
-    # the nearest centres need not hold the smallest |p - y| - r (a far, big sphere can reach further):
-    # every centre within (bound + largest radius) is checked (a list per point, all freed together: the
-    # collector would only walk them)
-    with collector_paused():
-        lists = tree.query_ball_point(P, out + Rr.max() + 1e-12)
-        _least_in_balls(P, C, Rr, lists, int(k), out, idx)
-        del lists
-    return out, S[idx], ~E[idx]
+    if kk < len(C):
+        rows = np.flatnonzero(~(d[:, -1] > out + reach))
+        if len(rows):
+            o, j = out[rows], idx[rows]
+            with collector_paused():        # a list per point, all freed together: the collector would only walk them
+                lists = tree.query_ball_point(P[rows], o + reach)
+                _least_in_balls(P[rows], C, Rr, lists, kk, o, j)
+                del lists
+            out[rows], idx[rows] = o, j
+    return out, idx
+
+
+def _centres_to_ask(tree, P, Rr, k, reach, sample=256, cap=256):
+    """How many nearest sphere centres :func:`least_sphere_values` asks the kd-tree for at once: about as many as
+    nineteen in twenty points have within their reach (measured on up to ``sample`` of them), at least k and
+    at most ``cap``.  Asking for the centres one by one in a ball list per point costs about twice as much
+    per centre as the k nearest in one array, so most rows should need no list."""
+    n = min(tree.n, max(int(k), 1))
+    if len(P) == 0 or tree.n <= n:
+        return n
+    S = P[np.unique(np.linspace(0, len(P) - 1, min(len(P), sample)).astype(np.int64))]
+    d, i = tree.query(S, k=n)
+    d, i = np.atleast_2d(d.T).T, np.atleast_2d(i.T).T
+    counts = tree.query_ball_point(S, (d - Rr[i]).min(axis=1) + reach, return_length=True)
+    return int(min(tree.n, cap, max(n, np.percentile(counts, 95))))
 
 
 def _least_in_balls(P, C, Rr, lists, k, out, idx, chunk=1_000_000):
