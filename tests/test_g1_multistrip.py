@@ -448,6 +448,17 @@ def _least_in_balls_one_at_a_time(P, C, Rr, lists, k, out, idx):
                 out[n], idx[n] = v[j], cand[j]
 
 
+def _k_nearest_spheres_and_balls(tree, P, Rr, k):
+    """The least |p - c| - r over each point's k nearest centres, that sphere, and the ball list of every centre
+    that could still beat it (within the value + the largest radius)."""
+    d, i = tree.query(P, k=k)
+    val = d - Rr[i]
+    best = np.argmin(val, axis=1)
+    rows = np.arange(len(P))
+    out, idx = val[rows, best], i[rows, best]
+    return out, idx, tree.query_ball_point(P, out + Rr.max() + 1e-12)
+
+
 @pytest.mark.parametrize("chunk", [7, 500, 1_000_000])
 def test_sphere_search_of_all_points_at_once_is_the_search_of_one_at_a_time(chunk):
     from scipy.spatial import cKDTree
@@ -460,11 +471,7 @@ def test_sphere_search_of_all_points_at_once_is_the_search_of_one_at_a_time(chun
     C[1200:1220], Rr[1200:1220] = C[100:120], Rr[100:120]    # duplicated spheres
     P = np.r_[rng.uniform(-1.2, 1.2, (300, 3)), C[100:120] + 1e-3]
     tree = cKDTree(C)
-    d, i = tree.query(P, k=5)
-    val = d - Rr[i]
-    rows = np.arange(len(P))
-    out0, idx0 = val[rows, np.argmin(val, axis=1)], i[rows, np.argmin(val, axis=1)]
-    lists = tree.query_ball_point(P, out0 + Rr.max() + 1e-12)
+    out0, idx0, lists = _k_nearest_spheres_and_balls(tree, P, Rr, 5)
     assert 100 < sum(len(c) > 5 for c in lists) < len(P)     # both kinds of row
     ref_out, ref_idx = out0.copy(), idx0.copy()
     _least_in_balls_one_at_a_time(P, C, Rr, lists, 5, ref_out, ref_idx)
@@ -521,11 +528,8 @@ def test_least_sphere_values_are_those_of_every_sphere(cap):
     out, idx = least_sphere_values(P, C, Rr, k=5, cap=cap)
     # the search before: the k nearest, then every point's ball list
     tree = cKDTree(C)
-    d, i = tree.query(P, k=5)
-    val = d - Rr[i]
+    ref_out, ref_idx, lists = _k_nearest_spheres_and_balls(tree, P, Rr, 5)
     rows = np.arange(len(P))
-    ref_out, ref_idx = val[rows, np.argmin(val, axis=1)], i[rows, np.argmin(val, axis=1)]
-    lists = tree.query_ball_point(P, ref_out + Rr.max() + 1e-12)
     _least_in_balls(P, C, Rr, lists, 5, ref_out, ref_idx)
     assert np.array_equal(out.view(np.int64), ref_out.view(np.int64))
     brute = np.linalg.norm(P[:, None, :] - C[None, :, :], axis=2) - Rr
