@@ -546,7 +546,8 @@ def test_least_sphere_values_are_those_of_every_sphere(cap):
     assert 5 <= kk <= cap and (kk == cap or 0.85 <= (need <= kk).mean() < 1.0)
     # fewer spheres than k, one sphere, no points
     o2, j2 = least_sphere_values(P[:4], C[:3], Rr[:3], k=24)
-    assert np.allclose(o2, brute[:4, :3].min(axis=1), rtol=0, atol=1e-15) and np.array_equal(j2, np.argmin(brute[:4, :3], 1))
+    assert np.allclose(o2, brute[:4, :3].min(axis=1), rtol=0, atol=1e-15)
+    assert np.array_equal(j2, np.argmin(brute[:4, :3], axis=1))
     o1, j1 = least_sphere_values(P[:4], C[:1], Rr[:1], k=24)
     assert np.allclose(o1, brute[:4, 0], rtol=0, atol=1e-15) and (j1 == 0).all()
     o0, j0 = least_sphere_values(np.zeros((0, 3)), C, Rr)
