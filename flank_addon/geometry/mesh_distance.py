@@ -28,6 +28,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .runs import ranks_in_runs
+from .triangles import corner_angles, face_areas_normals
 
 FACE, EDGE, VERTEX = 0, 1, 2
 
@@ -202,9 +203,7 @@ class TriangleMesh:
         self._tree_vertices = None if len(used) == len(V) else used
         self.k = int(min(k, len(used)))
         A, B, C = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
-        cr = np.cross(B - A, C - A)
-        area2 = np.linalg.norm(cr, axis=1)
-        self.face_normals = cr / np.where(area2 > 0, area2, 1.0)[:, None]
+        _, self.face_normals = face_areas_normals(V, F)
         self.centroids = (A + B + C) / 3
         corner = np.linalg.norm(np.stack([A, B, C]) - self.centroids, axis=2)
         self.face_radius = float(np.max(corner))
@@ -237,11 +236,7 @@ class TriangleMesh:
         self.vertex_faces = np.full((len(V), width), -1, np.int64)
         self.vertex_faces[vid, slot] = order // 3
         # angle-weighted pseudo-normals of vertices and (sum of the two faces') of edges
-        ang = np.empty((len(F), 3))
-        for c in range(3):
-            p, q, r = V[F[:, c]], V[F[:, (c + 1) % 3]], V[F[:, (c + 2) % 3]]
-            u, w = q - p, r - p
-            ang[:, c] = np.arctan2(np.linalg.norm(np.cross(u, w), axis=1), (u * w).sum(1))
+        ang = corner_angles(V, F)
         vn = np.zeros_like(V)
         for c in range(3):
             np.add.at(vn, F[:, c], ang[:, c:c + 1] * self.face_normals)

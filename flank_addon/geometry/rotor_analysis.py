@@ -30,6 +30,7 @@ from scipy.spatial import cKDTree
 from .profile import SplineProfile, signed_area
 from .rows import unique_rows
 from .screw import hand_name, rotate2d, screw_to_plane
+from .triangles import face_cross as _face_cross
 
 RESIDUAL_THRESHOLD = 1e-3   # RMS distance of the helical vertices from the fitted surface, in outer radii
 TANGENCY_THRESHOLD = 0.05   # RMS sin(angle between screw velocity and vertex normal): gross pre-check
@@ -186,18 +187,6 @@ def _check_triangles(verts, faces):
     if verts.ndim != 2 or verts.shape[1] != 3 or faces.ndim != 2 or faces.shape[1] != 3:
         raise ValueError(f"a triangle mesh needs vertices (N, 3) and faces (M, 3), got {verts.shape} and "
                          f"{faces.shape}")
-
-
-def _face_cross(v, f):
-    """(p1 - p0) x (p2 - p0) of every face: what ``np.cross`` gives, bit for bit (the same products and
-    differences), with the corners gathered by ``take`` (about 4x faster for a million triangles)."""
-    p0 = v.take(f[:, 0], axis=0)
-    a, b = v.take(f[:, 1], axis=0) - p0, v.take(f[:, 2], axis=0) - p0
-    out = np.empty_like(a)
-    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
-    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
-    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    return out
 
 
 def vertex_normals(verts, faces, face_cross=None):

@@ -74,6 +74,8 @@ from scipy.sparse.csgraph import connected_components, depth_first_order
 from scipy.sparse.linalg import splu
 from scipy.spatial import cKDTree
 
+from ...geometry.triangles import corner_angles, face_areas_normals
+
 MAX_FACES = 5_000_000
 MIN_AREA_REL = 1e-14          # faces below this x (bounding-box diagonal)^2 are degenerate
 MAX_TILT_DEG = 85.0           # a guiding vector may lean at most this far out of the tangent plane
@@ -228,15 +230,6 @@ def _solve_symmetric(A, b):
 
 
 # ============================================================================ mesh operators
-def face_areas_normals(vertices, faces):
-    """Areas (F,) and unit normals (F, 3) (right-hand rule on the corner order) of the faces."""
-    V = np.asarray(vertices, float)
-    F = np.asarray(faces)
-    c = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
-    n2 = np.linalg.norm(c, axis=1)
-    return 0.5 * n2, c / np.where(n2 > 0, n2, 1.0)[:, None]
-
-
 def hat_gradients(vertices, faces):
     """Gradients (F, 3, 3) of the hat functions: [f, k] is the gradient on face f of the linear
     function that is 1 at corner k and 0 at the other two, n_f x e_k / (2 A_f), e_k the edge
@@ -301,15 +294,6 @@ def vertex_areas(vertices, faces):
     """Barycentric vertex areas (V,): one third of the area of every incident face (sum = total)."""
     area, _ = face_areas_normals(vertices, faces)
     return np.bincount(np.asarray(faces).ravel(), weights=np.repeat(area / 3, 3), minlength=len(vertices))
-
-
-def corner_angles(vertices, faces):
-    """Interior angles (F, 3) of the faces at their corners."""
-    V = np.asarray(vertices, float)
-    x = V[np.asarray(faces)]
-    u = np.roll(x, -1, axis=1) - x
-    w = np.roll(x, -2, axis=1) - x
-    return np.arctan2(np.linalg.norm(np.cross(u, w), axis=-1), (u * w).sum(-1))
 
 
 def vertex_normals(vertices, faces):
