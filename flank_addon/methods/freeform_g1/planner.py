@@ -1018,7 +1018,8 @@ def sweep_deviation(plan, points=None, n_t=None, n_s=40, k=24, mesh=None):
 
 def least_sphere_values(P, C, Rr, k=24, cap=256):
     """min over the spheres (centres C (m, 3), radii Rr (m,)) of |p - c| - r for each point of P (n, 3), and the
-    sphere that gives it (the first in index order among equal values found past the nearest centres).
+    sphere that gives it (between equal values, the nearer centre; among centres listed past the nearest ones, the
+    first in index order).
 
     The kd-tree's nearest centres come first, as one array: about as many as most points have within reach
     (:func:`_centres_to_ask`).  They need not hold the least value (a farther, bigger sphere can reach further):
