@@ -133,3 +133,22 @@ def test_spline_interval_search_is_the_clipped_search_and_scipy_evaluates_the_sa
     spline = CubicSpline(k, np.vstack([prof.points, prof.points[:1]]), bc_type="periodic")
     v = u[np.isfinite(u)]
     assert np.array_equal(prof.eval(v), spline(np.mod(v, prof.period)))
+
+
+def test_spline_coordinate_evaluations_are_eval_and_eval_all_bit_for_bit():
+    """eval_xy and eval_all_xy (what the foot points' Newton runs use) give the numbers of eval and eval_all,
+    at knots, next to them, at the period and far outside it."""
+    rng = np.random.default_rng(11)
+    th = np.sort(rng.uniform(0, 2 * np.pi, 60))
+    prof = SplineProfile(np.c_[np.cos(th), 0.7 * np.sin(th)] * rng.uniform(0.9, 1.1, (60, 1)))
+    k = prof.knots
+    u = np.r_[k, np.nextafter(k, -np.inf), np.nextafter(k, np.inf), -0.0, prof.period,
+              rng.uniform(-3, 3, 700) * prof.period]
+    x, y = prof.eval_xy(u)
+    p = prof.eval(u)
+    assert np.array_equal(x, p[:, 0]) and np.array_equal(y, p[:, 1])
+    inside = u[(u >= 0) & (u < prof.period)]
+    parts = prof.eval_all_xy(inside)
+    p0, p1, p2 = prof.eval_all(inside)
+    for got, want in zip(parts, (p0[:, 0], p0[:, 1], p1[:, 0], p1[:, 1], p2[:, 0], p2[:, 1])):
+        assert np.array_equal(got, want)
