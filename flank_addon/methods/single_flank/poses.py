@@ -880,7 +880,9 @@ class _Lockstep:
     has asked, the calling thread evaluates all the points together by ``batch(X (k, n), ids (k,))``
     and the runs go on.  So N independent SLSQP runs cost one vectorised foot-point call per round
     instead of N, and each run's iterates are exactly those of its own ``scipy.optimize.minimize``
-    call.
+    call wherever ``batch`` gives a run the values it would give it alone.  The pose optimiser's batch
+    does not quite: a round pads its poses' sample rows to the longest among them and keys their warm
+    starts by that width, so which runs share a round is part of its numerical path.
 
     Each run waits at its own gate (a lock the server opens with its answer) and the server at another
     that the last run to ask opens: one thread woken per hand-over.  A shared condition woke every
