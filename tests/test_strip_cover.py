@@ -57,34 +57,6 @@ def test_pose_deviations_match_machined_deviation(female, mid_poses):
         assert np.all(np.isposinf(dev[k][~fin]) | np.isneginf(dev[k][~fin]))
 
 
-def test_deviation_rows_marching_by_the_helix_find_the_roots_of_the_march_by_spheres(female, mid_poses, monkeypatch):
-    """The junction kinks' deviations march as far as each point's helix lets them (reach=True): the same roots
-    to the root tolerance as the march by spheres that the cover's choices rest on, in fewer evaluations."""
-    import flank_addon.methods.single_flank.strip_cover as sc
-
-    r, S = female
-    fr, poses = mid_poses
-    fs = flank_samples(S, fr, 60)
-    tools = [tool_of(p) for p in poses]
-    which = np.repeat(np.arange(len(tools)), len(fs.u))
-    pts, nrm = np.tile(fs.points, (len(tools), 1)), np.tile(fs.normals, (len(tools), 1))
-    # and the same points 1e-4 outside the flank, most of them now inside the swept region (marching inwards)
-    which, pts, nrm = np.r_[which, which], np.r_[pts, pts + 1e-4 * nrm], np.r_[nrm, nrm]
-    calls = []
-    real = sc.helical_distance
-    monkeypatch.setattr(sc, "helical_distance", lambda tool, q, *a, **k: calls.append(len(q)) or real(tool, q, *a, **k))
-    by_spheres = sc.deviations_rows(tools, which, pts, nrm, S.v0, S.handedness, 0.01)
-    rows_by_spheres = list(calls)
-    calls.clear()
-    by_helix = sc.deviations_rows(tools, which, pts, nrm, S.v0, S.handedness, 0.01, reach=True)
-    # here 9 passes over 3,803 rows against 11 over 4,749 (where rays meet the envelope more obliquely, fewer)
-    assert len(calls) < len(rows_by_spheres) and sum(calls) < 0.85 * sum(rows_by_spheres)
-    fin = np.isfinite(by_spheres)
-    assert 50 < fin.sum() < len(fin) and (by_spheres[fin] < 0).any() and (by_spheres[fin] > 0).any()
-    assert np.array_equal(by_helix[~fin], by_spheres[~fin])
-    np.testing.assert_allclose(by_helix[fin], by_spheres[fin], rtol=0, atol=1e-11)
-
-
 def test_covered_intervals_are_where_the_deviation_is_in_band(female, mid_poses):
     r, S = female
     fr, poses = mid_poses

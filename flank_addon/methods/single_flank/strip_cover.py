@@ -39,8 +39,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...geometry.screw import screw_motion
-from ...simulation.sweep import (StackedTools, false_position, helical_distance, helical_reach, illinois_roots,
-                                 illinois_update, tool_of)
+from ...simulation.sweep import (StackedTools, false_position, helical_distance, illinois_roots, illinois_update,
+                                 tool_of)
 
 _ROW_CHUNK = 4096
 
@@ -109,10 +109,8 @@ def pose_deviations(tools, points, normals, v0, handedness, search, tol=1e-12):
     return out
 
 
-def _row_roots(stack, which, p, n, v0, hand, search, tol, reach=False):
-    """Root of D_k(p + lambda n) per row (tool k = which[row]); the scheme of machined_deviation.  With
-    ``reach`` the march steps as far as the helix lets it (:func:`sweep.helical_reach`), as machined_deviation
-    does; without it by spheres (the cover's roots, on which its choices depend)."""
+def _row_roots(stack, which, p, n, v0, hand, search, tol):
+    """Root of D_k(p + lambda n) per row (tool k = which[row]); the scheme of machined_deviation."""
     R = len(p)
     scale = float(np.max(np.abs(p)))
     cutoff = search + 1e-6 * scale
@@ -138,10 +136,7 @@ def _row_roots(stack, which, p, n, v0, hand, search, tol, reach=False):
         idx = np.flatnonzero(active)
         if not len(idx):
             break
-        step = np.abs(f_lo[idx])
-        if reach:
-            step = helical_reach(p[idx] + lo[idx, None] * n[idx], direction[idx, None] * n[idx], step, v0, hand)
-        lam = lo[idx] + direction[idx] * (step + eps)
+        lam = lo[idx] + direction[idx] * (np.abs(f_lo[idx]) + eps)
         out = np.abs(lam) > search
         lam = np.clip(lam, -search, search)
         f_new = D(lam, idx, np.minimum(np.abs(f_lo[idx]) + np.abs(lam - lo[idx]) + eps, cutoff))
@@ -640,7 +635,7 @@ class Junction:
     normals: np.ndarray
 
 
-def deviations_rows(tools, which, points, normals, v0, handedness, search, tol=1e-12, reach=False):
+def deviations_rows(tools, which, points, normals, v0, handedness, search, tol=1e-12):
     """Deviation (R,) of profile point ``points[r]`` (z = 0, outward normal ``normals[r]``) under tool
     ``tools[which[r]]`` alone, for R rows at once (same definition and root finding as
     :func:`pose_deviations`, which evaluates every tool at every point): rows of tools with one part
@@ -660,13 +655,12 @@ def deviations_rows(tools, which, points, normals, v0, handedness, search, tol=1
         if len(ks) == 1 or not StackedTools.compatible([tools[k] for k in ks]):
             for k in ks:
                 rk = rows[which[rows] == k]
-                out[rk] = _row_roots(tools[k], np.zeros(len(rk), int), p1[rk], n1[rk], v0, handedness, search, tol,
-                                     reach)
+                out[rk] = _row_roots(tools[k], np.zeros(len(rk), int), p1[rk], n1[rk], v0, handedness, search, tol)
             continue
         local = {k: j for j, k in enumerate(ks)}
         stack = StackedTools([tools[k] for k in ks])
         wl = np.array([local[int(k)] for k in which[rows]])
-        out[rows] = _row_roots(stack, wl, p1[rows], n1[rows], v0, handedness, search, tol, reach)
+        out[rows] = _row_roots(stack, wl, p1[rows], n1[rows], v0, handedness, search, tol)
     return out
 
 
@@ -732,8 +726,7 @@ def junction_kinks_chain(strips, surface, flank_range=None, n=500, search=None, 
     def gap(u, pr):
         p, nn = fs.at(u)
         m = len(u)
-        d = deviations_rows(tools, np.r_[pr, pr + 1], np.r_[p, p], np.r_[nn, nn], v0, hand, search,
-                            reach=True).reshape(2, m)
+        d = deviations_rows(tools, np.r_[pr, pr + 1], np.r_[p, p], np.r_[nn, nn], v0, hand, search).reshape(2, m)
         return d[0] - d[1], d
 
     a, b = fs.u[i].copy(), fs.u[i + 1].copy()
