@@ -1,0 +1,150 @@
+"""Checks inside the planners and `verify`, each timed beside the way it was done before (in one process,
+alternating, minima over the repeats), with the answers compared.
+
+  sweep check      the free-form `verify`'s least |p - c| - r over the tool's spheres at the bump's vertices
+                   (least_sphere_values) against the 24 nearest centres followed by a ball list for every vertex
+  spline rows      SplineProfile.eval_all_xy / eval_xy gathering coefficient rows with take against fancy indexing
+
+    PYTHONPATH=. .venv/bin/python bench/bench_checks.py [--repeat 7] [--only sweep,spline]
+
+The inputs are those of bench_interactive.py (the 20,000-triangle bump).
+"""
+import argparse
+import contextlib
+import io
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(HERE / "bench"))
+
+
+def best(f, repeat):
+    t_min, out = float("inf"), None
+    for _ in range(repeat):
+        t = time.perf_counter()
+        out = f()
+        t_min = min(t_min, time.perf_counter() - t)
+    return t_min, out
+
+
+def side_by_side(new, old, repeat):
+    """Minimum times of new() and old(), run alternately, and their last answers."""
+    tn, to, rn, ro = float("inf"), float("inf"), None, None
+    for _ in range(repeat):
+        t, rn = best(new, 1)
+        tn = min(tn, t)
+        t, ro = best(old, 1)
+        to = min(to, t)
+    return tn, to, rn, ro
+
+
+def cli(argv):
+    from flank_addon import cli as command_line
+    with contextlib.redirect_stdout(io.StringIO()):
+        command_line.main(argv)
+
+
+def sweep_check(d, info, repeat):
+    from scipy.spatial import cKDTree
+
+    from flank_addon.io.plan import read_plan
+    from flank_addon.methods.freeform_g1 import planner as ff
+    from bench_interactive import operations
+
+    cli(operations(d, info)["freeform"])
+    plan = read_plan(d / "ff.json")
+    mesh = ff.plan_mesh(plan)
+    seen = {}
+    real = ff.least_sphere_values
+
+    def keep(P, C, Rr, k=24, cap=256):
+        seen.update(P=P, C=C, Rr=Rr, k=k)
+        return real(P, C, Rr, k, cap)
+
+    ff.least_sphere_values = keep
+    try:
+        ff.sweep_deviation(plan, mesh=mesh)
+    finally:
+        ff.least_sphere_values = real
+    P, C, Rr, k = seen["P"], seen["C"], seen["Rr"], seen["k"]
+
+    def before():
+        tree = cKDTree(C)
+        dist, i = tree.query(P, k=k)
+        val = dist - Rr[i]
+        b = np.argmin(val, axis=1)
+        rows = np.arange(len(P))
+        out, idx = val[rows, b], i[rows, b]
+        lists = tree.query_ball_point(P, out + Rr.max() + 1e-12)
+        ff._least_in_balls(P, C, Rr, lists, k, out, idx)
+        return out, idx
+
+    tn, to, (on, jn), (oo, jo) = side_by_side(lambda: real(P, C, Rr, k), before, repeat)
+    same = np.array_equal(on.view(np.int64), oo.view(np.int64)) and np.array_equal(jn, jo)
+    print(f"sweep check ({len(P)} vertices, {len(C)} spheres): {to:.4f} s before, {tn:.4f} s now, "
+          f"{to / tn:.2f}x; values and spheres the same bit for bit: {same}")
+    tv, _ = best(lambda: ff.verify_freeform(plan), repeat)
+    print(f"  verify_freeform of that plan (in process): {tv:.4f} s")
+
+
+def spline_rows(repeat):
+    from flank_addon.geometry.rotors import builtin_by_name
+
+    prof = builtin_by_name("asymmetric-female").profile
+    rng = np.random.default_rng(1)
+    for n in (200, 740):
+        u = rng.uniform(0.0, prof.period, n)
+
+        def all_before():
+            i, s = prof._interval(u, wrap_end=False)
+            g = prof._all_xy[i]
+            out = []
+            for k in (0, 7):
+                c0, c1, c2, c3, c0_3, c1_2, c0_6 = (g[..., k + j] for j in range(7))
+                out.append((((c0 * s + c1) * s + c2) * s + c3, (c0_3 * s + c1_2) * s + c2, c0_6 * s + c1_2))
+            (x, dx, ddx), (y, dy, ddy) = out
+            return x, y, dx, dy, ddx, ddy
+
+        def xy_before():
+            i, s = prof._interval(u)
+            s2 = s * s
+            s3 = s2 * s
+            g = prof._all_xy[i]
+            return (g[..., 3] + g[..., 2] * s + g[..., 1] * s2 + g[..., 0] * s3,
+                    g[..., 10] + g[..., 9] * s + g[..., 8] * s2 + g[..., 7] * s3)
+
+        def per_call(f):
+            return lambda: [f() for _ in range(2000)]
+
+        ta, tb, ra, rb = side_by_side(per_call(lambda: prof.eval_all_xy(u)), per_call(all_before), repeat)
+        tc, td, rc, rd = side_by_side(per_call(lambda: prof.eval_xy(u)), per_call(xy_before), repeat)
+        same = all(np.array_equal(a, b) for a, b in zip(ra[-1] + rc[-1], rb[-1] + rd[-1]))
+        print(f"spline rows, {n} parameters: eval_all_xy {tb / 2000 * 1e6:.1f} -> {ta / 2000 * 1e6:.1f} us, "
+              f"eval_xy {td / 2000 * 1e6:.1f} -> {tc / 2000 * 1e6:.1f} us per call; the same numbers: {same}")
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--repeat", type=int, default=7)
+    ap.add_argument("--only", default="sweep,spline")
+    args = ap.parse_args()
+    only = set(args.only.split(","))
+    if "spline" in only:
+        spline_rows(args.repeat)
+    if "sweep" in only:
+        from bench_interactive import make_inputs
+        with tempfile.TemporaryDirectory() as tmp:
+            d = Path(tmp)
+            (d / HERE.name).mkdir()
+            info = make_inputs(d)
+            sweep_check(d, info, args.repeat)
+
+
+if __name__ == "__main__":
+    main()
