@@ -103,13 +103,7 @@ def spline_rows(repeat):
 
         def all_before():
             i, s = prof._interval(u, wrap_end=False)
-            g = prof._all_xy[i]
-            out = []
-            for k in (0, 7):
-                c0, c1, c2, c3, c0_3, c1_2, c0_6 = (g[..., k + j] for j in range(7))
-                out.append((((c0 * s + c1) * s + c2) * s + c3, (c0_3 * s + c1_2) * s + c2, c0_6 * s + c1_2))
-            (x, dx, ddx), (y, dy, ddy) = out
-            return x, y, dx, dy, ddx, ddy
+            return prof._components_xy(prof._all_xy[i], s)
 
         def xy_before():
             i, s = prof._interval(u)

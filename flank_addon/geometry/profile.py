@@ -259,7 +259,11 @@ class SplineProfile(Profile):
     def eval_all_xy(self, u):
         """The components of :meth:`eval_all` (the same numbers): (x, y, x', y', x'', y'')."""
         i, s = self._interval(u, wrap_end=False)
-        g = self._all_xy.take(i, axis=0)
+        return self._components_xy(self._all_xy.take(i, axis=0), s)
+
+    @staticmethod
+    def _components_xy(g, s):
+        """(x, y, x', y', x'', y'') from the coefficient rows g of the parameters' intervals and the offsets s."""
         out = []
         for k in (0, 7):
             c0, c1, c2, c3, c0_3, c1_2, c0_6 = (g[..., k + j] for j in range(7))
