@@ -335,3 +335,8 @@ def test_two_paths_beat_one_axis_on_asymmetric_female(female):
     assert sim_max < 1.5 * e_one and sim_min > -1e-6
     strips = two.plan["strips"]
     assert max(s["reported_max_error"] for s in strips) == pytest.approx(sim_max, abs=1e-12)
+    # and they are verify's, bit for bit: both strips in one sweep, as verify simulates them (one sweep per
+    # strip gives the roots near a junction of the two strips other last bits)
+    ver = verify_plan(two.plan)["strips"]
+    assert [(s["reported_max_error"], s["reported_min_error"]) for s in strips] == \
+        [(v["max_error"], v["min_error"]) for v in ver]

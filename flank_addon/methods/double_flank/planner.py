@@ -1187,10 +1187,12 @@ def _strip(path, flank, shank_len):
 
 def simulate_plan_errors(plan, search=None):
     """Rotor-to-envelope deviations of a plan's target flank points by the sweep simulation
-    (:mod:`sweep`, signed: + material left, - overcut), each point owned by the strip that cuts
-    deepest there.  Returns (indices, deviation, owner, per-strip (max, min))."""
+    (:mod:`sweep`, signed: + material left, - overcut), each point owned by the strip that forms the
+    machined surface there (the first within 1e-12 R of the least distance).  The same simulation as
+    ``verify`` (:func:`simulation.verify.verify_plan`): all strips in one sweep, so a point looks only at
+    the strips that can reach it.  Returns (indices, deviation, owner, per-strip (max, min))."""
     from ...geometry.profile import SplineProfile
-    from ...simulation.sweep import StripTool, first_least, machined_deviation
+    from ...simulation.sweep import StripTool, machined_deviation
 
     rot = plan["rotor"]
     prof = np.asarray(rot["profile"], float)
@@ -1200,10 +1202,9 @@ def simulate_plan_errors(plan, search=None):
     idx = np.unique(np.concatenate([np.arange(a, b + 1) % n for a, b in
                                     (rot["flanks"][f] for f in plan["target_flanks"])]))
     search = 0.1 * float(rot["outer_radius"]) if search is None else search
-    devs = np.array([machined_deviation([StripTool.from_strip(s)], prof[idx], normals[idx], rot["v0"],
-                                        rot["handedness"], max_deviation=search) for s in plan["strips"]])
-    owner = first_least(devs, 1e-12 * float(rot["outer_radius"]))
-    dev = devs[owner, np.arange(len(idx))]
+    tools = [StripTool.from_strip(s) for s in plan["strips"]]
+    dev, owner, _ = machined_deviation(tools, prof[idx], normals[idx], rot["v0"], rot["handedness"],
+                                       max_deviation=search, owner_tie=1e-12 * float(rot["outer_radius"]))
     per = []
     for k in range(len(plan["strips"])):
         d = dev[(owner == k) & np.isfinite(dev)]
