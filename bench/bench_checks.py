@@ -4,8 +4,11 @@ alternating, minima over the repeats), with the answers compared.
   sweep check      the free-form `verify`'s least |p - c| - r over the tool's spheres at the bump's vertices
                    (least_sphere_values) against the 24 nearest centres followed by a ball list for every vertex
   spline rows      SplineProfile.eval_all_xy / eval_xy gathering coefficient rows with take against fancy indexing
+  strip errors     a double-flank plan's simulated errors (simulate_plan_errors): all strips in one sweep, as
+                   verify runs it, against one sweep per strip with each point given to the strip that cuts
+                   deepest; on the two-paths plans of the asymmetric female and male (valley 0)
 
-    PYTHONPATH=. .venv/bin/python bench/bench_checks.py [--repeat 7] [--only sweep,spline]
+    PYTHONPATH=. .venv/bin/python bench/bench_checks.py [--repeat 7] [--only sweep,spline,strips]
 
 The inputs are those of bench_interactive.py (the 20,000-triangle bump).
 """
@@ -123,14 +126,52 @@ def spline_rows(repeat):
               f"eval_xy {td / 2000 * 1e6:.1f} -> {tc / 2000 * 1e6:.1f} us per call; the same numbers: {same}")
 
 
+def strip_errors(repeat):
+    from flank_addon.geometry.profile import SplineProfile
+    from flank_addon.geometry.rotors import builtin_by_name
+    from flank_addon.methods.double_flank.planner import plan_double_flank, simulate_plan_errors
+    from flank_addon.simulation.sweep import StripTool, first_least, machined_deviation
+    from flank_addon.simulation.verify import verify_plan
+
+    for name in ("asymmetric-female", "asymmetric-male"):
+        r = builtin_by_name(name)
+        plan = plan_double_flank(r.surface(), r.flanks, valley=0, two_paths=True, simulate=False).plan
+        rot = plan["rotor"]
+        prof = np.asarray(rot["profile"], float)
+        spline = SplineProfile(prof)
+        normals = spline.outward_normal(spline.knots[:-1])
+        idx = np.unique(np.concatenate([np.arange(a, b + 1) % len(prof)
+                                        for a, b in (rot["flanks"][f] for f in plan["target_flanks"])]))
+        R = float(rot["outer_radius"])
+
+        def one_sweep_per_strip():
+            devs = np.array([machined_deviation([StripTool.from_strip(s)], prof[idx], normals[idx], rot["v0"],
+                                                rot["handedness"], max_deviation=0.1 * R) for s in plan["strips"]])
+            owner = first_least(devs, 1e-12 * R)
+            return devs[owner, np.arange(len(idx))], owner
+
+        tn, to, (_, dn, on, per), (do, oo) = side_by_side(lambda: simulate_plan_errors(plan),
+                                                          one_sweep_per_strip, repeat)
+        # (a strip that forms no point of the flanks, as the second of a two-paths plan that fell back to the
+        # double-flank axis used twice, reports 0 where verify has no figure)
+        ver = [(v["max_error"], v["min_error"]) for v in verify_plan(plan)["strips"]]
+        as_verify = per == [(0.0, 0.0) if v == (None, None) else v for v in ver]
+        print(f"strip errors, two paths, {name} ({len(plan['strips'])} strips, {len(idx)} points): {to:.4f} s "
+              f"one sweep per strip, {tn:.4f} s one sweep, {to / tn:.2f}x; the same owners: "
+              f"{np.array_equal(on, oo)}, largest change {np.nanmax(np.abs(dn - do)) / R:.1e} R; the strips' "
+              f"figures those of verify bit for bit: {as_verify}")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--repeat", type=int, default=7)
-    ap.add_argument("--only", default="sweep,spline")
+    ap.add_argument("--only", default="sweep,spline,strips")
     args = ap.parse_args()
     only = set(args.only.split(","))
     if "spline" in only:
         spline_rows(args.repeat)
+    if "strips" in only:
+        strip_errors(args.repeat)
     if "sweep" in only:
         from bench_interactive import make_inputs
         with tempfile.TemporaryDirectory() as tmp:

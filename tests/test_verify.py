@@ -61,6 +61,35 @@ def test_a_strip_given_twice_leaves_every_point_to_the_first():
     assert all(g["strip"] == 0 for g in res["gouge_points"])
 
 
+def test_a_strip_repeated_exactly_is_measured_once_and_its_first_owns_it():
+    """A two-paths plan that falls back to the double-flank axis used twice holds the same strip twice: verify
+    measures its solid once (strip_solids) and gives what the pair forms to the first of the two; the strips
+    after it keep their own figures and gouges.  Strips A, A, B against A, B: strip 2 must get B's numbers,
+    which it does not if an owner is left as the index of the measured solid (1, the repeat)."""
+    from flank_addon.simulation.sweep import strip_solids
+
+    a = ball_plan(0.003)["strips"][0]
+    b = dict(ball_plan(0.002)["strips"][0])
+    c = [0.0, RC + 0.1 - 0.002, 0.0]                  # the second ball a quarter turn on
+    b["axis_start"] = b["axis_end"] = b["shank_start"] = b["shank_end"] = c
+    twice = ball_plan(0.003)
+    twice["strips"] = [a, dict(a, flank=0), b]
+    once = ball_plan(0.003)
+    once["strips"] = [a, b]
+    tools, first = strip_solids(twice["strips"])
+    assert len(tools) == 2 and first.tolist() == [0, 2]
+    res, ref = verify_plan(twice, tolerance=1e-3), verify_plan(once, tolerance=1e-3)
+    s0, s1, s2 = res["strips"]
+    r0, r1 = ref["strips"]
+    assert s1["covered_ranges"] == [] and s1["max_error"] is None and s1["gouge_points"] == 0
+    for s, r in ((s0, r0), (s2, r1)):
+        assert r["covered_ranges"] and r["gouge_points"] > 0
+        assert (s["covered_ranges"], s["max_error"], s["min_error"], s["gouge_points"]) == \
+            (r["covered_ranges"], r["max_error"], r["min_error"], r["gouge_points"])
+    assert sorted((g["index"], g["strip"]) for g in res["gouge_points"]) == \
+        sorted((g["index"], 2 * g["strip"]) for g in ref["gouge_points"])
+
+
 def test_first_least_picks_the_first_of_near_equal_rows():
     from flank_addon.simulation.sweep import first_least
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..io.plan import validate_plan
 from ..geometry.profile import SplineProfile
-from .sweep import StripTool, first_least, machined_deviation, tool_distances
+from .sweep import first_least, machined_deviation, strip_solids, tool_distances
 
 
 def _ranges(mask):
@@ -57,7 +57,8 @@ def verify_plan(plan, tolerance=None, search=None, all_points=False, progress=No
         raise ValueError("rotor.profile must be a CCW point list without repeated points")
     normals = spline.outward_normal(spline.knots[:-1])
     strips = plan["strips"]
-    tools = [StripTool.from_strip(s) for s in strips]
+    # a strip that repeats an earlier one is measured once; its first strip owns what the pair forms
+    tools, first = strip_solids(strips)
 
     # deviation on the target flanks
     target = np.zeros(n, bool)
@@ -82,15 +83,18 @@ def verify_plan(plan, tolerance=None, search=None, all_points=False, progress=No
     elif tools and len(ti):
         deviation[ti], owner_at[ti], least_at[ti] = machined_deviation(
             tools, prof[ti], normals[ti], v0, hand, max_deviation=search, progress=stage, owner_tie=tie)
+    if tools:
+        owner_at = np.where(owner_at >= 0, first[np.maximum(owner_at, 0)], -1)
     # gouges anywhere on the rotor: the swept region reaches tol below the design surface
     report(0.8, "gouges")
     gouges = []
     if tools:
         below = np.c_[prof - tol * normals, np.zeros(n)]
         d_all, which = _min_distance(tools, below, v0, hand, 0.0, tie)
+        which = first[which]
         hit = np.flatnonzero(d_all < 0)
         if len(hit):  # tool or shank: only the few gouged points need the distinction (and the bare tools)
-            tool_only = [StripTool.from_strip(s, with_shank=False) for s in strips]
+            tool_only, _ = strip_solids(strips, with_shank=False)
             d_tool, _ = _min_distance(tool_only, below[hit], v0, hand, 0.0)
         for j, i in enumerate(hit):
             gouges.append({"index": int(i), "x": float(prof[i, 0]), "y": float(prof[i, 1]),

@@ -1190,9 +1190,9 @@ def simulate_plan_errors(plan, search=None):
     (:mod:`sweep`, signed: + material left, - overcut), each point owned by the strip that forms the
     machined surface there (the first within 1e-12 R of the least distance).  The same simulation as
     ``verify`` (:func:`simulation.verify.verify_plan`): all strips in one sweep, so a point looks only at
-    the strips that can reach it.  Returns (indices, deviation, owner, per-strip (max, min))."""
+    the strips that can reach it, and a strip that repeats an earlier one is not measured again.  Returns (indices, deviation, owner, per-strip (max, min))."""
     from ...geometry.profile import SplineProfile
-    from ...simulation.sweep import StripTool, machined_deviation
+    from ...simulation.sweep import machined_deviation, strip_solids
 
     rot = plan["rotor"]
     prof = np.asarray(rot["profile"], float)
@@ -1202,9 +1202,10 @@ def simulate_plan_errors(plan, search=None):
     idx = np.unique(np.concatenate([np.arange(a, b + 1) % n for a, b in
                                     (rot["flanks"][f] for f in plan["target_flanks"])]))
     search = 0.1 * float(rot["outer_radius"]) if search is None else search
-    tools = [StripTool.from_strip(s) for s in plan["strips"]]
+    tools, first = strip_solids(plan["strips"])
     dev, owner, _ = machined_deviation(tools, prof[idx], normals[idx], rot["v0"], rot["handedness"],
                                        max_deviation=search, owner_tie=1e-12 * float(rot["outer_radius"]))
+    owner = np.where(owner >= 0, first[np.maximum(owner, 0)], -1)
     per = []
     for k in range(len(plan["strips"])):
         d = dev[(owner == k) & np.isfinite(dev)]
