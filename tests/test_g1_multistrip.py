@@ -552,6 +552,10 @@ def test_least_sphere_values_are_those_of_every_sphere(cap):
     assert np.allclose(o1, brute[:4, 0], rtol=0, atol=1e-15) and (j1 == 0).all()
     o0, j0 = least_sphere_values(np.zeros((0, 3)), C, Rr)
     assert o0.shape == (0,) and j0.shape == (0,)
+    # a cap below k, or of nothing: one centre at least, the rest by ball lists, the same values
+    for k_, cap_ in ((500, 3), (0, 0), (5, 0)):
+        oc, jc = least_sphere_values(P[:50], C, Rr, k=k_, cap=cap_)
+        assert np.array_equal(oc.view(np.int64), out[:50].view(np.int64))
 
 
 def test_optimum_is_a_local_minimum_of_eq_18():

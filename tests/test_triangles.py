@@ -25,6 +25,10 @@ def test_face_quantities_are_their_plain_definitions():
         assert np.array_equal(area, 0.5 * n2)
         assert np.array_equal(normal[n2 > 0], cross[n2 > 0] / n2[n2 > 0, None])
         assert (normal[:20] == 0).all() and (area[:20] == 0).all()
+        # faces of another integer type (a mesh reader's uint32 or uint64) give the same numbers
+        for kind in (np.uint32, np.uint64, np.int32):
+            a2, n2_ = face_areas_normals(V, F.astype(kind))
+            assert np.array_equal(a2, area) and np.array_equal(n2_, normal)
         ang = corner_angles(V, F)
         for c in range(3):
             p, q, r = V[F[:, c]], V[F[:, (c + 1) % 3]], V[F[:, (c + 2) % 3]]

@@ -16,9 +16,11 @@ def face_cross(v, f):
 
 
 def face_areas_normals(vertices, faces):
-    """Areas (F,) and unit normals (F, 3) (right-hand rule on the corner order) of the faces; a face of no area
-    has the normal 0."""
-    c = face_cross(np.asarray(vertices, float), np.asarray(faces))
+    """Areas (F,) and unit normals (F, 3) (right-hand rule on the corner order) of the faces; a face whose cross
+    product is exactly 0 has the normal 0.  (On a face so small or so large that the squared length of its
+    cross product under- or overflows, the "unit" normal is not of length 1: callers that need one test it,
+    as :class:`.mesh_distance.TriangleMesh` does.)  Faces may be any integer type."""
+    c = face_cross(np.asarray(vertices, float), np.asarray(faces).astype(np.intp, copy=False))
     n2 = np.linalg.norm(c, axis=1)
     return 0.5 * n2, c / np.where(n2 > 0, n2, 1.0)[:, None]
 

@@ -979,7 +979,8 @@ def sweep_deviation(plan, points=None, n_t=None, n_s=40, k=24, mesh=None):
     The tool at one instant is the union of the spheres of Eq. (2) along the axis; the motion is
     sampled at n_t instants per strip (default 4 per ruling) on the same spline rails as the
     envelopes, the axis at n_s points.  Each point's value is min |p - y| - r over all the spheres
-    (:func:`least_sphere_values`, which asks the kd-tree for at least the k nearest centres first).
+    (:func:`least_sphere_values`, which asks the kd-tree for the nearest centres in one array first, k of
+    them or as many as most points have within reach, up to 256, and lists the rest by ball where needed).
     Returns (deviation (n,), index of the closest strip (n,), inside (n,) True where the closest sphere
     is not on the border of the machined region (the first or last instant of a strip, the free tip end
     of the first strip or base end of the last)."""
@@ -1037,7 +1038,7 @@ def least_sphere_values(P, C, Rr, k=24, cap=256):
     rows = np.arange(len(P))
     out, idx = val[rows, best], i[rows, best]
     if kk < len(C):
-        rows = np.flatnonzero(~(d[:, -1] > out + reach))
+        rows = np.flatnonzero(~(d[:, -1] > out + reach))        # (written so that a NaN row is listed too)
         if len(rows):
             o, j = out[rows], idx[rows]
             with collector_paused():        # a list per point, all freed together: the collector would only walk them
@@ -1050,10 +1051,12 @@ def least_sphere_values(P, C, Rr, k=24, cap=256):
 
 def _centres_to_ask(tree, P, Rr, k, reach, sample=256, cap=256):
     """How many nearest sphere centres :func:`least_sphere_values` asks the kd-tree for at once: about as many as
-    nineteen in twenty points have within their reach (measured on up to ``sample`` of them), at least k and
-    at most ``cap``.  Asking for the centres one by one in a ball list per point costs about twice as much
-    per centre as the k nearest in one array, so most rows should need no list."""
-    n = min(tree.n, max(int(k), 1))
+    nineteen in twenty points have within their reach (measured on up to ``sample`` of them), at least
+    min(k, ``cap``) (and 1) and at most ``cap`` (a row whose reach holds more centres gets a ball list: the
+    count sets the cost, never the values).  Asking for the centres one by one in a ball list per point costs
+    about twice as much per centre as the k nearest in one array, so most rows should need no list."""
+    cap = max(int(cap), 1)
+    n = min(tree.n, max(min(int(k), cap), 1))
     if len(P) == 0 or tree.n <= n:
         return n
     S = P[np.unique(np.linspace(0, len(P) - 1, min(len(P), sample)).astype(np.int64))]
