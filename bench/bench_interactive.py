@@ -19,8 +19,8 @@ Operations (goals in brackets):
                  arbitrary pose, tool D3 L25 2 deg, tolerance 0.05 mm (read + analysis + plan)   [2 s]
   freeform       plan freeform on the 20,000-triangle bump, 11 strips x 20 rulings x 30 samples  [2 s]
   two-paths-f / two-paths-m   plan double-flank --two-paths on the asymmetric female / male    [1.5 s]
-  verify-two-paths, verify-freeform, verify-single-flank   verify of the two-paths (female), free-form and
-                 single-flank plans above ("verify of any plan")                               [0.5 s]
+  verify-two-paths, verify-two-paths-m, verify-freeform, verify-single-flank   verify of the two-paths (female
+                 and male), free-form and single-flank plans above ("verify of any plan")     [0.5 s]
   three-cones    plan double-flank --builtin asymmetric-female --valley 0 --tool cones:3 (sharp-tipped
                  cones)                                                                           [-]
   disc-cutter    cutter --builtin nilson-male --scale 100 --center-distance 180 --swivel 20 --plan-out (the
@@ -111,7 +111,8 @@ def make_inputs(d):
 
 
 # verify operations and the plan operation that writes the plan they read (this tree's plan, for every tree)
-VERIFIED = {"verify": "double-flank", "verify-two-paths": "two-paths-f", "verify-freeform": "freeform",
+VERIFIED = {"verify": "double-flank", "verify-two-paths": "two-paths-f", "verify-two-paths-m": "two-paths-m",
+            "verify-freeform": "freeform",
             "verify-single-flank": "single-flank", "verify-three-cones": "three-cones",
             "verify-disc-cutter": "disc-cutter"}
 
@@ -133,6 +134,7 @@ def operations(d, info):
         "two-paths-m": ["plan", "double-flank", "--builtin", "asymmetric-male", "--valley", "0", "--two-paths",
                         "--out", str(d / "tp_m.json")],
         "verify-two-paths": ["verify", str(d / HERE.name / "tp_f.json")],
+        "verify-two-paths-m": ["verify", str(d / HERE.name / "tp_m.json")],
         "verify-freeform": ["verify", str(d / HERE.name / "ff.json")],
         "verify-single-flank": ["verify", str(d / HERE.name / "sf.json")],
         "three-cones": ["plan", "double-flank", "--builtin", "asymmetric-female", "--valley", "0", "--tool",
@@ -147,7 +149,7 @@ def operations(d, info):
 
 
 GOALS = {"double-flank": 0.6, "verify": 0.5, "single-flank": 2.0, "freeform": 2.0, "two-paths-f": 1.5,
-         "two-paths-m": 1.5, "verify-two-paths": 0.5, "verify-freeform": 0.5, "verify-single-flank": 0.5,
+         "two-paths-m": 1.5, "verify-two-paths": 0.5, "verify-two-paths-m": 0.5, "verify-freeform": 0.5, "verify-single-flank": 0.5,
          "verify-three-cones": 0.5, "verify-disc-cutter": 0.5}
 
 

@@ -136,13 +136,13 @@ def fine_deviation(plan, strips, idx, refine=16):
     sampling ``refine`` times denser (:func:`..simulation.sweep.machined_deviation`; the tools' feature size,
     which sets the step along each helix, divided by ``refine``)."""
     from ..geometry.profile import SplineProfile
-    from ..simulation.sweep import StripTool, machined_deviation
+    from ..simulation.sweep import machined_deviation, strip_solids
 
     rot = plan["rotor"]
     prof = np.asarray(rot["profile"], float)
     spline = SplineProfile(prof)
     normals = spline.outward_normal(spline.knots[:-1])
-    tools = [StripTool.from_strip(st) for st in strips]
+    tools, _ = strip_solids(strips)          # a strip repeated (a two-paths fallback) is swept once
     for t in tools:
         t.feature /= refine
     return machined_deviation(tools, prof[idx], normals[idx], float(rot["v0"]), rot["handedness"],
