@@ -149,8 +149,8 @@ def operations(d, info):
 
 
 GOALS = {"double-flank": 0.6, "verify": 0.5, "single-flank": 2.0, "freeform": 2.0, "two-paths-f": 1.5,
-         "two-paths-m": 1.5, "verify-two-paths": 0.5, "verify-two-paths-m": 0.5, "verify-freeform": 0.5, "verify-single-flank": 0.5,
-         "verify-three-cones": 0.5, "verify-disc-cutter": 0.5}
+         "two-paths-m": 1.5, "verify-two-paths": 0.5, "verify-two-paths-m": 0.5, "verify-freeform": 0.5,
+         "verify-single-flank": 0.5, "verify-three-cones": 0.5, "verify-disc-cutter": 0.5}
 
 
 def warm_up_modules():

@@ -1190,7 +1190,8 @@ def simulate_plan_errors(plan, search=None):
     (:mod:`sweep`, signed: + material left, - overcut), each point owned by the strip that forms the
     machined surface there (the first within 1e-12 R of the least distance).  The same simulation as
     ``verify`` (:func:`simulation.verify.verify_plan`): all strips in one sweep, so a point looks only at
-    the strips that can reach it, and a strip that repeats an earlier one is not measured again.  Returns (indices, deviation, owner, per-strip (max, min))."""
+    the strips that can reach it, and a strip that repeats an earlier one is not measured again.
+    Returns (indices, deviation, owner, per-strip (max, min))."""
     from ...geometry.profile import SplineProfile
     from ...simulation.sweep import machined_deviation, strip_solids
 
