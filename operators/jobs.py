@@ -70,12 +70,13 @@ class PlannerJob:
 
 # what a first click imports: the rotor reader on the main thread (scipy.spatial through helical_surface,
 # 0.2 s), the planners and their scipy parts in the worker, the machine and post modules on Post Program's main
-# thread; names with a leading dot are in the extension
+# thread (and the mesh foot points' thread pool, 16 ms, which the free-form planner makes at its first query);
+# names with a leading dot are in the extension
 WARM_MODULES = (".flank_addon.geometry.helical_surface", ".flank_addon.geometry.rotor_analysis",
                 ".flank_addon.simulation.verify", ".flank_addon.methods.single_flank.planner",
                 ".flank_addon.methods.double_flank.planner", ".flank_addon.methods.freeform_g1.planner",
                 ".flank_addon.methods.formed_cutter.cutter_profile", ".flank_addon.machining.machine",
-                ".flank_addon.posts", "scipy.optimize", "scipy.interpolate")
+                ".flank_addon.posts", "scipy.optimize", "scipy.interpolate", "concurrent.futures")
 
 _warm_up = None
 _warm_up_lock = threading.Lock()
