@@ -90,6 +90,24 @@ def test_a_strip_repeated_exactly_is_measured_once_and_its_first_owns_it():
         sorted((g["index"], 2 * g["strip"]) for g in ref["gouge_points"])
 
 
+def test_notes_in_a_paraboloid_strip_play_no_part_in_its_solid():
+    """A plan may carry more fields than the reader needs ("more fields are welcome"), also inside a strip's
+    paraboloid: the solid is a and b alone, so two strips that differ only in a note share it, and verify
+    reads the note without trying to make a number of it."""
+    from flank_addon.simulation.sweep import strip_solids
+
+    plan = ball_plan(0.0)
+    s = plan["strips"][0]
+    s["axis_end"] = [s["axis_start"][0] + 0.1, 0.0, 0.0]
+    s["paraboloid"] = {"a": -5.0, "b": 0.02, "source": "catalogue X"}
+    plan["strips"].append(dict(s, paraboloid={"a": -5.0, "b": 0.02, "source": "catalogue Y"}))
+    plan["strips"].append(dict(s, paraboloid={"a": -5.0, "b": 0.025}))
+    tools, first = strip_solids(plan["strips"])
+    assert first.tolist() == [0, 2]
+    res = verify_plan(plan, tolerance=1e-3)
+    assert res["strips"][1]["covered_ranges"] == [] and res["strips"][1]["max_error"] is None
+
+
 def test_first_least_picks_the_first_of_near_equal_rows():
     from flank_addon.simulation.sweep import first_least
 

@@ -780,20 +780,15 @@ class StripTool(RevolvingTool):
         return cls(p0, p1, strip["radii"], *shank, extra_parts=extra)
 
 
-# the fields of a strip that StripTool.from_strip builds its solid from
-SOLID_FIELDS = ("axis_start", "axis_end", "radii", "meridian", "paraboloid", "shank_start", "shank_end", "shank_radius")
-
-
 def strip_solids(strips, with_shank=True):
     """The solids of a plan's strips (:meth:`StripTool.from_strip`), each distinct one once: a strip whose
     solid is built from the same numbers as an earlier strip's (a two-paths plan that fell back to the
     double-flank axis used twice) shares that strip's solid, so the sweep measures it once.
     -> (tools, first): tools[g] the solid of group g; first (G,) int the index of its first strip, which owns
     every point the group forms (:func:`first_least` gives it to the first of equal strips)."""
-    fields = SOLID_FIELDS if with_shank else SOLID_FIELDS[:5]
     tools, first, seen = [], [], {}
     for k, s in enumerate(strips):
-        key = tuple(_exact_key(s.get(f)) for f in fields)
+        key = _solid_key(s, with_shank)
         if key not in seen:
             seen[key] = len(tools)
             tools.append(StripTool.from_strip(s, with_shank=with_shank))
@@ -801,14 +796,15 @@ def strip_solids(strips, with_shank=True):
     return tools, np.array(first, int)
 
 
-def _exact_key(value):
-    """A hashable key equal for two field values exactly when their numbers are (lists, arrays, dicts of them)."""
-    if value is None:
-        return None
-    if isinstance(value, dict):
-        return tuple((k, _exact_key(v)) for k, v in sorted(value.items()))
-    a = np.asarray(value, float)
-    return a.shape, a.tobytes()
+def _solid_key(strip, with_shank):
+    """What :meth:`StripTool.from_strip` builds a strip's solid from, as a key equal for two strips exactly when
+    those numbers are (other fields, such as notes in a paraboloid's dict, play no part)."""
+    par = strip.get("paraboloid")
+    values = [strip.get("axis_start"), strip.get("axis_end"), strip.get("radii"), strip.get("meridian"),
+              None if par is None else (par["a"], par["b"])]
+    if with_shank:
+        values += [strip.get("shank_start"), strip.get("shank_end"), strip.get("shank_radius")]
+    return tuple(None if v is None else (np.shape(v), np.asarray(v, float).tobytes()) for v in values)
 
 
 def helical_distance(tool, points, v0, handedness="right", step=None, iters=None, polish=4, cutoff=np.inf,
