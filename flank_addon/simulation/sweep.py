@@ -796,6 +796,13 @@ def strip_solids(strips, with_shank=True):
     return tools, np.array(first, int)
 
 
+def strip_owners(owner, first):
+    """Owners (N,) of machined points as indices of the solids of :func:`strip_solids` (-1: none) -> as indices of
+    the strips (the first strip of each solid's group; -1 stays)."""
+    owner = np.asarray(owner)
+    return np.where(owner >= 0, first[np.maximum(owner, 0)], -1) if len(first) else owner
+
+
 def _solid_key(strip, with_shank):
     """What :meth:`StripTool.from_strip` builds a strip's solid from, as a key equal for two strips exactly when
     those numbers are (other fields, such as notes in a paraboloid's dict, play no part)."""

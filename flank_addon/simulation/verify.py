@@ -11,7 +11,7 @@ import numpy as np
 
 from ..io.plan import validate_plan
 from ..geometry.profile import SplineProfile
-from .sweep import first_least, machined_deviation, strip_solids, tool_distances
+from .sweep import first_least, machined_deviation, strip_owners, strip_solids, tool_distances
 
 
 def _ranges(mask):
@@ -83,8 +83,7 @@ def verify_plan(plan, tolerance=None, search=None, all_points=False, progress=No
     elif tools and len(ti):
         deviation[ti], owner_at[ti], least_at[ti] = machined_deviation(
             tools, prof[ti], normals[ti], v0, hand, max_deviation=search, progress=stage, owner_tie=tie)
-    if tools:
-        owner_at = np.where(owner_at >= 0, first[np.maximum(owner_at, 0)], -1)
+    owner_at = strip_owners(owner_at, first)
     # gouges anywhere on the rotor: the swept region reaches tol below the design surface
     report(0.8, "gouges")
     gouges = []

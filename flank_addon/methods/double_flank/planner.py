@@ -1193,7 +1193,7 @@ def simulate_plan_errors(plan, search=None):
     the strips that can reach it, and a strip that repeats an earlier one is not measured again.
     Returns (indices, deviation, owner, per-strip (max, min))."""
     from ...geometry.profile import SplineProfile
-    from ...simulation.sweep import machined_deviation, strip_solids
+    from ...simulation.sweep import machined_deviation, strip_owners, strip_solids
 
     rot = plan["rotor"]
     prof = np.asarray(rot["profile"], float)
@@ -1206,7 +1206,7 @@ def simulate_plan_errors(plan, search=None):
     tools, first = strip_solids(plan["strips"])
     dev, owner, _ = machined_deviation(tools, prof[idx], normals[idx], rot["v0"], rot["handedness"],
                                        max_deviation=search, owner_tie=1e-12 * float(rot["outer_radius"]))
-    owner = np.where(owner >= 0, first[np.maximum(owner, 0)], -1)
+    owner = strip_owners(owner, first)
     per = []
     for k in range(len(plan["strips"])):
         d = dev[(owner == k) & np.isfinite(dev)]
