@@ -110,6 +110,48 @@ def test_periodic_spline_coefficients_equal_scipy_bit_for_bit():
         assert np.array_equal(PeriodicCubic(knots, closed).c, ref)
 
 
+def test_periodic_spline_takes_scipy_once_imported_and_its_own_steps_before(monkeypatch):
+    """Without scipy.interpolate in the process the coefficients come from the steps here (and the module is
+    not imported for them); once it is imported, from scipy.  Both are scipy's numbers bit for bit."""
+    import subprocess
+    import sys
+
+    from scipy.interpolate import CubicSpline
+
+    from flank_addon.geometry import profile as P
+    from flank_addon.geometry.rotors import builtin_by_name
+
+    prof = builtin_by_name("asymmetric-female").profile
+    # scaled, so that no earlier test has left these coefficients in the spline's memory
+    knots, closed = prof.knots * 1.25, np.vstack([prof.points, prof.points[:1]]) * 1.25
+    ref = np.asarray(CubicSpline(knots, closed, bc_type="periodic").c)
+    steps = []
+    monkeypatch.setattr(P, "_periodic_coefficients", lambda k, y: steps.append(len(k)))
+    assert np.array_equal(P.PeriodicCubic(knots, closed).c, ref)
+    assert steps == []
+    monkeypatch.undo()
+    code = ("import sys, numpy as np\n"
+            "from flank_addon.geometry import profile as P\n"
+            "steps = []\n"
+            "own = P._periodic_coefficients\n"
+            "P._periodic_coefficients = lambda k, y: steps.append(len(k)) or own(k, y)\n"
+            "k, y = np.load(sys.argv[1])['k'], np.load(sys.argv[1])['y']\n"
+            "c = P.PeriodicCubic(k, y).c\n"
+            "assert 'scipy.interpolate' not in sys.modules, 'scipy.interpolate imported'\n"
+            "assert steps == [len(k)], steps\n"
+            "np.save(sys.argv[2], c)\n")
+    import os
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        src, out = os.path.join(tmp, "in.npz"), os.path.join(tmp, "c.npy")
+        np.savez(src, k=knots, y=closed)
+        root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+        subprocess.run([sys.executable, "-c", code, src, out], check=True, cwd=root,
+                       env={**os.environ, "PYTHONPATH": root})
+        assert np.array_equal(np.load(out), ref)
+
+
 def test_spline_interval_search_is_the_clipped_search_and_scipy_evaluates_the_same():
     """The interval of a parameter comes from one search in the inner knots; it must be the clipped search in
     all knots for every u (knots themselves, the ends, the period, beyond, NaN), and the points scipy's spline."""

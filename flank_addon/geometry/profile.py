@@ -12,6 +12,7 @@ circular arcs, e.g. the Nilson profile of Bizzarri & Bartoň 2021 Ex. 3.3).
 import csv
 import hashlib
 import math
+import sys
 import threading
 
 import numpy as np
@@ -152,8 +153,10 @@ def _periodic_coefficients(x, y):
 
 class PeriodicCubic:
     """The coefficients ``c`` (4, n - 1, 2) of the periodic cubic spline through closed points (n, 2) at knots
-    (n,), as scipy's CubicSpline(knots, closed, bc_type='periodic') has them: computed here, or by scipy
-    where the system is singular, the input not finite or shorter than 5 points (scipy's own errors)."""
+    (n,), as scipy's CubicSpline(knots, closed, bc_type='periodic') has them: by scipy where scipy.interpolate
+    is already imported (its LAPACK elimination: 1.3 against 10 ms for 4,097 knots, 3.4 against 58 ms for
+    20,000), where the system is singular, the input not finite or shorter than 5 points (scipy's own errors);
+    otherwise by the same steps here, without the import (about 0.25 s)."""
 
     def __init__(self, knots, closed):
         knots, closed = np.asarray(knots, float), np.asarray(closed, float)
@@ -163,11 +166,14 @@ class PeriodicCubic:
         with _COEFFICIENTS_LOCK:
             c = _COEFFICIENTS.get(key)
         if c is None:
-            try:
-                if len(knots) < 5 or not np.all(np.isfinite(closed)) or np.any(np.diff(knots) <= 0):
-                    raise _NeedsPivoting
-                c = _periodic_coefficients(knots, closed)
-            except _NeedsPivoting:
+            ours = ("scipy.interpolate" not in sys.modules and len(knots) >= 5 and np.all(np.isfinite(closed))
+                    and not np.any(np.diff(knots) <= 0))
+            if ours:
+                try:
+                    c = _periodic_coefficients(knots, closed)
+                except _NeedsPivoting:
+                    pass
+            if c is None:
                 from scipy.interpolate import CubicSpline
 
                 c = np.asarray(CubicSpline(knots, closed, bc_type="periodic").c)
