@@ -3,7 +3,7 @@ import pytest
 
 from flank_addon.geometry.helical_surface import HelicalSurface
 from flank_addon.geometry.profile import SplineProfile
-from flank_addon.geometry.screw import screw_motion, screw_to_plane
+from flank_addon.geometry.screw import screw_motion, screw_to_plane, screw_velocity
 from helpers import half_disk_profile, wavy_profile
 
 
@@ -50,6 +50,23 @@ def test_screw_motion_matches_eq1_both_hands():
     q0 = screw_to_plane(p, v0, "left")
     back = screw_motion(np.r_[q0, 0.0], p[2] / v0, v0, "left")
     assert np.allclose(back, p, atol=1e-14)
+
+
+@pytest.mark.parametrize("hand", ["right", "left"])
+def test_screw_velocity_is_the_derivative_of_the_screw_and_the_general_screws(hand):
+    """(-h y, h x, v0): the central difference of S_t at t = 0, and the general screw's velocity k d + d x (x - a)
+    with the axis d = (0, 0, h) through the origin and k = v0 / h."""
+    from flank_addon.geometry.rotor_analysis import axis_screw_velocity
+    from flank_addon.geometry.screw import hand_sign
+
+    h, v0 = hand_sign(hand), 0.37
+    p = np.random.default_rng(3).normal(size=(50, 3))
+    vel = screw_velocity(p, v0, h)
+    dt = 1e-6
+    fd = (screw_motion(p, dt, v0, hand) - screw_motion(p, -dt, v0, hand)) / (2 * dt)
+    assert np.abs(vel - fd).max() < 1e-9
+    assert np.abs(vel - axis_screw_velocity(p, np.array([0.0, 0.0, h]), np.zeros(3), v0 / h)).max() < 1e-15
+    assert screw_velocity(p.reshape(5, 10, 3), v0, h).shape == (5, 10, 3)
 
 
 def test_cylinder_distance_is_exact():

@@ -8,7 +8,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from flank_addon.geometry.rotor_analysis import (NotHelicalError, _order_along, _weld, _within_of_polyline, analyze_mesh,
-                                                 screw_velocity, vertex_normals, weld_mesh)
+                                                 axis_screw_velocity, vertex_normals, weld_mesh)
 from flank_addon.geometry.rotors import builtin_by_name
 from helpers import cad_like, irregular_mesh, profile_hausdorff
 
@@ -294,7 +294,7 @@ def test_ordering_along_a_profile_skips_only_candidates_that_cannot_win():
             assert np.array_equal(_within_of_polyline(loop, pts, tol), want[2] <= tol)
 
 
-def test_screw_velocity_is_numpys_cross_product():
+def test_axis_screw_velocity_is_numpys_cross_product():
     """The analysis' screw velocity written out component by component must be numpy's k d + d x (x - a) bit for
     bit (the reweighted fit follows every rounding), at scales from 1e-6 to 1e6."""
     rng = np.random.default_rng(11)
@@ -304,4 +304,4 @@ def test_screw_velocity_is_numpys_cross_product():
         d = rng.normal(size=3)
         d /= np.linalg.norm(d)
         a, k = rng.normal(size=3) * scale, float(rng.normal()) * scale
-        assert np.array_equal(screw_velocity(x, d, a, k), k * d + np.cross(d, x - a))
+        assert np.array_equal(axis_screw_velocity(x, d, a, k), k * d + np.cross(d, x - a))

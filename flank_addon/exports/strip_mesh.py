@@ -9,7 +9,7 @@ Bizzarri & Bartoň 2021: c = m + r n with n . V(m) = 0 and n . a = -dr/dl), swep
 """
 import numpy as np
 
-from ..geometry.screw import hand_sign, screw_motion
+from ..geometry.screw import hand_sign, screw_motion, screw_velocity
 from ..io.plan import is_mesh_plan
 from ..tooling.meridian import paraboloid_samples, polyline_samples, sphere_chain_samples
 from .cl_data import _get_strip, _unit, cl_steps
@@ -20,7 +20,7 @@ def characteristic(p0, a, h, R, dh, dR, v0, hand):
     unit tangents (dh, dR)) under the screw motion: (c (2, n, 3) for the two branches, real (n,))."""
     a = _unit(a)
     m = np.asarray(p0, float) + np.asarray(h, float)[:, None] * a
-    V = np.c_[-hand * m[:, 1], hand * m[:, 0], np.full(len(m), v0)]
+    V = screw_velocity(m, v0, hand)
     va = V @ a
     Vp = V - va[:, None] * a
     axz = np.cross(a, [0.0, 0.0, 1.0])

@@ -213,7 +213,7 @@ def vertex_normals(verts, faces, face_cross=None):
     return vn, va
 
 
-def screw_velocity(points, d, a, k):
+def axis_screw_velocity(points, d, a, k):
     """The velocity k d + d x (x - a) of the screw motion (unit axis d through a, advance k per radian) at
     points x (N, 3): ``k * d + np.cross(d, points - a)`` bit for bit (the same products and differences, in
     2/3 of the time; the mesh analysis asks for it at every vertex 15 times)."""
@@ -735,7 +735,7 @@ def _analyze_mesh(verts, faces, n_profile, threshold, progress=None):
     weights = areas.copy()
 
     def residuals(d, a, k):
-        vel = screw_velocity(P, d, a, k)
+        vel = axis_screw_velocity(P, d, a, k)
         speed = np.linalg.norm(vel, axis=1)
         return np.abs(np.einsum("ij,ij->i", vel, normals)) / np.maximum(speed, 1e-300)
 

@@ -43,6 +43,14 @@ def screw_motion(points, t, v0, handedness="right"):
     return screwed(p[..., 0], p[..., 1], p[..., 2], t, np.cos(angle), np.sin(angle), v0)
 
 
+def screw_velocity(points, v0, hand=1.0):
+    """Velocity (..., 3) of the screw S_t of Eq. (1) at the points (..., 3), per unit t: (-h y, h x, v0) for the
+    hand h = +1 (right) or -1 (left).  For a screw about another axis see
+    :func:`.rotor_analysis.axis_screw_velocity`."""
+    p = np.asarray(points, float)
+    return np.stack([-hand * p[..., 1], hand * p[..., 0], np.full(p.shape[:-1], v0)], -1)
+
+
 def screwed(x, y, z, t, c, s, v0):
     """:func:`screw_motion` of the points (x, y, z) (arrays or scalars that broadcast), given c and s, the cosine
     and sine of the turn h t: the rotation of rotate2d written straight into the result (the planners call this

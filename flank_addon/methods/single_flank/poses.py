@@ -70,6 +70,7 @@ import numpy as np
 from ...tooling.cone import ConePose, ConeTool
 from ...geometry.angles import contiguous
 from ...geometry.flank_feet import FlankFeet
+from ...geometry.screw import screw_velocity
 from ...simulation.sweep import false_position, illinois_update
 
 OBJECTIVES = ("phi1", "phi3")
@@ -235,13 +236,6 @@ def principal_frame(surface, u):
     return PrincipalFrame(point=pt, normal=n, k1=k1, k2=k2, e1=e1, e2=e2)
 
 
-def screw_velocity(points, surface):
-    """Velocity (..., 3) of the screw S_t (Eq. (1)) at the points, per unit t."""
-    h, v0 = surface.hand, surface.v0
-    p = np.asarray(points, float)
-    return np.stack([-h * p[..., 1], h * p[..., 0], np.full(p.shape[:-1], v0)], -1)
-
-
 # ============================================================================ initial positions (§5.1)
 @dataclass
 class SeedPose:
@@ -305,8 +299,8 @@ def movability(feet_fn, tips, axes, L, surface, n=25):
     pts = tips[:, None, :] + (L * s)[None, :, None] * axes[:, None, :]
     ft = feet_fn(pts.reshape(-1, 3))
     dirs = ft.direction.reshape(pts.shape)
-    v = screw_velocity(pts, surface)
-    vmid = np.linalg.norm(screw_velocity(tips + 0.5 * L * axes, surface), axis=1)
+    v = screw_velocity(pts, surface.v0, surface.hand)
+    vmid = np.linalg.norm(screw_velocity(tips + 0.5 * L * axes, surface.v0, surface.hand), axis=1)
     proj = np.einsum("mni,mni->mn", v, dirs) / vmid[:, None]
     return np.mean(proj ** 2, axis=1)
 
@@ -652,7 +646,7 @@ class PoseEvaluator:
         tool = self.tool
         sa, ca = math.sin(tool.alpha), math.cos(tool.alpha)
         r = tool.radius(s)
-        V = screw_velocity(m, self.surface)
+        V = screw_velocity(m, self.surface.v0, self.surface.hand)
         A = np.broadcast_to(a[:, None, :], m.shape)
         va = np.einsum("Nni,Nni->Nn", V, A)
         vperp = V - va[..., None] * A
@@ -695,7 +689,7 @@ class PoseEvaluator:
         """Side of the characteristic (+-1 per pose) that faces the flank."""
         m, _, a, _ = axis_and_jacobian(X, self.s, self.L)
         _, g, _, _, _ = self._feet(m, None)
-        V = screw_velocity(m, self.surface)
+        V = screw_velocity(m, self.surface.v0, self.surface.hand)
         A = np.broadcast_to(a[:, None, :], m.shape)
         va = np.einsum("Nni,Nni->Nn", V, A)
         e1 = V - va[..., None] * A
