@@ -6,6 +6,7 @@ Over the whole rotor profile (all lobes): gouges, i.e. points the swept tools or
 than the tolerance below the design surface.  Reported errors of the planners are not used.
 """
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -32,6 +33,61 @@ def _min_distance(tools, q, v0, hand, cutoff, tie=0.0):
     return d.min(axis=0), first_least(d, tie)
 
 
+@dataclass
+class SweptTargets:
+    """A plan's strips swept past the rotor's profile points (:func:`sweep_targets`).  Per profile point
+    (n,): ``deviation`` signed (+ material left, - overcut; +inf beyond the search range, NaN where not
+    simulated), ``owner`` the strip that forms the machined surface there (-1: none), ``least`` its
+    distance; ``target`` and ``flank_of`` the target flanks' points and their flank numbers (-1 elsewhere).
+    ``tools`` are the distinct solids, ``first`` the strip each one stands for (:func:`sweep.strip_solids`)."""
+    profile: np.ndarray
+    normals: np.ndarray
+    target: np.ndarray
+    flank_of: np.ndarray
+    deviation: np.ndarray
+    owner: np.ndarray
+    least: np.ndarray
+    tools: list
+    first: np.ndarray
+
+
+def sweep_targets(plan, search, all_points=False, progress=None):
+    """The sweep simulation of a plan's strips on the target flanks' points (every profile point with
+    ``all_points``), all strips in one sweep: a point looks only at the strips that can reach it, a strip
+    that repeats an earlier one is measured once, and each point goes to the first strip within 1e-12 R of
+    the least distance (two strips that sweep the same surface give distances equal up to rounding).
+    ``verify`` and the double-flank planner's simulated errors both ask it, so they report the same
+    numbers.  Returns :class:`SweptTargets`."""
+    rotor = plan["rotor"]
+    prof = np.asarray(rotor["profile"], float)
+    n = len(prof)
+    v0, hand = float(rotor["v0"]), rotor["handedness"]
+    spline = SplineProfile(prof)
+    if len(spline.points) != n or not np.allclose(spline.points, prof):
+        raise ValueError("rotor.profile must be a CCW point list without repeated points")
+    normals = spline.outward_normal(spline.knots[:-1])
+    tools, first = strip_solids(plan["strips"])
+    target = np.zeros(n, bool)
+    flank_of = np.full(n, -1)
+    for f in plan["target_flanks"]:
+        a, b = rotor["flanks"][f]
+        idx = np.arange(a, b + 1) % n
+        target[idx] = True
+        flank_of[idx] = f
+    deviation = np.full(n, np.nan)
+    tie = 1e-12 * float(rotor["outer_radius"])
+    owner, least = np.full(n, -1), np.full(n, np.inf)
+    ti = np.flatnonzero(target)
+    if tools and all_points:
+        deviation, owner, least = machined_deviation(tools, prof, normals, v0, hand, max_deviation=search,
+                                                     progress=progress, owner_tie=tie)
+    elif tools and len(ti):
+        deviation[ti], owner[ti], least[ti] = machined_deviation(
+            tools, prof[ti], normals[ti], v0, hand, max_deviation=search, progress=progress, owner_tie=tie)
+    return SweptTargets(profile=prof, normals=normals, target=target, flank_of=flank_of, deviation=deviation,
+                        owner=strip_owners(owner, first), least=least, tools=tools, first=first)
+
+
 def verify_plan(plan, tolerance=None, search=None, all_points=False, progress=None):
     """Simulate a plan; return a JSON-ready dict (see module doc and README).
 
@@ -46,44 +102,19 @@ def verify_plan(plan, tolerance=None, search=None, all_points=False, progress=No
     validate_plan(plan)
     t0 = time.perf_counter()
     rotor = plan["rotor"]
-    prof = np.asarray(rotor["profile"], float)
-    n = len(prof)
     v0, hand = float(rotor["v0"]), rotor["handedness"]
     outer = float(rotor["outer_radius"])
     tol = float(tolerance) if tolerance is not None else 1e-3 * outer
     search = float(search) if search is not None else 0.1 * outer
-    spline = SplineProfile(prof)
-    if len(spline.points) != n or not np.allclose(spline.points, prof):
-        raise ValueError("rotor.profile must be a CCW point list without repeated points")
-    normals = spline.outward_normal(spline.knots[:-1])
     strips = plan["strips"]
-    # a strip that repeats an earlier one is measured once; its first strip owns what the pair forms
-    tools, first = strip_solids(strips)
-
-    # deviation on the target flanks
-    target = np.zeros(n, bool)
-    flank_of = np.full(n, -1)
-    for f in plan["target_flanks"]:
-        a, b = rotor["flanks"][f]
-        idx = np.arange(a, b + 1) % n
-        target[idx] = True
-        flank_of[idx] = f
-    deviation = np.full(n, np.nan)
-    # which strip forms each machined point: the first within 1e-12 R of the least distance there (two strips
-    # that sweep the same surface give distances equal up to rounding), None where no tool comes within tol
-    tie = 1e-12 * outer
-    owner_at, least_at = np.full(n, -1), np.full(n, np.inf)
-    ti = np.flatnonzero(target)
-    stage = reporter(progress, 0.02, 0.8)
+    swept = sweep_targets(plan, search, all_points=all_points, progress=reporter(progress, 0.02, 0.8))
+    prof, normals, target, flank_of = swept.profile, swept.normals, swept.target, swept.flank_of
+    tools, first, owner_at, least_at = swept.tools, swept.first, swept.owner, swept.least
+    n, tie, ti = len(prof), 1e-12 * outer, np.flatnonzero(target)
+    deviation = swept.deviation
     if tools and all_points:
-        deviation, owner_at, least_at = machined_deviation(tools, prof, normals, v0, hand, max_deviation=search,
-                                                           progress=stage, owner_tie=tie)
         dev_all = deviation.copy()
         deviation[~target] = np.nan
-    elif tools and len(ti):
-        deviation[ti], owner_at[ti], least_at[ti] = machined_deviation(
-            tools, prof[ti], normals[ti], v0, hand, max_deviation=search, progress=stage, owner_tie=tie)
-    owner_at = strip_owners(owner_at, first)
     # gouges anywhere on the rotor: the swept region reaches tol below the design surface
     report(0.8, "gouges")
     gouges = []

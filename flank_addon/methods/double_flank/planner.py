@@ -1188,25 +1188,15 @@ def _strip(path, flank, shank_len):
 def simulate_plan_errors(plan, search=None):
     """Rotor-to-envelope deviations of a plan's target flank points by the sweep simulation
     (:mod:`sweep`, signed: + material left, - overcut), each point owned by the strip that forms the
-    machined surface there (the first within 1e-12 R of the least distance).  The same simulation as
-    ``verify`` (:func:`simulation.verify.verify_plan`): all strips in one sweep, so a point looks only at
-    the strips that can reach it, and a strip that repeats an earlier one is not measured again.
+    machined surface there (the first within 1e-12 R of the least distance): the sweep ``verify`` runs
+    (:func:`simulation.verify.sweep_targets`), so the plan reports ``verify``'s numbers.
     Returns (indices, deviation, owner, per-strip (max, min))."""
-    from ...geometry.profile import SplineProfile
-    from ...simulation.sweep import machined_deviation, strip_owners, strip_solids
+    from ...simulation.verify import sweep_targets
 
-    rot = plan["rotor"]
-    prof = np.asarray(rot["profile"], float)
-    n = len(prof)
-    spline = SplineProfile(prof)
-    normals = spline.outward_normal(spline.knots[:-1])
-    idx = np.unique(np.concatenate([np.arange(a, b + 1) % n for a, b in
-                                    (rot["flanks"][f] for f in plan["target_flanks"])]))
-    search = 0.1 * float(rot["outer_radius"]) if search is None else search
-    tools, first = strip_solids(plan["strips"])
-    dev, owner, _ = machined_deviation(tools, prof[idx], normals[idx], rot["v0"], rot["handedness"],
-                                       max_deviation=search, owner_tie=1e-12 * float(rot["outer_radius"]))
-    owner = strip_owners(owner, first)
+    search = 0.1 * float(plan["rotor"]["outer_radius"]) if search is None else search
+    swept = sweep_targets(plan, search)
+    idx = np.flatnonzero(swept.target)
+    dev, owner = swept.deviation[idx], swept.owner[idx]
     per = []
     for k in range(len(plan["strips"])):
         d = dev[(owner == k) & np.isfinite(dev)]
