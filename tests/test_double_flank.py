@@ -46,6 +46,31 @@ def test_restricted_feet_match_dense_sampling(builtin):
         assert np.all((ft.u >= lo) & (ft.u <= hi))
 
 
+def test_a_solvers_feet_do_not_depend_on_the_solvers_beside_it(builtin):
+    """The two-paths tool reads how far an axis sweeps its own flank from the feet of a run that also asked the
+    untrimmed flanks: a solver's feet must be those of a run of it alone, bit for bit, cold and warm-started,
+    with more rows than a thread-shared guard query takes (2,048)."""
+    from flank_addon.geometry.flank_feet import FlankFeet
+
+    r, v = _valley(builtin, "asymmetric-female")
+    rng = np.random.default_rng(5)
+    n = 3001
+    lam = rng.uniform(0.5, 1.6, n)
+    q = np.c_[lam * np.cos(v.theta), lam * np.sin(v.theta), 0.4 * rng.normal(size=n)]
+    moved = q + 1e-3 * rng.normal(size=q.shape)
+    fields = ("u", "t", "point", "distance", "direction", "interior", "tau")
+    for j in (0, 1):
+        solvers = [v.feet[j]] + list(v.full_feet)
+        together = FlankFeet.many(solvers, q, [None] * 3)
+        alone = FlankFeet.many([v.feet[j]], q, [None])[0]
+        for name in fields:
+            assert np.array_equal(getattr(together[0], name), getattr(alone, name)), name
+        warm_together = FlankFeet.many(solvers, moved, [(ft.u, ft.tau) for ft in together])
+        warm_alone = FlankFeet.many([v.feet[j]], moved, [(alone.u, alone.tau)])[0]
+        for name in fields:
+            assert np.array_equal(getattr(warm_together[0], name), getattr(warm_alone, name)), name
+
+
 @pytest.mark.parametrize("name", ["nilson-male", "srm_a-female"])
 def test_symmetric_profile_is_exact(name, builtin):
     """Prop. 3.1: on the symmetry line (0, 0, 0) both flanks are at the same distance from every axis point."""

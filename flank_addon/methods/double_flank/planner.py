@@ -1236,7 +1236,9 @@ def _two_paths(ev, f1, f2, m, n_dense=3001, tol=2e-8):
         inside = ~(ar.feet[1].interior | ar.feet[2].interior) & (np.minimum(ar.r[1], ar.r[2]) < ar.r[0] - 1e-12)
         shared = np.minimum(shared, np.where(inside, 0.0, np.minimum(ar.r[1], ar.r[2])))
     shared = np.maximum(np.where(np.isfinite(shared), shared, 0.0), 0.0)
-    found = eval_at_tool_coordinates(ev, [(x, t, (v.feet[p],), ("tpc", p)) for p, x in enumerate(xs)])
+    # how far each axis sweeps its own flank: the trimmed flank's feet of the same samples, feet[0] above (a
+    # run of that solver alone on the same points, cold or warm-started from its own earlier run, found
+    # these feet bit for bit: every row iterates on its own and its guard query answers it alone)
     gaps = [_coverage_gap(v, p, ar.feet[0]) for p, ar in enumerate(found)]
     from scipy.interpolate import PchipInterpolator
     spline = PchipInterpolator(t, shared)      # C1, no overshoot: a smooth contact curve
