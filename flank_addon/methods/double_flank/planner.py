@@ -1251,6 +1251,21 @@ def _two_paths(ev, f1, f2, m, n_dense=3001, tol=2e-8):
 
         paths.append(build_path(ev, x, m=m, extent=(T0 * c, T1 * c), flanks=(p,), radii_fn=fn, tag=("q", p),
                                 tol=tol * v.outer_radius, meridian="later"))
+    if np.array_equal(xs[0], xs[1]):
+        # the double-flank axis used twice: both meridians come from the same numbers (the axis, its extent and
+        # the shared radii; not the feet, which differ by flank), so the second is the first, made once when
+        # asked (0.15-0.2 s).  Two different axes sample the same tool at parameters that differ in the last
+        # bits, and their contact sampling then places other vertices (12,109 against 11,757 on the asymmetric
+        # female): each keeps its own
+        made = []
+
+        def one_meridian(make=paths[0].make_meridian):
+            if not made:
+                made.append(make())
+            return made[0].copy()
+
+        for path in paths:
+            path.make_meridian = one_meridian
     return paths, gaps
 
 
