@@ -428,7 +428,8 @@ def _refine_pitch(spline, verts_level, v0, hand, outer, n_use=20000):
     tree = cKDTree(poly)
 
     def cost(x):
-        d, _ = tree.query(screw_to_plane(pts, x, hand))
+        # every point's nearest sample on its own: both cores give the same distances
+        d, _ = tree.query(screw_to_plane(pts, x, hand), workers=-1 if len(pts) >= 4096 else 1)
         return float(np.mean(np.minimum(d, 0.01 * outer) ** 2))
 
     res = minimize_scalar(cost, bounds=(v0 * (1 - 2e-3), v0 * (1 + 2e-3)), method="bounded",
