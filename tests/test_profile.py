@@ -152,6 +152,37 @@ def test_periodic_spline_takes_scipy_once_imported_and_its_own_steps_before(monk
         assert np.array_equal(np.load(out), ref)
 
 
+def test_periodic_spline_refuses_what_scipy_refuses_with_or_without_scipy_loaded():
+    """Input that scipy's periodic spline refuses (a knot that is not finite, slopes that overflow, points that do not
+    close) gets scipy's error in a process with scipy.interpolate loaded and in one without it (the steps here
+    would have returned NaN or meaningless coefficients)."""
+    import os
+    import subprocess
+    import sys
+
+    code = ("import sys, numpy as np\n"
+            "if sys.argv[1] == 'scipy':\n"
+            "    import scipy.interpolate\n"
+            "from flank_addon.geometry.profile import PeriodicCubic\n"
+            "a = np.arange(6) * np.pi / 3\n"
+            "ring = np.c_[np.cos(a), np.sin(a)]\n"
+            "ring[-1] = ring[0]\n"
+            "cases = [(np.arange(6) * 1e-310, ring), (np.array([0.0, 1, 2, 3, 4, np.inf]), ring),\n"
+            "         (np.arange(6.0), np.c_[np.arange(6.0), np.arange(6.0) ** 2])]\n"
+            "for k, y in cases:\n"
+            "    try:\n"
+            "        with np.errstate(all='ignore'):\n"
+            "            PeriodicCubic(k, y)\n"
+            "        print('coefficients')\n"
+            "    except ValueError as e:\n"
+            "        print('ValueError', str(e)[:30])\n")
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    outs = [subprocess.run([sys.executable, "-c", code, which], check=True, cwd=root, capture_output=True, text=True,
+                           env={**os.environ, "PYTHONPATH": root}).stdout.splitlines() for which in ("", "scipy")]
+    assert outs[0] == outs[1]
+    assert len(outs[0]) == 3 and all(line.startswith("ValueError") for line in outs[0]), outs
+
+
 def test_spline_interval_search_is_the_clipped_search_and_scipy_evaluates_the_same():
     """The interval of a parameter comes from one search in the inner knots; it must be the clipped search in
     all knots for every u (knots themselves, the ends, the period, beyond, NaN), and the points scipy's spline."""

@@ -166,11 +166,17 @@ class PeriodicCubic:
         with _COEFFICIENTS_LOCK:
             c = _COEFFICIENTS.get(key)
         if c is None:
-            ours = ("scipy.interpolate" not in sys.modules and len(knots) >= 5 and np.all(np.isfinite(closed))
-                    and not np.any(np.diff(knots) <= 0))
+            # ours only where scipy would accept the input: finite, increasing knots, closed finite points (else
+            # scipy's own error), and only where every coefficient came out finite (overflowing slopes: scipy's)
+            ours = ("scipy.interpolate" not in sys.modules and len(knots) >= 5 and np.all(np.isfinite(knots))
+                    and np.all(np.isfinite(closed)) and np.all(np.diff(knots) > 0)
+                    and np.array_equal(closed[0], closed[-1]))
             if ours:
                 try:
-                    c = _periodic_coefficients(knots, closed)
+                    with np.errstate(all="ignore"):
+                        c = _periodic_coefficients(knots, closed)
+                    if not np.all(np.isfinite(c)):
+                        c = None
                 except _NeedsPivoting:
                     pass
             if c is None:
