@@ -1031,8 +1031,7 @@ def least_sphere_values(P, C, Rr, k=24, cap=256):
     tree = cKDTree(C)
     reach = Rr.max() + 1e-12
     kk = _centres_to_ask(tree, P, Rr, int(k), reach, cap=cap)
-    d, i = tree.query(P, k=kk)
-    d, i = np.atleast_2d(d.T).T, np.atleast_2d(i.T).T
+    d, i = _nearest_centres(tree, P, kk)
     val = d - Rr[i]
     best = np.argmin(val, axis=1)
     rows = np.arange(len(P))
@@ -1049,6 +1048,13 @@ def least_sphere_values(P, C, Rr, k=24, cap=256):
     return out, idx
 
 
+def _nearest_centres(tree, P, k):
+    """Distances and indices (n, k) of the k centres nearest to each point of P (n, 3); 2-D also for k = 1, where
+    the kd-tree answers with 1-D arrays."""
+    d, i = tree.query(P, k=k)
+    return np.atleast_2d(d.T).T, np.atleast_2d(i.T).T
+
+
 def _centres_to_ask(tree, P, Rr, k, reach, sample=256, cap=256):
     """How many nearest sphere centres :func:`least_sphere_values` asks the kd-tree for at once: about as many as
     nineteen in twenty points have within their reach (measured on up to ``sample`` of them), at least
@@ -1060,8 +1066,7 @@ def _centres_to_ask(tree, P, Rr, k, reach, sample=256, cap=256):
     if len(P) == 0 or tree.n <= n:
         return n
     S = P[np.unique(np.linspace(0, len(P) - 1, min(len(P), sample)).astype(np.int64))]
-    d, i = tree.query(S, k=n)
-    d, i = np.atleast_2d(d.T).T, np.atleast_2d(i.T).T
+    d, i = _nearest_centres(tree, S, n)
     counts = tree.query_ball_point(S, (d - Rr[i]).min(axis=1) + reach, return_length=True)
     return int(min(tree.n, cap, max(n, np.percentile(counts, 95))))
 
