@@ -28,7 +28,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .runs import ranks_in_runs
-from .triangles import corner_angles, face_areas_normals
+from .triangles import areas_normals, corner_angles, corner_cross
 
 FACE, EDGE, VERTEX = 0, 1, 2
 
@@ -202,8 +202,8 @@ class TriangleMesh:
         used = np.unique(F)
         self._tree_vertices = None if len(used) == len(V) else used
         self.k = int(min(k, len(used)))
-        A, B, C = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
-        _, self.face_normals = face_areas_normals(V, F)
+        A, B, C = V.take(F[:, 0], axis=0), V.take(F[:, 1], axis=0), V.take(F[:, 2], axis=0)
+        _, self.face_normals = areas_normals(corner_cross(A, B, C))
         self.centroids = (A + B + C) / 3
         corner = np.linalg.norm(np.stack([A, B, C]) - self.centroids, axis=2)
         self.face_radius = float(np.max(corner))

@@ -6,8 +6,12 @@ import numpy as np
 def face_cross(v, f):
     """(p1 - p0) x (p2 - p0) of every face: what ``np.cross`` gives, bit for bit (the same products and
     differences), with the corners gathered by ``take`` (about 4x faster for a million triangles)."""
-    p0 = v.take(f[:, 0], axis=0)
-    a, b = v.take(f[:, 1], axis=0) - p0, v.take(f[:, 2], axis=0) - p0
+    return corner_cross(v.take(f[:, 0], axis=0), v.take(f[:, 1], axis=0), v.take(f[:, 2], axis=0))
+
+
+def corner_cross(p0, p1, p2):
+    """:func:`face_cross` of faces given by their corners (F, 3) each, for a caller that has gathered them."""
+    a, b = p1 - p0, p2 - p0
     out = np.empty_like(a)
     out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
     out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
@@ -20,9 +24,13 @@ def face_areas_normals(vertices, faces):
     product is exactly 0 has the normal 0.  (On a face so small or so large that the squared length of its
     cross product under- or overflows, the "unit" normal is not of length 1: callers that need one test it,
     as :class:`.mesh_distance.TriangleMesh` does.)  Faces may be any integer type."""
-    c = face_cross(np.asarray(vertices, float), np.asarray(faces).astype(np.intp, copy=False))
-    n2 = np.linalg.norm(c, axis=1)
-    return 0.5 * n2, c / np.where(n2 > 0, n2, 1.0)[:, None]
+    return areas_normals(face_cross(np.asarray(vertices, float), np.asarray(faces).astype(np.intp, copy=False)))
+
+
+def areas_normals(cross):
+    """:func:`face_areas_normals` from the faces' cross products (F, 3) (:func:`face_cross`, :func:`corner_cross`)."""
+    n2 = np.linalg.norm(cross, axis=1)
+    return 0.5 * n2, cross / np.where(n2 > 0, n2, 1.0)[:, None]
 
 
 def corner_angles(vertices, faces):
