@@ -31,7 +31,7 @@ from ..geometry.screw import screw_motion
 from ..machining.cycle_time import cycle_time
 from ..machining.tool_shape import ToolShape
 from ..machining.toolpath import segment_intrusion
-from ..simulation.verify import verify_plan
+from ..simulation.verify import profile_normals, verify_plan
 
 
 def tool_table(plans):
@@ -135,13 +135,10 @@ def fine_deviation(plan, strips, idx, refine=16):
     """Deviation at profile points ``idx`` of the plan's rotor milled by ``strips``, by the sweep with its time
     sampling ``refine`` times denser (:func:`..simulation.sweep.machined_deviation`; the tools' feature size,
     which sets the step along each helix, divided by ``refine``)."""
-    from ..geometry.profile import SplineProfile
     from ..simulation.sweep import machined_deviation, strip_solids
 
     rot = plan["rotor"]
-    prof = np.asarray(rot["profile"], float)
-    spline = SplineProfile(prof)
-    normals = spline.outward_normal(spline.knots[:-1])
+    prof, normals = profile_normals(rot)
     tools, _ = strip_solids(strips)          # a strip repeated (a two-paths fallback) is swept once
     for t in tools:
         t.feature /= refine

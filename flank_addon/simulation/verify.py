@@ -51,21 +51,29 @@ class SweptTargets:
     first: np.ndarray
 
 
-def sweep_targets(plan, search, all_points=False, progress=None):
+def profile_normals(rotor):
+    """A plan's rotor profile (n, 2) and its outward unit normals (n, 2) at the points, from the profile's
+    periodic spline; a profile that is not a CCW point list without repeated points is refused."""
+    prof = np.asarray(rotor["profile"], float)
+    spline = SplineProfile(prof)
+    if len(spline.points) != len(prof) or not np.allclose(spline.points, prof):
+        raise ValueError("rotor.profile must be a CCW point list without repeated points")
+    return prof, spline.outward_normal(spline.knots[:-1])
+
+
+def sweep_targets(plan, search=None, all_points=False, progress=None):
     """The sweep simulation of a plan's strips on the target flanks' points (every profile point with
     ``all_points``), all strips in one sweep: a point looks only at the strips that can reach it, a strip
     that repeats an earlier one is measured once, and each point goes to the first strip within 1e-12 R of
     the least distance (two strips that sweep the same surface give distances equal up to rounding).
+    ``search``: how far from the profile a deviation is sought (default 0.1 R; beyond it +inf).
     ``verify`` and the double-flank planner's simulated errors both ask it, so they report the same
     numbers.  Returns :class:`SweptTargets`."""
     rotor = plan["rotor"]
-    prof = np.asarray(rotor["profile"], float)
+    prof, normals = profile_normals(rotor)
     n = len(prof)
     v0, hand = float(rotor["v0"]), rotor["handedness"]
-    spline = SplineProfile(prof)
-    if len(spline.points) != n or not np.allclose(spline.points, prof):
-        raise ValueError("rotor.profile must be a CCW point list without repeated points")
-    normals = spline.outward_normal(spline.knots[:-1])
+    search = 0.1 * float(rotor["outer_radius"]) if search is None else float(search)
     tools, first = strip_solids(plan["strips"])
     target = np.zeros(n, bool)
     flank_of = np.full(n, -1)
@@ -105,7 +113,6 @@ def verify_plan(plan, tolerance=None, search=None, all_points=False, progress=No
     v0, hand = float(rotor["v0"]), rotor["handedness"]
     outer = float(rotor["outer_radius"])
     tol = float(tolerance) if tolerance is not None else 1e-3 * outer
-    search = float(search) if search is not None else 0.1 * outer
     strips = plan["strips"]
     swept = sweep_targets(plan, search, all_points=all_points, progress=reporter(progress, 0.02, 0.8))
     prof, normals, target, flank_of = swept.profile, swept.normals, swept.target, swept.flank_of

@@ -1193,7 +1193,6 @@ def simulate_plan_errors(plan, search=None):
     Returns (indices, deviation, owner, per-strip (max, min))."""
     from ...simulation.verify import sweep_targets
 
-    search = 0.1 * float(plan["rotor"]["outer_radius"]) if search is None else search
     swept = sweep_targets(plan, search)
     idx = np.flatnonzero(swept.target)
     dev, owner = swept.deviation[idx], swept.owner[idx]
