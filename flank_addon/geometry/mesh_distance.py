@@ -28,7 +28,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .runs import ranks_in_runs
-from .triangles import areas_normals, corner_angles, corner_cross
+from .triangles import areas_normals, corner_cross, corners_angles
 
 FACE, EDGE, VERTEX = 0, 1, 2
 
@@ -202,7 +202,8 @@ class TriangleMesh:
         used = np.unique(F)
         self._tree_vertices = None if len(used) == len(V) else used
         self.k = int(min(k, len(used)))
-        A, B, C = V.take(F[:, 0], axis=0), V.take(F[:, 1], axis=0), V.take(F[:, 2], axis=0)
+        corners = V.take(F, axis=0)                 # (F, 3, 3), gathered once for every per-face quantity below
+        A, B, C = corners[:, 0], corners[:, 1], corners[:, 2]
         _, self.face_normals = areas_normals(corner_cross(A, B, C))
         self.centroids = (A + B + C) / 3
         corner = np.linalg.norm(np.stack([A, B, C]) - self.centroids, axis=2)
@@ -236,7 +237,7 @@ class TriangleMesh:
         self.vertex_faces = np.full((len(V), width), -1, np.int64)
         self.vertex_faces[vid, slot] = order // 3
         # angle-weighted pseudo-normals of vertices and (sum of the two faces') of edges
-        ang = corner_angles(V, F)
+        ang = corners_angles(corners)
         vn = np.zeros_like(V)
         for c in range(3):
             np.add.at(vn, F[:, c], ang[:, c:c + 1] * self.face_normals)

@@ -35,8 +35,11 @@ def areas_normals(cross):
 
 def corner_angles(vertices, faces):
     """Interior angles (F, 3) of the faces at their corners (the weights of angle-weighted vertex normals)."""
-    V = np.asarray(vertices, float)
-    x = V[np.asarray(faces)]
+    return corners_angles(np.asarray(vertices, float)[np.asarray(faces)])
+
+
+def corners_angles(x):
+    """:func:`corner_angles` of faces given by their corners x (F, 3 corners, 3), for a caller that has them."""
     u = np.roll(x, -1, axis=1) - x
     w = np.roll(x, -2, axis=1) - x
     return np.arctan2(np.linalg.norm(np.cross(u, w), axis=-1), (u * w).sum(-1))
