@@ -42,6 +42,22 @@ def test_error_and_turning_problems_are_dual(frac):
     assert 0 < e < KAPPA * ELL ** 2 / 16
 
 
+def test_no_programme_where_the_section_turns_within_the_allowance():
+    """A section whose own turning is within the allowance is its own best plan: error 0 exactly,
+    as the linear programme finds; the least turning with no error allowed is the section's own."""
+    from flank_addon.methods.freeform_g1.kink_bound import _least_error
+    y = np.linspace(0.0, 3.0, 301)
+    z = 0.2 * np.sin(2.1 * y) + 0.05 * y ** 2
+    t0 = turning(y, z)
+    e, p = min_max_error(y, z, t0 * (1 + 1e-9))
+    assert e == 0.0 and np.array_equal(p, z)
+    assert _least_error(y, z, t0 * (1 + 1e-9))[0] < 1e-12
+    e_below = min_max_error(y, z, 0.9 * t0)[0]
+    assert e_below > 1e-6
+    assert min_turning(y, z, e_below) == pytest.approx(0.9 * t0, rel=1e-6)
+    assert min_turning(y, z, 0.0) == pytest.approx(t0, rel=1e-9)
+
+
 def test_fixed_junctions_reach_their_optimum_and_never_beat_the_bound():
     y = np.linspace(-50, 50, 601)
     z = 6 * np.exp(-y ** 2 / (2 * 25.0 ** 2))

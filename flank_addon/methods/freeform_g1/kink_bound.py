@@ -17,7 +17,9 @@ optimum is a lower bound on the largest |error| of *any* such plan (:func:`min_m
 the dual question, the least turning a plan within a tolerance needs (:func:`min_turning`).
 
 Both are solved with ``scipy.optimize.linprog`` (HiGHS) on the section's samples: unknowns p_k
-(machined heights), the slope jumps split as s+ - s- >= 0, and the error bound E.
+(machined heights) and the slope jumps split as s+ - s- >= 0; the least error adds the error bound E.
+The least error is 0 without a programme where the section's own turning is within the allowance
+(p = z is then feasible, and no E < 0 is).
 """
 import numpy as np
 import scipy.sparse as sp
@@ -52,32 +54,36 @@ def turning(y, z):
     return float(np.abs(_slope_jumps(y) @ z).sum())
 
 
-def _solve(y, z, *, total_turning=None, max_error=None):
+def _least_error(y, z, total_turning):
+    """min E over p (n), s+, s- (m each) >= 0: |p - z| <= E, D p = s+ - s-, sum(s+ + s-) <= T."""
     n, m = len(y), len(y) - 2
-    D = _slope_jumps(y)
-    # unknowns x = [p (n), s+ (m), s- (m), E or T (1)]
-    nv = n + 2 * m + 1
     eye_n, ones_n = sp.eye(n), sp.csr_matrix(np.ones((n, 1)))
     zeros_nm = sp.csr_matrix((n, 2 * m))
-    a_eq = sp.hstack([D, -sp.eye(m), sp.eye(m), sp.csr_matrix((m, 1))]).tocsr()
+    a_eq = sp.hstack([_slope_jumps(y), -sp.eye(m), sp.eye(m), sp.csr_matrix((m, 1))]).tocsr()
     jumps_row = sp.hstack([sp.csr_matrix((1, n)), sp.csr_matrix(np.ones((1, 2 * m))), sp.csr_matrix((1, 1))])
-    c = np.zeros(nv)
+    a_ub = sp.vstack([sp.hstack([eye_n, zeros_nm, -ones_n]), sp.hstack([-eye_n, zeros_nm, -ones_n]),
+                      jumps_row]).tocsr()
+    c = np.zeros(n + 2 * m + 1)
     c[-1] = 1.0
-    if total_turning is not None:          # minimise E: |p - z| <= E, sum|jumps| <= T
-        a_ub = sp.vstack([sp.hstack([eye_n, zeros_nm, -ones_n]), sp.hstack([-eye_n, zeros_nm, -ones_n]),
-                          jumps_row]).tocsr()
-        b_ub = np.concatenate([z, -z, [total_turning]])
-    else:                                   # minimise T: |p - z| <= E, sum|jumps| <= T
-        zero_col = sp.csr_matrix((n, 1))
-        turn_row = sp.hstack([sp.csr_matrix((1, n)), sp.csr_matrix(np.ones((1, 2 * m))), sp.csr_matrix([[-1.0]])])
-        a_ub = sp.vstack([sp.hstack([eye_n, zeros_nm, zero_col]), sp.hstack([-eye_n, zeros_nm, zero_col]),
-                          turn_row]).tocsr()
-        b_ub = np.concatenate([z + max_error, -(z - max_error), [0.0]])
-    bounds = [(None, None)] * n + [(0, None)] * (2 * m + 1)
-    res = linprog(c, A_ub=a_ub, b_ub=b_ub, A_eq=a_eq, b_eq=np.zeros(m), bounds=bounds, method="highs")
+    res = linprog(c, A_ub=a_ub, b_ub=np.concatenate([z, -z, [total_turning]]), A_eq=a_eq, b_eq=np.zeros(m),
+                  bounds=[(None, None)] * n + [(0, None)] * (2 * m + 1), method="highs")
     if res.status != 0:
         raise RuntimeError(f"the bound's linear programme did not solve: {res.message}")
     return max(float(res.x[-1]), 0.0), res.x[:n]          # no -0.0 from the solver
+
+
+def _least_turning(y, z, max_error):
+    """min sum(s+ + s-) over p (n) within z -+ max_error (bounds, not rows) and s+, s- (m each) >= 0
+    with D p = s+ - s-."""
+    n, m = len(y), len(y) - 2
+    a_eq = sp.hstack([_slope_jumps(y), -sp.eye(m), sp.eye(m)]).tocsr()
+    c = np.concatenate([np.zeros(n), np.ones(2 * m)])
+    bounds = np.column_stack([np.concatenate([z - max_error, np.zeros(2 * m)]),
+                              np.concatenate([z + max_error, np.full(2 * m, np.inf)])])
+    res = linprog(c, A_eq=a_eq, b_eq=np.zeros(m), bounds=bounds, method="highs")
+    if res.status != 0:
+        raise RuntimeError(f"the bound's linear programme did not solve: {res.message}")
+    return max(float(res.fun), 0.0)
 
 
 def min_max_error(y, z, total_turning):
@@ -86,7 +92,9 @@ def min_max_error(y, z, total_turning):
     y, z = _section(y, z)
     if not (np.isfinite(total_turning) and total_turning >= 0):
         raise ValueError(f"total turning must be a finite angle >= 0, got {total_turning!r}")
-    return _solve(y, z, total_turning=float(total_turning))
+    if turning(y, z) <= total_turning:      # the section itself is such a p: nothing less than 0
+        return 0.0, z.copy()
+    return _least_error(y, z, float(total_turning))
 
 
 def min_turning(y, z, max_error):
@@ -94,7 +102,7 @@ def min_turning(y, z, max_error):
     y, z = _section(y, z)
     if not (np.isfinite(max_error) and max_error >= 0):
         raise ValueError(f"max error must be a finite length >= 0, got {max_error!r}")
-    return _solve(y, z, max_error=float(max_error))[0]
+    return _least_turning(y, z, float(max_error))
 
 
 def kink_error_bound(y, z, max_kink_deg, n_junctions):
