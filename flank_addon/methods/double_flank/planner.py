@@ -475,7 +475,7 @@ def build_path(ev, x, m=400, variant="min", radii_fn=None, extent=None, flanks=(
                n_exact=1201, meridian=True, tol=5e-10):
     """One tool position: exact distances at ``n_exact`` equally spaced axis nodes (feet on the
     trimmed and on the untrimmed flanks, derivatives d r_k / d lam = (a - b_k)/r_k . da/dlam), cubic
-    Hermite interpolation in between, radii by ``variant`` (or ``radii_fn(lam, r, counted, cap)``),
+    Hermite interpolation in between, radii by ``variant`` (or ``radii_fn(lam)``, point by point),
     ``m + 1`` plan radii and, if ``meridian``, the exact union-of-spheres meridian (h, R) sampled so
     that its chord error is ~ ``tol`` (``meridian="later"``: made by :func:`finish_meridians`)."""
     from scipy.interpolate import CubicHermiteSpline
@@ -499,39 +499,41 @@ def build_path(ev, x, m=400, variant="min", radii_fn=None, extent=None, flanks=(
         if k not in flanks:
             counted[k] = False
 
-    def spl(dist, feet):
-        return CubicHermiteSpline(s, dist, (feet.direction @ dadl) / speed)
-
-    S1, S2 = spl(ar.r[0], ar.feet[0]), spl(ar.r[1], ar.feet[1])
-    C1, C2 = spl(full.r[0], full.feet[0]), spl(full.r[1], full.feet[1])
-
-    def radii_at(sq):
-        idx = np.clip(np.searchsorted(s, sq, side="right") - 1, 0, n_exact - 1)
-        # a node's counting holds up to the next node (the tool ends are bisected exactly)
-        cnt = counted[:, idx]
-        rr = np.array([S1(sq), S2(sq)])
-        cap = np.minimum(C1(sq), C2(sq))
-        if radii_fn is None:
-            return radial_function(rr, cnt, variant, cap), rr, cnt
-        return radii_fn(lo + sq / speed, rr, cnt, cap), rr, cnt
-
-    node_r, _, _ = radii_at(s)
-    cap_nodes = np.minimum(full.r[0], full.r[1])
+    # the radii between the nodes, every sample on its own (the radial functions and the splines work point
+    # by point); at the nodes they are the nodes' own
     if radii_fn is None:
-        node_r = radial_function(ar.r, counted, variant, cap_nodes)
+        def spl(dist, feet):
+            return CubicHermiteSpline(s, dist, (feet.direction @ dadl) / speed)
+
+        S1, S2 = spl(ar.r[0], ar.feet[0]), spl(ar.r[1], ar.feet[1])
+        C1, C2 = spl(full.r[0], full.feet[0]), spl(full.r[1], full.feet[1])
+
+        def radii_at(sq):
+            idx = np.clip(np.searchsorted(s, sq, side="right") - 1, 0, n_exact - 1)
+            # a node's counting holds up to the next node (the tool ends are bisected exactly)
+            rr = np.array([S1(sq), S2(sq)])
+            return radial_function(rr, counted[:, idx], variant, np.minimum(C1(sq), C2(sq)))
+
+        node_r = radial_function(ar.r, counted, variant, np.minimum(full.r[0], full.r[1]))
+    else:
+        def radii_at(sq):
+            return radii_fn(lo + sq / speed)
+
+        node_r = radii_at(s)
     errors = np.where(counted, ar.r - node_r[None, :], np.nan)
     s_plan = np.linspace(0.0, s[-1], m + 1)
-    plan_r = radii_at(s_plan)[0]
+    plan_r = radii_at(s_plan)
     L = float(s[-1])
     eps = 1e-7 * L
 
     def r_and_dr(q):
         # r' by central differences of the Hermite pieces (exact for the selected branch away
-        # from kinks: the radial functions are selections and averages of smooth distances)
+        # from kinks: the radial functions are selections and averages of smooth distances);
+        # the three abscissae in one evaluation, each point on its own as in three
         q = np.asarray(q, float)
-        rp = radii_at(np.minimum(q + eps, L))[0]
-        rm = radii_at(np.maximum(q - eps, 0.0))[0]
-        return radii_at(q)[0], (rp - rm) / (np.minimum(q + eps, L) - np.maximum(q - eps, 0.0))
+        qp, qm = np.minimum(q + eps, L), np.maximum(q - eps, 0.0)
+        r, rp, rm = np.split(radii_at(np.concatenate([q, qp, qm])), 3)
+        return r, (rp - rm) / (qp - qm)
 
     def exact_meridian():
         sd, rd, drd = _contact_samples(r_and_dr, np.r_[s, s_plan], tol)
@@ -1245,7 +1247,7 @@ def _two_paths(ev, f1, f2, m, n_dense=3001, tol=2e-8):
     for p, x in enumerate(xs):
         c = math.cos(x[0])
 
-        def fn(lq, rr, cnt, cap, c=c):
+        def fn(lq, c=c):
             return spline(np.clip(lq / c, T0, T1))
 
         paths.append(build_path(ev, x, m=m, extent=(T0 * c, T1 * c), flanks=(p,), radii_fn=fn, tag=("q", p),
