@@ -365,3 +365,26 @@ def test_two_paths_beat_one_axis_on_asymmetric_female(female):
     ver = verify_plan(two.plan)["strips"]
     assert [(s["reported_max_error"], s["reported_min_error"]) for s in strips] == \
         [(v["max_error"], v["min_error"]) for v in ver]
+
+
+def test_meridian_merges_give_np_uniques_array():
+    """The meridian's vertices merge a few cap and zone abscissae into the sorted contact points instead of
+    sorting all of them: the same array as np.unique, byte for byte, with repeats, zeros of either sign,
+    NaN and values beyond either end; the union of spheres answers the same in any order of its spheres."""
+    from flank_addon.methods.double_flank.planner import SphereUnion, _sorted_union
+
+    rng = np.random.default_rng(11)
+    for _ in range(3000):
+        base = np.sort(np.round(rng.normal(size=rng.integers(0, 300)), rng.integers(1, 4)))
+        extra = np.round(rng.normal(size=rng.integers(0, 40)), rng.integers(1, 4))
+        if len(base) and rng.random() < 0.3:
+            extra = np.r_[extra, base[rng.integers(0, len(base), 3)], base[0] - 1.0, base[-1] + 1.0, base[-1]]
+        extra = np.r_[extra, [0.0, -0.0, np.nan][rng.integers(0, 3)]] if rng.random() < 0.2 else extra
+        assert _sorted_union(base, extra).tobytes() == np.unique(np.concatenate([base, extra])).tobytes()
+    s = np.cumsum(rng.uniform(0.01, 0.1, 500))
+    r = 0.2 + 0.05 * np.sin(7 * s)
+    h = np.linspace(s[0] - 0.3, s[-1] + 0.3, 2001)
+    shuffled = rng.permutation(len(s))
+    assert np.array_equal(SphereUnion(s, r)(h), SphereUnion(s[shuffled], r[shuffled])(h))
+    brute = np.sqrt(np.maximum(r[None, :] ** 2 - (h[:, None] - s[None, :]) ** 2, 0.0)).max(axis=1)
+    assert np.allclose(SphereUnion(s, r)(h), brute, rtol=0, atol=1e-12)

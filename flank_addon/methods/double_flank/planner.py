@@ -593,9 +593,11 @@ class SphereUnion:
     def __init__(self, s, r):
         s = np.asarray(s, float)
         r = np.asarray(r, float)
-        order = np.argsort(s, kind="stable")
-        m, c = 2.0 * s[order], r[order] ** 2 - s[order] ** 2
-        self.s, self.r = s[order], r[order]
+        if not _ascending(s):            # (a meridian's samples come in order: no sort of 300k of them)
+            order = np.argsort(s, kind="stable")
+            s, r = s[order], r[order]
+        m, c = 2.0 * s, r ** 2 - s ** 2
+        self.s, self.r = s, r
         self.hull, self.breaks = _upper_envelope(m, c)
         self.m, self.c = m[self.hull], c[self.hull]
 
@@ -651,7 +653,9 @@ def sphere_union_meridian(s, r, tol=2e-10, dr=None, end_tol=None, grade=None):
     # (a visible interval without a contact point in its middle half: where r has a kink the union is
     # that sphere's arc between the neighbouring contact circles, not an envelope)
     zones = []
-    hs = np.sort(h_c)
+    # the contact points come in a few hundred monotone runs (mostly falling): a merge sort takes them in 1 ms
+    # where the default sort takes 16 (300k points); sorted floats are the same array either way
+    hs = np.sort(h_c, kind="stable")
     inner = (j_vis != 0) & (j_vis != len(s) - 1)      # the end spheres' exposed parts are the caps above
     jj = j_vis[inner]
     a_all = np.maximum(lo_h[inner], s[jj] - r[jj])
@@ -664,7 +668,7 @@ def sphere_union_meridian(s, r, tol=2e-10, dr=None, end_tol=None, grade=None):
     for a, b, step in zip(a_w[bare], b_w[bare], step_w[bare]):
         n = int(min(np.ceil((b - a) / step) + 1, 200000))
         zones.append(np.linspace(a, b, n))
-    h = np.unique(np.concatenate([h_c] + caps + zones + [[s[0] - r[0], s[-1] + r[-1]]]))
+    h = _sorted_union(hs, np.concatenate(caps + zones + [[s[0] - r[0], s[-1] + r[-1]]]))
     h = h[(h >= s[0] - r[0]) & (h <= s[-1] + r[-1])]
     keep = np.r_[True, np.diff(h) > 1e-13 * max(1.0, float(np.ptp(h)))]
     h = h[keep]
@@ -678,6 +682,27 @@ def sphere_union_meridian(s, r, tol=2e-10, dr=None, end_tol=None, grade=None):
     arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))]
     keep[_first_at_or_after(arc, d_min)] = True
     return _graded_polyline(P[keep], ratio=grade) if grade else P[keep]
+
+
+def _ascending(a):
+    """Whether the float array a is sorted (non-decreasing, no NaN)."""
+    return bool(len(a) < 2 or (a[1:] >= a[:-1]).all())
+
+
+def _sorted_union(ordered, extra):
+    """``np.unique(np.concatenate([ordered, extra]))`` for a sorted ``ordered`` (many) and any ``extra`` (few):
+    the extra values merged in instead of a sort of all (the same array).  Zeros of both signs (which of them
+    np.unique keeps depends on its sort's order) or a NaN take np.unique."""
+    zeros = np.signbit(np.r_[ordered[ordered == 0], extra[extra == 0]])
+    if not len(ordered) or not (np.isfinite(ordered).all() and np.isfinite(extra).all()) \
+            or (zeros.any() and not zeros.all()):
+        return np.unique(np.concatenate([ordered, extra]))
+    first = np.r_[True, ordered[1:] != ordered[:-1]]
+    base = ordered[first]
+    extra = np.unique(extra)
+    at = np.searchsorted(base, extra)
+    new = base[np.minimum(at, len(base) - 1)] != extra
+    return np.insert(base, at[new], extra[new])
 
 
 def _first_at_or_after(arc, step):
