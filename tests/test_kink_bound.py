@@ -58,6 +58,25 @@ def test_no_programme_where_the_section_turns_within_the_allowance():
     assert min_turning(y, z, 0.0) == pytest.approx(t0, rel=1e-9)
 
 
+def test_bounds_do_not_depend_on_the_unit_or_the_sections_place():
+    """Slope jumps do not see a straight line added or both axes scaled alike, and errors scale with the axes:
+    the bounds of a section moved far from the origin, tilted and scaled by 1e-6 .. 1e6 are the section's own
+    (to 1e-10; the programmes as posed on the raw numbers were off by up to 1.3e-8 there).  An error that a
+    straight section meets needs no turning, however large it is."""
+    y = np.linspace(0.0, 3.0, 301)
+    z = 0.2 * np.sin(2.1 * y) + 0.05 * y ** 2
+    t0 = turning(y, z)
+    e1 = min_max_error(y, z, 0.5 * t0)[0]
+    t1 = min_turning(y, z, 0.5 * e1)
+    for k in (1e-6, 1e-3, 1.0, 1e3, 1e6):
+        for offset in (0.0, 1e4):
+            yk, zk = (y + 7.0) * k, (z + offset + 0.3 * y) * k
+            assert min_max_error(yk, zk, 0.5 * t0)[0] / k == pytest.approx(e1, rel=1e-10)
+            assert min_turning(yk, zk, 0.5 * e1 * k) == pytest.approx(t1, rel=1e-10)
+    assert min_turning(y, z, 1e15) == 0.0
+    assert min_turning(y, z, 0.5 * np.ptp(z - np.interp(y, y[[0, -1]], z[[0, -1]])) * (1 + 1e-9)) == 0.0
+
+
 def test_fixed_junctions_reach_their_optimum_and_never_beat_the_bound():
     y = np.linspace(-50, 50, 601)
     z = 6 * np.exp(-y ** 2 / (2 * 25.0 ** 2))

@@ -668,7 +668,7 @@ def sphere_union_meridian(s, r, tol=2e-10, dr=None, end_tol=None, grade=None):
     for a, b, step in zip(a_w[bare], b_w[bare], step_w[bare]):
         n = int(min(np.ceil((b - a) / step) + 1, 200000))
         zones.append(np.linspace(a, b, n))
-    h = _sorted_union(hs, np.concatenate(caps + zones + [[s[0] - r[0], s[-1] + r[-1]]]))
+    h = _sorted_union(h_c, hs, np.concatenate(caps + zones + [[s[0] - r[0], s[-1] + r[-1]]]))
     h = h[(h >= s[0] - r[0]) & (h <= s[-1] + r[-1])]
     keep = np.r_[True, np.diff(h) > 1e-13 * max(1.0, float(np.ptp(h)))]
     h = h[keep]
@@ -689,14 +689,14 @@ def _ascending(a):
     return bool(len(a) < 2 or (a[1:] >= a[:-1]).all())
 
 
-def _sorted_union(ordered, extra):
-    """``np.unique(np.concatenate([ordered, extra]))`` for a sorted ``ordered`` (many) and any ``extra`` (few):
-    the extra values merged in instead of a sort of all (the same array).  Zeros of both signs (which of them
-    np.unique keeps depends on its sort's order) or a NaN take np.unique."""
+def _sorted_union(values, ordered, extra):
+    """``np.unique(np.concatenate([values, extra]))`` for many ``values`` already sorted as ``ordered`` and a few
+    ``extra``: the extra values merged in instead of a sort of all (the same array).  Zeros of both signs
+    (which of them np.unique keeps depends on the order its sort meets them) or a NaN take np.unique itself."""
     zeros = np.signbit(np.r_[ordered[ordered == 0], extra[extra == 0]])
     if not len(ordered) or not (np.isfinite(ordered).all() and np.isfinite(extra).all()) \
             or (zeros.any() and not zeros.all()):
-        return np.unique(np.concatenate([ordered, extra]))
+        return np.unique(np.concatenate([values, extra]))
     first = np.r_[True, ordered[1:] != ordered[:-1]]
     base = ordered[first]
     extra = np.unique(extra)

@@ -54,6 +54,16 @@ def turning(y, z):
     return float(np.abs(_slope_jumps(y) @ z).sum())
 
 
+def _normalised(y, z):
+    """(y', z', scale, line): the section from its first point over its span, less the chord between its
+    ends.  Slope jumps do not see a straight line added or both axes scaled alike, and errors scale with the
+    axes, so the programmes solve the section at unit span and near zero height, where the solver's absolute
+    tolerances (1e-7) are small against it whatever the document's unit or the section's place."""
+    scale = float(y[-1] - y[0])
+    line = z[0] + (z[-1] - z[0]) * ((y - y[0]) / scale)
+    return (y - y[0]) / scale, (z - line) / scale, scale, line
+
+
 def _least_error(y, z, total_turning):
     """min E over p (n), s+, s- (m each) >= 0: |p - z| <= E, D p = s+ - s-, sum(s+ + s-) <= T."""
     n, m = len(y), len(y) - 2
@@ -94,7 +104,9 @@ def min_max_error(y, z, total_turning):
         raise ValueError(f"total turning must be a finite angle >= 0, got {total_turning!r}")
     if turning(y, z) <= total_turning:      # the section itself is such a p: nothing less than 0
         return 0.0, z.copy()
-    return _least_error(y, z, float(total_turning))
+    yn, zn, scale, line = _normalised(y, z)
+    e, p = _least_error(yn, zn, float(total_turning))
+    return e * scale, p * scale + line
 
 
 def min_turning(y, z, max_error):
@@ -102,7 +114,10 @@ def min_turning(y, z, max_error):
     y, z = _section(y, z)
     if not (np.isfinite(max_error) and max_error >= 0):
         raise ValueError(f"max error must be a finite length >= 0, got {max_error!r}")
-    return _least_turning(y, z, float(max_error))
+    yn, zn, scale, _ = _normalised(y, z)
+    if 2.0 * max_error >= scale * np.ptp(zn):     # a straight section (the chord, shifted) is within the error
+        return 0.0
+    return _least_turning(yn, zn, float(max_error) / scale)
 
 
 def kink_error_bound(y, z, max_kink_deg, n_junctions):
