@@ -127,19 +127,16 @@ def spline_rows(repeat):
 
 
 def strip_errors(repeat):
-    from flank_addon.geometry.profile import SplineProfile
     from flank_addon.geometry.rotors import builtin_by_name
     from flank_addon.methods.double_flank.planner import plan_double_flank, simulate_plan_errors
     from flank_addon.simulation.sweep import StripTool, first_least, machined_deviation
-    from flank_addon.simulation.verify import verify_plan
+    from flank_addon.simulation.verify import profile_normals, verify_plan
 
     for name in ("asymmetric-female", "asymmetric-male"):
         r = builtin_by_name(name)
         plan = plan_double_flank(r.surface(), r.flanks, valley=0, two_paths=True, simulate=False).plan
         rot = plan["rotor"]
-        prof = np.asarray(rot["profile"], float)
-        spline = SplineProfile(prof)
-        normals = spline.outward_normal(spline.knots[:-1])
+        prof, normals = profile_normals(rot)
         idx = np.unique(np.concatenate([np.arange(a, b + 1) % len(prof)
                                         for a, b in (rot["flanks"][f] for f in plan["target_flanks"])]))
         R = float(rot["outer_radius"])
