@@ -855,33 +855,47 @@ def eval_at_tool_coordinates(ev, requests):
     return found
 
 
-def _two_path_terms(ev, y, t):
+def _two_path_terms(ev, y, t, gradients=True):
     """Errors of one tool on two axes (Bizzarri & Bartoň 2021 §4.3) at tool coordinates t, as rows e >= 0 with their
-    gradients d e / d (x1, x2) (M, 6) and the counted masks.
+    gradients d e / d (x1, x2) (M, 6) (None without ``gradients``) and the counted masks.
 
     Axis p mills its flank (own_p: distance to the trimmed flank p, counted where the foot is
     interior).  The tool's radius r(t) must stay below every counted own_q (Eq. (19) with (14)) and
     below the distances G_p,k of *both* axes to both untrimmed flanks (a tool on axis 1 must not cut
     flank 2; this is what Eq. (18) leaves out and why its optimum can be a worse tool).  With
     r = the minimum of all of them, the error of axis p is own_p - r = the largest of own_p - own_q,
-    own_p - G_p,k, own_p - G_q,k: every such difference is a row (where own_p counts)."""
+    own_p - G_p,k, own_p - G_q,k: every such difference is a row (where own_p counts).
+
+    The rows come in ten blocks of len(t): axis 1 against own_2, G_1,1, G_1,2, G_2,1, G_2,2, then axis 2
+    against own_1 and the same four; a row that does not count is 0 with a zero gradient."""
     v = ev.valley
     x1, x2 = y[:3], y[3:6]
     A, B = eval_at_tool_coordinates(ev, [(x1, t, (v.feet[0],) + tuple(v.full_feet), "tp1"),
                                          (x2, t, (v.feet[1],) + tuple(v.full_feet), "tp2")])
-    rows, grads, owners = [], [], []
-    z = np.zeros((len(t), 3))
-    own = [(A.r[0], A.grad[0], A.interior[0], 0), (B.r[0], B.grad[0], B.interior[0], 1)]
-    caps = [(A.r[k], A.grad[k], 0) for k in (1, 2)] + [(B.r[k], B.grad[k], 1) for k in (1, 2)]
-    for (rp, gp, cp, p), (rq, gq, cq, q) in ((own[0], own[1]), (own[1], own[0])):
-        terms = [(rq, gq, q, cp & cq)] + [(rc, gc, pc, cp) for rc, gc, pc in caps]
-        for r2, g2, p2, mask in terms:
-            gp6 = np.c_[gp, z] if p == 0 else np.c_[z, gp]
-            g26 = np.c_[g2, z] if p2 == 0 else np.c_[z, g2]
-            rows.append(np.where(mask, rp - r2, 0.0))
-            grads.append(np.where(mask[:, None], gp6 - g26, 0.0))
-            owners.append(np.full(len(t), p))
-    return np.concatenate(rows), np.vstack(grads), np.concatenate(owners), (A, B)
+    n = len(t)
+    own_a, own_b = A.interior[0], B.interior[0]
+    both = own_a & own_b
+    counted = np.stack([both, own_a, own_a, own_a, own_a, both, own_b, own_b, own_b, own_b])
+    own = np.repeat(np.stack([A.r[0], B.r[0]]), 5, axis=0)
+    other = np.stack([B.r[0], A.r[1], A.r[2], B.r[1], B.r[2], A.r[0], A.r[1], A.r[2], B.r[1], B.r[2]])
+    rows = np.where(counted, own - other, 0.0).ravel()
+    owners = np.repeat([0, 1], 5 * n)
+    if not gradients:
+        return rows, None, owners, (A, B)
+    # d(own_p - other)/d(x1, x2): own_p's gradient in axis p's columns, minus the other distance's in its own
+    # axis' columns (0 - g where the axes differ, as the difference of the zero-padded gradients gives it)
+    gA, gB = A.grad, B.grad
+    G = np.zeros((2, 5, n, 6))
+    G[0, :, :, :3] = gA[0]
+    G[0, 0, :, 3:] = 0.0 - gB[0]
+    G[0, 1:3, :, :3] = gA[0] - gA[1:3]
+    G[0, 3:5, :, 3:] = 0.0 - gB[1:3]
+    G[1, :, :, 3:] = gB[0]
+    G[1, 0, :, :3] = 0.0 - gA[0]
+    G[1, 1:3, :, :3] = 0.0 - gA[1:3]
+    G[1, 3:5, :, 3:] = gB[0] - gB[1:3]
+    grads = np.where(counted[:, :, None], G.reshape(10, n, 6), 0.0).reshape(-1, 6)
+    return rows, grads, owners, (A, B)
 
 
 def _coverage_gap(valley, k, feet):
@@ -922,7 +936,7 @@ def optimize_two_paths(valley, n=100, x0=None, evaluator=None, starts=None, roun
 
     def dense(y):
         """Largest error over the dense coordinates (and per coordinate), coverage gaps."""
-        e, _, _, (A, B) = _two_path_terms(ev, y, t_dense)
+        e, _, _, (A, B) = _two_path_terms(ev, y, t_dense, gradients=False)
         per_t = e.reshape(-1, n_dense).max(axis=0)
         return float(per_t.max()), per_t, gaps(A, B)
 
@@ -957,7 +971,7 @@ def optimize_two_paths(valley, n=100, x0=None, evaluator=None, starts=None, roun
         improved = False
         for y0 in y_starts:
             ts = time.perf_counter()
-            e0, _, _, _ = _two_path_terms(ev, y0, samples["t"])
+            e0, _, _, _ = _two_path_terms(ev, y0, samples["t"], gradients=False)
             seen.clear()
             res = _slsqp(fun_jac, np.r_[y0, float(e0.max()) / R], box * 2 + [(0.0, None)], 0, obj)
             cands = [res.x[:6].copy()] + ([seen["y"]] if "y" in seen else [])
