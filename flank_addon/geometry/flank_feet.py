@@ -180,7 +180,8 @@ def _newton_rows(s, u, tau, q0, lo, hi, span, iters=40):
     lo = np.broadcast_to(np.asarray(lo, float), (n,))
     hi = np.broadcast_to(np.asarray(hi, float), (n,))
     span = np.broadcast_to(np.asarray(span, float), (n,))
-    f = s._f_and_derivs(u, tau, q0, order=0)
+    # the first iteration sets every row's f from its full evaluation: a value at the start would never be read
+    f = np.empty(n) if iters > 0 else s._f_and_derivs(u, tau, q0, order=0)
     # the line search accepts within roundoff of f (converged rows would backtrack forever otherwise)
     f_slack = 1e-14 * (np.einsum("ij,ij->i", q0, q0) + s.outer_radius ** 2)
     active = np.ones(n, bool)

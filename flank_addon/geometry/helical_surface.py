@@ -231,7 +231,8 @@ class HelicalSurface:
         per = self.profile.period
         step_cap = 0.25 * per
         active = np.ones(u.shape, bool)
-        f = self._f_and_derivs(u, tau, q0, order=0)
+        # the first iteration sets every point's f from its full evaluation: a value at the start is never read
+        f = np.empty(u.shape) if iters > 0 else self._f_and_derivs(u, tau, q0, order=0)
         for _ in range(iters):
             if not active.any():
                 break
