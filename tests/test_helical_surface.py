@@ -161,7 +161,7 @@ def test_point_and_normal_are_evaluate_and_normal(hand):
         for got in (point, surf.evaluate(u, t)):
             assert np.array_equal(got, ref_point) and np.array_equal(np.signbit(got), np.signbit(ref_point))
         for got in (normal, surf.normal(u, t)):
-            assert np.array_equal(got, ref_normal)
+            assert np.array_equal(got, ref_normal) and np.array_equal(np.signbit(got), np.signbit(ref_normal))
 
 
 def test_helicoid_and_cylinder_curvature():

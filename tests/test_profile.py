@@ -209,8 +209,8 @@ def test_spline_interval_search_is_the_clipped_search_and_scipy_evaluates_the_sa
 
 
 def test_spline_coordinate_evaluations_are_eval_and_eval_all_bit_for_bit():
-    """eval_xy and eval_all_xy (what the foot points' Newton runs use) give the numbers of eval and eval_all,
-    at knots, next to them, at the period and far outside it."""
+    """eval_xy, eval_all_xy and eval_and_tangent (what the foot points' Newton runs and their feet use) give the
+    numbers of eval and eval_all, at knots, next to them, at the period and far outside it."""
     rng = np.random.default_rng(11)
     th = np.sort(rng.uniform(0, 2 * np.pi, 60))
     prof = SplineProfile(np.c_[np.cos(th), 0.7 * np.sin(th)] * rng.uniform(0.9, 1.1, (60, 1)))
@@ -225,3 +225,9 @@ def test_spline_coordinate_evaluations_are_eval_and_eval_all_bit_for_bit():
     p0, p1, p2 = prof.eval_all(inside)
     for got, want in zip(parts, (p0[:, 0], p0[:, 1], p1[:, 0], p1[:, 1], p2[:, 0], p2[:, 1])):
         assert np.array_equal(got, want)
+    # the point and its tangent from one interval search (a foot point's position and normal)
+    point, tangent = prof.eval_and_tangent(u)
+    assert point.tobytes() == p.tobytes() and tangent.tobytes() == prof.eval(u, 1).tobytes()
+    grid = u[:700].reshape(35, 20)
+    assert all(got.tobytes() == want.tobytes()
+               for got, want in zip(prof.eval_and_tangent(grid), (prof.eval(grid), prof.eval(grid, 1))))

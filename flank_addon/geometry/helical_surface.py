@@ -134,11 +134,22 @@ class HelicalSurface:
         return self._turned_normal(u, self.profile.eval(u), np.cos(self.hand * t), np.sin(self.hand * t))
 
     def point_and_normal(self, u, t):
-        """(:meth:`evaluate`, :meth:`normal`) at the same parameters: the profile point and the turn are made once
-        for both (the foot points ask for both at every call, on a few hundred rows, where this takes 2/3 of
-        the time)."""
-        point, u, p, c, s = self._point(u, t)
-        return point, self._turned_normal(u, p, c, s)
+        """(:meth:`evaluate`, :meth:`normal`) at the same parameters, the same numbers: the profile point, its tangent
+        and the turn are made once for both, the point and tangent from one interval search where the profile
+        can (:meth:`SplineProfile.eval_and_tangent`); the foot points ask for both at every call, on a few hundred
+        rows, where this takes 2/3 of the time."""
+        both = getattr(self.profile, "eval_and_tangent", None)
+        if both is None:
+            point, u, p, c, s = self._point(u, t)
+            return point, self._turned_normal(u, p, c, s)
+        u, t = np.broadcast_arrays(np.asarray(u, float), np.asarray(t, float))
+        p, dp = both(u)
+        c, s = np.cos(self.hand * t), np.sin(self.hand * t)
+        n0 = self._normal_at_t0(p, dp)
+        normal = np.empty(n0.shape)          # the turned normal, as :meth:`_turned_normal` forms it
+        nx, ny = n0[..., 0], n0[..., 1]
+        normal[..., 0], normal[..., 1], normal[..., 2] = c * nx - s * ny, s * nx + c * ny, n0[..., 2]
+        return screwed(p[..., 0], p[..., 1], 0.0, t, c, s, self.v0), normal
 
     def _point(self, u, t):
         """(S_t(p(u), 0), u and t broadcast, p(u), cos and sin of the turn h t)."""

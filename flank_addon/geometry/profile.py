@@ -222,6 +222,10 @@ class SplineProfile(Profile):
         self._all_xy = np.ascontiguousarray(np.concatenate(
             [np.stack([c[0][:, j], c[1][:, j], c[2][:, j], c[3][:, j], 3 * c[0][:, j], 2 * c[1][:, j], 6 * c[0][:, j]],
                       axis=1) for j in (0, 1)], axis=1))
+        # per interval: the point's c0..c3 and the tangent's 3 c0, 2 c1 (as ``_d`` has them), (n - 1, 6, 2), for
+        # :meth:`eval_and_tangent`
+        self._point_tangent = np.ascontiguousarray(np.stack([c[0], c[1], c[2], c[3], self._d[1][0], self._d[1][1]],
+                                                            axis=1))
 
     def eval(self, u, der=0):
         """Points (der 0) or derivatives (der 1, 2) at parameters u (...): (..., 2); the polynomial of u's
@@ -235,6 +239,16 @@ class SplineProfile(Profile):
         if der == 1:
             return c[2][i] + c[1][i] * s + c[0][i] * (s * s)
         return c[1][i] + c[0][i] * s
+
+    def eval_and_tangent(self, u):
+        """(:meth:`eval` (u), :meth:`eval` (u, 1)): the same numbers, from one interval search and one gather of the
+        coefficients (a foot point's position and normal need both, on a few hundred points per call)."""
+        i, s = self._interval(u)
+        g = self._point_tangent.take(i, axis=0)
+        s = s[..., None]
+        s2 = s * s
+        p = g[..., 3, :] + g[..., 2, :] * s + g[..., 1, :] * s2 + g[..., 0, :] * (s2 * s)
+        return p, g[..., 2, :] + g[..., 5, :] * s + g[..., 4, :] * s2
 
     def eval_all(self, u):
         # one interval search for value and both derivatives (hot path of foot-point Newton)
