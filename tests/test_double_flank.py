@@ -367,6 +367,43 @@ def test_two_paths_beat_one_axis_on_asymmetric_female(female):
         [(v["max_error"], v["min_error"]) for v in ver]
 
 
+def test_two_path_error_rows_and_their_gradients(builtin):
+    """The two-path epigraph's rows (Bizzarri & Bartoň 2021 §4.3): each block is an axis' own distance less one
+    other distance where the axis' foot counts, 0 elsewhere; the gradients are those of finite differences of
+    the rows, and the rows without gradients are the same numbers."""
+    from flank_addon.methods.double_flank.planner import _two_path_terms, eval_at_tool_coordinates
+
+    _, v = _valley(builtin, "asymmetric-male")
+    x1, x2 = np.array([-0.05, -0.15, -0.25]), np.array([-0.07, -0.2, -0.32])
+    y = np.r_[x1, x2]
+    t = np.linspace(*v.lam_range, 40)
+    e, G, owners, _ = _two_path_terms(AxisEvaluator(v), y, t)
+    A, B = eval_at_tool_coordinates(AxisEvaluator(v), [(x1, t, (v.feet[0],) + tuple(v.full_feet), "a"),
+                                                        (x2, t, (v.feet[1],) + tuple(v.full_feet), "b")])
+    blocks = e.reshape(10, -1)
+    others = [B.r[0], A.r[1], A.r[2], B.r[1], B.r[2], A.r[0], A.r[1], A.r[2], B.r[1], B.r[2]]
+    for k, other in enumerate(others):
+        own, counts = (A.r[0], A.interior[0]) if k < 5 else (B.r[0], B.interior[0])
+        if k % 5 == 0:
+            counts = A.interior[0] & B.interior[0]
+        assert np.array_equal(blocks[k], np.where(counts, own - other, 0.0))
+        assert not G.reshape(10, -1, 6)[k][~counts].any()
+    assert np.array_equal(owners, np.repeat([0, 1], 5 * len(t)))
+    assert 0 < np.count_nonzero(e) < len(e)
+    e_only, no_grad, _, _ = _two_path_terms(AxisEvaluator(v), y, t, gradients=False)
+    assert no_grad is None and e_only.tobytes() == e.tobytes()
+    h = 1e-6
+    for j in range(6):
+        step = np.zeros(6)
+        step[j] = h
+        ep, Gp, _, _ = _two_path_terms(AxisEvaluator(v), y + step, t)
+        em, Gm, _, _ = _two_path_terms(AxisEvaluator(v), y - step, t)
+        same = (ep != 0) & (em != 0) & (e != 0)          # rows counted at all three points
+        assert same.sum() > 50
+        fd = (ep - em) / (2 * h)
+        assert np.max(np.abs(fd[same] - G[same, j])) < 1e-5
+
+
 def test_meridian_merges_give_np_uniques_array():
     """The meridian's vertices merge a few cap and zone abscissae into the sorted contact points instead of
     sorting all of them: the same array as np.unique, byte for byte, with repeats, zeros of either sign,
