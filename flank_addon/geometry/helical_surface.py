@@ -138,18 +138,11 @@ class HelicalSurface:
         and the turn are made once for both, the point and tangent from one interval search where the profile
         can (:meth:`SplineProfile.eval_and_tangent`); the foot points ask for both at every call, on a few hundred
         rows, where this takes 2/3 of the time."""
-        both = getattr(self.profile, "eval_and_tangent", None)
-        if both is None:
-            point, u, p, c, s = self._point(u, t)
-            return point, self._turned_normal(u, p, c, s)
         u, t = np.broadcast_arrays(np.asarray(u, float), np.asarray(t, float))
-        p, dp = both(u)
+        both = getattr(self.profile, "eval_and_tangent", None)
+        p, dp = both(u) if both is not None else (self.profile.eval(u), None)
         c, s = np.cos(self.hand * t), np.sin(self.hand * t)
-        n0 = self._normal_at_t0(p, dp)
-        normal = np.empty(n0.shape)          # the turned normal, as :meth:`_turned_normal` forms it
-        nx, ny = n0[..., 0], n0[..., 1]
-        normal[..., 0], normal[..., 1], normal[..., 2] = c * nx - s * ny, s * nx + c * ny, n0[..., 2]
-        return screwed(p[..., 0], p[..., 1], 0.0, t, c, s, self.v0), normal
+        return screwed(p[..., 0], p[..., 1], 0.0, t, c, s, self.v0), self._turned_normal(u, p, c, s, dp)
 
     def _point(self, u, t):
         """(S_t(p(u), 0), u and t broadcast, p(u), cos and sin of the turn h t)."""
@@ -158,10 +151,14 @@ class HelicalSurface:
         c, s = np.cos(self.hand * t), np.sin(self.hand * t)
         return screwed(p[..., 0], p[..., 1], 0.0, t, c, s, self.v0), u, p, c, s
 
-    def _turned_normal(self, u, p, c, s):
-        """The normal at (u, t) from the profile point p = p(u) and the turn's cosine c and sine s."""
-        n0 = self._normal_at_t0(p, self.profile.eval(u, 1))
-        return np.concatenate([_rot(n0[..., :2], c, s), n0[..., 2:]], axis=-1)
+    def _turned_normal(self, u, p, c, s, dp=None):
+        """The normal at (u, t) from the profile point p = p(u) (and its tangent dp = p'(u), evaluated here when not
+        given) and the turn's cosine c and sine s: the normal at t = 0 turned, written into its array."""
+        n0 = self._normal_at_t0(p, self.profile.eval(u, 1) if dp is None else dp)
+        normal = np.empty(n0.shape)
+        nx, ny = n0[..., 0], n0[..., 1]
+        normal[..., 0], normal[..., 1], normal[..., 2] = c * nx - s * ny, s * nx + c * ny, n0[..., 2]
+        return normal
 
     def _normal_at_t0(self, p, dp):
         h, v0 = self.hand, self.v0
