@@ -53,10 +53,34 @@ class FlankFeet:
         n_t = int(min(max(9, 2 * tmax / dt + 1), 241))
         ts = np.linspace(-tmax, tmax, n_t)
         U, T = np.meshgrid(us, ts, indexing="ij")
-        pts = surface.evaluate(U.ravel(), T.ravel())
-        self._tree = cKDTree(pts)           # the warm starts' guard: its approximate answers depend on the tree
-        self._exact_tree = None             # the cold seeds' exact queries (:func:`exact_tree`), made when needed
+        self._points = surface.evaluate(U.ravel(), T.ravel())
         self._U, self._T = U.ravel(), T.ravel()
+        # the two kd-trees of the table, each made when first asked (a flank whose feet only ever start cold,
+        # such as the untrimmed flanks of a double-flank tool, never needs the guard's)
+        self._guard_tree = None             # the warm starts' guard: its approximate answers depend on the tree
+        self._exact_tree = None             # the cold seeds' exact queries (:func:`exact_tree`)
+        self._last_guard = {}               # row count -> (points, answers) of the latest guard query
+
+    def _exact_seeds(self, Q, k):
+        """Indices (len(Q), k) of the k nearest table samples of the planar points Q (exact)."""
+        if self._exact_tree is None:
+            self._exact_tree = exact_tree(self._points)
+        _, idx = self._exact_tree.query(Q, k=k, workers=_workers(len(Q)))
+        return idx.reshape(len(Q), -1)
+
+    def _guard_seeds(self, Q):
+        """Index of a rough nearest table sample of each planar point Q (approximate, ``eps`` = 2: 4x cheaper than
+        the exact query).  Its answers depend on the tree and the point only, so a query that repeats the latest
+        one with as many rows, bit for bit (an optimiser asking again at a point it has tried), takes that
+        one's answers."""
+        last = self._last_guard.get(len(Q))
+        if last is not None and np.array_equal(last[0], Q):
+            return last[1]
+        if self._guard_tree is None:
+            self._guard_tree = cKDTree(self._points)
+        _, idx = self._guard_tree.query(Q, k=1, eps=2.0, workers=_workers(len(Q)))
+        self._last_guard[len(Q)] = (Q.copy(), idx)      # one tuple: a reader in another thread sees both or neither
+        return idx
 
     @classmethod
     def of(cls, surface, u_start, u_end, n_u=None, reach=None):
@@ -113,7 +137,7 @@ class FlankFeet:
             su, st = np.empty(len(q)), np.empty(len(q))
             for j in warm_j:
                 r = slice(off[j], off[j + 1])
-                _, idx = solvers[j]._tree.query(Q[r], k=1, eps=2.0, workers=_workers(sizes[j]))
+                idx = solvers[j]._guard_seeds(Q[r])
                 su[r], st[r] = solvers[j]._U[idx], solvers[j]._T[idx]
             su, st = su[rows], st[rows]
             fs_ = s._f_and_derivs(su, st, q0[rows], order=0)
@@ -128,11 +152,8 @@ class FlankFeet:
             # every query's k nearest table samples as seeds, all in one Newton run, then the best per query
             seeds, kks = [], []
             for j in cold_j:
-                fs, r = solvers[j], slice(off[j], off[j + 1])
-                if fs._exact_tree is None:
-                    fs._exact_tree = exact_tree(fs._tree.data)
-                _, idx = fs._exact_tree.query(Q[r], k=k, workers=_workers(sizes[j]))
-                idx = idx.reshape(sizes[j], -1)
+                fs = solvers[j]
+                idx = fs._exact_seeds(Q[off[j]:off[j + 1]], k)
                 kks.append(idx.shape[1])
                 rows_j = np.tile(np.arange(off[j], off[j + 1]), idx.shape[1])      # seed-major, as idx.T
                 seeds.append((rows_j, fs._U[idx.T.ravel()], fs._T[idx.T.ravel()]))

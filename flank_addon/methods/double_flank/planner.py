@@ -487,8 +487,7 @@ def build_path(ev, x, m=400, variant="min", radii_fn=None, extent=None, flanks=(
     g = np.geomspace(1e-9, 0.02, 120) * (hi - lo)
     lam = np.unique(np.r_[np.linspace(lo, hi, n_exact), lo + g, hi - g])
     n_exact = len(lam)
-    ar = ev(x, lam, tag=(tag, "trim"))
-    full = ev(x, lam, solvers=v.full_feet, tag=(tag, "full"))
+    ar, full = ev.multi([(x, lam, None, (tag, "trim")), (x, lam, v.full_feet, (tag, "full"))])
     al = float(x[0])
     speed = 1.0 / math.cos(al)
     c, sn = math.cos(v.theta + x[2]), math.sin(v.theta + x[2])
@@ -1078,8 +1077,7 @@ def build_cone(ev, x, extent, n=200, tag="cone"):
     v = ev.valley
     lo, hi = extent
     lam = np.linspace(lo, hi, n)
-    ar = ev(x, lam, tag=(tag, lo, hi))
-    full = ev(x, lam, solvers=v.full_feet, tag=(tag, "full", lo, hi))
+    ar, full = ev.multi([(x, lam, None, (tag, lo, hi)), (x, lam, v.full_feet, (tag, "full", lo, hi))])
     cap = np.minimum(full.r[0], full.r[1])
     counted = ar.interior
     rmin = np.minimum(radial_function(ar.r, counted, "min", cap), cap)
