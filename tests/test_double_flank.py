@@ -71,6 +71,40 @@ def test_a_solvers_feet_do_not_depend_on_the_solvers_beside_it(builtin):
             assert np.array_equal(getattr(warm_together[0], name), getattr(warm_alone, name)), name
 
 
+def test_guard_answers_are_the_trees_whether_repeated_or_not(builtin):
+    """The warm starts' guard asks a rough (approximate) kd-tree query, whose answers depend on the tree; a query
+    that repeats the latest one bit for bit takes that one's answers.  Those must be the tree's own answers
+    (a changed row, or another row count, is asked again), and the feet the same as a fresh solver's.  The
+    table's two trees are made when first needed: a solver whose feet only start cold never makes the guard's."""
+    from scipy.spatial import cKDTree
+
+    from flank_addon.geometry.flank_feet import FlankFeet
+
+    r, v = _valley(builtin, "asymmetric-female")
+    lo, hi = v.ranges[0]
+    fs, fresh = FlankFeet(v.surface, lo, hi), FlankFeet(v.surface, lo, hi)
+    assert fs._guard_tree is None and fs._exact_tree is None
+    rng = np.random.default_rng(8)
+    lam = rng.uniform(0.5, 1.6, 300)
+    q = np.c_[lam * np.cos(v.theta), lam * np.sin(v.theta), 0.4 * rng.normal(size=300)]
+    cold = fs(q)
+    assert fs._exact_tree is not None and fs._guard_tree is None
+    reference = cKDTree(fs._points)
+    Q = np.c_[screw_to_plane(q, v.surface.v0, v.surface.hand), np.zeros(len(q))]
+    changed = Q.copy()
+    changed[17, 0] += 0.05
+    for points in (Q, Q, changed, Q[:200], changed, Q):
+        expected = reference.query(points, k=1, eps=2.0)[1]
+        assert np.array_equal(fs._guard_seeds(points), expected)
+    assert fs._guard_seeds(Q) is fs._guard_seeds(Q.copy())         # the repeat is answered from the latest
+    moved = q + 1e-3 * rng.normal(size=q.shape)
+    for _ in range(2):                                              # the second time from the latest answers
+        warm = fs(moved, warm=(cold.u, cold.tau))
+        ref = fresh(moved, warm=(cold.u, cold.tau))
+        for name in ("u", "t", "point", "distance", "direction", "interior", "tau"):
+            assert np.array_equal(getattr(warm, name), getattr(ref, name)), name
+
+
 @pytest.mark.parametrize("name", ["nilson-male", "srm_a-female"])
 def test_symmetric_profile_is_exact(name, builtin):
     """Prop. 3.1: on the symmetry line (0, 0, 0) both flanks are at the same distance from every axis point."""
