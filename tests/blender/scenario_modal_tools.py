@@ -445,8 +445,9 @@ def scenario(bpy, res, args):
     ret, err = driver._run_op(bpy.ops.flank.analyze_rotor)
     res["analyze_failed_sync"] = dict(result=ret, error=err)
 
-    # the guiding curves of a 20,000-triangle surface
-    driver._run_op(bpy.ops.flank.add_test_surface, kind="parabolic_blade", size=1.0, resolution=125)
+    # the guiding curves of a 53,200-triangle surface: 0.39 s in the synchronous run, several polls of the modal one
+    # (20,000 triangles took 0.12 s, and a modal run once ended before its first poll, 0.1 s in)
+    driver._run_op(bpy.ops.flank.add_test_surface, kind="parabolic_blade", size=1.0, resolution=200)
     surface = bpy.context.active_object.name
 
     def select_surface():
