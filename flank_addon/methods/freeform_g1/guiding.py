@@ -74,7 +74,7 @@ from scipy.sparse.csgraph import connected_components, depth_first_order
 from scipy.sparse.linalg import splu
 from scipy.spatial import cKDTree
 
-from ...geometry.triangles import corner_angles, face_areas_normals
+from ...geometry.triangles import areas_normals, corner_cross, corners_angles, face_areas_normals
 
 MAX_FACES = 5_000_000
 MIN_AREA_REL = 1e-14          # faces below this x (bounding-box diagonal)^2 are degenerate
@@ -298,9 +298,10 @@ def vertex_areas(vertices, faces):
 
 def vertex_normals(vertices, faces):
     """Unit vertex normals (V, 3): face normals weighted by the corner angles (Thürmer-Wüthrich)."""
-    _, n = face_areas_normals(vertices, faces)
-    ang = corner_angles(vertices, faces)
-    F = np.asarray(faces)
+    F = np.asarray(faces).astype(np.intp, copy=False)
+    corners = np.asarray(vertices, float).take(F, axis=0)      # (F, 3, 3), gathered once for both
+    _, n = areas_normals(corner_cross(corners[:, 0], corners[:, 1], corners[:, 2]))
+    ang = corners_angles(corners)
     acc = np.zeros((len(vertices), 3))
     np.add.at(acc, F.ravel(), (ang[..., None] * n[:, None, :]).reshape(-1, 3))
     return acc / np.linalg.norm(acc, axis=1, keepdims=True)
