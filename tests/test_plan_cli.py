@@ -195,27 +195,3 @@ def test_cli_check_plan(tmp_path):
     r = run_cli("check-plan", path)
     assert r.returncode == 2 and "not valid JSON" in r.stderr
 
-
-@pytest.mark.parametrize("outcome", ["returns", "bad input"])
-def test_cli_command_runs_with_the_collector_paused_and_restores_it(tmp_path, monkeypatch, outcome):
-    """A command runs with the cyclic garbage collector off (its full pass over the imports' objects found none of
-    a plan's own); it is on again when the command returns, and when it ends in an error."""
-    import gc
-
-    from flank_addon import cli
-
-    seen = []
-
-    def command(args):
-        seen.append(gc.isenabled())
-        if outcome == "bad input":
-            raise ValueError("a bad value")
-        return 0
-
-    monkeypatch.setattr(cli, "_cmd_check_plan", command)
-    assert gc.isenabled()
-    with contextlib.redirect_stderr(io.StringIO()):
-        rc = cli.main(["check-plan", str(tmp_path / "p.json")])
-    assert seen == [False]
-    assert rc == (0 if outcome == "returns" else 2)
-    assert gc.isenabled()
