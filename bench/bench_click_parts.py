@@ -21,12 +21,14 @@ of a fresh process, after the modules that the extension's sidebar warms up (``o
 """
 import argparse
 import json
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(HERE / "bench"))
+
+from bench_interactive import run_runner  # noqa: E402
 
 RUNNER = r"""
 import contextlib, functools, gc, importlib, io, json, sys, time
@@ -165,14 +167,7 @@ print(json.dumps(res))
 
 
 def run(mode, argv):
-    p = subprocess.run([sys.executable, "-c", RUNNER, str(HERE), mode, json.dumps(argv)], capture_output=True,
-                       text=True)
-    if p.returncode != 0:
-        raise RuntimeError(f"{mode} failed:\n{p.stderr[-3000:]}")
-    res = json.loads(p.stdout.strip().splitlines()[-1])
-    if res["rc"] != 0:
-        raise RuntimeError(f"{mode}: the command returned {res['rc']}")
-    return res
+    return run_runner(RUNNER, [str(HERE), mode, json.dumps(argv)], mode)
 
 
 def span(values, unit="s", fmt="{:.3f}"):

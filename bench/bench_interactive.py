@@ -170,13 +170,19 @@ def run(tree, argv, out_dir, warm=False, imported=False):
     if argv[0] == "plan":       # each tree writes its own plans
         argv = argv[:-1] + [str(out_dir / tree.name / Path(argv[-1]).name)]
     mode = "warm" if warm else "imported" if imported else "cold"
-    p = subprocess.run([sys.executable, "-c", RUNNER, json.dumps(argv), mode, json.dumps(warm_up_modules())],
-                       env=env, cwd=str(tree), capture_output=True, text=True)
+    return run_runner(RUNNER, [json.dumps(argv), mode, json.dumps(warm_up_modules())], f"{tree}: {' '.join(argv)}",
+                      env=env, cwd=str(tree))
+
+
+def run_runner(runner, args, label, **kw):
+    """The JSON line a runner script (``python -c runner *args``) prints last, its command's return code 0 (else
+    RuntimeError naming ``label``, with the runner's error output or the command's output)."""
+    p = subprocess.run([sys.executable, "-c", runner, *args], capture_output=True, text=True, **kw)
     if p.returncode != 0:
-        raise RuntimeError(f"{tree}: {' '.join(argv)} failed:\n{p.stderr[-3000:]}")
+        raise RuntimeError(f"{label} failed:\n{p.stderr[-3000:]}")
     res = json.loads(p.stdout.strip().splitlines()[-1])
     if res["rc"] != 0:
-        raise RuntimeError(f"{tree}: {' '.join(argv)} returned {res['rc']}:\n{res['out']}")
+        raise RuntimeError(f"{label} returned {res['rc']}:\n{res.get('out', '')}")
     return res
 
 
