@@ -105,6 +105,26 @@ def test_guard_answers_are_the_trees_whether_repeated_or_not(builtin):
             assert np.array_equal(getattr(warm, name), getattr(ref, name)), name
 
 
+def test_cold_seeds_are_the_nearest_table_samples(builtin):
+    """A cold foot point starts from the k nearest samples of the flank's table, whatever tree answers the query
+    (its leaf size is chosen for speed): checked against every sample's distance, for points on the valley's
+    axes and far off the flank, in small and in threaded (>= 2048 rows) queries."""
+    from flank_addon.geometry.flank_feet import FlankFeet
+
+    r, v = _valley(builtin, "asymmetric-female")
+    lo, hi = v.ranges[0]
+    fs = FlankFeet(v.surface, lo, hi)
+    rng = np.random.default_rng(9)
+    for n, spread in ((300, 1.0), (2500, 3.0)):
+        lam = rng.uniform(0.2, 1.6, n) * spread
+        q = np.c_[lam * np.cos(v.theta), lam * np.sin(v.theta), 0.5 * rng.normal(size=n)]
+        Q = np.c_[screw_to_plane(q, v.surface.v0, v.surface.hand), np.zeros(n)]
+        seeds = fs._exact_seeds(Q, 3)
+        d2 = np.concatenate([((c[:, None, :] - fs._points[None]) ** 2).sum(-1).argsort(axis=1)[:, :3]
+                             for c in np.array_split(Q, 25)])
+        assert np.array_equal(seeds, d2)
+
+
 @pytest.mark.parametrize("name", ["nilson-male", "srm_a-female"])
 def test_symmetric_profile_is_exact(name, builtin):
     """Prop. 3.1: on the symmetry line (0, 0, 0) both flanks are at the same distance from every axis point."""

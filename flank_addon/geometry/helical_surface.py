@@ -65,13 +65,13 @@ def shifted_newton_step(gu, gt, huu, hut, htt):
     return -(c * gu - b * gt) / det, -(a * gt - b * gu) / det, scale
 
 
-def exact_tree(points):
+def exact_tree(points, leafsize=16):
     """A kd-tree for exact nearest-sample queries of the seed tables.  Midpoint splits and uncompacted node
     boxes: the samples lie on regular grids (profile parameters, screw parameters), where this tree builds in
     half the time of scipy's default tree and answers the planners' queries, most of which lie off the table,
-    1.3-2.5x faster.  An exact query finds the same nearest samples in either tree; an approximate one
-    (``eps`` > 0) may not."""
-    return cKDTree(points, balanced_tree=False, compact_nodes=False)
+    1.3-2.5x faster.  An exact query finds the same nearest samples in either tree, whatever its leaf size;
+    an approximate one (``eps`` > 0) may not."""
+    return cKDTree(points, leafsize=leafsize, balanced_tree=False, compact_nodes=False)
 
 
 def _rot(v, c, s):
