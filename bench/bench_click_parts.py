@@ -1,14 +1,16 @@
 """Where a double-flank click goes, and three ways of making it cheaper that were measured.
 
 Each part runs the command line's ``plan double-flank --builtin asymmetric-female --valley 0`` as the first click
-of a fresh process, after the modules that the extension's sidebar warms up (``operators/jobs.py``), as
+of a fresh process, after the warm-up that the extension's sidebar runs (``operators/jobs.py``: WarmUp), as
 ``bench_interactive.py --imported`` does.  It prints:
 
 - ``parts``: the click's wall time and its parts (the axis optimisation, the tool and its path, the simulated
   errors, the built-in rotor, the valley's tables, writing the plan), minima and maxima over ``--runs`` processes;
-- ``collector``: the time of Python's cyclic garbage collector during the click, its collections and what they
-  freed, as the command line runs and with the collector paused while the command runs (the full collection
-  that the imports' objects make due then runs when the command returns, in the same click);
+- ``collector``: the time of Python's cyclic garbage collector during the click, its collections (young,
+  middle, full) and what they freed: after the warm-up (which ends with a full collection), after the warm-up's
+  imports alone (the full collection that their objects bring due comes in the click), and after its imports
+  with the collector paused while the command runs (that collection then runs when the command returns, in
+  the same click);
 - ``guard``: the warm starts' guard queries of the click, recorded and replayed on the same trees -- the rough
   (approximate, eps = 2) query that the guard asks, against an exact query of the midpoint tree that could rule
   rows out first -- and how far the nearest table sample lies beyond each row's foot, against how far a row moves
@@ -35,12 +37,15 @@ import contextlib, functools, gc, importlib, io, json, sys, time
 sys.path.insert(0, sys.argv[1]); sys.path.insert(0, sys.argv[1] + "/bench")
 import bench_interactive
 from flank_addon import cli
-for name in bench_interactive.warm_up_modules():
-    try:
-        importlib.import_module(name)
-    except ImportError:
-        pass
 mode, argv = sys.argv[2], json.loads(sys.argv[3])
+if mode in ("collector-imports-only", "collector-paused"):    # the warm-up's imports only (its collection left out)
+    for name in bench_interactive.warm_up_modules():
+        try:
+            importlib.import_module(name)
+        except ImportError:
+            pass
+else:
+    bench_interactive.warm_up(sys.argv[1])
 res = {}
 if mode == "parts":
     P = "flank_addon.methods.double_flank.planner"
@@ -64,13 +69,14 @@ if mode == "collector-paused":         # the collector off while the command run
             return command(args)
     cli._cmd_plan = paused
 if mode.startswith("collector"):
-    state = {"t": 0.0, "n": 0, "freed": 0}
+    state = {"t": 0.0, "n": 0, "full": 0, "freed": 0}
     def watch(phase, info):
         if phase == "start":
             state["t0"] = time.perf_counter()
         else:
             state["t"] += time.perf_counter() - state["t0"]
             state["n"] += 1
+            state["full"] += info["generation"] == 2
             state["freed"] += info["collected"]
     gc.callbacks.append(watch)
 if mode == "guard":
@@ -90,7 +96,7 @@ with contextlib.redirect_stdout(io.StringIO()):
 res["click"] = time.perf_counter() - t
 if mode.startswith("collector"):
     gc.callbacks.remove(watch)
-    res.update(gc_s=state["t"], collections=state["n"], freed=state["freed"])
+    res.update(gc_s=state["t"], collections=state["n"], full=state["full"], freed=state["freed"])
 if mode == "guard":
     import numpy as np
     from flank_addon.geometry.helical_surface import exact_tree
@@ -190,10 +196,12 @@ def main():
                           ("write_plan", "writing the plan")):
             print(f"  {name:28s} {span([p[key] for p in parts])}")
         print("collector:")
-        for mode, name in (("collector", "as the command line runs"), ("collector-paused", "paused for the command")):
+        for mode, name in (("collector", "after the warm-up"), ("collector-imports-only", "after its imports only"),
+                           ("collector-paused", "paused for the command")):
             rs = [run(mode, argv) for _ in range(args.runs)]
             print(f"  {name:28s} click {span([r['click'] for r in rs])}, collector {span([1e3 * r['gc_s'] for r in rs], 'ms', '{:.1f}')}"
-                  f" in {span([r['collections'] for r in rs], 'collections', '{}')}, freed {span([r['freed'] for r in rs], 'objects', '{}')}")
+                  f" in {span([r['collections'] for r in rs], 'collections', '{}')}"
+                  f" ({span([r['full'] for r in rs], 'full', '{}')}), freed {span([r['freed'] for r in rs], 'objects', '{}')}")
         g = run("guard", argv)
         print(f"guard: {g['runs']} guarded runs, {g['rows']} rows, replayed (minimum of 3): rough query {g['rough_s']:.3f} s,"
               f" exact query of the midpoint tree {g['exact_s']:.3f} s")

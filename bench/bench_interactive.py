@@ -44,13 +44,12 @@ RUNNER = r"""
 import json, sys, time
 t0 = time.perf_counter()
 from flank_addon import cli
-if sys.argv[2] == "imported":     # what the Flank tab's warm-up imported before the click (operators/jobs.py)
-    import importlib
-    for name in json.loads(sys.argv[3]):
-        try:
-            importlib.import_module(name)
-        except ImportError:
-            pass
+if sys.argv[2] == "imported":     # the Flank tab's warm-up before the click: the tree's operators/jobs.py WarmUp
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("flank_jobs", "operators/jobs.py")
+    jobs = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(jobs)
+    jobs.WarmUp(None, json.loads(sys.argv[3])).wait()
 t1 = time.perf_counter()
 c1 = time.process_time()
 import contextlib, io
@@ -153,16 +152,27 @@ GOALS = {"double-flank": 0.6, "verify": 0.5, "single-flank": 2.0, "freeform": 2.
          "verify-single-flank": 0.5, "verify-three-cones": 0.5, "verify-disc-cutter": 0.5}
 
 
+def load_jobs(tree=HERE):
+    """A tree's ``operators/jobs.py`` (no bpy in it), loaded as a module of its own."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("flank_jobs", Path(tree) / "operators" / "jobs.py")
+    jobs = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(jobs)
+    return jobs
+
+
 def warm_up_modules():
     """The modules the Blender extension imports in a worker thread when its sidebar tab is shown
     (``operators/jobs.py``: WARM_MODULES, its own names relative to the extension), as the command line names
     them."""
-    import importlib.util
+    return [name[1:] if name.startswith(".") else name for name in load_jobs().WARM_MODULES]
 
-    spec = importlib.util.spec_from_file_location("flank_jobs", HERE / "operators" / "jobs.py")
-    jobs = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(jobs)
-    return [name[1:] if name.startswith(".") else name for name in jobs.WARM_MODULES]
+
+def warm_up(tree=HERE):
+    """What the extension does when its sidebar tab is shown, before a first click: the tree's
+    ``operators/jobs.py`` WarmUp (its imports, then whatever else it does), in its thread, waited for."""
+    load_jobs(tree).WarmUp(None, warm_up_modules()).wait()
 
 
 def run(tree, argv, out_dir, warm=False, imported=False):
@@ -195,9 +205,11 @@ def main():
     ap.add_argument("--warm", action="store_true", help="time the second click in one process (what a click "
                                                         "costs in a Blender session: modules loaded, a mesh's "
                                                         "analysis kept)")
-    ap.add_argument("--imported", action="store_true", help="time the first click after the modules that the "
-                                                            "Blender extension imports when its sidebar tab is "
-                                                            "shown (what a first click costs in Blender)")
+    ap.add_argument("--imported", action="store_true", help="time the first click after the warm-up that the "
+                                                            "Blender extension runs when its sidebar tab is "
+                                                            "shown (each tree's operators/jobs.py WarmUp: its "
+                                                            "imports and what follows them; what a first click "
+                                                            "costs in Blender)")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)

@@ -126,3 +126,43 @@ def test_warm_up_imports_in_a_thread_once_and_keeps_a_failure():
     assert isinstance(w.failed["flank_no_such_module"], ImportError) and w.elapsed >= 0
     first = jobs.warm_up("flank_addon", (".progress",))
     assert jobs.warm_up("flank_addon", ("json",)) is first and first.wait(60) and first.imported == [".progress"]
+
+
+_CLICK_AFTER_WARM_UP = r"""
+import contextlib, gc, importlib.util, io, json, sys, tempfile
+spec = importlib.util.spec_from_file_location("flank_jobs", sys.argv[1])
+jobs = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(jobs)
+names = [n[1:] if n.startswith(".") else n for n in jobs.WARM_MODULES]
+if sys.argv[2] == "warm-up":
+    jobs.WarmUp(None, names).wait()
+else:                                   # the same imports, and nothing after them
+    for name in names:
+        importlib.import_module(name)
+from flank_addon import cli
+full = []
+gc.callbacks.append(lambda phase, info: full.append(1) if phase == "stop" and info["generation"] == 2 else None)
+with tempfile.TemporaryDirectory() as d, contextlib.redirect_stdout(io.StringIO()):
+    rc = cli.main(["plan", "double-flank", "--builtin", "asymmetric-female", "--valley", "0", "--out", d + "/p.json"])
+print(json.dumps({"rc": rc, "full": len(full)}))
+"""
+
+
+def test_the_first_click_after_the_warm_up_makes_no_full_collection():
+    """The warm-up ends with a full collection: the objects its imports leave in the collector's young
+    generations would otherwise bring one due within the first click (a double-flank plan, in a fresh process,
+    as ``bench/bench_click_parts.py`` measures it)."""
+    import json
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[1]
+    out = {}
+    for mode in ("warm-up", "imports-only"):
+        p = subprocess.run([sys.executable, "-c", _CLICK_AFTER_WARM_UP, str(root / "operators" / "jobs.py"), mode],
+                           capture_output=True, text=True, cwd=root, timeout=600)
+        assert p.returncode == 0, p.stderr[-2000:]
+        out[mode] = json.loads(p.stdout.strip().splitlines()[-1])
+        assert out[mode]["rc"] == 0
+    assert out["warm-up"]["full"] == 0
+    assert out["imports-only"]["full"] >= 1       # what the warm-up's collection takes out of the click
