@@ -88,14 +88,16 @@ class WarmUp:
     first click of a session does not import them on Blender's main thread.  ``imported``: the names done;
     ``failed``: {name: exception} -- kept, never raised (the click that needs the module reports it).
 
-    Then it runs one full collection of Python's garbage collector.  The imports leave some 25,000 new
+    Then it runs one full collection of Python's garbage collector.  The imports leave tens of thousands of new
     objects in the collector's young generations, which brings a full collection due: without this one it
-    came within the first click, walking every object of the process (20 ms of a double-flank click in the
-    command line's process, 28-37 ms with bpy loaded), and afterwards a click's own objects are too few to
-    bring the next one due (``bench/bench_click_parts.py``, ``collector``)."""
+    came within the first click, walking every object of the process (14-24 ms of a double-flank click in the
+    command line's process), and afterwards a click's own objects are too few to bring the next one due
+    (``bench/bench_click_parts.py``, ``collector``).  ``collect_s``: how long it took; it holds the interpreter
+    lock, so Blender's interface waits that long, once (the Blender tests print it)."""
 
     def __init__(self, package, names):
         self.names, self.imported, self.failed = tuple(names), [], {}
+        self.collect_s = None
         self.started = time.perf_counter()
         self.elapsed = None
         self._thread = threading.Thread(target=self._run, args=(package,), name="flank-warm-up", daemon=True)
@@ -111,7 +113,9 @@ class WarmUp:
                 self.failed[name] = ex
             else:
                 self.imported.append(name)
+        t = time.perf_counter()
         gc.collect()
+        self.collect_s = time.perf_counter() - t
         self.elapsed = time.perf_counter() - self.started
 
     def wait(self, timeout=None):

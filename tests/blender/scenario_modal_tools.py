@@ -125,7 +125,8 @@ def scenario(bpy, res, args):
     warm = jobs.warm_up(driver.MODULE)
     res["warm_up"] = dict(loaded_before=shown, done=warm.wait(120), imported=list(warm.imported),
                           failed={k: repr(v) for k, v in warm.failed.items()}, names=list(jobs.WARM_MODULES),
-                          seconds=warm.elapsed, once=jobs.warm_up(driver.MODULE) is warm)
+                          seconds=warm.elapsed, collect_s=warm.collect_s,
+                          once=jobs.warm_up(driver.MODULE) is warm)
     gen_kw = dict(kind="asymmetric", part="female")
     res["generate"] = sm.exercise_tool(bpy, np, bpy.ops.flank.generate_rotor, classes["generate"], gen_kw,
                                        select_empty, lambda: _rotor_state(bpy, np), cancel=False)
