@@ -15,7 +15,8 @@ of a fresh process, after the warm-up that the extension's sidebar runs (``opera
   (approximate, eps = 2) query that the guard asks, against an exact query of the midpoint tree that could rule
   rows out first -- and how far the nearest table sample lies beyond each row's foot, against how far a row moves
   from one evaluation to the next (a bound carried over from one evaluation lasts while the second stays below
-  the first);
+  the first); and each guarded run's warm Newton run with its guard query, in turn as the planner runs them,
+  and with the query on a helper thread beside the Newton run (it does not depend on it);
 - ``threads``: the plan's simulated errors (the sweep of its target points) in one call, in two halves on two
   threads and in two halves one after the other, and how far the halves' deviations are from the whole's.
 
@@ -87,7 +88,7 @@ if mode == "guard":
         pts = points if isinstance(points, (list, tuple)) else [points] * len(solvers)
         for fs, p, w, ft in zip(solvers, pts, warms, out):
             if w is not None:
-                calls.append((fs, p, ft.distance))
+                calls.append((fs, p, ft.distance, w))
         return out
     FlankFeet.many = staticmethod(recorded)
 t = time.perf_counter()
@@ -102,33 +103,55 @@ if mode == "guard":
     from flank_addon.geometry.helical_surface import exact_tree
     from flank_addon.geometry.screw import screw_to_plane
     Qs = []
-    for fs, p, dist in calls:
+    for fs, p, dist, _ in calls:
         s = fs.surface
         Q = np.zeros((len(p), 3))
         Q[:, :2] = screw_to_plane(np.asarray(p, float), s.v0, s.hand)
         Qs.append(Q)
-    solvers = {id(fs): fs for fs, _, _ in calls}
+    solvers = {id(fs): fs for fs, _, _, _ in calls}
     for fs in solvers.values():
         fs._guard_seeds(np.zeros((1, 3)))                     # both trees built before the clock starts
     exact = {k: exact_tree(fs._points) for k, fs in solvers.items()}
     best = {}
     for rep in range(3):
         t = time.perf_counter()
-        for (fs, _, _), Q in zip(calls, Qs):
+        for (fs, _, _, _), Q in zip(calls, Qs):
             fs._guard_tree.query(Q, k=1, eps=2.0)
         t1 = time.perf_counter()
-        found = [exact[id(fs)].query(Q, k=1)[0] for (fs, _, _), Q in zip(calls, Qs)]
+        found = [exact[id(fs)].query(Q, k=1)[0] for (fs, _, _, _), Q in zip(calls, Qs)]
         t2 = time.perf_counter()
         best["rough"] = min(best.get("rough", 1e9), t1 - t)
         best["exact"] = min(best.get("exact", 1e9), t2 - t1)
-    margin = np.concatenate([d - dist for d, (_, _, dist) in zip(found, calls)])
+    margin = np.concatenate([d - dist for d, (_, _, dist, _) in zip(found, calls)])
     last, moved = {}, []
-    for (fs, _, _), Q in zip(calls, Qs):
+    for (fs, _, _, _), Q in zip(calls, Qs):
         key = (id(fs), len(Q))
         if key in last:
             moved.append(np.linalg.norm(Q - last[key], axis=1))
         last[key] = Q
     moved = np.concatenate(moved)
+    # the guard's query beside its call's warm Newton run, on a helper thread (the query does not depend on it)
+    from concurrent.futures import ThreadPoolExecutor
+    from flank_addon.geometry.flank_feet import _newton_rows
+    helper = ThreadPoolExecutor(1)
+    helper.submit(int).result()
+    def newton(fs, Q, w):
+        return _newton_rows(fs.surface, w[0], w[1], Q[:, :2], fs.lo, fs.hi, fs.hi - fs.lo)
+    for rep in range(3):
+        t = time.perf_counter()
+        for (fs, _, _, w), Q in zip(calls, Qs):
+            newton(fs, Q, w)
+            fs._guard_tree.query(Q, k=1, eps=2.0)
+        t1 = time.perf_counter()
+        for (fs, _, _, w), Q in zip(calls, Qs):
+            asked = helper.submit(fs._guard_tree.query, Q, k=1, eps=2.0)
+            newton(fs, Q, w)
+            asked.result()
+        t2 = time.perf_counter()
+        best["in_turn"] = min(best.get("in_turn", 1e9), t1 - t)
+        best["beside"] = min(best.get("beside", 1e9), t2 - t1)
+    helper.shutdown()
+    res.update(in_turn_s=best["in_turn"], beside_s=best["beside"])
     R = next(iter(solvers.values())).surface.outer_radius
     res.update(runs=len(calls), rows=int(sum(len(Q) for Q in Qs)), rough_s=best["rough"], exact_s=best["exact"],
                margin_median_R=float(np.median(margin)) / R, margin_p05_R=float(np.quantile(margin, 0.05)) / R,
@@ -208,6 +231,8 @@ def main():
         print(f"  nearest sample beyond the foot: median {g['margin_median_R']:.2e} R, 5% {g['margin_p05_R']:.2e} R,"
               f" {g['margin_at_most_0']} rows at or inside it; a row moves a median {g['moved_median_R']:.2e} R"
               " between evaluations")
+        print(f"  each guarded run's Newton and its guard query (replayed, minimum of 3): in turn {g['in_turn_s']:.3f} s,"
+              f" the query on a helper thread beside the Newton run {g['beside_s']:.3f} s")
         t = run("threads", argv)
         times = t["times"]
         print(f"threads: {t['points']} target points: one call {span(times['one'])}, two halves on two threads"
