@@ -63,8 +63,8 @@ class FlankFeet:
 
     def _exact_seeds(self, Q, k):
         """Indices (len(Q), k) of the k nearest table samples of the planar points Q (exact).  Leaves of 64
-        samples: on the planners' cold-seed queries (most rows off the flank, often far) the tree builds 25%
-        faster than with scipy's 16 and answers 20-30% faster, the same samples (bench/bench_seed_trees.py)."""
+        samples: on the planners' cold-seed queries (most rows off the flank, often far) the tree builds about 17%
+        faster than with scipy's 16 and answers 22-26% faster, the same samples (bench/bench_seed_trees.py)."""
         if self._exact_tree is None:
             self._exact_tree = exact_tree(self._points, leafsize=64)
         _, idx = self._exact_tree.query(Q, k=k, workers=_workers(len(Q)))
