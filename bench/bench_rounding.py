@@ -8,7 +8,12 @@ smallest signed error) is printed in the plan's unit and, for rotor plans, in un
 free-form plan also shows its kink figures.  A figure that moves here is not defined more closely than that on
 machines with another number of cores.
 
-    PYTHONPATH=. .venv/bin/python bench/bench_rounding.py [--only NAME,...]
+With ``--repeat N`` each plan is made N times in each mode (alternating); the table then also says whether the
+repeats of a mode agree in every reported figure, bit for bit, and gives the planner's own time (the plan's
+``summary.elapsed_s``, the fastest of the N) in each mode: the optimisers follow another path with one thread,
+and may need more or fewer evaluations on it.
+
+    PYTHONPATH=. .venv/bin/python bench/bench_rounding.py [--only NAME,...] [--repeat N]
 """
 import argparse
 import json
@@ -55,6 +60,7 @@ def figures(plan):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--only", default="", help="comma-separated plan names")
+    ap.add_argument("--repeat", type=int, default=1, help="plans made per mode")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
@@ -62,17 +68,28 @@ def main():
         (d / HERE.name).mkdir(exist_ok=True)
         ops = operations(d, info)
         names = [n for n in PLANS if not args.only or n in args.only.split(",")]
-        print(f"{'plan':14s} {'largest change of an error figure':>36s}  {'where':30s} kinks (deg)")
+        print(f"{'plan':14s} {'largest change of an error figure':>36s}  {'where':30s} kinks (deg)"
+              + ("   repeats equal   planner time, default / one thread" if args.repeat > 1 else ""))
         for name in names:
-            a, R = figures(make_plan(ops[name], d / f"{name}_default.json", False))
-            b, _ = figures(make_plan(ops[name], d / f"{name}_one.json", True))
+            runs = {False: [], True: []}
+            for _ in range(max(1, args.repeat)):
+                for one in (False, True):
+                    plan = make_plan(ops[name], d / f"{name}_{'one' if one else 'default'}.json", one)
+                    runs[one].append((figures(plan), plan["summary"].get("elapsed_s", float("nan"))))
+            (a, R), _ = runs[False][0]
+            (b, _), _ = runs[True][0]
             errors = [k for k in a if "kink" not in k]
             worst = max(errors, key=lambda k: abs(a[k] - b[k]))
             diff = abs(a[worst] - b[worst])
             text = f"{diff:.3g}" + (f" ({diff / R:.3g} R)" if R else " (document unit)")
             kinks = [k for k in a if "kink" in k]
             ktext = ", ".join(f"{k.split()[-1]} {abs(a[k] - b[k]):.3g}" for k in kinks)
-            print(f"{name:14s} {text:>36s}  {worst:30s} {ktext}", flush=True)
+            line = f"{name:14s} {text:>36s}  {worst:30s} {ktext}"
+            if args.repeat > 1:
+                same = all(r[0] == runs[one][0][0] for one in runs for r in runs[one])
+                line += (f"   {'yes' if same else 'NO':13s}   {min(t for _, t in runs[False]):.3f} /"
+                         f" {min(t for _, t in runs[True]):.3f} s")
+            print(line, flush=True)
 
 
 if __name__ == "__main__":
