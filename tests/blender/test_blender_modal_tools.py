@@ -76,7 +76,9 @@ def test_a_planner_takes_the_analysis_kept_on_the_object_instead_of_analysing_ag
     the record Analyze Rotor kept on the object stands for the analysis of the unchanged mesh."""
     rec, fresh = mt["source_from_record"], mt["source_analysed"]
     assert {k: v for k, v in rec.items() if k != "seconds"} == {k: v for k, v in fresh.items() if k != "seconds"}
-    assert fresh["seconds"] > 0.5 and rec["seconds"] < 0.25, (rec["seconds"], fresh["seconds"])
+    # the analysis itself takes a time that depends on the machine and Blender (0.45 s with bpy 5.2 on a 2-core
+    # EPYC, over 0.5 s with bpy 5.0 there): the record is read in a tenth of it or less
+    assert rec["seconds"] < 0.1 * fresh["seconds"] and rec["seconds"] < 0.25, (rec["seconds"], fresh["seconds"])
 
 
 def test_a_rotor_moved_after_its_analysis_is_not_analysed_again_on_the_main_thread(mt):
