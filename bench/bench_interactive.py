@@ -49,7 +49,15 @@ if sys.argv[2] == "imported":     # the Flank tab's warm-up before the click: th
     spec = importlib.util.spec_from_file_location("flank_jobs", "operators/jobs.py")
     jobs = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(jobs)
-    jobs.WarmUp(None, json.loads(sys.argv[3])).wait()
+    if hasattr(jobs, "WarmUp"):
+        jobs.WarmUp(None, json.loads(sys.argv[3])).wait()
+    else:                           # a tree from before the warm-up: the same imports
+        import importlib
+        for name in json.loads(sys.argv[3]):
+            try:
+                importlib.import_module(name)
+            except ImportError:
+                pass
 t1 = time.perf_counter()
 c1 = time.process_time()
 import contextlib, io
