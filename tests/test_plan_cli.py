@@ -194,4 +194,3 @@ def test_cli_check_plan(tmp_path):
     path.write_text("{not json")
     r = run_cli("check-plan", path)
     assert r.returncode == 2 and "not valid JSON" in r.stderr
-

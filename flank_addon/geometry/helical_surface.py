@@ -126,35 +126,37 @@ class HelicalSurface:
 
     # ------------------------------------------------------------------ evaluation
     def evaluate(self, u, t):
-        return self._point(u, t)[0]
+        u, t, p, _, c, s = self._at(u, t)
+        return screwed(p[..., 0], p[..., 1], 0.0, t, c, s, self.v0)
 
     def normal(self, u, t):
         """Unit outward normal x_u x x_t (outward for a CCW profile, either handedness)."""
-        u, t = np.broadcast_arrays(np.asarray(u, float), np.asarray(t, float))
-        return self._turned_normal(u, self.profile.eval(u), np.cos(self.hand * t), np.sin(self.hand * t))
+        _, _, p, dp, c, s = self._at(u, t, tangent=True)
+        return self._turned_normal(p, dp, c, s)
 
     def point_and_normal(self, u, t):
         """(:meth:`evaluate`, :meth:`normal`) at the same parameters, the same numbers: the profile point, its tangent
-        and the turn are made once for both, the point and tangent from one interval search where the profile
-        can (:meth:`SplineProfile.eval_and_tangent`); the foot points ask for both at every call, on a few hundred
-        rows, where this takes 2/3 of the time."""
-        u, t = np.broadcast_arrays(np.asarray(u, float), np.asarray(t, float))
-        both = getattr(self.profile, "eval_and_tangent", None)
-        p, dp = both(u) if both is not None else (self.profile.eval(u), None)
-        c, s = np.cos(self.hand * t), np.sin(self.hand * t)
-        return screwed(p[..., 0], p[..., 1], 0.0, t, c, s, self.v0), self._turned_normal(u, p, c, s, dp)
+        and the turn are made once for both; the foot points ask for both at every call, on a few hundred rows,
+        where this takes 2/3 of the time."""
+        u, t, p, dp, c, s = self._at(u, t, tangent=True)
+        return screwed(p[..., 0], p[..., 1], 0.0, t, c, s, self.v0), self._turned_normal(p, dp, c, s)
 
-    def _point(self, u, t):
-        """(S_t(p(u), 0), u and t broadcast, p(u), cos and sin of the turn h t)."""
+    def _at(self, u, t, tangent=False):
+        """(u, t broadcast, p(u), p'(u) if ``tangent`` else None, cos and sin of the turn h t).  The point and the
+        tangent come from one interval search where the profile can (:meth:`SplineProfile.eval_and_tangent`)."""
         u, t = np.broadcast_arrays(np.asarray(u, float), np.asarray(t, float))
-        p = self.profile.eval(u)
-        c, s = np.cos(self.hand * t), np.sin(self.hand * t)
-        return screwed(p[..., 0], p[..., 1], 0.0, t, c, s, self.v0), u, p, c, s
+        both = getattr(self.profile, "eval_and_tangent", None) if tangent else None
+        if both is not None:
+            p, dp = both(u)
+        else:
+            p = self.profile.eval(u)
+            dp = self.profile.eval(u, 1) if tangent else None
+        return u, t, p, dp, np.cos(self.hand * t), np.sin(self.hand * t)
 
-    def _turned_normal(self, u, p, c, s, dp=None):
-        """The normal at (u, t) from the profile point p = p(u) (and its tangent dp = p'(u), evaluated here when not
-        given) and the turn's cosine c and sine s: the normal at t = 0 turned, written into its array."""
-        n0 = self._normal_at_t0(p, self.profile.eval(u, 1) if dp is None else dp)
+    def _turned_normal(self, p, dp, c, s):
+        """The normal at (u, t) from the profile point p = p(u), its tangent dp = p'(u) and the turn's cosine c and
+        sine s: the normal at t = 0 turned, written into its array."""
+        n0 = self._normal_at_t0(p, dp)
         normal = np.empty(n0.shape)
         nx, ny = n0[..., 0], n0[..., 1]
         normal[..., 0], normal[..., 1], normal[..., 2] = c * nx - s * ny, s * nx + c * ny, n0[..., 2]
