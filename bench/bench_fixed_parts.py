@@ -1,0 +1,221 @@
+"""The library calls that a plan's figures fix, replayed alone: how much of each click no faster arithmetic can
+take away while every figure stays the same to 1e-9 R.
+
+A plan's figures stay the same to 1e-9 R only while its optimisers take the same steps, bit for bit
+(``bench_rounding.py``: one BLAS thread instead of two moves them by up to 1.7e-7 R).  Three kinds of library
+call lie on those steps with inputs that the steps fix, and scipy answers them:
+
+- ``SLSQP``: every ``scipy.optimize.minimize(method="SLSQP")`` of the plan.  Its values and gradients are
+  recorded in the click, and the same minimisations are replayed here with the recorded values (checked: the
+  same iterates, the same end point), so only scipy's own work is timed;
+- ``guard``: the warm starts' guard queries (``FlankFeet._guard_seeds``: the approximate, eps = 2, nearest table
+  sample, whose answers depend on the tree and decide where a foot point may jump), replayed on trees built as
+  the planner builds them (checked: the same answers);
+- ``cold seeds``: the cold starts' exact k-nearest queries (``FlankFeet._exact_seeds``), on the planner's
+  midpoint trees of 64 samples per leaf (checked: the same answers).
+
+Each plan runs twice in fresh processes after the extension's warm-up (as ``bench_interactive.py --imported``):
+once plain, for the click's time (the fastest of ``--runs``), and once recording.  The table gives the replays'
+minima over ``--repeat``, their sum against the click and its goal, and what the rest of the click (everything
+but these calls: the foot points' Newton runs, the evaluations around them, the tool, the simulated errors, the
+mesh's reading and analysis) would have to shrink to for the click to meet its goal.
+
+    PYTHONPATH=. .venv/bin/python bench/bench_fixed_parts.py [--runs 3] [--repeat 5] [--only two-paths-f,...]
+"""
+import argparse
+import json
+import pickle
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(HERE / "bench"))
+sys.path.insert(0, str(HERE))
+
+from bench_interactive import GOALS, make_inputs, operations, run_runner  # noqa: E402
+
+RUNNER = r"""
+import contextlib, io, json, pickle, sys, threading, time
+sys.path.insert(0, sys.argv[1]); sys.path.insert(0, sys.argv[1] + "/bench")
+import bench_interactive
+from flank_addon import cli
+bench_interactive.warm_up(sys.argv[1])
+argv, record = json.loads(sys.argv[2]), sys.argv[3]
+res = {}
+if record:
+    import numpy as np
+    import scipy.optimize
+    from flank_addon.geometry import flank_feet
+    guard, seeds, tables, runs, lock = [], [], {}, [], threading.Lock()
+    asked_guard, asked_seeds = flank_feet.FlankFeet._guard_seeds, flank_feet.FlankFeet._exact_seeds
+
+    def recorded_guard(self, Q):
+        last = self._last_guard.get(len(Q))
+        repeated = last is not None and np.array_equal(last[0], Q)    # answered without the tree
+        idx = asked_guard(self, Q)
+        if not repeated:
+            with lock:
+                tables[id(self)] = self._points
+                guard.append((id(self), Q.copy(), idx.copy()))
+        return idx
+
+    def recorded_seeds(self, Q, k):
+        idx = asked_seeds(self, Q, k)
+        with lock:
+            tables[id(self)] = self._points
+            seeds.append((id(self), Q.copy(), k, idx.copy()))
+        return idx
+
+    minimize = scipy.optimize.minimize
+
+    def logged(f, log):
+        def g(x, *a):
+            out = f(x, *a)
+            log.append((np.array(x, copy=True), np.array(out, copy=True)))
+            return out
+        return g
+
+    def recorded_minimize(fun, x0, args=(), method=None, jac=None, bounds=None, constraints=(), tol=None,
+                          callback=None, options=None):
+        # the planners' minimisations: SLSQP with analytic gradients of the objective and of every constraint
+        constraints = [constraints] if isinstance(constraints, dict) else list(constraints)
+        if method != "SLSQP" or not callable(jac) or any(not callable(c.get("jac")) for c in constraints):
+            raise RuntimeError("a minimisation this bench does not replay")
+        logs = {"fun": [], "jac": [], "cons": []}
+        cons = []
+        for c in constraints:
+            lf, lj = [], []
+            logs["cons"].append((c["type"], lf, lj))
+            cons.append(dict(c, fun=logged(c["fun"], lf), jac=logged(c["jac"], lj)))
+        r = minimize(logged(fun, logs["fun"]), x0, args=args, method=method, jac=logged(jac, logs["jac"]),
+                     bounds=bounds, constraints=cons, tol=tol, callback=callback, options=options)
+        with lock:
+            runs.append({"x0": np.array(x0, copy=True), "method": method, "bounds": bounds, "tol": tol,
+                         "options": options, "logs": logs, "x": r.x.copy()})
+        return r
+
+    flank_feet.FlankFeet._guard_seeds, flank_feet.FlankFeet._exact_seeds = recorded_guard, recorded_seeds
+    scipy.optimize.minimize = recorded_minimize
+    with contextlib.redirect_stdout(io.StringIO()):
+        rc = cli.main(argv)
+    with open(record, "wb") as fh:
+        pickle.dump({"guard": guard, "seeds": seeds, "tables": tables, "runs": runs}, fh)
+    res = {"guard": len(guard), "seeds": len(seeds), "minimize": len(runs),
+           "evaluations": sum(len(r["logs"]["fun"]) for r in runs)}
+else:
+    t0 = time.perf_counter()
+    with contextlib.redirect_stdout(io.StringIO()):
+        rc = cli.main(argv)
+    res["click_s"] = time.perf_counter() - t0
+res["rc"] = rc
+print(json.dumps(res))
+"""
+
+PLANS = ("double-flank", "two-paths-f", "two-paths-m", "single-flank")
+
+
+def replayed(fun_log):
+    """A callable that answers the recorded calls in order (and fails on a point the recorded run never asked)."""
+    import numpy as np
+
+    it = iter(fun_log)
+
+    def f(x, *a):
+        x_rec, out = next(it)
+        if not np.array_equal(x_rec, x):
+            raise AssertionError("the replayed minimisation left the recorded iterates")
+        return out
+    return f
+
+
+def replay_minimize(runs):
+    """Every recorded minimisation once, with its recorded values; seconds."""
+    import numpy as np
+    from scipy.optimize import minimize
+
+    t0 = time.perf_counter()
+    for r in runs:
+        cons = [{"type": kind, "fun": replayed(lf), "jac": replayed(lj)} for kind, lf, lj in r["logs"]["cons"]]
+        out = minimize(replayed(r["logs"]["fun"]), r["x0"].copy(), method=r["method"],
+                       jac=replayed(r["logs"]["jac"]), bounds=r["bounds"], constraints=cons, tol=r["tol"],
+                       options=r["options"])
+        if not np.array_equal(out.x, r["x"]):
+            raise AssertionError("the replayed minimisation ended elsewhere")
+    return time.perf_counter() - t0
+
+
+def replay_guard(guard, tables):
+    """The guard's queries on scipy's default trees of their tables (built first, as the planner builds one
+    per table when first asked, and timed with the queries); seconds."""
+    import numpy as np
+    from scipy.spatial import cKDTree
+
+    from flank_addon.geometry.flank_feet import _workers
+
+    t0 = time.perf_counter()
+    trees = {}
+    for key, Q, idx in guard:
+        tree = trees.get(key)
+        if tree is None:
+            tree = trees[key] = cKDTree(tables[key])
+        got = tree.query(Q, k=1, eps=2.0, workers=_workers(len(Q)))[1]
+        if not np.array_equal(got, idx):
+            raise AssertionError("a replayed guard query answered otherwise")
+    return time.perf_counter() - t0
+
+
+def replay_seeds(seeds, tables):
+    """The cold seeds' exact queries on the planner's midpoint trees (built and timed with them); seconds."""
+    import numpy as np
+
+    from flank_addon.geometry.flank_feet import _workers
+    from flank_addon.geometry.helical_surface import exact_tree
+
+    t0 = time.perf_counter()
+    trees = {}
+    for key, Q, k, idx in seeds:
+        tree = trees.get(key)
+        if tree is None:
+            tree = trees[key] = exact_tree(tables[key], leafsize=64)
+        got = tree.query(Q, k=k, workers=_workers(len(Q)))[1].reshape(len(Q), -1)
+        if not np.array_equal(got, idx):
+            raise AssertionError("a replayed cold-seed query answered otherwise")
+    return time.perf_counter() - t0
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--runs", type=int, default=3, help="plain clicks per plan (the fastest is kept)")
+    ap.add_argument("--repeat", type=int, default=5, help="replays of the recorded calls (minima)")
+    ap.add_argument("--only", default="", help="comma-separated plans of " + ", ".join(PLANS))
+    args = ap.parse_args()
+    plans = [p for p in PLANS if not args.only or p in args.only.split(",")]
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        (d / HERE.name).mkdir()
+        ops = operations(d, make_inputs(d))
+        print(f"{'plan':<14} {'click':>7} {'SLSQP':>7} {'guard':>7} {'seeds':>7} {'fixed':>7} {'goal':>6} "
+              f"{'rest now':>9} {'rest at goal':>13}   calls: minimize (evaluations) / guard / seeds")
+        for name in plans:
+            click = min(run_runner(RUNNER, [str(HERE), json.dumps(ops[name]), ""], name, cwd=str(HERE))["click_s"]
+                        for _ in range(args.runs))
+            rec = d / f"{name}.pkl"
+            counts = run_runner(RUNNER, [str(HERE), json.dumps(ops[name]), str(rec)], name, cwd=str(HERE))
+            with open(rec, "rb") as fh:
+                data = pickle.load(fh)
+            t_min = min(replay_minimize(data["runs"]) for _ in range(args.repeat))
+            t_guard = min(replay_guard(data["guard"], data["tables"]) for _ in range(args.repeat))
+            t_seeds = min(replay_seeds(data["seeds"], data["tables"]) for _ in range(args.repeat))
+            fixed = t_min + t_guard + t_seeds
+            goal = GOALS[name]
+            rest, room = click - fixed, goal - fixed
+            at_goal = f"{room:.3f} s ({room / rest:.0%})" if room > 0 else "none"
+            print(f"{name:<14} {click:7.3f} {t_min:7.3f} {t_guard:7.3f} {t_seeds:7.3f} {fixed:7.3f} {goal:6.2f} "
+                  f"{rest:9.3f} {at_goal:>13}   {counts['minimize']} ({counts['evaluations']}) / {counts['guard']} / "
+                  f"{counts['seeds']}")
+
+
+if __name__ == "__main__":
+    main()
