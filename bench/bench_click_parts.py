@@ -100,6 +100,7 @@ if mode.startswith("collector"):
     res.update(gc_s=state["t"], collections=state["n"], full=state["full"], freed=state["freed"])
 if mode == "guard":
     import numpy as np
+    from flank_addon.geometry.flank_feet import GUARD_EPS
     from flank_addon.geometry.helical_surface import exact_tree
     from flank_addon.geometry.screw import screw_to_plane
     Qs = []
@@ -116,7 +117,7 @@ if mode == "guard":
     for rep in range(3):
         t = time.perf_counter()
         for (fs, _, _, _), Q in zip(calls, Qs):
-            fs._guard_tree.query(Q, k=1, eps=2.0)
+            fs._guard_tree.query(Q, k=1, eps=GUARD_EPS)
         t1 = time.perf_counter()
         found = [exact[id(fs)].query(Q, k=1)[0] for (fs, _, _, _), Q in zip(calls, Qs)]
         t2 = time.perf_counter()
@@ -141,10 +142,10 @@ if mode == "guard":
         t = time.perf_counter()
         for (fs, _, _, w), Q in zip(calls, Qs):
             newton(fs, Q, w)
-            fs._guard_tree.query(Q, k=1, eps=2.0)
+            fs._guard_tree.query(Q, k=1, eps=GUARD_EPS)
         t1 = time.perf_counter()
         for (fs, _, _, w), Q in zip(calls, Qs):
-            asked = helper.submit(fs._guard_tree.query, Q, k=1, eps=2.0)
+            asked = helper.submit(fs._guard_tree.query, Q, k=1, eps=GUARD_EPS)
             newton(fs, Q, w)
             asked.result()
         t2 = time.perf_counter()

@@ -170,7 +170,7 @@ def replay_guard(guard, tables):
     import numpy as np
     from scipy.spatial import cKDTree
 
-    from flank_addon.geometry.flank_feet import _workers
+    from flank_addon.geometry.flank_feet import GUARD_EPS, _workers
 
     t0 = time.perf_counter()
     trees, got = {}, []
@@ -178,7 +178,7 @@ def replay_guard(guard, tables):
         tree = trees.get(key)
         if tree is None:
             tree = trees[key] = cKDTree(tables[key])
-        got.append(tree.query(Q, k=1, eps=2.0, workers=_workers(len(Q)))[1])
+        got.append(tree.query(Q, k=1, eps=GUARD_EPS, workers=_workers(len(Q)))[1])
     seconds = time.perf_counter() - t0
     if not all(np.array_equal(a, idx) for a, (_, _, idx) in zip(got, guard)):
         raise AssertionError("a replayed guard query answered otherwise")
@@ -190,7 +190,7 @@ def replay_seeds(seeds, tables):
     same answers); seconds."""
     import numpy as np
 
-    from flank_addon.geometry.flank_feet import _workers
+    from flank_addon.geometry.flank_feet import SEED_TREE_LEAFSIZE, _workers
     from flank_addon.geometry.helical_surface import exact_tree
 
     t0 = time.perf_counter()
@@ -198,7 +198,7 @@ def replay_seeds(seeds, tables):
     for key, Q, k, _ in seeds:
         tree = trees.get(key)
         if tree is None:
-            tree = trees[key] = exact_tree(tables[key], leafsize=64)
+            tree = trees[key] = exact_tree(tables[key], leafsize=SEED_TREE_LEAFSIZE)
         got.append(tree.query(Q, k=k, workers=_workers(len(Q)))[1])
     seconds = time.perf_counter() - t0
     if not all(np.array_equal(a.reshape(len(Q), -1), idx) for a, (_, Q, _, idx) in zip(got, seeds)):

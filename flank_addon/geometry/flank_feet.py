@@ -13,6 +13,11 @@ from scipy.spatial import cKDTree
 from .helical_surface import exact_tree, shifted_newton_step
 from .screw import screw_to_plane
 
+# the guard's approximate query (:meth:`FlankFeet._guard_seeds`): its answers depend on this and on the tree
+GUARD_EPS = 2.0
+# samples per leaf of the cold seeds' exact trees (:meth:`FlankFeet._exact_seeds`): any size gives the same answers
+SEED_TREE_LEAFSIZE = 64
+
 @dataclass
 class Feet:
     """Foot points of N query points on one flank (restricted to its parameter range)."""
@@ -66,7 +71,7 @@ class FlankFeet:
         samples: on the planners' cold-seed queries (most rows off the flank, often far) the tree builds about 17%
         faster than with scipy's 16 and answers 22-26% faster, the same samples (bench/bench_seed_trees.py)."""
         if self._exact_tree is None:
-            self._exact_tree = exact_tree(self._points, leafsize=64)
+            self._exact_tree = exact_tree(self._points, leafsize=SEED_TREE_LEAFSIZE)
         _, idx = self._exact_tree.query(Q, k=k, workers=_workers(len(Q)))
         return idx.reshape(len(Q), -1)
 
@@ -80,7 +85,7 @@ class FlankFeet:
             return last[1]
         if self._guard_tree is None:
             self._guard_tree = cKDTree(self._points)
-        _, idx = self._guard_tree.query(Q, k=1, eps=2.0, workers=_workers(len(Q)))
+        _, idx = self._guard_tree.query(Q, k=1, eps=GUARD_EPS, workers=_workers(len(Q)))
         self._last_guard[len(Q)] = (Q.copy(), idx)      # one tuple: a reader in another thread sees both or neither
         return idx
 
