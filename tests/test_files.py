@@ -1,0 +1,37 @@
+"""Whole-or-nothing file writes keep the permissions an ordinary write gives."""
+import os
+import stat
+import sys
+
+import pytest
+
+from flank_addon.io.files import atomic_write
+
+posix_only = pytest.mark.skipif(sys.platform == "win32", reason="POSIX permission bits")
+
+
+def _mode(path):
+    return stat.S_IMODE(os.stat(path).st_mode)
+
+
+@posix_only
+@pytest.mark.parametrize("umask, expected", [(0o022, 0o644), (0o077, 0o600), (0o002, 0o664)])
+def test_a_new_file_gets_the_mode_the_umask_allows(tmp_path, umask, expected):
+    old = os.umask(umask)
+    try:
+        atomic_write(tmp_path / "prog.ngc", "G0 X1\n")
+        assert os.umask(umask) == umask                   # the write put the umask back
+    finally:
+        os.umask(old)
+    assert _mode(tmp_path / "prog.ngc") == expected
+    assert (tmp_path / "prog.ngc").read_text() == "G0 X1\n"
+
+
+@posix_only
+def test_a_replaced_file_keeps_its_mode(tmp_path):
+    path = tmp_path / "plan.json"
+    path.write_text("{}")
+    os.chmod(path, 0o640)
+    atomic_write(path, b"{\"format\": 1}")
+    assert _mode(path) == 0o640 and path.read_bytes() == b"{\"format\": 1}"
+    assert os.listdir(tmp_path) == ["plan.json"]
