@@ -309,7 +309,9 @@ def build_program(op, machine, direction="forward", chord_tolerance=1e-3, step=1
                             "time_min": abs(float(ts[k] - ts[k - 1])) / cond.omega})
             passes_out.append({"pass": len(passes_out) + 1, "plan": ps.plan, "strip": ps.strip, "lobe": ps.lobe,
                                "flank": ps.flank, "tool": tool.number, "reverse": rev, "blocks": len(rows) - 1,
-                               "t_range": [float(ts[0]), float(ts[-1])], "shaft_margin_mm": ps.shaft_margin,
+                               "t_range": [float(ts[0]), float(ts[-1])],
+                               # null when the pass crosses no shaft: strict JSON has no Infinity
+                               "shaft_margin_mm": ps.shaft_margin if math.isfinite(ps.shaft_margin) else None,
                                "start": dict(zip(names, rows[0].tolist())), "end": dict(zip(names, rows[-1].tolist())),
                                **cond.as_dict()})
             prev = rows[-1]

@@ -108,11 +108,16 @@ def test_post_json_and_verify_program_text(capsys, tmp_path, single_flank_plan):
     out = tmp_path / "p.nc"
     code, text, _ = run(capsys, "post", plan_file, "--machine", "rotor-xa-b", "--post", "fanuc", "--lobes", "0,2",
                         "--json", "-o", out)
-    d = json.loads(text)
+
+    def not_json(constant):
+        raise AssertionError(f"--json printed {constant}, which strict JSON readers reject")
+
+    d = json.loads(text, parse_constant=not_json)
     n = len(single_flank_plan["strips"])
     assert code == 0 and d["passes"] == 2 * n and d["lobes"] == [0, 2]
     assert {"passes", "cutting_time_s", "rapid_time_s", "total_time_s", "per_pass", "tools"} <= set(d)
     p = d["per_pass"][0]
+    assert all(q["shaft_margin_mm"] is None or q["shaft_margin_mm"] > 0 for q in d["per_pass"])
     assert p["chip_load_mm"][1] <= d["tools"][0]["cutting_data"]["fz_mm"] * (1 + 1e-9)
     code, text, err = run(capsys, "verify", plan_file, "--program", out, "--machine", "rotor-xa-b", "--lobes", "2")
     assert code == 0, err
