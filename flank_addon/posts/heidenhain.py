@@ -36,7 +36,10 @@ class HeidenhainPost(Post):
         self._line("BEGIN PGM FLANK MM")
         for t in header_lines(program, self):
             self._comment(t)
-        self._comment("F of simultaneous blocks: combined axis vector, degrees counted as mm (no M116)")
+        if program.machine.tcp:
+            self._comment("F of simultaneous blocks: speed of the tool tip on the workpiece (FUNCTION TCPM F TCP)")
+        else:
+            self._comment("F of simultaneous blocks: combined axis vector, degrees counted as mm (no M116)")
         rb = program.operation.rotor
         m = program.machine
         ext = np.array([[rb.outer_radius, rb.outer_radius, rb.z_range[1]],

@@ -157,3 +157,14 @@ def test_whole_rotor_from_three_plans_changes_tools_three_times(single_flank_pla
     assert ct["tool_changes"] == 3 and abs(rs274_times(canon) * 60 / ct["cutting_time_s"] - 1) < 0.02
     disc = [p for p in prog.passes if p["tool"] == 3]
     assert max(p["rpm"] for p in disc) < 1000 < min(p["rpm"] for p in prog.passes if p["tool"] == 1)
+
+
+@pytest.mark.parametrize("machine_name, meaning", [("xyzac-trt", "combined axis vector"),
+                                                   ("xyzac-trt-tcp", "speed of the tool tip")])
+def test_heidenhain_header_says_what_its_feeds_mean(request, machine_name, meaning):
+    """With FUNCTION TCPM the TNC reads F as the tip's speed; without it, along the combined axis vector."""
+    plan, rb, op, prog = program_of(request, "single_flank_plan", machine_name)
+    lines = get_post("heidenhain").write(prog).splitlines()
+    (said,) = [ln for ln in lines if "F of simultaneous blocks" in ln]
+    assert meaning in said
+    assert any("FUNCTION TCPM F TCP" in ln for ln in lines) == prog.machine.tcp
