@@ -102,6 +102,11 @@ def test_write_plan_is_atomic_and_names_the_file(tmp_path, monkeypatch):
     (lambda p: p.update(summary=[]), "summary must be an object"),
     (lambda p: p["strips"][0].update(flank=True), "flank"),
     (lambda p: p["rotor"].update(flanks=[[0, "a"]]), "rotor.flanks"),
+    (lambda p: p["tool"].update(alpha=0.03, r1c=-0.05, r2c=0.1), "tool must have 0 < alpha < pi/2 and 0 <= r1c"),
+    (lambda p: p["tool"].update(h=float("nan")), r"tool.h must be a finite number > 0, got nan"),
+    (lambda p: p["tool"].update(shank_length=float("inf")), r"tool.shank_length must be a finite number >= 0"),
+    (lambda p: p["tool"].update(r1=-0.1), r"tool.r1 must be a finite number >= 0, got -0.1"),
+    (lambda p: p["tool"].update(length="long"), r"tool.length must be a finite number > 0, got 'long'"),
 ])
 def test_plan_validation_names_the_field(mutate, message):
     plan = json.loads(json.dumps(sample_plan()))

@@ -240,9 +240,7 @@ def _validate(plan):
     for i in plan["target_flanks"]:
         if not (_is_int(i) and 0 <= i < nf):
             raise PlanError(f"target_flanks entry {i!r} is not a flank index (0..{nf - 1})")
-    tool = plan["tool"]
-    if tool.get("kind") not in TOOL_KINDS:
-        raise PlanError(f"tool.kind must be one of {TOOL_KINDS}, got {tool.get('kind')!r}")
+    _check_tool(plan["tool"], "tool")
     for k, st in enumerate(plan["strips"]):
         _check_strip_axes(k, st)
         radii = np.asarray(st.get("radii", []), float)
@@ -286,6 +284,21 @@ def _check_tool(tool, name):
                             f"r2c {r2!r}")
     if "name" in tool and not isinstance(tool["name"], str):
         raise PlanError(f"{name}.name must be a string, got {tool['name']!r}")
+    # the shape numbers the posts, feeds and clearance checks read (a null counts as absent, as in older plans)
+    for key, least, strict in _TOOL_NUMBERS:
+        v = tool.get(key)
+        if v is None:
+            continue
+        if not _is_num(v) or v < least or (strict and v == least):
+            raise PlanError(f"{name}.{key} must be a finite number {'>' if strict else '>='} {least:g}, got {v!r}")
+
+
+# (field, least value, whether the least value itself is excluded) of the tools' shape numbers
+_TOOL_NUMBERS = (("r1c", 0.0, False), ("r2c", 0.0, True), ("h", 0.0, True), ("shank_radius", 0.0, False),
+                 ("shank_length", 0.0, False), ("max_diameter", 0.0, True), ("width", 0.0, True),
+                 ("arbor_radius", 0.0, False), ("arbor_length", 0.0, False), ("centre_distance", 0.0, True),
+                 ("swivel_deg", -90.0, False), ("rim", 0.0, True), ("r1", 0.0, False), ("r2", 0.0, True),
+                 ("length", 0.0, True), ("engagement", 0.0, True))
 
 
 def strip_tool(plan, k):
@@ -335,9 +348,7 @@ def _validate_mesh_plan(plan):
     if (F.ndim != 2 or F.shape[1] != 3 or len(F) < 1 or not np.issubdtype(F.dtype, np.integer)
             or F.min() < 0 or F.max() >= len(V)):
         raise PlanError(f"surface.faces must be >= 1 rows of 3 vertex indices in 0..{len(V) - 1}")
-    tool = plan["tool"]
-    if not isinstance(tool, dict) or tool.get("kind") not in TOOL_KINDS:
-        raise PlanError(f"tool.kind must be one of {TOOL_KINDS}, got {tool.get('kind') if isinstance(tool, dict) else tool!r}")
+    _check_tool(plan["tool"], "tool")
     if not isinstance(plan["strips"], list):
         raise PlanError("strips must be a list")
     for k, st in enumerate(plan["strips"]):
