@@ -770,21 +770,25 @@ def _cmd_verify_program(args):
         text = fh.read()
     res = verify_program(text, post, machine, plans, rotor, lobes=args.lobes)
     res["program"] = str(args.program)
+    status = 1 if res["findings"] else 0        # the program does not do what its plans say: a script must see it
     if args.json:
         print(json.dumps(res, indent=1))
-        return 0
+        return status
     print(f"{args.program}: {post.name} for {machine.name}, {res['moves']} moves, {res['passes']} passes "
           f"({res['matched_passes']} matched to plan strips), lobes {','.join(map(str, res['lobes_cut']))}")
     if res["missing_strips"] or res["repeated_strips"] or res["unmatched_passes"]:
-        print(f"  missing strips {res['missing_strips']}, repeated {res['repeated_strips']}, unmatched passes "
-              f"{[u['line'] for u in res['unmatched_passes']]}")
+        def some(items):
+            return str(items[:10])[:-1] + (f", ... ({len(items)})]" if len(items) > 10 else "]")
+        print(f"  missing strips {some(res['missing_strips'])}, repeated {some(res['repeated_strips'])}, unmatched "
+              f"passes {some([u['line'] for u in res['unmatched_passes']])}")
     print(f"  poses: screw error {res['screw_error_mm']:.3g} mm, interpolation error "
           f"{res['interpolation_error_mm']:.3g} mm")
     for pl in res["plans"]:
         print(f"  plan {pl['plan']}: plan deviation max {pl['plan_max_undercut_mm']:.4g} min "
               f"{pl['plan_max_overcut_mm']:.4g} mm")
         for lo in pl["lobes"]:
-            print(f"    lobe {lo['lobe']}: {lo['passes']} passes, deviation differs by at most "
+            extra = f" ({lo['unmatched_passes']} matching no strip)" if lo.get("unmatched_passes") else ""
+            print(f"    lobe {lo['lobe']}: {lo['passes']} passes{extra}, deviation differs by at most "
                   f"{lo['max_deviation_difference_mm']:.3g} mm (tool poses by {lo['pose_difference_mm']:.3g} mm; "
                   f"{lo['rechecked_points']} point(s) swept again finer), gouge points {lo['gouge_points']}")
     ro = res["run_out"]
@@ -793,7 +797,9 @@ def _cmd_verify_program(args):
           f"intrusion into stock or shafts {res['links']['max_intrusion_mm']:.3g} mm")
     print(f"  cutting {res['cutting_time_s']:.1f} s, rapid {res['rapid_time_s']:.1f} s, total "
           f"{res['total_time_s']:.1f} s")
-    return 0
+    for f in res["findings"]:
+        print(f"  NOT AS PLANNED: {f}")
+    return status
 
 
 def _machine(args):

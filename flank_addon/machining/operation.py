@@ -121,9 +121,22 @@ def run_out(shape, tip, axis, rotor, clearance, spacing=1.0, local=None):
     return float(t_a), float(t_b), margin
 
 
+def repeats_earlier_strip(plan, s):
+    """Whether strip ``s`` moves the same tool solid along the same axis as an earlier strip of the plan (a
+    two-paths plan that kept the double-flank axis for both paths): the earlier strip's pass has cut all it
+    cuts, so it is cut once, as the verification sweeps it once (:func:`..simulation.sweep.strip_solids`)."""
+    from ..io.plan import strip_tool
+    from ..simulation.sweep import solid_key
+
+    key = solid_key(plan["strips"][s])
+    tool = strip_tool(plan, s)
+    return any(solid_key(plan["strips"][j]) == key and strip_tool(plan, j) == tool for j in range(s))
+
+
 def build_operation(plans, rotor, lobes=None, clearance=5.0, cutting_data=None):
     """The :class:`Operation` of rotor ``plans`` (mm) on ``rotor`` (:class:`RotorBody`).
 
+    A strip that repeats an earlier one (:func:`repeats_earlier_strip`) gets no passes of its own.
     lobes: lobe indices to cut (default all); clearance: run-out beyond the body's end faces and the
     margin of every link (mm); cutting_data: one :class:`feeds.CuttingData` for every tool (default: per
     tool, :func:`feeds.cutting_data_for`)."""
@@ -151,6 +164,8 @@ def build_operation(plans, rotor, lobes=None, clearance=5.0, cutting_data=None):
         for s in range(len(plan["strips"])):
             shape = ToolShape.from_strip(plan, s)
             sig = shape.signature()
+            if repeats_earlier_strip(plan, s):
+                continue
             if sig not in by_sig:
                 lo, hi = shape.h_range()
                 stool = strip_tool(plan, s)          # the strip's own tool in a plan with several

@@ -8,7 +8,9 @@
    (``screw_error``, the program's rounding); between the block ends the controller's interpolation is
    sampled the same way (``interpolation_error``: 0 for joint-linear passes, the chord sagitta with TCP).
 3. Each pass is matched to the plan strip and lobe whose pose it is, modulo the screw (no comment is
-   trusted); every strip must appear once per lobe with the tool number the post gave its solid.
+   trusted); every strip must appear once per lobe with the tool number the post gave its solid (a strip
+   that repeats an earlier one, :func:`..machining.operation.repeats_earlier_strip`, is cut by that one's
+   pass).  A pass that matches no strip still cuts: it is swept on the lobe of the strip it is nearest to.
 4. Deviation: for every plan and lobe, the lobe's passes are turned back by -2 pi lobe / lobes and the plan
    is verified with them instead of its own strips (:func:`..simulation.verify.verify_plan`, the sweep
    simulation); the difference to the plan's own verified deviation, point by point, is what the program
@@ -21,6 +23,8 @@
    (:func:`machining.toolpath.segment_intrusion`); the first move (from the unknown tool-change position)
    is not.
 7. Cycle time from the moves as the controller times them (:mod:`machining.cycle_time`).
+8. ``findings``: every way the program differs from its plans or cuts where it must not
+   (:func:`program_findings`); the command exits with status 1 when there is any.
 """
 import math
 import time
@@ -29,6 +33,7 @@ import numpy as np
 
 from ..geometry.screw import screw_motion
 from ..machining.cycle_time import cycle_time
+from ..machining.operation import repeats_earlier_strip
 from ..machining.tool_shape import ToolShape
 from ..machining.toolpath import segment_intrusion
 from ..simulation.verify import profile_normals, verify_plan
@@ -117,6 +122,7 @@ def match_passes(passes, plans, rotor, tools, of_strip, tol=1e-2):
                 best = (d, p, s, k)
         d, p, s, k = best
         ps["match"] = (p, s, k) if d <= tol and of_strip[p, s] == ps["tool"] else None
+        ps["nearest"] = (p, s, k)
         ps["match_distance"] = d
     return passes
 
@@ -159,11 +165,14 @@ def lobe_deviation(plan, p, passes, tools, rotor, lobe, reference, recheck=1e-3)
     from ..exports.cl_data import strip_tip
 
     turn = -rotor.lobe_angle(lobe)
-    strips, pose_diff = [], 0.0
+    strips, pose_diff, unmatched = [], 0.0, 0
     for ps in passes:
-        if ps.get("match") is None or ps["match"][0] != p or ps["match"][2] != lobe:
+        # a pass that matches no strip still cuts: it is swept with the lobe of the strip it is nearest to
+        mine = ps["match"] if ps.get("match") is not None else ps.get("nearest")
+        if mine is None or mine[0] != p or mine[2] != lobe:
             continue
-        k = ps["match"][1]
+        unmatched += ps.get("match") is None
+        k = mine[1]
         src = plan["strips"][k]
         tip = screw_motion(ps["tip"], turn, 0.0, "right")
         axis = screw_motion(ps["axis"], turn, 0.0, "right")
@@ -198,7 +207,7 @@ def lobe_deviation(plan, p, passes, tools, rotor, lobe, reference, recheck=1e-3)
                 mismatch += 1
             elif np.isfinite(x):
                 diff[int(i)] = abs(float(y - x))
-    return {"lobe": lobe, "passes": len(strips), "max_deviation_difference_mm": max(diff.values(), default=0.0),
+    return {"lobe": lobe, "passes": len(strips), "unmatched_passes": unmatched, "max_deviation_difference_mm": max(diff.values(), default=0.0),
             "pose_difference_mm": pose_diff, "rechecked_points": len(again),
             "coarse_max_difference_mm": coarse, "coverage_mismatches": mismatch,
             "max_undercut_mm": res["max_undercut"], "max_overcut_mm": res["max_overcut"],
@@ -237,8 +246,12 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
     for ps in passes:
         if ps["match"] is not None:
             seen.setdefault(ps["match"], []).append(ps["line"])
-    cut_lobes = sorted({m[2] for m in seen})
-    expected = {(p, s, k) for p, plan in enumerate(plans) for s in range(len(plan["strips"])) for k in cut_lobes}
+    # the lobes the program cuts: those of its matched passes and those its other passes come nearest to
+    cut_lobes = sorted({m[2] for m in seen} | {ps["nearest"][2] for ps in passes if ps["match"] is None})
+    # every strip is due on every lobe asked for; without ``lobes``, on those cut (all of them if none is)
+    due = sorted(set(lobes)) if lobes is not None else (cut_lobes or list(range(rotor.lobes)))
+    expected = {(p, s, k) for p, plan in enumerate(plans) for s in range(len(plan["strips"]))
+                if not repeats_earlier_strip(plan, s) for k in due}
     clear = [run_out(ps, tools, rotor) for ps in passes]
     plans_out = []
     for p, plan in enumerate(plans):
@@ -251,7 +264,7 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
     diffs = [lo["max_deviation_difference_mm"] for pl in plans_out for lo in pl["lobes"]]
     times = cycle_time(read, machine, {n: s.h_range()[1] - s.h_range()[0] for n, s in tools.items()})
     times.pop("block_minutes")
-    return {
+    res = {
         "schema": "flank-program-check/1", "post": post.name, "machine": machine.name,
         "moves": len(read.moves), "passes": len(passes),
         "matched_passes": sum(1 for ps in passes if ps["match"] is not None),
@@ -271,5 +284,43 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
         "gouge_points": sum(lo["gouge_points"] for pl in plans_out for lo in pl["lobes"]),
         "links": check_links(read, machine, tools, rotor),
         **times,
-        "elapsed_s": time.perf_counter() - t0,
     }
+    res["findings"] = program_findings(res)
+    res["elapsed_s"] = time.perf_counter() - t0
+    return res
+
+
+def program_findings(res):
+    """What makes the program differ from its plans or cut where it must not, one sentence each (empty: the
+    program does what the plans say): passes that match no strip, strips never cut or cut twice, more gouge
+    points on a lobe than the plan itself has, passes that start or end inside the body, links that enter
+    the stock or a shaft, points that one side covers and the other does not."""
+    out = []
+    un = res["unmatched_passes"]
+    if un:
+        lines = ", ".join(str(u["line"]) for u in un[:10]) + (", ..." if len(un) > 10 else "")
+        out.append(f"{len(un)} of {res['passes']} passes match no plan strip (lines {lines}; nearest strip "
+                   f"{min(u['distance_mm'] for u in un):.3g} mm away)")
+        if un and not res["matched_passes"]:
+            out.append("no pass matches any plan strip: were the program and this check given the same plans and "
+                       "the same --outer-radius-mm?")
+    if res["missing_strips"]:
+        out.append(f"{len(res['missing_strips'])} strip(s) never cut, as [plan, strip, lobe]: "
+                   f"{res['missing_strips'][:10]}")
+    if res["repeated_strips"]:
+        out.append(f"{len(res['repeated_strips'])} strip(s) cut more than once: "
+                   f"{[k for k, _ in res['repeated_strips'][:10]]}")
+    for pl in res["plans"]:
+        for lo in pl["lobes"]:
+            if lo["gouge_points"] > pl["plan_gouge_points"]:
+                out.append(f"plan {pl['plan']} lobe {lo['lobe']}: {lo['gouge_points']} gouge points against the "
+                           f"plan's {pl['plan_gouge_points']} (deepest overcut {lo['max_overcut_mm']:.4g} mm)")
+            if lo["coverage_mismatches"]:
+                out.append(f"plan {pl['plan']} lobe {lo['lobe']}: {lo['coverage_mismatches']} point(s) that only "
+                           "one of program and plan mills")
+    if res["run_out"]["passes_not_clear"]:
+        out.append(f"passes at lines {res['run_out']['passes_not_clear'][:10]} start or end inside the body")
+    if res["links"]["max_intrusion_mm"] > 0:
+        out.append(f"{len(res['links']['intrusions'])} link move(s) enter the stock or a shaft, deepest "
+                   f"{res['links']['max_intrusion_mm']:.3g} mm")
+    return out

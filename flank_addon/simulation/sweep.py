@@ -788,7 +788,7 @@ def strip_solids(strips, with_shank=True):
     every point the group forms (:func:`first_least` gives it to the first of equal strips)."""
     tools, first, seen = [], [], {}
     for k, s in enumerate(strips):
-        key = _solid_key(s, with_shank)
+        key = solid_key(s, with_shank)
         if key not in seen:
             seen[key] = len(tools)
             tools.append(StripTool.from_strip(s, with_shank=with_shank))
@@ -803,7 +803,7 @@ def strip_owners(owner, first):
     return np.where(owner >= 0, first[np.maximum(owner, 0)], -1) if len(first) else owner
 
 
-def _solid_key(strip, with_shank):
+def solid_key(strip, with_shank=True):
     """What :meth:`StripTool.from_strip` builds a strip's solid from, as a key equal for two strips exactly when
     those numbers are (other fields, such as notes in a paraboloid's dict, play no part)."""
     par = strip.get("paraboloid")

@@ -162,3 +162,31 @@ def test_a_link_beyond_the_travel_is_refused_by_axis(capsys, tmp_path, plan_file
     short.write_text(json.dumps(data))
     code, _, err = run(capsys, "post", plan_file, "--machine", short, "--post", "linuxcnc", "-o", tmp_path / "p")
     assert code == 2 and "axis Z would reach" in err and "outside its limits -500..20" in err
+
+
+def test_a_repeated_strip_is_cut_once_and_a_missing_pass_fails_the_check(capsys, tmp_path, double_flank_plan):
+    """A strip with the motion of an earlier one (a two-paths plan that kept the double-flank axis for both
+    paths) is posted once and counts as cut; a program with a pass taken out exits with status 1."""
+    plan = copy.deepcopy(double_flank_plan)
+    n = len(plan["strips"])
+    twin = copy.deepcopy(plan["strips"][0])
+    twin["flank"] = (twin["flank"] + 1) % len(plan["rotor"]["flanks"])
+    plan["strips"].append(twin)
+    path = tmp_path / "twin.json"
+    write_plan(path, plan)
+    prog = tmp_path / "twin.ngc"
+    code, text, err = run(capsys, "post", path, "--machine", "rotor-xa-b", "--post", "linuxcnc", "--lobes", "0",
+                          "--json", "-o", prog)
+    assert code == 0, err
+    assert json.loads(text)["passes"] == n
+    code, text, err = run(capsys, "verify", path, "--program", prog, "--machine", "rotor-xa-b")
+    assert code == 0, err
+    assert f"{n} passes ({n} matched to plan strips)" in text and "NOT AS PLANNED" not in text
+    lines = prog.read_text().splitlines()
+    start = next(i for i, ln in enumerate(lines) if ln.startswith("(PASS 1 "))
+    end = next(i for i in range(start, len(lines)) if lines[i] == "G94")
+    cut = tmp_path / "cut.ngc"
+    cut.write_text("\n".join(lines[:start] + lines[end + 1:]) + "\n")
+    code, text, err = run(capsys, "verify", path, "--program", cut, "--machine", "rotor-xa-b", "--lobes", "0")
+    assert code == 1, err
+    assert "NOT AS PLANNED: 1 strip(s) never cut, as [plan, strip, lobe]: [[0, 0, 0]]" in text

@@ -135,7 +135,33 @@ def test_a_pose_error_shows_in_the_deviation(request):
                          references=[plan_reference(plan)])
     worst = max(lo["max_deviation_difference_mm"] for lo in res["plans"][0]["lobes"])
     assert len(res["unmatched_passes"]) == 1 and 0.01 < res["unmatched_passes"][0]["distance_mm"] < 0.2
-    assert len(res["missing_strips"]) == 1 and worst > 0.04      # its strip is missing: material is left
+    # the pass that matches no strip is swept where the program puts it: the deviation moves by a good part of
+    # the shift, never by more than the pose bound
+    bound = max(lo["pose_difference_mm"] for lo in res["plans"][0]["lobes"])
+    assert len(res["missing_strips"]) == 1 and 0.01 < worst <= bound + 1e-6 and 0.04 < bound < 0.2
+    assert res["findings"][0].startswith(f"1 of {res['passes']} passes match no plan strip")
+    assert "1 strip(s) never cut" in res["findings"][1]
+
+
+def test_a_pass_moved_into_the_flank_shows_as_gouges(request):
+    """The first pass moved 1 mm one way or the other along Y: it matches no strip, yet it is swept where it
+    runs, and one of the two directions cuts into the flank; a finding names it."""
+    plan, rb, op, prog = program_of(request, "single_flank_plan", "rotor-xa-b")
+    post = get_post("linuxcnc")
+    lines = post.write(prog).splitlines()
+    i = next(k for k, ln in enumerate(lines) if ln.startswith("G0 ") and " Y" in ln)
+    y = float(lines[i].split(" Y")[1].split()[0])
+    deepest = []
+    for dy in (-1.0, 1.0):
+        moved = lines[:i] + [lines[i].replace(f"Y{y:.4f}", f"Y{y + dy:.4f}")] + lines[i + 1:]
+        res = verify_program("\n".join(moved) + "\n", post, prog.machine, [plan], rb, lobes=[0],
+                             references=[plan_reference(plan)])
+        (lobe,) = res["plans"][0]["lobes"]
+        assert lobe["unmatched_passes"] == 1 and len(res["unmatched_passes"]) == 1
+        if lobe["gouge_points"] > res["plans"][0]["plan_gouge_points"]:
+            assert any(f"{lobe['gouge_points']} gouge points" in f for f in res["findings"])
+            deepest.append(lobe["max_overcut_mm"])
+    assert len(deepest) == 1 and deepest[0] < -0.5
 
 
 def test_whole_rotor_from_three_plans_changes_tools_three_times(single_flank_plan, double_flank_plan,
