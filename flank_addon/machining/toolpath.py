@@ -224,8 +224,10 @@ def _rapid_time(machine, a, b):
     return max(d[i] / machine.axes[n].rapid for i, n in enumerate(machine.axis_names))
 
 
-def _order(pl, passes, directions):
-    """Greedy nearest-neighbour order of one tool's passes: [(pass, reverse, ts, rows)]."""
+def _order(pl, passes, directions, spin=None):
+    """Greedy nearest-neighbour order of one tool's passes: [(pass, reverse, ts, rows)].  ``spin``: where the spin
+    axis stands before the first pass (the previous tool's last angle: a tool change leaves it there), so the
+    first pass starts at the turn nearest to it instead of unwinding what the earlier tools turned."""
     m = pl.m
     left = list(range(len(passes)))
     cache = {}
@@ -238,7 +240,8 @@ def _order(pl, passes, directions):
         for i in left:
             for rev in directions:
                 ts, rows = cache[i, rev]
-                shift = 0.0 if cur is None else 360.0 * round((cur[pl.ispin] - rows[0, pl.ispin]) / 360.0)
+                at = spin if cur is None else cur[pl.ispin]
+                shift = 0.0 if at is None else 360.0 * round((at - rows[0, pl.ispin]) / 360.0)
                 start = rows[0].copy()
                 start[pl.ispin] += shift
                 cost = 0.0 if cur is None else _rapid_time(m, cur, start)
@@ -271,7 +274,7 @@ def build_program(op, machine, direction="forward", chord_tolerance=1e-3, step=1
                                      f"{','.join(map(str, op.lobes))}, clearance {op.clearance:g} mm"}]
     if machine.tcp:
         ops.append({"op": "tcp", "on": True})
-    passes_out = []
+    passes_out, spin = [], None
     for tool in op.tools:
         mine = [p for p in op.passes if p.tool == tool.number]
         if not mine:
@@ -284,7 +287,7 @@ def build_program(op, machine, direction="forward", chord_tolerance=1e-3, step=1
                     "text": f"{tool.name}; {tool.data.flutes} flutes, vc {tool.data.vc_m_min:g} m/min, "
                             f"fz {tool.data.fz_mm:g} mm ({tool.data.source})"})
         prev = None
-        for ps, rev, ts, rows in _order(pl, mine, dirs):
+        for ps, rev, ts, rows in _order(pl, mine, dirs, spin):
             ps.reverse = rev
             label = f"pass {len(passes_out) + 1} ({ps.label})"
             mj = machine.machine_joints(rows, tool.gauge_length)
@@ -317,6 +320,7 @@ def build_program(op, machine, direction="forward", chord_tolerance=1e-3, step=1
             prev = rows[-1]
         for r in pl.link(tool.number, prev, None, f"retract after tool {tool.number}")[1:]:
             ops.append({"op": "rapid", "row": r})
+        spin = float(ops[-1]["row"][pl.ispin])      # where the tool change leaves the spin axis
     if machine.tcp:
         ops.append({"op": "tcp", "on": False})
     ops.append({"op": "end"})

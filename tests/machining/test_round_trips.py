@@ -173,6 +173,14 @@ def test_whole_rotor_from_three_plans_changes_tools_three_times(single_flank_pla
     path = tmp_path / "all.ngc"
     text = write_program(prog, "linuxcnc", path)
     assert [ln for ln in text.splitlines() if ln.endswith(" M6")] == ["T1 M6", "T2 M6", "T3 M6"]
+    # a tool change leaves the spin axis where it is: the next tool starts at the turn nearest to it
+    spins, changes = [], []
+    for ln in text.splitlines():
+        if ln.endswith(" M6"):
+            changes.append(len(spins))
+        spins += [float(w[1:]) for w in ln.split() if w.startswith("A")]
+    assert all(abs(spins[k] - spins[k - 1]) <= 180.0 for k in changes[1:])
+    assert max(abs(spins[k] - spins[k - 1]) for k in changes[1:]) > 0.0
     assert [p["tool"] for p in prog.passes] == sorted(p["tool"] for p in prog.passes)
     assert {p["lobe"] for p in prog.passes} == {0, 2}
     assert any(p["reverse"] for p in prog.passes) and not all(p["reverse"] for p in prog.passes)
