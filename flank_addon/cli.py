@@ -1114,14 +1114,54 @@ class _Parser(argparse.ArgumentParser):
         raise UsageError(f"{message} (see {self.prog} --help)")
 
 
+# options that name a file the command writes (plan's --profile-csv too; rotor's --profile-csv is read)
+_OUTPUT_OPTIONS = ("out", "plan_out", "tool_csv", "profile_out", "cl", "error_csv")
+
+
+def _output_options(args):
+    """The options of ``args`` that name files the command writes (prefixes of numbered files included)."""
+    return _OUTPUT_OPTIONS + (("profile_csv",) if getattr(args, "command", None) == "plan" else ())
+
+
 def _missing_output_folder(args):
-    """The message for an output file (--out, --plan-out) whose folder does not exist, else None."""
-    for name in ("out", "plan_out"):
+    """The message for an output file (--out, --plan-out, --tool-csv, ...) whose folder does not exist, else None."""
+    for name in _output_options(args) + ("strips_stl", "strips_ply"):
         path = getattr(args, name, None)
         if isinstance(path, str) and path:
             folder = os.path.dirname(os.path.abspath(path))
             if not os.path.exists(folder):
                 return f"--{name.replace('_', '-')} {path}: the folder {folder} does not exist"
+    return None
+
+
+def _output_clash(args):
+    """The message for an output file that is also an input of the command, or that two outputs share, else None:
+    writing it would destroy the input (a plan turned into G-code, a mesh into a plan) or one output the other."""
+    names = _output_options(args)
+    outputs = [(n, getattr(args, n)) for n in names if isinstance(getattr(args, n, None), str) and getattr(args, n)]
+    inputs = []
+    for n, v in vars(args).items():
+        if n in names or n in ("command", "func"):
+            continue
+        inputs += [(n, x) for x in (v if isinstance(v, list) else [v]) if isinstance(x, str) and os.path.isfile(x)]
+
+    def same(a, b):
+        try:
+            return os.path.samefile(a, b)
+        except OSError:                 # one of them does not exist yet
+            return os.path.realpath(a) == os.path.realpath(b)
+
+    def option(n):
+        return "the input" if n in ("path", "plans", "plan") else "--" + n.replace("_", "-")
+
+    for i, (n, path) in enumerate(outputs):
+        for m, x in inputs:
+            if same(path, x):
+                return (f"--{n.replace('_', '-')} {path} is also {option(m)} {x}: writing it would destroy that "
+                        "file; choose another output path")
+        for m, other in outputs[:i]:
+            if same(path, other):
+                return f"--{m.replace('_', '-')} and --{n.replace('_', '-')} name the same file {path}"
     return None
 
 
@@ -1133,7 +1173,7 @@ def main(argv=None):
     except UsageError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
-    missing = _missing_output_folder(args)
+    missing = _missing_output_folder(args) or _output_clash(args)
     if missing:                         # before minutes of planning, not after
         print(f"error: {missing}", file=sys.stderr)
         return 2

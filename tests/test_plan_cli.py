@@ -133,6 +133,31 @@ def test_cli_output_into_a_missing_folder_fails_at_once(tmp_path, argv):
     assert not missing.exists()
 
 
+@pytest.mark.parametrize("argv, message", [
+    (["post", "{plan}", "--machine", "rotor-xa-b", "--post", "linuxcnc", "-o", "{plan}"],
+     "--out {plan} is also the input {plan}"),
+    (["export", "{plan}", "--cl", "{dot_plan}"], "--cl {dot_plan} is also the input {plan}"),
+    (["analyze", "{mesh}", "--profile-out", "{mesh}"], "--profile-out {mesh} is also the input {mesh}"),
+    (["plan", "double-flank", "--mesh", "{mesh}", "--out", "{mesh}"], "--out {mesh} is also --mesh {mesh}"),
+    (["plan", "double-flank", "--builtin", "asymmetric-female", "--tool-csv", "{new}", "--out", "{new}"],
+     "--out and --tool-csv name the same file {new}"),
+    (["plan", "double-flank", "--builtin", "asymmetric-female", "--tool-csv", "{missing}/t.csv", "--out", "{new}"],
+     "--tool-csv {missing}/t.csv: the folder {missing} does not exist"),
+])
+def test_cli_refuses_an_output_that_would_destroy_an_input(tmp_path, argv, message):
+    """An output path naming an input file (or another output) is refused before any work, the file untouched."""
+    plan = tmp_path / "p.json"
+    write_plan(plan, sample_plan())
+    mesh = tmp_path / "rotor.stl"
+    mesh.write_bytes(b"solid x\nendsolid x\n")
+    names = dict(plan=plan, dot_plan=tmp_path / "." / "p.json", mesh=mesh, new=tmp_path / "new.json",
+                 missing=tmp_path / "nowhere")
+    before = plan.read_bytes(), mesh.read_bytes()
+    r = main_cli(*[a.format(**names) for a in argv])
+    assert r.returncode == 2 and r.stderr.strip().startswith("error: " + message.format(**names)), r.stderr
+    assert (plan.read_bytes(), mesh.read_bytes()) == before and not (tmp_path / "new.json").exists()
+
+
 def test_cli_rotor_then_analyze_json(tmp_path):
     out = tmp_path / "rotor.stl"
     r = main_cli("rotor", "--kind", "srm_a", "--part", "male", "--scale", "50", "--resolution", "3000",
