@@ -1,5 +1,6 @@
 """Command line: ``python -m flank_addon <command> ...`` (public interface, see README)."""
 import argparse
+import io
 import json
 import math
 import os
@@ -8,6 +9,8 @@ import sys
 import time
 
 import numpy as np
+
+from .io.files import atomic_write
 
 
 class CommaList:
@@ -97,7 +100,7 @@ def _cmd_analyze(args):
     d["mesh"] = {"path": str(args.path), "vertices": int(len(verts)), "triangles": int(len(faces))}
     d["timing_s"] = {"read": t1 - t0, "analyze": t2 - t1}
     if args.profile_out:
-        np.savetxt(args.profile_out, a.profile, delimiter=",", header="x,y", comments="")
+        _write_csv(args.profile_out, a.profile, "x,y", fmt="%.18e")
     if args.json:
         d["profile"] = a.profile.tolist()
         print(json.dumps(d, indent=1))
@@ -121,14 +124,21 @@ def _cmd_check_plan(args):
     return 0
 
 
+MIN_GROOVE_POINTS = 101
+
+
 def _cmd_paraboloid(args):
     from .methods.paraboloid_groove.groove import groove_section
 
     part = "full" if args.full else ("internal" if args.internal else "external")
+    if args.points < MIN_GROOVE_POINTS:
+        # the largest overcut is a maximum over these points: 101 hold it to 2e-4 of 4001's on the paper's example
+        raise ValueError(f"--points {args.points} is below the minimum {MIN_GROOVE_POINTS} (the section and its "
+                         "largest overcut are sampled at these points)")
     t0 = time.perf_counter()
     sec = groove_section(args.radius, args.a, args.b, args.pitch, n=args.points, part=part)
     dt = time.perf_counter() - t0
-    np.savetxt(args.out, np.c_[sec.x, sec.y], delimiter=",", header="x,y", comments="", fmt="%.12g")
+    _write_csv(args.out, np.c_[sec.x, sec.y], "x,y")
     print(f"{part} groove section: x in [{sec.x[0]:.6g}, {sec.x[-1]:.6g}], max y {sec.y.max():.6g}, "
           f"max overcut of the helical path {sec.overcut.max():.6g}; {len(sec.x)} points in "
           f"{dt * 1e3:.2f} ms; wrote {args.out}")
@@ -211,7 +221,7 @@ def _cmd_cutter(args):
         raise ValueError(f"--planes {args.planes} is below the minimum 2")
     cp = cutter_profile(prof, lead, args.center_distance, args.swivel, handedness=hand, planes=args.planes,
                         eps_b=args.eps_b)
-    np.savetxt(args.out, cp.meridian, delimiter=",", header="z,r", comments="", fmt="%.12g")
+    _write_csv(args.out, cp.meridian, "z,r")
     s = cp.summary()
     if args.plan_out:
         s["plan"] = _write_cutter_plan(args, prof, lead, hand, cp, rotor if args.builtin else None)
@@ -322,7 +332,9 @@ def _cmd_plan(args):
     write_plan(args.out, _with_extent(res.plan, args))
     if args.tool_csv:
         from .methods.double_flank.planner import write_tool_csv
-        write_tool_csv(args.tool_csv, res.paths[0])
+        buf = io.StringIO()
+        write_tool_csv(buf, res.paths[0])
+        atomic_write(args.tool_csv, buf.getvalue())
     print(f"{src}: valley {k}, {res.plan['method']} ({args.variant}), {len(res.paths)} strip(s)")
     for j, f in enumerate(res.fits):
         print(f"  axis {j}: alpha {f.x[0]:+.5f}  delta {f.x[1]:+.5f}  phi {f.x[2]:+.5f}  "
@@ -489,10 +501,7 @@ def _cmd_plan_single_flank(args):
     write_plan(args.out, _with_extent(res.plan, args))
     if args.profile_csv:
         u, dev = res.deviation
-        with open(args.profile_csv, "w") as fh:
-            fh.write("u,deviation\n")
-            for a, b in zip(u, dev):
-                fh.write(f"{a:.9g},{b:.9g}\n")
+        atomic_write(args.profile_csv, "u,deviation\n" + "".join(f"{a:.9g},{b:.9g}\n" for a, b in zip(u, dev)))
     v = res.verify
     summ = res.plan["summary"]
     tool0 = res.plan["tool"]
@@ -644,14 +653,12 @@ def _cmd_export(args):
     t0 = time.perf_counter()
     if args.cl:
         text = exports.cl_data(plan, strip=args.strip, steps=args.steps, z_range=z_range)
-        with open(args.cl, "w") as fh:
-            fh.write(text)
+        atomic_write(args.cl, text)
         n = text.count("\nGOTO/")
         what = f"CL data, {n} GOTO steps, to {args.cl}"
     elif args.error_csv:
         text = exports.error_profile_csv(plan)
-        with open(args.error_csv, "w") as fh:
-            fh.write(text)
+        atomic_write(args.error_csv, text)
         what = f"error profile, {text.count(chr(10)) - 1} points, to {args.error_csv}"
     else:
         fmt, prefix = ("stl", args.strips_stl) if args.strips_stl else ("ply", args.strips_ply)
@@ -922,7 +929,7 @@ def build_parser():
     side = g.add_mutually_exclusive_group()
     side.add_argument("--internal", action="store_true", help="internal groove (bore side), default external")
     side.add_argument("--full", action="store_true", help="whole section, both sides of the tool axis")
-    g.add_argument("--points", type=int, default=401)
+    g.add_argument("--points", type=int, default=401, help="abscissae of the section (at least 101; default 401)")
     g.add_argument("--out", required=True, help="CSV of x,y rows (paper frame: screw axis y, plane z = 0)")
     g.set_defaults(func=_cmd_paraboloid)
 
@@ -1101,6 +1108,13 @@ def build_parser():
     b = sub.add_parser("builtins", help="list built-in rotor names (KIND-PART)")
     b.set_defaults(func=_cmd_builtins)
     return p
+
+
+def _write_csv(path, rows, header, fmt="%.12g"):
+    """Rows as comma-separated text under a one-line header, written whole or not at all."""
+    buf = io.StringIO()
+    np.savetxt(buf, rows, delimiter=",", header=header, comments="", fmt=fmt)
+    atomic_write(path, buf.getvalue())
 
 
 class UsageError(ValueError):

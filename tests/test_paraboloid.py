@@ -84,6 +84,14 @@ def test_cli_writes_paper_section(tmp_path, capsys):
                  "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error:") and "equator radius" in err
+    before = out.read_bytes()
+    for n in ("0", "1", "100"):
+        assert main(["paraboloid", "--radius", "20", "--a", "-0.05", "--b", "7.2", "--pitch", "20", "--points", n,
+                     "--out", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"error: --points {n} is below the minimum 101") and out.read_bytes() == before
+    with pytest.raises(ParaboloidError, match="at least 2 abscissae, got n = 1"):
+        groove_section(R=20, a=-0.05, b=7.2, p=20, n=1)
 
 
 def section_normals(x, y):

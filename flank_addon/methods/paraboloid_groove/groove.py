@@ -99,6 +99,8 @@ def groove_section(R, a, b, p, n=401, part="full", x=None):
     lo, hi = {"full": (-(R + rho), -(R - rho)), "external": (-R, -(R - rho)),
               "internal": (-(R + rho), -R)}[part]
     if x is None:
+        if not (isinstance(n, (int, np.integer)) and n >= 2):
+            raise ParaboloidError(f"the section needs at least 2 abscissae, got n = {n!r}")
         # cosine spacing: the section is steep near both ends
         x = lo + (hi - lo) * 0.5 * (1 - np.cos(np.linspace(0, np.pi, n)))
     x = np.asarray(x, float)
