@@ -496,6 +496,12 @@ def _cmd_plan_single_flank(args):
                             select=select, max_tools=args.max_tools,
                             bound_radius=min(t.r1s for _, t in tools) if names else None,
                             split=args.split)
+    if not res.strips:                  # nothing to write: say why, and leave any earlier file as it was
+        R = surface.outer_radius
+        small = min(t.r1c for _, t in tools)
+        hint = (f"; the tool's smallest radius {small:g} exceeds the rotor's outer radius {R:g} {unit}: are the tool's "
+                "dimensions in the rotor's unit?" if small > R else "")
+        raise ValueError(res.no_strip_message(k) + hint)
     if mm is not None:
         res.plan["summary"]["tools_mm_per_unit"] = mm
     write_plan(args.out, _with_extent(res.plan, args))

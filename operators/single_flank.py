@@ -54,17 +54,6 @@ COLOR_UNREACHED = (0.85, 0.15, 0.75, 1.0)   # no tool within verify's search ran
 __all__ = ["FLANK_OT_plan_single_flank"]
 
 
-def merge_ranges(ranges):
-    """Union of parameter ranges [(a, b)] as sorted disjoint ranges (the core may list a range twice)."""
-    out = []
-    for a, b in sorted((float(a), float(b)) for a, b in ranges):
-        if out and a <= out[-1][1]:
-            out[-1][1] = max(out[-1][1], b)
-        else:
-            out.append([a, b])
-    return [tuple(r) for r in out]
-
-
 def _ranges_text(ranges):
     return ", ".join("[{:.4g}, {:.4g}]".format(a, b) for a, b in ranges)
 
@@ -201,15 +190,6 @@ def _error_chart(res, surface, u_range, z0):
         curve_v.append(np.ones(b - a))
     return dict(chains=chains, error=np.concatenate(err_v), u=np.concatenate(u_v), curve=np.concatenate(curve_v),
                 scale=float(err_scale), max_abs=e_max, u_dev=u_dev, e_dev=e_dev, finite=fin)
-
-
-def _no_strip_message(res, k_flank):
-    """Why a plan has no strip: the seeds tried, how many collided, the uncovered ranges and their reason."""
-    seeds = sum(int(t.get("seeds", 0)) for t in res.tools)
-    reasons = sorted({str(r.get("reason")) for r in res.residual if r.get("reason")})
-    return "no collision-free strip on flank {}: {} seeds tried, {} colliding{} (uncovered {})".format(
-        k_flank, seeds, len(res.collisions), ("; " + "; ".join(reasons)) if reasons else "",
-        _ranges_text(merge_ranges(res.uncovered)))
 
 
 def _coverage(res, job):
@@ -397,7 +377,7 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
                                    select=job["select"], bound_radius=min(t.r1s for _, t in tools) if tools else None)
         with_extent(res.plan, job["extent"])         # the finite rotor, for whole-rotor machine programs
         if not res.strips:
-            raise ValueError(_no_strip_message(res, k_flank))
+            raise ValueError(res.no_strip_message(k_flank))
         t_env = time.perf_counter()
         envs, sweeps = [], []
         for c in res.strips:
@@ -429,6 +409,8 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
         replaced = run.build(self, "single-flank results", lambda: _fill_run(run, job, out, rotor, made))
         if replaced is None:
             return {'CANCELLED'}
+        from ..flank_addon.methods.single_flank.planner import merge_ranges
+
         res = out["res"]
         props = self._props(job, out, rotor, made)
         run.store(props, [run.collection, rotor] + made["tools"], clear=[rotor])
@@ -452,6 +434,8 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
     def _props(self, job, out, rotor, made):
         """The run's custom properties (lengths in scene units, angles in radians, flank ranges as profile
         parameters)."""
+        from ..flank_addon.methods.single_flank.planner import merge_ranges
+
         res, s, tool, chart = out["res"], job["s"], out["first_tool"], out["chart"]
         summary, rows = res.plan.get("summary", {}), res.plan["strips"]
         kinks = [float(j["kink_deg"]) for js in res.junctions for j in js]

@@ -224,3 +224,15 @@ def test_cli_check_plan(tmp_path):
     path.write_text("{not json")
     r = run_cli("check-plan", path)
     assert r.returncode == 2 and "not valid JSON" in r.stderr
+
+
+def test_single_flank_plan_without_a_strip_says_why_and_writes_nothing(tmp_path):
+    """A tool that fits nowhere on the flank (here one in mm on a built-in rotor in units of R) gets the planner's
+    reasons and a hint at the units, exit 2, and the earlier file stays as it was."""
+    out = tmp_path / "y.json"
+    out.write_text("KEEP")
+    r = main_cli("plan", "single-flank", "--builtin", "asymmetric-female", "--flank", "1", "--tool-r1", "2.5",
+                 "--tool-r2", "4", "--tool-alpha", "0.1002", "--tolerance", "0.05", "--out", out)
+    assert r.returncode == 2 and out.read_text() == "KEEP"
+    assert r.stderr.startswith("error: no collision-free strip on flank 1: ") and "colliding" in r.stderr
+    assert "the tool's smallest radius 2.5 exceeds the rotor's outer radius 1 R" in r.stderr

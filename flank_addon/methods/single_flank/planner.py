@@ -62,16 +62,26 @@ class SingleFlankResult:
     def complete(self):
         return not self.uncovered
 
+    def no_strip_message(self, flank):
+        """Why this plan has no strip: the seeds tried, how many candidates collided, the uncovered ranges and
+        the reasons the residual analysis gives for them."""
+        seeds = sum(int(t.get("seeds", 0)) for t in self.tools)
+        reasons = sorted({str(r.get("reason")) for r in self.residual if r.get("reason")})
+        ranges = ", ".join(f"[{a:.4g}, {b:.4g}]" for a, b in merge_ranges(self.uncovered))
+        return (f"no collision-free strip on flank {flank}: {seeds} seeds tried, {len(self.collisions)} colliding"
+                + ("; " + "; ".join(reasons) if reasons else "") + f" (uncovered {ranges})")
+
 
 def _flank_index_ranges(surface, flank_ranges, n):
     per = surface.profile.period
     return [(int(round(a / per * n)), int(round(b / per * n))) for a, b in flank_ranges]
 
 
-def _merge_ranges(ranges):
-    """Union of closed parameter ranges, sorted, overlapping or touching ones merged."""
+def merge_ranges(ranges):
+    """Union of closed parameter ranges [(a, b)] as sorted disjoint ranges, overlapping or touching ones merged
+    (the planner may list a range twice)."""
     out = []
-    for a, b in sorted(ranges):
+    for a, b in sorted((float(a), float(b)) for a, b in ranges):
         if out and a <= out[-1][1]:
             out[-1] = (out[-1][0], max(out[-1][1], b))
         else:
