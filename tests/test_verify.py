@@ -136,6 +136,13 @@ def test_cli_verify_json(tmp_path):
     assert {"max_undercut", "max_overcut", "gouge_points", "strips"} <= set(d)
 
 
+@pytest.mark.parametrize("tol", [float("nan"), -0.001, 0.0, float("inf"), "tight"])
+def test_verify_refuses_a_tolerance_that_is_not_a_positive_number(tol):
+    """A NaN tolerance would count no gouge at all and a negative one every point: both are refused by name."""
+    with pytest.raises(ValueError, match=r"tolerance .* must be a finite number > 0"):
+        verify_plan(ball_plan(0.004), tolerance=tol)
+
+
 def test_all_points_colours_and_transfer_to_3d():
     from flank_addon.geometry.screw import screw_motion
     from flank_addon.simulation.verify import deviation_colors, values_on_rotor, world_to_rotor

@@ -239,6 +239,10 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
     """The read-back report of a posted program (module doc); ``lobes``: lobes to sweep (default all
     the program cuts); ``references``: verify_plan of each plan when already known."""
     t0 = time.perf_counter()
+    if lobes is not None:
+        bad = [k for k in lobes if not 0 <= k < rotor.lobes]
+        if bad or not lobes:
+            raise ValueError(f"lobes {bad or list(lobes)} are not lobes of this rotor (0..{rotor.lobes - 1})")
     read = post.read(text, machine)
     tools, of_strip = tool_table(plans)
     passes = match_passes(read_passes(read, machine, tools, rotor), plans, rotor, tools, of_strip)

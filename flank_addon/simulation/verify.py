@@ -5,6 +5,7 @@ For every design point of the target flanks: the signed deviation of the simulat
 Over the whole rotor profile (all lobes): gouges, i.e. points the swept tools or shanks reach more
 than the tolerance below the design surface.  Reported errors of the planners are not used.
 """
+import math
 import time
 from dataclasses import dataclass
 
@@ -96,6 +97,20 @@ def sweep_targets(plan, search=None, all_points=False, progress=None):
                         owner=strip_owners(owner, first), least=least, tools=tools, first=first)
 
 
+def checked_tolerance(tolerance, default):
+    """A verification's tolerance as a float (``default`` when None): a finite number > 0, else ValueError naming
+    it (a NaN would count no gouge at all, a negative one every point)."""
+    if tolerance is None:
+        return float(default)
+    try:
+        tol = float(tolerance)
+    except (TypeError, ValueError):
+        tol = math.nan
+    if not (math.isfinite(tol) and tol > 0):
+        raise ValueError(f"tolerance {tolerance!r} must be a finite number > 0 (in the plan's length unit)")
+    return tol
+
+
 def verify_plan(plan, tolerance=None, search=None, all_points=False, progress=None):
     """Simulate a plan; return a JSON-ready dict (see module doc and README).
 
@@ -112,7 +127,7 @@ def verify_plan(plan, tolerance=None, search=None, all_points=False, progress=No
     rotor = plan["rotor"]
     v0, hand = float(rotor["v0"]), rotor["handedness"]
     outer = float(rotor["outer_radius"])
-    tol = float(tolerance) if tolerance is not None else 1e-3 * outer
+    tol = checked_tolerance(tolerance, 1e-3 * outer)
     strips = plan["strips"]
     swept = sweep_targets(plan, search, all_points=all_points, progress=reporter(progress, 0.02, 0.8))
     prof, normals, target, flank_of = swept.profile, swept.normals, swept.target, swept.flank_of

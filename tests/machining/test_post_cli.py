@@ -124,6 +124,8 @@ def test_post_json_and_verify_program_text(capsys, tmp_path, single_flank_plan):
     assert f"{2 * n} passes ({2 * n} matched to plan strips)" in text and f"lobe 2: {n} passes" in text
     code, _, err = run(capsys, "verify", plan_file, "--program", out)
     assert code == 2 and "needs --machine" in err
+    code, _, err = run(capsys, "verify", plan_file, "--program", out, "--machine", "rotor-xa-b", "--lobes", "0,9")
+    assert code == 2 and "lobes [9] are not lobes of this rotor (0..3)" in err
     code, _, err = run(capsys, "verify", plan_file, plan_file)
     assert code == 2 and "several only with --program" in err
 

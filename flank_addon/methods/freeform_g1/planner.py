@@ -1099,6 +1099,9 @@ def verify_freeform(plan, tolerance=None):
     distance of the envelope points (Eqs. (5)-(6)) to the surface, and the tool swept over the
     surface's vertices (:func:`sweep_deviation`; vertices whose closest tool sphere is on the border
     of the machined region are counted as not covered).  Lengths in the plan's unit; + = material left."""
+    from ...simulation.verify import checked_tolerance
+
+    tol = None if tolerance is None else checked_tolerance(tolerance, None)
     mesh = plan_mesh(plan)
     t0 = time.perf_counter()
     env = freeform_envelopes(plan, mesh=mesh)
@@ -1112,7 +1115,6 @@ def verify_freeform(plan, tolerance=None):
     sweep, _, covered = sweep_deviation(plan, mesh=mesh)
     kinks = freeform_kinks(plan, mesh=mesh)
     allk = np.concatenate([k["kink_deg"] for k in kinks]) if kinks else np.zeros(0)
-    tol = tolerance
     out = {
         "length_unit": plan["length_unit"],
         "eq19_max": _nanext(np.nanmax, eq19), "eq19_min": _nanext(np.nanmin, eq19),
