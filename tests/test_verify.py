@@ -136,6 +136,17 @@ def test_cli_verify_json(tmp_path):
     assert {"max_undercut", "max_overcut", "gouge_points", "strips"} <= set(d)
 
 
+@pytest.mark.parametrize("delta", [0.05, 0.15, 0.3])
+def test_an_overcut_deeper_than_the_search_range_is_measured_whole(delta):
+    """The sweep first searches 0.1 R (0.08 here) along each normal; a point still inside the swept region at
+    its end is searched again over the whole radius, so the ball's exact overcut -delta is reported, never the
+    end of the range nor "uncut"."""
+    res = verify_plan(ball_plan(delta, r=0.4))
+    assert abs(res["max_overcut"] + delta) < 1e-9
+    (facing,) = [d for i, x, y, d in res["deviation_profile"] if i == 0]
+    assert abs(facing + delta) < 1e-9
+
+
 @pytest.mark.parametrize("tol", [float("nan"), -0.001, 0.0, float("inf"), "tight"])
 def test_verify_refuses_a_tolerance_that_is_not_a_positive_number(tol):
     """A NaN tolerance would count no gouge at all and a negative one every point: both are refused by name."""

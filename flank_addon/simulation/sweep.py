@@ -1267,7 +1267,9 @@ def machined_deviation(tools, points, normals, v0, handedness="right", max_devia
         tools: list of :class:`RevolvingTool` (all strips of a plan).
         points, normals: (N, 2) transverse profile points (plane z = 0) and unit outward normals, or
             (N, 3) points anywhere with 3D unit normals (e.g. an axial section).
-        max_deviation: search limit; points with no machined surface within it get +inf (uncut).
+        max_deviation: search limit; points with no machined surface within it get +inf (uncut), except points
+            inside the swept region, whose search goes on over the points' whole radius (an overcut deeper than
+            the limit is still an overcut; -inf if even that range ends inside).
         progress: None or ``progress(fraction, message)`` (:mod:`progress`; returning False cancels).
         owner_tie: None, or a tie width: then also which tool forms each machined point, as
             :func:`first_least` with that tie picks it from the tools' distances at the point.
@@ -1335,6 +1337,7 @@ def machined_deviation(tools, points, normals, v0, handedness="right", max_devia
     f_hi = d0.copy()
     direction = np.where(d0 >= 0, 1.0, -1.0)
     active = (d0 != 0) & relevant.any(axis=0)
+    ran_out = np.zeros(len(p), bool)        # the march reached the end of the range without crossing
     n_active = max(int(active.sum()), 1)
     for _ in range(400):
         idx = np.flatnonzero(active)
@@ -1352,15 +1355,32 @@ def machined_deviation(tools, points, normals, v0, handedness="right", max_devia
         hi[idx], f_hi[idx] = lam, f_new
         keep = ~crossed & ~out
         lo[idx[keep]], f_lo[idx[keep]] = lam[keep], f_new[keep]
+        ran_out[idx[out & ~crossed]] = True
         active[idx[crossed | out]] = False
     found = (np.sign(f_hi) != np.sign(f_lo)) | (f_lo == 0)
     root = illinois_roots(D, lo, hi, f_lo, f_hi, found, tol, 1e-9 * scale, cutoff,
                           report=None if progress is None else reporter(progress, 0.7, 1.0))
     report(1.0, "deviation")
     deviation = np.where(found, root, np.inf)
+    owners = None if owner_tie is None else _owners_at(deviation, evaluated, len(p))
+    # a point inside the swept region still inside at the end of the range is overcut deeper than the range, not
+    # uncut: search those again over the rotor's whole radius (none in a plan that overcuts less than the range)
+    deep = np.flatnonzero(~found & (direction < 0) & ran_out)
+    if len(deep):
+        whole = float(np.max(np.linalg.norm(p[:, :2], axis=1)))
+        if whole > max_deviation:
+            again = machined_deviation(tools, p[deep], n[deep], v0, handedness, max_deviation=whole, tol=tol,
+                                       owner_tie=owner_tie)
+            if owner_tie is None:
+                deviation[deep] = again
+            else:
+                deviation[deep] = again[0]
+                owners[0][deep], owners[1][deep] = again[1], again[2]
+        # still inside over the whole radius: an overcut deeper than any search, never "uncut"
+        deviation[deep] = np.where(np.isinf(deviation[deep]), -np.inf, deviation[deep])
     if owner_tie is None:
         return deviation
-    return (deviation,) + _owners_at(deviation, evaluated, len(p))
+    return (deviation,) + owners
 
 
 def _owners_at(deviation, evaluated, n):
