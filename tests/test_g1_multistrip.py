@@ -609,6 +609,14 @@ def test_plan_file_round_trip_and_validation(tmp_path):
     bad["surface"]["faces"][0][0] = 10 ** 6
     with pytest.raises(PlanError, match="faces"):
         validate_plan(bad)
+    bad = json.loads(json.dumps(plan))
+    del bad["strips"][1]["columns"]
+    with pytest.raises(PlanError, match=r"strips\[1\].columns must hold one guiding-curve index >= 0 per ruling"):
+        validate_plan(bad)
+    bad = json.loads(json.dumps(plan))
+    bad["summary"]["max_error"] = bad["summary"]["min_error"] - 1.0
+    with pytest.raises(PlanError, match="summary.max_error .* is below summary.min_error"):
+        validate_plan(bad)
     env = freeform_envelopes(back)
     assert len(env) == len(back["strips"]) and np.isfinite(env[0]["deviation"]).all()
     dev, strip, inside = sweep_deviation(back)

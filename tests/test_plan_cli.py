@@ -107,6 +107,9 @@ def test_write_plan_is_atomic_and_names_the_file(tmp_path, monkeypatch):
     (lambda p: p["tool"].update(shank_length=float("inf")), r"tool.shank_length must be a finite number >= 0"),
     (lambda p: p["tool"].update(r1=-0.1), r"tool.r1 must be a finite number >= 0, got -0.1"),
     (lambda p: p["tool"].update(length="long"), r"tool.length must be a finite number > 0, got 'long'"),
+    (lambda p: p["strips"][0].update(axis_end=p["strips"][0]["axis_start"]),
+     r"strips\[0\]: axis_start and axis_end coincide, yet the tool's radius varies"),
+    (lambda p: p["summary"].update(max_error=-0.001), r"summary.max_error -0.001 is below summary.min_error -0.0005"),
 ])
 def test_plan_validation_names_the_field(mutate, message):
     plan = json.loads(json.dumps(sample_plan()))

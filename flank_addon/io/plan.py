@@ -246,6 +246,10 @@ def _validate(plan):
         radii = np.asarray(st.get("radii", []), float)
         if radii.ndim != 1 or len(radii) < 2 or not np.isfinite(radii).all() or (radii < 0).any():
             raise PlanError(f"strips[{k}].radii must hold >= 2 non-negative radii")
+        axis = np.subtract(st["axis_end"], st["axis_start"])
+        if not np.any(axis) and (st.get("meridian") is not None or np.ptp(radii) > 0):
+            raise PlanError(f"strips[{k}]: axis_start and axis_end coincide, yet the tool's radius varies along "
+                            "its axis (only a ball may have a zero-length axis)")
         if st.get("meridian") is not None:
             mer = np.asarray(st["meridian"], float)
             if (mer.ndim != 2 or mer.shape[1] != 2 or len(mer) < 2 or not np.isfinite(mer).all()
@@ -269,7 +273,14 @@ def _validate(plan):
     for key in ("max_error", "min_error", "elapsed_s"):
         if not _is_num(plan["summary"].get(key)):
             raise PlanError(f"summary.{key} must be a number")
+    _check_error_order(plan["summary"])
     return plan
+
+
+def _check_error_order(summary):
+    if summary["max_error"] < summary["min_error"]:
+        raise PlanError(f"summary.max_error {summary['max_error']!r} is below summary.min_error "
+                        f"{summary['min_error']!r}")
 
 
 def _check_tool(tool, name):
@@ -364,12 +375,16 @@ def _validate_mesh_plan(plan):
                 raise PlanError(f"strips[{k}].{key} must be a finite number")
         if not isinstance(st.get("collision"), bool):
             raise PlanError(f"strips[{k}].collision must be true or false")
+        cols = st.get("columns")
+        if not (isinstance(cols, list) and len(cols) == len(R) and all(_is_int(c) and c >= 0 for c in cols)):
+            raise PlanError(f"strips[{k}].columns must hold one guiding-curve index >= 0 per ruling ({len(R)})")
     summ = plan["summary"]
     if not isinstance(summ, dict):
         raise PlanError("summary must be an object")
     for key in ("max_error", "min_error", "elapsed_s", "max_kink_deg", "mean_kink_deg"):
         if not _is_num(summ.get(key)):
             raise PlanError(f"summary.{key} must be a number")
+    _check_error_order(summ)
     return plan
 
 
