@@ -256,10 +256,16 @@ def _write_cutter_plan(args, prof, lead, hand, cp, rotor):
         flanks = [(a * prof.period / n, b * prof.period / n) for a, b in idx]
         extent = None
     plan = disc_cutter_plan(prof, lead / (2 * np.pi), hand, flanks, cp, length_unit=unit, extent=extent)
+    outer = plan["rotor"]["outer_radius"]
+    if unit == "R" and abs(outer - 1.0) > 1e-9:
+        # the rotor is not in units of R: every length of the plan divided by its outer radius
+        from .machining.rotor_body import scale_plan
+
+        plan = scale_plan(plan, 1.0 / outer, "R")
     write_plan(args.plan_out, plan)
     return {"out": str(args.plan_out), "target_flanks": plan["target_flanks"], "length_unit": unit,
             "max_error": plan["summary"]["max_error"], "min_error": plan["summary"]["min_error"],
-            "extent": extent}
+            "extent": plan["rotor"].get("extent")}
 
 
 def _load_rotor(args):

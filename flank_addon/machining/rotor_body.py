@@ -121,7 +121,8 @@ def scale_plan(plan, factor, unit="mm"):
         if s.get("paraboloid") is not None:
             s["paraboloid"] = {"a": s["paraboloid"]["a"] / k, "b": s["paraboloid"]["b"] * k}
     for tool in [out.get("tool", {})] + [s["tool"] for s in out["strips"] if isinstance(s.get("tool"), dict)]:
-        for key in ("r1", "r2", "length", "r1c", "r2c", "h", "shank_radius", "shank_length"):
+        for key in ("r1", "r2", "length", "r1c", "r2c", "h", "shank_radius", "shank_length", "centre_distance",
+                    "max_diameter", "width", "arbor_radius", "arbor_length"):
             if isinstance(tool.get(key), (int, float)) and not isinstance(tool.get(key), bool):
                 tool[key] = tool[key] * k
     for key in ("max_error", "min_error"):

@@ -192,3 +192,28 @@ def test_a_repeated_strip_is_cut_once_and_a_missing_pass_fails_the_check(capsys,
     code, text, err = run(capsys, "verify", path, "--program", cut, "--machine", "rotor-xa-b", "--lobes", "0")
     assert code == 1, err
     assert "NOT AS PLANNED: 1 strip(s) never cut, as [plan, strip, lobe]: [[0, 0, 0]]" in text
+
+
+def test_a_cutter_plan_in_units_of_r_is_the_mm_plan_divided_by_the_radius(capsys, tmp_path):
+    """--length-unit R on a rotor of outer radius 30 divides every length by 30 (the plan used to keep the mm
+    numbers under the label R); posted back at 30 mm it is the mm plan's program."""
+    from flank_addon.io.plan import read_plan
+
+    argv = ["cutter", "--builtin", "srm_a-male", "--scale", "30", "--center-distance", "54", "--swivel", "45",
+            "--planes", "16", "--out", tmp_path / "c.csv"]
+    assert run(capsys, *argv, "--plan-out", tmp_path / "mm.json")[0] == 0
+    code, text, err = run(capsys, *argv, "--plan-out", tmp_path / "r.json", "--length-unit", "R")
+    assert code == 0, err
+    mm, r = read_plan(tmp_path / "mm.json"), read_plan(tmp_path / "r.json")
+    assert mm["length_unit"] == "mm" and r["length_unit"] == "R" and abs(r["rotor"]["outer_radius"] - 1) < 1e-12
+    for key in ("max_error", "min_error"):
+        assert abs(r["summary"][key] * 30 - mm["summary"][key]) <= 1e-12 * 30
+    for key in ("max_diameter", "width", "centre_distance"):
+        assert abs(r["tool"][key] * 30 - mm["tool"][key]) <= 1e-9 * mm["tool"][key]
+    programs = []
+    for name, extra in (("mm", []), ("r", ["--outer-radius-mm", "30"])):
+        out = tmp_path / f"{name}.ngc"
+        assert run(capsys, "post", tmp_path / f"{name}.json", "--machine", "rotor-xa-b", "--post", "linuxcnc",
+                   *extra, "-o", out)[0] == 0
+        programs.append([ln for ln in out.read_text().splitlines() if not ln.startswith("(")])
+    assert programs[0] == programs[1]
