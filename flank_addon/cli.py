@@ -329,7 +329,7 @@ def _cmd_plan(args):
             raise ValueError(f"--valley {args.valley} is outside 0..{nv - 1} (this rotor has {nv} valleys)")
         k = args.valley
     else:
-        k = valley_of_point(surface, flanks, _model_point_to_rotor(args.valley_point, to_world))
+        k = valley_of_point(surface, flanks, _picked_point(surface, args.valley_point, to_world, "--valley-point", unit))
     if not 0.2 <= args.rim <= 0.98:
         raise ValueError(f"--rim {args.rim} is outside the limits 0.2..0.98")
     res = plan_double_flank(surface, flanks, valley=k, variant=args.variant, tool=args.tool,
@@ -483,7 +483,7 @@ def _cmd_plan_single_flank(args):
                              f"{len(flanks)} flanks)")
         k = args.flank
     else:
-        k = flank_of_point(surface, flanks, _model_point_to_rotor(args.flank_point, to_world))
+        k = flank_of_point(surface, flanks, _picked_point(surface, args.flank_point, to_world, "--flank-point", unit))
     targets = None
     if args.split is not None:
         from .methods.single_flank.planner import curvature_parts
@@ -1119,6 +1119,23 @@ def build_parser():
 
     b = sub.add_parser("builtins", help="list built-in rotor names (KIND-PART)")
     b.set_defaults(func=_cmd_builtins)
+    return p
+
+
+# how far a picked point may lie from the rotor surface, in outer radii (a point in the middle of a valley's
+# opening lies well within it; a point in other coordinates or another unit does not)
+PICK_LIMIT = 0.5
+
+
+def _picked_point(surface, point, to_world, option, unit):
+    """A picked point (model coordinates) in the rotor frame, refused by name when it lies farther from the
+    rotor surface than :data:`PICK_LIMIT` outer radii."""
+    p = _model_point_to_rotor(point, to_world)
+    d, limit = surface.section_distance(p), PICK_LIMIT * surface.outer_radius
+    if not d <= limit:
+        raise ValueError(f"{option} {','.join(f'{x:g}' for x in point)} lies {d:.4g} {unit} from the rotor surface, "
+                         f"above the limit {limit:.4g} {unit} ({PICK_LIMIT:g} of the outer radius): a point in "
+                         "another unit or frame?")
     return p
 
 

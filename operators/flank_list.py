@@ -14,16 +14,6 @@ from .sources import AnalysisNeeded, rotor_source, to_rotor_frame, workpiece_obj
 from .units import length_text
 
 
-def _profile_distance(surface, p_rotor):
-    """Distance (rotor units) of a rotor-frame point from the rotor surface, measured in its transverse section
-    after screwing it into z = 0."""
-    from ..flank_addon.geometry.screw import screw_to_plane
-
-    q0 = screw_to_plane(np.asarray(p_rotor, float).reshape(1, 3), surface.v0, surface.hand)[0]
-    prof = surface.profile
-    return float(np.min(np.linalg.norm(prof.eval(prof.params(8192)) - q0[:2], axis=1)))
-
-
 def _settings(op, context, what):
     settings = getattr(context.scene, "flank_settings", None)
     if settings is None:
@@ -140,7 +130,7 @@ class FLANK_OT_pick_flank_cursor(ModalPlannerMixin, bpy.types.Operator):
         from ..flank_addon.methods.single_flank.planner import flank_of_point
 
         src, p = job["src"], job["point"]
-        return int(flank_of_point(src["surface"], src["flanks"], p)), _profile_distance(src["surface"], p)
+        return int(flank_of_point(src["surface"], src["flanks"], p)), src["surface"].section_distance(p)
 
     def _build(self, context, job, found):
         settings = _settings(self, context, "Pick flank")

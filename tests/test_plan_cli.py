@@ -239,3 +239,17 @@ def test_single_flank_plan_without_a_strip_says_why_and_writes_nothing(tmp_path)
     assert r.returncode == 2 and out.read_text() == "KEEP"
     assert r.stderr.startswith("error: no collision-free strip on flank 1: ") and "colliding" in r.stderr
     assert "the tool's smallest radius 2.5 exceeds the rotor's outer radius 1 R" in r.stderr
+
+
+@pytest.mark.parametrize("argv, option", [
+    (["plan", "single-flank", "--builtin", "asymmetric-female", "--flank-point", "1000,1000,1000", "--tool-r1",
+      "0.05", "--tool-r2", "0.08", "--tool-h", "0.3", "--tolerance", "2e-3"], "--flank-point 1000,1000,1000"),
+    (["plan", "double-flank", "--builtin", "asymmetric-female", "--valley-point", "0,0,0"], "--valley-point 0,0,0"),
+])
+def test_a_picked_point_far_from_the_rotor_is_refused(tmp_path, argv, option):
+    """A flank or valley point in another unit or frame is named with its distance and the limit instead of
+    silently picking the flank nearest to it (the axis point 0,0,0 lies at the root radius from every flank)."""
+    r = main_cli(*argv, "--out", tmp_path / "p.json")
+    assert r.returncode == 2 and r.stderr.startswith(f"error: {option} lies ")
+    assert "from the rotor surface, above the limit 0.5 R (0.5 of the outer radius)" in r.stderr
+    assert not (tmp_path / "p.json").exists()

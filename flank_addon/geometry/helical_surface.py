@@ -125,6 +125,13 @@ class HelicalSurface:
         return cls(SplineProfile(pts), v0, handedness)
 
     # ------------------------------------------------------------------ evaluation
+    def section_distance(self, point, samples=8192):
+        """Distance of a 3D point (rotor frame) from the surface measured in the transverse section: the point
+        screwed into z = 0, against ``samples`` points of the profile (to the profile's sampling)."""
+        q0 = screw_to_plane(np.asarray(point, float).reshape(1, 3), self.v0, self.hand)[0]
+        prof = self.profile
+        return float(np.min(np.linalg.norm(prof.eval(prof.params(samples)) - q0[:2], axis=1)))
+
     def evaluate(self, u, t):
         u, t, p, _, c, s = self._at(u, t)
         return screwed(p[..., 0], p[..., 1], 0.0, t, c, s, self.v0)
