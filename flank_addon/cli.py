@@ -35,13 +35,14 @@ class CommaList:
         return f"{self.n} numbers {self.what}"
 
 
-_NUMBER_LIST = re.compile(r"^-[0-9.][0-9.eE+-]*(,[-+0-9.eE]*)+$")
+_NUMBER_LIST = re.compile(r"^-[0-9.][0-9.eE+-]*(,[-+0-9.eE]*)*$")
 
 
 def attach_negative_lists(argv):
-    """``--option -1,2,3`` -> ``--option=-1,2,3``.  argparse reads a token that starts with '-' as an option
-    unless it is a single negative number; a comma list of numbers is always the value of the option before
-    it, and ``--option=value`` means the same to argparse."""
+    """``--option -1,2,3`` -> ``--option=-1,2,3``, ``--option -1e-3`` -> ``--option=-1e-3``.  argparse reads a
+    token that starts with '-' as an option unless it is a plain negative number (no exponent); a number or a comma
+    list of numbers is always the value of the option before it, and ``--option=value`` means the same to
+    argparse."""
     out = []
     for tok in argv:
         if out and _NUMBER_LIST.match(tok) and out[-1].startswith("--") and "=" not in out[-1]:
@@ -372,7 +373,10 @@ def _cmd_plan_freeform(args):
     point = list(args.point) if args.point else None
     field = None
     if args.field:
-        field = np.loadtxt(args.field, delimiter=",", ndmin=2)
+        try:
+            field = np.loadtxt(args.field, delimiter=",", ndmin=2)
+        except (ValueError, UnicodeDecodeError) as e:
+            raise ValueError(f"--field {args.field}: not a CSV of numbers x,y,z ({e})") from None
         if field.ndim != 2 or field.shape[1] != 3 or not np.isfinite(field).all():
             raise ValueError(f"--field {args.field}: needs rows of 3 finite numbers x,y,z, got shape {field.shape}"
                              + ("" if np.isfinite(field).all() else " with NaN/inf"))
@@ -681,6 +685,33 @@ def _cmd_export(args):
     return 0
 
 
+def positive_number(text):
+    """argparse type of a length, speed or feed: a finite number > 0."""
+    try:
+        v = float(text)
+    except ValueError:
+        v = math.nan
+    if not (math.isfinite(v) and v > 0):
+        raise argparse.ArgumentTypeError(f"{text} is not a finite number > 0")
+    return v
+
+
+def count_at_least(least, most=None):
+    """argparse type of a count: a whole number >= ``least`` (and <= ``most``)."""
+    def count(text):
+        try:
+            n = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text} is not a whole number") from None
+        if n < least and most is None:
+            raise argparse.ArgumentTypeError(f"{n} is below the minimum {least}")
+        if n < least or (most is not None and n > most):
+            raise argparse.ArgumentTypeError(f"{n} is outside the limits {least}..{most}")
+        return n
+    count.__name__ = "count"
+    return count
+
+
 # ---------------------------------------------------------------------------------------------- machining
 def lobe_list(text):
     """argparse type of --lobes: 'all' or comma-separated lobe indices."""
@@ -843,7 +874,8 @@ def _cmd_machines(args):
 def _add_machining_inputs(p):
     p.add_argument("--mesh", help="the rotor mesh the plans were made on: its axial extent and shafts (for plans "
                                   "that do not record rotor.extent)")
-    p.add_argument("--outer-radius-mm", type=float, help="plans in units of R: the rotor's outer radius in mm")
+    p.add_argument("--outer-radius-mm", type=positive_number,
+                   help="plans in units of R: the rotor's outer radius in mm")
     p.add_argument("--lobes", type=lobe_list, help="lobes to cut: all (default) or indices like 0,2,4")
     p.add_argument("--flip-rotor", action="store_true",
                    help="the rotor is mounted the other way round (turned 180 deg about its x axis) on the machine")
@@ -917,7 +949,7 @@ def build_parser():
     r.add_argument("--lead", type=float, help="axial advance per turn (default: 300 deg wrap)")
     r.add_argument("--length", type=float, help="rotor length")
     r.add_argument("--handedness", choices=["right", "left"])
-    r.add_argument("--resolution", type=int, help="points around the profile (default 2048)")
+    r.add_argument("--resolution", type=count_at_least(8), help="points around the profile (default 2048)")
     r.add_argument("--axial", type=int, default=120, help="rings along the axis (default 120)")
     r.add_argument("--out", required=True, help="PATH.stl | PATH.ply | PATH.obj")
     r.set_defaults(func=_cmd_rotor)
@@ -1004,7 +1036,7 @@ def build_parser():
                          "in that order (see docs/cli.md)")
     sf.add_argument("--outer-radius-mm", type=float,
                     help="with --tools on a built-in rotor (units of R): its outer radius in mm (default 50)")
-    sf.add_argument("--max-tools", type=int, help="with --tools auto: at most this many tools (default: as needed)")
+    sf.add_argument("--max-tools", type=count_at_least(1, 50), help="with --tools auto: at most this many tools (default: as needed)")
     sf.add_argument("--split", choices=["hyperbolic", "elliptic"],
                     help="plan only the hyperbolic (K < 0) or the elliptic (K >= 0) part of the flank, each with "
                          "its own initialisation (Bizzarri, Bo & Bartoň Examples 6.5, 6.6)")
@@ -1051,7 +1083,7 @@ def build_parser():
     ff.add_argument("--slide", action="store_true",
                     help="freeform: let the m-grid also slide along the guiding curves (the paper's 3 unknowns "
                          "per point; default: 2, normal to the curve)")
-    ff.add_argument("--max-evaluations", type=int, default=100, help="freeform: optimiser evaluations (default 100)")
+    ff.add_argument("--max-evaluations", type=count_at_least(1), default=100, help="freeform: optimiser evaluations (default 100)")
     ff.add_argument("--flip-normals", action="store_true",
                     help="freeform: the tool is on the side opposite to the mesh's face normals")
     pl.set_defaults(func=_cmd_plan)
@@ -1107,10 +1139,10 @@ def build_parser():
                     help="TCP machines: chord sagitta of the tip's helix, mm (default 0.001)")
     po.add_argument("--cutting-data", metavar="PRESET", help="cutting data of a tool preset for every tool "
                                                               "(default: the preset matching each plan's tool)")
-    po.add_argument("--flutes", type=int, help="override: flutes")
-    po.add_argument("--vc", type=float, help="override: cutting speed, m/min")
-    po.add_argument("--fz", type=float, help="override: feed per tooth, mm")
-    po.add_argument("--max-rpm", type=float, help="override: the tool's top spindle speed")
+    po.add_argument("--flutes", type=count_at_least(1), help="override: flutes")
+    po.add_argument("--vc", type=positive_number, help="override: cutting speed, m/min")
+    po.add_argument("--fz", type=positive_number, help="override: feed per tooth, mm")
+    po.add_argument("--max-rpm", type=positive_number, help="override: the tool's top spindle speed")
     po.add_argument("--json", action="store_true", help="print passes, times, tools and per-pass cutting data")
     po.set_defaults(func=_cmd_post)
 

@@ -253,3 +253,29 @@ def test_a_picked_point_far_from_the_rotor_is_refused(tmp_path, argv, option):
     assert r.returncode == 2 and r.stderr.startswith(f"error: {option} lies ")
     assert "from the rotor surface, above the limit 0.5 R (0.5 of the outer radius)" in r.stderr
     assert not (tmp_path / "p.json").exists()
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["post", "{plan}", "--machine", "rotor-xa-b", "--post", "linuxcnc", "--vc", "0", "-o", "{tmp}/p.ngc"],
+     "argument --vc: 0 is not a finite number > 0"),
+    (["post", "{plan}", "--machine", "rotor-xa-b", "--post", "linuxcnc", "--outer-radius-mm", "nan", "-o",
+      "{tmp}/p.ngc"], "argument --outer-radius-mm: nan is not a finite number > 0"),
+    (["rotor", "--kind", "srm_a", "--part", "male", "--resolution", "3", "--out", "{tmp}/r.stl"],
+     "argument --resolution: 3 is below the minimum 8"),
+    (["plan", "single-flank", "--builtin", "asymmetric-female", "--flank", "0", "--tools", "auto", "--max-tools", "0",
+      "--out", "{tmp}/p.json"], "argument --max-tools: 0 is outside the limits 1..50"),
+    (["verify", "{binary}"], "{binary}: not a text file (a flank-plan is JSON text"),
+    (["post", "{plan}", "--machine", "{binary}", "--post", "linuxcnc", "-o", "{tmp}/p.ngc"],
+     "{binary}: not a text file (a machine file is JSON text)"),
+    (["rotor", "--profile-csv", "{binary}", "--lead", "1", "--length", "1", "--out", "{tmp}/r.stl"],
+     "{binary}: not a text file (a profile is CSV text of x,y rows)"),
+    (["verify", "{plan}", "--tolerance", "-1e-3"], "tolerance -0.001 must be a finite number > 0"),
+])
+def test_cli_names_the_option_or_file_of_a_bad_value(tmp_path, argv, message):
+    plan = tmp_path / "p.json"
+    write_plan(plan, sample_plan())
+    binary = tmp_path / "mesh.stl"
+    binary.write_bytes(bytes(range(256)) * 4)
+    names = dict(plan=plan, binary=binary, tmp=tmp_path)
+    r = main_cli(*[a.format(**names) for a in argv])
+    assert r.returncode == 2 and r.stderr.startswith("error: " + message.format(**names)), r.stderr

@@ -467,7 +467,11 @@ def load_profile_csv(path, unit_scale=1.0):
     """Read ``x,y`` rows (header optional) and return a validated :class:`SplineProfile`."""
     rows = []
     with open(path, newline="") as f:
-        for k, row in enumerate(csv.reader(f)):
+        try:
+            lines = list(csv.reader(f))
+        except UnicodeDecodeError:
+            raise ProfileError(f"{path}: not a text file (a profile is CSV text of x,y rows)") from None
+        for k, row in enumerate(lines):
             if not row or row[0].strip().startswith("#"):
                 continue
             try:
@@ -479,7 +483,10 @@ def load_profile_csv(path, unit_scale=1.0):
             if len(vals) < 2:
                 raise ProfileError(f"{path}: line {k + 1} has fewer than 2 columns")
             rows.append(vals)
-    return SplineProfile(np.asarray(rows) * unit_scale)
+    try:
+        return SplineProfile(np.asarray(rows) * unit_scale)
+    except ProfileError as e:
+        raise ProfileError(f"{path}: {e}") from None
 
 
 def points_in_polygon(xy, poly, chunk=4096):

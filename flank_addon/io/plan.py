@@ -452,6 +452,8 @@ def read_plan(path):
             plan = json.load(f)
     except json.JSONDecodeError as e:
         raise PlanError(f"{path}: not valid JSON ({e})") from None
+    except UnicodeDecodeError:
+        raise PlanError(f"{path}: not a text file (a flank-plan is JSON text; is it a mesh or a program?)") from None
     return validate_plan(plan)
 
 

@@ -387,6 +387,8 @@ def load_machine(name_or_path):
             data = json.load(fh)
     except json.JSONDecodeError as e:
         raise MachineError(f"{path}: not valid JSON ({e})") from None
+    except UnicodeDecodeError:
+        raise MachineError(f"{path}: not a text file (a machine file is JSON text)") from None
     try:
         return parse_machine(data, source=path)
     except MachineError as e:
