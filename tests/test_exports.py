@@ -170,6 +170,25 @@ def test_strip_meshes_round_trip(single, tmp_path, fmt, reader):
         assert np.array_equal(rv[rf], v[f].astype(np.float32).astype(float))
 
 
+def test_strip_meshes_are_written_all_or_none(single, tmp_path, capsys):
+    """A folder in the way of the last file leaves the set as it was (no file of the new set, no temporary
+    file), and the command names the file."""
+    import json
+
+    pj = tmp_path / "p.json"
+    pj.write_text(json.dumps(single))
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "s_0.stl").write_bytes(b"old")
+    last = len(single["strips"]) - 1
+    (out / f"s_{last}.stl").mkdir()
+    capsys.readouterr()
+    assert main(["export", str(pj), "--strips-stl", str(out / "s"), "--steps", "6"]) == 2
+    assert f"s_{last}.stl" in capsys.readouterr().err
+    assert (out / "s_0.stl").read_bytes() == b"old"
+    assert sorted(p.name for p in out.iterdir()) == sorted(["s_0.stl", f"s_{last}.stl"])
+
+
 def test_cli_export(single, tmp_path, capsys):
     import json
 

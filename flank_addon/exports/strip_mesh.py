@@ -133,15 +133,13 @@ def strip_meshes(plan, strip=None, z_range=None, **kw):
 
 def write_meshes(meshes, prefix, fmt="stl"):
     """Write meshes [(k, vertices, faces)] (:func:`strip_meshes`) to PREFIX_<k>.stl|.ply; returns the paths."""
-    from ..io.mesh_files import write_ply, write_stl
+    from ..io.files import atomic_write_all
+    from ..io.mesh_files import ply_bytes, stl_bytes
 
-    writer = {"stl": write_stl, "ply": write_ply}[fmt]
-    paths = []
-    for k, v, f in meshes:
-        path = f"{prefix}_{k}.{fmt}"
-        writer(path, v, f)
-        paths.append(path)
-    return paths
+    encode = {"stl": stl_bytes, "ply": ply_bytes}[fmt]
+    items = [(f"{prefix}_{k}.{fmt}", encode(v, f)) for k, v, f in meshes]
+    atomic_write_all(items)            # every file or none: a failure leaves the earlier set as it was
+    return [path for path, _ in items]
 
 
 def write_strip_meshes(plan, prefix, fmt="stl", strip=None, z_range=None, **kw):

@@ -5,34 +5,19 @@ import tempfile
 
 def atomic_write(path, data, encoding="utf-8", newline=None):
     """Write ``data`` (str, or bytes) to ``path`` through a temporary file in the same folder and os.replace,
-    so the file is either the old one or the complete new one.  A failure leaves no temporary file and raises
-    OSError naming ``path`` (a text that cannot be encoded raises UnicodeEncodeError).  The file gets the mode an
-    ordinary write would give it: the old file's, or for a new one read/write as the umask allows (the temporary
-    file is made private, which would leave programs and plans unreadable to a DNC service or a colleague)."""
-    path = os.fspath(path)
-    folder = os.path.dirname(os.path.abspath(path))
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=".flank-", suffix=".tmp", dir=folder)
-    except OSError as e:
-        raise OSError(e.errno, e.strerror, path) from None
-    try:
-        if hasattr(os, "fchmod"):
-            os.fchmod(fd, _mode_for(path))
-        if isinstance(data, bytes):
-            with os.fdopen(fd, "wb") as fh:
-                fh.write(data)
-        else:
-            with os.fdopen(fd, "w", encoding=encoding, newline=newline) as fh:
-                fh.write(data)
-        os.replace(tmp, path)
-    except BaseException as e:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        if isinstance(e, OSError):       # name the file asked for, not the temporary one
-            raise OSError(e.errno, e.strerror, path) from None
-        raise
+    so the file is either the old one or the complete new one (:func:`atomic_write_all` of one file).  A failure
+    leaves no temporary file and raises OSError naming ``path``; a text that cannot be encoded raises
+    UnicodeEncodeError before any file is made.  Text is written as ``open(path, "w", newline=newline)`` would
+    write it, and the file gets the mode such a write gives it: the old file's, or for a new one read/write as
+    the umask allows (the temporary file is made private, which would leave programs and plans unreadable to a
+    DNC service or a colleague)."""
+    if not isinstance(data, bytes):
+        if newline is None:
+            newline = os.linesep
+        if newline not in ("", "\n"):
+            data = data.replace("\n", newline)
+        data = data.encode(encoding)
+    atomic_write_all([(path, data)])
 
 
 def _mode_for(path):
@@ -44,3 +29,40 @@ def _mode_for(path):
     mask = os.umask(0o22)      # the only portable way to read the umask is to set it, and then put it back
     os.umask(mask)
     return 0o666 & ~mask
+
+
+def atomic_write_all(items):
+    """Write several files [(path, bytes)] as one: every one is written to a temporary file in its folder first,
+    and only when all of them are complete do they replace their paths, so a failure (a full disk, a folder in
+    the way) leaves every earlier file as it was and no temporary file behind.  Raises OSError naming the path."""
+    for path, _ in items:
+        if os.path.isdir(path):
+            raise OSError(21, "Is a directory", os.fspath(path))
+    done = []
+    try:
+        for path, data in items:
+            folder = os.path.dirname(os.path.abspath(path))
+            try:
+                fd, tmp = tempfile.mkstemp(prefix=".flank-", suffix=".tmp", dir=folder)
+            except OSError as e:
+                raise OSError(e.errno, e.strerror, os.fspath(path)) from None
+            done.append((tmp, path))
+            try:
+                if hasattr(os, "fchmod"):
+                    os.fchmod(fd, _mode_for(path))
+                with os.fdopen(fd, "wb") as fh:
+                    fh.write(data)
+            except OSError as e:
+                raise OSError(e.errno, e.strerror, os.fspath(path)) from None
+        for tmp, path in done:
+            try:
+                os.replace(tmp, path)
+            except OSError as e:        # name the file asked for, not the temporary one
+                raise OSError(e.errno, e.strerror, os.fspath(path)) from None
+    except BaseException:
+        for tmp, _ in done:
+            try:
+                os.unlink(tmp)
+            except OSError:
+                pass
+        raise

@@ -10,8 +10,10 @@ import struct
 import numpy as np
 
 from ..geometry.rows import unique_float32_triples, unique_rows
+from .files import atomic_write
 
-__all__ = ["MeshFormatError", "write_stl", "write_ply", "write_obj", "write_mesh", "read_mesh",
+__all__ = ["MeshFormatError", "write_stl", "write_ply", "write_obj", "write_mesh", "read_mesh", "stl_bytes",
+           "ply_bytes", "obj_bytes",
            "read_stl", "read_ply", "read_obj", "WRITERS", "READERS"]
 
 
@@ -39,6 +41,11 @@ def _fan(poly):
 # --------------------------------------------------------------------------- STL
 
 def write_stl(path, verts, faces, header=b"flank_addon binary STL"):
+    """Binary STL, written whole or not at all."""
+    atomic_write(path, stl_bytes(verts, faces, header))
+
+
+def stl_bytes(verts, faces, header=b"flank_addon binary STL"):
     v, f = _check(verts, faces)
     tri = v[f].astype(np.float32)  # (M, 3, 3)
     nrm = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]).astype(np.float64)
@@ -47,10 +54,7 @@ def write_stl(path, verts, faces, header=b"flank_addon binary STL"):
     rec = np.zeros(len(f), dtype=[("n", "<f4", 3), ("v", "<f4", (3, 3)), ("attr", "<u2")])
     rec["n"] = nrm
     rec["v"] = tri
-    with open(path, "wb") as fh:
-        fh.write(header[:80].ljust(80, b"\0"))
-        fh.write(struct.pack("<I", len(f)))
-        fh.write(rec.tobytes())
+    return header[:80].ljust(80, b"\0") + struct.pack("<I", len(f)) + rec.tobytes()
 
 
 def _merge(tri_verts):
@@ -133,23 +137,24 @@ def _read_stl_ascii(path, data):
 # --------------------------------------------------------------------------- PLY
 
 def write_ply(path, verts, faces, binary=True):
+    """PLY (binary little endian or ASCII), written whole or not at all."""
+    atomic_write(path, ply_bytes(verts, faces, binary))
+
+
+def ply_bytes(verts, faces, binary=True):
     v, f = _check(verts, faces)
     fmt = "binary_little_endian" if binary else "ascii"
     header = (f"ply\nformat {fmt} 1.0\ncomment flank_addon\nelement vertex {len(v)}\n"
               "property double x\nproperty double y\nproperty double z\n"
               f"element face {len(f)}\nproperty list uchar int vertex_indices\nend_header\n")
-    with open(path, "wb") as fh:
-        fh.write(header.encode("ascii"))
-        if binary:
-            fh.write(v.astype("<f8").tobytes())
-            rec = np.zeros(len(f), dtype=[("n", "u1"), ("i", "<i4", 3)])
-            rec["n"] = 3
-            rec["i"] = f
-            fh.write(rec.tobytes())
-        else:
-            lines = [" ".join(repr(float(c)) for c in row) for row in v]
-            lines += ["3 %d %d %d" % tuple(row) for row in f]
-            fh.write(("\n".join(lines) + "\n").encode("ascii"))
+    if binary:
+        rec = np.zeros(len(f), dtype=[("n", "u1"), ("i", "<i4", 3)])
+        rec["n"] = 3
+        rec["i"] = f
+        return header.encode("ascii") + v.astype("<f8").tobytes() + rec.tobytes()
+    lines = [" ".join(repr(float(c)) for c in row) for row in v]
+    lines += ["3 %d %d %d" % tuple(row) for row in f]
+    return (header + "\n".join(lines) + "\n").encode("ascii")
 
 
 _PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "<i2", "int16": "<i2",
@@ -333,11 +338,14 @@ def _ply_binary(path, body, elements):
 # --------------------------------------------------------------------------- OBJ
 
 def write_obj(path, verts, faces):
+    """OBJ, written whole or not at all."""
+    atomic_write(path, obj_bytes(verts, faces))
+
+
+def obj_bytes(verts, faces):
     v, f = _check(verts, faces)
-    with open(path, "w") as fh:
-        fh.write("# flank_addon OBJ\n")
-        fh.write("".join("v %.17g %.17g %.17g\n" % tuple(r) for r in v))
-        fh.write("".join("f %d %d %d\n" % tuple(r) for r in (f + 1)))
+    return ("# flank_addon OBJ\n" + "".join("v %.17g %.17g %.17g\n" % tuple(r) for r in v)
+            + "".join("f %d %d %d\n" % tuple(r) for r in (f + 1))).encode("ascii")
 
 
 def read_obj(path):
