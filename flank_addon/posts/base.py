@@ -42,6 +42,7 @@ class ReadProgram:
     tool_changes: list = field(default_factory=list)     # (tool number, line)
     comments: list = field(default_factory=list)
     axes: list = field(default_factory=list)
+    end_line: int = 0            # line of the program's end (M2 / M30, END PGM); 0: the text ends without one
 
 
 def fixed(x, decimals):

@@ -94,6 +94,8 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
                     pass
                 elif mcode == "5":
                     pass
+                elif mcode in ("2", "30"):
+                    out.end_line = out.end_line or no
                 elif mcode not in IGNORED_M:
                     raise PostError(f"line {no}: M{value} is not supported by the reader")
             elif letter in ("N", "H", "P", "Q", "D"):

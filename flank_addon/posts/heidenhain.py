@@ -117,6 +117,8 @@ class HeidenhainPost(Post):
             if toks[:2] in (["BEGIN", "PGM"], ["END", "PGM"]) or toks[:2] == ["BLK", "FORM"]:
                 if toks[2:3] and toks[0] == "BEGIN" and toks[-1] != "MM":
                     raise PostError(f"line {no}: only MM programs are read, got {toks[-1]!r}")
+                if toks[:2] == ["END", "PGM"]:
+                    out.end_line = out.end_line or no
                 continue
             if toks[:2] == ["TOOL", "CALL"]:
                 tool = int(toks[2])

@@ -277,6 +277,7 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
         "missing_strips": sorted(list(x) for x in expected - set(seen)),
         "repeated_strips": sorted([list(k), v] for k, v in seen.items() if len(v) > 1),
         "lobes_cut": cut_lobes,
+        "program_end_line": read.end_line,
         "screw_error_mm": max((ps["screw_error"] for ps in passes), default=0.0),
         "interpolation_error_mm": max((ps["interpolation_error"] for ps in passes), default=0.0),
         "run_out": {"min_start_clearance_mm": min((c[0] for c in clear), default=math.inf),
@@ -296,10 +297,13 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
 
 def program_findings(res):
     """What makes the program differ from its plans or cut where it must not, one sentence each (empty: the
-    program does what the plans say): passes that match no strip, strips never cut or cut twice, more gouge
-    points on a lobe than the plan itself has, passes that start or end inside the body, links that enter
-    the stock or a shaft, points that one side covers and the other does not."""
+    program does what the plans say): a text without the program's end, passes that match no strip, strips
+    never cut or cut twice, more gouge points on a lobe than the plan itself has, passes that start or end
+    inside the body, links that enter the stock or a shaft, points that one side covers and the other does
+    not."""
     out = []
+    if not res["program_end_line"]:
+        out.append("the program has no end (M2 / M30, END PGM): was it cut short?")
     un = res["unmatched_passes"]
     if un:
         lines = ", ".join(str(u["line"]) for u in un[:10]) + (", ..." if len(un) > 10 else "")

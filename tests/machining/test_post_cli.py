@@ -192,6 +192,10 @@ def test_a_repeated_strip_is_cut_once_and_a_missing_pass_fails_the_check(capsys,
     code, text, err = run(capsys, "verify", path, "--program", cut, "--machine", "rotor-xa-b", "--lobes", "0")
     assert code == 1, err
     assert "NOT AS PLANNED: 1 strip(s) never cut, as [plan, strip, lobe]: [[0, 0, 0]]" in text
+    short = tmp_path / "short.ngc"
+    short.write_text("\n".join(lines[:lines.index("M2")]) + "\n")
+    code, text, err = run(capsys, "verify", path, "--program", short, "--machine", "rotor-xa-b", "--lobes", "0")
+    assert code == 1 and "NOT AS PLANNED: the program has no end (M2 / M30, END PGM)" in text
 
 
 def test_a_cutter_plan_in_units_of_r_is_the_mm_plan_divided_by_the_radius(capsys, tmp_path):

@@ -112,6 +112,7 @@ def test_program_mills_what_the_plan_mills(request, kind, machine_name, post_nam
     res = verify_program(post.write(prog), post, prog.machine, [plan], rb, lobes=[1],
                          references=[plan_reference(plan)])
     assert res["matched_passes"] == res["passes"] and not res["missing_strips"] and not res["repeated_strips"]
+    assert res["findings"] == [] and res["program_end_line"] > 0
     (lobe,) = res["plans"][0]["lobes"]
     assert lobe["lobe"] == 1 and lobe["coverage_mismatches"] == 0
     assert lobe["max_deviation_difference_mm"] < 2e-3 + (1e-3 if prog.machine.tcp else 0.0)
