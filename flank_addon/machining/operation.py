@@ -90,7 +90,9 @@ def _same_rotor(plans):
 
 def flank_on_lobe(plan, flank, turn, solid=None):
     """Index of the plan's rotor flank that flank ``flank`` turned by ``turn`` (rad) about z lands on
-    (``solid``: the plan's :class:`..simulation.collision.ProfileSolid`, made here if not given)."""
+    (``solid``: the plan's :class:`..simulation.collision.ProfileSolid`, made here if not given).  Where ranges
+    overlap (a double-flank plan adds its valley's trimmed flanks after the rotor's), the first range holding
+    the point: the rotor's own flank, so every lobe is labelled alike."""
     from ..geometry.screw import rotate2d
     from ..simulation.collision import ProfileSolid
 
@@ -100,7 +102,11 @@ def flank_on_lobe(plan, flank, turn, solid=None):
     mid = prof[((a + b) // 2) % len(prof)]
     solid = solid or ProfileSolid(prof, rot["flanks"])
     _, idx = solid.nearest(rotate2d(mid[None], turn))
-    return int(solid.flank_of[idx[0]])
+    i, n = int(idx[0]), len(prof)
+    for k, (a, b) in enumerate(rot["flanks"]):
+        if a <= i <= b or a <= i + n <= b:
+            return k
+    return int(solid.flank_of[i])
 
 
 def run_out(shape, tip, axis, rotor, clearance, spacing=1.0, local=None):

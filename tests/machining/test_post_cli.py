@@ -221,3 +221,16 @@ def test_a_cutter_plan_in_units_of_r_is_the_mm_plan_divided_by_the_radius(capsys
                    *extra, "-o", out)[0] == 0
         programs.append([ln for ln in out.read_text().splitlines() if not ln.startswith("(")])
     assert programs[0] == programs[1]
+
+
+def test_every_lobe_names_the_rotor_flank_it_cuts(capsys, tmp_path, plan_file, double_flank_plan):
+    """A double-flank plan adds its valley's trimmed flanks after the rotor's; a pass on lobe k names the
+    rotor's own flank 2k + f on every lobe, lobe 0 included."""
+    code, text, err = run(capsys, "post", plan_file, "--machine", "rotor-xa-b", "--post", "linuxcnc", "--json",
+                          "-o", tmp_path / "p.ngc")
+    assert code == 0, err
+    per = json.loads(text)["per_pass"]
+    lobes = 1 + max(p["lobe"] for p in per)
+    assert len(double_flank_plan["rotor"]["flanks"]) > 2 * lobes            # the trimmed flanks are there
+    first = {p["lobe"]: p["flank"] for p in per if p["strip"] == 0}
+    assert first == {k: (first[0] + 2 * k) % (2 * lobes) for k in range(lobes)} and first[0] < 2 * lobes
