@@ -313,7 +313,35 @@ def _model_point_to_rotor(point, to_world):
     return pt
 
 
+# the options of ``plan`` each planner reads (besides the rotor or mesh and --out); any other one given is refused
+_SHAPE = ("tool_r1", "tool_r2", "shank_radius", "shank_length", "json")
+PLANNER_OPTIONS = {
+    "double-flank": ("valley", "valley_point", "variant", "tool", "two_paths", "radii", "rim", "tool_csv"),
+    "single-flank": _SHAPE + ("flank", "flank_point", "tools", "outer_radius_mm", "max_tools", "split", "tool_alpha",
+                              "tool_h", "tolerance", "overcut_tolerance", "seeds", "objective", "mode", "rounds",
+                              "no_collisions", "g1", "g1_extra_strips", "profile_csv"),
+    "freeform": _SHAPE + ("tool_length", "direction", "field", "point", "weights", "spacing", "samples", "columns",
+                          "engagement", "optimize_tool", "slide", "max_evaluations", "flip_normals"),
+}
+
+
+def _foreign_plan_options(args):
+    """The message for an option of ``plan`` given a value that the chosen planner does not read, else None."""
+    defaults = vars(build_parser().parse_args(["plan", args.planner, "--out", "-"]))
+    mine = set(PLANNER_OPTIONS[args.planner])
+    others = set().union(*PLANNER_OPTIONS.values()) - mine
+    given = [k for k in sorted(others) if getattr(args, k, None) != defaults.get(k)]
+    if given:
+        users = [p for p, opts in PLANNER_OPTIONS.items() if given[0] in opts]
+        return (f"--{given[0].replace('_', '-')} does not apply to plan {args.planner} (it is an option of plan "
+                f"{' and '.join(users)})")
+    return None
+
+
 def _cmd_plan(args):
+    foreign = _foreign_plan_options(args)
+    if foreign:
+        raise ValueError(foreign)
     if args.planner == "single-flank":
         return _cmd_plan_single_flank(args)
     if args.planner == "freeform":

@@ -279,3 +279,17 @@ def test_cli_names_the_option_or_file_of_a_bad_value(tmp_path, argv, message):
     names = dict(plan=plan, binary=binary, tmp=tmp_path)
     r = main_cli(*[a.format(**names) for a in argv])
     assert r.returncode == 2 and r.stderr.startswith("error: " + message.format(**names)), r.stderr
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["double-flank", "--valley", "0", "--tool-r1", "nan"],
+     "--tool-r1 does not apply to plan double-flank (it is an option of plan single-flank and freeform)"),
+    (["double-flank", "--valley", "0", "--tolerance", "0"],
+     "--tolerance does not apply to plan double-flank (it is an option of plan single-flank)"),
+    (["single-flank", "--flank", "1", "--valley", "3", "--tool-r1", "0.05", "--tool-r2", "0.08", "--tool-h", "0.3"],
+     "--valley does not apply to plan single-flank (it is an option of plan double-flank)"),
+])
+def test_an_option_of_another_planner_is_refused(tmp_path, argv, message):
+    """An option the chosen planner does not read would be silently ignored: it is named instead."""
+    r = main_cli("plan", argv[0], "--builtin", "asymmetric-female", *argv[1:], "--out", tmp_path / "p.json")
+    assert r.returncode == 2 and r.stderr.strip() == "error: " + message
