@@ -87,7 +87,7 @@ class Post:
         """The program text (the dialect's conventions, docs/posts.md)."""
         m = program.machine
         names = m.axis_names
-        self.lines, self.state = [], {"mode": None, "first_move": True, "tool": None}
+        self.lines, self.state = [], {"mode": None, "tool": None}
         self._header(program)
         cur, force = None, True
         for op in program.ops:
@@ -105,7 +105,13 @@ class Post:
                 words = self.words(names, row, cur, force)
                 if not words and not force:
                     continue
-                if kind == "rapid":
+                if kind == "rapid" and force and not m.tcp and len(names) > 3:
+                    # from the tool-change position, which the program cannot know: the rotary axes turn first,
+                    # where the tool stands, then the linear axes move (a joint machine's rotaries turn the part
+                    # or the head only; under TCP they would drag the linear axes along, so those stay as one)
+                    self._rapid([w for w in words if w[0] not in names[:3]], program)
+                    self._rapid([w for w in words if w[0] in names[:3]], program)
+                elif kind == "rapid":
                     self._rapid(words, program)
                 else:
                     self._feed(words, self.feed_value(cur, row, op["time_min"], m), program)

@@ -1,7 +1,8 @@
 """Fanuc-style ISO post: writer and reader.
 
-Program: ``%``, ``O1000``; G21 G17 G40 G49 G80 G90 G94; per tool ``T<n> M06``, ``S<rpm> M03``, ``M08``;
-the first positioning block of a tool carries the length compensation, ``G43 H<n>`` or, on a TCP machine,
+Program: ``%``, ``O1000``; G21 G17 G40 G49 G80 G90 G94 G54; per tool ``T<n> M06``, ``S<rpm> M03``, ``M08``;
+the first linear positioning block of a tool (after its rotary block, on a machine without TCP) carries the
+length compensation, ``G43 H<n>`` or, on a TCP machine,
 ``G43.4 H<n>`` (tool centre point control type 1: programmed X Y Z = tool tip in work coordinates, rotary
 axes as positions); passes under ``G93`` (inverse time, F = 1 / block minutes in every block), ``G94``
 after them; ``M05 M09 G49 M30 %``.  Coordinates always carry a decimal point (X12.3456), comments are
@@ -29,7 +30,7 @@ class FanucPost(Post):
         for t in header_lines(program, self):
             self._comment(t)
         self._comment("rapids assume linear interpolation positioning, parameter 1401 bit 1 LRP = 1")
-        self.lines.append("G21 G17 G40 G49 G80 G90 G94")
+        self.lines.append("G21 G17 G40 G49 G80 G90 G94 G54")
 
     def _footer(self, program):
         self.lines += ["G94", "M05", "M09", "G49", "M30", "%"]
@@ -59,7 +60,7 @@ class FanucPost(Post):
     def _rapid(self, words, program):
         self._mode("per_minute")
         comp = ""
-        if self.state.get("comp"):
+        if self.state.get("comp") and any(n in "XYZ" for n, _, _ in words):    # with the first linear move
             comp = ("G43.4" if program.machine.tcp else "G43") + f" H{self.state['comp']} "
             self.state["comp"] = None
         self.lines.append("G00 " + comp + self._axes(words))

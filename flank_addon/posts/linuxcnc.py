@@ -1,6 +1,6 @@
 """LinuxCNC (rs274ngc) post: writer and reader.
 
-Program: ``%`` ... ``%``; G21 G90 G17 G40 G49 G80 G94 G64 P0.001; per tool ``T<n> M6``, ``G43 H<n>``,
+Program: ``%`` ... ``%``; G21 G90 G17 G40 G49 G80 G94 G54 G64 P0.001; per tool ``T<n> M6``, ``G43 H<n>``,
 ``S<rpm> M3``, ``M8``; rapids ``G0``; each pass under ``G93`` (inverse time: F = 1 / block minutes, in every
 block, as LinuxCNC requires) and ``G94`` after it; ``M5 M9``, ``M2``.  Comments in parentheses.
 
@@ -26,7 +26,7 @@ class LinuxCNCPost(Post):
         m = program.machine
         self._comment("kinematics: " + ("TCP module active (program = tool tip in work coordinates)" if m.tcp
                                         else "identity (program = joint values)"))
-        self.lines.append("G21 G90 G17 G40 G49 G80 G94 G64 P0.001")
+        self.lines.append("G21 G90 G17 G40 G49 G80 G94 G54 G64 P0.001")
 
     def _footer(self, program):
         self.lines += ["G94", "M5", "M9", "G49", "M2", "%"]
