@@ -325,9 +325,12 @@ PLANNER_OPTIONS = {
 }
 
 
-def _foreign_plan_options(args):
-    """The message for an option of ``plan`` given a value that the chosen planner does not read, else None."""
-    defaults = vars(build_parser().parse_args(["plan", args.planner, "--out", "-"]))
+def _foreign_plan_options(args, parser):
+    """The message for an option of ``plan`` given a value that the chosen planner does not read, else None
+    (``parser``: the one that read ``args``, asked for the defaults)."""
+    if getattr(args, "command", None) != "plan":
+        return None
+    defaults = vars(parser.parse_args(["plan", args.planner, "--out", "-"]))
     mine = set(PLANNER_OPTIONS[args.planner])
     others = set().union(*PLANNER_OPTIONS.values()) - mine
     given = [k for k in sorted(others) if getattr(args, k, None) != defaults.get(k)]
@@ -339,9 +342,6 @@ def _foreign_plan_options(args):
 
 
 def _cmd_plan(args):
-    foreign = _foreign_plan_options(args)
-    if foreign:
-        raise ValueError(foreign)
     if args.planner == "single-flank":
         return _cmd_plan_single_flank(args)
     if args.planner == "freeform":
@@ -1269,14 +1269,15 @@ def _output_clash(args):
 
 
 def main(argv=None):
+    parser = build_parser()
     try:
-        args = build_parser().parse_args(attach_negative_lists(sys.argv[1:] if argv is None else list(argv)))
+        args = parser.parse_args(attach_negative_lists(sys.argv[1:] if argv is None else list(argv)))
     except SystemExit as ex:            # --help and --version: argparse has printed them
         return ex.code
     except UsageError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
-    missing = _missing_output_folder(args) or _output_clash(args)
+    missing = _missing_output_folder(args) or _output_clash(args) or _foreign_plan_options(args, parser)
     if missing:                         # before minutes of planning, not after
         print(f"error: {missing}", file=sys.stderr)
         return 2
