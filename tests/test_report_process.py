@@ -103,7 +103,10 @@ def test_progress_is_read_from_the_render_statistics(line, seen):
 
 
 @posix_only
-def test_the_pixels_come_back_and_both_files_go(fake_blender, tmp_path):
+def test_the_pixels_come_back_and_both_files_go(fake_blender, tmp_path, monkeypatch):
+    # samples over 0.75 s, 15 polls: the waiting worker sees them even on a busy machine (at 0.05 s in all, one
+    # poll, it once saw none while the other test worker ran Blender)
+    monkeypatch.setenv("FAKE_BEHAVE", "slow")
     blend, out = _files(tmp_path)
     seen = []
     data = rp.render_in_child(blend, "Flank Report", out, lambda f, m: seen.append((f, m)), fake_blender, None)
