@@ -313,15 +313,17 @@ def _model_point_to_rotor(point, to_world):
     return pt
 
 
-# the options of ``plan`` each planner reads (besides the rotor or mesh and --out); any other one given is refused
-_SHAPE = ("tool_r1", "tool_r2", "shank_radius", "shank_length", "json")
+# the options of ``plan`` each planner reads (besides the rotor or mesh and --out); any other one given is refused.
+# The two cone planners share the cone's radii, its shank and the JSON summary.
+_CONE_PLANNERS = ("tool_r1", "tool_r2", "shank_radius", "shank_length", "json")
 PLANNER_OPTIONS = {
     "double-flank": ("valley", "valley_point", "variant", "tool", "two_paths", "radii", "rim", "tool_csv"),
-    "single-flank": _SHAPE + ("flank", "flank_point", "tools", "outer_radius_mm", "max_tools", "split", "tool_alpha",
-                              "tool_h", "tolerance", "overcut_tolerance", "seeds", "objective", "mode", "rounds",
-                              "no_collisions", "g1", "g1_extra_strips", "profile_csv"),
-    "freeform": _SHAPE + ("tool_length", "direction", "field", "point", "weights", "spacing", "samples", "columns",
-                          "engagement", "optimize_tool", "slide", "max_evaluations", "flip_normals"),
+    "single-flank": _CONE_PLANNERS + ("flank", "flank_point", "tools", "outer_radius_mm", "max_tools", "split",
+                                      "tool_alpha", "tool_h", "tolerance", "overcut_tolerance", "seeds", "objective",
+                                      "mode", "rounds", "no_collisions", "g1", "g1_extra_strips", "profile_csv"),
+    "freeform": _CONE_PLANNERS + ("tool_length", "direction", "field", "point", "weights", "spacing", "samples",
+                                  "columns", "engagement", "optimize_tool", "slide", "max_evaluations",
+                                  "flip_normals"),
 }
 
 
@@ -1222,7 +1224,7 @@ _OUTPUT_OPTIONS = ("out", "plan_out", "tool_csv", "profile_out", "cl", "error_cs
 
 
 def _output_options(args):
-    """The options of ``args`` that name files the command writes (prefixes of numbered files included)."""
+    """The options of ``args`` that name single files the command writes."""
     return _OUTPUT_OPTIONS + (("profile_csv",) if getattr(args, "command", None) == "plan" else ())
 
 
