@@ -147,11 +147,21 @@ def test_an_overcut_deeper_than_the_search_range_is_measured_whole(delta):
     assert abs(facing + delta) < 1e-9
 
 
-@pytest.mark.parametrize("tol", [float("nan"), -0.001, 0.0, float("inf"), "tight"])
-def test_verify_refuses_a_tolerance_that_is_not_a_positive_number(tol):
-    """A NaN tolerance would count no gouge at all and a negative one every point: both are refused by name."""
-    with pytest.raises(ValueError, match=r"tolerance .* must be a finite number > 0"):
-        verify_plan(ball_plan(0.004), tolerance=tol)
+@pytest.mark.parametrize("kw, message", [
+    (dict(tolerance=float("nan")), r"tolerance nan must be a finite number > 0"),
+    (dict(tolerance=-0.001), r"tolerance -0.001 must be a finite number > 0"),
+    (dict(tolerance=0.0), r"tolerance 0.0 must be a finite number > 0"),
+    (dict(tolerance=float("inf")), r"tolerance inf must be a finite number > 0"),
+    (dict(tolerance="tight"), r"tolerance 'tight' must be a finite number > 0"),
+    (dict(tolerance=3.4e38), r"tolerance 3.4e\+38 is above the rotor's outer radius 0.8, its limit"),
+    (dict(search=float("inf")), r"search range inf must be a finite number > 0"),
+    (dict(search=5.0), r"search range 5.0 is above the rotor's outer radius 0.8, its limit"),
+])
+def test_verify_refuses_a_tolerance_or_search_range_out_of_its_limits(kw, message):
+    """A NaN tolerance would count no gouge at all and a negative one every point; an endless search range
+    never ends: all are refused by name."""
+    with pytest.raises(ValueError, match=message):
+        verify_plan(ball_plan(0.004), **kw)
 
 
 def test_all_points_colours_and_transfer_to_3d():

@@ -67,14 +67,16 @@ def sweep_targets(plan, search=None, all_points=False, progress=None):
     ``all_points``), all strips in one sweep: a point looks only at the strips that can reach it, a strip
     that repeats an earlier one is measured once, and each point goes to the first strip within 1e-12 R of
     the least distance (two strips that sweep the same surface give distances equal up to rounding).
-    ``search``: how far from the profile a deviation is sought (default 0.1 R; beyond it +inf).
+    ``search``: how far from the profile a deviation is sought (default 0.1 R, at most R; beyond it +inf, except
+    inside the swept region, :func:`.sweep.machined_deviation`).
     ``verify`` and the double-flank planner's simulated errors both ask it, so they report the same
     numbers.  Returns :class:`SweptTargets`."""
     rotor = plan["rotor"]
     prof, normals = profile_normals(rotor)
     n = len(prof)
     v0, hand = float(rotor["v0"]), rotor["handedness"]
-    search = 0.1 * float(rotor["outer_radius"]) if search is None else float(search)
+    outer = float(rotor["outer_radius"])
+    search = checked_length(search, 0.1 * outer, "search range", most=outer)
     tools, first = strip_solids(plan["strips"])
     target = np.zeros(n, bool)
     flank_of = np.full(n, -1)
@@ -97,18 +99,26 @@ def sweep_targets(plan, search=None, all_points=False, progress=None):
                         owner=strip_owners(owner, first), least=least, tools=tools, first=first)
 
 
-def checked_tolerance(tolerance, default):
-    """A verification's tolerance as a float (``default`` when None): a finite number > 0, else ValueError naming
-    it (a NaN would count no gouge at all, a negative one every point)."""
-    if tolerance is None:
+def checked_length(value, default, name, most=None):
+    """A verification's length setting as a float (``default`` when None): a finite number > 0, at most ``most``
+    when given, else ValueError naming it."""
+    if value is None:
         return float(default)
     try:
-        tol = float(tolerance)
+        v = float(value)
     except (TypeError, ValueError):
-        tol = math.nan
-    if not (math.isfinite(tol) and tol > 0):
-        raise ValueError(f"tolerance {tolerance!r} must be a finite number > 0 (in the plan's length unit)")
-    return tol
+        v = math.nan
+    if not (math.isfinite(v) and v > 0):
+        raise ValueError(f"{name} {value!r} must be a finite number > 0 (in the plan's length unit)")
+    if most is not None and v > most:
+        raise ValueError(f"{name} {value!r} is above the rotor's outer radius {most:g}, its limit")
+    return v
+
+
+def checked_tolerance(tolerance, default, most=None):
+    """A verification's tolerance as a float (``default`` when None): a finite number > 0 (a NaN would count no
+    gouge at all, a negative one every point), at most ``most`` when given."""
+    return checked_length(tolerance, default, "tolerance", most)
 
 
 def verify_plan(plan, tolerance=None, search=None, all_points=False, progress=None):
@@ -127,7 +137,7 @@ def verify_plan(plan, tolerance=None, search=None, all_points=False, progress=No
     rotor = plan["rotor"]
     v0, hand = float(rotor["v0"]), rotor["handedness"]
     outer = float(rotor["outer_radius"])
-    tol = checked_tolerance(tolerance, 1e-3 * outer)
+    tol = checked_tolerance(tolerance, 1e-3 * outer, most=outer)
     strips = plan["strips"]
     swept = sweep_targets(plan, search, all_points=all_points, progress=reporter(progress, 0.02, 0.8))
     prof, normals, target, flank_of = swept.profile, swept.normals, swept.target, swept.flank_of
