@@ -1184,20 +1184,15 @@ def build_parser():
     return p
 
 
-# how far a picked point may lie from the rotor surface, in outer radii (a point in the middle of a valley's
-# opening lies well within it; a point in other coordinates or another unit does not)
-PICK_LIMIT = 0.5
-
-
 def _picked_point(surface, point, to_world, option, unit):
     """A picked point (model coordinates) in the rotor frame, refused by name when it lies farther from the
-    rotor surface than :data:`PICK_LIMIT` outer radii."""
+    rotor surface than the surface's ``PICK_LIMIT`` outer radii."""
     p = _model_point_to_rotor(point, to_world)
-    d, limit = surface.section_distance(p), PICK_LIMIT * surface.outer_radius
+    d, limit = surface.section_distance(p), surface.PICK_LIMIT * surface.outer_radius
     if not d <= limit:
         raise ValueError(f"{option} {','.join(f'{x:g}' for x in point)} lies {d:.4g} {unit} from the rotor surface, "
-                         f"above the limit {limit:.4g} {unit} ({PICK_LIMIT:g} of the outer radius): a point in "
-                         "another unit or frame?")
+                         f"above the limit {limit:.4g} {unit} ({surface.PICK_LIMIT:g} of the outer radius): a point "
+                         "in another unit or frame?")
     return p
 
 

@@ -3,6 +3,8 @@
 a failed operator, selection, F-curves and the screw-motion keys, input limits.
 
 This is the bottom of the Blender layer: it imports no other module of ``operators`` or ``panels``."""
+import os
+
 import bpy
 import numpy as np
 
@@ -438,3 +440,17 @@ def hide_objects(objs):
         except RuntimeError:                 # not in the current view layer: nothing to hide
             pass
     return hid
+
+
+def output_file_error(path, what):
+    """Why a file a run will write cannot be written at ``path`` (a Blender path, '//' relative), said before any
+    work: its folder does not exist, or the path is a folder -> message, or None (also for an empty path)."""
+    if not path:
+        return None
+    full = bpy.path.abspath(path)
+    folder = os.path.dirname(os.path.abspath(full))
+    if not os.path.isdir(folder):
+        return "{} {}: the folder {} does not exist".format(what, full, folder)
+    if os.path.isdir(full):
+        return "{} {} is a folder, not a file".format(what, full)
+    return None

@@ -22,7 +22,7 @@ import time
 import bpy
 import numpy as np
 
-from .common import count_limit_error, set_color_attr, set_float_attr, typed
+from .common import count_limit_error, output_file_error, set_color_attr, set_float_attr, typed
 from .modal import ModalPlannerMixin
 from .properties import double_flank_props
 from .result_builder import COLOR_CHART, COLOR_TOOL, RunBuilder, finite_runs
@@ -204,7 +204,8 @@ class FLANK_OT_plan_double_flank(ModalPlannerMixin, bpy.types.Operator):
     def _prepare(self, context):
         """Properties and rotor -> job dict, or None (error reported)."""
         t0 = time.perf_counter()
-        msg = _check_inputs(self)
+        msg = (_check_inputs(self) or output_file_error(self.filepath, "plan file")
+               or output_file_error(self.tool_csv, "tool CSV"))
         src = rotor_source(context.active_object, PROP_PREFIX, defer=self._defer_analysis) if msg is None else msg
         if isinstance(src, AnalysisNeeded):
             return self._read_first(src)

@@ -25,7 +25,7 @@ import time
 import bpy
 import numpy as np
 
-from .common import count_limit_error, set_color_attr, set_float_attr, set_int_attr, typed
+from .common import count_limit_error, output_file_error, set_color_attr, set_float_attr, set_int_attr, typed
 from .modal import ModalPlannerMixin
 from .properties import single_flank_props
 from .result_builder import COLOR_CHART, COLOR_TOOL, RunBuilder, finite_runs
@@ -123,6 +123,12 @@ def _target_flank(op, src):
     mw = np.array(src["obj"].matrix_world, dtype=np.float64)
     p_h = np.linalg.solve(src["display"], np.r_[mw[:3, :3] @ p_local + mw[:3, 3], 1.0])
     point = p_h[:3] / p_h[3]
+    surface, s = src["surface"], float(src["scale"])
+    d, limit = surface.section_distance(point), surface.PICK_LIMIT * surface.outer_radius
+    if not d <= limit:
+        return ("point {} lies {:.4g} from rotor '{}', above the limit {:.4g} ({:g} of its outer radius; scene "
+                "units)".format([round(float(v), 6) for v in p_local], d * s, src["obj"].name, limit * s,
+                                surface.PICK_LIMIT))
     try:
         return int(ms.flank_of_point(src["surface"], flanks, point)), point
     except ValueError as ex:
@@ -327,7 +333,7 @@ class FLANK_OT_plan_single_flank(ModalPlannerMixin, bpy.types.Operator):
     def _prepare(self, context):
         """Properties, rotor and tool -> job dict, or None (error reported)."""
         t0 = time.perf_counter()
-        msg = _check_inputs(self)
+        msg = _check_inputs(self) or output_file_error(self.filepath, "plan file")
         src = rotor_source(context.active_object, PROP_PREFIX, defer=self._defer_analysis) if msg is None else msg
         if isinstance(src, AnalysisNeeded):
             return self._read_first(src)

@@ -125,6 +125,10 @@ class HelicalSurface:
         return cls(SplineProfile(pts), v0, handedness)
 
     # ------------------------------------------------------------------ evaluation
+    # how far a picked point (a flank or valley asked for by a point) may lie from the surface, in outer radii:
+    # a point in the middle of a valley's opening lies well within it, a point in another unit or frame does not
+    PICK_LIMIT = 0.5
+
     def section_distance(self, point, samples=8192):
         """Distance of a 3D point (rotor frame) from the surface measured in the transverse section: the point
         screwed into z = 0, against ``samples`` points of the profile (to the profile's sampling)."""

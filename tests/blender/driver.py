@@ -1193,6 +1193,7 @@ def scenario_single_flank(bpy, res, args):
                      ("flank_neg", dict(flank=-1)), ("seeds_0", dict(seeds=0)), ("rounds_0", dict(rounds=0)),
                      ("frames", dict(frame_start=10, frame_end=10)),
                      ("point_nan", dict(use_point=True, point=(nan, 0.0, 0.0))),
+                     ("point_far", dict(use_point=True, point=(1e9, 0.0, 0.0))),
                      ("all_colliding", dict(shank_radius=1.0 * S, shank_length=1.0 * S, seeds=2, rounds=1)),
                      ("plan_dir_missing", dict(seeds=1, rounds=1, filepath=os.path.join(tmp, "no_dir", "p.json")))):
         bpy.context.view_layer.objects.active = rotor_obj

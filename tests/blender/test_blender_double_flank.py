@@ -182,7 +182,7 @@ def test_two_cones(dfl):
     ("cones_0", ["K = 0", "1..12"]),
     ("two_paths_cone", ["Two Paths needs Tool = Custom", "cone"]),
     ("frames", ["end frame 10", "start frame 10"]),
-    ("plan_dir_missing", ["Could not build", "no_such_dir"]),
+    ("plan_dir_missing", ["plan file", "no_such_dir/plan.json: the folder", "does not exist"]),
     ("cube", ["'Cube", "is not a rotor", "flank_source = None"]),
     ("empty", ["'Empty'", "EMPTY"]),
 ])

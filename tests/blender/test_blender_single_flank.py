@@ -193,7 +193,8 @@ def test_undo_and_redo(sfl):
     # on the plan's profile samples (indices 176..341 of 2048), within one sample of the flank's ends 0.613, 1.187
     ("all_colliding", ["no collision-free strip on flank 1", "2 seeds tried, 2 colliding",
                        "collides with its own flank", "uncovered [0.6119, 1.186]"]),
-    ("plan_dir_missing", ["Could not build", "no_dir"]),
+    ("plan_dir_missing", ["plan file", "no_dir/p.json: the folder", "does not exist"]),
+    ("point_far", ["point [1000000000.0, 0.0, 0.0] lies", "above the limit", "of its outer radius"]),
     ("cube", ["'Cube", "is not a rotor", "flank_source = None"]),
     ("cube_analyzed", ["'Cube", "is not a helical rotor"]),
 ])
