@@ -98,6 +98,9 @@ class FLANK_OT_export_results(ModalPlannerMixin, bpy.types.Operator, ExportHelpe
             return None
         path = bpy.path.abspath(self.filepath)
         folder = os.path.dirname(path) or "."
+        if os.path.isdir(path):
+            self.report({'ERROR'}, "Export: '{}' is a folder: give a file name".format(path))
+            return None
         if not os.path.isdir(folder):
             self.report({'ERROR'}, "Export: the folder '{}' does not exist".format(folder))
             return None

@@ -121,6 +121,8 @@ def scenario(bpy, res, args):
     out["bad_strip"]["file"] = os.path.exists(os.path.join(tmp, "bad.apt"))
     out["bad_dir"] = dict(zip(("result", "error"), run_op(bpy.ops.flank.export_results, format="PLAN",
                                                            filepath=os.path.join(tmp, "no", "x.json"))))
+    out["is_dir"] = dict(zip(("result", "error"), run_op(bpy.ops.flank.export_results, format="PLAN",
+                                                          filepath=tmp)))
     out["leftovers"] = sorted(f for f in os.listdir(tmp) if f.startswith(".flank_export_"))
     res["export"] = out
 

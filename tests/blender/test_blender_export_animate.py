@@ -44,6 +44,8 @@ def test_bad_exports_write_nothing(ea):
     assert x["bad_strip"]["result"] is None and "strip = 99 does not exist" in x["bad_strip"]["error"]
     assert not x["bad_strip"]["file"]
     assert x["bad_dir"]["result"] is None and "does not exist" in x["bad_dir"]["error"]
+    assert x["is_dir"]["result"] is None and "is a folder: give a file name" in x["is_dir"]["error"]
+    assert "Traceback" not in x["is_dir"]["error"] and "IsADirectoryError" not in x["is_dir"]["error"]
     assert x["leftovers"] == []
 
 
