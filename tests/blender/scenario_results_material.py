@@ -172,14 +172,15 @@ def scenario(bpy, res, args):
                                         if m.get(materials.ATTRIBUTE_MATERIAL_PROP) is not None],
                                 zero_user_materials=_zero_user_materials(bpy))
 
-    # ---------------------------------------------------------------- a failed run (plan file in a missing
-    # folder: fails after its meshes and the material were made) leaves nothing behind
+    # ---------------------------------------------------------------- a failed run (a plan file name too long
+    # for the file system: its folder exists, so the write fails after the meshes and the material were made)
+    # leaves nothing behind
     import os
 
     _select_only(bpy, asym)
     before = _census(bpy)
     ret, err = driver._run_op(bpy.ops.flank.plan_single_flank,
-                              **dict(SF_KW, filepath=os.path.join(os.getcwd(), "no_such_dir", "p.json")))
+                              **dict(SF_KW, filepath=os.path.join(os.getcwd(), "p" * 300 + ".json")))
     res["failed"] = dict(result=ret, error=err, before=before, after=_census(bpy),
                          zero_user_materials=_zero_user_materials(bpy))
 
