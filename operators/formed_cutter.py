@@ -25,7 +25,8 @@ import time
 import bpy
 import numpy as np
 
-from .common import count_limit_error, mesh_vertices, remove_attributes, set_color_attr, set_float_attr, typed
+from .common import (count_limit_error, mesh_vertices, output_file_error, remove_attributes, set_color_attr,
+                     set_float_attr, typed)
 from .modal import ModalPlannerMixin
 from .properties import formed_cutter_props
 from .result_builder import RunBuilder
@@ -275,7 +276,7 @@ class FLANK_OT_formed_cutter(ModalPlannerMixin, bpy.types.Operator):
         t0 = time.perf_counter()
         values = [typed(v) for v in (self.lead, self.centre_distance, self.swivel, self.eps_b, self.tolerance)]
         lead_in, A_in, swivel, eps_b_in, tol_in = values
-        msg = _check_inputs(self, values)
+        msg = _check_inputs(self, values) or output_file_error(self.filepath, "plan file")
         src = rotor_to_cut(self, context, fc, lead_in) if msg is None else msg
         if not isinstance(src, str):
             A = A_in if A_in != 0.0 else src["A_auto"]

@@ -19,7 +19,7 @@ import bpy
 import numpy as np
 
 from ..flank_addon.geometry.rows import used_vertices
-from .common import count_limit_error, set_float_attr, typed
+from .common import count_limit_error, output_file_error, set_float_attr, typed
 from .guiding import COLOR_GUIDING, check_tool, guiding_inputs, planning_surface, size_check
 from .modal import ModalPlannerMixin
 from .properties import freeform_props
@@ -150,7 +150,7 @@ class FLANK_OT_plan_freeform(ModalPlannerMixin, bpy.types.Operator):
     # ------------------------------------------------------------------ main thread: inputs
     def _prepare(self, context):
         t0 = time.perf_counter()
-        msg = _check_inputs(self)
+        msg = _check_inputs(self) or output_file_error(self.filepath, "plan file")
         src = planning_surface(context, self) if msg is None else msg
         msg = src if isinstance(src, str) else _check_surface(self, src)
         gi = guiding_inputs(self, src) if msg is None else msg

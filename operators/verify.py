@@ -7,6 +7,7 @@ plan's rotor surface) and ``machined_deviation_color`` (FLOAT_COLOR, made the ac
 gouge, green within tolerance, blue stock, grey untouched).  The mesh is mapped into the plan's rotor frame with
 matrix_world and the inverse of rotor.to_world (model frame = Blender world coordinates)."""
 import json
+import math
 import os
 import time
 
@@ -207,6 +208,10 @@ class FLANK_OT_verify_plan(ModalPlannerMixin, bpy.types.Operator):
         co = mesh_vertices(mesh)
         # single-precision properties: recover the typed decimal (7 significant digits)
         tol_in, search_in = (float("{:.7g}".format(v)) for v in (self.tolerance, self.search))
+        for label, v in (("tolerance", tol_in), ("search range", search_in)):
+            if not math.isfinite(v):         # NaN would otherwise fall back to the default unseen
+                self.report({'ERROR'}, "Verify: {} = {} must be a finite number >= 0 (0 = default)".format(label, v))
+                return None
         return dict(t0=time.perf_counter(), obj_name=obj.name, path=path, plan=plan, co=co,
                     mw=np.array(obj.matrix_world, dtype=np.float64), tol_in=tol_in, search_in=search_in)
 

@@ -35,3 +35,16 @@ def test_a_replaced_file_keeps_its_mode(tmp_path):
     atomic_write(path, b"{\"format\": 1}")
     assert _mode(path) == 0o640 and path.read_bytes() == b"{\"format\": 1}"
     assert os.listdir(tmp_path) == ["plan.json"]
+
+
+@posix_only
+def test_a_link_is_written_through_and_a_device_is_refused(tmp_path):
+    real, link = tmp_path / "real.ngc", tmp_path / "current.ngc"
+    real.write_text("OLD")
+    os.symlink(real, link)
+    atomic_write(link, "G0 X1\n")
+    assert os.path.islink(link) and real.read_text() == "G0 X1\n"
+    with pytest.raises(OSError) as e:
+        atomic_write("/dev/null", "G0 X1\n")
+    assert e.value.filename == "/dev/null" and "not a regular file" in e.value.strerror
+    assert os.path.exists("/dev/null") and not os.path.isfile("/dev/null")

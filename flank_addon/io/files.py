@@ -35,9 +35,17 @@ def atomic_write_all(items):
     """Write several files [(path, bytes)] as one: every one is written to a temporary file in its folder first,
     and only when all of them are complete do they replace their paths, so a failure (a full disk, a folder in
     the way) leaves every earlier file as it was and no temporary file behind.  Raises OSError naming the path."""
-    for path, _ in items:
+    # a symbolic link is written through (its target gets the new file, the link stays: a DNC folder may
+    # point at it); anything else that is not a plain file (a folder, a device) is refused, never replaced
+    resolved = []
+    for path, data in items:
         if os.path.isdir(path):
             raise OSError(21, "Is a directory", os.fspath(path))
+        target = os.path.realpath(path)
+        if os.path.exists(target) and not os.path.isfile(target):
+            raise OSError(22, "not a regular file (a device or socket?)", os.fspath(path))
+        resolved.append((target, data))
+    items = resolved
     done = []
     try:
         for path, data in items:
