@@ -139,6 +139,16 @@ def repeats_earlier_strip(plan, s):
     return any(solid_key(plan["strips"][j]) == key and strip_tool(plan, j) == tool for j in range(s))
 
 
+def checked_lobes(lobes, rotor):
+    """``lobes`` (indices, or None for all) as a sorted list of the rotor's lobes; OperationError naming any that
+    the rotor does not have, or an empty list."""
+    lobes = list(range(rotor.lobes)) if lobes is None else sorted(set(int(k) for k in lobes))
+    bad = [k for k in lobes if not 0 <= k < rotor.lobes]
+    if bad or not lobes:
+        raise OperationError(f"lobes {bad or lobes} are not lobes of this rotor (0..{rotor.lobes - 1})")
+    return lobes
+
+
 def build_operation(plans, rotor, lobes=None, clearance=5.0, cutting_data=None):
     """The :class:`Operation` of rotor ``plans`` (mm) on ``rotor`` (:class:`RotorBody`).
 
@@ -153,10 +163,7 @@ def build_operation(plans, rotor, lobes=None, clearance=5.0, cutting_data=None):
     _same_rotor(plans)
     if not (isinstance(clearance, (int, float)) and math.isfinite(clearance) and clearance > 0):
         raise OperationError(f"clearance {clearance!r} must be a finite number > 0 (mm)")
-    lobes = list(range(rotor.lobes)) if lobes is None else sorted(set(int(k) for k in lobes))
-    bad = [k for k in lobes if not 0 <= k < rotor.lobes]
-    if bad or not lobes:
-        raise OperationError(f"lobes {bad or lobes} are not lobes of this rotor (0..{rotor.lobes - 1})")
+    lobes = checked_lobes(lobes, rotor)
     from ..exports.cl_data import strip_tip
     from ..io.plan import strip_tool
     from ..geometry.screw import screw_motion

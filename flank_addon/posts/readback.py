@@ -33,7 +33,7 @@ import numpy as np
 
 from ..geometry.screw import screw_motion
 from ..machining.cycle_time import cycle_time
-from ..machining.operation import repeats_earlier_strip
+from ..machining.operation import checked_lobes, repeats_earlier_strip
 from ..machining.tool_shape import ToolShape
 from ..machining.toolpath import segment_intrusion
 from ..simulation.verify import profile_normals, verify_plan
@@ -207,7 +207,8 @@ def lobe_deviation(plan, p, passes, tools, rotor, lobe, reference, recheck=1e-3)
                 mismatch += 1
             elif np.isfinite(x):
                 diff[int(i)] = abs(float(y - x))
-    return {"lobe": lobe, "passes": len(strips), "unmatched_passes": unmatched, "max_deviation_difference_mm": max(diff.values(), default=0.0),
+    return {"lobe": lobe, "passes": len(strips), "unmatched_passes": unmatched,
+            "max_deviation_difference_mm": max(diff.values(), default=0.0),
             "pose_difference_mm": pose_diff, "rechecked_points": len(again),
             "coarse_max_difference_mm": coarse, "coverage_mismatches": mismatch,
             "max_undercut_mm": res["max_undercut"], "max_overcut_mm": res["max_overcut"],
@@ -240,9 +241,7 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
     the program cuts); ``references``: verify_plan of each plan when already known."""
     t0 = time.perf_counter()
     if lobes is not None:
-        bad = [k for k in lobes if not 0 <= k < rotor.lobes]
-        if bad or not lobes:
-            raise ValueError(f"lobes {bad or list(lobes)} are not lobes of this rotor (0..{rotor.lobes - 1})")
+        lobes = checked_lobes(lobes, rotor)
     read = post.read(text, machine)
     tools, of_strip = tool_table(plans)
     passes = match_passes(read_passes(read, machine, tools, rotor), plans, rotor, tools, of_strip)
@@ -253,7 +252,7 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
     # the lobes the program cuts: those of its matched passes and those its other passes come nearest to
     cut_lobes = sorted({m[2] for m in seen} | {ps["nearest"][2] for ps in passes if ps["match"] is None})
     # every strip is due on every lobe asked for; without ``lobes``, on those cut (all of them if none is)
-    due = sorted(set(lobes)) if lobes is not None else (cut_lobes or list(range(rotor.lobes)))
+    due = lobes if lobes is not None else (cut_lobes or list(range(rotor.lobes)))
     expected = {(p, s, k) for p, plan in enumerate(plans) for s in range(len(plan["strips"]))
                 if not repeats_earlier_strip(plan, s) for k in due}
     clear = [run_out(ps, tools, rotor) for ps in passes]
