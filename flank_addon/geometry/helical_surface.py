@@ -129,12 +129,20 @@ class HelicalSurface:
     # a point in the middle of a valley's opening lies well within it, a point in another unit or frame does not
     PICK_LIMIT = 0.5
 
-    def section_distance(self, point, samples=8192):
-        """Distance of a 3D point (rotor frame) from the surface measured in the transverse section: the point
-        screwed into z = 0, against ``samples`` points of the profile (to the profile's sampling)."""
+    def nearest_section_param(self, point, samples=8192):
+        """(u, distance): the profile parameter nearest to a 3D point (rotor frame) in the transverse section
+        (the point screwed into z = 0, against ``samples`` points of the profile) and its distance there."""
         q0 = screw_to_plane(np.asarray(point, float).reshape(1, 3), self.v0, self.hand)[0]
         prof = self.profile
-        return float(np.min(np.linalg.norm(prof.eval(prof.params(samples)) - q0[:2], axis=1)))
+        us = prof.params(samples)
+        d = np.linalg.norm(prof.eval(us) - q0, axis=1)
+        j = int(np.argmin(d))
+        return us[j], float(d[j])
+
+    def section_distance(self, point, samples=8192):
+        """Distance of a 3D point (rotor frame) from the surface measured in the transverse section (to the
+        profile's sampling, :meth:`nearest_section_param`)."""
+        return self.nearest_section_param(point, samples)[1]
 
     def evaluate(self, u, t):
         u, t, p, _, c, s = self._at(u, t)

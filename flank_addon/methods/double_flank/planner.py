@@ -53,7 +53,6 @@ import numpy as np
 from ...geometry.angles import atan2, wrapped
 from ...geometry.flank_feet import FlankFeet
 from ...geometry.runs import ranks_in_runs
-from ...geometry.screw import screw_to_plane
 
 VARIANTS = ("min", "avg", "one-sided-1", "one-sided-2")
 
@@ -131,12 +130,8 @@ class Valley:
 
 def valley_of_point(surface, flank_ranges, point):
     """Valley index whose flanks hold the profile point nearest to a 3D point (rotor frame)."""
-    q0 = screw_to_plane(np.asarray(point, float)[None, :], surface.v0, surface.hand)[0]
-    prof = surface.profile
-    us = prof.params(8192)
-    j = int(np.argmin(np.linalg.norm(prof.eval(us) - q0, axis=1)))
-    u = us[j]
-    per = prof.period
+    u, _ = surface.nearest_section_param(point)
+    per = surface.profile.period
     for i, (a, b) in enumerate(flank_ranges):
         if a <= u <= b or a <= u + per <= b:
             return i // 2

@@ -661,16 +661,11 @@ def envelope_strip(candidate, surface, u_range, z_range=(0.0, 1.0), n_s=60, n_t=
 def flank_of_point(surface, flank_ranges, point):
     """Index of the flank holding the profile point nearest to a 3D point (rotor frame): the point
     is screwed into z = 0 first (every flank is invariant under the screw)."""
-    from ...geometry.screw import screw_to_plane
-
     p = np.asarray(point, float).reshape(3)
     if not np.isfinite(p).all():
         raise ValueError(f"flank point {point} must be three finite numbers")
-    q0 = screw_to_plane(p[None, :], surface.v0, surface.hand)[0]
-    prof = surface.profile
-    us = prof.params(8192)
-    u = us[int(np.argmin(np.linalg.norm(prof.eval(us) - q0, axis=1)))]
-    per = prof.period
+    u, _ = surface.nearest_section_param(p)
+    per = surface.profile.period
     for i, (a, b) in enumerate(flank_ranges):
         if a <= u <= b or a <= u + per <= b or a <= u - per <= b:
             return i
