@@ -28,7 +28,9 @@ SF_ASIN = math.asin(0.1)
 SF_KW = dict(shape="alpha", alpha=SF_ASIN, r1=0.05, r2=0.08, shank_radius=0.04, shank_length=0.6,
              tolerance=1e-3, envelope_rings=12, seeds=6, rounds=1, flank=1)
 # a cone on the saddle, object scale 2 (local r 0.02 .. 0.03, L 0.12): about 100 optimiser evaluations, ~2 s
-FF_KW = dict(r1=0.04, r2=0.06, length=0.24, samples=12, columns=16, max_evaluations=150, tolerance=0.002,
+# a free-form run long enough for several of the driver's 0.1 s timer events (with 12 samples and 16 columns it
+# took about 0.25 s and sometimes saw only two on this machine)
+FF_KW = dict(r1=0.04, r2=0.06, length=0.24, samples=24, columns=24, max_evaluations=150, tolerance=0.002,
              direction=(0.0, 1.0, 0.0))
 
 
