@@ -37,6 +37,8 @@ TANGENCY_THRESHOLD = 0.05   # RMS sin(angle between screw velocity and vertex no
 MIN_HELICAL_AREA = 0.3      # fraction of the mesh area that must be helical
 MIN_PITCH_RATIO = 1e-3      # v0 / R below this is a surface of revolution, not a helix
 MIN_EIGEN_SEPARATION = 1e3  # second / first eigenvalue of the screw fit; below: motion not unique
+MIN_AXIAL_NORMAL = 0.01     # RMS axial component of the fitting faces' normals; below: no face fixes the pitch
+FACE_PITCH_AGREEMENT = 0.2  # the faces' own advance k within this fraction of the fitted one
 
 
 class NotHelicalError(ValueError):
@@ -223,6 +225,36 @@ def axis_screw_velocity(points, d, a, k):
     vel[:, 1] = kd[1] + (d[2] * q[:, 0] - d[0] * q[:, 2])
     vel[:, 2] = kd[2] + (d[0] * q[:, 1] - d[1] * q[:, 0])
     return vel
+
+
+def face_advance(points, faces, face_cross, d, a, k, max_faces=20000):
+    """What the faces' own normals say about the advance k of the screw (unit axis d through a).
+
+    A helical surface's normal n obeys k (n . d) = -(d x (x - a)) . n, so only faces whose normals have
+    an axial component fix k.  The vertex-normal fit cannot see that: at a prism's rims the vertex
+    normals lean towards the end caps and give some k, while the prism's sides are tangent to every
+    screw about the axis.  Over the faces tangent to the fitted screw (sine of the angle between the
+    face normal and the screw velocity at the centroid below the tangency threshold; at most
+    ``max_faces`` faces, evenly strided), returns the RMS axial component of their normals and the
+    area-weighted least-squares k of that relation.  On a screw rotor the two k agree to a few percent
+    (coarse meshes) or better; on a cylinder or prism no face fixes k, or only the end caps, which say 0.
+    """
+    stride = max(1, -(-len(faces) // max_faces))
+    f, cr = faces[::stride], face_cross[::stride]
+    length = np.linalg.norm(cr, axis=1)
+    n = cr / length[:, None]
+    turn = axis_screw_velocity((points[f[:, 0]] + points[f[:, 1]] + points[f[:, 2]]) / 3.0, d, a, 0.0)
+    vel = turn + k * d
+    sine = np.abs(np.einsum("ij,ij->i", vel, n)) / np.maximum(np.linalg.norm(vel, axis=1), 1e-300)
+    fits = sine <= TANGENCY_THRESHOLD
+    if not fits.any():
+        return 0.0, 0.0
+    axial, w = n[fits] @ d, length[fits]
+    squares = float(np.sum(w * axial ** 2))
+    rms = float(np.sqrt(squares / np.sum(w)))
+    if squares <= 0.0:
+        return rms, 0.0
+    return rms, float(-np.sum(w * axial * np.einsum("ij,ij->i", turn[fits], n[fits])) / squares)
 
 
 def fit_screw_motion(points, normals, weights, moments=None):
@@ -778,6 +810,17 @@ def _analyze_mesh(verts, faces, n_profile, threshold, progress=None):
         raise NotHelicalError(
             f"not helical: the screw motion is not unique (eigenvalue separation {separation:.3g} "
             f"< {MIN_EIGEN_SEPARATION:g}; sphere, cylinder or plane?; {quote})")
+    axial, face_k = face_advance(P, faces, face_cross, d, a, k)
+    if axial < MIN_AXIAL_NORMAL:
+        raise NotHelicalError(
+            f"not a helical rotor: the faces that fit the screw motion are parallel to its axis (RMS axial "
+            f"component of their normals {axial:.3g} < {MIN_AXIAL_NORMAL:g}), so every pitch fits them: "
+            f"a cylinder or prism ({quote})")
+    if not abs(face_k / k - 1.0) <= FACE_PITCH_AGREEMENT:
+        raise NotHelicalError(
+            f"not a helical rotor: the pitch is not determined; the faces' normals give v0 = "
+            f"{abs(face_k) * scale:.3g}, the vertex normals v0 = {abs(k) * scale:.3g} (they must agree "
+            f"within {FACE_PITCH_AGREEMENT:.0%}): a cylinder or prism? ({quote})")
     axis_point = centre + scale * a
     v0 = abs(k) * scale
     hand = 1 if k > 0 else -1

@@ -202,8 +202,8 @@ def scenario_operators(bpy, res, args):
 
     # error path: non-helical meshes must be refused without creating anything
     errors = {}
-    for prim in ("uv_sphere", "cube"):
-        getattr(bpy.ops.mesh, "primitive_{}_add".format(prim))(location=(5.0, 0.0, 0.0))
+    for prim, size in (("uv_sphere", {}), ("cube", {}), ("cylinder", dict(vertices=64, radius=20.0, depth=100.0))):
+        getattr(bpy.ops.mesh, "primitive_{}_add".format(prim))(location=(5.0, 0.0, 0.0), **size)
         target = bpy.context.active_object
         n_before = len(bpy.data.objects)
         m_before = len(bpy.data.meshes)
