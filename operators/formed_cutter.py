@@ -283,6 +283,10 @@ class FLANK_OT_formed_cutter(ModalPlannerMixin, bpy.types.Operator):
             if abs(A) > 1000.0 * src["r0"]:
                 src = "centre distance A = {:g} exceeds the limit 1000 x the rotor's outer radius = {:g}".format(
                     A, 1000.0 * src["r0"])
+            for label, value in (("eps_b", eps_b_in), ("tolerance", tol_in)):
+                if not isinstance(src, str) and value > src["r0"]:
+                    src = "{} = {:g} exceeds the rotor's outer radius {:g} (0 = default)".format(label, value,
+                                                                                               src["r0"])
         if isinstance(src, str):
             self.report({'ERROR'}, "Formed cutter: " + src)
             return None

@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """flank.generate_rotor -- built-in screw rotor as a mesh object with its helix data."""
+import math
 import time
 
 import bpy
@@ -7,6 +8,10 @@ import bpy
 from .common import count_limit_error, finish_mesh, mesh_without_edges, select_only
 from .modal import ModalPlannerMixin, next_turn
 from .properties import generator_props
+
+# Blender keeps vertex coordinates in single precision (7 digits): a rotor larger than this keeps less than a
+# tenth of a scene unit of its shape
+MAX_SCENE_LENGTH = 1e6
 
 
 class FLANK_OT_generate_rotor(ModalPlannerMixin, bpy.types.Operator):
@@ -28,6 +33,10 @@ class FLANK_OT_generate_rotor(ModalPlannerMixin, bpy.types.Operator):
                or count_limit_error("axial rings", self.axial, 2, 16384)
                or count_limit_error("mesh vertices (resolution x axial rings)",
                                     int(self.resolution) * int(self.axial), 48, 4000000))
+        for label, value in (("outer radius", self.scale), ("lead", self.lead), ("length", self.length)):
+            if msg is None and not (math.isfinite(value) and value <= MAX_SCENE_LENGTH):
+                msg = "{} = {:g} must be a finite number of at most {:g} scene units{}".format(
+                    label, value, MAX_SCENE_LENGTH, "" if label == "outer radius" else " (0 = automatic)")
         if msg is not None:
             self.report({'ERROR'}, "Rotor generation: " + msg)
             return None

@@ -102,6 +102,18 @@ def test_cl_one_strip_default_range_and_header(single):
     for bad in (dict(strip=5), dict(steps=0), dict(z_range=(1.0, 0.0))):
         with pytest.raises(ValueError):
             cl_data(single, **{"steps": 8, **bad})
+    with pytest.raises(ValueError, match=r"z range 1e\+06,2e\+06 reaches beyond 1e4 x the outer radius"):
+        cl_data(single, steps=8, z_range=(1e6, 2e6))
+
+
+def test_cl_z_range_must_come_near_the_rotor_body(single):
+    """With the rotor's extent known, a tool tip range that never comes within an outer radius of the body is
+    refused; one that overlaps that margin is written."""
+    plan = dict(single, rotor=dict(single["rotor"], extent={"z_range": [0.0, 3.0], "shafts": []}))
+    R = plan["rotor"]["outer_radius"]
+    with pytest.raises(ValueError, match=r"misses the rotor: its body spans z = 0 .. 3"):
+        cl_data(plan, steps=8, z_range=(3.0 + 1.01 * R, 10.0))
+    assert "GOTO" in cl_data(plan, steps=8, z_range=(3.0 + 0.99 * R, 10.0))
 
 
 def test_error_csv_equals_verify_profile(single):

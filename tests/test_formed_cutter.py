@@ -316,6 +316,9 @@ def test_bad_input_messages():
         cutter_profile(sec, float("nan"), 200.0, 31.0)
     with pytest.raises(FormedCutterError, match="eps_b"):
         cutter_profile(sec, 450.0, 200.0, 31.0, eps_b=0.0)
+    with pytest.raises(FormedCutterError, match=r"eps_b = 3.4e\+38 must be > 0 and at most the rotor's outer radius "
+                                                r"111.69"):
+        cutter_profile(sec, 450.0, 200.0, 31.0, eps_b=3.4e38)      # a float property's infinity
     assert issubclass(FormedCutterError, ValueError)
     assert isinstance(sec, Section)
 

@@ -69,6 +69,9 @@ def test_bad_parameters_are_named():
         groove_section(R=20, a=0.05, b=7.2, p=20)
     with pytest.raises(ParaboloidError, match="must exceed the tool's equator radius 12"):
         groove_section(R=10, a=-0.05, b=7.2, p=20)
+    with pytest.raises(ParaboloidError, match=r"pitch p = 3.4e\+38 exceeds 10000 x the helix radius R = 20"):
+        groove_surface(R=20, a=-0.05, b=7.2, p=3.4e38)              # a float property's infinity
+    groove_section(R=20, a=-0.05, b=7.2, p=2e5)                     # the limit itself is taken
 
 
 def test_cli_writes_paper_section(tmp_path, capsys):

@@ -278,3 +278,17 @@ def test_nilson_female_is_the_envelope_of_the_male():
     assert res["max_interference"] <= 1e-6
     assert rotors.spline_error("nilson", "male") < 1e-9
     assert rotors.spline_error("nilson", "female") < 1e-9
+
+
+def test_builtin_rotor_sizes_out_of_range_are_named():
+    """A lead or length a float property holds for infinity (3.4e38) is finite: refused by its ratio to the
+    outer radius, as are leads that make a surface of revolution."""
+    with pytest.raises(rotors.RotorError, match=r"lead = 3.4e\+38 is outside the limits 0.0628319 .. 100000 for "
+                                                r"the outer radius 10"):
+        rotors.builtin_rotor("nilson", "male", scale=10.0, lead=3.4e38)
+    with pytest.raises(rotors.RotorError, match=r"lead = 1e-06 is outside"):
+        rotors.builtin_rotor("nilson", "male", scale=10.0, lead=1e-6)
+    with pytest.raises(rotors.RotorError, match=r"length = 3.4e\+38 exceeds 10000 x the outer radius 10"):
+        rotors.builtin_rotor("nilson", "male", scale=10.0, length=3.4e38)
+    r = rotors.builtin_rotor("nilson", "male", scale=10.0, lead=-100.0)    # a negative lead: the other hand
+    assert r.handedness == "left" and r.v0 == pytest.approx(100.0 / (2 * math.pi))

@@ -90,6 +90,16 @@ def _z_range(plan, z_range):
     z0, z1 = (float(z) for z in z_range)
     if not (math.isfinite(z0) and math.isfinite(z1) and z1 > z0):
         raise ValueError(f"z range {z0:g},{z1:g} must be finite with Z0 < Z1")
+    R, unit = float(plan["rotor"]["outer_radius"]), plan.get("length_unit", "")
+    extent = plan["rotor"].get("extent")
+    if extent is not None:
+        # a tool tip that never comes within an outer radius of the body's ends cuts air only
+        lo, hi = (float(z) for z in extent["z_range"])
+        if z1 < lo - R or z0 > hi + R:
+            raise ValueError(f"z range {z0:g},{z1:g} misses the rotor: its body spans z = {lo:g} .. {hi:g} {unit} "
+                             f"(outer radius {R:g}); the tool tip's range must come within an outer radius of it")
+    elif max(abs(z0), abs(z1)) > 1e4 * R:
+        raise ValueError(f"z range {z0:g},{z1:g} reaches beyond 1e4 x the outer radius {R:g} {unit}")
     return z0, z1
 
 

@@ -501,6 +501,10 @@ def _default_lead(scale, length, z_ratio=1.0):
     return length * 360.0 / 300.0 * z_ratio
 
 
+MIN_LEAD_V0_RATIO = 1e-3   # v0 / outer radius, as the mesh analysis' MIN_PITCH_RATIO
+MAX_SIZE_RATIO = 1e4       # lead and length / outer radius
+
+
 def builtin_rotor(kind, part, scale=1.0, lead=None, length=None, handedness=None):
     """Built-in rotor ``kind`` in KINDS, ``part`` 'male' or 'female'.
 
@@ -527,6 +531,14 @@ def builtin_rotor(kind, part, scale=1.0, lead=None, length=None, handedness=None
     lead = float(lead)
     if lead == 0 or not math.isfinite(lead):
         raise RotorError(f"lead must be a non-zero finite number, got {lead!r}")
+    # the same bounds as a mesh's analysis: below, a surface of revolution; above, a straight extrusion
+    lo, hi = 2 * math.pi * MIN_LEAD_V0_RATIO * scale, MAX_SIZE_RATIO * scale
+    if not lo <= abs(lead) <= hi:
+        raise RotorError(f"lead = {lead:.6g} is outside the limits {lo:.6g} .. {hi:.6g} for the outer radius "
+                         f"{scale:.6g} (v0 between {MIN_LEAD_V0_RATIO:g} and {MAX_SIZE_RATIO / (2 * math.pi):.4g} "
+                         "outer radii)")
+    if length > MAX_SIZE_RATIO * scale:
+        raise RotorError(f"length = {length:.6g} exceeds {MAX_SIZE_RATIO:g} x the outer radius {scale:.6g}")
     if handedness is None:
         handedness = "right" if part == "male" else "left"
     if lead < 0:  # a negative lead means the opposite hand

@@ -71,6 +71,20 @@ def test_non_finite_numbers_are_refused_by_the_planners(fuzz):
     assert checked >= 14
 
 
+# infinity reaches an operator as 3.4e38, finite: these sizes were taken and made a rotor with v0 = 2e38, a groove
+# with an overcut of 3.5e37 or a cutter searched without subdivision
+INFINITE_SIZES = {("flank.generate_rotor", "scale"): "outer radius", ("flank.generate_rotor", "lead"): "lead",
+                  ("flank.generate_rotor", "length"): "length", ("flank.paraboloid_groove", "pitch"): "pitch p",
+                  ("flank.formed_cutter", "eps_b"): "eps_b", ("flank.formed_cutter", "tolerance"): "tolerance"}
+
+
+@pytest.mark.parametrize("op, prop", sorted(INFINITE_SIZES))
+def test_infinite_sizes_are_refused_by_name(fuzz, op, prop):
+    (c,) = [c for c in fuzz["calls"] if c["op"] == op and c.get("prop") == prop and c.get("value") == "inf"]
+    assert c["result"] is None and INFINITE_SIZES[op, prop] in c["error"], c
+    assert not c["traceback"] and not c["leaked"], c
+
+
 def test_the_fuzz_run_stays_quick(fuzz):
     """No accepted call ran away with a huge size (each is bounded by a limit check)."""
     slow = [(c["op"], c.get("prop"), c.get("value"), round(c["seconds"], 1)) for c in fuzz["calls"]

@@ -1042,8 +1042,9 @@ def cutter_profile(profile, lead, centre_distance, swivel_deg, handedness="right
     scale = r0
     eps_b = 1e-4 * scale if eps_b is None else float(eps_b)
     eps_a = 1e-12 * scale if eps_a is None else float(eps_a)
-    if not eps_b > 0:
-        raise FormedCutterError(f"eps_b must be > 0, got {eps_b!r}")
+    if not 0 < eps_b <= r0:
+        raise FormedCutterError(f"eps_b = {eps_b!r} must be > 0 and at most the rotor's outer radius {r0:.6g} "
+                                "(the radius search's subdivision threshold)")
     if int(n_init) < 4:
         raise FormedCutterError(f"n_init must be >= 4, got {n_init!r}")
     if z is None:

@@ -25,6 +25,9 @@ from dataclasses import dataclass
 import numpy as np
 
 
+MAX_PITCH_RATIO = 1e4   # pitch / helix radius above which the helix is a straight line to the mesh's precision
+
+
 class ParaboloidError(ValueError):
     """Bad tool or path parameters; the message names the value and the limit."""
 
@@ -53,6 +56,9 @@ def _check(R, a, b, p):
                               "(the tool would cross the screw axis)")
     if not (np.isfinite(p) and p >= 0):
         raise ParaboloidError(f"pitch p must be >= 0, got {p}")
+    if p > MAX_PITCH_RATIO * R:
+        raise ParaboloidError(f"pitch p = {p:.6g} exceeds {MAX_PITCH_RATIO:g} x the helix radius R = {R:.6g}: "
+                              "such a helix is a straight slot")
     return rho
 
 
