@@ -599,7 +599,17 @@ def _get_tip_mm(self):
     return _rounded(2.0 * float(self.sf_r1) * _mm(self))
 
 
+def _usable_mm(value):
+    """A millimetre field's new value is taken only when it is a finite number >= 0: the field keeps its value
+    otherwise, as Blender's own fields do beyond their limits (NaN would pass the clamp to min)."""
+    import math
+
+    return math.isfinite(value) and value >= 0.0
+
+
 def _set_tip_mm(self, value):
+    if not _usable_mm(value):
+        return
     h = _flute(self)
     self.sf_r1 = 0.5 * value / _mm(self)
     _set_flute(self, h)
@@ -614,6 +624,8 @@ def _get_taper_deg(self):
 def _set_taper_deg(self, value):
     import math
 
+    if not (math.isfinite(value) and 0.0 < value < 90.0):
+        return
     h = _flute(self)
     self.sf_alpha = math.radians(value)
     _set_flute(self, h)
@@ -624,6 +636,8 @@ def _get_flute_mm(self):
 
 
 def _set_flute_mm(self, value):
+    if not _usable_mm(value):
+        return
     _set_flute(self, value / _mm(self))
 
 
@@ -632,6 +646,8 @@ def _get_shank_d_mm(self):
 
 
 def _set_shank_d_mm(self, value):
+    if not _usable_mm(value):
+        return
     self.sf_shank_radius = 0.5 * value / _mm(self)
 
 
@@ -640,6 +656,8 @@ def _get_shank_l_mm(self):
 
 
 def _set_shank_l_mm(self, value):
+    if not _usable_mm(value):
+        return
     self.sf_shank_length = value / _mm(self)
 
 
@@ -648,18 +666,18 @@ def tool_mm_props():
     of a 6 mm end mill gives a 6 mm tool whatever the scene's unit and unit scale."""
     return dict(
         tool_tip_diameter_mm=FloatProperty(name="Tip Diameter (mm)", description="2 x r1 in millimetres",
-                                           get=_get_tip_mm, set=_set_tip_mm, precision=4),
+                                           get=_get_tip_mm, set=_set_tip_mm, precision=4, min=0.0),
         tool_taper_deg=FloatProperty(name="Taper (deg)", description="Taper half angle = opening angle alpha in "
                                                                      "degrees", get=_get_taper_deg,
-                                     set=_set_taper_deg, precision=4),
+                                     set=_set_taper_deg, precision=4, min=0.0, max=90.0),
         tool_flute_length_mm=FloatProperty(name="Flute Length (mm)", description="Flute length h in millimetres "
                                                                                  "(r2 follows from r1, taper and h)",
-                                           get=_get_flute_mm, set=_set_flute_mm, precision=4),
+                                           get=_get_flute_mm, set=_set_flute_mm, precision=4, min=0.0),
         tool_shank_diameter_mm=FloatProperty(name="Shank Diameter (mm)", description="2 x shank radius in mm",
-                                             get=_get_shank_d_mm, set=_set_shank_d_mm, precision=4),
+                                             get=_get_shank_d_mm, set=_set_shank_d_mm, precision=4, min=0.0),
         tool_shank_length_mm=FloatProperty(name="Shank Length (mm)", description="Shank length beyond the flutes "
                                                                                  "in mm", get=_get_shank_l_mm,
-                                           set=_set_shank_l_mm, precision=4),
+                                           set=_set_shank_l_mm, precision=4, min=0.0),
     )
 
 

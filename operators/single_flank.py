@@ -67,7 +67,7 @@ def _check_inputs(op):
         return "tool radii r1 = {} and r2 = {}: r1 must be below r2".format(r1, r2)
     if op.shape == "alpha":
         a = typed(op.alpha)
-        if not math.isfinite(a) or not 0.0 < a < 0.5 * math.pi:
+        if not math.isfinite(a) or not 0.0 < a < typed(0.5 * math.pi):   # 90 deg in single precision, typed
             return "opening angle alpha = {:.6g} deg is outside (0, 90) deg".format(
                 math.degrees(a) if math.isfinite(a) else a)
     elif not (math.isfinite(typed(op.length)) and typed(op.length) > 0.0):

@@ -203,6 +203,22 @@ class FLANK_OT_tool_preset_add(AddPresetBase, bpy.types.Operator):
     preset_defines = ["settings = bpy.context.scene.flank_settings"]
     preset_values = ["settings." + name for name in PRESET_VALUES]
 
+    def execute(self, context):
+        # Blender's own operator ends silently here: a name that makes no file name, a preset that is not there
+        if not (self.remove_name or self.remove_active):
+            if not self.as_filename(self.name.strip()):
+                self.report({'ERROR'}, "Tool preset: the name {!r} has no letter or digit to make a file name "
+                                       "of".format(self.name))
+                return {'CANCELLED'}
+        else:
+            name = self.name if self.remove_name else getattr(bpy.types, self.preset_menu).bl_label
+            if not (bpy.utils.preset_find(name, self.preset_subdir, ext=".py")
+                    or bpy.utils.preset_find(name, self.preset_subdir, display_name=True, ext=".py")):
+                self.report({'ERROR'}, "Tool preset: there is no user preset named {!r} to remove{}".format(
+                    name, "" if self.remove_name else " (apply the preset to remove first)"))
+                return {'CANCELLED'}
+        return super().execute(context)
+
 
 classes = (FLANK_OT_preview_tool, FLANK_OT_tool_preset, FLANK_MT_tool_presets, FLANK_OT_tool_preset_add)
 register, unregister = bpy.utils.register_classes_factory(classes)

@@ -248,7 +248,17 @@ def scenario(bpy, res, args):
     user["after_cm"] = _tool(s)
     user["after_cm_mm"] = [s.tool_tip_diameter_mm, s.tool_taper_deg, s.tool_flute_length_mm,
                            s.tool_shank_diameter_mm, s.tool_shank_length_mm]
+    # values a millimetre field cannot take leave the tool as it was (NaN passes Blender's clamp to min)
+    kept = _tool(s)
+    for field, bad in (("tool_tip_diameter_mm", float("nan")), ("tool_tip_diameter_mm", -1.0),
+                       ("tool_taper_deg", float("nan")), ("tool_flute_length_mm", -5.0),
+                       ("tool_shank_diameter_mm", float("inf")), ("tool_shank_length_mm", float("nan"))):
+        setattr(s, field, bad)
+    user["bad_mm_kept"] = _tool(s) == kept
     user["remove"] = run_op(bpy.ops.flank.tool_preset_add, remove_active=True)
+    user["refused"] = [run_op(bpy.ops.flank.tool_preset_add, name=""), run_op(bpy.ops.flank.tool_preset_add, name=".."),
+                       run_op(bpy.ops.flank.tool_preset_add, name="No Such Tool", remove_name=True),
+                       run_op(bpy.ops.flank.tool_preset_add, remove_active=True)]
     user["files_after_remove"] = sorted(os.path.basename(f) for f in glob.glob(os.path.join(user_dir, "*.py")))
     res["user_preset"] = user
     # the operator form (scripts): same numbers, bad input refused

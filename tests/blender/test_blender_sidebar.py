@@ -221,7 +221,14 @@ def test_user_preset_is_saved_in_mm_and_fits_another_scene_unit(sb):
     assert u["after_cm"]["sf_r1"] == pytest.approx(u["before"]["sf_r1"] / 10.0, rel=1e-6)   # mm scene -> cm scene
     assert u["after_cm"]["sf_r2"] == pytest.approx(u["before"]["sf_r2"] / 10.0, rel=1e-6)
     assert u["after_cm_mm"] == pytest.approx([3.0, 2.0, 25.0, 6.0, 41.5], rel=1e-6)
+    assert u["bad_mm_kept"], "a NaN, negative or infinite millimetre value changed the tool"
     assert u["remove"] == [["FINISHED"], None] and u["files_after_remove"] == []
+    # no file name in the name, nothing to remove: said, not passed over in silence
+    empty, dots, missing, again = u["refused"]
+    assert empty[0] is None and "has no letter or digit" in empty[1]
+    assert dots[0] is None and "'..'" in dots[1]
+    assert missing[0] is None and "no user preset named 'No Such Tool'" in missing[1]
+    assert again[0] is None and "to remove" in again[1]
     op = sb["tool_preset_op"]
     assert op["result"] == [["FINISHED"], None]
     assert op["tool"]["sf_r1"] == pytest.approx(3.0, rel=1e-6) and op["tool"]["sf_shank_length"] == pytest.approx(
