@@ -442,12 +442,35 @@ def hide_objects(objs):
     return hid
 
 
+def check_filepath(filepath, what="program file"):
+    """(absolute path, None) or (None, error message) for a file an operator will write at ``filepath`` (a
+    Blender path, '//' relative to the saved .blend): never the current folder by accident."""
+    if not str(filepath).strip():
+        return None, "no {} given (filepath is empty)".format(what)
+    path = bpy.path.abspath(filepath)
+    if not os.path.isabs(path):
+        return None, "'{}' is a relative path and the .blend file is not saved: give an absolute path".format(
+            filepath)
+    path = os.path.normpath(path)
+    folder = os.path.dirname(path)
+    if os.path.isdir(path):
+        return None, "'{}' is a folder: give a file name".format(path)
+    if not os.path.isdir(folder):
+        return None, "the folder '{}' does not exist".format(folder)
+    if not os.access(folder, os.W_OK):
+        return None, "the folder '{}' is not writable".format(folder)
+    return path, None
+
+
 def output_file_error(path, what):
     """Why a file a run will write cannot be written at ``path`` (a Blender path, '//' relative), said before any
-    work: its folder does not exist, or the path is a folder -> message, or None (also for an empty path)."""
+    work: a relative path without a saved .blend (it would land in Blender's working folder), its folder does
+    not exist, or the path is a folder -> message, or None (also for an empty path)."""
     if not path:
         return None
     full = bpy.path.abspath(path)
+    if not os.path.isabs(full):
+        return "{} '{}' is a relative path and the .blend file is not saved: give an absolute path".format(what, path)
     folder = os.path.dirname(os.path.abspath(full))
     if not os.path.isdir(folder):
         return "{} {}: the folder {} does not exist".format(what, full, folder)

@@ -12,6 +12,7 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatVectorProperty, IntProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper
 
+from .common import check_filepath
 from .modal import ModalPlannerMixin
 from .runs import PlanNeeded, run_plan
 
@@ -96,17 +97,11 @@ class FLANK_OT_export_results(ModalPlannerMixin, bpy.types.Operator, ExportHelpe
             self.report({'ERROR'}, "Export: strip = {} does not exist: run '{}' has strips 1..{}".format(
                 strip, coll.name, n))
             return None
-        path = bpy.path.abspath(self.filepath)
-        folder = os.path.dirname(path) or "."
-        if os.path.isdir(path):
-            self.report({'ERROR'}, "Export: '{}' is a folder: give a file name".format(path))
+        path, msg = check_filepath(self.filepath, "export file")
+        if msg is not None:
+            self.report({'ERROR'}, "Export: " + msg)
             return None
-        if not os.path.isdir(folder):
-            self.report({'ERROR'}, "Export: the folder '{}' does not exist".format(folder))
-            return None
-        if not os.access(folder, os.W_OK):
-            self.report({'ERROR'}, "Export: the folder '{}' is not writable".format(folder))
-            return None
+        folder = os.path.dirname(path)
         return dict(t0=time.perf_counter(), plan=plan, run=coll.name, n=n, k=None if strip == 0 else strip - 1,
                     fmt=self.format, steps=int(self.steps), z_range=z_range, path=path, folder=folder)
 

@@ -18,7 +18,7 @@ import time
 import bpy
 import numpy as np
 
-from .common import hide_objects, remove_objects
+from .common import check_filepath, hide_objects, remove_objects
 from .modal import ModalPlannerMixin
 from .program import check_numbers, cutting_data_of, key_frames, parse_lobes, plan_in_mm, rounded, tool_outline
 from .program_scene import ANIM_ROLE, ProgramBuild, program_objects, store_program
@@ -26,26 +26,7 @@ from .properties import post_program_props
 from .runs import PlanNeeded, remove_animation, run_plan, run_prop
 from .units import mm_per_scene_unit
 
-__all__ = ["FLANK_OT_post_program", "check_filepath"]
-
-
-def check_filepath(filepath):
-    """(absolute program path, None) or (None, error message): never the current folder by accident."""
-    if not str(filepath).strip():
-        return None, "no program file given (filepath is empty)"
-    path = bpy.path.abspath(filepath)
-    if not os.path.isabs(path):
-        return None, "'{}' is a relative path and the .blend file is not saved: give an absolute path".format(
-            filepath)
-    path = os.path.normpath(path)
-    folder = os.path.dirname(path)
-    if os.path.isdir(path):
-        return None, "'{}' is a folder: give a file name".format(path)
-    if not os.path.isdir(folder):
-        return None, "the folder '{}' does not exist".format(folder)
-    if not os.access(folder, os.W_OK):
-        return None, "the folder '{}' is not writable".format(folder)
-    return path, None
+__all__ = ["FLANK_OT_post_program"]
 
 
 def _machine_and_post(op):

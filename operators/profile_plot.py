@@ -116,6 +116,8 @@ class FLANK_OT_error_plot(ModalPlannerMixin, bpy.types.Operator):
         if not self.filepath:
             return None, None
         path = bpy.path.abspath(self.filepath)
+        if os.path.isdir(path):                    # not '<folder>.png' beside it
+            return None, "'{}' is a folder: give a file name".format(path)
         if not path.lower().endswith(".png"):
             path += ".png"
         folder = os.path.dirname(path) or "."

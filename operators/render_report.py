@@ -70,6 +70,9 @@ class FLANK_OT_render_report(ModalPlannerMixin, bpy.types.Operator):
             self.report({'ERROR'}, "Render report: no file given (filepath is empty)")
             return None
         path = bpy.path.abspath(self.filepath)
+        if os.path.isdir(path):                    # not '<folder>.png' beside it
+            self.report({'ERROR'}, "Render report: '{}' is a folder: give a file name".format(path))
+            return None
         if not path.lower().endswith(".png"):
             path += ".png"
         try:

@@ -816,7 +816,7 @@ def _analyze_mesh(verts, faces, n_profile, threshold, progress=None):
             f"not a helical rotor: the faces that fit the screw motion are parallel to its axis (RMS axial "
             f"component of their normals {axial:.3g} < {MIN_AXIAL_NORMAL:g}), so every pitch fits them: "
             f"a cylinder or prism ({quote})")
-    if not abs(face_k / k - 1.0) <= FACE_PITCH_AGREEMENT:
+    if k != 0.0 and not abs(face_k / k - 1.0) <= FACE_PITCH_AGREEMENT:   # k = 0: refused below as a revolution
         raise NotHelicalError(
             f"not a helical rotor: the pitch is not determined; the faces' normals give v0 = "
             f"{abs(face_k) * scale:.3g}, the vertex normals v0 = {abs(k) * scale:.3g} (they must agree "

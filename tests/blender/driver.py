@@ -1195,7 +1195,8 @@ def scenario_single_flank(bpy, res, args):
                      ("point_nan", dict(use_point=True, point=(nan, 0.0, 0.0))),
                      ("point_far", dict(use_point=True, point=(1e9, 0.0, 0.0))),
                      ("all_colliding", dict(shank_radius=1.0 * S, shank_length=1.0 * S, seeds=2, rounds=1)),
-                     ("plan_dir_missing", dict(seeds=1, rounds=1, filepath=os.path.join(tmp, "no_dir", "p.json")))):
+                     ("plan_dir_missing", dict(seeds=1, rounds=1, filepath=os.path.join(tmp, "no_dir", "p.json"))),
+                     ("plan_relative", dict(seeds=1, rounds=1, filepath="relative_plan.json"))):
         bpy.context.view_layer.objects.active = rotor_obj
         s0 = _snapshot4(bpy)
         ret, err = _run_op(bpy.ops.flank.plan_single_flank, **dict(opts, **kw))

@@ -140,6 +140,9 @@ def scenario(bpy, res, args):
     fails = {}
     fails["unknown_run"] = _attempt(bpy, tmp, collection="No Such Run")
     fails["missing_folder"] = _attempt(bpy, tmp, filepath=os.path.join(tmp, "no_dir", "plot.png"))
+    os.makedirs(os.path.join(tmp, "plots"), exist_ok=True)
+    fails["folder"] = _attempt(bpy, tmp, filepath=os.path.join(tmp, "plots"))   # not 'plots.png' beside it
+    fails["folder"]["beside"] = os.path.exists(os.path.join(tmp, "plots.png"))
     good = coll["flank_plan_json"]
     coll["flank_plan_json"] = "{broken"
     fails["broken_plan"] = _attempt(bpy, tmp, collection=coll.name)

@@ -123,6 +123,10 @@ def scenario(bpy, res, args):
                                                            filepath=os.path.join(tmp, "no", "x.json"))))
     out["is_dir"] = dict(zip(("result", "error"), run_op(bpy.ops.flank.export_results, format="PLAN",
                                                           filepath=tmp)))
+    # the .blend is not saved: a relative path would land in Blender's working folder
+    out["relative"] = dict(zip(("result", "error"), run_op(bpy.ops.flank.export_results, format="PLAN",
+                                                            filepath="relative_plan.json")))
+    out["relative"]["file"] = os.path.exists("relative_plan.json")
     out["leftovers"] = sorted(f for f in os.listdir(tmp) if f.startswith(".flank_export_"))
     res["export"] = out
 

@@ -156,6 +156,7 @@ def scenario(bpy, res, args):
     bad = {}
     for label, kw in (("missing_folder", dict(filepath=os.path.join(tmp, "no", "r.png"))),
                       ("folder", dict(filepath=os.path.join(tmp, "a_folder.png"))),
+                      ("folder_no_png", dict(filepath=tmp)),        # not written as '<tmp>.png' beside it
                       ("empty_path", dict(filepath="")),
                       ("no_such_run", dict(filepath=os.path.join(tmp, "x.png"), collection="No Such Run"))):
         c0 = census(bpy)
@@ -163,4 +164,5 @@ def scenario(bpy, res, args):
         bad[label] = dict(result=ret, error=err, changed=diff(c0, census(bpy)))
     bad["files"] = sorted(f for f in os.listdir(tmp) if f.startswith(("x.", "r.")) or ".tmp" in f
                           or ".render" in f or ".probe" in f)
+    bad["beside"] = os.path.exists(tmp.rstrip(os.sep) + ".png")
     res["bad"] = bad

@@ -45,6 +45,8 @@ def test_bad_exports_write_nothing(ea):
     assert not x["bad_strip"]["file"]
     assert x["bad_dir"]["result"] is None and "does not exist" in x["bad_dir"]["error"]
     assert x["is_dir"]["result"] is None and "is a folder: give a file name" in x["is_dir"]["error"]
+    assert x["relative"]["result"] is None and "is a relative path" in x["relative"]["error"], x["relative"]
+    assert not x["relative"]["file"]
     assert "Traceback" not in x["is_dir"]["error"] and "IsADirectoryError" not in x["is_dir"]["error"]
     assert x["leftovers"] == []
 

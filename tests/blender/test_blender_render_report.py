@@ -96,6 +96,7 @@ def test_cycles_report(rep):
 
 
 @pytest.mark.parametrize("label,words", [("missing_folder", "does not exist"), ("folder", "is a folder"),
+                                         ("folder_no_png", "is a folder: give a file name"),
                                          ("empty_path", "no file given"), ("no_such_run", "no collection")])
 def test_bad_input_is_a_clear_error(rep, label, words):
     b = rep["bad"][label]
@@ -105,4 +106,4 @@ def test_bad_input_is_a_clear_error(rep, label, words):
 
 
 def test_bad_input_writes_no_file(rep):
-    assert rep["bad"]["files"] == []
+    assert rep["bad"]["files"] == [] and not rep["bad"]["beside"]
