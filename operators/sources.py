@@ -7,7 +7,7 @@ import bpy
 import numpy as np
 
 from ..flank_addon.geometry.rows import used_vertices
-from .common import mesh_local_arrays, mesh_triangles, mesh_vertices, placed
+from .common import mesh_local_arrays, mesh_triangles, mesh_vertices, placed, typed
 
 # custom properties that point from a result object to the rotor / surface it was made from
 RESULT_ROTOR_KEYS = ("flank_sf_rotor", "flank_df_rotor", "flank_cr_rotor", "flank_cutter_rotor", "flank_ff_source")
@@ -58,6 +58,36 @@ def builtin_from_props(obj):
                                 handedness=str(obj["flank_handedness"]))
 
 
+def _scene_mm_factor():
+    """Millimetres per scene unit, or None when the scene unit is the millimetre (a unit-less scene, or a metric
+    one with unit scale 0.001).  A rotor's or a surface's own coordinates (its mesh's, before any object scale)
+    are taken in scene units and made millimetres by this factor, so that a plan's figures are the millimetres its
+    unit says in a scene of metres too."""
+    from .units import mm_per_scene_unit
+
+    g = typed(mm_per_scene_unit(bpy.context.scene))   # the unit scale is single precision: what was typed
+    return None if g == 1.0 else g
+
+
+def _in_millimetres(src, g, surface, flanks, extent):
+    """The rotor source ``src`` with its rotor frame measured in millimetres: the plan's figures and files are
+    then millimetres, as their unit says, in any scene unit (``g`` mm per former rotor unit; ``surface``,
+    ``flanks`` and ``extent`` already scaled by g).  The display and model matrices take 1/g, so every point
+    still lands where it was in the scene."""
+    shrink = np.diag([1.0 / g, 1.0 / g, 1.0 / g, 1.0])
+    z0, z1 = (float(z) * g for z in src["z_range"])
+    return dict(src, surface=surface, flanks=flanks, display=src["display"] @ shrink,
+                to_world=src["to_world"] @ shrink, scale=float(src["scale"]) / g, z_range=(z0, z1), extent=extent)
+
+
+def _scaled_extent(extent, g):
+    if extent is None:
+        return None
+    return {"z_range": [float(z) * g for z in extent["z_range"]],
+            "shafts": [dict(sh, z_range=[float(z) * g for z in sh["z_range"]], radius=float(sh["radius"]) * g)
+                       for sh in extent.get("shafts", [])]}
+
+
 def _generated_rotor(obj):
     try:
         rotor = builtin_from_props(obj)
@@ -68,10 +98,22 @@ def _generated_rotor(obj):
     if isinstance(parts, str):
         return "Rotor '{}': {}; apply or reset its scale".format(obj.name, parts)
     to_world, scale = parts
-    return dict(obj=obj, surface=rotor.surface(), flanks=list(rotor.flanks), display=display,
-                to_world=to_world, scale=scale, z_range=(0.0, float(rotor.length)), extent=rotor.extent(),
-                unit="R" if float(obj["flank_scale"]) == 1.0 else "mm",
-                kind="{}-{}".format(rotor.kind, rotor.part))
+    src = dict(obj=obj, surface=rotor.surface(), flanks=list(rotor.flanks), display=display,
+               to_world=to_world, scale=scale, z_range=(0.0, float(rotor.length)), extent=rotor.extent(),
+               unit="R" if float(obj["flank_scale"]) == 1.0 else "mm",
+               kind="{}-{}".format(rotor.kind, rotor.part))
+    g = _scene_mm_factor() if src["unit"] == "mm" else None
+    if g is None:
+        return src
+    from ..flank_addon.geometry import rotors
+
+    try:          # the same rotor built in millimetres (its profile exact, not a scaled sampling)
+        mm = rotors.builtin_rotor(rotor.kind, rotor.part, scale=float(obj["flank_scale"]) * g,
+                                  lead=float(obj["flank_lead"]) * g, length=float(obj["flank_length"]) * g,
+                                  handedness=str(obj["flank_handedness"]))
+    except ValueError as ex:
+        return "Cannot rebuild the rotor of '{}' in millimetres: {}".format(obj.name, ex)
+    return _in_millimetres(src, g, mm.surface(), list(mm.flanks), mm.extent())
 
 
 def _placed_then(obj, co, known):
@@ -168,8 +210,18 @@ def _analyzed_rotor(obj, defer=False):
     extent = _extent(a) if z[1] > z[0] else None
     if not z[1] > z[0]:
         z = [0.0, 2.0 * float(a.outer_radius)]
-    return dict(obj=obj, surface=surface, flanks=flanks, display=to_world, to_world=to_world,
-                scale=scale, z_range=(z[0], z[1]), extent=extent, unit="mm", kind="analyzed")
+    src = dict(obj=obj, surface=surface, flanks=flanks, display=to_world, to_world=to_world,
+               scale=scale, z_range=(z[0], z[1]), extent=extent, unit="mm", kind="analyzed")
+    g = _scene_mm_factor()
+    if g is None:
+        return src
+    from ..flank_addon.geometry.flank_feet import flank_u_ranges
+    from ..flank_addon.geometry.helical_surface import shared_surface
+    from ..flank_addon.geometry.profile import SplineProfile
+
+    mm = shared_surface(SplineProfile(np.asarray(a.profile, dtype=np.float64) * g), float(a.v0) * g, a.handedness)
+    return _in_millimetres(src, g, mm, flank_u_ranges(mm.profile, [(int(i), int(j)) for i, j in a.flanks]),
+                           _scaled_extent(extent, g))
 
 
 def _extent(analysis):
@@ -268,8 +320,9 @@ def _field(obj, name, used, poly):
 
 
 def surface_source(obj, selected_only=False, field_attribute="", preview_prop=""):
-    """A mesh object's triangles in its local coordinates -> dict(obj, V (n, 3), F (m, 3), to_world (4, 4)
-    similarity, scale, field (n or m, 3) or None), or an error message (str)."""
+    """A mesh object's triangles in its local coordinates, in millimetres -> dict(obj, V (n, 3), F (m, 3), to_world
+    (4, 4) similarity (millimetres -> world), scale (scene units per mm), field (n or m, 3) or None), or an error
+    message (str)."""
     if obj is None or obj.type != 'MESH':
         return "select a mesh object: the surface to machine (active object: {})".format(
             "none" if obj is None else "'{}' ({})".format(obj.name, obj.type))
@@ -296,7 +349,11 @@ def surface_source(obj, selected_only=False, field_attribute="", preview_prop=""
     field = _field(obj, field_attribute, used, poly) if field_attribute else None
     if isinstance(field, str):
         return field
-    return dict(obj=obj, V=co[used], F=F, to_world=parts[0], scale=parts[1], field=field)
+    V, to_world, scale = co[used], parts[0], parts[1]
+    g = _scene_mm_factor()
+    if g is not None:         # the plan is in millimetres, as it says, whatever the scene's unit
+        V, to_world, scale = V * g, to_world @ np.diag([1.0 / g, 1.0 / g, 1.0 / g, 1.0]), scale / g
+    return dict(obj=obj, V=V, F=F, to_world=to_world, scale=scale, field=field)
 
 
 classes = ()

@@ -1104,6 +1104,10 @@ def scenario_double_flank(bpy, res, args):
         out["envelope_to_profile"] = dict(median=float(np.median(d)), max=float(d.max()),
                                           spacing=float(np.linalg.norm(dense[1] - dense[0])))
         out["tool_origin"] = list(tool.matrix_world.translation)
+        plan = json.loads(objs["coll"]["flank_plan_json"])
+        out["plan_mm"] = dict(outer_radius=plan["rotor"]["outer_radius"], v0=plan["rotor"]["v0"],
+                              unit=plan["length_unit"], scene_v0=float(mesh_rotor["flank_v0"]),
+                              scene_unit=[scene.unit_settings.system, float(scene.unit_settings.scale_length)])
         motion = [o for o in objs["coll"].objects if o.get("flank_df_role") == "motion"]
         moving = [o for o in objs["coll"].objects if o.get("flank_df_role") == "moving"]
         if motion and moving:
@@ -1111,12 +1115,15 @@ def scenario_double_flank(bpy, res, args):
             s_lo = out["props"]["flank_df_motion"][0]
             scene.frame_set(fs)
             # at the first frame the moving tool = static tool screwed by s_lo about the rotor axis (world)
+            # the run is in mm (length_scale scene units per mm): its rotor frame is the analysis' to_world
+            # (scene units) scaled by length_scale, its v0 the analysed one in mm
+            ls = out["props"]["flank_df_length_scale"]
+            v0_run = mesh_rotor["flank_v0"] / ls
             T = np.array(tool.matrix_world, dtype=np.float64)
-            W = np.array(motion[0].matrix_world, dtype=np.float64) @ np.linalg.inv(
-                _screw4(np, s_lo, mesh_rotor["flank_v0"], 1))
+            W = np.array(motion[0].matrix_world, dtype=np.float64) @ np.linalg.inv(_screw4(np, s_lo, v0_run, 1))
             stored = np.array(list(mesh_rotor["flank_to_world"]), dtype=np.float64).reshape(4, 4)
-            out["motion_frame_vs_analysis"] = float(np.abs(W - stored).max())
-            expect = W @ _screw4(np, s_lo, mesh_rotor["flank_v0"], 1) @ np.linalg.inv(W) @ T
+            out["motion_frame_vs_analysis"] = float(np.abs(W - stored @ np.diag([ls, ls, ls, 1.0])).max())
+            expect = W @ _screw4(np, s_lo, v0_run, 1) @ np.linalg.inv(W) @ T
             out["moving_diff"] = float(np.abs(np.array(moving[0].matrix_world, dtype=np.float64) - expect).max())
 
 

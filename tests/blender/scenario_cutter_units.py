@@ -1,6 +1,9 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """flank.formed_cutter in scene units (test_blender_cutter_units.py): the Table-1 rotor at scale 1, then the same
-rotor object scaled x2 -- the tolerance is typed and the deviation reported in scene units."""
+rotor object scaled x2 -- the tolerance is typed and the deviation reported in scene units; then a rotor made by
+Generate Rotor in millimetres, planned in a scene of metres and in one of millimetres."""
+import json
+
 import driver
 
 KW = dict(planes=40, sample_points=16, resolution=240, animate=False)
@@ -37,4 +40,29 @@ def scenario(bpy, res, args):
     out["scaled"] = dict(result=ret, error=err)
     if ret is not None:
         out["scaled"].update(_facts(bpy, np, rotor))
+    out["generated"] = _generated_in_two_scenes(bpy)
     res["cutter_units"] = out
+
+
+def _generated_in_two_scenes(bpy):
+    """An outer radius of 0.05 scene units in a scene of metres (50 mm) and of 50 in one of millimetres: the same
+    50 mm rotor, whose double-flank plans must both be in millimetres."""
+    us = bpy.context.scene.unit_settings
+    got = {}
+    for label, system, unit_scale, radius in (("metres", 'METRIC', 1.0, 0.05), ("millimetres", 'METRIC', 0.001, 50.0)):
+        us.system, us.scale_length = system, unit_scale
+        ret, err = driver._run_op(bpy.ops.flank.generate_rotor, kind="asymmetric", part="female", scale=radius,
+                                  resolution=360, axial=24)
+        rotor = bpy.context.active_object
+        ret, err = driver._run_op(bpy.ops.flank.plan_double_flank, valley=0, radii=40, envelope_rings=12,
+                                  simulate=False) if ret else (ret, err)
+        run = dict(result=ret, error=err)
+        coll = next((c for c in bpy.data.collections if c.get("flank_df_rotor") == rotor.name
+                     and "flank_plan_json" in c), None)
+        if ret is not None and coll is not None:
+            plan = json.loads(coll["flank_plan_json"])
+            run.update(unit=plan["length_unit"], outer_radius=plan["rotor"]["outer_radius"], v0=plan["rotor"]["v0"],
+                       length_scale=float(coll["flank_df_length_scale"]), rotor_v0=float(rotor["flank_v0"]),
+                       alpha=[float(v) for v in coll["flank_df_alpha"]])
+        got[label] = run
+    return got

@@ -124,6 +124,8 @@ def scenario(bpy, res, args):
     scene = bpy.context.scene
     s = scene.flank_settings
     out = {}
+    # a millimetre scene: plans are in the model's own numbers (a scene of metres is checked at the end)
+    scene.unit_settings.system, scene.unit_settings.scale_length = 'METRIC', 0.001
 
     # ---------------------------------------------------------------- nothing selected: refused, nothing made
     _select_only(bpy, None)
@@ -364,6 +366,20 @@ def scenario(bpy, res, args):
         bad[label] = _call(bpy, bpy.ops.flank.plan_freeform, **kw)
     _select_only(bpy, emp)
     bad["empty_active"] = _call(bpy, bpy.ops.flank.plan_freeform, **PLAN_KW)
+    # the same blade in a scene of metres: the plan is in millimetres, as its unit says
+    scene.unit_settings.scale_length = 1.0
+    _select_only(bpy, blade)
+    metre = _call(bpy, bpy.ops.flank.plan_freeform, direction=(0.0, 1.0, 0.0), **PLAN_KW)
+    mcoll = next((c for c in bpy.data.collections if c.get("flank_ff_key") == blade.name), None)
+    if metre["result"] == ["FINISHED"] and mcoll is not None:
+        mplan = json.loads(mcoll["flank_plan_json"])
+        metre.update(unit=mplan["length_unit"], length_scale=float(mcoll["flank_ff_length_scale"]),
+                     vertices_mm=bool(np.allclose(np.asarray(mplan["surface"]["vertices"]), 1000.0 * V,
+                                                  rtol=1e-12, atol=0.0)),
+                     plan_max_error=float(mplan["summary"]["max_error"]),
+                     scene_max_error=float(mcoll["flank_ff_max_error"]))
+    out["metre"] = metre
+    scene.unit_settings.scale_length = 0.001
     blade.scale = (1.0, 2.0, 1.0)
     _select_only(bpy, blade)
     bad["non_uniform_scale"] = _call(bpy, bpy.ops.flank.plan_freeform, **PLAN_KW)

@@ -474,6 +474,8 @@ def scenario(bpy, res, args):
     def select_blade():
         driver_select(bpy, bpy.data.objects[blade_name])
 
+    # a millimetre scene: the blade's own numbers are the plan's (in metres it would plan 1000 times larger)
+    bpy.context.scene.unit_settings.system, bpy.context.scene.unit_settings.scale_length = 'METRIC', 0.001
     res["freeform"] = _exercise(bpy, np, bpy.ops.flank.plan_freeform, ff_mod.FLANK_OT_plan_freeform, FF_KW,
                                 "flank_ff_", blade_name, select_blade)
     res["patched_left"] = ["execute" in cls.__dict__ for cls in (sf_mod.FLANK_OT_plan_single_flank,

@@ -24,3 +24,16 @@ def test_tolerance_and_deviation_follow_the_rotor_scale(cu):
     assert on.sum() > 10 and np.array_equal(on, db < 1e8)
     assert np.allclose(db[on], 2.0 * da[on], rtol=1e-5, atol=1e-9)
     assert np.array_equal(np.asarray(a["cols"]), np.asarray(b["cols"]))     # tolerance x2 on deviations x2
+
+
+def test_a_generated_rotor_is_planned_in_millimetres_in_a_scene_of_metres(cu):
+    """The same 50 mm rotor made in a scene of metres (outer radius 0.05) and in one of millimetres (50): both
+    plans hold millimetres and the same axis; before, the metre scene's plan said 0.05 mm."""
+    m, mm = cu["generated"]["metres"], cu["generated"]["millimetres"]
+    assert m["result"] == ["FINISHED"] and mm["result"] == ["FINISHED"], (m["error"], mm["error"])
+    for run, scale in ((m, 0.001), (mm, 1.0)):
+        assert run["unit"] == "mm" and run["length_scale"] == pytest.approx(scale, rel=1e-9)
+        assert run["outer_radius"] == pytest.approx(50.0, rel=1e-6)
+        assert run["v0"] == pytest.approx(run["rotor_v0"] / scale, rel=1e-6)
+    assert m["v0"] == pytest.approx(mm["v0"], rel=1e-6)
+    assert m["alpha"] == pytest.approx(mm["alpha"], abs=1e-6)

@@ -222,7 +222,12 @@ def test_analyzed_mesh_is_planned_in_its_analysis_frame(dfl):
     assert a["new"] == [6, 4, 1, 1]
     p = a["props"]
     assert p["flank_df_source"] == "analyzed" and p["flank_df_length_unit"] == "mm"
-    assert p["flank_df_length_scale"] == 1.0
+    # a scene in metres: the plan is in millimetres, as its unit says (it held metres labelled mm before)
+    mm = a["plan_mm"]
+    assert mm["scene_unit"] == ["METRIC", 1.0] and mm["unit"] == "mm"
+    assert p["flank_df_length_scale"] == 0.001
+    assert mm["v0"] == pytest.approx(1000.0 * mm["scene_v0"], rel=1e-12)
+    assert mm["outer_radius"] == pytest.approx(1000.0 * 1.0, rel=1e-4)     # the nilson male of R = 1 m
     # the analysed nilson profile is symmetric up to the analysis error: the axis stays on the symmetry line
     assert abs(p["flank_df_alpha"][0]) < 1e-4 and abs(p["flank_df_delta"][0]) < 1e-4
     assert abs(p["flank_df_phi"][0]) < 1e-2

@@ -199,3 +199,15 @@ def test_the_kept_plans_are_the_stored_ones(ff):
     """Operators read a run's plan from the one the extension keeps parsed: after all of them ran, each kept plan
     is still its run's stored text parsed again, number for number (none of them changed the shared plan)."""
     assert_plans_kept(ff["plans_kept"])
+
+
+def test_a_scene_in_metres_plans_in_millimetres(ff):
+    """The blade in a scene of metres: its plan holds millimetres (the mesh's numbers x 1000), as its unit says,
+    and its error in scene units keeps the exact case's bound of the millimetre scene (the optimiser's
+    tolerances are not exactly scale-free, so the figures agree only to that bound)."""
+    m, first = ff["metre"], ff["state"]["props"]
+    assert m["result"] == ["FINISHED"], m["error"]
+    assert m["unit"] == "mm" and m["vertices_mm"]
+    assert m["length_scale"] == pytest.approx(S / 1000.0, rel=1e-9)
+    assert m["scene_max_error"] == pytest.approx(m["plan_max_error"] * S / 1000.0, rel=1e-12)
+    assert abs(m["scene_max_error"]) <= 1e-6 * 3.0 and abs(first["flank_ff_max_error"]) <= 1e-6 * 3.0
