@@ -799,7 +799,7 @@ def _cutting_data(args):
 def _cmd_post(args):
     from .machining.operation import build_operation
     from .machining.toolpath import build_program
-    from .machining.cycle_time import cycle_time
+    from .machining.cycle_time import cycle_time, untimed_note
     from .posts import get_post, write_program
 
     t0 = time.perf_counter()
@@ -831,11 +831,13 @@ def _cmd_post(args):
               f"{min(chip):.3g}..{max(chip):.3g} mm ({t.data.source})")
     print(f"  cutting {out['cutting_time_s']:.1f} s ({out['cutting_length_mm']:.0f} mm), rapid "
           f"{out['rapid_time_s']:.1f} s, tool changes {out['tool_change_time_s']:.0f} s, total "
-          f"{out['total_time_s']:.1f} s; {out['elapsed_s']:.2f} s")
+          f"{out['total_time_s']:.1f} s{untimed_note(out['untimed_moves'], machine)}; {out['elapsed_s']:.2f} s")
     return 0
 
 
+
 def _cmd_verify_program(args):
+    from .machining.cycle_time import untimed_note
     from .posts import get_post, post_for_file
     from .posts.readback import verify_program
 
@@ -873,10 +875,12 @@ def _cmd_verify_program(args):
                   f"{lo['rechecked_points']} point(s) swept again finer), gouge points {lo['gouge_points']}")
     ro = res["run_out"]
     print(f"  run-out beyond the end faces: start >= {ro['min_start_clearance_mm']:.3g} mm, end >= "
-          f"{ro['min_end_clearance_mm']:.3g} mm; links: {res['links']['moves_checked']} checked, deepest "
-          f"intrusion into stock or shafts {res['links']['max_intrusion_mm']:.3g} mm")
+          f"{ro['min_end_clearance_mm']:.3g} mm; links: {res['links']['moves_checked']} checked"
+          + (f" ({res['links']['moves_unchecked']} out of a tool change from an unknown position not)"
+             if res['links']['moves_unchecked'] else "")
+          + f", deepest intrusion into stock or shafts {res['links']['max_intrusion_mm']:.3g} mm")
     print(f"  cutting {res['cutting_time_s']:.1f} s, rapid {res['rapid_time_s']:.1f} s, total "
-          f"{res['total_time_s']:.1f} s")
+          f"{res['total_time_s']:.1f} s{untimed_note(res['untimed_moves'], machine)}")
     for f in res["findings"]:
         print(f"  NOT AS PLANNED: {f}")
     return status

@@ -18,6 +18,7 @@ import time
 import bpy
 import numpy as np
 
+from ..flank_addon.machining.cycle_time import untimed_note
 from .common import check_filepath, hide_objects, remove_objects
 from .modal import ModalPlannerMixin
 from .program import check_numbers, cutting_data_of, key_frames, parse_lobes, plan_in_mm, rounded, tool_outline
@@ -80,7 +81,9 @@ def cycle_time_lines(coll):
             "Cycle time: {}".format(_time_text(coll[p + "total_time_s"])),
             "Cutting {:.1f} s, rapid {:.1f} s, tool changes {:.1f} s".format(
                 float(coll[p + "cutting_time_s"]), float(coll[p + "rapid_time_s"]),
-                float(coll[p + "tool_change_time_s"]))]
+                float(coll[p + "tool_change_time_s"]))] + (
+        ["Not timed: {} move(s) out of a tool change".format(int(coll[p + "untimed_moves"]))]
+        if int(coll.get(p + "untimed_moves", 0)) else [])
 
 
 class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
@@ -194,6 +197,7 @@ class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
                      lobes=[int(v) for v in t["lobes"]], clearance=job["clearance"], mm_per_unit=float(job["k"]),
                      cutting_time_s=float(t["cutting_time_s"]), rapid_time_s=float(t["rapid_time_s"]),
                      tool_changes=int(t["tool_changes"]), tool_change_time_s=float(t["tool_change_time_s"]),
+                     untimed_moves=int(t["untimed_moves"]),
                      total_time_s=float(t["total_time_s"]), cutting_length_mm=float(t["cutting_length_mm"]),
                      rpm=[float(v) for v in t["rpm"]], cutting_data=json.dumps(data.as_dict()),
                      path_edges=int(len(out["path"]["edges"])), summary=json.dumps(per, default=float),
@@ -205,10 +209,11 @@ class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
     def _report_done(self, coll, job, out):
         t = out["times"]
         self.report({'INFO'}, "Posted '{}': {} passes on lobes {}, {} for {}, cycle time {:.1f} s (cutting {:.1f} s, "
-                              "rapid {:.1f} s, tool changes {:.1f} s); wrote {} ({} moves){}; {:.2f} s".format(
+                              "rapid {:.1f} s, tool changes {:.1f} s{}); wrote {} ({} moves){}; {:.2f} s".format(
                                   coll.name, t["passes"], ",".join(map(str, t["lobes"])), job["post"].name,
                                   job["machine"].name, t["total_time_s"], t["cutting_time_s"], t["rapid_time_s"],
-                                  t["tool_change_time_s"], os.path.basename(job["filepath"]), t["moves"],
+                                  t["tool_change_time_s"], untimed_note(t["untimed_moves"], job["machine"]),
+                                  os.path.basename(job["filepath"]), t["moves"],
                                   ", animated over frames {}..{}".format(*job["frames"]) if job["animate"] else "",
                                   time.perf_counter() - job["t0"]))
 

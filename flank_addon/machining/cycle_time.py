@@ -11,6 +11,11 @@ The controller never drives a joint faster than its top speed: T = max(T, max_j 
 the machine joints (for a TCP machine the joints of both ends by the machine's kinematics).  Rapid moves:
 T = max_j |dJ_j| / rapid_j (every axis at its rapid rate, the slowest decides).  Accelerations are not
 modelled; a tool change costs the machine file's ``tool_change_s``.
+
+After a tool change the program cannot say where the machine stands.  When the machine file gives a
+``tool_change_position`` the moves out of it are timed as rapids from there (the rotary axes it does not
+name stay where the earlier tool left them); otherwise, or where a position stays unknown, the move is
+counted in ``untimed_moves`` and takes 0.
 """
 import numpy as np
 
@@ -71,14 +76,58 @@ def block_times(moves, machine, tool_lengths=None):
     return np.where(known, T, 0.0)
 
 
+def move_joints(read, machine, tool_lengths=None):
+    """Machine joints (N, axes) where every move starts and ends, as far as they are known.  A move's own rows
+    where the program gives them; a move from an unknown position (the first after a tool change) starts where
+    the machine stands: where the tool-change cycle leaves it (:meth:`..machine.Machine.after_tool_change`), NaN
+    where that is unknown.  Without TCP a row the program gives only in part (the rotaries turned first) is
+    completed from there too."""
+    tool_lengths = tool_lengths or {}
+    changes = sorted(line for _, line in read.tool_changes)
+    n = len(machine.axis_names)
+    J0, J1 = np.full((len(read.moves), n), np.nan), np.full((len(read.moves), n), np.nan)
+    here, k = np.full(n, np.nan), 0
+    for i, mv in enumerate(read.moves):
+        while k < len(changes) and changes[k] < mv.line:
+            here, k = machine.after_tool_change(here), k + 1
+        tl = tool_lengths.get(int(mv.tool), 0.0)
+        start, end = np.asarray(mv.start, float), np.asarray(mv.end, float)
+        J0[i] = machine.machine_joints(start, tl)[0] if np.isfinite(start).all() else here
+        if np.isfinite(end).all():
+            J1[i] = machine.machine_joints(end, tl)[0]
+        elif not machine.tcp:                    # joint values: what the block does not name stays
+            J1[i] = np.where(np.isfinite(end), end, J0[i])
+        here = J1[i]
+    return J0, J1
+
+
 def cycle_time(read, machine, tool_lengths=None):
     """Cutting, rapid and tool-change seconds of a read-back program (:class:`..posts.base.ReadProgram`)."""
     per = block_times(read.moves, machine, tool_lengths)
     feed = np.array([mv.kind == "feed" for mv in read.moves], bool)
+    unknown = np.array([not np.isfinite(mv.start).all() for mv in read.moves], bool)
+    untimed = 0
+    if unknown.any():
+        J0, J1 = move_joints(read, machine, tool_lengths)
+        rapid_rate = np.array([machine.axes[n].rapid for n in machine.axis_names])
+        for i in np.flatnonzero(unknown):
+            if feed[i] or not (np.isfinite(J0[i]).all() and np.isfinite(J1[i]).all()):
+                untimed += 1            # a cut from an unknown position has no length to time
+                continue
+            per[i] = float((np.abs(J1[i] - J0[i]) / rapid_rate).max())
     cut, rapid = float(per[feed].sum()), float(per[~feed].sum())
     per_block = per.tolist()
     changes = len(read.tool_changes)
     tc = changes * machine.tool_change_s / 60.0
     return {"cutting_time_s": 60.0 * cut, "rapid_time_s": 60.0 * rapid, "tool_changes": changes,
             "tool_change_time_s": 60.0 * tc, "total_time_s": 60.0 * (cut + rapid + tc),
-            "block_minutes": per_block}
+            "untimed_moves": untimed, "block_minutes": per_block}
+
+
+def untimed_note(count, machine):
+    """What the cycle time leaves out: the moves out of a tool change whose start is unknown."""
+    if not count:
+        return ""
+    why = ("the machine file gives no tool_change_position" if machine.tool_change_position is None
+           else "the rotary axes the tool_change_position does not name are unknown before the first tool")
+    return f", not counting {count} move(s) out of a tool change ({why})"

@@ -121,6 +121,7 @@ class Machine:
     tool_change_s: float
     source: str = ""
     notes: list = field(default_factory=list)
+    tool_change_position: dict = None   # joint values the tool-change cycle leaves (X, Y, Z; rotaries optional)
 
     # ------------------------------------------------------------------ structure
     @property
@@ -273,6 +274,26 @@ class Machine:
         tips, _ = self.forward(P, tool_length)
         return np.c_[self.control_points(tips, P[:, 3:], tool_length, tcp=False), P[:, 3:]]
 
+    def program_rows(self, joints, tool_length=0.0):
+        """Program rows (N, axes) of joint rows: the inverse of :meth:`machine_joints`."""
+        J = np.atleast_2d(np.asarray(joints, float))
+        if not self.tcp:
+            return J
+        tips, _ = self.forward(J, tool_length, tcp=False)
+        return np.c_[self.control_points(tips, J[:, 3:], tool_length, tcp=True), J[:, 3:]]
+
+    def after_tool_change(self, joints):
+        """Joint row (axes,) where the tool-change cycle leaves the machine that stood at ``joints`` (NaN where
+        unknown): the ``tool_change_position`` axes set, the others where they were; all NaN (unknown) when the
+        file gives no tool-change position."""
+        J = np.full(len(self.axis_names), np.nan) if joints is None else np.array(joints, float)
+        if self.tool_change_position is None:
+            return np.full(len(self.axis_names), np.nan)
+        for i, n in enumerate(self.axis_names):
+            if n in self.tool_change_position:
+                J[i] = self.tool_change_position[n]
+        return J
+
     def limit_violations(self, joints):
         """[(axis, value, min, max)] of joint rows (machine joints) outside the axis limits (worst per axis)."""
         J = np.atleast_2d(np.asarray(joints, float))
@@ -306,6 +327,23 @@ def _axis(name, d, kind):
         ax.direction = _vec(d.get("direction"), f"{key}.direction", unit=True)
         ax.pivot = _vec(d.get("pivot", [0.0, 0.0, 0.0]), f"{key}.pivot")
     return ax
+
+
+def _tool_change_position(d, axes):
+    """The optional ``tool_change_position``: joint values of X, Y, Z (required) and of any rotary axis the
+    tool-change cycle turns, inside the axis limits; None when the file has none."""
+    if d is None:
+        return None
+    key = "tool_change_position"
+    if not isinstance(d, dict):
+        raise MachineError(f"{key} must be an object of axis values, got {d!r}")
+    unknown = sorted(set(d) - set(axes))
+    if unknown:
+        raise MachineError(f"{key}.{unknown[0]}: no such axis on this machine (axes {', '.join(axes)})")
+    missing = [n for n in LINEAR if n not in d]
+    if missing:
+        raise MachineError(f"{key} must give {', '.join(missing)} (the linear axes; rotaries are optional)")
+    return {n: _num(d[n], f"{key}.{n}", lo=axes[n].min, hi=axes[n].max) for n in axes if n in d}
 
 
 def parse_machine(data, source="<dict>"):
@@ -360,7 +398,8 @@ def parse_machine(data, source="<dict>"):
                 max_rpm=_num(spindle.get("max_rpm") if isinstance(spindle, dict) else spindle, "spindle.max_rpm",
                              positive=True),
                 tool_change_s=_num(data.get("tool_change_s", 0.0), "tool_change_s", lo=0.0), source=source,
-                notes=list(data.get("notes", [])))
+                notes=list(data.get("notes", [])),
+                tool_change_position=_tool_change_position(data.get("tool_change_position"), axes))
     spin = m.axes[m.spin]
     if abs(abs(float(spin.direction @ m.mount[:, 2])) - 1.0) > 1e-9 or np.linalg.norm(
             np.cross(spin.pivot, m.mount[:, 2])) > 1e-9 * (1.0 + np.linalg.norm(spin.pivot)):

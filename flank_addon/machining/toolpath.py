@@ -19,8 +19,10 @@ next pass (turning the spin keeps every distance from the axis), then the linear
 start and the tool approaches it the reverse way.  Every segment is checked against the stock cylinder and the
 shafts (:mod:`.clearance`); when one is not clear the link is tried again with R_s + the tool's length, then
 with an extra lift along the tool axis, and refused by name if none is.  A tool starts and ends at that lifted
-position (the first move after a tool change comes from the tool-change position, which the program cannot
-know).
+position.  The first move after a tool change comes from where the tool-change cycle leaves the machine, which
+the program cannot know; when the machine file gives it (``tool_change_position``) the moves out of it are
+checked as well (without TCP: the rotaries turn where the tool stands, then the linear axes move; with TCP one
+block), and a program whose tool would enter the stock on the way is refused by name.
 
 Feeds: :func:`feeds.pass_conditions`; a pass' blocks share its screw rate, so a block's time is its share of
 the screw parameter over the rate.
@@ -258,6 +260,28 @@ def _order(pl, passes, directions, spin=None):
     return out
 
 
+def _check_out_of_tool_change(pl, tool, stood, first, label):
+    """Refuse the moves from where the tool-change cycle leaves the machine (``stood``: the joints where the
+    previous tool ended, None before the first) to the program row ``first`` when the tool enters the stock or a
+    shaft on the way; nothing to check without a ``tool_change_position``, or for a block whose start stays
+    unknown (the first tool's rotaries, when the file does not give them)."""
+    m = pl.m
+    if m.tool_change_position is None:
+        return
+    here = m.after_tool_change(stood)
+    gauge = tool.gauge_length
+    if m.tcp:                            # one block, interpolated in program coordinates
+        seq = [m.program_rows(here, gauge)[0], first] if np.isfinite(here).all() else []
+    else:                                # the rotaries turn where the tool stands, then the linear axes move
+        turned = np.r_[here[:3], first[3:]]
+        seq = ([here] if np.isfinite(here).all() else []) + [turned, first]
+    depth, pt = pl.check(tool.number, seq, label) if len(seq) > 1 else (0.0, None)
+    if depth > 0:
+        raise OperationError(f"the move of tool {tool.number} out of the tool-change position to {label} enters "
+                             f"the stock or a shaft by {depth:.3g} mm at {np.round(pt, 3).tolist()} in the rotor "
+                             "frame: move the machine file's tool_change_position away from the rotor")
+
+
 def build_program(op, machine, direction="forward", chord_tolerance=1e-3, step=1.0, spacing=1.5):
     """:class:`Program` of an :class:`operation.Operation` on ``machine`` (module doc).
 
@@ -275,7 +299,7 @@ def build_program(op, machine, direction="forward", chord_tolerance=1e-3, step=1
                                      f"{','.join(map(str, op.lobes))}, clearance {op.clearance:g} mm"}]
     if machine.tcp:
         ops.append({"op": "tcp", "on": True})
-    passes_out, spin = [], None
+    passes_out, spin, stood = [], None, None     # stood: the joints where the previous tool ended
     for tool in op.tools:
         mine = [p for p in op.passes if p.tool == tool.number]
         if not mine:
@@ -298,6 +322,8 @@ def build_program(op, machine, direction="forward", chord_tolerance=1e-3, step=1
                 raise MachineError(f"{label}: axis {axis_name} reaches {value:.6g}, outside its limits "
                                    f"{lo:g}..{hi:g} on machine {machine.name}{hint}")
             link = pl.link(tool.number, prev, rows[0], f"link to {label}")
+            if prev is None:
+                _check_out_of_tool_change(pl, tool, stood, link[0], label)
             for r in link[1:-1] if prev is not None else link[:-1]:
                 ops.append({"op": "rapid", "row": r})
             ops.append({"op": "rapid", "row": rows[0]})
@@ -322,6 +348,7 @@ def build_program(op, machine, direction="forward", chord_tolerance=1e-3, step=1
         for r in pl.link(tool.number, prev, None, f"retract after tool {tool.number}")[1:]:
             ops.append({"op": "rapid", "row": r})
         spin = float(ops[-1]["row"][pl.ispin])      # where the tool change leaves the spin axis
+        stood = machine.machine_joints(ops[-1]["row"], tool.gauge_length)[0]
     if machine.tcp:
         ops.append({"op": "tcp", "on": False})
     ops.append({"op": "end"})

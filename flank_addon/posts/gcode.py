@@ -60,7 +60,7 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
         if pos != len(code):
             raise PostError(f"line {no}: cannot read {code[pos:]!r} in {raw.strip()!r}")
         new = row.copy()
-        moved, f_here, tool_change = False, None, False
+        moved, f_here, tool_change, named = False, None, False, []
         for letter, value in words:
             if letter == "G":
                 g = value.lstrip("0") or "0"
@@ -79,6 +79,7 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
                     raise PostError(f"line {no}: G{value} is not supported by the reader")
             elif letter in names:
                 new[names.index(letter)] = float(value)
+                named.append(names.index(letter))
                 moved = True
             elif letter == "F":
                 f_here = float(value)
@@ -107,6 +108,12 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
             F = f_here
         if tool_change:
             out.tool_changes.append((tool, no))
+            # the tool-change cycle moves the machine where the program cannot see: every axis is unknown
+            # until the program names it again (a word in this block still counts: M6 runs before motion)
+            unnamed = np.ones(len(names), bool)
+            unnamed[named] = False
+            new[unnamed] = np.nan
+            row = np.full(len(names), np.nan)
         if moved:
             if motion is None:
                 raise PostError(f"line {no}: axis words without G0 or G1")

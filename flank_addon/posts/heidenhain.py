@@ -126,6 +126,7 @@ class HeidenhainPost(Post):
                     if t.startswith("S"):
                         rpm = float(t[1:])
                 out.tool_changes.append((tool, no))
+                row = np.full(len(names), np.nan)   # the tool-change cycle moves the machine unseen
                 continue
             if toks[:2] == ["FUNCTION", "TCPM"]:
                 tcp = True

@@ -20,8 +20,9 @@
    infinite screw motion, valid because the pass runs out beyond the body (5).
 5. Run-out: at its first and last pose the whole tool (and shank) must be beyond the body's end faces.
 6. Every other move (rapids, links) is checked against the stock cylinder and the shafts
-   (:func:`machining.toolpath.segment_intrusion`); the first move (from the unknown tool-change position)
-   is not.
+   (:func:`machining.toolpath.segment_intrusion`).  The moves out of a tool change start where the machine
+   file's ``tool_change_position`` leaves the machine (:func:`machining.cycle_time.move_joints`); without
+   one their start is unknown and they are counted as ``unchecked``.
 7. Cycle time from the moves as the controller times them (:mod:`machining.cycle_time`).
 8. ``findings``: every way the program differs from its plans or cuts where it must not
    (:func:`program_findings`); the command exits with status 1 when there is any.
@@ -32,7 +33,7 @@ import time
 import numpy as np
 
 from ..geometry.screw import screw_motion
-from ..machining.cycle_time import cycle_time
+from ..machining.cycle_time import cycle_time, move_joints
 from ..machining.operation import checked_lobes, repeats_earlier_strip
 from ..machining.tool_shape import ToolShape
 from ..machining.toolpath import segment_intrusion
@@ -217,23 +218,29 @@ def lobe_deviation(plan, p, passes, tools, rotor, lobe, reference, recheck=1e-3)
 
 def check_links(read, machine, tools, rotor, step=1.0, spacing=1.5):
     """Intrusion of every non-cutting move into the stock or the shafts."""
-    worst, bad, checked = 0.0, [], 0
-    feed_lines = set()
+    worst, bad, checked, unchecked = 0.0, [], 0, 0
     local = {n: s.local_points(spacing) for n, s in tools.items()}
-    for mv in read.moves:
-        if mv.kind == "feed":
-            feed_lines.add(mv.line)
+    gauges = {n: s.h_range()[1] - s.h_range()[0] for n, s in tools.items()}
+    J0, J1 = move_joints(read, machine, gauges)
+    for i, mv in enumerate(read.moves):
+        if mv.kind == "feed" or mv.tool not in tools:
             continue
-        if not np.isfinite(mv.start).all() or mv.tool not in tools or np.allclose(mv.start, mv.end):
+        start, end = np.asarray(mv.start, float), np.asarray(mv.end, float)
+        if not (np.isfinite(start).all() and np.isfinite(end).all()):
+            # out of a tool change: from where the machine stands, as joints (program rows of them)
+            if not (np.isfinite(J0[i]).all() and np.isfinite(J1[i]).all()):
+                unchecked += 1
+                continue
+            start, end = machine.program_rows(np.array([J0[i], J1[i]]), gauges[mv.tool])
+        if np.allclose(start, end):
             continue
-        shape = tools[mv.tool]
-        gauge = shape.h_range()[1] - shape.h_range()[0]
-        depth, frac, pt = segment_intrusion(machine, rotor, mv.start, mv.end, local[mv.tool], gauge, step)
+        depth, frac, pt = segment_intrusion(machine, rotor, start, end, local[mv.tool], gauges[mv.tool], step)
         checked += 1
         worst = max(worst, depth)
         if depth > 0:
             bad.append({"line": mv.line, "depth_mm": depth, "point": pt})
-    return {"moves_checked": checked, "max_intrusion_mm": worst, "intrusions": bad[:20]}
+    return {"moves_checked": checked, "moves_unchecked": unchecked, "max_intrusion_mm": worst,
+            "intrusions": bad[:20]}
 
 
 def verify_program(text, post, machine, plans, rotor, lobes=None, references=None):
