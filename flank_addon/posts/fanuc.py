@@ -16,11 +16,11 @@ checked path (docs/posts.md).
 """
 import re
 
-from .base import Post, feed_text, fixed, header_lines
-from .gcode import read_gcode
+from .base import feed_text, fixed, header_lines
+from .gcode import GcodePost, read_gcode
 
 
-class FanucPost(Post):
+class FanucPost(GcodePost):
     name = "fanuc"
     extension = ".nc"
     description = "Fanuc-style ISO, inverse-time feed (G93), G43.4 on TCP machines"
@@ -47,15 +47,6 @@ class FanucPost(Post):
 
     def _tcp(self, on, program):
         pass                               # G43.4 comes with the first positioning block, G49 at the end
-
-    def _mode(self, mode):
-        if self.state["mode"] != mode:
-            if self.state["mode"] is not None or mode == "inverse_time":
-                self.lines.append("G93" if mode == "inverse_time" else "G94")
-            self.state["mode"] = mode
-
-    def _axes(self, words):
-        return " ".join(f"{n}{fixed(v, d)}" for n, v, d in words)
 
     def _rapid(self, words, program):
         self._mode("per_minute")

@@ -9,7 +9,7 @@ import re
 
 import numpy as np
 
-from .base import Move, PostError, ReadProgram
+from .base import Move, Post, PostError, ReadProgram, fixed
 
 WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
 IGNORED_G = {"17", "21", "40", "49", "54", "55", "56", "57", "58", "59", "61", "61.1", "64", "80", "90", "43"}
@@ -126,3 +126,17 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
                                   "" if motion == 0 else mode, 0.0 if motion == 0 else F, no, tool, rpm, tcp, comment))
             row = new
     return out
+
+
+class GcodePost(Post):
+    """What the ISO G-code dialects share: the feed mode words (G93 inverse time for cuts, G94 for the rest;
+    G94 is the power-on default, so it is written only to leave G93) and the axis words."""
+
+    def _mode(self, mode):
+        if self.state["mode"] != mode:
+            if self.state["mode"] is not None or mode == "inverse_time":
+                self.lines.append("G93" if mode == "inverse_time" else "G94")
+            self.state["mode"] = mode
+
+    def _axes(self, words):
+        return " ".join(f"{n}{fixed(v, d)}" for n, v, d in words)

@@ -10,11 +10,11 @@ without TCP needs identity kinematics (joint values).  The header says which.  L
 (``rs274 -g``) reads these programs: tests/machining checks that it does without error, that its canonical
 moves equal :meth:`LinuxCNCPost.read`'s and that its feeds give the same cycle time.
 """
-from .base import Post, feed_text, fixed, header_lines
-from .gcode import read_gcode
+from .base import feed_text, fixed, header_lines
+from .gcode import GcodePost, read_gcode
 
 
-class LinuxCNCPost(Post):
+class LinuxCNCPost(GcodePost):
     name = "linuxcnc"
     extension = ".ngc"
     description = "LinuxCNC rs274ngc, inverse-time feed (G93) for simultaneous moves"
@@ -41,15 +41,6 @@ class LinuxCNCPost(Post):
 
     def _tcp(self, on, program):
         pass
-
-    def _mode(self, mode):
-        if self.state["mode"] != mode:
-            if self.state["mode"] is not None or mode == "inverse_time":
-                self.lines.append("G93" if mode == "inverse_time" else "G94")
-            self.state["mode"] = mode
-
-    def _axes(self, words):
-        return " ".join(f"{n}{fixed(v, d)}" for n, v, d in words)
 
     def _rapid(self, words, program):
         self._mode("per_minute")
