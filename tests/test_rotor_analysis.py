@@ -162,6 +162,16 @@ def test_rejects_cube_with_residual_message():
         analyze_mesh(v, f)
 
 
+def test_rejects_a_flat_plate_naming_it():
+    n = 30
+    x, y = np.meshgrid(np.linspace(0, 10, n), np.linspace(0, 10, n))
+    v = np.c_[x.ravel(), y.ravel(), np.zeros(n * n)]
+    a = (np.arange(n - 1)[:, None] * n + np.arange(n - 1)[None, :]).ravel()
+    f = np.concatenate([np.c_[a, a + 1, a + n + 1], np.c_[a, a + n + 1, a + n]])
+    with pytest.raises(NotHelicalError, match=r"v0 = 0 is below .* surface of revolution, here a plane"):
+        analyze_mesh(v, f)
+
+
 def prism(sides, depth, rings, radius=20.0, centre_caps=False):
     """A regular prism (a polygonal cylinder as Blender's Add > Cylinder makes it): ``rings`` vertex rings,
     quads split in two, end caps as triangle fans from a rim vertex or from a centre vertex."""

@@ -844,9 +844,11 @@ def _analyze_mesh(verts, faces, n_profile, threshold, progress=None):
     vr = to_rotor(verts[keep])
     outer = float(np.max(np.hypot(vr[:, 0], vr[:, 1])))
     if v0 < MIN_PITCH_RATIO * outer:
+        flat = float(np.average(np.abs(normals[keep] @ d), weights=areas[keep])) > 0.999
+        plane = ", here a plane (every normal along the axis)" if flat else " (disc, cone, sphere, ...)"
         raise NotHelicalError(
             f"not helical: v0 = {v0:.3g} is below {MIN_PITCH_RATIO:g} x outer radius ({outer:.3g}); "
-            f"this is a surface of revolution ({quote})")
+            f"a turn about the axis alone maps the mesh onto itself: a surface of revolution{plane} ({quote})")
     report(0.45, "profile")
     # profile points: exact helical vertices nearest to one axial level at mid body, screwed into
     # z = 0.  The level is a vertex's own z, so a mesh built from rings contributes exactly one ring
