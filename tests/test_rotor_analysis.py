@@ -203,6 +203,18 @@ def test_rejects_cylinders_and_prisms_whose_pitch_is_not_determined(sides, depth
         analyze_mesh(*prism(sides, depth, rings, centre_caps=centre_caps))
 
 
+@pytest.mark.parametrize("kind", ["nilson", "srm_a", "asymmetric"])
+def test_coarse_rotor_meshes_keep_their_pitch_check(kind):
+    """A 48 x 8 male mesh: its face normals are off by the chord angle (sines 0.08 to 0.17), far beyond the vertex
+    normals' tangency bound, and must still count for the faces' own pitch (they did not when faces had to meet
+    the vertex bound: 20 of 24 such meshes were refused as cylinders)."""
+    from flank_addon.geometry.rotors import builtin_rotor
+
+    rotor = builtin_rotor(kind, "male", scale=40.0)
+    a = analyze_mesh(*rotor.mesh(n_profile=48, n_axial=8))
+    assert abs(a.v0 / rotor.v0 - 1) < 0.02 and a.lobes == rotor.lobes
+
+
 @pytest.mark.parametrize("name", ["nilson-male", "srm_a-female"])
 @pytest.mark.parametrize("n_profile, n_axial", [(700, 40), (200, 10)])
 def test_faces_give_a_screw_rotors_own_pitch(name, n_profile, n_axial):

@@ -39,6 +39,7 @@ MIN_PITCH_RATIO = 1e-3      # v0 / R below this is a surface of revolution, not 
 MIN_EIGEN_SEPARATION = 1e3  # second / first eigenvalue of the screw fit; below: motion not unique
 MIN_AXIAL_NORMAL = 0.01     # RMS axial component of the fitting faces' normals; below: no face fixes the pitch
 FACE_PITCH_AGREEMENT = 0.2  # the faces' own advance k within this fraction of the fitted one
+FACE_TANGENCY = 0.3         # sine of the angle a face normal may make with the normal plane of the screw
 
 
 class NotHelicalError(ValueError):
@@ -234,10 +235,13 @@ def face_advance(points, faces, face_cross, d, a, k, max_faces=20000):
     an axial component fix k.  The vertex-normal fit cannot see that: at a prism's rims the vertex
     normals lean towards the end caps and give some k, while the prism's sides are tangent to every
     screw about the axis.  Over the faces tangent to the fitted screw (sine of the angle between the
-    face normal and the screw velocity at the centroid below the tangency threshold; at most
-    ``max_faces`` faces, evenly strided), returns the RMS axial component of their normals and the
-    area-weighted least-squares k of that relation.  On a screw rotor the two k agree to a few percent
-    (coarse meshes) or better; on a cylinder or prism no face fixes k, or only the end caps, which say 0.
+    face normal and the screw velocity at the centroid at most ``FACE_TANGENCY``; at most ``max_faces``
+    faces, evenly strided), returns the RMS axial component of their normals and the area-weighted
+    least-squares k of that relation, or None when no face is tangent.  The bound is loose because a
+    coarse mesh's face normals are off by its chord angle (0.08 to 0.17 on a 48 x 6 rotor mesh), while a
+    rotor's end faces stay out (their sine is k / |velocity|, 0.5 and more for any rotor the analysis
+    takes).  On a screw rotor the two k agree to a few percent (coarse meshes) or better; on a cylinder
+    or prism no face fixes k, or the end caps do, which say 0.
     """
     stride = max(1, -(-len(faces) // max_faces))
     f, cr = faces[::stride], face_cross[::stride]
@@ -246,15 +250,33 @@ def face_advance(points, faces, face_cross, d, a, k, max_faces=20000):
     turn = axis_screw_velocity((points[f[:, 0]] + points[f[:, 1]] + points[f[:, 2]]) / 3.0, d, a, 0.0)
     vel = turn + k * d
     sine = np.abs(np.einsum("ij,ij->i", vel, n)) / np.maximum(np.linalg.norm(vel, axis=1), 1e-300)
-    fits = sine <= TANGENCY_THRESHOLD
+    fits = sine <= FACE_TANGENCY
     if not fits.any():
-        return 0.0, 0.0
+        return None
     axial, w = n[fits] @ d, length[fits]
     squares = float(np.sum(w * axial ** 2))
     rms = float(np.sqrt(squares / np.sum(w)))
     if squares <= 0.0:
         return rms, 0.0
     return rms, float(-np.sum(w * axial * np.einsum("ij,ij->i", turn[fits], n[fits])) / squares)
+
+
+def _check_face_advance(advance, k, scale, quote):
+    """Refuse a mesh whose faces do not fix the fitted advance k (:func:`face_advance`'s answer)."""
+    if advance is None:
+        raise NotHelicalError(f"not a helical surface: no face is tangent to the fitted screw motion (sine of the "
+                              f"angle above {FACE_TANGENCY:g} everywhere; {quote})")
+    axial, face_k = advance
+    if axial < MIN_AXIAL_NORMAL:
+        raise NotHelicalError(
+            f"not a helical rotor: the faces that fit the screw motion are parallel to its axis (RMS axial "
+            f"component of their normals {axial:.3g} < {MIN_AXIAL_NORMAL:g}), so every pitch fits them: "
+            f"a cylinder or prism ({quote})")
+    if not abs(face_k / k - 1.0) <= FACE_PITCH_AGREEMENT:
+        raise NotHelicalError(
+            f"not a helical rotor: the pitch is not determined; the faces' normals give v0 = "
+            f"{abs(face_k) * scale:.3g}, the vertex normals v0 = {abs(k) * scale:.3g} (they must agree "
+            f"within {FACE_PITCH_AGREEMENT:.0%}): a cylinder or prism? ({quote})")
 
 
 def fit_screw_motion(points, normals, weights, moments=None):
@@ -810,17 +832,9 @@ def _analyze_mesh(verts, faces, n_profile, threshold, progress=None):
         raise NotHelicalError(
             f"not helical: the screw motion is not unique (eigenvalue separation {separation:.3g} "
             f"< {MIN_EIGEN_SEPARATION:g}; sphere, cylinder or plane?; {quote})")
-    axial, face_k = face_advance(P, faces, face_cross, d, a, k)
-    if axial < MIN_AXIAL_NORMAL:
-        raise NotHelicalError(
-            f"not a helical rotor: the faces that fit the screw motion are parallel to its axis (RMS axial "
-            f"component of their normals {axial:.3g} < {MIN_AXIAL_NORMAL:g}), so every pitch fits them: "
-            f"a cylinder or prism ({quote})")
-    if k != 0.0 and not abs(face_k / k - 1.0) <= FACE_PITCH_AGREEMENT:   # k = 0: refused below as a revolution
-        raise NotHelicalError(
-            f"not a helical rotor: the pitch is not determined; the faces' normals give v0 = "
-            f"{abs(face_k) * scale:.3g}, the vertex normals v0 = {abs(k) * scale:.3g} (they must agree "
-            f"within {FACE_PITCH_AGREEMENT:.0%}): a cylinder or prism? ({quote})")
+    # what the faces say about the advance: judged after the positional residual, so that a coarse rotor mesh
+    # is refused for its residual; a vanishing advance is a surface of revolution, refused below by name
+    advance = (face_advance(P, faces, face_cross, d, a, k), k, scale, quote) if abs(k) > 1e-9 else None
     axis_point = centre + scale * a
     v0 = abs(k) * scale
     hand = 1 if k > 0 else -1
@@ -901,6 +915,8 @@ def _analyze_mesh(verts, faces, n_profile, threshold, progress=None):
             f"not a helical surface: residual {residual:.3g} exceeds the threshold {threshold:.3g} "
             f"(RMS distance of the mesh vertices from the best screw surface, in outer radii; "
             f"max {deviation.max() / outer:.3g})")
+    if advance is not None:
+        _check_face_advance(*advance)
     # the rotor frame's profile is at z = 0: screw the level's profile there with the refined pitch
     spline = SplineProfile(rotate2d(pts, -hand * zm / v0))
     # resample uniformly, starting at the first lobe tip so flank ranges rarely wrap
