@@ -28,7 +28,7 @@ from .properties import double_flank_props
 from .result_builder import COLOR_CHART, COLOR_TOOL, RunBuilder, finite_runs
 from .runs import run_plan_fields
 from .shapes import axis_frame
-from .sources import AnalysisNeeded, rotor_source, with_extent
+from .sources import AnalysisNeeded, own_frame, rotor_source, with_extent
 from .strips import store_run_plan
 
 PROP_PREFIX = "flank_df_"
@@ -169,7 +169,7 @@ def _add_tool_motion(run, job, out, rotor, made, name):
     z0, z1 = src["z_range"]
     made["motion"] = [float((z0 - R) / v0), float((z1 + R) / v0)]
     motion = run.add_motion("DF Tool Motion", rotor, tuple(zip(job["frames"], made["motion"])), v0, eps,
-                            0.25 * R, frame=src["display"] if src["kind"] == "analyzed" else None)
+                            0.25 * R, frame=own_frame(src))
     for k, tool in enumerate(made["tools"]):
         run.add_moving(name("DF Tool", k) + " (moving)", motion, tool.data, out["frames"][k][0], index=k)
 

@@ -31,7 +31,7 @@ from .properties import single_flank_props
 from .result_builder import COLOR_CHART, COLOR_TOOL, RunBuilder, finite_runs
 from .runs import run_plan_fields
 from .shapes import axis_frame, revolved_mesh
-from .sources import AnalysisNeeded, rotor_source, with_extent
+from .sources import AnalysisNeeded, own_frame, rotor_source, with_extent
 from .strips import store_run_plan
 from .units import mm_per_scene_unit
 
@@ -273,7 +273,7 @@ def _fill_run(run, job, out, rotor, made):
         v0, eps = float(surface.v0), (1 if surface.hand > 0 else -1)
         made["motion"] = [float((job["z0"] - R) / v0), float((job["z1"] + R) / v0)]
         motion = run.add_motion(tag + "Tool Motion", rotor, tuple(zip(job["frames"], made["motion"])), v0, eps,
-                                0.25 * R, frame=display if job["src"]["kind"] == "analyzed" else None)
+                                0.25 * R, frame=own_frame(job["src"]))
         for k, tool in enumerate(made["tools"]):
             run.add_moving("{}Tool {} (moving)".format(tag, k + 1), motion, tool.data, out["frames"][k], index=k)
     if job["filepath"]:

@@ -77,7 +77,15 @@ def _in_millimetres(src, g, surface, flanks, extent):
     shrink = np.diag([1.0 / g, 1.0 / g, 1.0 / g, 1.0])
     z0, z1 = (float(z) * g for z in src["z_range"])
     return dict(src, surface=surface, flanks=flanks, display=src["display"] @ shrink,
-                to_world=src["to_world"] @ shrink, scale=float(src["scale"]) / g, z_range=(z0, z1), extent=extent)
+                to_world=src["to_world"] @ shrink, scale=float(src["scale"]) / g, z_range=(z0, z1), extent=extent,
+                mm_factor=g)
+
+
+def own_frame(src):
+    """The rotor frame in world coordinates for objects parented to the rotor object, or None when it is the
+    object's own frame (a generated rotor in millimetres or units of R): an analysed mesh's frame is its
+    analysis', and a rotor converted to millimetres has its frame scaled."""
+    return src["display"] if src["kind"] == "analyzed" or src.get("mm_factor") else None
 
 
 def _scaled_extent(extent, g):

@@ -55,7 +55,7 @@ def _generated_in_two_scenes(bpy):
                                   resolution=360, axial=24)
         rotor = bpy.context.active_object
         ret, err = driver._run_op(bpy.ops.flank.plan_double_flank, valley=0, radii=40, envelope_rings=12,
-                                  simulate=False) if ret else (ret, err)
+                                  simulate=False, animate=True, frame_start=1, frame_end=20) if ret else (ret, err)
         run = dict(result=ret, error=err)
         coll = next((c for c in bpy.data.collections if c.get("flank_df_rotor") == rotor.name
                      and "flank_plan_json" in c), None)
@@ -64,5 +64,17 @@ def _generated_in_two_scenes(bpy):
             run.update(unit=plan["length_unit"], outer_radius=plan["rotor"]["outer_radius"], v0=plan["rotor"]["v0"],
                        length_scale=float(coll["flank_df_length_scale"]), rotor_v0=float(rotor["flank_v0"]),
                        alpha=[float(v) for v in coll["flank_df_alpha"]])
+            # the moving tool rides the screw: at any frame the same size as the tool and as far from the axis
+            bpy.context.scene.frame_set(1)
+            bpy.context.view_layer.update()
+            role = {ob.get("flank_df_role"): ob for ob in coll.objects}
+
+            def size_and_rho(ob):
+                m = [list(r) for r in ob.matrix_world]
+                det = (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] *
+                       m[2][0]) + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]))
+                return [abs(det) ** (1.0 / 3.0), (m[0][3] ** 2 + m[1][3] ** 2) ** 0.5]
+            if "tool" in role and "moving" in role:
+                run.update(tool=size_and_rho(role["tool"]), moving=size_and_rho(role["moving"]))
         got[label] = run
     return got

@@ -37,3 +37,5 @@ def test_a_generated_rotor_is_planned_in_millimetres_in_a_scene_of_metres(cu):
         assert run["v0"] == pytest.approx(run["rotor_v0"] / scale, rel=1e-6)
     assert m["v0"] == pytest.approx(mm["v0"], rel=1e-6)
     assert m["alpha"] == pytest.approx(mm["alpha"], abs=1e-6)
+    for run in (m, mm):     # the animated tool keeps the tool's size and distance from the axis (was 1000 x)
+        assert run["moving"] == pytest.approx(run["tool"], rel=1e-5), run
