@@ -442,6 +442,11 @@ def hide_objects(objs):
     return hid
 
 
+# a relative path would land in Blender's working folder, wherever that is
+RELATIVE = ("'{}' is a relative path: give an absolute path, or one starting with // (relative to the .blend "
+            "file, once it is saved)")
+
+
 def check_filepath(filepath, what="program file"):
     """(absolute path, None) or (None, error message) for a file an operator will write at ``filepath`` (a
     Blender path, '//' relative to the saved .blend): never the current folder by accident."""
@@ -449,8 +454,7 @@ def check_filepath(filepath, what="program file"):
         return None, "no {} given (filepath is empty)".format(what)
     path = bpy.path.abspath(filepath)
     if not os.path.isabs(path):
-        return None, "'{}' is a relative path and the .blend file is not saved: give an absolute path".format(
-            filepath)
+        return None, RELATIVE.format(filepath)
     path = os.path.normpath(path)
     folder = os.path.dirname(path)
     if os.path.isdir(path):
@@ -470,7 +474,7 @@ def output_file_error(path, what):
         return None
     full = bpy.path.abspath(path)
     if not os.path.isabs(full):
-        return "{} '{}' is a relative path and the .blend file is not saved: give an absolute path".format(what, path)
+        return "{} {}".format(what, RELATIVE.format(path))
     folder = os.path.dirname(os.path.abspath(full))
     if not os.path.isdir(folder):
         return "{} {}: the folder {} does not exist".format(what, full, folder)

@@ -283,10 +283,13 @@ class FLANK_OT_formed_cutter(ModalPlannerMixin, bpy.types.Operator):
             if abs(A) > 1000.0 * src["r0"]:
                 src = "centre distance A = {:g} exceeds the limit 1000 x the rotor's outer radius = {:g}".format(
                     A, 1000.0 * src["r0"])
-            for label, value in (("eps_b", eps_b_in), ("tolerance", tol_in)):
-                if not isinstance(src, str) and value > src["r0"]:
-                    src = "{} = {:g} exceeds the rotor's outer radius {:g} (0 = default)".format(label, value,
-                                                                                               src["r0"])
+            # eps_b is in the rotor's units, the tolerance in scene units (the rotor object may be scaled)
+            obj = src["obj"]
+            scale = (float(np.cbrt(abs(np.linalg.det(np.array(obj.matrix_world)[:3, :3])))) if obj is not None
+                     else 1.0) or 1.0
+            for label, value, limit in (("eps_b", eps_b_in, src["r0"]), ("tolerance", tol_in, src["r0"] * scale)):
+                if not isinstance(src, str) and value > limit:
+                    src = "{} = {:g} exceeds the rotor's outer radius {:g} (0 = default)".format(label, value, limit)
         if isinstance(src, str):
             self.report({'ERROR'}, "Formed cutter: " + src)
             return None

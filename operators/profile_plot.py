@@ -14,6 +14,7 @@ import bpy
 from bpy.props import BoolProperty, IntProperty, StringProperty
 
 from .chart_text import fill_text, text_outlines
+from .common import RELATIVE
 from .modal import ModalPlannerMixin
 from .runs import PlanNeeded, run_plan
 
@@ -116,6 +117,8 @@ class FLANK_OT_error_plot(ModalPlannerMixin, bpy.types.Operator):
         if not self.filepath:
             return None, None
         path = bpy.path.abspath(self.filepath)
+        if not os.path.isabs(path):
+            return None, RELATIVE.format(self.filepath)
         if os.path.isdir(path):                    # not '<folder>.png' beside it
             return None, "'{}' is a folder: give a file name".format(path)
         if not path.lower().endswith(".png"):

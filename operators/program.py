@@ -113,13 +113,32 @@ def post_program(job):
                 path=program_path(read, machine, gauges), keys=program_keys(read, machine, gauges, minutes))
 
 
-def _samples(mv, machine, fine):
-    """Rows (n + 1, axes) along a move, linear in its program values: 1 segment for a feed block unless
-    ``fine`` (the path: every STEP_DEG of a rotary axis), for a rapid every STEP_DEG of a rotary axis."""
-    turn = float(np.abs(mv.end[3:] - mv.start[3:]).max()) if len(mv.end) > 3 else 0.0
-    n = 1 if (mv.kind == "feed" and not fine) else int(min(MAX_SAMPLES, max(1, math.ceil(turn / STEP_DEG))))
+def _samples(kind, start, end, fine):
+    """Rows (n + 1, axes) along a move from program row ``start`` to ``end``, linear in its program values: 1
+    segment for a feed block unless ``fine`` (the path: every STEP_DEG of a rotary axis), for a rapid every
+    STEP_DEG of a rotary axis."""
+    turn = float(np.abs(end[3:] - start[3:]).max()) if len(end) > 3 else 0.0
+    n = 1 if (kind == "feed" and not fine) else int(min(MAX_SAMPLES, max(1, math.ceil(turn / STEP_DEG))))
     u = np.linspace(0.0, 1.0, n + 1)[:, None]
-    return (1.0 - u) * mv.start[None, :] + u * mv.end[None, :]
+    return (1.0 - u) * start[None, :] + u * end[None, :]
+
+
+def _move_rows(read, machine, gauges):
+    """(start, end) program rows of every move, or None where the machine's position is unknown: a move out of a
+    tool change starts where the machine file's tool_change_position leaves the machine (as the cycle time
+    counts it, :func:`..flank_addon.machining.cycle_time.move_joints`)."""
+    from ..flank_addon.machining.cycle_time import move_joints
+
+    J0, J1 = move_joints(read, machine, gauges)
+    out = []
+    for mv, j0, j1 in zip(read.moves, J0, J1):
+        if np.isfinite(mv.start).all() and np.isfinite(mv.end).all():
+            out.append((np.asarray(mv.start, float), np.asarray(mv.end, float)))
+        elif np.isfinite(j0).all() and np.isfinite(j1).all():
+            out.append(tuple(machine.program_rows(np.array([j0, j1]), gauges.get(mv.tool, 0.0))))
+        else:
+            out.append(None)
+    return out
 
 
 def program_path(read, machine, gauges):
@@ -128,14 +147,14 @@ def program_path(read, machine, gauges):
     of feed moves of one tool, as the read-back counts them."""
     pts, edges, motion, passes = [], [], [], []
     n_pass, prev_feed, prev_tool, last = 0, False, None, None
-    for mv in read.moves:
-        if not np.isfinite(mv.start).all():          # from the unknown tool-change position
+    for mv, rows in zip(read.moves, _move_rows(read, machine, gauges)):
+        if rows is None:                              # from an unknown position (out of a tool change)
             last, prev_feed, prev_tool = None, False, mv.tool
             continue
         feed = mv.kind == "feed"
         if feed and (not prev_feed or mv.tool != prev_tool):
             n_pass += 1
-        tips = machine.forward(_samples(mv, machine, fine=True), gauges.get(mv.tool, 0.0))[0]
+        tips = machine.forward(_samples(mv.kind, *rows, fine=True), gauges.get(mv.tool, 0.0))[0]
         start = len(pts) if last is None else last
         if last is None:
             pts.append(tips[0])
@@ -168,9 +187,11 @@ def program_keys(read, machine, gauges, minutes):
     for rapids that turn a rotary axis, every STEP_DEG between (a move's block time shared evenly: its program
     values move linearly).  Time counts the moves' block times (tool changes are not shown)."""
     seconds, tools, rows, clock = [], [], [], 0.0
-    for mv, m in zip(read.moves, minutes):
-        known = np.isfinite(mv.start).all()
-        samples = _samples(mv, machine, fine=False)[1:] if known else mv.end[None, :]
+    for mv, m, ends in zip(read.moves, minutes, _move_rows(read, machine, gauges)):
+        known = ends is not None
+        if not known and not np.isfinite(mv.end).all():
+            continue                                  # where the machine stands is not known yet
+        samples = _samples(mv.kind, *ends, fine=False)[1:] if known else mv.end[None, :]
         dt = 60.0 * float(m) / len(samples)
         if known and not dt > 0.0:                    # a block that moves nothing
             continue

@@ -88,7 +88,7 @@ def move_joints(read, machine, tool_lengths=None):
     J0, J1 = np.full((len(read.moves), n), np.nan), np.full((len(read.moves), n), np.nan)
     here, k = np.full(n, np.nan), 0
     for i, mv in enumerate(read.moves):
-        while k < len(changes) and changes[k] < mv.line:
+        while k < len(changes) and changes[k] <= mv.line:      # M6 runs before the motion of its block
             here, k = machine.after_tool_change(here), k + 1
         tl = tool_lengths.get(int(mv.tool), 0.0)
         start, end = np.asarray(mv.start, float), np.asarray(mv.end, float)

@@ -143,6 +143,8 @@ def scenario(bpy, res, args):
     os.makedirs(os.path.join(tmp, "plots"), exist_ok=True)
     fails["folder"] = _attempt(bpy, tmp, filepath=os.path.join(tmp, "plots"))   # not 'plots.png' beside it
     fails["folder"]["beside"] = os.path.exists(os.path.join(tmp, "plots.png"))
+    fails["relative"] = _attempt(bpy, tmp, filepath="relative_plot.png")      # the .blend is not saved
+    fails["relative"]["beside"] = os.path.exists("relative_plot.png")
     good = coll["flank_plan_json"]
     coll["flank_plan_json"] = "{broken"
     fails["broken_plan"] = _attempt(bpy, tmp, collection=coll.name)

@@ -29,6 +29,7 @@ def test_without_a_run_it_fails_and_makes_no_image(ep):
 @pytest.mark.parametrize("case, words", [("unknown_run", ("no collection", "No Such Run")),
                                          ("missing_folder", ("does not exist", "no_dir")),
                                          ("folder", ("is a folder: give a file name", "plots")),
+                                         ("relative", ("'relative_plot.png' is a relative path",)),
                                          ("broken_plan", ("not valid",))])
 def test_failures_with_a_run_leave_nothing(ep, case, words):
     _failed(ep["fails"][case], *words)

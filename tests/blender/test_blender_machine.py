@@ -188,7 +188,7 @@ def test_a_repost_replaces_the_program_and_its_animation(mc):
 # ------------------------------------------------------------------------------------------- refusals
 ERRORS = {
     "empty_path": "no program file given (filepath is empty)",
-    "relative_path": "is a relative path and the .blend file is not saved",
+    "relative_path": "is a relative path: give an absolute path, or one starting with //",
     "missing_folder": "does not exist",
     "folder": "is a folder",
     "unwritable": "cannot write /proc/flank_program.ngc",

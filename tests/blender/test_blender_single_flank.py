@@ -194,7 +194,7 @@ def test_undo_and_redo(sfl):
     ("all_colliding", ["no collision-free strip on flank 1", "2 seeds tried, 2 colliding",
                        "collides with its own flank", "uncovered [0.6119, 1.186]"]),
     ("plan_dir_missing", ["plan file", "no_dir/p.json: the folder", "does not exist"]),
-    ("plan_relative", ["plan file 'relative_plan.json' is a relative path", "not saved"]),
+    ("plan_relative", ["plan file 'relative_plan.json' is a relative path", "starting with //"]),
     ("point_far", ["point [1000000000.0, 0.0, 0.0] lies", "above the limit", "of its outer radius"]),
     ("cube", ["'Cube", "is not a rotor", "flank_source = None"]),
     ("cube_analyzed", ["'Cube", "is not a helical rotor"]),
