@@ -283,6 +283,7 @@ class FLANK_OT_formed_cutter(ModalPlannerMixin, bpy.types.Operator):
             if abs(A) > 1000.0 * src["r0"]:
                 src = "centre distance A = {:g} exceeds the limit 1000 x the rotor's outer radius = {:g}".format(
                     A, 1000.0 * src["r0"])
+        if not isinstance(src, str):
             # eps_b is in the rotor's units, the tolerance in scene units (the rotor object may be scaled)
             obj = src["obj"]
             scale = (float(np.cbrt(abs(np.linalg.det(np.array(obj.matrix_world)[:3, :3])))) if obj is not None
