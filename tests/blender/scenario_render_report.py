@@ -157,6 +157,7 @@ def scenario(bpy, res, args):
     for label, kw in (("missing_folder", dict(filepath=os.path.join(tmp, "no", "r.png"))),
                       ("folder", dict(filepath=os.path.join(tmp, "a_folder.png"))),
                       ("folder_no_png", dict(filepath=tmp)),        # not written as '<tmp>.png' beside it
+                      ("relative", dict(filepath="relative_report.png")),      # the .blend is not saved
                       ("empty_path", dict(filepath="")),
                       ("no_such_run", dict(filepath=os.path.join(tmp, "x.png"), collection="No Such Run"))):
         c0 = census(bpy)

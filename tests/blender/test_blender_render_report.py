@@ -97,6 +97,7 @@ def test_cycles_report(rep):
 
 @pytest.mark.parametrize("label,words", [("missing_folder", "does not exist"), ("folder", "is a folder"),
                                          ("folder_no_png", "is a folder: give a file name"),
+                                         ("relative", "'relative_report.png' is a relative path"),
                                          ("empty_path", "no file given"), ("no_such_run", "no collection")])
 def test_bad_input_is_a_clear_error(rep, label, words):
     b = rep["bad"][label]
