@@ -151,6 +151,8 @@ def program_path(read, machine, gauges):
         if rows is None:                              # from an unknown position (out of a tool change)
             last, prev_feed, prev_tool = None, False, mv.tool
             continue
+        if not np.isfinite(mv.start).all():           # out of a tool change: from the tool-change position
+            last = None
         feed = mv.kind == "feed"
         if feed and (not prev_feed or mv.tool != prev_tool):
             n_pass += 1
@@ -192,6 +194,10 @@ def program_keys(read, machine, gauges, minutes):
         if not known and not np.isfinite(mv.end).all():
             continue                                  # where the machine stands is not known yet
         samples = _samples(mv.kind, *ends, fine=False)[1:] if known else mv.end[None, :]
+        if known and not np.isfinite(mv.start).all():    # out of a tool change: key where it starts, too
+            seconds.append(clock)
+            tools.append(mv.tool)
+            rows.append(ends[0])
         dt = 60.0 * float(m) / len(samples)
         if known and not dt > 0.0:                    # a block that moves nothing
             continue

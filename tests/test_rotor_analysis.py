@@ -215,6 +215,24 @@ def test_coarse_rotor_meshes_keep_their_pitch_check(kind):
     assert abs(a.v0 / rotor.v0 - 1) < 0.02 and a.lobes == rotor.lobes
 
 
+@pytest.mark.parametrize("kind", ["nilson", "asymmetric"])
+def test_short_lead_rotors_keep_their_pitch_check(kind):
+    """Lead = length = outer radius: an end face's normal makes only sin 0.16 with the screw's normal plane at the
+    rim, and counted as tangent it pulled the faces' pitch to 0.79 of the true one; end faces are left out."""
+    from flank_addon.geometry.rotors import builtin_rotor
+
+    from flank_addon.geometry.rotor_analysis import face_advance
+
+    rotor = builtin_rotor(kind, "male", scale=40.0, lead=40.0, length=40.0)
+    v, f = rotor.mesh(n_profile=720, n_axial=24)
+    a = analyze_mesh(v, f)
+    assert abs(a.v0 / rotor.v0 - 1) < 1e-6 and a.lobes == rotor.lobes
+    v, f, _, cross = _weld(v, f)
+    k = rotor.v0 * (1 if rotor.handedness == "right" else -1)
+    _, face_k = face_advance(v / 40.0, f, cross, np.array([0.0, 0.0, 1.0]), np.zeros(3), k / 40.0)
+    assert abs(face_k / (k / 40.0) - 1) < 0.05
+
+
 @pytest.mark.parametrize("name", ["nilson-male", "srm_a-female"])
 @pytest.mark.parametrize("n_profile, n_axial", [(700, 40), (200, 10)])
 def test_faces_give_a_screw_rotors_own_pitch(name, n_profile, n_axial):

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .profile import SplineProfile, signed_area
+from .profile import ProfileError, SplineProfile, signed_area
 from .rows import unique_rows
 from .screw import hand_name, rotate2d, screw_to_plane
 from .triangles import face_cross as _face_cross
@@ -37,9 +37,10 @@ TANGENCY_THRESHOLD = 0.05   # RMS sin(angle between screw velocity and vertex no
 MIN_HELICAL_AREA = 0.3      # fraction of the mesh area that must be helical
 MIN_PITCH_RATIO = 1e-3      # v0 / R below this is a surface of revolution, not a helix
 MIN_EIGEN_SEPARATION = 1e3  # second / first eigenvalue of the screw fit; below: motion not unique
-MIN_AXIAL_NORMAL = 0.01     # RMS axial component of the fitting faces' normals; below: no face fixes the pitch
-FACE_PITCH_AGREEMENT = 0.2  # the faces' own advance k within this fraction of the fitted one
+MIN_AXIAL_NORMAL = 0.03     # RMS axial component of the fitting faces' normals; below: no face fixes the pitch
+FACE_PITCH_AGREEMENT = 0.3  # the faces' own advance k within this fraction of the fitted one
 FACE_TANGENCY = 0.3         # sine of the angle a face normal may make with the normal plane of the screw
+END_FACE_AXIAL = 0.99       # faces whose normal's axial component is above this are end faces, not flank
 
 
 class NotHelicalError(ValueError):
@@ -238,10 +239,10 @@ def face_advance(points, faces, face_cross, d, a, k, max_faces=20000):
     face normal and the screw velocity at the centroid at most ``FACE_TANGENCY``; at most ``max_faces``
     faces, evenly strided), returns the RMS axial component of their normals and the area-weighted
     least-squares k of that relation, or None when no face is tangent.  The bound is loose because a
-    coarse mesh's face normals are off by its chord angle (0.08 to 0.17 on a 48 x 6 rotor mesh), while a
-    rotor's end faces stay out (their sine is k / |velocity|, 0.5 and more for any rotor the analysis
-    takes).  On a screw rotor the two k agree to a few percent (coarse meshes) or better; on a cylinder
-    or prism no face fixes k, or the end caps do, which say 0.
+    coarse mesh's face normals are off by its chord angle (0.08 to 0.17 on a 48 x 6 rotor mesh); end faces
+    (normal within ``END_FACE_AXIAL`` of the axis) are left out, since on a short lead their sine, k /
+    |velocity|, falls inside it.  On a screw rotor the two k agree to 25 % (short leads, lead = outer
+    radius) or better; on a cylinder or prism only the sides remain, which are parallel to the axis.
     """
     stride = max(1, -(-len(faces) // max_faces))
     f, cr = faces[::stride], face_cross[::stride]
@@ -250,7 +251,9 @@ def face_advance(points, faces, face_cross, d, a, k, max_faces=20000):
     turn = axis_screw_velocity((points[f[:, 0]] + points[f[:, 1]] + points[f[:, 2]]) / 3.0, d, a, 0.0)
     vel = turn + k * d
     sine = np.abs(np.einsum("ij,ij->i", vel, n)) / np.maximum(np.linalg.norm(vel, axis=1), 1e-300)
-    fits = sine <= FACE_TANGENCY
+    # faces square to the axis are end faces: a screw surface's normal leans off the axis by k / |velocity|,
+    # and end faces would pass the loose bound on a short lead (k / R = 0.16 at lead = R) and say k = 0
+    fits = (sine <= FACE_TANGENCY) & (np.abs(n @ d) <= END_FACE_AXIAL)
     if not fits.any():
         return None
     axial, w = n[fits] @ d, length[fits]
@@ -902,7 +905,12 @@ def _analyze_mesh(verts, faces, n_profile, threshold, progress=None):
         cluster[cluster == cluster[-1]] = 0 if cluster[-1] > 0 else cluster[-1]
     counts = np.bincount(cluster)
     pts = np.stack([np.bincount(cluster, cloud[:, c]) for c in range(2)], -1)[counts > 0] / counts[counts > 0, None]
-    spline = SplineProfile(pts)
+    try:
+        spline = SplineProfile(pts)
+    except ProfileError:
+        if advance is not None:      # a prism's few profile points: say what the mesh is, if the faces tell
+            _check_face_advance(*advance)
+        raise
     report(0.7, "pitch and flanks")
     # pitch refinement: vertices far from the profile level must screw back onto the profile
     helical_verts = va[body_mask_all(keep, normals, d)] - level

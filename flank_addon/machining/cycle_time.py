@@ -84,19 +84,24 @@ def move_joints(read, machine, tool_lengths=None):
     completed from there too."""
     tool_lengths = tool_lengths or {}
     changes = sorted(line for _, line in read.tool_changes)
-    n = len(machine.axis_names)
-    J0, J1 = np.full((len(read.moves), n), np.nan), np.full((len(read.moves), n), np.nan)
+    n, N = len(machine.axis_names), len(read.moves)
+    S = np.array([mv.start for mv in read.moves], float).reshape(N, n)
+    E = np.array([mv.end for mv in read.moves], float).reshape(N, n)
+    tools = np.array([mv.tool for mv in read.moves], int)
+    J0, J1 = np.full((N, n), np.nan), np.full((N, n), np.nan)
+    for rows, out in ((S, J0), (E, J1)):          # the rows the program gives, all at once per tool
+        known = np.isfinite(rows).all(axis=1)
+        for t in np.unique(tools[known]):
+            k = known & (tools == t)
+            out[k] = machine.machine_joints(rows[k], tool_lengths.get(int(t), 0.0))
     here, k = np.full(n, np.nan), 0
     for i, mv in enumerate(read.moves):
         while k < len(changes) and changes[k] <= mv.line:      # M6 runs before the motion of its block
             here, k = machine.after_tool_change(here), k + 1
-        tl = tool_lengths.get(int(mv.tool), 0.0)
-        start, end = np.asarray(mv.start, float), np.asarray(mv.end, float)
-        J0[i] = machine.machine_joints(start, tl)[0] if np.isfinite(start).all() else here
-        if np.isfinite(end).all():
-            J1[i] = machine.machine_joints(end, tl)[0]
-        elif not machine.tcp:                    # joint values: what the block does not name stays
-            J1[i] = np.where(np.isfinite(end), end, J0[i])
+        if np.isnan(J0[i, 0]):
+            J0[i] = here
+        if np.isnan(J1[i, 0]) and not machine.tcp:   # joint values: what the block does not name stays
+            J1[i] = np.where(np.isfinite(E[i]), E[i], J0[i])
         here = J1[i]
     return J0, J1
 
