@@ -29,13 +29,12 @@ from scipy.spatial import cKDTree
 
 from .profile import ProfileError, SplineProfile, signed_area
 from .rows import unique_rows
-from .screw import hand_name, rotate2d, screw_to_plane
+from .screw import MIN_PITCH_RATIO, hand_name, rotate2d, screw_to_plane
 from .triangles import face_cross as _face_cross
 
 RESIDUAL_THRESHOLD = 1e-3   # RMS distance of the helical vertices from the fitted surface, in outer radii
 TANGENCY_THRESHOLD = 0.05   # RMS sin(angle between screw velocity and vertex normal): gross pre-check
 MIN_HELICAL_AREA = 0.3      # fraction of the mesh area that must be helical
-MIN_PITCH_RATIO = 1e-3      # v0 / R below this is a surface of revolution, not a helix
 MIN_EIGEN_SEPARATION = 1e3  # second / first eigenvalue of the screw fit; below: motion not unique
 MIN_AXIAL_NORMAL = 0.03     # RMS axial component of the fitting faces' normals; below: no face fixes the pitch
 FACE_PITCH_AGREEMENT = 0.3  # the faces' own advance k within this fraction of the fitted one

@@ -73,7 +73,7 @@ import numpy as np
 
 from .angles import atan2
 from .profile import SplineProfile, points_in_polygon, signed_area
-from .screw import hand_name, hand_sign, rotate2d, screw_motion
+from .screw import MIN_PITCH_RATIO, hand_name, hand_sign, rotate2d, screw_motion
 
 __all__ = ["Rotor", "KINDS", "BUILTIN_NAMES", "builtin_rotor", "builtin_by_name", "rotor_pair",
            "meshing_clearance", "spline_error", "RotorError", "triangulate_polygon", "nilson_male_arcs"]
@@ -501,7 +501,6 @@ def _default_lead(scale, length, z_ratio=1.0):
     return length * 360.0 / 300.0 * z_ratio
 
 
-MIN_LEAD_V0_RATIO = 1e-3   # v0 / outer radius, as the mesh analysis' MIN_PITCH_RATIO
 MAX_SIZE_RATIO = 1e4       # lead and length / outer radius
 
 
@@ -532,10 +531,10 @@ def builtin_rotor(kind, part, scale=1.0, lead=None, length=None, handedness=None
     if lead == 0 or not math.isfinite(lead):
         raise RotorError(f"lead must be a non-zero finite number, got {lead!r}")
     # the same bounds as a mesh's analysis: below, a surface of revolution; above, a straight extrusion
-    lo, hi = 2 * math.pi * MIN_LEAD_V0_RATIO * scale, MAX_SIZE_RATIO * scale
+    lo, hi = 2 * math.pi * MIN_PITCH_RATIO * scale, MAX_SIZE_RATIO * scale
     if not lo <= abs(lead) <= hi:
         raise RotorError(f"lead = {lead:.6g} is outside the limits {lo:.6g} .. {hi:.6g} for the outer radius "
-                         f"{scale:.6g} (v0 between {MIN_LEAD_V0_RATIO:g} and {MAX_SIZE_RATIO / (2 * math.pi):.4g} "
+                         f"{scale:.6g} (v0 between {MIN_PITCH_RATIO:g} and {MAX_SIZE_RATIO / (2 * math.pi):.4g} "
                          "outer radii)")
     if length > MAX_SIZE_RATIO * scale:
         raise RotorError(f"length = {length:.6g} exceeds {MAX_SIZE_RATIO:g} x the outer radius {scale:.6g}")

@@ -8,6 +8,8 @@ advance per radian, so the pitch is 2*pi*v0.  Handedness is encoded as
 import numpy as np
 
 HANDS = {"right": 1, "left": -1}
+# v0 / outer radius below which a screw is a surface of revolution to the numbers (mesh analysis, built-ins)
+MIN_PITCH_RATIO = 1e-3
 
 
 def hand_sign(handedness):
