@@ -88,14 +88,6 @@ def own_frame(src):
     return src["display"] if src["kind"] == "analyzed" or src.get("mm_factor") else None
 
 
-def _scaled_extent(extent, g):
-    if extent is None:
-        return None
-    return {"z_range": [float(z) * g for z in extent["z_range"]],
-            "shafts": [dict(sh, z_range=[float(z) * g for z in sh["z_range"]], radius=float(sh["radius"]) * g)
-                       for sh in extent.get("shafts", [])]}
-
-
 def _generated_rotor(obj):
     try:
         rotor = builtin_from_props(obj)
@@ -226,10 +218,11 @@ def _analyzed_rotor(obj, defer=False):
     from ..flank_addon.geometry.flank_feet import flank_u_ranges
     from ..flank_addon.geometry.helical_surface import shared_surface
     from ..flank_addon.geometry.profile import SplineProfile
+    from ..flank_addon.io.plan import scaled_extent
 
     mm = shared_surface(SplineProfile(np.asarray(a.profile, dtype=np.float64) * g), float(a.v0) * g, a.handedness)
     return _in_millimetres(src, g, mm, flank_u_ranges(mm.profile, [(int(i), int(j)) for i, j in a.flanks]),
-                           _scaled_extent(extent, g))
+                           None if extent is None else scaled_extent(extent, g))
 
 
 def _extent(analysis):

@@ -129,6 +129,15 @@ def rotor_extent(z_range, shafts=()):
     return ext
 
 
+def scaled_extent(extent, k):
+    """A ``rotor.extent`` with every length multiplied by ``k`` (its other keys as they are)."""
+    out = dict(extent, z_range=[z * k for z in extent["z_range"]])
+    if "shafts" in extent:
+        out["shafts"] = [dict(sh, z_range=[z * k for z in sh["z_range"]], radius=sh["radius"] * k)
+                         for sh in extent["shafts"]]
+    return out
+
+
 def _check_extent(ext):
     if not isinstance(ext, dict):
         raise PlanError(f"rotor.extent must be an object, got {ext!r}")

@@ -102,11 +102,9 @@ def scale_plan(plan, factor, unit="mm"):
     T[:3, 3] *= k                             # the model frame is scaled alike (a rigid map stays rigid)
     rot["to_world"] = T.tolist()
     if rot.get("extent") is not None:
-        ext = rot["extent"]
-        ext["z_range"] = [z * k for z in ext["z_range"]]
-        for s in ext.get("shafts", []):
-            s["z_range"] = [z * k for z in s["z_range"]]
-            s["radius"] *= k
+        from ..io.plan import scaled_extent
+
+        rot["extent"] = scaled_extent(rot["extent"], k)
     for s in out["strips"]:
         for key in ("axis_start", "axis_end", "shank_start", "shank_end"):
             if key in s:
