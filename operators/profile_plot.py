@@ -14,7 +14,7 @@ import bpy
 from bpy.props import BoolProperty, IntProperty, StringProperty
 
 from .chart_text import fill_text, text_outlines
-from .common import RELATIVE
+from .common import check_filepath
 from .modal import ModalPlannerMixin
 from .runs import PlanNeeded, run_plan
 
@@ -116,17 +116,10 @@ class FLANK_OT_error_plot(ModalPlannerMixin, bpy.types.Operator):
         """(the PNG to write or None, error message or None)."""
         if not self.filepath:
             return None, None
-        path = bpy.path.abspath(self.filepath)
-        if not os.path.isabs(path):
-            return None, RELATIVE.format(self.filepath)
-        if os.path.isdir(path):                    # not '<folder>.png' beside it
-            return None, "'{}' is a folder: give a file name".format(path)
-        if not path.lower().endswith(".png"):
-            path += ".png"
-        folder = os.path.dirname(path) or "."
-        if not os.path.isdir(folder):
-            return None, "the folder '{}' does not exist".format(folder)
-        return path, None
+        path, msg = check_filepath(self.filepath, "PNG file")     # a folder is refused, not '<folder>.png'
+        if msg is not None:
+            return None, msg
+        return (path if path.lower().endswith(".png") else path + ".png"), None
 
     def _inputs(self, context):
         """(collection, plan, PNG path or None), or an error message."""

@@ -9,7 +9,7 @@ import time
 import bpy
 from bpy.props import BoolProperty, EnumProperty, IntProperty, StringProperty
 
-from .common import RELATIVE
+from .common import check_filepath
 from .modal import ModalPlannerMixin, next_turn
 from .runs import PlanNeeded, run_plan
 
@@ -70,12 +70,10 @@ class FLANK_OT_render_report(ModalPlannerMixin, bpy.types.Operator):
         if not self.filepath:
             self.report({'ERROR'}, "Render report: no file given (filepath is empty)")
             return None
-        path = bpy.path.abspath(self.filepath)
-        if not os.path.isabs(path):                # the default '//flank_report.png' in an unsaved file
-            self.report({'ERROR'}, "Render report: " + RELATIVE.format(self.filepath))
-            return None
-        if os.path.isdir(path):                    # not '<folder>.png' beside it
-            self.report({'ERROR'}, "Render report: '{}' is a folder: give a file name".format(path))
+        # a relative path (the default //flank_report.png in an unsaved file) and a folder are refused
+        path, msg = check_filepath(self.filepath, "PNG file")
+        if msg is not None:
+            self.report({'ERROR'}, "Render report: " + msg)
             return None
         if not path.lower().endswith(".png"):
             path += ".png"
