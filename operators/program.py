@@ -105,12 +105,14 @@ def post_program(job):
     gauges = {t.number: t.gauge_length for t in op.tools}
     times = cycle_time(read, machine, gauges)
     minutes = times.pop("block_minutes")
+    move_ends = move_rows(read, machine, gauges)    # the path and the animation share them
     times.update(passes=len(prog.passes), moves=len(read.moves), lobes=list(op.lobes),
                  cutting_length_mm=float(sum(p["cutting_length_mm"] for p in prog.passes)),
                  rpm=[float(t.rpm) for t in op.tools])
     return dict(text=text, times=times, per_pass=prog.passes, read=read, minutes=np.asarray(minutes, float),
                 gauges=gauges, shapes={t.number: t.shape for t in op.tools}, rotor=rotor,
-                path=program_path(read, machine, gauges), keys=program_keys(read, machine, gauges, minutes))
+                path=program_path(read, machine, gauges, move_ends),
+                keys=program_keys(read, machine, gauges, minutes, move_ends))
 
 
 def _samples(kind, start, end, fine):
@@ -123,7 +125,7 @@ def _samples(kind, start, end, fine):
     return (1.0 - u) * start[None, :] + u * end[None, :]
 
 
-def _move_rows(read, machine, gauges):
+def move_rows(read, machine, gauges):
     """(start, end) program rows of every move, or None where the machine's position is unknown: a move out of a
     tool change starts where the machine file's tool_change_position leaves the machine (as the cycle time
     counts it, :func:`..flank_addon.machining.cycle_time.move_joints`)."""
@@ -141,14 +143,14 @@ def _move_rows(read, machine, gauges):
     return out
 
 
-def program_path(read, machine, gauges):
+def program_path(read, machine, gauges, move_ends):
     """The tool tip relative to the rotor along the program (rotor frame, mm): points (N, 3), edges (E, 2),
     per edge motion (1 cutting, 0 rapid) and pass number (1.. for cutting edges, 0 for links); a pass is a run
-    of feed moves of one tool, as the read-back counts them."""
+    of feed moves of one tool, as the read-back counts them.  ``move_ends``: :func:`move_rows`."""
     pts, edges, motion, passes = [], [], [], []
     n_pass, prev_feed, prev_tool, last = 0, False, None, None
-    for mv, rows in zip(read.moves, _move_rows(read, machine, gauges)):
-        if rows is None:                              # from an unknown position (out of a tool change)
+    for mv, ends in zip(read.moves, move_ends):
+        if ends is None:                              # from an unknown position (out of a tool change)
             last, prev_feed, prev_tool = None, False, mv.tool
             continue
         if not np.isfinite(mv.start).all():           # out of a tool change: from the tool-change position
@@ -156,7 +158,7 @@ def program_path(read, machine, gauges):
         feed = mv.kind == "feed"
         if feed and (not prev_feed or mv.tool != prev_tool):
             n_pass += 1
-        tips = machine.forward(_samples(mv.kind, *rows, fine=True), gauges.get(mv.tool, 0.0))[0]
+        tips = machine.forward(_samples(mv.kind, *ends, fine=True), gauges.get(mv.tool, 0.0))[0]
         start = len(pts) if last is None else last
         if last is None:
             pts.append(tips[0])
@@ -183,13 +185,14 @@ def _fixed_frame(machine, rows, tips, axes):
     return psi, turn(tips), turn(axes)
 
 
-def program_keys(read, machine, gauges, minutes):
+def program_keys(read, machine, gauges, minutes, move_ends):
     """Keys of the program's animation: seconds (K,) from the first pose, tool number (K,), program rows
     (K, axes), psi (K,), fixed-frame tips and axes (K, 3) and rotor-frame tips and axes (K, 3); block ends and,
     for rapids that turn a rotary axis, every STEP_DEG between (a move's block time shared evenly: its program
-    values move linearly).  Time counts the moves' block times (tool changes are not shown)."""
+    values move linearly).  Time counts the moves' block times (tool changes are not shown).  ``move_ends``:
+    :func:`move_rows`."""
     seconds, tools, rows, clock = [], [], [], 0.0
-    for mv, m, ends in zip(read.moves, minutes, _move_rows(read, machine, gauges)):
+    for mv, m, ends in zip(read.moves, minutes, move_ends):
         known = ends is not None
         if not known and not np.isfinite(mv.end).all():
             continue                                  # where the machine stands is not known yet
