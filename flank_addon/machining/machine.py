@@ -294,6 +294,17 @@ class Machine:
                 J[i] = self.tool_change_position[n]
         return J
 
+    def tool_change_groups(self):
+        """The axes (lists of indices into ``axis_names``) of the first move after a tool change, in the order
+        they move, one block each.  It starts where the tool-change cycle leaves the machine, which the program
+        cannot know.  Without TCP the rotary axes turn first, where the tool stands (they turn only the part or
+        the head), then the linear axes move; with TCP it is one block, as turning a rotary axis would drag the
+        linear axes along.  The posts write these blocks and :mod:`.toolpath` checks the same ones."""
+        n = len(self.axis_names)
+        if self.tcp or n <= 3:
+            return [list(range(n))]
+        return [list(range(3, n)), list(range(3))]
+
     def limit_violations(self, joints):
         """[(axis, value, min, max)] of joint rows (machine joints) outside the axis limits (worst per axis)."""
         J = np.atleast_2d(np.asarray(joints, float))

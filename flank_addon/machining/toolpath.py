@@ -21,8 +21,8 @@ shafts (:mod:`.clearance`); when one is not clear the link is tried again with R
 with an extra lift along the tool axis, and refused by name if none is.  A tool starts and ends at that lifted
 position.  The first move after a tool change comes from where the tool-change cycle leaves the machine, which
 the program cannot know; when the machine file gives it (``tool_change_position``) the moves out of it are
-checked as well (without TCP: the rotaries turn where the tool stands, then the linear axes move; with TCP one
-block), and a program whose tool would enter the stock on the way is refused by name.
+checked as well, block by block as the post writes them (:meth:`.machine.Machine.tool_change_groups`), and a
+program whose tool would enter the stock on the way is refused by name.
 
 Feeds: :func:`feeds.pass_conditions`; a pass' blocks share its screw rate, so a block's time is its share of
 the screw parameter over the rate.
@@ -269,12 +269,13 @@ def _check_out_of_tool_change(pl, tool, stood, first, label):
     if m.tool_change_position is None:
         return
     here = m.after_tool_change(stood)
-    gauge = tool.gauge_length
-    if m.tcp:                            # one block, interpolated in program coordinates
-        seq = [m.program_rows(here, gauge)[0], first] if np.isfinite(here).all() else []
-    else:                                # the rotaries turn where the tool stands, then the linear axes move
-        turned = np.r_[here[:3], first[3:]]
-        seq = ([here] if np.isfinite(here).all() else []) + [turned, first]
+    row = m.program_rows(here, tool.gauge_length)[0] if np.isfinite(here).all() else here
+    seq = [row]
+    for group in m.tool_change_groups():       # the blocks the post writes, in their order
+        row = row.copy()
+        row[group] = first[group]
+        seq.append(row)
+    seq = [r for r in seq if np.isfinite(r).all()]      # from an unknown start: the blocks after it
     depth, pt = pl.check(tool.number, seq, label) if len(seq) > 1 else (0.0, None)
     if depth > 0:
         raise OperationError(f"the move of tool {tool.number} out of the tool-change position to {label} enters "

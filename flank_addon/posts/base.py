@@ -105,12 +105,11 @@ class Post:
                 words = self.words(names, row, cur, force)
                 if not words and not force:
                     continue
-                if kind == "rapid" and force and not m.tcp and len(names) > 3:
-                    # from the tool-change position, which the program cannot know: the rotary axes turn first,
-                    # where the tool stands, then the linear axes move (a joint machine's rotaries turn the part
-                    # or the head only; under TCP they would drag the linear axes along, so those stay as one)
-                    self._rapid([w for w in words if w[0] not in names[:3]], program)
-                    self._rapid([w for w in words if w[0] in names[:3]], program)
+                if kind == "rapid" and force:
+                    # out of the tool change, from where its cycle leaves the machine: the machine's blocks
+                    for group in m.tool_change_groups():
+                        axes = [names[i] for i in group]
+                        self._rapid([w for w in words if w[0] in axes], program)
                 elif kind == "rapid":
                     self._rapid(words, program)
                 else:

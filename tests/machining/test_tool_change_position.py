@@ -105,3 +105,54 @@ def test_a_position_inside_the_rotor_is_refused_before_posting(two_tools):
     with pytest.raises(OperationError, match=r"move of tool 1 out of the tool-change position to pass 1 .* enters "
                                              r"the stock or a shaft by"):
         build_program(op, _machine(tool_change_position={"X": 0.0, "Y": 0.0, "Z": 0.0}))
+
+
+@pytest.mark.parametrize("name, tc", [("rotor-xa-b", {"X": 10.0, "Y": -20.0, "Z": 400.0, "B": 0.0}),
+                                      ("xyzac-trt", {"X": 0.0, "Y": 0.0, "Z": 550.0, "A": 0.0, "C": 0.0}),
+                                      ("xyzac-trt-tcp", {"X": 0.0, "Y": 0.0, "Z": 550.0, "A": 0.0, "C": 0.0})])
+def test_the_checked_moves_are_the_blocks_the_post_writes(two_tools, tmp_path, monkeypatch, name, tc):
+    """The moves out of a tool change that the program builder checks against the stock are the blocks the post
+    writes and the reader reads back (:meth:`Machine.tool_change_groups`: without TCP the rotaries first, then
+    the linear axes; with TCP one block)."""
+    from flank_addon.machining import toolpath
+    from flank_addon.machining.cycle_time import move_joints
+
+    with open(f"{MACHINE_DIR}/{name}.json", encoding="utf-8") as fh:
+        data = json.load(fh)
+    data["tool_change_position"] = tc
+    machine = parse_machine(data)
+    groups = machine.tool_change_groups()
+    assert groups == ([[0, 1, 2, 3, 4]] if machine.tcp else [[3, 4], [0, 1, 2]])
+    checked, inside = [], [False]
+    check, out_of_change = toolpath._Planner.check, toolpath._check_out_of_tool_change
+
+    def recording_check(self, number, seq, what):
+        if inside[0]:
+            checked.append(np.array(seq, float))
+        return check(self, number, seq, what)
+
+    def recording_out_of_change(*args):
+        inside[0] = True
+        try:
+            return out_of_change(*args)
+        finally:
+            inside[0] = False
+    monkeypatch.setattr(toolpath._Planner, "check", recording_check)
+    monkeypatch.setattr(toolpath, "_check_out_of_tool_change", recording_out_of_change)
+    plan, rb, op = two_tools
+    prog, text, read = _posted(two_tools, machine, tmp_path, name + ".ngc")
+    gauges = {t.number: t.gauge_length for t in op.tools}
+    J0, J1 = move_joints(read, machine, gauges)
+    changes = [line for _, line in read.tool_changes]
+    assert len(changes) == len(checked) == 2
+    for line, seq in zip(changes, checked):
+        after = [i for i, mv in enumerate(read.moves) if mv.line > line][:len(groups)]
+        named = set()
+        for i, group in zip(after, groups):        # each block names its group's axes, and only those are known
+            named |= set(group)
+            assert set(np.flatnonzero(np.isfinite(read.moves[i].end))) == named
+        tool = read.moves[after[0]].tool
+        joints = np.r_[J0[after[:1]], J1[after]]
+        rows = machine.program_rows(joints[np.isfinite(joints).all(axis=1)], gauges[tool])
+        assert seq.shape == rows.shape
+        np.testing.assert_allclose(seq, rows, atol=2e-3)
