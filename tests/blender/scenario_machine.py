@@ -104,6 +104,36 @@ def _animation_check(bpy, np, coll, text, plan):
                 spin_fcurves=driver._fcurve_keys(spin.animation_data.action))
 
 
+def _two_tool_keys(np, plan):
+    """The animation keys (the extension's ``program_keys``) of a two-tool program on rotor-xa-b: the plan, then
+    a copy of it whose tool has a 1% thinner shank (another tool number), lobe 0."""
+    import copy
+
+    program = __import__(driver.MODULE + ".operators.program", fromlist=["x"])
+    core = {m: driver._core(m) for m in ("posts", "machining.machine", "machining.cycle_time",
+                                         "machining.rotor_body", "machining.operation", "machining.toolpath")}
+    second = copy.deepcopy(plan)
+    for strip in second["strips"]:
+        strip["shank_radius"] *= 0.99
+    machine = core["machining.machine"].load_machine("rotor-xa-b")
+    op = core["machining.operation"].build_operation([plan, second], core["machining.rotor_body"].rotor_body(plan),
+                                                     lobes=[0], cutting_data=None)
+    post = core["posts"].get_post("linuxcnc")
+    read = post.read(post.write(core["machining.toolpath"].build_program(op, machine)), machine)
+    gauges = {t.number: t.gauge_length for t in op.tools}
+    minutes = core["machining.cycle_time"].cycle_time(read, machine, gauges)["block_minutes"]
+    keys = program.program_keys(read, machine, gauges, minutes, program.move_rows(read, machine, gauges))
+    last_1 = int(np.flatnonzero(keys["tools"] == 1)[-1])
+    first_2 = int(np.flatnonzero(keys["tools"] == 2)[0])
+    frames = program.key_frames(keys["seconds"], keys["total"], 1, 250)
+    spin_kept = __import__(driver.MODULE + ".operators.program_scene", fromlist=["x"]).strictly_increasing(frames)
+    return dict(tools=len(op.tools), changes=len(read.tool_changes), tool_change_s=machine.tool_change_s,
+                moves_s=60.0 * float(np.sum(minutes)), total=float(keys["total"]), keys=len(keys["seconds"]),
+                increasing=bool(np.all(np.diff(keys["seconds"]) >= 0.0)), last_1=last_1, first_2=first_2,
+                gap=float(keys["seconds"][first_2] - keys["seconds"][last_1]),
+                spin_keeps_both=bool(last_1 in spin_kept and first_2 in spin_kept))
+
+
 def _errors(bpy, tmp, coll_name, good):
     """Refusals: each leaves no data-block, no program file and no temporary file behind."""
     bad_machine = os.path.join(tmp, "tight_b.json")
@@ -211,6 +241,8 @@ def scenario(bpy, res, args):
     res["post"]["temp_files"] = sorted(os.path.basename(p) for p in glob.glob(os.path.join(tmp, ".flank-*")))
     res["panels"] = driver._draw_panels(bpy, bpy.context.active_object)
     res["animation"] = _animation_check(bpy, np, coll, res["post"]["text"], plan)
+
+    res["two_tools"] = _two_tool_keys(np, plan)
 
     # ---------------------------------------------------------------- refusals
     good = dict(call, filepath=prog_path)

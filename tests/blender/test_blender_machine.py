@@ -153,6 +153,18 @@ def test_the_cycle_time_shown_is_the_cores(mc, cli):
         assert ["prop", prop] in machine, prop
 
 
+def test_a_tool_change_takes_the_machines_time_in_the_animation(mc):
+    """Between two tools the animation waits the machine file's tool-change time, so the next tool's first key
+    comes after the last key of the one before (they shared a time, and the spin kept only one of them)."""
+    t = mc["two_tools"]
+    assert t["tools"] == 2 and t["changes"] == 2 and t["tool_change_s"] == 8.0
+    assert t["increasing"] and t["first_2"] == t["last_1"] + 1
+    assert t["gap"] == pytest.approx(t["tool_change_s"], abs=1e-9)
+    assert t["spin_keeps_both"]
+    # the first tool change comes before any key: one tool change's time in the animation
+    assert t["total"] == pytest.approx(t["moves_s"] + t["tool_change_s"], rel=1e-12)
+
+
 def test_the_animation_is_the_programs_relative_motion(mc):
     a = mc["animation"]
     samples = a["samples"]
