@@ -1228,13 +1228,16 @@ def _output_options(args):
 
 
 def _missing_output_folder(args):
-    """The message for an output file (--out, --plan-out, --tool-csv, ...) whose folder does not exist, else None."""
+    """The message for an output file (--out, --plan-out, --tool-csv, ...) that cannot be written (a folder, or
+    its folder missing or not writable; :func:`io.files.output_path_error`), else None."""
+    from .io.files import output_path_error
+
     for name in _output_options(args) + ("strips_stl", "strips_ply"):
         path = getattr(args, name, None)
         if isinstance(path, str) and path:
-            folder = os.path.dirname(os.path.abspath(path))
-            if not os.path.exists(folder):
-                return f"--{name.replace('_', '-')} {path}: the folder {folder} does not exist"
+            msg = output_path_error(path, prefix=name in ("strips_stl", "strips_ply"))
+            if msg:
+                return f"--{name.replace('_', '-')} {path}: {msg}"
     return None
 
 

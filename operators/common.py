@@ -8,6 +8,8 @@ import os
 import bpy
 import numpy as np
 
+from ..flank_addon.io.files import output_path_error
+
 # Object custom properties written by Generate Rotor / Analyze Rotor (cleared before a new analysis).
 PROP_KEYS = (
     "flank_source", "flank_kind", "flank_part", "flank_lobes", "flank_scale", "flank_lead", "flank_length",
@@ -456,14 +458,8 @@ def check_filepath(filepath, what="program file"):
     if not os.path.isabs(path):
         return None, RELATIVE.format(filepath)
     path = os.path.normpath(path)
-    folder = os.path.dirname(path)
-    if os.path.isdir(path):
-        return None, "'{}' is a folder: give a file name".format(path)
-    if not os.path.isdir(folder):
-        return None, "the folder '{}' does not exist".format(folder)
-    if not os.access(folder, os.W_OK):
-        return None, "the folder '{}' is not writable".format(folder)
-    return path, None
+    msg = output_path_error(path)
+    return (None, msg) if msg else (path, None)
 
 
 def output_file_error(path, what):
@@ -475,9 +471,5 @@ def output_file_error(path, what):
     full = bpy.path.abspath(path)
     if not os.path.isabs(full):
         return "{} {}".format(what, RELATIVE.format(path))
-    folder = os.path.dirname(os.path.abspath(full))
-    if not os.path.isdir(folder):
-        return "{} {}: the folder {} does not exist".format(what, full, folder)
-    if os.path.isdir(full):
-        return "{} {} is a folder, not a file".format(what, full)
-    return None
+    msg = output_path_error(full)
+    return "{} {}: {}".format(what, full, msg) if msg else None

@@ -136,6 +136,24 @@ def test_cli_output_into_a_missing_folder_fails_at_once(tmp_path, argv):
     assert not missing.exists()
 
 
+@pytest.mark.parametrize("argv", [
+    ["plan", "double-flank", "--builtin", "asymmetric-female", "--valley", "0", "--out", "{folder}"],
+    ["post", "{plan}", "--machine", "rotor-xa-b", "--post", "linuxcnc", "-o", "{folder}"],
+])
+def test_cli_output_that_is_a_folder_fails_at_once(tmp_path, argv):
+    """An output path naming a folder is refused before any work (the write would fail at its end), the folder
+    left as it was."""
+    plan = tmp_path / "p.json"
+    write_plan(plan, sample_plan())
+    folder = tmp_path / "programs"
+    folder.mkdir()
+    args = [a.format(folder=folder, plan=plan) for a in argv]
+    r = main_cli(*args)
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr.strip() == "error: --out {0}: {0} is a folder: give a file name".format(folder)
+    assert list(folder.iterdir()) == []
+
+
 @pytest.mark.parametrize("argv, message", [
     (["post", "{plan}", "--machine", "rotor-xa-b", "--post", "linuxcnc", "-o", "{plan}"],
      "--out {plan} is also the input {plan}"),

@@ -3,6 +3,21 @@ import os
 import tempfile
 
 
+def output_path_error(path, prefix=False):
+    """Why a file cannot be written at ``path`` (relative to the current folder unless absolute), said before any
+    work: the path is a folder, or its folder does not exist or is not writable -> a message naming it, or None.
+    ``prefix``: ``path`` begins the names of several files (``PREFIX_<k>.stl``), so only its folder is checked."""
+    path = os.path.abspath(path)
+    folder = os.path.dirname(path)
+    if not prefix and os.path.isdir(path):
+        return f"{path} is a folder: give a file name"
+    if not os.path.isdir(folder):
+        return f"the folder {folder} does not exist"
+    if not os.access(folder, os.W_OK):
+        return f"the folder {folder} is not writable"
+    return None
+
+
 def atomic_write(path, data, encoding="utf-8", newline=None):
     """Write ``data`` (str, or bytes) to ``path`` through a temporary file in the same folder and os.replace,
     so the file is either the old one or the complete new one (:func:`atomic_write_all` of one file).  A failure

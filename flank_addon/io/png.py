@@ -7,7 +7,7 @@ import zlib
 
 import numpy as np
 
-from .files import atomic_write
+from .files import atomic_write, output_path_error
 
 
 def _chunk(tag, data):
@@ -90,10 +90,9 @@ def check_output(path):
     """Raise ValueError unless a PNG can be written at ``path`` (its folder exists and is writable)."""
     path = os.path.abspath(path)
     folder = os.path.dirname(path)
-    if not os.path.isdir(folder):
-        raise ValueError(f"the folder {folder!r} does not exist")
-    if os.path.isdir(path):
-        raise ValueError(f"{path!r} is a folder, not a file name")
+    msg = output_path_error(path)
+    if msg:
+        raise ValueError(msg)
     probe = "{}.probe{}".format(path, os.getpid())
     try:
         open(probe, "wb").close()
