@@ -743,6 +743,16 @@ def count_at_least(least, most=None):
 
 
 # ---------------------------------------------------------------------------------------------- machining
+def holder_spec(text):
+    """argparse type of --holder: SIDE,DIAMETER,LENGTH[,GAP] (:func:`machining.rotor_body.parse_holder`)."""
+    from .machining.rotor_body import parse_holder
+
+    try:
+        return parse_holder(text)
+    except ValueError as ex:
+        raise argparse.ArgumentTypeError(str(ex)) from None
+
+
 def lobe_list(text):
     """argparse type of --lobes: 'all' or comma-separated lobe indices."""
     if str(text).strip().lower() == "all":
@@ -757,9 +767,9 @@ def lobe_list(text):
 
 
 def _machining_inputs(args):
-    """(plans in mm, rotor body) of --plans, --outer-radius-mm and --mesh."""
+    """(plans in mm, rotor body) of --plans, --outer-radius-mm, --mesh and --holder."""
     from .io.plan import read_plan
-    from .machining.rotor_body import extent_from_analysis, rotor_body, scale_plan
+    from .machining.rotor_body import extent_from_analysis, rotor_body, scale_plan, with_holders
 
     plans = []
     for path in args.plans:
@@ -779,7 +789,7 @@ def _machining_inputs(args):
         from .io.mesh_files import read_mesh
 
         extent = extent_from_analysis(plans[0], analyze_mesh(*read_mesh(args.mesh)))
-    return plans, rotor_body(plans[0], extent)
+    return plans, with_holders(rotor_body(plans[0], extent), args.holder)
 
 
 def _cutting_data(args):
@@ -878,7 +888,13 @@ def _cmd_verify_program(args):
           f"{ro['min_end_clearance_mm']:.3g} mm; links: {res['links']['moves_checked']} checked"
           + (f" ({res['links']['moves_unchecked']} out of a tool change from an unknown position not)"
              if res['links']['moves_unchecked'] else "")
-          + f", deepest intrusion into stock or shafts {res['links']['max_intrusion_mm']:.3g} mm")
+          + f", deepest intrusion into the stock{', shafts or holders' if res['holders'] else ' or shafts'} "
+            f"{res['links']['max_intrusion_mm']:.3g} mm")
+    if ro["min_keep_out_margin_mm"] is not None:
+        print(f"  passes over shafts{' or holders' if res['holders'] else ''}: the tool stays "
+              f"{ro['min_keep_out_margin_mm']:.3g} mm from them" if ro["min_keep_out_margin_mm"] >= 0 else
+              f"  passes over shafts{' or holders' if res['holders'] else ''}: the tool enters them by "
+              f"{-ro['min_keep_out_margin_mm']:.3g} mm")
     print(f"  cutting {res['cutting_time_s']:.1f} s, rapid {res['rapid_time_s']:.1f} s, total "
           f"{res['total_time_s']:.1f} s{untimed_note(res['untimed_moves'], machine)}")
     for f in res["findings"]:
@@ -913,6 +929,10 @@ def _add_machining_inputs(p):
     p.add_argument("--lobes", type=lobe_list, help="lobes to cut: all (default) or indices like 0,2,4")
     p.add_argument("--flip-rotor", action="store_true",
                    help="the rotor is mounted the other way round (turned 180 deg about its x axis) on the machine")
+    p.add_argument("--holder", type=holder_spec, action="append", default=[], metavar="SIDE,DIAMETER,LENGTH[,GAP]",
+                   help="a chuck, collet or tailstock holding the rotor (repeatable; mm): a cylinder of DIAMETER "
+                        "and LENGTH beyond the body's end face at SIDE (low or high: the end at the smaller or "
+                        "larger rotor-frame z), GAP (default 0) away from it. No move may enter it")
 
 
 def report_scene():

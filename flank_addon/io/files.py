@@ -12,6 +12,8 @@ def output_path_error(path, prefix=False):
     if not prefix and os.path.isdir(path):
         return f"{path} is a folder: give a file name"
     if not os.path.isdir(folder):
+        if os.path.exists(folder):
+            return f"{folder} is not a folder"
         return f"the folder {folder} does not exist"
     if not os.access(folder, os.W_OK):
         return f"the folder {folder} is not writable"

@@ -1,4 +1,4 @@
-"""The tool solid against the stock cylinder and the shafts along any move of a program.
+"""The tool solid against the stock cylinder, the shafts and the holders along any move of a program.
 
 A move from program row r0 to r1 is interpolated the way the controller does it: linearly in the program's
 coordinates (joint values without TCP; tool tip in work coordinates and rotary positions with TCP; rapid
@@ -52,7 +52,7 @@ def translation_intrusion(rotor, points, delta, stock=True):
     largest r - min rho of a point while it is inside a solid's z range (0 when none enters)."""
     q = np.asarray(points, float)
     d = np.asarray(delta, float)
-    solids = list(rotor.shafts) + ([(rotor.z_range[0], rotor.z_range[1], rotor.outer_radius)] if stock else [])
+    solids = rotor.keep_out + ([(rotor.z_range[0], rotor.z_range[1], rotor.outer_radius)] if stock else [])
     best, where = 0.0, None
     A = float(d[0] ** 2 + d[1] ** 2)
     B = 2.0 * (q[:, 0] * d[0] + q[:, 1] * d[1])
@@ -76,7 +76,8 @@ def translation_intrusion(rotor, points, delta, stock=True):
 
 def move_intrusion(machine, rotor, r0, r1, local, tool_length=0.0, step=0.5, stock=True, reach=None):
     """(depth, fraction of the move, rotor-frame point): the deepest intrusion of the tool into the stock
-    (if ``stock``) or a shaft along the move r0 -> r1; depth 0 when the move stays clear."""
+    (if ``stock``) or a keep-out solid (shaft, holder) along the move r0 -> r1; depth 0 when the move stays
+    clear."""
     if reach is None:
         reach = reach_of(machine, [r0, r1], local, tool_length)
     n = sample_count(machine, r0, r1, reach, step)

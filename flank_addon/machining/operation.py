@@ -13,8 +13,8 @@ z0 <= z <= z1, the pass runs over
 so at t_a the whole tool is c above the body's end face z1 and at t_b c below z0: the pass is extended
 along the screw motion past the body's axial extent by the tool's reach + clearance, and every body point
 meets the tool exactly as in the infinite sweep of the plan's verification.  Beyond the body only the shafts
-can be met: a tool point at distance rho from the axis whose height over the pass overlaps a shaft's z range
-must stay outside it (rho >= shaft radius); otherwise the pass is refused by name.
+and the holders can be met: a tool point at distance rho from the axis whose height over the pass overlaps
+such a solid's z range must stay outside it (rho >= its radius); otherwise the pass is refused by name.
 """
 import math
 from dataclasses import dataclass, field
@@ -109,21 +109,24 @@ def flank_on_lobe(plan, flank, turn, solid=None):
     return int(solid.flank_of[i])
 
 
-def run_out(shape, tip, axis, rotor, clearance, spacing=1.0, local=None):
-    """(t_a, t_b, shaft margin) of the pose (module doc); margin = smallest rho - shaft radius over the tool
-    points that pass over a shaft (inf without shafts).  ``local``: the shape's surface points if known."""
+def run_out(shape, tip, axis, rotor, clearance, spacing=1.0, local=None, detail=False):
+    """(t_a, t_b, shaft margin) of the pose (module doc); margin = smallest rho - radius over the tool points
+    that pass over a shaft or a holder (inf when none does); with ``detail`` also the name of that solid.
+    ``local``: the shape's surface points if known."""
     pts = place_points(shape.local_points(spacing) if local is None else local, tip, axis)[0]
     z0, z1 = rotor.z_range
     lo, hi = shape.z_extent(tip, axis)
     t_a = (float(lo[0]) - z1 - clearance) / rotor.v0
     t_b = (float(hi[0]) - z0 + clearance) / rotor.v0
-    margin = math.inf
+    margin, worst = math.inf, None
     rho = np.hypot(pts[:, 0], pts[:, 1])
     lo, hi = pts[:, 2] - rotor.v0 * t_b, pts[:, 2] - rotor.v0 * t_a     # each point's heights over the pass
-    for a, b, r in rotor.shafts:
+    for k, (a, b, r) in enumerate(rotor.keep_out):
         over = (hi >= a) & (lo <= b)
-        if over.any():
-            margin = min(margin, float((rho[over] - r).min()))
+        if over.any() and float((rho[over] - r).min()) < margin:
+            margin, worst = float((rho[over] - r).min()), k
+    if detail:
+        return float(t_a), float(t_b), margin, (None if worst is None else rotor.keep_out_names[worst])
     return float(t_a), float(t_b), margin
 
 
@@ -198,9 +201,13 @@ def build_operation(plans, rotor, lobes=None, clearance=5.0, cutting_data=None):
                 ps = Pass(p, s, k, flank_on_lobe(plan, plan["strips"][s]["flank"], turn, solid), number, tip, axis,
                           (t_a, t_b), margin)
                 if margin < 0:
-                    raise OperationError(f"pass {ps.label}: running out past the body the tool enters a shaft by "
-                                         f"{-margin:.3g} mm (it comes closer to the rotor axis than the shaft's "
-                                         "radius); such a strip cannot run out beyond the end faces")
+                    solid = run_out(tools[number - 1].shape, tip, axis, rotor, clearance, local=local[number],
+                                    detail=True)[3]
+                    raise OperationError(f"pass {ps.label}: running out past the body the tool enters {solid} by "
+                                         f"{-margin:.3g} mm (it comes closer to the rotor axis than its radius); "
+                                         "such a strip cannot run out beyond the end faces"
+                                         + ("; move the holder away from the body" if solid.startswith("holder")
+                                            else ""))
                 passes.append(ps)
     return Operation(rotor=rotor, tools=tools, passes=passes, clearance=float(clearance), lobes=lobes,
                      plans=list(plans))

@@ -2,8 +2,10 @@
 
 Rotor frame (flank-plan/1): helical axis = z through the origin.  The *stock cylinder* is
 rho = sqrt(x^2 + y^2) <= outer radius over the body's axial extent z0 <= z <= z1; every shaft is a coaxial
-cylinder rho <= r over its own z range.  Cutting passes may enter the stock (that is what they cut); no
-other move may enter the stock or a shaft, and no move at all may enter a shaft.
+cylinder rho <= r over its own z range.  *Holders* (the chuck and the tailstock that hold the rotor by its
+shafts, :func:`with_holders`) are coaxial cylinders beyond the body's end faces, given by the user.  Cutting
+passes may enter the stock (that is what they cut); no other move may enter the stock, and no move at all may
+enter a shaft or a holder (together the *keep-out* solids).
 
 Where the extent comes from, in this order: the plan's optional ``rotor.extent`` (written by the planners
 since it exists), the analysis of the rotor mesh the plan was made on (its body and shafts mapped into the
@@ -35,14 +37,33 @@ class RotorBody:
     lobes: int = 1
     symmetry_error: float = 0.0
     profile: np.ndarray = None      # (K, 2) transverse profile of the whole rotor
+    holders: list = field(default_factory=list)    # [(z_a, z_b, radius), ...] chuck, tailstock (with_holders)
 
     @property
     def length(self):
         return float(self.z_range[1] - self.z_range[0])
 
+    @property
+    def keep_out(self):
+        """The solids no move may enter, cutting or not: the shafts and the holders [(z_a, z_b, radius), ...]."""
+        return list(self.shafts) + list(self.holders)
+
+    @property
+    def keep_out_names(self):
+        """Names of the :attr:`keep_out` solids, in their order, for messages."""
+        z0, z1 = self.z_range
+        return ([f"shaft {k + 1}" for k in range(len(self.shafts))]
+                + [f"holder {k + 1} (at the {'low' if b <= z0 else 'high'} end, diameter {2 * r:g} mm)"
+                   for k, (a, b, r) in enumerate(self.holders)])
+
+    @property
+    def keep_out_words(self):
+        """How messages name the keep-out solids."""
+        return "a shaft or a holder" if self.holders else "a shaft"
+
     def safe_radius(self, clearance):
-        """Outer radius of everything (stock and shafts) plus ``clearance``."""
-        return max([self.outer_radius] + [s[2] for s in self.shafts]) + float(clearance)
+        """Outer radius of everything (stock, shafts and holders) plus ``clearance``."""
+        return max([self.outer_radius] + [s[2] for s in self.keep_out]) + float(clearance)
 
     def lobe_angle(self, k):
         """Turn (rad) about z that carries lobe 0 onto lobe k."""
@@ -50,11 +71,11 @@ class RotorBody:
 
     def intrusion(self, points, stock=True, margin=0.0):
         """Depth (N,) by which rotor-frame points (N, 3) lie inside the stock cylinder (if ``stock``) or a
-        shaft, each grown by ``margin``: min(r - rho, z - z_a, z_b - z) of the deepest solid, 0 outside."""
+        keep-out solid, each grown by ``margin``: min(r - rho, z - z_a, z_b - z) of the deepest solid, 0 outside."""
         p = np.asarray(points, float).reshape(-1, 3)
         rho = np.hypot(p[:, 0], p[:, 1])
         z = p[:, 2]
-        solids = list(self.shafts)
+        solids = self.keep_out
         if stock:
             solids.append((self.z_range[0], self.z_range[1], self.outer_radius))
         depth = np.zeros(len(p))
@@ -67,6 +88,7 @@ class RotorBody:
     def describe(self):
         return {"z_range": [float(z) for z in self.z_range], "outer_radius": self.outer_radius,
                 "shafts": [{"z_range": [a, b], "radius": r} for a, b, r in self.shafts],
+                "holders": [{"z_range": [a, b], "radius": r} for a, b, r in self.holders],
                 "lobes": self.lobes, "symmetry_error": self.symmetry_error,
                 "v0": self.v0, "handedness": "right" if self.hand > 0 else "left"}
 
@@ -195,3 +217,49 @@ def rotor_body(plan, extent=None):
                      outer_radius=float(rot["outer_radius"]), z_range=tuple(ext["z_range"]),
                      shafts=[(s["z_range"][0], s["z_range"][1], s["radius"]) for s in ext["shafts"]],
                      lobes=lobes, symmetry_error=sym, profile=prof)
+
+
+HOLDER_SIDES = ("low", "high")
+MAX_HOLDER_MM = 1e5          # largest diameter, length or gap of a holder (100 m: beyond any machine)
+
+
+def parse_holder(text):
+    """(side, diameter, length, gap) of a holder given as ``SIDE,DIAMETER,LENGTH[,GAP]`` (mm); ValueError
+    naming the value otherwise (the limits of :func:`with_holders`)."""
+    parts = [x.strip() for x in str(text).split(",")]
+    if len(parts) not in (3, 4):
+        raise ValueError(f"holder {text!r} must be SIDE,DIAMETER,LENGTH[,GAP] (mm), e.g. low,160,80,20")
+    try:
+        numbers = [float(x) for x in parts[1:]]
+    except ValueError:
+        raise ValueError(f"holder {text!r}: DIAMETER, LENGTH and GAP must be numbers (mm)") from None
+    return (parts[0], *numbers, *([0.0] if len(numbers) == 2 else []))
+
+
+def with_holders(rotor, holders):
+    """A copy of ``rotor`` holding it between ``holders`` [(side, diameter, length, gap), ...] (mm): coaxial
+    cylinders of the given diameter beyond an end face of the body, ``gap`` away from it.  Side "low" is the end
+    at the body's smaller rotor-frame z (z0): the holder spans z0 - gap - length .. z0 - gap; "high" the other:
+    z1 + gap .. z1 + gap + length.  They usually grip a shaft (a chuck, a collet, a tailstock's centre and
+    driver): no move may enter them, so a pass that runs out into one is refused and every link keeps its
+    clearance from the largest of them."""
+    import dataclasses
+
+    out = []
+    for k, h in enumerate(holders):
+        side, diameter, length, gap = h
+        what = f"holder {k + 1} ({side},{diameter:g},{length:g},{gap:g})" if isinstance(side, str) else \
+            f"holder {k + 1}"
+        if side not in HOLDER_SIDES:
+            raise ValueError(f"{what}: side {side!r} must be one of {', '.join(HOLDER_SIDES)} (the end of the body "
+                             "at the smaller or the larger rotor-frame z)")
+        for name, value, lo in (("diameter", diameter, 0.0), ("length", length, 0.0), ("gap", gap, None)):
+            if not (math.isfinite(value) and (value > lo if lo is not None else value >= 0.0)
+                    and value <= MAX_HOLDER_MM):
+                bound = "> 0" if lo is not None else ">= 0"
+                raise ValueError(f"{what}: {name} {value!r} must be a number {bound} and at most "
+                                 f"{MAX_HOLDER_MM:g} mm")
+        z0, z1 = rotor.z_range
+        za, zb = (z0 - gap - length, z0 - gap) if side == "low" else (z1 + gap, z1 + gap + length)
+        out.append((float(za), float(zb), 0.5 * float(diameter)))
+    return dataclasses.replace(rotor, holders=list(rotor.holders) + out)

@@ -14,10 +14,10 @@ a 0.001 mm chord read back as 0.0012 mm of interpolation error).
 
 Links (all rapid): from a pass end the tool moves straight away from the rotor axis (along the tool axis'
 component across the rotor axis, rotaries fixed) until every point of the tool and its shank is at least the
-safe radius R_s = max(outer radius, shaft radii) + clearance from the axis; there the rotary axes turn to the
+safe radius R_s = max(outer radius, shaft and holder radii) + clearance from the axis; there the rotary axes turn to the
 next pass (turning the spin keeps every distance from the axis), then the linear axes move above the next
 start and the tool approaches it the reverse way.  Every segment is checked against the stock cylinder and the
-shafts (:mod:`.clearance`); when one is not clear the link is tried again with R_s + the tool's length, then
+shafts and holders (:mod:`.clearance`); when one is not clear the link is tried again with R_s + the tool's length, then
 with an extra lift along the tool axis, and refused by name if none is.  A tool starts and ends at that lifted
 position.  The first move after a tool change comes from where the tool-change cycle leaves the machine, which
 the program cannot know; when the machine file gives it (``tool_change_position``) the moves out of it are
@@ -186,17 +186,19 @@ class _Planner:
             n, v, lo, hi = limits
             raise MachineError(f"{what}: axis {n} would reach {v:.6g}, outside its limits {lo:g}..{hi:g} on machine "
                                f"{self.m.name}")
-        raise OperationError(f"{what}: no link stays out of the rotor (the tool enters the stock or a shaft by "
+        raise OperationError(f"{what}: no link stays out of the rotor (the tool enters the stock or "
+                             f"{self.rotor.keep_out_words} by "
                              f"{first[0]:.3g} mm at {np.round(first[1], 3).tolist()} in the rotor frame even "
                              "when lifted); raise --clearance or check the machine's rotary axes")
 
 
 def segment_intrusion(machine, rotor, r0, r1, local, gauge, step):
-    """Deepest intrusion (depth, fraction, point) of one program segment into the stock or a shaft: a move
-    of the linear axes alone is a translation in the rotor frame (:func:`clearance.translation_intrusion`,
-    exact); one whose machine joints only turn the spin keeps every tool point's rho and z, so its end points
-    decide (with TCP the control moves the tip on the chord instead of the arc: the solids are grown by the
-    sagitta); any other is sampled (:func:`clearance.move_intrusion`)."""
+    """Deepest intrusion (depth, fraction, point) of one program segment into the stock or a keep-out solid
+    (shafts and holders, :attr:`.rotor_body.RotorBody.keep_out`): a move of the linear axes alone is a
+    translation in the rotor frame (:func:`clearance.translation_intrusion`, exact); one whose machine joints
+    only turn the spin keeps every tool point's rho and z, so its end points decide (with TCP the control moves
+    the tip on the chord instead of the arc: the solids are grown by the sagitta); any other is sampled
+    (:func:`clearance.move_intrusion`)."""
     from .clearance import tool_points, translation_intrusion
 
     d = np.subtract(r1, r0)
@@ -279,8 +281,9 @@ def _check_out_of_tool_change(pl, tool, stood, first, label):
     depth, pt = pl.check(tool.number, seq, label) if len(seq) > 1 else (0.0, None)
     if depth > 0:
         raise OperationError(f"the move of tool {tool.number} out of the tool-change position to {label} enters "
-                             f"the stock or a shaft by {depth:.3g} mm at {np.round(pt, 3).tolist()} in the rotor "
-                             "frame: move the machine file's tool_change_position away from the rotor")
+                             f"the stock or {pl.rotor.keep_out_words} by {depth:.3g} mm at "
+                             f"{np.round(pt, 3).tolist()} in the rotor frame: move the machine file's "
+                             "tool_change_position away from the rotor")
 
 
 def build_program(op, machine, direction="forward", chord_tolerance=1e-3, step=1.0, spacing=1.5):

@@ -19,8 +19,9 @@
    farther than that from where the plan puts it, so neither is the machined surface.  The sweep is the
    infinite screw motion, valid because the pass runs out beyond the body (5).
 5. Run-out: at its first and last pose the whole tool (and shank) must be beyond the body's end faces.
-6. Every other move (rapids, links) is checked against the stock cylinder and the shafts
-   (:func:`machining.toolpath.segment_intrusion`).  The moves out of a tool change start where the machine
+6. Every other move (rapids, links) is checked against the stock cylinder, the shafts and the holders
+   (:func:`machining.toolpath.segment_intrusion`); the passes against the shafts and the holders
+   (:func:`keep_out_margin`).  The moves out of a tool change start where the machine
    file's ``tool_change_position`` leaves the machine (:func:`machining.cycle_time.move_joints`); without
    one their start is unknown and they are counted as ``unchecked``.
 7. Cycle time from the moves as the controller times them (:mod:`machining.cycle_time`).
@@ -35,7 +36,7 @@ import numpy as np
 from ..geometry.screw import screw_motion
 from ..machining.cycle_time import cycle_time, move_joints
 from ..machining.operation import checked_lobes, repeats_earlier_strip
-from ..machining.tool_shape import ToolShape
+from ..machining.tool_shape import ToolShape, place_points
 from ..machining.toolpath import segment_intrusion
 from ..simulation.verify import profile_normals, verify_plan
 
@@ -138,6 +139,28 @@ def run_out(ps, tools, rotor):
     return float(z0 - hi[0]), float(lo[1] - z1)
 
 
+def keep_out_margin(ps, tools, rotor, spacing=1.0):
+    """Smallest distance (mm) by which the tool of a read pass stays out of the shafts and holders it passes
+    over (:attr:`..machining.rotor_body.RotorBody.keep_out`), negative inside one; inf when it passes over
+    none.  The pass is a screw motion: every tool point keeps its distance rho from the axis while its height
+    moves by -v0 t_span, so a point counts against a solid whose z range that height span meets (as the
+    operation checks its passes, :func:`..machining.operation.run_out`); the controller's interpolation error
+    (TCP chords) is taken off."""
+    if not rotor.keep_out:
+        return math.inf
+    P, A = ps["ends"]
+    pts = place_points(tools[ps["tool"]].local_points(spacing), P[0], A[0])[0]
+    rho = np.hypot(pts[:, 0], pts[:, 1])
+    z0, z1 = pts[:, 2], pts[:, 2] - rotor.v0 * ps["t_span"]
+    lo, hi = np.minimum(z0, z1), np.maximum(z0, z1)
+    margin = math.inf
+    for a, b, r in rotor.keep_out:
+        over = (hi >= a) & (lo <= b)
+        if over.any():
+            margin = min(margin, float((rho[over] - r).min()) - ps["interpolation_error"])
+    return margin
+
+
 def fine_deviation(plan, strips, idx, refine=16):
     """Deviation at profile points ``idx`` of the plan's rotor milled by ``strips``, by the sweep with its time
     sampling ``refine`` times denser (:func:`..simulation.sweep.machined_deviation`; the tools' feature size,
@@ -217,7 +240,7 @@ def lobe_deviation(plan, p, passes, tools, rotor, lobe, reference, recheck=1e-3)
 
 
 def check_links(read, machine, tools, rotor, step=1.0, spacing=1.5):
-    """Intrusion of every non-cutting move into the stock or the shafts."""
+    """Intrusion of every non-cutting move into the stock, the shafts or the holders."""
     worst, bad, checked, unchecked = 0.0, [], 0, 0
     local = {n: s.local_points(spacing) for n, s in tools.items()}
     gauges = {n: s.h_range()[1] - s.h_range()[0] for n, s in tools.items()}
@@ -263,6 +286,7 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
     expected = {(p, s, k) for p, plan in enumerate(plans) for s in range(len(plan["strips"]))
                 if not repeats_earlier_strip(plan, s) for k in due}
     clear = [run_out(ps, tools, rotor) for ps in passes]
+    kept_out = [keep_out_margin(ps, tools, rotor) for ps in passes]
     plans_out = []
     for p, plan in enumerate(plans):
         ref = references[p] if references is not None else verify_plan(plan)
@@ -288,12 +312,16 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
         "interpolation_error_mm": max((ps["interpolation_error"] for ps in passes), default=0.0),
         "run_out": {"min_start_clearance_mm": min((c[0] for c in clear), default=math.inf),
                     "min_end_clearance_mm": min((c[1] for c in clear), default=math.inf),
-                    "passes_not_clear": [ps["line"] for ps, c in zip(passes, clear) if min(c) <= 0]},
+                    "passes_not_clear": [ps["line"] for ps, c in zip(passes, clear) if min(c) <= 0],
+                    # null when no pass crosses a shaft or a holder: strict JSON has no Infinity
+                    "min_keep_out_margin_mm": min(kept_out) if kept_out and math.isfinite(min(kept_out)) else None,
+                    "passes_into_keep_out": [ps["line"] for ps, m in zip(passes, kept_out) if m < 0]},
         "plans": plans_out,
         "max_deviation_difference_mm": max(diffs, default=None),
         "pose_difference_mm": max((lo["pose_difference_mm"] for pl in plans_out for lo in pl["lobes"]), default=None),
         "gouge_points": sum(lo["gouge_points"] for pl in plans_out for lo in pl["lobes"]),
         "links": check_links(read, machine, tools, rotor),
+        "holders": [{"z_range": [a, b], "radius": r} for a, b, r in rotor.holders],
         **times,
     }
     res["findings"] = program_findings(res)
@@ -305,8 +333,8 @@ def program_findings(res):
     """What makes the program differ from its plans or cut where it must not, one sentence each (empty: the
     program does what the plans say): a text without the program's end, passes that match no strip, strips
     never cut or cut twice, more gouge points on a lobe than the plan itself has, passes that start or end
-    inside the body, links that enter the stock or a shaft, points that one side covers and the other does
-    not."""
+    inside the body or enter a shaft or a holder, links that enter the stock, a shaft or a holder, points that
+    one side covers and the other does not."""
     out = []
     if not res["program_end_line"]:
         out.append("the program has no end (M2 / M30, END PGM): was it cut short?")
@@ -334,7 +362,13 @@ def program_findings(res):
                            "one of program and plan mills")
     if res["run_out"]["passes_not_clear"]:
         out.append(f"passes at lines {res['run_out']['passes_not_clear'][:10]} start or end inside the body")
+    keep_out = "a shaft or a holder" if res.get("holders") else "a shaft"
+    stock_or = "the stock, a shaft or a holder" if res.get("holders") else "the stock or a shaft"
+    into = res["run_out"].get("passes_into_keep_out")
+    if into:
+        out.append(f"passes at lines {into[:10]} enter {keep_out} by up to "
+                   f"{-res['run_out']['min_keep_out_margin_mm']:.3g} mm")
     if res["links"]["max_intrusion_mm"] > 0:
-        out.append(f"{len(res['links']['intrusions'])} link move(s) enter the stock or a shaft, deepest "
+        out.append(f"{len(res['links']['intrusions'])} link move(s) enter {stock_or}, deepest "
                    f"{res['links']['max_intrusion_mm']:.3g} mm")
     return out
