@@ -21,7 +21,8 @@ import numpy as np
 from ..flank_addon.machining.cycle_time import untimed_note
 from .common import check_filepath, hide_objects, remove_objects
 from .modal import ModalPlannerMixin
-from .program import check_numbers, cutting_data_of, key_frames, parse_lobes, plan_in_mm, rounded, tool_outline
+from .program import (check_numbers, cutting_data_of, holders_of, key_frames, parse_lobes, plan_in_mm, rounded,
+                      tool_outline)
 from .program_scene import ANIM_ROLE, ProgramBuild, program_objects, store_program
 from .properties import post_program_props
 from .runs import PlanNeeded, remove_animation, run_plan, run_prop
@@ -127,6 +128,7 @@ class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
         rotor_name = run_prop(coll, "rotor")
         return dict(t0=time.perf_counter(), coll=coll.name, plan=plan, to_world=plan["rotor"]["to_world"], k=k,
                     machine=machine, post=post, lobes=lobes, clearance=float(self.clearance), filepath=path,
+                    holders=holders_of(self.holders),
                     data=cutting_data_of(self.tool_flutes, self.tool_cutting_speed_m_min,
                                          self.tool_feed_per_tooth_mm, self.tool_max_rpm),
                     rotor=str(rotor_name) if rotor_name else "", animate=bool(self.animate),
@@ -195,6 +197,7 @@ class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
         props = dict(file=job["filepath"], post=job["post"].name, machine=job["machine"].name,
                      machine_source=job["machine"].source, passes=int(t["passes"]), moves=int(t["moves"]),
                      lobes=[int(v) for v in t["lobes"]], clearance=job["clearance"], mm_per_unit=float(job["k"]),
+                     holders=json.dumps(job["holders"]),
                      cutting_time_s=float(t["cutting_time_s"]), rapid_time_s=float(t["rapid_time_s"]),
                      tool_changes=int(t["tool_changes"]), tool_change_time_s=float(t["tool_change_time_s"]),
                      untimed_moves=int(t["untimed_moves"]),

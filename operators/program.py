@@ -83,20 +83,34 @@ def check_numbers(op):
         return "end frame {} must be after the start frame {}".format(int(op.frame_end), int(op.frame_start))
     data = cutting_data_of(op.tool_flutes, op.tool_cutting_speed_m_min, op.tool_feed_per_tooth_mm,
                            op.tool_max_rpm)
-    return data if isinstance(data, str) else None
+    if isinstance(data, str):
+        return data
+    holders = holders_of(op.holders)
+    return holders if isinstance(holders, str) else None
+
+
+def holders_of(text):
+    """The holders of the Holders text (:func:`..flank_addon.machining.rotor_body.parse_holders`: side, diameter,
+    length, gap in mm) or an error message naming the one that is wrong."""
+    from ..flank_addon.machining.rotor_body import parse_holders
+
+    try:
+        return parse_holders(text)
+    except ValueError as ex:
+        return "Holders {!r}: {}".format(str(text), ex)
 
 
 # ---------------------------------------------------------------------------------------------- the core
 def post_program(job):
     """Operation, program, text, read-back and cycle time of ``job`` (plan in mm, machine, post, lobes,
-    clearance, cutting data): the calls of the command line's ``post``."""
+    clearance, holders, cutting data): the calls of the command line's ``post``."""
     from ..flank_addon.machining.cycle_time import cycle_time
     from ..flank_addon.machining.operation import build_operation
-    from ..flank_addon.machining.rotor_body import rotor_body
+    from ..flank_addon.machining.rotor_body import rotor_body, with_holders
     from ..flank_addon.machining.toolpath import build_program
 
     machine, post = job["machine"], job["post"]
-    rotor = rotor_body(job["plan"])
+    rotor = with_holders(rotor_body(job["plan"]), job.get("holders", []))
     op = build_operation([job["plan"]], rotor, lobes=job["lobes"], clearance=job["clearance"],
                          cutting_data=job["data"])
     prog = build_program(op, machine)

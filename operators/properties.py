@@ -452,6 +452,13 @@ def machining_props():
                                                                "180 deg about its x axis), which helps when the "
                                                                "tool axes point down the rotor's z",
                                 default=False),
+        holders=StringProperty(name="Holders (mm)",
+                               description="What holds the rotor beyond its end faces (a chuck, a collet, a "
+                                           "tailstock), in mm: SIDE,DIAMETER,LENGTH[,GAP], several separated by ';'. "
+                                           "SIDE low or high is the end at the smaller or larger z of the rotor's "
+                                           "axis, GAP (default 0) its distance from that end face; e.g. "
+                                           "'low,100,60,20; high,60,40'. No move may enter them, and a pass that "
+                                           "runs out into one is refused", default=""),
     )
 
 

@@ -7,7 +7,7 @@ import bpy
 from .common import CATEGORY, REGION, SPACE
 
 CUTTING_DATA = ("tool_flutes", "tool_cutting_speed_m_min", "tool_feed_per_tooth_mm", "tool_max_rpm")
-MACHINING = ("clearance", "lobes", "flip_rotor")
+MACHINING = ("clearance", "lobes", "flip_rotor", "holders")
 
 
 def post_call(settings, scene):

@@ -236,6 +236,29 @@ def parse_holder(text):
     return (parts[0], *numbers, *([0.0] if len(numbers) == 2 else []))
 
 
+def check_holder(holder, k=0):
+    """``holder`` (side, diameter, length, gap) as floats, or ValueError naming holder k + 1, the value and its
+    limit."""
+    side, diameter, length, gap = holder
+    if side not in HOLDER_SIDES:
+        raise ValueError(f"holder {k + 1}: side {side!r} must be one of {', '.join(HOLDER_SIDES)} (the end of the "
+                         "body at the smaller or the larger rotor-frame z)")
+    for name, value, least in (("diameter", diameter, "> 0"), ("length", length, "> 0"), ("gap", gap, ">= 0")):
+        value = float(value)
+        if not (math.isfinite(value) and (value > 0.0 if least == "> 0" else value >= 0.0)
+                and value <= MAX_HOLDER_MM):
+            raise ValueError(f"holder {k + 1} ({side}): {name} {value!r} must be a number {least} and at most "
+                             f"{MAX_HOLDER_MM:g} mm")
+    return side, float(diameter), float(length), float(gap)
+
+
+def parse_holders(text):
+    """The holders of a text of ``SIDE,DIAMETER,LENGTH[,GAP]`` separated by ';' (mm; empty: none), checked
+    (:func:`check_holder`); ValueError naming the one that is not."""
+    items = [x for x in str(text).split(";") if x.strip()]
+    return [check_holder(parse_holder(x), k) for k, x in enumerate(items)]
+
+
 def with_holders(rotor, holders):
     """A copy of ``rotor`` holding it between ``holders`` [(side, diameter, length, gap), ...] (mm): coaxial
     cylinders of the given diameter beyond an end face of the body, ``gap`` away from it.  Side "low" is the end
@@ -247,18 +270,7 @@ def with_holders(rotor, holders):
 
     out = []
     for k, h in enumerate(holders):
-        side, diameter, length, gap = h
-        what = f"holder {k + 1} ({side},{diameter:g},{length:g},{gap:g})" if isinstance(side, str) else \
-            f"holder {k + 1}"
-        if side not in HOLDER_SIDES:
-            raise ValueError(f"{what}: side {side!r} must be one of {', '.join(HOLDER_SIDES)} (the end of the body "
-                             "at the smaller or the larger rotor-frame z)")
-        for name, value, lo in (("diameter", diameter, 0.0), ("length", length, 0.0), ("gap", gap, None)):
-            if not (math.isfinite(value) and (value > lo if lo is not None else value >= 0.0)
-                    and value <= MAX_HOLDER_MM):
-                bound = "> 0" if lo is not None else ">= 0"
-                raise ValueError(f"{what}: {name} {value!r} must be a number {bound} and at most "
-                                 f"{MAX_HOLDER_MM:g} mm")
+        side, diameter, length, gap = check_holder(h, k)
         z0, z1 = rotor.z_range
         za, zb = (z0 - gap - length, z0 - gap) if side == "low" else (z1 + gap, z1 + gap + length)
         out.append((float(za), float(zb), 0.5 * float(diameter)))

@@ -6,7 +6,8 @@ outer radius 30 mm and length 60 mm, single-flank plan of flank 0 (few seeds); t
 Program call (rotor-xa-b, LinuxCNC, lobes 0,2), animated.  Recorded: the written program and the plan (for the
 command line's post in the test), the run's program properties and the panels' labels, the program path's
 attributes, the animation at sampled frames against the core's reader (the program's poses by forward
-kinematics), a re-post (Fanuc on xyzac-trt, not animated) replacing the first, and the refusals."""
+kinematics), a post with holders, a re-post (Fanuc on xyzac-trt, not animated) replacing the first, and the
+refusals."""
 import glob
 import json
 import math
@@ -16,6 +17,7 @@ import time
 import driver
 
 PRESET = "Tapered 2deg D3 L25"
+HOLDERS = "low,100,40,150; high,80,30,150"      # mm: clear of the passes' run-out
 
 
 def _blocks(bpy):
@@ -164,6 +166,9 @@ def _errors(bpy, tmp, coll_name, good):
         "lobes_text": dict(filepath=target, lobes="0,x"),
         "lobes_range": dict(filepath=target, lobes="9"),
         "frames": dict(filepath=target, frame_start=10, frame_end=10),
+        "holders_text": dict(filepath=target, holders="low,80"),
+        "holders_side": dict(filepath=target, holders="left,80,40"),
+        "holder_in_run_out": dict(filepath=target, holders="low,100,40"),
     }
     out = {}
     for name, kw in cases.items():
@@ -249,6 +254,14 @@ def scenario(bpy, res, args):
     before = res["post"]["text"]
     res["errors"] = _errors(bpy, tmp, coll.name, good)
     res["program_unchanged"] = open(prog_path).read() == before
+
+    # ---------------------------------------------------------------- held by a chuck and a tailstock, far enough
+    held = os.path.join(tmp, "held.ngc")
+    res["held"] = _call(bpy, **dict(call, filepath=held, animate=False, collection=coll.name,
+                                    holders=HOLDERS))
+    path_ob = next((ob for ob in coll.objects if ob.get("flank_prog_role") == "path"), None)
+    res["held"].update(props=driver._obj_props(coll), path=_path_facts(np, path_ob) if path_ob else None,
+                       text=open(held).read() if os.path.exists(held) else "")
 
     # ---------------------------------------------------------------- re-post: Fanuc on xyzac-trt, no animation
     nc = os.path.join(tmp, "program.nc")

@@ -218,6 +218,9 @@ ERRORS = {
     "lobes_text": "lobes '0,x' must be empty, 'all' or lobe indices",
     "lobes_range": "lobes [9] are not lobes of this rotor (0..3)",
     "frames": "end frame 10 must be after the start frame 10",
+    "holders_text": "Holders 'low,80': holder 'low,80' must be SIDE,DIAMETER,LENGTH[,GAP]",
+    "holders_side": "holder 1: side 'left' must be one of low, high",
+    "holder_in_run_out": "running out past the body the tool enters holder 1 (at the low end, diameter 100 mm)",
 }
 
 
@@ -230,6 +233,29 @@ def test_refusals_name_the_problem_and_leave_nothing(mc, case):
     assert e["new"] == NOTHING and not e["file"] and e["temp_files"] == []
     assert e["seconds"] < 5.0
     assert mc["program_unchanged"]
+
+
+def test_holders_are_posted_as_the_command_line_posts_them(mc, tmp_path):
+    """The Holders setting is the command line's --holder: the same program, links beyond the largest holder."""
+    import contextlib
+    import io
+
+    pytest.importorskip("scipy", reason="comparing with the core needs scipy in the test interpreter")
+    from flank_addon.cli import main
+
+    h = mc["held"]
+    assert h["result"] == ["FINISHED"], h["error"]
+    assert json.loads(h["props"]["flank_prog_holders"]) == [["low", 100.0, 40.0, 150.0], ["high", 80.0, 30.0, 150.0]]
+    # the links retreat beyond the chuck (radius 50) by the clearance, not only beyond the stock (radius 30)
+    assert h["path"]["max_radius"] >= 55.0 - 1e-3
+    out = tmp_path / "held.ngc"
+    args = ["post", mc["plan_file"], "--machine", "rotor-xa-b", "--post", "linuxcnc", "--lobes", "0,2",
+            "--clearance", "5", "--cutting-data", "Tapered 2deg D3 L25", "-o", str(out)]
+    for holder in ("low,100,40,150", "high,80,30,150"):
+        args += ["--holder", holder]
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert main(args) == 0
+    assert h["text"] == out.read_text()
 
 
 def test_the_unreachable_pass_is_named_with_its_axis(mc):

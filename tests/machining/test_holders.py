@@ -10,7 +10,7 @@ from flank_addon.cli import main
 from flank_addon.io.plan import write_plan
 from flank_addon.machining.machine import load_machine
 from flank_addon.machining.operation import OperationError, build_operation
-from flank_addon.machining.rotor_body import parse_holder, rotor_body, with_holders
+from flank_addon.machining.rotor_body import parse_holder, parse_holders, rotor_body, with_holders
 from flank_addon.machining.tool_shape import place_points
 from flank_addon.machining.toolpath import build_program
 from flank_addon.posts import get_post
@@ -38,13 +38,17 @@ def test_holders_are_given_by_side_size_and_gap(single_flank_plan):
                         ("low,1,2,3,4", "must be SIDE,DIAMETER,LENGTH")):
         with pytest.raises(ValueError, match=words):
             parse_holder(text)
-    for holder, words in ((("left", 100.0, 60.0, 0.0), "side 'left' must be one of low, high"),
-                          (("low", 0.0, 60.0, 0.0), "diameter 0.0 must be a number > 0"),
+    for holder, words in ((("left", 100.0, 60.0, 0.0), "holder 2: side 'left' must be one of low, high"),
+                          (("low", 0.0, 60.0, 0.0), r"holder 2 \(low\): diameter 0.0 must be a number > 0"),
                           (("low", 100.0, math.inf, 0.0), "length inf must be a number > 0 and at most 100000 mm"),
                           (("high", 100.0, 60.0, -1.0), "gap -1.0 must be a number >= 0"),
                           (("high", math.nan, 60.0, 0.0), "diameter nan must be")):
         with pytest.raises(ValueError, match=words):
-            with_holders(rb, [holder])
+            with_holders(rb, [("low", 1.0, 1.0, 0.0), holder])
+    assert parse_holders(" low,100,60 ;high,80,40,12.5;") == [("low", 100.0, 60.0, 0.0), ("high", 80.0, 40.0, 12.5)]
+    assert parse_holders("  ") == []
+    with pytest.raises(ValueError, match=r"holder 2 \(high\): length 0.0 must be a number > 0"):
+        parse_holders("low,100,60; high,80,0")
 
 
 def _lowest_near_axis(machine, op, text, radius, spacing=0.5, steps=400):
