@@ -161,6 +161,7 @@ class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
         build = ProgramBuild(coll, coll.name)
         try:
             path_ob = build.path(out["path"], M)
+            build.holders(out["holders"], M)
             if job["animate"]:
                 keys = out["keys"]
                 frames = key_frames(keys["seconds"], keys["total"], *job["frames"])

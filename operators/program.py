@@ -124,6 +124,7 @@ def post_program(job):
                  cutting_length_mm=float(sum(p["cutting_length_mm"] for p in prog.passes)),
                  rpm=[float(t.rpm) for t in op.tools])
     return dict(text=text, times=times, per_pass=prog.passes, read=read, minutes=np.asarray(minutes, float),
+                holders=[tuple(map(float, h)) for h in rotor.holders],
                 gauges=gauges, shapes={t.number: t.shape for t in op.tools}, rotor=rotor,
                 path=program_path(read, machine, gauges, move_ends),
                 keys=program_keys(read, machine, gauges, minutes, move_ends))

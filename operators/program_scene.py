@@ -9,6 +9,8 @@ Objects (in the run's collection):
 
 - ``<run>: Program`` (role ``path``), the path in the rotor frame in mm, placed by the plan's rotor frame scaled
   by 1 / k (k = mm per plan length unit);
+- ``<run>: Holders`` (role ``holders``) when the program was posted with holders: their cylinders, placed as
+  the path (they are round about the rotor axis, so they stand still while the rotor copy turns);
 - with the animation (the run's animation, like flank.animate_strip's: replacing it, hiding the rotor and the
   path while it exists, removed with flank.animate_strip's next run or the run): the rotor frame (an empty), the
   spin (an empty keyed by psi about the rotor axis), a linked copy of the rotor and of the path riding on the
@@ -27,7 +29,9 @@ MOTION_ATTR = "motion"               # INT edge attribute: 1 cutting, 0 rapid / 
 PASS_ATTR = "pass"                   # INT edge attribute: pass number (1..) of a cutting edge, 0 on links
 COLOR_PATH = (0.85, 0.35, 0.10, 1.0)
 COLOR_TOOL = (0.90, 0.72, 0.20, 1.0)
+COLOR_HOLDER = (0.45, 0.47, 0.50, 1.0)
 TOOL_SEGMENTS = 32
+HOLDER_SEGMENTS = 48
 
 
 def _linear_value():
@@ -132,6 +136,27 @@ class ProgramBuild:
         ob[PROG_ROLE] = "path"
         return ob
 
+    # ------------------------------------------------------------------ the holders
+    def holders(self, holders, matrix):
+        """The holders (chuck, tailstock: coaxial cylinders [(z_a, z_b, radius)] in the rotor frame, mm) as one
+        mesh at ``matrix`` (rotor frame mm -> world), or None without holders."""
+        if not holders:
+            return None
+        verts, faces = [], []
+        for a, b, r in holders:
+            v, f = revolved_mesh(np.array([[0.0, b], [r, b], [r, a], [0.0, a]]), HOLDER_SEGMENTS)
+            faces.append(np.asarray(f) + sum(len(x) for x in verts))
+            verts.append(np.asarray(v))
+        me = bpy.data.meshes.new(self.name + ": Holders")
+        self.meshes.append(me)
+        me.from_pydata(np.concatenate(verts).tolist(), [], np.concatenate(faces).tolist())
+        me.update()
+        ob = self.add(self.name + ": Holders", me)
+        ob.matrix_world = Matrix(np.asarray(matrix, float).tolist())
+        ob.color = COLOR_HOLDER
+        ob[PROG_ROLE] = "holders"
+        return ob
+
     # ------------------------------------------------------------------ the animation
     def animation(self, keys, frames, matrix, rotor, path_ob, shapes, outline):
         """Frame and spin empties, the rotor and path copies on the spin, one keyed tool per tool number
@@ -179,7 +204,7 @@ class ProgramBuild:
 
 
 def program_objects(coll):
-    """The program objects of a run (its path), not its animation."""
+    """The program objects of a run (its path and holders), not its animation."""
     return [ob for ob in coll.objects if ob.get(PROG_ROLE) is not None]
 
 

@@ -262,6 +262,18 @@ def scenario(bpy, res, args):
     path_ob = next((ob for ob in coll.objects if ob.get("flank_prog_role") == "path"), None)
     res["held"].update(props=driver._obj_props(coll), path=_path_facts(np, path_ob) if path_ob else None,
                        text=open(held).read() if os.path.exists(held) else "")
+    holders_ob = next((ob for ob in coll.objects if ob.get("flank_prog_role") == "holders"), None)
+    if holders_ob is not None:          # its vertices in the rotor frame, mm (the path's placement)
+        M = np.array(holders_ob.matrix_world)
+        co = np.empty(3 * len(holders_ob.data.vertices))
+        holders_ob.data.vertices.foreach_get("co", co)
+        co = co.reshape(-1, 3)
+        rotor_mm = (np.linalg.inv(np.array(path_ob.matrix_world)) @ M @ np.c_[co, np.ones(len(co))].T).T[:, :3]
+        rho = np.hypot(rotor_mm[:, 0], rotor_mm[:, 1])
+        res["held"]["holders_object"] = dict(
+            name=holders_ob.name, same_matrix=bool(np.allclose(M, np.array(path_ob.matrix_world))),
+            z=[float(rotor_mm[:, 2].min()), float(rotor_mm[:, 2].max())], max_rho=float(rho.max()),
+            extent=plan["rotor"]["extent"]["z_range"])
 
     # ---------------------------------------------------------------- re-post: Fanuc on xyzac-trt, no animation
     nc = os.path.join(tmp, "program.nc")

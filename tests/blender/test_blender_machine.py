@@ -256,6 +256,11 @@ def test_holders_are_posted_as_the_command_line_posts_them(mc, tmp_path):
     with contextlib.redirect_stdout(io.StringIO()):
         assert main(args) == 0
     assert h["text"] == out.read_text()
+    # the holders stand in the scene beside the path: a chuck 150..190 mm below the body, a tailstock above it
+    ho = h["holders_object"]
+    z0, z1 = ho["extent"]
+    assert ho["same_matrix"] and ho["max_rho"] == pytest.approx(50.0, rel=1e-6)
+    assert ho["z"] == pytest.approx([z0 - 190.0, z1 + 180.0], abs=1e-4)
 
 
 def test_the_unreachable_pass_is_named_with_its_axis(mc):
