@@ -155,8 +155,8 @@ def _cmd_verify(args):
     if len(args.plans) != 1:
         raise ValueError("verify takes one plan (several only with --program)")
     for opt in ("machine", "post", "mesh", "outer_radius_mm", "lobes"):
-        if getattr(args, opt) is not None or args.flip_rotor:
-            opt = opt if getattr(args, opt) is not None else "flip_rotor"
+        if getattr(args, opt) is not None or args.flip_rotor or args.holder:
+            opt = opt if getattr(args, opt) is not None else "flip_rotor" if args.flip_rotor else "holder"
             raise ValueError(f"--{opt.replace('_', '-')} applies to verify --program only")
     args.plan = args.plans[0]
     plan = read_plan(args.plan)
@@ -745,10 +745,10 @@ def count_at_least(least, most=None):
 # ---------------------------------------------------------------------------------------------- machining
 def holder_spec(text):
     """argparse type of --holder: SIDE,DIAMETER,LENGTH[,GAP] (:func:`machining.rotor_body.parse_holder`)."""
-    from .machining.rotor_body import parse_holder
+    from .machining.rotor_body import check_holder, parse_holder
 
     try:
-        return parse_holder(text)
+        return check_holder(parse_holder(text))
     except ValueError as ex:
         raise argparse.ArgumentTypeError(str(ex)) from None
 
@@ -884,8 +884,9 @@ def _cmd_verify_program(args):
                   f"{lo['max_deviation_difference_mm']:.3g} mm (tool poses by {lo['pose_difference_mm']:.3g} mm; "
                   f"{lo['rechecked_points']} point(s) swept again finer), gouge points {lo['gouge_points']}")
     ro = res["run_out"]
-    print(f"  run-out beyond the end faces: start >= {ro['min_start_clearance_mm']:.3g} mm, end >= "
-          f"{ro['min_end_clearance_mm']:.3g} mm; links: {res['links']['moves_checked']} checked"
+    run_out = ("no pass" if ro["min_start_clearance_mm"] is None else
+               f"start >= {ro['min_start_clearance_mm']:.3g} mm, end >= {ro['min_end_clearance_mm']:.3g} mm")
+    print(f"  run-out beyond the end faces: {run_out}; links: {res['links']['moves_checked']} checked"
           + (f" ({res['links']['moves_unchecked']} out of a tool change from an unknown position not)"
              if res['links']['moves_unchecked'] else "")
           + f", deepest intrusion into the stock{', shafts or holders' if res['holders'] else ' or shafts'} "

@@ -25,6 +25,7 @@ import numpy as np
 STEP_DEG = 2.0                 # rotary step between keys / path samples of a move
 MAX_SAMPLES = 720              # per move
 TOOL_OUTLINE_POINTS = 120      # outline samples of a tool mesh along its axis
+MIN_TOOL_CHANGE_S = 1e-3       # animation time of a tool change on a machine file that gives it none
 
 
 def rounded(x):
@@ -205,14 +206,14 @@ def program_keys(read, machine, gauges, minutes, move_ends):
     (K, axes), psi (K,), fixed-frame tips and axes (K, 3) and rotor-frame tips and axes (K, 3); block ends and,
     for rapids that turn a rotary axis, every STEP_DEG between (a move's block time shared evenly: its program
     values move linearly).  Time counts the moves' block times and, between two tools, the machine's time of a
-    tool change: the next tool's first key then comes after the last key of the one before, which would
-    otherwise share its time (and the spin's keys at one time would be merged).  ``move_ends``:
+    tool change (at least MIN_TOOL_CHANGE_S): the next tool's first key then comes after the last key of the one
+    before, which would otherwise share its time (and the spin's keys at one time would be merged).  ``move_ends``:
     :func:`move_rows`."""
     seconds, tools, rows, clock = [], [], [], 0.0
     changes, k = sorted(line for _, line in read.tool_changes), 0
     for mv, m, ends in zip(read.moves, minutes, move_ends):
         while k < len(changes) and changes[k] <= mv.line:     # M6 runs before the motion of its block
-            clock += machine.tool_change_s if seconds else 0.0     # none before the first key
+            clock += max(machine.tool_change_s, MIN_TOOL_CHANGE_S) if seconds else 0.0    # none before the first key
             k += 1
         known = ends is not None
         if not known and not np.isfinite(mv.end).all():

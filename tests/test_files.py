@@ -5,7 +5,7 @@ import sys
 
 import pytest
 
-from flank_addon.io.files import atomic_write
+from flank_addon.io.files import atomic_write, output_path_error
 
 posix_only = pytest.mark.skipif(sys.platform == "win32", reason="POSIX permission bits")
 
@@ -48,3 +48,17 @@ def test_a_link_is_written_through_and_a_device_is_refused(tmp_path):
         atomic_write("/dev/null", "G0 X1\n")
     assert e.value.filename == "/dev/null" and "not a regular file" in e.value.strerror
     assert os.path.exists("/dev/null") and not os.path.isfile("/dev/null")
+
+
+def test_an_output_path_is_judged_before_any_work(tmp_path):
+    """A folder, a missing folder, a file in the way of a folder; a prefix names files that begin with it."""
+    afile = tmp_path / "afile"
+    afile.write_text("x")
+    assert output_path_error(tmp_path / "new.json") is None
+    assert output_path_error(tmp_path) == f"{tmp_path} is a folder: give a file name"
+    assert output_path_error(tmp_path / "nope" / "p.ngc") == f"the folder {tmp_path / 'nope'} does not exist"
+    assert output_path_error(afile / "p.ngc") == f"{afile} is not a folder"
+    # PREFIX_<k>.stl: "out/" is the folder out itself, "out/strip" a prefix inside it
+    assert output_path_error(str(tmp_path) + "/", prefix=True) is None
+    assert output_path_error(tmp_path / "strip", prefix=True) is None
+    assert output_path_error(str(tmp_path / "nope") + "/", prefix=True) == f"the folder {tmp_path / 'nope'} does not exist"

@@ -7,7 +7,9 @@ def output_path_error(path, prefix=False):
     """Why a file cannot be written at ``path`` (relative to the current folder unless absolute), said before any
     work: the path is a folder, or its folder does not exist or is not writable -> a message naming it, or None.
     ``prefix``: ``path`` begins the names of several files (``PREFIX_<k>.stl``), so only its folder is checked."""
-    path = os.path.abspath(path)
+    # a prefix names files that begin with it: "out/" is the folder out, "out/strip" the folder out
+    path = os.fspath(path)
+    path = os.path.abspath(path + "_" if prefix else path)
     folder = os.path.dirname(path)
     if not prefix and os.path.isdir(path):
         return f"{path} is a folder: give a file name"

@@ -48,7 +48,7 @@ class Pass:
     tip: np.ndarray                # pose at t = 0, rotor frame
     axis: np.ndarray
     t_range: tuple                 # (t_a, t_b), t_a < t_b: tool above the body at t_a, below it at t_b
-    shaft_margin: float = math.inf  # smallest distance of the tool from a shaft it passes over
+    shaft_margin: float = math.inf  # smallest distance of the tool from a shaft or holder it passes over
     reverse: bool = False          # run from t_b to t_a
 
     @property
@@ -201,12 +201,12 @@ def build_operation(plans, rotor, lobes=None, clearance=5.0, cutting_data=None):
                 ps = Pass(p, s, k, flank_on_lobe(plan, plan["strips"][s]["flank"], turn, solid), number, tip, axis,
                           (t_a, t_b), margin)
                 if margin < 0:
-                    solid = run_out(tools[number - 1].shape, tip, axis, rotor, clearance, local=local[number],
-                                    detail=True)[3]
-                    raise OperationError(f"pass {ps.label}: running out past the body the tool enters {solid} by "
+                    hit = run_out(tools[number - 1].shape, tip, axis, rotor, clearance, local=local[number],
+                                  detail=True)[3]
+                    raise OperationError(f"pass {ps.label}: running out past the body the tool enters {hit} by "
                                          f"{-margin:.3g} mm (it comes closer to the rotor axis than its radius); "
                                          "such a strip cannot run out beyond the end faces"
-                                         + ("; move the holder away from the body" if solid.startswith("holder")
+                                         + ("; move the holder away from the body" if hit.startswith("holder")
                                             else ""))
                 passes.append(ps)
     return Operation(rotor=rotor, tools=tools, passes=passes, clearance=float(clearance), lobes=lobes,

@@ -61,6 +61,24 @@ class RotorBody:
         """How messages name the keep-out solids."""
         return "a shaft or a holder" if self.holders else "a shaft"
 
+    @property
+    def solids_words(self):
+        """How messages name the stock with the keep-out solids."""
+        return "the stock, a shaft or a holder" if self.holders else "the stock or a shaft"
+
+    def solid_at(self, point):
+        """The name of the solid (the stock, a shaft, a holder) a rotor-frame point lies deepest in, or None
+        outside them all."""
+        p = np.asarray(point, float).reshape(3)
+        rho = math.hypot(p[0], p[1])
+        best, name = 0.0, None
+        solids = [(self.z_range[0], self.z_range[1], self.outer_radius)] + self.keep_out
+        for (a, b, r), n in zip(solids, ["the stock"] + self.keep_out_names):
+            depth = min(r - rho, p[2] - a, b - p[2])
+            if depth > best:
+                best, name = depth, n
+        return name
+
     def safe_radius(self, clearance):
         """Outer radius of everything (stock, shafts and holders) plus ``clearance``."""
         return max([self.outer_radius] + [s[2] for s in self.keep_out]) + float(clearance)
@@ -233,21 +251,22 @@ def parse_holder(text):
         numbers = [float(x) for x in parts[1:]]
     except ValueError:
         raise ValueError(f"holder {text!r}: DIAMETER, LENGTH and GAP must be numbers (mm)") from None
-    return (parts[0], *numbers, *([0.0] if len(numbers) == 2 else []))
+    return (parts[0].lower(), *numbers, *([0.0] if len(numbers) == 2 else []))
 
 
-def check_holder(holder, k=0):
-    """``holder`` (side, diameter, length, gap) as floats, or ValueError naming holder k + 1, the value and its
-    limit."""
+def check_holder(holder, k=None):
+    """``holder`` (side, diameter, length, gap) as floats, or ValueError naming holder k + 1 (or just "holder"),
+    the value and its limit."""
     side, diameter, length, gap = holder
+    what = "holder" if k is None else f"holder {k + 1}"
     if side not in HOLDER_SIDES:
-        raise ValueError(f"holder {k + 1}: side {side!r} must be one of {', '.join(HOLDER_SIDES)} (the end of the "
+        raise ValueError(f"{what}: side {side!r} must be one of {', '.join(HOLDER_SIDES)} (the end of the "
                          "body at the smaller or the larger rotor-frame z)")
     for name, value, least in (("diameter", diameter, "> 0"), ("length", length, "> 0"), ("gap", gap, ">= 0")):
         value = float(value)
         if not (math.isfinite(value) and (value > 0.0 if least == "> 0" else value >= 0.0)
                 and value <= MAX_HOLDER_MM):
-            raise ValueError(f"holder {k + 1} ({side}): {name} {value!r} must be a number {least} and at most "
+            raise ValueError(f"{what} ({side}): {name} {value!r} must be a number {least} and at most "
                              f"{MAX_HOLDER_MM:g} mm")
     return side, float(diameter), float(length), float(gap)
 

@@ -184,12 +184,18 @@ class _Planner:
             first = first or (depth, pt)
         if first is None:
             n, v, lo, hi = limits
+            widest = max(self.rotor.holders, key=lambda h: h[2], default=None)
+            hint = (f" (links keep clear of the holders, {2 * widest[2]:g} mm across)"
+                    if widest is not None and widest[2] >= max([self.rotor.outer_radius]
+                                                              + [s[2] for s in self.rotor.shafts]) else "")
             raise MachineError(f"{what}: axis {n} would reach {v:.6g}, outside its limits {lo:g}..{hi:g} on machine "
-                               f"{self.m.name}")
-        raise OperationError(f"{what}: no link stays out of the rotor (the tool enters the stock or "
-                             f"{self.rotor.keep_out_words} by "
-                             f"{first[0]:.3g} mm at {np.round(first[1], 3).tolist()} in the rotor frame even "
-                             "when lifted); raise --clearance or check the machine's rotary axes")
+                               f"{self.m.name}{hint}")
+        solid = self.rotor.solid_at(first[1])
+        advice = ("move the holder away from the body" if solid is not None and solid.startswith("holder")
+                  else "raise --clearance or check the machine's rotary axes")
+        raise OperationError(f"{what}: no link stays out of the rotor (the tool enters "
+                             f"{solid or self.rotor.solids_words} by {first[0]:.3g} mm at "
+                             f"{np.round(first[1], 3).tolist()} in the rotor frame even when lifted); {advice}")
 
 
 def segment_intrusion(machine, rotor, r0, r1, local, gauge, step):
@@ -281,7 +287,7 @@ def _check_out_of_tool_change(pl, tool, stood, first, label):
     depth, pt = pl.check(tool.number, seq, label) if len(seq) > 1 else (0.0, None)
     if depth > 0:
         raise OperationError(f"the move of tool {tool.number} out of the tool-change position to {label} enters "
-                             f"the stock or {pl.rotor.keep_out_words} by {depth:.3g} mm at "
+                             f"{pl.rotor.solid_at(pt) or pl.rotor.solids_words} by {depth:.3g} mm at "
                              f"{np.round(pt, 3).tolist()} in the rotor frame: move the machine file's "
                              "tool_change_position away from the rotor")
 
@@ -344,7 +350,7 @@ def build_program(op, machine, direction="forward", chord_tolerance=1e-3, step=1
             passes_out.append({"pass": len(passes_out) + 1, "plan": ps.plan, "strip": ps.strip, "lobe": ps.lobe,
                                "flank": ps.flank, "tool": tool.number, "reverse": rev, "blocks": len(rows) - 1,
                                "t_range": [float(ts[0]), float(ts[-1])],
-                               # null when the pass crosses no shaft: strict JSON has no Infinity
+                               # null when the pass crosses no shaft or holder: strict JSON has no Infinity
                                "shaft_margin_mm": ps.shaft_margin if math.isfinite(ps.shaft_margin) else None,
                                "start": dict(zip(names, rows[0].tolist())), "end": dict(zip(names, rows[-1].tolist())),
                                **cond.as_dict()})

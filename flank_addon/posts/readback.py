@@ -310,8 +310,9 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
         "program_end_line": read.end_line,
         "screw_error_mm": max((ps["screw_error"] for ps in passes), default=0.0),
         "interpolation_error_mm": max((ps["interpolation_error"] for ps in passes), default=0.0),
-        "run_out": {"min_start_clearance_mm": min((c[0] for c in clear), default=math.inf),
-                    "min_end_clearance_mm": min((c[1] for c in clear), default=math.inf),
+        # null without any pass: strict JSON has no Infinity
+        "run_out": {"min_start_clearance_mm": min((c[0] for c in clear), default=None),
+                    "min_end_clearance_mm": min((c[1] for c in clear), default=None),
                     "passes_not_clear": [ps["line"] for ps, c in zip(passes, clear) if min(c) <= 0],
                     # null when no pass crosses a shaft or a holder: strict JSON has no Infinity
                     "min_keep_out_margin_mm": min(kept_out) if kept_out and math.isfinite(min(kept_out)) else None,

@@ -109,7 +109,7 @@ def test_strip_meshes_match_the_core_strip_mesh(rx, key, n_files):
     ("empty_path", ["no file given"]),
     ("directory", ["is a folder: give a file name"]),
     ("missing_folder", ["does not exist"]),
-    ("under_a_file", ["does not exist"]),
+    ("under_a_file", ["is not a folder"]),
     ("strip_99", ["strip = 99 does not exist"]),
     ("no_collection", ["no collection 'Nope'"]),
     ("not_a_run", ["holds no plan"]),

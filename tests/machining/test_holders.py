@@ -46,7 +46,12 @@ def test_holders_are_given_by_side_size_and_gap(single_flank_plan):
         with pytest.raises(ValueError, match=words):
             with_holders(rb, [("low", 1.0, 1.0, 0.0), holder])
     assert parse_holders(" low,100,60 ;high,80,40,12.5;") == [("low", 100.0, 60.0, 0.0), ("high", 80.0, 40.0, 12.5)]
-    assert parse_holders("  ") == []
+    assert parse_holders("  ") == [] and parse_holder("LOW,100,60") == ("low", 100.0, 60.0, 0.0)
+    # which solid a point is in, for the messages
+    assert held.solid_at([0.0, 0.0, z0 - 30.0]) == "holder 1 (at the low end, diameter 100 mm)"
+    assert held.solid_at([0.0, 39.0, z1 + 20.0]) == "holder 2 (at the high end, diameter 80 mm)"
+    assert held.solid_at([0.0, 0.0, 0.5 * (z0 + z1)]) == "the stock"
+    assert held.solid_at([0.0, 60.0, z0 - 30.0]) is None and held.solid_at([0.0, 0.0, z1 + 5.0]) is None
     with pytest.raises(ValueError, match=r"holder 2 \(high\): length 0.0 must be a number > 0"):
         parse_holders("low,100,60; high,80,0")
 
@@ -123,3 +128,5 @@ def test_the_command_line_takes_holders_for_post_and_verify(capsys, tmp_path, si
                  "--holder", "high,80,50,200"])
     text = capsys.readouterr().out
     assert code == 0 and "deepest intrusion into the stock, shafts or holders 0 mm" in text
+    code = main(["verify", str(plan), "--holder", "high,80,50,200"])          # a plan's own check has no holders
+    assert code == 2 and "--holder applies to verify --program only" in capsys.readouterr().err
