@@ -84,7 +84,18 @@ def cycle_time_lines(coll):
                 float(coll[p + "cutting_time_s"]), float(coll[p + "rapid_time_s"]),
                 float(coll[p + "tool_change_time_s"]))] + (
         ["Not timed: {} move(s) out of a tool change".format(int(coll[p + "untimed_moves"]))]
-        if int(coll.get(p + "untimed_moves", 0)) else [])
+        if int(coll.get(p + "untimed_moves", 0)) else []) + read_back_lines(coll)
+
+
+def read_back_lines(coll):
+    """Labels of the program's read-back (Post Program with Read Back), [] without one."""
+    p = "flank_prog_read_back_"
+    if p + "findings" not in coll:
+        return []
+    findings = json.loads(coll[p + "findings"])
+    if not findings:
+        return ["Read back: as planned (deviation within {:.2g} mm)".format(float(coll[p + "deviation_mm"]))]
+    return ["Read back: NOT AS PLANNED, {} finding(s):".format(len(findings))] + findings[:3]
 
 
 class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
@@ -132,6 +143,7 @@ class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
                     data=cutting_data_of(self.tool_flutes, self.tool_cutting_speed_m_min,
                                          self.tool_feed_per_tooth_mm, self.tool_max_rpm),
                     rotor=str(rotor_name) if rotor_name else "", animate=bool(self.animate),
+                    read_back=bool(self.read_back),
                     frames=(int(self.frame_start), int(self.frame_end)))
 
     # ------------------------------------------------------------------ worker thread
@@ -142,7 +154,7 @@ class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
 
         job = dict(job, plan=_plan_mm(job["coll"], job["plan"], job["k"]))     # lengths in mm, here: not on the UI
         try:
-            return post_program(job)
+            return post_program(job, progress)
         except MachineError as ex:                  # beyond an axis' travel: maybe the scene's unit
             if "outside its limits" not in str(ex):
                 raise
@@ -208,18 +220,30 @@ class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
                      elapsed=float(time.perf_counter() - job["t0"]))
         if job["animate"]:
             props.update(frames=list(job["frames"]), animated_seconds=float(out["keys"]["total"]))
+        check = out["check"]
+        if check is not None:
+            props.update(read_back_findings=json.dumps(check["findings"]),
+                         read_back_deviation_mm=float(check["deviation_mm"] or 0.0),
+                         read_back_pose_mm=float(check["pose_mm"] or 0.0),
+                         read_back_intrusion_mm=float(check["intrusion_mm"]),
+                         read_back_gouge_points=int(check["gouge_points"]))
         return props
 
     def _report_done(self, coll, job, out):
-        t = out["times"]
+        t, check = out["times"], out["check"]
+        if check is not None and check["findings"]:     # the program does not do what the plan says: say so
+            self.report({'WARNING'}, "Post program: the program read back is NOT AS PLANNED: " +
+                        "; ".join(check["findings"]))
+        read = ("" if check is None else ", read back as planned (deviation within {:.2g} mm)".format(
+            check["deviation_mm"] or 0.0) if not check["findings"] else ", read back NOT AS PLANNED")
         self.report({'INFO'}, "Posted '{}': {} passes on lobes {}, {} for {}, cycle time {:.1f} s (cutting {:.1f} s, "
-                              "rapid {:.1f} s, tool changes {:.1f} s{}); wrote {} ({} moves){}; {:.2f} s".format(
+                              "rapid {:.1f} s, tool changes {:.1f} s{}); wrote {} ({} moves){}{}; {:.2f} s".format(
                                   coll.name, t["passes"], ",".join(map(str, t["lobes"])), job["post"].name,
                                   job["machine"].name, t["total_time_s"], t["cutting_time_s"], t["rapid_time_s"],
                                   t["tool_change_time_s"], untimed_note(t["untimed_moves"], job["machine"]),
                                   os.path.basename(job["filepath"]), t["moves"],
                                   ", animated over frames {}..{}".format(*job["frames"]) if job["animate"] else "",
-                                  time.perf_counter() - job["t0"]))
+                                  read, time.perf_counter() - job["t0"]))
 
 
 classes = (FLANK_OT_post_program,)

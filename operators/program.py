@@ -102,9 +102,15 @@ def holders_of(text):
 
 
 # ---------------------------------------------------------------------------------------------- the core
-def post_program(job):
+def post_program(job, progress=None):
     """Operation, program, text, read-back and cycle time of ``job`` (plan in mm, machine, post, lobes,
-    clearance, holders, cutting data): the calls of the command line's ``post``."""
+    clearance, holders, cutting data): the calls of the command line's ``post``; with ``read_back`` also what
+    ``verify --program`` says of the program (:func:`read_back`).  ``progress(fraction, message)``: reports
+    between the stages (:func:`..flank_addon.progress.reporter`)."""
+    from ..flank_addon.progress import reporter
+
+    report = reporter(progress)
+    report(0.0, "building the program")
     from ..flank_addon.machining.cycle_time import cycle_time
     from ..flank_addon.machining.operation import build_operation
     from ..flank_addon.machining.rotor_body import rotor_body, with_holders
@@ -121,14 +127,29 @@ def post_program(job):
     times = cycle_time(read, machine, gauges)
     minutes = times.pop("block_minutes")
     move_ends = move_rows(read, machine, gauges)    # the path and the animation share them
+    if job.get("read_back"):
+        report(0.4, "reading the program back and sweeping it again")
+    check = read_back(text, job, machine, post, rotor, op) if job.get("read_back") else None
     times.update(passes=len(prog.passes), moves=len(read.moves), lobes=list(op.lobes),
                  cutting_length_mm=float(sum(p["cutting_length_mm"] for p in prog.passes)),
                  rpm=[float(t.rpm) for t in op.tools])
     return dict(text=text, times=times, per_pass=prog.passes, read=read, minutes=np.asarray(minutes, float),
-                holders=[tuple(map(float, h)) for h in rotor.holders],
+                holders=[tuple(map(float, h)) for h in rotor.holders], check=check,
                 gauges=gauges, shapes={t.number: t.shape for t in op.tools}, rotor=rotor,
                 path=program_path(read, machine, gauges, move_ends),
                 keys=program_keys(read, machine, gauges, minutes, move_ends))
+
+
+def read_back(text, job, machine, post, rotor, op):
+    """What ``verify --program`` says of the written program (:func:`..flank_addon.posts.readback.verify_program`
+    on the lobes it cuts): its findings (empty: it does what the plan says), how far the machined deviation and
+    the tool poses are from the plan's, and the deepest link intrusion."""
+    from ..flank_addon.posts.readback import verify_program
+
+    res = verify_program(text, post, machine, [job["plan"]], rotor, lobes=list(op.lobes))
+    return dict(findings=list(res["findings"]), deviation_mm=res["max_deviation_difference_mm"],
+                pose_mm=res["pose_difference_mm"], intrusion_mm=res["links"]["max_intrusion_mm"],
+                gouge_points=int(res["gouge_points"]), seconds=float(res["elapsed_s"]))
 
 
 def _samples(kind, start, end, fine):

@@ -478,6 +478,10 @@ def post_program_props():
                             default="linuxcnc"),
         animate=BoolProperty(name="Animate", description="Animate the program: the rotor (a linked copy) turns "
                                                          "about its axis while the tool moves", default=True),
+        read_back=BoolProperty(name="Read Back", description="Read the written program back through the machine's "
+                                                             "kinematics and sweep it again against the plan, as "
+                                                             "verify --program does: what differs from the plan, "
+                                                             "and by how much", default=True),
         frame_start=IntProperty(name="Start Frame", default=1),
         frame_end=IntProperty(name="End Frame", default=250),
         **machining_props(),
@@ -499,6 +503,9 @@ def machine_settings_props():
                                         subtype='FILE_PATH', default=""),
         program_animate=BoolProperty(name="Animate", description="Animate the program over the scene's frame "
                                                                  "range", default=True),
+        program_read_back=BoolProperty(name="Read Back", description="Read the program back and sweep it again "
+                                                                     "against the plan (verify --program)",
+                                       default=True),
         **machining_props(),
     )
 

@@ -14,6 +14,7 @@ def post_call(settings, scene):
     """The keyword arguments the Post Program button carries from the scene settings."""
     kw = {name: getattr(settings, name) for name in CUTTING_DATA + MACHINING}
     kw.update(filepath=settings.program_filepath, post=settings.post, animate=settings.program_animate,
+              read_back=settings.program_read_back,
               machine=settings.machine_file if settings.machine == "FILE" else settings.machine,
               frame_start=scene.frame_start, frame_end=max(scene.frame_end, scene.frame_start + 1))
     return kw
@@ -51,6 +52,7 @@ class FLANK_PT_machine(bpy.types.Panel):
         col = layout.column(align=True)
         col.prop(settings, "program_filepath")
         col.prop(settings, "program_animate")
+        col.prop(settings, "program_read_back")
         coll = find_run(context)
         if isinstance(coll, str):
             layout.label(text="No planning run yet", icon='INFO')

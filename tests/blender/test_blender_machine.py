@@ -153,6 +153,33 @@ def test_the_cycle_time_shown_is_the_cores(mc, cli):
         assert ["prop", prop] in machine, prop
 
 
+def test_the_posted_program_is_read_back_as_verify_program_reads_it(mc):
+    """Post Program reads the written program back (Read Back, on by default) and shows what the command line's
+    verify --program says of the same file: as planned, and by how much the machined deviation differs."""
+    import contextlib
+    import io
+
+    pytest.importorskip("scipy", reason="comparing with the core needs scipy in the test interpreter")
+    from flank_addon.cli import main
+
+    props = mc["post"]["props"]
+    assert json.loads(props["flank_prog_read_back_findings"]) == []
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        code = main(["verify", "--program", mc["post"]["file"], mc["plan_file"], "--machine", "rotor-xa-b",
+                     "--lobes", "0,2", "--json"])
+    js = json.loads(buf.getvalue())
+    assert code == 0 and js["findings"] == []
+    assert props["flank_prog_read_back_deviation_mm"] == pytest.approx(js["max_deviation_difference_mm"], rel=1e-9)
+    assert props["flank_prog_read_back_pose_mm"] == pytest.approx(js["pose_difference_mm"], rel=1e-9)
+    assert 0.0 < props["flank_prog_read_back_deviation_mm"] < 1e-3          # the program's rounding, in mm
+    assert props["flank_prog_read_back_intrusion_mm"] == 0.0 and props["flank_prog_read_back_gouge_points"] == 0
+    want = "Read back: as planned (deviation within {:.2g} mm)".format(props["flank_prog_read_back_deviation_mm"])
+    for name in ("FLANK_PT_machine", "FLANK_PT_results"):
+        assert want in [c[1] for c in mc["panels"][name] if c[0] == "label"], name
+    assert ["prop", "program_read_back"] in mc["panels"]["FLANK_PT_machine"]
+
+
 def test_a_tool_change_takes_the_machines_time_in_the_animation(mc):
     """Between two tools the animation waits the machine file's tool-change time, so the next tool's first key
     comes after the last key of the one before (they shared a time, and the spin kept only one of them)."""
