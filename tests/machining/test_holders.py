@@ -90,6 +90,10 @@ def test_a_pass_that_runs_out_into_a_holder_is_refused_at_the_gap_the_sampled_pa
     res = verify_program(text, get_post("linuxcnc"), machine, [single_flank_plan], held, lobes=[0])
     assert res["findings"] == [] and res["links"]["max_intrusion_mm"] == 0.0
     assert res["holders"] == held.describe()["holders"]
+    # the program names the setup it was checked against, for the machine's operator
+    a, b, r = held.holders[0]
+    assert f"(holder 1: diameter {2 * r:.4f} over z {a:.4f}..{b:.4f}, kept clear of; mount it no nearer the body)" \
+        in text.splitlines()
     # the links keep their clearance from the holder: the tool tip retreats beyond its radius
     read = get_post("linuxcnc").read(text, machine)
     rapids = np.array([mv.end for mv in read.moves if mv.kind == "rapid" and np.isfinite(mv.end).all()])
