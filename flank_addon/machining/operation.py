@@ -113,7 +113,8 @@ def run_out(shape, tip, axis, rotor, clearance, spacing=1.0, local=None, detail=
     """(t_a, t_b, shaft margin) of the pose (module doc); margin = smallest rho - radius over the tool points
     that pass over a shaft or a holder (inf when none does); with ``detail`` also the name of that solid.
     ``local``: the shape's surface points if known."""
-    pts = place_points(shape.local_points(spacing) if local is None else local, tip, axis)[0]
+    # in the frame that turns with the screw: the read-back samples the same points at its own pose of the pass
+    pts = place_points(shape.local_points(spacing) if local is None else local, tip, axis, facing=True)[0]
     z0, z1 = rotor.z_range
     lo, hi = shape.z_extent(tip, axis)
     t_a = (float(lo[0]) - z1 - clearance) / rotor.v0

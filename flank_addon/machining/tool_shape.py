@@ -32,11 +32,30 @@ def perpendicular_frames(axes):
     return e1, np.cross(a, e1)
 
 
-def place_points(local, tips, axes):
-    """Tool-frame points (M, 3) (x, y, h) placed at poses: (N, M, 3) = tip + x e1 + y e2 + h a."""
+def facing_frames(tips, axes):
+    """Unit vectors e1, e2 (N, 3) as :func:`perpendicular_frames`, with e1 across the tool axis towards the rotor
+    axis (the z axis) from the tip: a frame that turns with the screw motion about z, so a tool's points placed in
+    it at two poses of one screw motion are the same points of the tool, screwed, at the same distances from the
+    rotor axis (the frame of :func:`perpendicular_frames` is fixed in space, and its samples of a round tool
+    would fall elsewhere on it at each pose).  Where the tip lies on the rotor axis, or the tool axis points
+    along it, :func:`perpendicular_frames`."""
+    tips = np.atleast_2d(np.asarray(tips, float))
+    a = np.atleast_2d(np.asarray(axes, float))
+    v = np.c_[-tips[:, :2], np.zeros(len(tips))]
+    v -= np.einsum("ij,ij->i", v, a)[:, None] * a
+    n = np.linalg.norm(v, axis=1)
+    e1, _ = perpendicular_frames(a)
+    ok = n > 1e-9 * (1.0 + np.linalg.norm(tips, axis=1))
+    e1[ok] = v[ok] / n[ok, None]
+    return e1, np.cross(a, e1)
+
+
+def place_points(local, tips, axes, facing=False):
+    """Tool-frame points (M, 3) (x, y, h) placed at poses: (N, M, 3) = tip + x e1 + y e2 + h a; ``facing``: e1
+    towards the rotor axis (:func:`facing_frames`), else :func:`perpendicular_frames`."""
     tips = np.atleast_2d(np.asarray(tips, float))
     axes = np.atleast_2d(np.asarray(axes, float))
-    e1, e2 = perpendicular_frames(axes)
+    e1, e2 = facing_frames(tips, axes) if facing else perpendicular_frames(axes)
     F = np.stack([e1, e2, axes], axis=1)                   # (N, 3, 3): rows e1, e2, a
     return np.matmul(np.asarray(local, float)[None], F) + tips[:, None, :]
 

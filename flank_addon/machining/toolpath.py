@@ -39,6 +39,7 @@ from .operation import OperationError
 from .tool_shape import place_points
 
 DIRECTIONS = ("forward", "reverse", "zigzag")
+TCP_ROUNDING_MM = 1e-3     # the program's rounding of a TCP pass' tip and rotaries, as the read-back measures it
 
 
 @dataclass
@@ -325,6 +326,13 @@ def build_program(op, machine, direction="forward", chord_tolerance=1e-3, step=1
         for ps, rev, ts, rows in _order(pl, mine, dirs, spin):
             ps.reverse = rev
             label = f"pass {len(passes_out) + 1} ({ps.label})"
+            if machine.tcp and ps.shaft_margin < chord_tolerance + TCP_ROUNDING_MM:
+                # the control runs the tip on chords, up to the sagitta off the helix (and the whole rigid tool
+                # with it): the read-back counts that against the clearance of a shaft or holder the pass crosses
+                raise OperationError(f"{label}: the tool passes {ps.shaft_margin:.3g} mm outside "
+                                     f"{rotor.keep_out_words}, and on this TCP machine its chords of "
+                                     f"{chord_tolerance:g} mm sagitta may come nearer; lower --chord-tolerance"
+                                     + (" or move the holder away from the body" if rotor.holders else ""))
             mj = machine.machine_joints(rows, tool.gauge_length)
             for axis_name, value, lo, hi in machine.limit_violations(mj):
                 hint = (" (the rotor mounted the other way round, --flip-rotor, may reach it)"

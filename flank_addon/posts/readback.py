@@ -149,7 +149,7 @@ def keep_out_margin(ps, tools, rotor, spacing=1.0):
     if not rotor.keep_out:
         return math.inf
     P, A = ps["ends"]
-    pts = place_points(tools[ps["tool"]].local_points(spacing), P[0], A[0])[0]
+    pts = place_points(tools[ps["tool"]].local_points(spacing), P[0], A[0], facing=True)[0]
     rho = np.hypot(pts[:, 0], pts[:, 1])
     z0, z1 = pts[:, 2], pts[:, 2] - rotor.v0 * ps["t_span"]
     lo, hi = np.minimum(z0, z1), np.maximum(z0, z1)

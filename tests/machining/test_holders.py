@@ -134,3 +134,53 @@ def test_the_command_line_takes_holders_for_post_and_verify(capsys, tmp_path, si
     assert code == 0 and "deepest intrusion into the stock, shafts or holders 0 mm" in text
     code = main(["verify", str(plan), "--holder", "high,80,50,200"])          # a plan's own check has no holders
     assert code == 2 and "--holder applies to verify --program only" in capsys.readouterr().err
+
+
+def test_a_tcp_machine_keeps_its_chords_off_a_holder(single_flank_plan):
+    """On a TCP machine the tip runs on chords of the helix and the whole tool with it, so a pass that clears a
+    holder by less than the chords' sagitta is refused when posting -- the read-back would find it inside."""
+    rb = rotor_body(single_flank_plan)
+    probe = with_holders(rb, [("low", 2.0, 50.0, 0.0)])         # radius 1 mm at the low end face
+    m0 = min(p.shaft_margin for p in build_operation([single_flank_plan], probe, lobes=[0]).passes)
+    assert math.isfinite(m0) and m0 > 1.0
+    held = with_holders(rb, [("low", 2.0 * (1.0 + m0 - 5e-4), 50.0, 0.0)])    # cleared by 0.5 um
+    op = build_operation([single_flank_plan], held, lobes=[0])
+    assert min(p.shaft_margin for p in op.passes) == pytest.approx(5e-4, abs=1e-9)
+    build_program(op, load_machine("rotor-xa-b"))              # joint-linear passes: the exact screw motion
+    with pytest.raises(OperationError, match=r"the tool passes 0.0005 mm outside a shaft or a holder, and on this "
+                                             r"TCP machine its chords of 0.001 mm sagitta may come nearer"):
+        build_program(op, load_machine("xyzac-trt-tcp"))
+    # posted without the holder, the program's read-back against it finds the passes inside
+    tcp = load_machine("xyzac-trt-tcp")
+    text = get_post("linuxcnc").write(build_program(build_operation([single_flank_plan], rb, lobes=[0]), tcp))
+    res = verify_program(text, get_post("linuxcnc"), tcp, [single_flank_plan], held, lobes=[0])
+    assert res["run_out"]["min_keep_out_margin_mm"] < 0 and res["run_out"]["passes_into_keep_out"]
+    # cleared by 10 um: posted on the TCP machine, and its read-back keeps the passes outside
+    clear = with_holders(rb, [("low", 2.0 * (1.0 + m0 - 1e-2), 50.0, 0.0)])
+    text = get_post("linuxcnc").write(build_program(build_operation([single_flank_plan], clear, lobes=[0]), tcp))
+    res = verify_program(text, get_post("linuxcnc"), tcp, [single_flank_plan], clear, lobes=[0])
+    assert 0.0 < res["run_out"]["min_keep_out_margin_mm"] < 1e-2 and res["findings"] == []
+
+
+def test_the_facing_frame_turns_with_the_screw(single_flank_plan):
+    """Placed in the facing frame, a tool's points at two poses of one screw motion are the same points, screwed:
+    the same distances from the rotor axis, heights shifted alike (what lets the operation and the read-back
+    sample a pass alike); in the fixed frame they are not."""
+    from flank_addon.exports.cl_data import strip_tip
+    from flank_addon.geometry.screw import screw_motion
+    from flank_addon.machining.tool_shape import ToolShape
+
+    shape = ToolShape.from_strip(single_flank_plan, 0)
+    T, a, _ = strip_tip(single_flank_plan, 0)
+    v0 = single_flank_plan["rotor"]["v0"]
+    local = shape.local_points(1.0)
+    for t in (0.3, -2.0):
+        T2 = screw_motion(T, t, v0, single_flank_plan["rotor"]["handedness"])
+        a2 = screw_motion(a, t, 0.0, single_flank_plan["rotor"]["handedness"])
+        for facing, same in ((True, True), (False, False)):
+            p1, p2 = place_points(local, T, a, facing)[0], place_points(local, T2, a2, facing)[0]
+            rho1, rho2 = np.hypot(p1[:, 0], p1[:, 1]), np.hypot(p2[:, 0], p2[:, 1])
+            assert np.allclose(rho1, rho2, rtol=0, atol=1e-9) == same
+            if same:
+                dz = p2[:, 2] - p1[:, 2]
+                assert np.ptp(dz) < 1e-9 and dz[0] == pytest.approx(T2[2] - T[2], abs=1e-9)
