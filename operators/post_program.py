@@ -90,11 +90,14 @@ def cycle_time_lines(coll):
 def read_back_lines(coll):
     """Labels of the program's read-back (Post Program with Read Back), [] without one."""
     p = "flank_prog_read_back_"
+    if p + "error" in coll:
+        return ["Read back failed: {}".format(coll[p + "error"])]
     if p + "findings" not in coll:
         return []
     findings = json.loads(coll[p + "findings"])
     if not findings:
-        return ["Read back: as planned (deviation within {:.2g} mm)".format(float(coll[p + "deviation_mm"]))]
+        return ["Read back: as planned" + (" (machined deviation within {:.2g} mm of the plan's)".format(
+            float(coll[p + "deviation_mm"])) if p + "deviation_mm" in coll else "")]
     return ["Read back: NOT AS PLANNED, {} finding(s):".format(len(findings))] + findings[:3]
 
 
@@ -221,21 +224,33 @@ class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
         if job["animate"]:
             props.update(frames=list(job["frames"]), animated_seconds=float(out["keys"]["total"]))
         check = out["check"]
-        if check is not None:
+        if check is not None and "error" in check:
+            props.update(read_back_error=check["error"])
+        elif check is not None:
             props.update(read_back_findings=json.dumps(check["findings"]),
-                         read_back_deviation_mm=float(check["deviation_mm"] or 0.0),
-                         read_back_pose_mm=float(check["pose_mm"] or 0.0),
                          read_back_intrusion_mm=float(check["intrusion_mm"]),
                          read_back_gouge_points=int(check["gouge_points"]))
+            for key in ("deviation_mm", "pose_mm"):            # left out where no lobe was compared
+                if check[key] is not None:
+                    props["read_back_" + key] = float(check[key])
         return props
 
     def _report_done(self, coll, job, out):
         t, check = out["times"], out["check"]
-        if check is not None and check["findings"]:     # the program does not do what the plan says: say so
+        if check is None:
+            read = ""
+        elif "error" in check:                          # the program is written; its check could not be made
+            self.report({'WARNING'}, "Post program: the read-back of the written program failed: {}".format(
+                check["error"]))
+            read = ", read back failed"
+        elif check["findings"]:                         # the program does not do what the plan says: say so
             self.report({'WARNING'}, "Post program: the program read back is NOT AS PLANNED: " +
                         "; ".join(check["findings"]))
-        read = ("" if check is None else ", read back as planned (deviation within {:.2g} mm)".format(
-            check["deviation_mm"] or 0.0) if not check["findings"] else ", read back NOT AS PLANNED")
+            read = ", read back NOT AS PLANNED"
+        else:
+            read = ", read back as planned" + ("" if check["deviation_mm"] is None else
+                                               " (machined deviation within {:.2g} mm of the plan's)".format(
+                                                   check["deviation_mm"]))
         self.report({'INFO'}, "Posted '{}': {} passes on lobes {}, {} for {}, cycle time {:.1f} s (cutting {:.1f} s, "
                               "rapid {:.1f} s, tool changes {:.1f} s{}); wrote {} ({} moves){}{}; {:.2f} s".format(
                                   coll.name, t["passes"], ",".join(map(str, t["lobes"])), job["post"].name,

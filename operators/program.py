@@ -107,7 +107,7 @@ def post_program(job, progress=None):
     clearance, holders, cutting data): the calls of the command line's ``post``; with ``read_back`` also what
     ``verify --program`` says of the program (:func:`read_back`).  ``progress(fraction, message)``: reports
     between the stages (:func:`..flank_addon.progress.reporter`)."""
-    from ..flank_addon.progress import reporter
+    from ..flank_addon.progress import reporter, substage
 
     report = reporter(progress)
     report(0.0, "building the program")
@@ -127,9 +127,8 @@ def post_program(job, progress=None):
     times = cycle_time(read, machine, gauges)
     minutes = times.pop("block_minutes")
     move_ends = move_rows(read, machine, gauges)    # the path and the animation share them
-    if job.get("read_back"):
-        report(0.4, "reading the program back and sweeping it again")
-    check = read_back(text, job, machine, post, rotor, op) if job.get("read_back") else None
+    check = (read_back(text, job, machine, post, rotor, op, substage(report, 0.3, 0.95)) if job.get("read_back")
+             else None)
     times.update(passes=len(prog.passes), moves=len(read.moves), lobes=list(op.lobes),
                  cutting_length_mm=float(sum(p["cutting_length_mm"] for p in prog.passes)),
                  rpm=[float(t.rpm) for t in op.tools])
@@ -140,13 +139,21 @@ def post_program(job, progress=None):
                 keys=program_keys(read, machine, gauges, minutes, move_ends))
 
 
-def read_back(text, job, machine, post, rotor, op):
+def read_back(text, job, machine, post, rotor, op, progress=None):
     """What ``verify --program`` says of the written program (:func:`..flank_addon.posts.readback.verify_program`
     on the lobes it cuts): its findings (empty: it does what the plan says), how far the machined deviation and
-    the tool poses are from the plan's, and the deepest link intrusion."""
+    the tool poses are from the plan's (None where no lobe was compared), and the deepest link intrusion.  A
+    check that fails gives ``error`` instead: the program is still posted (the command line's ``post`` writes it
+    without a check), and the failure is said."""
     from ..flank_addon.posts.readback import verify_program
+    from ..flank_addon.progress import Cancelled
 
-    res = verify_program(text, post, machine, [job["plan"]], rotor, lobes=list(op.lobes))
+    try:
+        res = verify_program(text, post, machine, [job["plan"]], rotor, lobes=list(op.lobes), progress=progress)
+    except Cancelled:
+        raise
+    except Exception as ex:                  # the check, not the program: post it and say the check failed
+        return dict(error="{}: {}".format(type(ex).__name__, ex))
     return dict(findings=list(res["findings"]), deviation_mm=res["max_deviation_difference_mm"],
                 pose_mm=res["pose_difference_mm"], intrusion_mm=res["links"]["max_intrusion_mm"],
                 gouge_points=int(res["gouge_points"]), seconds=float(res["elapsed_s"]))

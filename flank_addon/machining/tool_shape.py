@@ -37,10 +37,10 @@ def facing_frames(tips, axes):
     axis (the z axis) from the tip: a frame that turns with the screw motion about z, so a tool's points placed in
     it at two poses of one screw motion are the same points of the tool, screwed, at the same distances from the
     rotor axis (the frame of :func:`perpendicular_frames` is fixed in space, and its samples of a round tool
-    would fall elsewhere on it at each pose).  Where the tip lies on the rotor axis, or the tool axis points
-    along it, :func:`perpendicular_frames`."""
-    tips = np.atleast_2d(np.asarray(tips, float))
-    a = np.atleast_2d(np.asarray(axes, float))
+    would fall elsewhere on it at each pose).  Where there is no such direction (the tip on the rotor axis, or
+    the tool axis along the line from the tip to it), :func:`perpendicular_frames`."""
+    tips, a = np.broadcast_arrays(np.atleast_2d(np.asarray(tips, float)), np.atleast_2d(np.asarray(axes, float)))
+    tips, a = tips.copy(), a.copy()
     v = np.c_[-tips[:, :2], np.zeros(len(tips))]
     v -= np.einsum("ij,ij->i", v, a)[:, None] * a
     n = np.linalg.norm(v, axis=1)
@@ -55,6 +55,8 @@ def place_points(local, tips, axes, facing=False):
     towards the rotor axis (:func:`facing_frames`), else :func:`perpendicular_frames`."""
     tips = np.atleast_2d(np.asarray(tips, float))
     axes = np.atleast_2d(np.asarray(axes, float))
+    if facing:
+        tips, axes = (x.copy() for x in np.broadcast_arrays(tips, axes))
     e1, e2 = facing_frames(tips, axes) if facing else perpendicular_frames(axes)
     F = np.stack([e1, e2, axes], axis=1)                   # (N, 3, 3): rows e1, e2, a
     return np.matmul(np.asarray(local, float)[None], F) + tips[:, None, :]

@@ -160,7 +160,8 @@ def header_lines(program, post):
             f"rotor: {'right' if rb.hand > 0 else 'left'}-handed, v0 {rb.v0:.6f} mm/rad, lobes {rb.lobes}, "
             f"outer radius {rb.outer_radius:.4f}, body z {rb.z_range[0]:.4f}..{rb.z_range[1]:.4f}"] + [
         # the setup the program was checked against: the machine operator has to keep to it
-        f"holder {k + 1}: diameter {2 * r:.4f} over z {a:.4f}..{b:.4f}, kept clear of; mount it no nearer the body"
+        f"holder {k + 1}: diameter {2 * r:.4f} over {a:.4f}..{b:.4f} along the rotor axis, kept clear of; mount it "
+        "no nearer the body"
         for k, (a, b, r) in enumerate(rb.holders)]
 
 

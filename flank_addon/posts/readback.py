@@ -266,9 +266,14 @@ def check_links(read, machine, tools, rotor, step=1.0, spacing=1.5):
             "intrusions": bad[:20]}
 
 
-def verify_program(text, post, machine, plans, rotor, lobes=None, references=None):
+def verify_program(text, post, machine, plans, rotor, lobes=None, references=None, progress=None):
     """The read-back report of a posted program (module doc); ``lobes``: lobes to sweep (default all
-    the program cuts); ``references``: verify_plan of each plan when already known."""
+    the program cuts); ``references``: verify_plan of each plan when already known; ``progress(fraction,
+    message)``: reports before each plan's and lobe's sweep, and stops the check when it asks to
+    (:mod:`..progress`)."""
+    from ..progress import reporter
+
+    report = reporter(progress)
     t0 = time.perf_counter()
     if lobes is not None:
         lobes = checked_lobes(lobes, rotor)
@@ -289,9 +294,14 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
     kept_out = [keep_out_margin(ps, tools, rotor) for ps in passes]
     plans_out = []
     for p, plan in enumerate(plans):
+        swept = cut_lobes if lobes is None else [k for k in lobes if k in cut_lobes]
+        steps = len(plans) * (len(swept) + 1)
+        report(p * (len(swept) + 1) / steps, f"plan {p}: its own deviation")
         ref = references[p] if references is not None else verify_plan(plan)
-        lobes_out = [lobe_deviation(plan, p, passes, tools, rotor, k, ref)
-                     for k in (cut_lobes if lobes is None else [k for k in lobes if k in cut_lobes])]
+        lobes_out = []
+        for i, k in enumerate(swept):
+            report((p * (len(swept) + 1) + i + 1) / steps, f"plan {p}: the program's passes on lobe {k}")
+            lobes_out.append(lobe_deviation(plan, p, passes, tools, rotor, k, ref))
         plans_out.append({"plan": p, "plan_max_undercut_mm": ref["max_undercut"],
                           "plan_max_overcut_mm": ref["max_overcut"], "plan_gouge_points": len(ref["gouge_points"]),
                           "lobes": [x for x in lobes_out if x is not None]})

@@ -275,6 +275,29 @@ def scenario(bpy, res, args):
             z=[float(rotor_mm[:, 2].min()), float(rotor_mm[:, 2].max())], max_rho=float(rho.max()),
             extent=plan["rotor"]["extent"]["z_range"])
 
+    # ---------------------------------------------------------------- Read Back off, and a read-back that fails
+    post_mod = __import__(driver.MODULE + ".operators.post_program", fromlist=["x"])
+    quiet = os.path.join(tmp, "no_read_back.ngc")
+    res["no_read_back"] = _call(bpy, **dict(call, filepath=quiet, animate=False, collection=coll.name,
+                                            read_back=False))
+    res["no_read_back"].update(keys=sorted(k for k in coll.keys() if k.startswith("flank_prog_read_back_")),
+                               lines=post_mod.read_back_lines(coll), file=os.path.exists(quiet))
+    checker = __import__(driver.MODULE + ".flank_addon.posts.readback", fromlist=["x"])
+    real = checker.verify_program
+
+    def broken(*args, **kwargs):
+        raise ValueError("the check broke")
+    checker.verify_program = broken
+    try:
+        failing = os.path.join(tmp, "read_back_fails.ngc")
+        res["read_back_fails"] = _call(bpy, **dict(call, filepath=failing, animate=False, collection=coll.name))
+    finally:
+        checker.verify_program = real
+    res["read_back_fails"].update(keys=sorted(k for k in coll.keys() if k.startswith("flank_prog_read_back_")),
+                                  error_prop=coll.get("flank_prog_read_back_error"),
+                                  lines=post_mod.read_back_lines(coll),
+                                  same_text=os.path.exists(failing) and open(failing).read() == open(quiet).read())
+
     # ---------------------------------------------------------------- re-post: Fanuc on xyzac-trt, no animation
     nc = os.path.join(tmp, "program.nc")
     res["repost"] = _call(bpy, **dict(call, filepath=nc, machine="xyzac-trt", post="fanuc", animate=False,

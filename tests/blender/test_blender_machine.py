@@ -174,10 +174,22 @@ def test_the_posted_program_is_read_back_as_verify_program_reads_it(mc):
     assert props["flank_prog_read_back_pose_mm"] == pytest.approx(js["pose_difference_mm"], rel=1e-9)
     assert 0.0 < props["flank_prog_read_back_deviation_mm"] < 1e-3          # the program's rounding, in mm
     assert props["flank_prog_read_back_intrusion_mm"] == 0.0 and props["flank_prog_read_back_gouge_points"] == 0
-    want = "Read back: as planned (deviation within {:.2g} mm)".format(props["flank_prog_read_back_deviation_mm"])
+    want = "Read back: as planned (machined deviation within {:.2g} mm of the plan's)".format(
+        props["flank_prog_read_back_deviation_mm"])
     for name in ("FLANK_PT_machine", "FLANK_PT_results"):
         assert want in [c[1] for c in mc["panels"][name] if c[0] == "label"], name
     assert ["prop", "program_read_back"] in mc["panels"]["FLANK_PT_machine"]
+
+
+def test_without_read_back_no_check_stays_and_a_failed_check_still_posts(mc):
+    """Read Back off leaves no read-back of an earlier post behind; a read-back that fails still writes the
+    program (the command line's post needs no check) and says that the check failed."""
+    q = mc["no_read_back"]
+    assert q["result"] == ["FINISHED"] and q["file"] and q["keys"] == [] and q["lines"] == []
+    f = mc["read_back_fails"]
+    assert f["result"] == ["FINISHED"] and f["same_text"]
+    assert f["keys"] == ["flank_prog_read_back_error"] and f["error_prop"] == "ValueError: the check broke"
+    assert f["lines"] == ["Read back failed: ValueError: the check broke"]
 
 
 def test_a_tool_change_takes_the_machines_time_in_the_animation(mc):

@@ -92,8 +92,8 @@ def test_a_pass_that_runs_out_into_a_holder_is_refused_at_the_gap_the_sampled_pa
     assert res["holders"] == held.describe()["holders"]
     # the program names the setup it was checked against, for the machine's operator
     a, b, r = held.holders[0]
-    assert f"(holder 1: diameter {2 * r:.4f} over z {a:.4f}..{b:.4f}, kept clear of; mount it no nearer the body)" \
-        in text.splitlines()
+    assert (f"(holder 1: diameter {2 * r:.4f} over {a:.4f}..{b:.4f} along the rotor axis, kept clear of; mount it "
+            "no nearer the body)") in text.splitlines()
     # the links keep their clearance from the holder: the tool tip retreats beyond its radius
     read = get_post("linuxcnc").read(text, machine)
     rapids = np.array([mv.end for mv in read.moves if mv.kind == "rapid" and np.isfinite(mv.end).all()])
@@ -147,8 +147,10 @@ def test_a_tcp_machine_keeps_its_chords_off_a_holder(single_flank_plan):
     op = build_operation([single_flank_plan], held, lobes=[0])
     assert min(p.shaft_margin for p in op.passes) == pytest.approx(5e-4, abs=1e-9)
     build_program(op, load_machine("rotor-xa-b"))              # joint-linear passes: the exact screw motion
-    with pytest.raises(OperationError, match=r"the tool passes 0.0005 mm outside a shaft or a holder, and on this "
-                                             r"TCP machine its chords of 0.001 mm sagitta may come nearer"):
+    with pytest.raises(OperationError, match=r"the tool passes 0.0005 mm outside holder 1 \(at the low end, .*\), "
+                                             r"and on this TCP machine its chords of 0.001 mm sagitta may come "
+                                             r"nearer: lower the chord tolerance \(post --chord-tolerance\) or move "
+                                             r"the holder away from the body"):
         build_program(op, load_machine("xyzac-trt-tcp"))
     # posted without the holder, the program's read-back against it finds the passes inside
     tcp = load_machine("xyzac-trt-tcp")
@@ -184,3 +186,22 @@ def test_the_facing_frame_turns_with_the_screw(single_flank_plan):
             if same:
                 dz = p2[:, 2] - p1[:, 2]
                 assert np.ptp(dz) < 1e-9 and dz[0] == pytest.approx(T2[2] - T[2], abs=1e-9)
+
+
+def test_the_read_back_reports_progress_and_stops_when_asked(single_flank_plan):
+    """verify_program reports before each plan's own sweep and each lobe's, and a progress callback that answers
+    False stops it there (Blender's Esc while Post Program reads its program back)."""
+    from flank_addon.progress import Cancelled
+
+    rb = rotor_body(single_flank_plan)
+    machine = load_machine("rotor-xa-b")
+    text = get_post("linuxcnc").write(build_program(build_operation([single_flank_plan], rb, lobes=[0, 2]), machine))
+    seen = []
+    res = verify_program(text, get_post("linuxcnc"), machine, [single_flank_plan], rb,
+                         progress=lambda f, m: seen.append((round(f, 6), m)))
+    assert seen == [(0.0, "plan 0: its own deviation"), (round(1 / 3, 6), "plan 0: the program's passes on lobe 0"),
+                    (round(2 / 3, 6), "plan 0: the program's passes on lobe 2")]
+    assert res["findings"] == []
+    with pytest.raises(Cancelled):
+        verify_program(text, get_post("linuxcnc"), machine, [single_flank_plan], rb,
+                       progress=lambda f, m: "lobe 2" not in m)
