@@ -107,14 +107,14 @@ def post_program(job, progress=None):
     clearance, holders, cutting data): the calls of the command line's ``post``; with ``read_back`` also what
     ``verify --program`` says of the program (:func:`read_back`).  ``progress(fraction, message)``: reports
     between the stages (:func:`..flank_addon.progress.reporter`)."""
-    from ..flank_addon.progress import reporter, substage
-
-    report = reporter(progress)
-    report(0.0, "building the program")
     from ..flank_addon.machining.cycle_time import cycle_time
     from ..flank_addon.machining.operation import build_operation
     from ..flank_addon.machining.rotor_body import rotor_body, with_holders
     from ..flank_addon.machining.toolpath import build_program
+    from ..flank_addon.progress import reporter, substage
+
+    report = reporter(progress)
+    report(0.0, "building the program")
 
     machine, post = job["machine"], job["post"]
     rotor = with_holders(rotor_body(job["plan"]), job.get("holders", []))
