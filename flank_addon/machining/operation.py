@@ -131,6 +131,13 @@ def run_out(shape, tip, axis, rotor, clearance, spacing=1.0, local=None, detail=
     return float(t_a), float(t_b), margin
 
 
+def nearest_keep_out(shape, tip, axis, rotor, clearance, local=None):
+    """(name, advice) of the shaft or holder a pass of the pose comes nearest to, for messages: the advice is
+    "; move the holder away from the body" for a holder, "" for a shaft (:func:`run_out`)."""
+    hit = run_out(shape, tip, axis, rotor, clearance, local=local, detail=True)[3]
+    return hit, ("; move the holder away from the body" if hit is not None and hit.startswith("holder") else "")
+
+
 def repeats_earlier_strip(plan, s):
     """Whether strip ``s`` moves the same tool solid along the same axis as an earlier strip of the plan (a
     two-paths plan that kept the double-flank axis for both paths): the earlier strip's pass has cut all it
@@ -202,13 +209,11 @@ def build_operation(plans, rotor, lobes=None, clearance=5.0, cutting_data=None):
                 ps = Pass(p, s, k, flank_on_lobe(plan, plan["strips"][s]["flank"], turn, solid), number, tip, axis,
                           (t_a, t_b), margin)
                 if margin < 0:
-                    hit = run_out(tools[number - 1].shape, tip, axis, rotor, clearance, local=local[number],
-                                  detail=True)[3]
+                    hit, advice = nearest_keep_out(tools[number - 1].shape, tip, axis, rotor, clearance,
+                                                   local[number])
                     raise OperationError(f"pass {ps.label}: running out past the body the tool enters {hit} by "
                                          f"{-margin:.3g} mm (it comes closer to the rotor axis than its radius); "
-                                         "such a strip cannot run out beyond the end faces"
-                                         + ("; move the holder away from the body" if hit.startswith("holder")
-                                            else ""))
+                                         f"such a strip cannot run out beyond the end faces{advice}")
                 passes.append(ps)
     return Operation(rotor=rotor, tools=tools, passes=passes, clearance=float(clearance), lobes=lobes,
                      plans=list(plans))

@@ -35,7 +35,7 @@ import numpy as np
 from .clearance import move_intrusion, reach_of
 from .feeds import engaged_edge, pass_conditions, spindle_speed
 from .machine import MachineError
-from .operation import OperationError, run_out
+from .operation import OperationError, nearest_keep_out
 from .tool_shape import place_points
 
 DIRECTIONS = ("forward", "reverse", "zigzag")
@@ -329,13 +329,11 @@ def build_program(op, machine, direction="forward", chord_tolerance=1e-3, step=1
             if machine.tcp and ps.shaft_margin < chord_tolerance + TCP_ROUNDING_MM:
                 # the control runs the tip on chords, up to the sagitta off the helix (and the whole rigid tool
                 # with it): the read-back counts that against the clearance of a shaft or holder the pass crosses
-                hit = run_out(tool.shape, ps.tip, ps.axis, rotor, op.clearance, local=pl.local[tool.number],
-                              detail=True)[3]
+                hit, advice = nearest_keep_out(tool.shape, ps.tip, ps.axis, rotor, op.clearance,
+                                               pl.local[tool.number])
                 raise OperationError(f"{label}: the tool passes {ps.shaft_margin:.3g} mm outside {hit}, and on "
                                      f"this TCP machine its chords of {chord_tolerance:g} mm sagitta may come "
-                                     "nearer: lower the chord tolerance (post --chord-tolerance)"
-                                     + (" or move the holder away from the body" if hit.startswith("holder")
-                                        else ""))
+                                     f"nearer: lower the chord tolerance (post --chord-tolerance){advice}")
             mj = machine.machine_joints(rows, tool.gauge_length)
             for axis_name, value, lo, hi in machine.limit_violations(mj):
                 hint = (" (the rotor mounted the other way round, --flip-rotor, may reach it)"

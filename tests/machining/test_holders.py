@@ -149,7 +149,7 @@ def test_a_tcp_machine_keeps_its_chords_off_a_holder(single_flank_plan):
     build_program(op, load_machine("rotor-xa-b"))              # joint-linear passes: the exact screw motion
     with pytest.raises(OperationError, match=r"the tool passes 0.0005 mm outside holder 1 \(at the low end, .*\), "
                                              r"and on this TCP machine its chords of 0.001 mm sagitta may come "
-                                             r"nearer: lower the chord tolerance \(post --chord-tolerance\) or move "
+                                             r"nearer: lower the chord tolerance \(post --chord-tolerance\); move "
                                              r"the holder away from the body"):
         build_program(op, load_machine("xyzac-trt-tcp"))
     # posted without the holder, the program's read-back against it finds the passes inside
