@@ -845,7 +845,6 @@ def _cmd_post(args):
     return 0
 
 
-
 def _cmd_verify_program(args):
     from .machining.cycle_time import untimed_note
     from .posts import get_post, post_for_file
@@ -891,11 +890,10 @@ def _cmd_verify_program(args):
              if res['links']['moves_unchecked'] else "")
           + f", deepest intrusion into the stock{', shafts or holders' if res['holders'] else ' or shafts'} "
             f"{res['links']['max_intrusion_mm']:.3g} mm")
-    if ro["min_keep_out_margin_mm"] is not None:
-        print(f"  passes over shafts{' or holders' if res['holders'] else ''}: the tool stays "
-              f"{ro['min_keep_out_margin_mm']:.3g} mm from them" if ro["min_keep_out_margin_mm"] >= 0 else
-              f"  passes over shafts{' or holders' if res['holders'] else ''}: the tool enters them by "
-              f"{-ro['min_keep_out_margin_mm']:.3g} mm")
+    margin = ro["min_keep_out_margin_mm"]
+    if margin is not None:
+        print(f"  passes over shafts{' or holders' if res['holders'] else ''}: the tool "
+              + (f"stays {margin:.3g} mm from them" if margin >= 0 else f"enters them by {-margin:.3g} mm"))
     print(f"  cutting {res['cutting_time_s']:.1f} s, rapid {res['rapid_time_s']:.1f} s, total "
           f"{res['total_time_s']:.1f} s{untimed_note(res['untimed_moves'], machine)}")
     for f in res["findings"]:

@@ -286,9 +286,9 @@ class Machine:
         """Joint row (axes,) where the tool-change cycle leaves the machine that stood at ``joints`` (NaN where
         unknown): the ``tool_change_position`` axes set, the others where they were; all NaN (unknown) when the
         file gives no tool-change position."""
-        J = np.full(len(self.axis_names), np.nan) if joints is None else np.array(joints, float)
         if self.tool_change_position is None:
             return np.full(len(self.axis_names), np.nan)
+        J = np.full(len(self.axis_names), np.nan) if joints is None else np.array(joints, float)
         for i, n in enumerate(self.axis_names):
             if n in self.tool_change_position:
                 J[i] = self.tool_change_position[n]

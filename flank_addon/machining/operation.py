@@ -119,13 +119,9 @@ def run_out(shape, tip, axis, rotor, clearance, spacing=1.0, local=None, detail=
     lo, hi = shape.z_extent(tip, axis)
     t_a = (float(lo[0]) - z1 - clearance) / rotor.v0
     t_b = (float(hi[0]) - z0 + clearance) / rotor.v0
-    margin, worst = math.inf, None
-    rho = np.hypot(pts[:, 0], pts[:, 1])
-    lo, hi = pts[:, 2] - rotor.v0 * t_b, pts[:, 2] - rotor.v0 * t_a     # each point's heights over the pass
-    for k, (a, b, r) in enumerate(rotor.keep_out):
-        over = (hi >= a) & (lo <= b)
-        if over.any() and float((rho[over] - r).min()) < margin:
-            margin, worst = float((rho[over] - r).min()), k
+    # each point's heights over the pass
+    margin, worst = rotor.keep_out_clearance(np.hypot(pts[:, 0], pts[:, 1]), pts[:, 2] - rotor.v0 * t_b,
+                                             pts[:, 2] - rotor.v0 * t_a)
     if detail:
         return float(t_a), float(t_b), margin, (None if worst is None else rotor.keep_out_names[worst])
     return float(t_a), float(t_b), margin

@@ -79,6 +79,20 @@ class RotorBody:
                 best, name = depth, n
         return name
 
+    def keep_out_clearance(self, rho, lo, hi):
+        """(margin, index) of tool points over a pass: each point's distance ``rho`` from the axis (a screw motion
+        keeps it) and the heights ``lo``..``hi`` it sweeps; margin = smallest rho - radius over the points whose
+        heights meet a keep-out solid's z range, index = that solid in :attr:`keep_out`; (inf, None) when no
+        point passes over one."""
+        margin, worst = math.inf, None
+        for k, (a, b, r) in enumerate(self.keep_out):
+            over = (hi >= a) & (lo <= b)
+            if over.any():
+                m = float((rho[over] - r).min())
+                if m < margin:
+                    margin, worst = m, k
+        return margin, worst
+
     def safe_radius(self, clearance):
         """Outer radius of everything (stock, shafts and holders) plus ``clearance``."""
         return max([self.outer_radius] + [s[2] for s in self.keep_out]) + float(clearance)

@@ -14,11 +14,11 @@ a 0.001 mm chord read back as 0.0012 mm of interpolation error).
 
 Links (all rapid): from a pass end the tool moves straight away from the rotor axis (along the tool axis'
 component across the rotor axis, rotaries fixed) until every point of the tool and its shank is at least the
-safe radius R_s = max(outer radius, shaft and holder radii) + clearance from the axis; there the rotary axes turn to the
-next pass (turning the spin keeps every distance from the axis), then the linear axes move above the next
-start and the tool approaches it the reverse way.  Every segment is checked against the stock cylinder and the
-shafts and holders (:mod:`.clearance`); when one is not clear the link is tried again with R_s + the tool's length, then
-with an extra lift along the tool axis, and refused by name if none is.  A tool starts and ends at that lifted
+safe radius R_s = max(outer radius, shaft and holder radii) + clearance from the axis; there the rotary axes
+turn to the next pass (turning the spin keeps every distance from the axis), then the linear axes move above the
+next start and the tool approaches it the reverse way.  Every segment is checked against the stock cylinder, the
+shafts and the holders (:mod:`.clearance`); when one is not clear the link is tried again with R_s + the tool's
+length, then with an extra lift along the tool axis, and refused by name if none is.  A tool starts and ends at that lifted
 position.  The first move after a tool change comes from where the tool-change cycle leaves the machine, which
 the program cannot know; when the machine file gives it (``tool_change_position``) the moves out of it are
 checked as well, block by block as the post writes them (:meth:`.machine.Machine.tool_change_groups`), and a
@@ -185,10 +185,9 @@ class _Planner:
             first = first or (depth, pt)
         if first is None:
             n, v, lo, hi = limits
-            widest = max(self.rotor.holders, key=lambda h: h[2], default=None)
-            hint = (f" (links keep clear of the holders, {2 * widest[2]:g} mm across)"
-                    if widest is not None and widest[2] >= max([self.rotor.outer_radius]
-                                                              + [s[2] for s in self.rotor.shafts]) else "")
+            widest = max((h[2] for h in self.rotor.holders), default=None)
+            hint = (f" (links keep clear of the holders, {2 * widest:g} mm across)"
+                    if widest is not None and widest == self.rotor.safe_radius(0.0) else "")
             raise MachineError(f"{what}: axis {n} would reach {v:.6g}, outside its limits {lo:g}..{hi:g} on machine "
                                f"{self.m.name}{hint}")
         solid = self.rotor.solid_at(first[1])

@@ -150,15 +150,9 @@ def keep_out_margin(ps, tools, rotor, spacing=1.0):
         return math.inf
     P, A = ps["ends"]
     pts = place_points(tools[ps["tool"]].local_points(spacing), P[0], A[0], facing=True)[0]
-    rho = np.hypot(pts[:, 0], pts[:, 1])
     z0, z1 = pts[:, 2], pts[:, 2] - rotor.v0 * ps["t_span"]
-    lo, hi = np.minimum(z0, z1), np.maximum(z0, z1)
-    margin = math.inf
-    for a, b, r in rotor.keep_out:
-        over = (hi >= a) & (lo <= b)
-        if over.any():
-            margin = min(margin, float((rho[over] - r).min()) - ps["interpolation_error"])
-    return margin
+    margin, _ = rotor.keep_out_clearance(np.hypot(pts[:, 0], pts[:, 1]), np.minimum(z0, z1), np.maximum(z0, z1))
+    return margin - ps["interpolation_error"]
 
 
 def fine_deviation(plan, strips, idx, refine=16):
