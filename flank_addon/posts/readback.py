@@ -5,8 +5,11 @@
    axis a).
 2. Passes are the runs of consecutive feed moves.  A pass is a screw motion when every pose maps back onto
    the first one: with dt_k = (P_0,z - P_k,z) / v0, S_dt_k(P_k) = P_0 and Rz(hand dt_k) a_k = a_0
-   (``screw_error``, the program's rounding); between the block ends the controller's interpolation is
-   sampled the same way (``interpolation_error``: 0 for joint-linear passes, the chord sagitta with TCP).
+   (``screw_error``: the program's rounding, or a pass that is not the rotor's screw, such as a wrong pitch);
+   between the block ends the controller's interpolation is sampled the same way (``interpolation_error``: 0
+   for joint-linear passes, the chord sagitta with TCP).  A pass whose block ends leave that screw by more
+   than the matching tolerance (``MATCH_TOL_MM``) is not what any strip says, whatever its first pose: a
+   finding names it.
 3. Each pass is matched to the plan strip and lobe whose pose it is, modulo the screw (no comment is
    trusted); every strip must appear once per lobe with the tool number the post gave its solid (a strip
    that repeats an earlier one, :func:`..machining.operation.repeats_earlier_strip`, is cut by that one's
@@ -15,9 +18,11 @@
    is verified with them instead of its own strips (:func:`..simulation.verify.verify_plan`, the sweep
    simulation); the difference to the plan's own verified deviation, point by point, is what the program
    changes (points where the sweep's sampling is too coarse to tell are simulated again, finer:
-   :func:`lobe_deviation`).  ``pose_difference`` bounds it without any sampling: no tool point of a pass is
-   farther than that from where the plan puts it, so neither is the machined surface.  The sweep is the
-   infinite screw motion, valid because the pass runs out beyond the body (5).
+   :func:`lobe_deviation`).  The sweep is the infinite screw motion through each pass's first pose, valid
+   because the pass runs out beyond the body (5) and follows that screw (2).  ``pose_difference`` bounds the
+   change without sampling the surface: how far a pass's first pose is from the plan's, plus how far its
+   other poses leave the screw through it (2), so no tool point of the pass, and no point of the machined
+   surface, is farther than that from where the plan puts it.
 5. Run-out: at its first and last pose the whole tool (and shank) must be beyond the body's end faces.
 6. Every other move (rapids, links) is checked against the stock cylinder, the shafts and the holders
    (:func:`machining.toolpath.segment_intrusion`); the passes against the shafts and the holders
@@ -39,6 +44,10 @@ from ..machining.operation import checked_lobes, repeats_earlier_strip
 from ..machining.tool_shape import ToolShape, place_points
 from ..machining.toolpath import segment_intrusion
 from ..simulation.verify import profile_normals, verify_plan
+
+# mm: a pass is a strip's when its first pose is this near the strip's (modulo the screw) and its other poses
+# stay this near the screw through its first pose (the programs' own rounding is 0.0001 mm and 0.0001 deg)
+MATCH_TOL_MM = 1e-2
 
 
 def tool_table(plans):
@@ -111,7 +120,7 @@ def _reference_poses(plans, rotor):
     return refs
 
 
-def match_passes(passes, plans, rotor, tools, of_strip, tol=1e-2):
+def match_passes(passes, plans, rotor, tools, of_strip, tol=MATCH_TOL_MM):
     """Give every read pass its (plan, strip, lobe): the reference pose it equals modulo the screw."""
     refs = _reference_poses(plans, rotor)
     for ps in passes:
@@ -197,7 +206,8 @@ def lobe_deviation(plan, p, passes, tools, rotor, lobe, reference, recheck=1e-3)
         T, a, _ = strip_tip(plan, k)
         tip, axis = _map_to_level(tip, axis, T[2], rotor.v0, rotor.hand)
         reach = max(abs(x) for x in tools[ps["tool"]].h_range())
-        pose_diff = max(pose_diff, float(np.linalg.norm(tip - T) + reach * np.linalg.norm(axis - a)))
+        off_screw = max(ps["screw_error"], ps["interpolation_error"])      # the other poses, from the first's screw
+        pose_diff = max(pose_diff, float(np.linalg.norm(tip - T) + reach * np.linalg.norm(axis - a)) + off_screw)
         extra = {key: src[key] for key in ("flank", "reported_max_error", "reported_min_error", "collision")}
         strips.append(tools[ps["tool"]].strip_at(tip, axis, extra))
     if not strips:
@@ -313,6 +323,8 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
         "lobes_cut": cut_lobes,
         "program_end_line": read.end_line,
         "screw_error_mm": max((ps["screw_error"] for ps in passes), default=0.0),
+        "passes_off_screw": [{"line": ps["line"], "screw_error_mm": ps["screw_error"]} for ps in passes
+                             if ps["screw_error"] > MATCH_TOL_MM],
         "interpolation_error_mm": max((ps["interpolation_error"] for ps in passes), default=0.0),
         # null without any pass: strict JSON has no Infinity
         "run_out": {"min_start_clearance_mm": min((c[0] for c in clear), default=None),
@@ -336,8 +348,8 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
 
 def program_findings(res):
     """What makes the program differ from its plans or cut where it must not, one sentence each (empty: the
-    program does what the plans say): a text without the program's end, passes that match no strip, strips
-    never cut or cut twice, more gouge points on a lobe than the plan itself has, passes that start or end
+    program does what the plans say): a text without the program's end, passes that match no strip, passes
+    that leave the rotor's screw motion, strips never cut or cut twice, more gouge points on a lobe than the plan itself has, passes that start or end
     inside the body or enter a shaft or a holder, links that enter the stock, a shaft or a holder, points that
     one side covers and the other does not."""
     out = []
@@ -351,6 +363,13 @@ def program_findings(res):
         if un and not res["matched_passes"]:
             out.append("no pass matches any plan strip: were the program and this check given the same plans and "
                        "the same --outer-radius-mm?")
+    off = res.get("passes_off_screw", [])
+    if off:
+        lines = ", ".join(str(o["line"]) for o in off[:10]) + (", ..." if len(off) > 10 else "")
+        out.append(f"{len(off)} pass(es) leave the rotor's screw motion by up to "
+                   f"{max(o['screw_error_mm'] for o in off):.3g} mm (lines {lines}): not the plan's pitch or "
+                   f"rotary angles; the deviation figures sweep each pass along the screw through its first pose "
+                   f"and do not show it")
     if res["missing_strips"]:
         out.append(f"{len(res['missing_strips'])} strip(s) never cut, as [plan, strip, lobe]: "
                    f"{res['missing_strips'][:10]}")

@@ -170,6 +170,39 @@ def test_a_pose_error_shows_in_the_deviation(request):
     assert "1 strip(s) never cut" in res["findings"][1]
 
 
+@pytest.mark.parametrize("turn_deg, finding", [(0.5, True), (0.002, False)])
+def test_a_pass_off_the_rotors_screw_is_found(request, turn_deg, finding):
+    """The first pass's end turned further by hand: the pass starts where its strip does, but it is no longer
+    the rotor's screw (a wrong pitch).  Its block ends leave the screw through its first pose by the turn at
+    the tool's farthest point, 2 sin(turn / 2) (rho_tip + reach |a_xy|) at the end pose (an extra rotation
+    about the rotor axis); beyond the 0.01 mm a pass may be off its strip that is a finding, below it the pose
+    bound grows by it."""
+    plan, rb, op, prog = program_of(request, "single_flank_plan", "rotor-xa-b")
+    post = get_post("linuxcnc")
+    lines = post.write(prog).splitlines()
+    i = next(k for k, ln in enumerate(lines) if ln.startswith("G1 ") and " A" in ln)
+    a = float(lines[i].split(" A")[1].split()[0])
+    lines[i] = lines[i].replace(f"A{a:.4f}", f"A{a + turn_deg:.4f}")
+    res = verify_program("\n".join(lines) + "\n", post, prog.machine, [plan], rb, lobes=[0],
+                         references=[plan_reference(plan)])
+    tools, _ = tool_table([plan])
+    first = read_passes(post.read(post.write(prog), prog.machine), prog.machine, tools, rb)[0]   # as posted
+    T, ax = first["tip"], first["axis"]             # rho and |a_xy| are the same anywhere along the screw
+    reach = max(abs(x) for x in tools[first["tool"]].h_range())
+    expected = 2 * math.sin(math.radians(turn_deg) / 2) * (math.hypot(T[0], T[1]) + reach * math.hypot(ax[0], ax[1]))
+    assert res["screw_error_mm"] == pytest.approx(expected, rel=0.02, abs=3e-4)     # the program's rounding
+    (lobe,) = res["plans"][0]["lobes"]
+    assert lobe["pose_difference_mm"] >= expected - 3e-4
+    off = res["passes_off_screw"]
+    if finding:
+        assert [o["line"] for o in off] == [i + 1] and res["matched_passes"] == res["passes"]
+        assert res["findings"] == [f"1 pass(es) leave the rotor's screw motion by up to {off[0]['screw_error_mm']:.3g} "
+                                   f"mm (lines {i + 1}): not the plan's pitch or rotary angles; the deviation figures "
+                                   f"sweep each pass along the screw through its first pose and do not show it"]
+    else:
+        assert off == [] and res["findings"] == []
+
+
 def test_a_pass_moved_into_the_flank_shows_as_gouges(request):
     """The first pass moved 1 mm one way or the other along Y: it matches no strip, yet it is swept where it
     runs, and one of the two directions cuts into the flank; a finding names it."""
