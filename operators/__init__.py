@@ -21,14 +21,15 @@ Modules, bottom up (a module imports only those listed before it):
   ``paraboloid``, ``freeform``, ``sample_surfaces``, ``cutter_region``, ``flank_list``, ``tool_preview``,
   ``export``, ``animate``, ``render_report`` (``report_scene``: the picture's scene), ``profile_plot``
   (``chart_text``: its text in Blender's font), ``ui_ops`` (the Run button's call), ``post_program`` (the
-  machine program: ``program`` its inputs and the core's post, ``program_scene`` its path and animation).
+  machine program: ``program`` its inputs and the core's post, ``program_scene`` its path and animation),
+  ``check_program`` (a program file read back and checked against the run's plan).
 
 Each module has a ``classes`` tuple and ``register, unregister = bpy.utils.register_classes_factory(classes)``;
 :func:`register` calls them in the order of ``MODULES`` (property groups before the operators that use them).
 """
 import bpy
 
-from . import (analyze, animate, chart_text, common, cutter_region, double_flank, export, flank_list,
+from . import (analyze, animate, chart_text, check_program, common, cutter_region, double_flank, export, flank_list,
                formed_cutter, freeform, generate, guiding, jobs, materials, modal, paraboloid, post_program,
                profile_plot, program, program_scene, properties, render_report, report_process, report_scene,
                result_builder, runs, sample_surfaces, shapes, single_flank, sources, strips, tool_preview,
@@ -41,7 +42,7 @@ MODULES = (
     strips, guiding,
     generate, analyze, verify, single_flank, double_flank, formed_cutter, paraboloid, freeform, sample_surfaces,
     cutter_region, flank_list, tool_preview, export, animate, render_report, report_scene, profile_plot, ui_ops,
-    program, program_scene, post_program,
+    program, program_scene, post_program, check_program,
 )
 
 classes = tuple(cls for module in MODULES for cls in module.classes)

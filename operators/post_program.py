@@ -28,10 +28,10 @@ from .properties import post_program_props
 from .runs import PlanNeeded, remove_animation, run_plan, run_prop
 from .units import mm_per_scene_unit
 
-__all__ = ["FLANK_OT_post_program"]
+__all__ = ["FLANK_OT_post_program", "machine_and_post", "mm_per_unit", "plan_mm"]
 
 
-def _machine_and_post(op):
+def machine_and_post(op):
     """(machine, post) of the operator's names, or an error message."""
     from ..flank_addon.machining.machine import load_machine
     from ..flank_addon.posts import get_post
@@ -45,8 +45,8 @@ def _machine_and_post(op):
     return (machine.flipped() if op.flip_rotor else machine), post
 
 
-def _mm_per_unit(context, coll, plan):
-    """k mm per plan length unit, or an error message (the scaling itself is the worker's, :func:`_plan_mm`)."""
+def mm_per_unit(context, coll, plan):
+    """k mm per plan length unit, or an error message (the scaling itself is the worker's, :func:`plan_mm`)."""
     if plan.get("surface") is not None:
         return "'{}' is a free-form run: whole-rotor machine programs are made from rotor plans".format(coll.name)
     if plan["rotor"].get("extent") is None:
@@ -59,7 +59,7 @@ def _mm_per_unit(context, coll, plan):
     return k
 
 
-def _plan_mm(coll_name, plan, k):
+def plan_mm(coll_name, plan, k):
     """The plan in mm (any thread: 30 ms for a double-flank plan on the 280,000-triangle rotor)."""
     try:
         return plan_in_mm(plan, k)
@@ -133,8 +133,8 @@ class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
         found = run_plan(context, self.collection, defer=self._defer_analysis) if msg is None else msg
         if isinstance(found, PlanNeeded):
             return self._read_first(found)           # a long plan not read yet: in a worker first
-        mp = _machine_and_post(self) if not isinstance(found, str) else found
-        k = _mm_per_unit(context, *found) if not isinstance(mp, str) else mp
+        mp = machine_and_post(self) if not isinstance(found, str) else found
+        k = mm_per_unit(context, *found) if not isinstance(mp, str) else mp
         if isinstance(k, str):
             self.report({'ERROR'}, "Post program: " + k)
             return None
@@ -155,7 +155,7 @@ class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
         from ..flank_addon.machining.machine import MachineError
         from .program import post_program
 
-        job = dict(job, plan=_plan_mm(job["coll"], job["plan"], job["k"]))     # lengths in mm, here: not on the UI
+        job = dict(job, plan=plan_mm(job["coll"], job["plan"], job["k"]))     # lengths in mm, here: not on the UI
         try:
             return post_program(job, progress)
         except MachineError as ex:                  # beyond an axis' travel: maybe the scene's unit

@@ -489,6 +489,30 @@ def post_program_props():
     )
 
 
+def check_program_props():
+    """Fresh property definitions of flank.check_program: the program file to read back, the run whose plan it
+    is checked against, and the machine, post and holders it was posted with (names, as flank.post_program)."""
+    return dict(
+        filepath=StringProperty(name="Program File", description="The machine program to read back (absolute "
+                                                                 "path, or relative to the saved .blend file)",
+                                subtype='FILE_PATH', default=""),
+        collection=StringProperty(name="Run", description="Result collection whose plan the program is checked "
+                                                          "against; empty = the run of the active object, else "
+                                                          "the newest run", default=""),
+        machine=StringProperty(name="Machine", description="The machine the program was posted for: a built-in "
+                                                           "machine name or a machine file", default="rotor-xa-b"),
+        post=StringProperty(name="Post", description="The controller dialect the program is written in: linuxcnc, "
+                                                     "fanuc or heidenhain; empty = by the file's extension",
+                            default=""),
+        lobes=StringProperty(name="Lobes", description="Lobes to sweep again: empty or 'all' = those the program "
+                                                       "cuts, else indices like 0,2,4", default=""),
+        flip_rotor=machining_props()["flip_rotor"],
+        holders=machining_props()["holders"],
+        # set by invoke when it opens the file browser: the check then runs modal like the planners
+        modal_after_browser=BoolProperty(default=False, options={'HIDDEN', 'SKIP_SAVE'}),
+    )
+
+
 def machine_settings_props():
     """The Machine panel's settings: machine, post, program file, clearance, lobes (the cutting data are the
     Tool panel's, cutting_data_props)."""

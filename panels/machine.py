@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Machine panel (after Results and Verify): the machine and controller dialect, clearance, lobes, the tool's
 cutting data and the program file; Post Program turns the run shown in Results into a whole-rotor machine
-program (flank.post_program) and the panel shows its cycle time once posted."""
+program (flank.post_program) and the panel shows its cycle time once posted; Check Program File reads a program
+back and checks it against the run's plan (flank.check_program), by default the program file above."""
 import bpy
 
 from .common import CATEGORY, REGION, SPACE
@@ -20,6 +21,14 @@ def post_call(settings, scene):
     return kw
 
 
+def check_call(settings):
+    """The keyword arguments the Check Program File button carries from the scene settings: the program file,
+    machine, post and holders as Post Program uses them (the lobes to sweep are those the program cuts)."""
+    return dict(filepath=settings.program_filepath, post=settings.post, flip_rotor=settings.flip_rotor,
+                holders=settings.holders,
+                machine=settings.machine_file if settings.machine == "FILE" else settings.machine)
+
+
 class FLANK_PT_machine(bpy.types.Panel):
     bl_idname = "FLANK_PT_machine"
     bl_label = "Machine"
@@ -29,6 +38,7 @@ class FLANK_PT_machine(bpy.types.Panel):
     bl_order = 40
 
     def draw(self, context):
+        from ..operators.check_program import check_lines
         from ..operators.post_program import cycle_time_lines
         from ..operators.runs import find_run
 
@@ -66,6 +76,15 @@ class FLANK_PT_machine(bpy.types.Panel):
             box = layout.box()
             for k, text in enumerate(lines):
                 box.label(text=text, icon='TIME' if k == 1 else 'NONE')
+        op = layout.operator("flank.check_program", icon='VIEWZOOM')
+        for name, value in check_call(settings).items():
+            setattr(op, name, value)
+        op.collection = coll.name
+        lines = check_lines(coll)
+        if lines:
+            box = layout.box()
+            for text in lines:
+                box.label(text=text)
 
 
 classes = (FLANK_PT_machine,)

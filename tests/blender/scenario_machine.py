@@ -179,6 +179,66 @@ def _errors(bpy, tmp, coll_name, good):
     return out
 
 
+def _check(bpy, coll, **kw):
+    """(result, error, new data-blocks, the run's check properties) of flank.check_program(**kw)."""
+    before = _blocks(bpy)
+    t0 = time.perf_counter()
+    ret, err = driver._run_op(bpy.ops.flank.check_program, **kw)
+    after = _blocks(bpy)
+    return dict(result=ret, error=err, seconds=time.perf_counter() - t0, new={k: after[k] - before[k] for k in before},
+                props={k: v for k, v in driver._obj_props(coll).items() if k.startswith("flank_check_")})
+
+
+def _checks(bpy, tmp, coll, settings, prog_path):
+    """Check Program File: the program Post Program wrote (the Machine panel's call), with the post told by the
+    extension, the same program edited by hand (one pass's end turned 0.5 deg further), checked with a chuck
+    in the run-out, and the refusals (each leaves the run's earlier check as it was)."""
+    machine_panel = __import__(driver.MODULE + ".panels.machine", fromlist=["x"])
+    checker = __import__(driver.MODULE + ".operators.check_program", fromlist=["x"])
+    call = dict(machine_panel.check_call(settings), collection=coll.name)
+    out = dict(call={k: v for k, v in call.items()})
+    out["as_posted"] = _check(bpy, coll, **call)
+    out["as_posted"]["lines"] = checker.check_lines(coll)
+    out["panel"] = driver._draw_panels(bpy, bpy.context.active_object)["FLANK_PT_machine"]
+    out["by_extension"] = _check(bpy, coll, **dict(call, post=""))
+
+    text = open(prog_path).read()
+    lines = text.splitlines(keepends=True)
+    k = next(i for i, line in enumerate(lines) if line.startswith("G1 ") and " A" in line)
+    words = lines[k].split()
+    j = next(i for i, w in enumerate(words) if w.startswith("A"))
+    words[j] = "A{:.4f}".format(float(words[j][1:]) + 0.5)
+    lines[k] = " ".join(words) + "\n"
+    edited = os.path.join(tmp, "edited.ngc")
+    with open(edited, "w") as fh:
+        fh.write("".join(lines))
+    out["edited_file"] = edited
+    out["edited"] = _check(bpy, coll, **dict(call, filepath=edited))
+    out["edited"]["lines"] = checker.check_lines(coll)
+    out["chuck"] = _check(bpy, coll, **dict(call, holders="low,100,40,2"))
+    out["chuck"]["lines"] = checker.check_lines(coll)
+
+    for name, content in (("copy.nc", text), ("copy.txt", text), ("garbage.ngc", "G1 X1 Q\nhello\n")):
+        with open(os.path.join(tmp, name), "w") as fh:
+            fh.write(content)
+    cases = {
+        "empty_path": dict(filepath=""),
+        "relative_path": dict(filepath="relative_program.ngc"),
+        "missing": dict(filepath=os.path.join(tmp, "no_such_program.ngc")),
+        "folder": dict(filepath=tmp),
+        "other_extension": dict(filepath=os.path.join(tmp, "copy.nc")),
+        "unknown_extension": dict(filepath=os.path.join(tmp, "copy.txt"), post=""),
+        "unknown_machine": dict(machine="mill-9000"),
+        "unknown_post": dict(post="haas"),
+        "lobes_text": dict(lobes="0,x"),
+        "lobes_range": dict(lobes="9"),
+        "holders_text": dict(holders="low,80"),
+        "garbage": dict(filepath=os.path.join(tmp, "garbage.ngc")),
+    }
+    out["refused"] = {name: _check(bpy, coll, **dict(call, **kw)) for name, kw in cases.items()}
+    return out
+
+
 def scenario(bpy, res, args):
     import numpy as np
 
@@ -274,6 +334,9 @@ def scenario(bpy, res, args):
             name=holders_ob.name, same_matrix=bool(np.allclose(M, np.array(path_ob.matrix_world))),
             z=[float(rotor_mm[:, 2].min()), float(rotor_mm[:, 2].max())], max_rho=float(rho.max()),
             extent=plan["rotor"]["extent"]["z_range"])
+
+    # ---------------------------------------------------------------- Check Program File
+    res["checks"] = _checks(bpy, tmp, coll, s, prog_path)
 
     # ---------------------------------------------------------------- Read Back off, and a read-back that fails
     post_mod = __import__(driver.MODULE + ".operators.post_program", fromlist=["x"])

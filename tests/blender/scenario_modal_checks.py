@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Verify (flank.verify_plan), Error Plot (flank.error_plot), Check Tool (flank.cutter_region) and Post Program
-(flank.post_program) through the modal Run path (operators/modal.py), for test_blender_modal_checks.py.
+"""Verify (flank.verify_plan), Error Plot (flank.error_plot), Check Tool (flank.cutter_region), Post Program
+(flank.post_program) and Check Program File (flank.check_program) through the modal Run path (operators/modal.py), for test_blender_modal_checks.py.
 
 Each operator's ``execute`` is replaced for one call by scenario_modal's driver (``_start_modal`` + ``modal()``
 with TIMER / ESC events and a stand-in context): ESC and closing leave a full census of bpy.data and the scene
@@ -51,6 +51,42 @@ def _post_state(bpy, np, run_name, path):
                 objects=len(coll.all_objects), actions=len(bpy.data.actions))
 
 
+def _check_state(bpy, run_name):
+    """The run's program check: its properties but the time it took."""
+    coll = bpy.data.collections[run_name]
+    return {k: sm._plain(coll[k]) for k in coll.keys() if k.startswith("flank_check_") and k != "flank_check_elapsed"}
+
+
+def _exercise_check(bpy, np, check_cls, kw, select):
+    def no_check():
+        coll = bpy.data.collections[kw["collection"]]
+        for key in [k for k in coll.keys() if k.startswith("flank_check_")]:
+            del coll[key]
+
+    out = sm.exercise_tool(bpy, np, bpy.ops.flank.check_program, check_cls, kw, select,
+                           lambda: _check_state(bpy, kw["collection"]), before_each=no_check, cancel=False)
+    real_compute, real_attr = check_cls._compute, check_cls.__dict__["_compute"]       # a static method
+
+    def slow_compute(job, progress):
+        for _ in range(50):
+            if progress is not None and progress(0.0, "waiting") is False:
+                break
+            time.sleep(0.01)
+        return real_compute(job, progress)
+
+    check_cls._compute = staticmethod(slow_compute)
+    try:
+        out.update(sm.cancelled_runs(bpy, np, bpy.ops.flank.check_program, check_cls, kw, select, no_check))
+        select()
+        no_check()
+        rec = sm._call(bpy, bpy.ops.flank.check_program, check_cls, "finish", **kw)
+        rec["state"] = _check_state(bpy, kw["collection"])
+        out["finish"] = rec
+    finally:
+        check_cls._compute = real_attr
+    return out
+
+
 def _region_state(bpy, np, key):
     coll = next((c for c in bpy.data.collections if c.get("flank_cr_key") == key), None)
     if coll is None:
@@ -66,11 +102,12 @@ def scenario(bpy, res, args):
     import numpy as np
 
     mods = {name: __import__(driver.MODULE + ".operators." + name, fromlist=["x"])
-            for name in ("verify", "profile_plot", "cutter_region", "post_program", "modal")}
+            for name in ("verify", "profile_plot", "cutter_region", "post_program", "check_program", "modal")}
     mixin = mods["modal"].ModalPlannerMixin
     classes = dict(verify=mods["verify"].FLANK_OT_verify_plan, error_plot=mods["profile_plot"].FLANK_OT_error_plot,
                    cutter_region=mods["cutter_region"].FLANK_OT_cutter_region,
-                   post=mods["post_program"].FLANK_OT_post_program)
+                   post=mods["post_program"].FLANK_OT_post_program,
+                   check=mods["check_program"].FLANK_OT_check_program)
     res["mixin"] = {k: issubclass(c, mixin) for k, c in classes.items()}
     res["timer_step"] = mods["modal"].TIMER_STEP
 
@@ -139,6 +176,9 @@ def scenario(bpy, res, args):
         rec = sm._call(bpy, bpy.ops.flank.post_program, post_cls, "finish", **post_kw)
         rec["state"] = _post_state(bpy, np, run_name, program)
         res["post"]["finish"] = rec
+        # Check Program File on that program, in the same unit: the synchronous run, then Esc, closing and the
+        # modal run to the end with its worker slowed down as the post's (each run starts without a check)
+        res["check"] = _exercise_check(bpy, np, classes["check"], dict(collection=run_name, filepath=program), select)
     finally:
         post_cls._compute = real_attr
         us.system, us.scale_length = units

@@ -325,3 +325,93 @@ def test_the_kept_plans_are_the_stored_ones(mc):
     """Operators read a run's plan from the one the extension keeps parsed: after all of them ran, each kept plan
     is still its run's stored text parsed again, number for number (none of them changed the shared plan)."""
     assert_plans_kept(mc["plans_kept"])
+
+
+# ------------------------------------------------------------------------------------------- Check Program File
+def _verify_program(path, plan_file, *extra):
+    """The command line's ``verify --program`` of a file: (exit code, its --json output)."""
+    import contextlib
+    import io
+
+    pytest.importorskip("scipy", reason="comparing with the core needs scipy in the test interpreter")
+    from flank_addon.cli import main
+
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        code = main(["verify", "--program", str(path), plan_file, "--machine", "rotor-xa-b", "--json", *extra])
+    return code, json.loads(buf.getvalue())
+
+
+def test_check_program_file_says_what_verify_program_says(mc):
+    """The Machine panel's Check Program File reads the posted program back as the command line's verify
+    --program does: the same moves, passes, lobes, cycle time and deviation; nothing in the scene changes."""
+    c = mc["checks"]
+    assert c["call"]["filepath"] == mc["post"]["file"] and c["call"]["post"] == "linuxcnc"
+    assert ["operator", "flank.check_program"] in c["panel"]
+    code, js = _verify_program(mc["post"]["file"], mc["plan_file"])
+    assert code == 0 and js["findings"] == []
+    for key in ("as_posted", "by_extension"):            # the post chosen, or told by the file's extension
+        r = c[key]
+        assert r["result"] == ["FINISHED"] and r["error"] is None and r["new"] == NOTHING, r
+        p = r["props"]
+        assert json.loads(p["flank_check_findings"]) == []
+        assert p["flank_check_post"] == "linuxcnc" and p["flank_check_machine"] == "rotor-xa-b"
+        assert (p["flank_check_moves"], p["flank_check_passes"], p["flank_check_matched_passes"]) == (
+            js["moves"], js["passes"], js["matched_passes"])
+        assert list(p["flank_check_lobes_cut"]) == js["lobes_cut"] == [0, 2]
+        assert p["flank_check_deviation_mm"] == pytest.approx(js["max_deviation_difference_mm"], rel=1e-9)
+        assert p["flank_check_pose_mm"] == pytest.approx(js["pose_difference_mm"], rel=1e-9)
+        assert p["flank_check_total_time_s"] == pytest.approx(js["total_time_s"], rel=1e-12)
+        assert p["flank_check_total_time_s"] == pytest.approx(mc["post"]["props"]["flank_prog_total_time_s"],
+                                                              rel=1e-12)
+        assert 0.0 < p["flank_check_deviation_mm"] < 1e-3          # the program's rounding, in mm
+    p = c["as_posted"]["props"]
+    assert js["untimed_moves"] == p["flank_check_untimed_moves"] == 2     # the approach: no tool-change position
+    assert c["as_posted"]["lines"] == [
+        "Checked program.ngc: {} moves, {} passes ({} matched)".format(js["moves"], js["passes"], js["passes"]),
+        "Its cycle time: {:.1f} s (not counting {} move(s) out of a tool change)".format(
+            js["total_time_s"], js["untimed_moves"]),
+        "As planned (machined deviation within {:.2g} mm of the plan's)".format(p["flank_check_deviation_mm"])]
+    print("checked {} moves in {:.2f} s".format(js["moves"], c["as_posted"]["seconds"]))
+
+
+def test_check_program_file_finds_a_hand_edit_and_a_chuck_in_the_way(mc):
+    """A pass turned 0.5 deg further by hand, and the same program checked with a chuck 2 mm off the end face:
+    both NOT AS PLANNED, with the command line's findings word for word, shown in the panel's lines."""
+    c = mc["checks"]
+    for key, extra in (("edited", ()), ("chuck", ("--holder", "low,100,40,2"))):
+        r = c[key]
+        assert r["result"] == ["FINISHED"] and r["new"] == NOTHING, r        # a warning, not a refusal
+        path = c["edited_file"] if key == "edited" else mc["post"]["file"]
+        code, js = _verify_program(path, mc["plan_file"], *extra)
+        findings = json.loads(r["props"]["flank_check_findings"])
+        assert code == 1 and findings == js["findings"] and findings, (key, findings)
+        assert r["lines"][2] == "NOT AS PLANNED, {} finding(s):".format(len(findings))
+        assert r["lines"][3:] == findings[:3]
+        print(key, findings)
+    assert "enter a shaft or a holder" in json.loads(c["chuck"]["props"]["flank_check_findings"])[0]
+
+
+CHECK_ERRORS = {
+    "empty_path": "no program file given (filepath is empty)",
+    "relative_path": "is relative, and there is no saved .blend file",
+    "missing": "no program file '",
+    "folder": "no program file '",
+    "other_extension": "'copy.nc' has the extension of fanuc programs, but the post is linuxcnc",
+    "unknown_extension": "cannot tell the dialect of 'copy.txt' from its extension: choose the post",
+    "unknown_machine": "unknown machine 'mill-9000'",
+    "unknown_post": "unknown post 'haas'; valid posts: linuxcnc, fanuc, heidenhain",
+    "lobes_text": "lobes '0,x' must be empty, 'all' or lobe indices",
+    "lobes_range": "lobes [9] are not lobes of this rotor (0..3)",
+    "holders_text": "Holders 'low,80': holder 'low,80' must be SIDE,DIAMETER,LENGTH[,GAP]",
+    "garbage": "line 1",
+}
+
+
+@pytest.mark.parametrize("case", sorted(CHECK_ERRORS))
+def test_check_program_refusals_name_the_problem_and_keep_the_last_check(mc, case):
+    e = mc["checks"]["refused"][case]
+    assert e["result"] is None and e["error"].startswith("Error: Check program: "), e
+    assert CHECK_ERRORS[case] in e["error"], e["error"]
+    assert "Traceback" not in e["error"] and e["new"] == NOTHING
+    assert e["props"] == mc["checks"]["chuck"]["props"]          # the run's last check stays as it was

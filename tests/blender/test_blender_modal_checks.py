@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Verify, Error Plot, Check Tool and Post Program run modal from the UI like the planners (operators/modal.ModalPlannerMixin):
+"""Verify, Error Plot, Check Tool, Post Program and Check Program File run modal from the UI like the planners (operators/modal.ModalPlannerMixin):
 driven headless by scenario_modal_checks.py with scenario_modal's driver (TIMER / ESC events, a stand-in context).
 Progress is shown while the worker runs, no modal() call holds Blender's main thread for 100 ms or more, ESC and
 closing leave bpy.data and the scene exactly as before, a modal run to the end makes what the synchronous run
@@ -10,7 +10,7 @@ import pytest
 from blender_harness import assert_cancelled_cleanly, assert_failure_reported_like_sync, run_scenario, running_polls
 
 FRAME_MS = 100.0
-OPS = ("verify", "error_plot", "cutter_region", "post")
+OPS = ("verify", "error_plot", "cutter_region", "post", "check")
 
 
 def _numbers(v):
@@ -62,10 +62,10 @@ def mc(extension_zip, tmp_path_factory):
     return run_scenario(extension_zip, "modal_checks", tmp_path_factory.mktemp("modal_checks"))
 
 
-def test_the_four_operators_use_the_modal_mixin(mc):
-    assert mc["mixin"] == dict(verify=True, error_plot=True, cutter_region=True, post=True)
+def test_the_five_operators_use_the_modal_mixin(mc):
+    assert mc["mixin"] == dict(verify=True, error_plot=True, cutter_region=True, post=True, check=True)
     assert mc["run"]["result"] == ["FINISHED"], mc["run"]
-    assert mc["patched_left"] == [False] * 4
+    assert mc["patched_left"] == [False] * 5
 
 
 def test_post_program_writes_its_file_only_when_it_finishes(mc):
@@ -101,6 +101,10 @@ def test_modal_run_to_the_end_equals_the_synchronous_run_and_never_blocks(mc, op
         # last bits between two runs in one process (seen: 2.214528919263072 and 2.2145289192631123 mm)
         _assert_close(_numbers(rec["state"]), _numbers(mc[op]["sync"]["state"]), "error_plot")
         assert rec["state"]["pixels"] == mc[op]["sync"]["state"]["pixels"]
+    elif op == "check":
+        # the read-back's deviations come from the sweep, as Verify's: the same to the last bits of a sum
+        assert rec["state"]["flank_check_findings"] == repr("[]") and rec["state"]["flank_check_passes"] == 6
+        _assert_close(_numbers(rec["state"]), _numbers(mc[op]["sync"]["state"]), "check")
     else:
         assert rec["state"] == mc[op]["sync"]["state"]
     running = running_polls(rec)

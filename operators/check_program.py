@@ -1,0 +1,185 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""flank.check_program -- read a machine program file back and check it against the run's plan, exactly as
+``python -m flank_addon verify PLAN --program FILE`` does (``flank_addon.posts.readback.verify_program``): the
+program's moves through the machine's kinematics, its passes matched to the plan's strips, every lobe it cuts
+swept again, its links and passes checked against the stock, shafts and holders, and its cycle time.  For a
+program posted elsewhere, or edited by hand after Post Program wrote it.
+
+What the check finds is stored on the run (``flank_check_*``) and shown in the Machine panel; a program that
+does not do what the plan says gives a warning naming the findings.  Nothing in the scene changes.  Refused
+before any work, by name: no run, a free-form run, a plan without the rotor's extent, no such file, an unknown
+machine or post, a file whose extension names another post than the one chosen, bad lobes or holders.  Under
+``bpy.app.background`` (and from scripts) it runs synchronously; from the UI the check runs off the UI thread
+(``modal``), with progress and Esc."""
+import json
+import os
+import time
+
+import bpy
+
+from .modal import ModalPlannerMixin
+from .post_program import machine_and_post, mm_per_unit, plan_mm
+from .program import holders_of, parse_lobes
+from .properties import check_program_props
+from .runs import PlanNeeded, run_plan
+
+__all__ = ["FLANK_OT_check_program", "check_lines"]
+
+CHECK_PREFIX = "flank_check_"
+
+
+def _program_path(filepath):
+    """(absolute path, None) of an existing program file, or (None, error message)."""
+    if not str(filepath).strip():
+        return None, "no program file given (filepath is empty)"
+    path = bpy.path.abspath(filepath)
+    if not os.path.isabs(path):
+        return None, "the program file '{}' is relative, and there is no saved .blend file it is relative " \
+                     "to: give an absolute path".format(filepath)
+    path = os.path.normpath(path)
+    if not os.path.isfile(path):
+        return None, "no program file '{}'".format(path)
+    return path, None
+
+
+def _post_name(post, path):
+    """The post the program is read with: the one chosen, else the one of the file's extension; or an error
+    message when the two disagree (a LinuxCNC reader on a Heidenhain program would only report nonsense)."""
+    from ..flank_addon.posts import POSTS, post_for_file
+
+    by_extension = post_for_file(path)
+    chosen = str(post).strip()
+    if not chosen:
+        if by_extension is None:
+            return None, "cannot tell the dialect of '{}' from its extension: choose the post".format(
+                os.path.basename(path))
+        return by_extension.name, None
+    if by_extension is not None and by_extension.name != chosen and chosen in POSTS:   # else: unknown, named later
+        return None, "'{}' has the extension of {} programs, but the post is {}: choose the post the program " \
+                     "was written by".format(os.path.basename(path), by_extension.name, chosen)
+    return chosen, None
+
+
+def check_lines(coll):
+    """Labels of the latest program check of the run (the Machine panel), [] before one."""
+    p = CHECK_PREFIX
+    if p + "findings" not in coll:
+        return []
+    findings = json.loads(coll[p + "findings"])
+    head = "Checked {}: {} moves, {} passes ({} matched)".format(
+        os.path.basename(str(coll.get(p + "file", "?"))), int(coll[p + "moves"]), int(coll[p + "passes"]),
+        int(coll[p + "matched_passes"]))
+    time_line = "Its cycle time: {:.1f} s".format(float(coll[p + "total_time_s"])) + (
+        " (not counting {} move(s) out of a tool change)".format(int(coll[p + "untimed_moves"]))
+        if int(coll[p + "untimed_moves"]) else "")
+    if not findings:
+        verdict = ["As planned" + ("" if p + "deviation_mm" not in coll else
+                                   " (machined deviation within {:.2g} mm of the plan's)".format(
+                                       float(coll[p + "deviation_mm"])))]
+    else:
+        verdict = ["NOT AS PLANNED, {} finding(s):".format(len(findings))] + findings[:3]
+    return [head, time_line] + verdict
+
+
+class FLANK_OT_check_program(ModalPlannerMixin, bpy.types.Operator):
+    """Read a machine program file back and check it against the run's plan, as verify --program does: its
+    passes matched to the strips, the lobes it cuts swept again, its links and passes checked against the stock,
+    shafts and holders, and its cycle time"""
+
+    bl_idname = "flank.check_program"
+    bl_label = "Check Program File"
+    bl_options = {'REGISTER'}
+    _title = "Check program"
+
+    __annotations__ = check_program_props()
+
+    def invoke(self, context, event):
+        if not str(self.filepath).strip() and not bpy.app.background and context.window_manager is not None:
+            self.modal_after_browser = True
+            context.window_manager.fileselect_add(self)      # execute() starts the check once a file is chosen
+            return {'RUNNING_MODAL'}
+        return ModalPlannerMixin.invoke(self, context, event)
+
+    # ------------------------------------------------------------------ main thread: inputs
+    def _prepare(self, context):
+        """Properties, run, machine and post -> job dict, or None (error reported)."""
+        path, msg = _program_path(self.filepath)
+        post, msg = _post_name(self.post, path) if msg is None else (None, msg)
+        lobes = parse_lobes(self.lobes) if msg is None else None
+        msg = msg or (lobes if isinstance(lobes, str) else None)
+        holders = holders_of(self.holders) if msg is None else None
+        msg = msg or (holders if isinstance(holders, str) else None)
+        found = run_plan(context, self.collection, defer=self._defer_analysis) if msg is None else msg
+        if isinstance(found, PlanNeeded):
+            return self._read_first(found)           # a long plan not read yet: in a worker first
+        mp = machine_and_post(_Names(self.machine, post, self.flip_rotor)) if not isinstance(found, str) else found
+        k = mm_per_unit(context, *found) if not isinstance(mp, str) else mp
+        if isinstance(k, str):
+            self.report({'ERROR'}, "Check program: " + k)
+            return None
+        (coll, plan), (machine, post) = found, mp
+        return dict(t0=time.perf_counter(), coll=coll.name, plan=plan, k=k, machine=machine, post=post,
+                    lobes=lobes, holders=holders, filepath=path)
+
+    # ------------------------------------------------------------------ worker thread
+    @staticmethod
+    def _compute(job, progress):
+        from ..flank_addon.machining.rotor_body import rotor_body, with_holders
+        from ..flank_addon.posts.readback import verify_program
+
+        try:
+            with open(job["filepath"], encoding="ascii", errors="replace") as fh:     # as the command line reads it
+                text = fh.read()
+        except OSError as ex:
+            raise ValueError("cannot read '{}': {}".format(job["filepath"], ex.strerror or ex)) from None
+        plan = plan_mm(job["coll"], job["plan"], job["k"])
+        rotor = with_holders(rotor_body(plan), job["holders"])
+        return verify_program(text, job["post"], job["machine"], [plan], rotor, lobes=job["lobes"],
+                              progress=progress)
+
+    # ------------------------------------------------------------------ main thread: results
+    def _build(self, context, job, res):
+        coll = bpy.data.collections.get(job["coll"])
+        if coll is None:
+            self.report({'ERROR'}, "Check program: the run '{}' was removed meanwhile".format(job["coll"]))
+            return {'CANCELLED'}
+        for key in [k for k in coll.keys() if k.startswith(CHECK_PREFIX)]:
+            del coll[key]
+        props = dict(file=job["filepath"], post=job["post"].name, machine=job["machine"].name,
+                     holders=json.dumps(job["holders"]), findings=json.dumps(list(res["findings"])),
+                     moves=int(res["moves"]), passes=int(res["passes"]), matched_passes=int(res["matched_passes"]),
+                     lobes_cut=[int(v) for v in res["lobes_cut"]],
+                     intrusion_mm=float(res["links"]["max_intrusion_mm"]), gouge_points=int(res["gouge_points"]),
+                     cutting_time_s=float(res["cutting_time_s"]), rapid_time_s=float(res["rapid_time_s"]),
+                     total_time_s=float(res["total_time_s"]), untimed_moves=int(res["untimed_moves"]),
+                     elapsed=float(time.perf_counter() - job["t0"]))
+        for key in ("max_deviation_difference_mm", "pose_difference_mm"):       # None where no lobe was compared
+            if res[key] is not None:
+                props[{"max_deviation_difference_mm": "deviation_mm"}.get(key, "pose_mm")] = float(res[key])
+        for name, value in props.items():
+            coll[CHECK_PREFIX + name] = value
+        name = os.path.basename(job["filepath"])
+        if res["findings"]:
+            self.report({'WARNING'}, "Check program: {} is NOT AS PLANNED for '{}': {}".format(
+                name, coll.name, "; ".join(res["findings"])))
+        else:
+            self.report({'INFO'}, "Check program: {} does what the plan of '{}' says: {} moves, {} passes on lobes "
+                                  "{}{}, cycle time {:.1f} s; {:.2f} s".format(
+                                      name, coll.name, res["moves"], res["passes"],
+                                      ",".join(map(str, res["lobes_cut"])),
+                                      "" if res["max_deviation_difference_mm"] is None else
+                                      ", machined deviation within {:.2g} mm of the plan's".format(
+                                          res["max_deviation_difference_mm"]),
+                                      res["total_time_s"], props["elapsed"]))
+        return {'FINISHED'}
+
+
+class _Names:
+    """The machine, post and mounting of a check, as :func:`.post_program.machine_and_post` reads them."""
+
+    def __init__(self, machine, post, flip_rotor):
+        self.machine, self.post, self.flip_rotor = machine, post, flip_rotor
+
+
+classes = (FLANK_OT_check_program,)
+register, unregister = bpy.utils.register_classes_factory(classes)
