@@ -88,7 +88,7 @@ class FLANK_OT_check_program(ModalPlannerMixin, bpy.types.Operator):
 
     bl_idname = "flank.check_program"
     bl_label = "Check Program File"
-    bl_options = {'REGISTER'}
+    bl_options = {'REGISTER', 'UNDO'}       # the run's flank_check_* change
     _title = "Check program"
 
     __annotations__ = check_program_props()

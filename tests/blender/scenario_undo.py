@@ -371,6 +371,8 @@ def scenario(bpy, res, args):
     _undo_step(bpy, np, fcurves, "flank.post_program",
                dict(collection=sf_run or "", lobes="0", filepath=os.path.join(tmp, "undo_program.ngc"), **FRAMES),
                steps)
+    _undo_step(bpy, np, fcurves, "flank.check_program",
+               dict(collection=sf_run or "", post="linuxcnc", filepath=os.path.join(tmp, "undo_program.ngc")), steps)
     us = bpy.context.scene.unit_settings
     us.system, us.scale_length = units
 
