@@ -872,6 +872,12 @@ def _cmd_verify_program(args):
             return str(items[:10])[:-1] + (f", ... ({len(items)})]" if len(items) > 10 else "]")
         print(f"  missing strips {some(res['missing_strips'])}, repeated {some(res['repeated_strips'])}, unmatched "
               f"passes {some([u['line'] for u in res['unmatched_passes']])}")
+    sp = res["spindle"]
+    if sp["max_rpm"] is not None:
+        bad = sum(len(sp[k]) for k in ("stopped", "counter_clockwise"))
+        speeds = f"S{sp['min_rpm']:g}" + ("" if sp["min_rpm"] == sp["max_rpm"] else f"..S{sp['max_rpm']:g}")
+        print(f"  spindle on the cuts: {speeds} (machine top {sp['machine_max_rpm']:g}), "
+              + ("clockwise on every one" if not bad else f"{bad} not turning clockwise"))
     print(f"  poses: screw error {res['screw_error_mm']:.3g} mm, interpolation error "
           f"{res['interpolation_error_mm']:.3g} mm")
     for pl in res["plans"]:

@@ -1,7 +1,9 @@
 """What the ISO G-code dialects (LinuxCNC rs274ngc, Fanuc) share: the block reader.
 
 The reader follows the modal state a controller keeps (motion G0/G1, feed mode G93/G94, axis values, F, tool,
-spindle speed, TCP G43.4/G43.5 ... G49) and turns every block that moves into a :class:`base.Move`.  It knows
+spindle speed, spindle rotation M3/M4/M5, TCP G43.4/G43.5 ... G49) and turns every block that moves into a
+:class:`base.Move`.  Within a block it keeps rs274ngc's order of execution: the tool change (M6, which leaves
+the spindle stopped), then the spindle words, then the motion; the program's end (M2, M30) stops the spindle.  It knows
 the words the posts write and the usual preamble codes; anything else (incremental G91, inch G20, arcs,
 canned cycles, subprograms, expressions) is refused with its line number.
 """
@@ -31,7 +33,7 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
     names = machine.axis_names
     out = ReadProgram(axes=list(names))
     row = np.full(len(names), np.nan)
-    motion, mode, F, tool, rpm = None, "per_minute", None, 0, 0.0
+    motion, mode, F, tool, rpm, spindle = None, "per_minute", None, 0, 0.0, "off"
     tcp = machine.tcp and not tcp_codes
     comment = ""
     started = False
@@ -60,7 +62,7 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
         if pos != len(code):
             raise PostError(f"line {no}: cannot read {code[pos:]!r} in {raw.strip()!r}")
         new = row.copy()
-        moved, f_here, tool_change, named = False, None, False, []
+        moved, f_here, tool_change, named, turn = False, None, False, [], None
         for letter, value in words:
             if letter == "G":
                 g = value.lstrip("0") or "0"
@@ -91,12 +93,11 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
                 mcode = value.lstrip("0") or "0"
                 if mcode == "6":
                     tool_change = True
-                elif mcode in ("3", "4"):
-                    pass
-                elif mcode == "5":
-                    pass
+                elif mcode in ("3", "4", "5"):
+                    turn = {"3": "cw", "4": "ccw", "5": "off"}[mcode]
                 elif mcode in ("2", "30"):
                     out.end_line = out.end_line or no
+                    turn = "off"
                 elif mcode not in IGNORED_M:
                     raise PostError(f"line {no}: M{value} is not supported by the reader")
             elif letter in ("N", "H", "P", "Q", "D"):
@@ -114,6 +115,9 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
             unnamed[named] = False
             new[unnamed] = np.nan
             row = np.full(len(names), np.nan)
+            spindle = "off"
+        if turn is not None:
+            spindle = turn
         if moved:
             if motion is None:
                 raise PostError(f"line {no}: axis words without G0 or G1")
@@ -123,7 +127,8 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
                 if F is None or not F > 0:
                     raise PostError(f"line {no}: G1 without a feed (F)")
             out.moves.append(Move("rapid" if motion == 0 else "feed", row.copy(), new.copy(),
-                                  "" if motion == 0 else mode, 0.0 if motion == 0 else F, no, tool, rpm, tcp, comment))
+                                  "" if motion == 0 else mode, 0.0 if motion == 0 else F, no, tool, rpm, tcp, comment,
+                                  spindle))
             row = new
     return out
 

@@ -24,6 +24,20 @@ from .base import Move, Post, PostError, ReadProgram, feed_text, fixed, header_l
 NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)"
 
 
+# the TNC's spindle M functions: M3 / M4 (M13 / M14 with coolant) act at the start of their block, M5 and the
+# program's stops and end (M0, M2, M30) at its end
+SPINDLE_AT_START = {"M3": "cw", "M13": "cw", "M4": "ccw", "M14": "ccw"}
+SPINDLE_AT_END = {"M5": "off", "M0": "off", "M2": "off", "M30": "off"}
+
+
+def _spindle_words(toks):
+    """(rotation from the block's start, rotation after it; None where the block does not change it)."""
+    ms = ["M{}".format(int(t[1:])) for t in toks if re.fullmatch(r"M\d+", t)]       # M03 is M3
+    start = [SPINDLE_AT_START[m] for m in ms if m in SPINDLE_AT_START]
+    end = [SPINDLE_AT_END[m] for m in ms if m in SPINDLE_AT_END]
+    return (start[-1] if start else None), (end[-1] if end else None)
+
+
 class HeidenhainPost(Post):
     name = "heidenhain"
     extension = ".h"
@@ -93,7 +107,7 @@ class HeidenhainPost(Post):
         names = machine.axis_names
         out = ReadProgram(axes=list(names))
         row = np.full(len(names), np.nan)
-        F, tool, rpm, tcp, comment = None, 0, 0.0, False, ""
+        F, tool, rpm, tcp, comment, spindle = None, 0, 0.0, False, "", "off"
         axis_word = re.compile(r"^([XYZABC])(" + NUMBER + r")$")
         for no, raw in enumerate(text.splitlines(), 1):
             line = raw.strip()
@@ -121,6 +135,8 @@ class HeidenhainPost(Post):
                     out.end_line = out.end_line or no
                 continue
             if toks[:2] == ["TOOL", "CALL"]:
+                if int(toks[2]) != tool:
+                    spindle = "off"                 # a tool change stops the spindle
                 tool = int(toks[2])
                 for t in toks[3:]:
                     if t.startswith("S"):
@@ -134,8 +150,11 @@ class HeidenhainPost(Post):
             if toks[:3] == ["FUNCTION", "RESET", "TCPM"]:
                 tcp = False
                 continue
+            at_start, at_end = _spindle_words(toks)
+            spindle = at_start or spindle
             if toks[0] != "L":
                 if all(re.fullmatch(r"M\d+", t) for t in toks):
+                    spindle = at_end or spindle
                     continue
                 raise PostError(f"line {no}: {toks[0]!r} blocks are not supported by the reader")
             new, rapid, moved = row.copy(), False, False
@@ -154,11 +173,13 @@ class HeidenhainPost(Post):
                     raise PostError(f"line {no}: {t!r} is not supported by the reader"
                                     f" (axes of machine {machine.name}: {' '.join(names)})")
             if not moved:
+                spindle = at_end or spindle
                 continue
             if not rapid and not (F is not None and F > 0):
                 raise PostError(f"line {no}: L block without a feed (F or FMAX)")
             mode = "" if rapid else ("tip_speed" if tcp else "combined")
             out.moves.append(Move("rapid" if rapid else "feed", row.copy(), new.copy(), mode,
-                                  0.0 if rapid else F, no, tool, rpm, tcp, comment))
+                                  0.0 if rapid else F, no, tool, rpm, tcp, comment, spindle))
             row = new
+            spindle = at_end or spindle
         return out

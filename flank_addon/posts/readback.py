@@ -29,7 +29,9 @@
    (:func:`keep_out_margin`).  The moves out of a tool change start where the machine
    file's ``tool_change_position`` leaves the machine (:func:`machining.cycle_time.move_joints`); without
    one their start is unknown and they are counted as ``unchecked``.
-7. Cycle time from the moves as the controller times them (:mod:`machining.cycle_time`).
+7. Cycle time from the moves as the controller times them (:mod:`machining.cycle_time`).  The spindle: every
+   feed move must cut with it turning clockwise (M3, as the posts turn the tools, which cut right-hand) at a
+   speed above 0 and within the machine's top speed (:func:`spindle_check`).
 8. ``findings``: every way the program differs from its plans or cuts where it must not
    (:func:`program_findings`); the command exits with status 1 when there is any.
 """
@@ -243,6 +245,18 @@ def lobe_deviation(plan, p, passes, tools, rotor, lobe, reference, recheck=1e-3)
             "gouge_points": len(res["gouge_points"])}
 
 
+def spindle_check(read, machine):
+    """Feed moves that cut without the spindle as the posts turn it: stopped (M5, or no M3 after a tool
+    change), counter-clockwise (M4), at S0 or faster than the machine's top speed (lines; the fastest S)."""
+    feeds = [mv for mv in read.moves if mv.kind == "feed"]
+    return {"stopped": [mv.line for mv in feeds if mv.spindle == "off"],
+            "counter_clockwise": [mv.line for mv in feeds if mv.spindle == "ccw"],
+            "no_speed": [mv.line for mv in feeds if not mv.rpm > 0],
+            "over_top_speed": [mv.line for mv in feeds if mv.rpm > machine.max_rpm],
+            "min_rpm": min((mv.rpm for mv in feeds), default=None),
+            "max_rpm": max((mv.rpm for mv in feeds), default=None), "machine_max_rpm": machine.max_rpm}
+
+
 def check_links(read, machine, tools, rotor, step=1.0, spacing=1.5):
     """Intrusion of every non-cutting move into the stock, the shafts or the holders."""
     worst, bad, checked, unchecked = 0.0, [], 0, 0
@@ -338,6 +352,7 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
         "pose_difference_mm": max((lo["pose_difference_mm"] for pl in plans_out for lo in pl["lobes"]), default=None),
         "gouge_points": sum(lo["gouge_points"] for pl in plans_out for lo in pl["lobes"]),
         "links": check_links(read, machine, tools, rotor),
+        "spindle": spindle_check(read, machine),
         "holders": [{"z_range": [a, b], "radius": r} for a, b, r in rotor.holders],
         **times,
     }
@@ -350,8 +365,9 @@ def program_findings(res):
     """What makes the program differ from its plans or cut where it must not, one sentence each (empty: the
     program does what the plans say): a text without the program's end, passes that match no strip, passes
     that leave the rotor's screw motion, strips never cut or cut twice, more gouge points on a lobe than the plan itself has, passes that start or end
-    inside the body or enter a shaft or a holder, links that enter the stock, a shaft or a holder, points that
-    one side covers and the other does not."""
+    inside the body or enter a shaft or a holder, links that enter the stock, a shaft or a holder, feed moves
+    without the spindle turning clockwise within its speeds, points that one side covers and the other does
+    not."""
     out = []
     if not res["program_end_line"]:
         out.append("the program has no end (M2 / M30, END PGM): was it cut short?")
@@ -392,6 +408,22 @@ def program_findings(res):
     if into:
         out.append(f"passes at lines {into[:10]} enter {keep_out} by up to "
                    f"{-res['run_out']['min_keep_out_margin_mm']:.3g} mm")
+    sp = res.get("spindle")
+    if sp is not None:
+        def at(lines):
+            return ", ".join(map(str, lines[:10])) + (", ..." if len(lines) > 10 else "")
+        if sp["stopped"]:
+            out.append(f"{len(sp['stopped'])} feed move(s) with the spindle stopped (lines {at(sp['stopped'])}): "
+                       "M5, or no M3 after a tool change")
+        if sp["counter_clockwise"]:
+            out.append(f"{len(sp['counter_clockwise'])} feed move(s) with the spindle turning counter-clockwise "
+                       f"(M4; lines {at(sp['counter_clockwise'])}): the tools cut right-hand, turned by M3")
+        if sp["no_speed"]:
+            out.append(f"{len(sp['no_speed'])} feed move(s) without a spindle speed (S0 or none; lines "
+                       f"{at(sp['no_speed'])})")
+        if sp["over_top_speed"]:
+            out.append(f"{len(sp['over_top_speed'])} feed move(s) at S{sp['max_rpm']:g}, over the machine's top "
+                       f"spindle speed {sp['machine_max_rpm']:g} /min (lines {at(sp['over_top_speed'])})")
     if res["links"]["max_intrusion_mm"] > 0:
         out.append(f"{len(res['links']['intrusions'])} link move(s) enter {stock_or}, deepest "
                    f"{res['links']['max_intrusion_mm']:.3g} mm")

@@ -1,0 +1,140 @@
+"""The spindle in a program read back: the readers follow M3 / M4 / M5, the tool change and the program's end as
+the controller does (LinuxCNC's own interpreter is the reference for rs274ngc), and the read-back names every
+feed move that would cut without the spindle turning clockwise within its speeds."""
+import re
+
+import pytest
+
+from flank_addon.machining.machine import load_machine
+from flank_addon.machining.operation import build_operation
+from flank_addon.machining.rotor_body import rotor_body
+from flank_addon.machining.toolpath import build_program
+from flank_addon.posts import get_post
+from flank_addon.posts.readback import verify_program
+
+pytestmark = pytest.mark.xdist_group("machining")     # shared session fixtures: one worker
+
+CANON_SPINDLE = re.compile(r"(SET_SPINDLE_SPEED|START_SPINDLE_CLOCKWISE|START_SPINDLE_COUNTERCLOCKWISE|"
+                           r"STOP_SPINDLE_TURNING|STRAIGHT_FEED)\(([^)]*)\)")
+
+
+def rs274_feed_spindles(rs274, path):
+    """(rotation, speed) of the spindle at every STRAIGHT_FEED of LinuxCNC's canonical output."""
+    import subprocess
+
+    out = subprocess.run([rs274, "-g", str(path)], capture_output=True, text=True, timeout=120).stdout
+    assert "PROGRAM_END()" in out
+    turn, speed, feeds = "off", 0.0, []
+    for kind, args in CANON_SPINDLE.findall(out):
+        if kind == "SET_SPINDLE_SPEED":
+            speed = float(args.split(",")[1])
+        elif kind == "START_SPINDLE_CLOCKWISE":
+            turn = "cw"
+        elif kind == "START_SPINDLE_COUNTERCLOCKWISE":
+            turn = "ccw"
+        elif kind == "STOP_SPINDLE_TURNING":
+            turn = "off"
+        else:
+            feeds.append((turn, speed))
+    return feeds
+
+
+@pytest.fixture(scope="module")
+def posted(single_flank_plan):
+    """The single-flank plan on rotor-xa-b (lobes 0, 1): plan, rotor body, machine, program text."""
+    rb = rotor_body(single_flank_plan)
+    op = build_operation([single_flank_plan], rb, lobes=[0, 1])
+    machine = load_machine("rotor-xa-b")
+    return single_flank_plan, rb, machine, build_program(op, machine)
+
+
+def _before_passes(lines, marker, edits):
+    """``lines`` with ``edits[k]`` (a line) inserted before the k-th pass's comment (1-based)."""
+    out, k = [], 0
+    for ln in lines:
+        if marker in ln:
+            k += 1
+            if k in edits:
+                out.append(edits[k])
+        out.append(ln)
+    return out
+
+
+def test_linuxcnc_spindle_states_are_the_interpreters(posted, rs274, tmp_path):
+    """M5 before pass 2, M3 again before pass 3, M4 before pass 4, S30000 M3 before pass 5, S0 before pass 6:
+    the reader's rotation and speed at every feed move are LinuxCNC's, and each is a finding with its lines."""
+    plan, rb, machine, prog = posted
+    post = get_post("linuxcnc")
+    lines = post.write(prog).splitlines()
+    edits = {2: "M5", 3: "M3", 4: "M4", 5: "S30000 M3", 6: "S0"}
+    text = "\n".join(_before_passes(lines, "(PASS ", edits)) + "\n"
+    path = tmp_path / "spindle.ngc"
+    path.write_text(text)
+    read = post.read(text, machine)
+    ours = [(mv.spindle, mv.rpm) for mv in read.moves if mv.kind == "feed"]
+    assert ours == rs274_feed_spindles(rs274, path)
+    assert [s for s, _ in ours[:6]] == ["cw", "off", "cw", "ccw", "cw", "cw"]
+    res = verify_program(text, post, machine, [plan], rb)
+    feeds = [mv for mv in read.moves if mv.kind == "feed"]
+    sp = res["spindle"]
+    assert sp["stopped"] == [feeds[1].line] and sp["counter_clockwise"] == [feeds[3].line]
+    assert sp["no_speed"] == [mv.line for mv in feeds[5:]] and sp["over_top_speed"] == [feeds[4].line]
+    assert sp["max_rpm"] == 30000.0 and machine.max_rpm < 30000.0
+    found = [f for f in res["findings"] if "spindle" in f]
+    assert found == [
+        f"1 feed move(s) with the spindle stopped (lines {feeds[1].line}): M5, or no M3 after a tool change",
+        f"1 feed move(s) with the spindle turning counter-clockwise (M4; lines {feeds[3].line}): the tools cut "
+        "right-hand, turned by M3",
+        f"{len(feeds) - 5} feed move(s) without a spindle speed (S0 or none; lines "
+        + ", ".join(str(mv.line) for mv in feeds[5:15]) + (", ..." if len(feeds) > 15 else "") + ")",
+        f"1 feed move(s) at S30000, over the machine's top spindle speed {machine.max_rpm:g} /min (lines "
+        f"{feeds[4].line})"]
+
+
+def test_a_tool_change_stops_the_spindle_until_m3(posted, rs274, tmp_path):
+    """The program as posted cuts with the spindle on; without its M3 after the tool change every cut is made
+    with the spindle stopped, as LinuxCNC's interpreter has it (M6 stops the spindle)."""
+    plan, rb, machine, prog = posted
+    post = get_post("linuxcnc")
+    text = post.write(prog)
+    res = verify_program(text, post, machine, [plan], rb)
+    assert not any(res["spindle"][k] for k in ("stopped", "counter_clockwise", "no_speed", "over_top_speed"))
+    assert not any("spindle" in f for f in res["findings"])
+    (i,) = [k for k, ln in enumerate(text.splitlines()) if ln.endswith(" M3")]
+    lines = text.splitlines()
+    lines[i] = lines[i][:-3]                                  # S<rpm> alone: the speed, no rotation
+    edited = "\n".join(lines) + "\n"
+    path = tmp_path / "no_m3.ngc"
+    path.write_text(edited)
+    read = post.read(edited, machine)
+    ours = [(mv.spindle, mv.rpm) for mv in read.moves if mv.kind == "feed"]
+    assert ours == rs274_feed_spindles(rs274, path) and {s for s, _ in ours} == {"off"}
+    res = verify_program(edited, post, machine, [plan], rb)
+    assert len(res["spindle"]["stopped"]) == res["passes"] > 0
+    assert any(f.startswith(f"{res['passes']} feed move(s) with the spindle stopped") for f in res["findings"])
+
+
+def test_heidenhain_spindle_words_act_where_the_tnc_acts(posted):
+    """Klartext: M3 / M13 / M4 / M14 act at the start of their block, M5 at its end; TOOL CALL of another tool
+    stops the spindle.  As posted (M13 on the first move of the tool) every cut turns clockwise; an M5 on a
+    cut's own block still lets that cut run, and stops the next; M4 on a cut's block turns that cut
+    counter-clockwise; without the M13 every cut is made with the spindle stopped."""
+    plan, rb, machine, prog = posted
+    post = get_post("heidenhain")
+    text = post.write(prog)
+    feeds = [mv for mv in post.read(text, machine).moves if mv.kind == "feed"]
+    assert {mv.spindle for mv in feeds} == {"cw"}
+    lines = text.splitlines()
+    cut = [k for k, ln in enumerate(lines) if re.match(r"^\d+ L .* F[\d.]+", ln)]
+    assert len(cut) == len(feeds)
+    edited = list(lines)
+    edited[cut[0]] += " M5"
+    edited[cut[2]] += " M4"
+    read = post.read("\n".join(edited) + "\n", machine)
+    turns = [mv.spindle for mv in read.moves if mv.kind == "feed"]
+    assert turns[:3] == ["cw", "off", "ccw"]
+    res = verify_program("\n".join(edited) + "\n", post, machine, [plan], rb)
+    assert res["spindle"]["counter_clockwise"][0] == feeds[2].line and feeds[1].line in res["spindle"]["stopped"]
+    no_m13 = [ln.replace(" M13", "") for ln in lines]
+    read = post.read("\n".join(no_m13) + "\n", machine)
+    assert {mv.spindle for mv in read.moves if mv.kind == "feed"} == {"off"}
