@@ -876,8 +876,12 @@ def _cmd_verify_program(args):
     if sp["max_rpm"] is not None:
         bad = sum(len(sp[k]) for k in ("stopped", "counter_clockwise"))
         speeds = f"S{sp['min_rpm']:g}" + ("" if sp["min_rpm"] == sp["max_rpm"] else f"..S{sp['max_rpm']:g}")
+        lc = res["length_compensation"]
         print(f"  spindle on the cuts: {speeds} (machine top {sp['machine_max_rpm']:g}), "
-              + ("clockwise on every one" if not bad else f"{bad} not turning clockwise"))
+              + ("clockwise on every one" if not bad else f"{bad} not turning clockwise")
+              + "; tool length compensation " + ("of its tool on every move" if not (lc["without"] or lc["other_tool"])
+                                                 else f"missing on {len(lc['without'])} move(s), another tool's on "
+                                                      f"{len(lc['other_tool'])}"))
     print(f"  poses: screw error {res['screw_error_mm']:.3g} mm, interpolation error "
           f"{res['interpolation_error_mm']:.3g} mm")
     for pl in res["plans"]:

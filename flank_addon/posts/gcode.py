@@ -1,11 +1,13 @@
 """What the ISO G-code dialects (LinuxCNC rs274ngc, Fanuc) share: the block reader.
 
-The reader follows the modal state a controller keeps (motion G0/G1, feed mode G93/G94, axis values, F, tool,
-spindle speed, spindle rotation M3/M4/M5, TCP G43.4/G43.5 ... G49) and turns every block that moves into a
-:class:`base.Move`.  Within a block it keeps rs274ngc's order of execution: the tool change (M6, which leaves
-the spindle stopped), then the spindle words, then the motion; the program's end (M2, M30) stops the spindle.  It knows
-the words the posts write and the usual preamble codes; anything else (incremental G91, inch G20, arcs,
-canned cycles, subprograms, expressions) is refused with its line number.
+The reader follows the modal state a controller keeps (motion G0/G1, feed mode G93/G94, axis values, F, the
+selected tool T and the tool in the spindle, spindle speed, spindle rotation M3/M4/M5, tool length compensation
+G43 [H<n>] ... G49, TCP G43.4/G43.5 ... G49) and turns every block that moves into a :class:`base.Move`.
+Within a block it keeps rs274ngc's order of execution: the tool change (M6 puts the selected tool in the
+spindle, stops the spindle and leaves the length compensation as it was), then the spindle words, then the
+length compensation (G43 without H: the tool in the spindle), then the motion; the program's end (M2, M30)
+stops the spindle.  It knows the words the posts write and the usual preamble codes; anything else
+(incremental G91, inch G20, arcs, canned cycles, subprograms, expressions) is refused with its line number.
 """
 import re
 
@@ -14,7 +16,7 @@ import numpy as np
 from .base import Move, Post, PostError, ReadProgram, fixed
 
 WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
-IGNORED_G = {"17", "21", "40", "49", "54", "55", "56", "57", "58", "59", "61", "61.1", "64", "80", "90", "43"}
+IGNORED_G = {"17", "21", "40", "54", "55", "56", "57", "58", "59", "61", "61.1", "64", "80", "90"}
 IGNORED_M = {"0", "1", "2", "8", "9", "30"}
 
 
@@ -33,7 +35,8 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
     names = machine.axis_names
     out = ReadProgram(axes=list(names))
     row = np.full(len(names), np.nan)
-    motion, mode, F, tool, rpm, spindle = None, "per_minute", None, 0, 0.0, "off"
+    # ``tool``: the latest T word (selected); ``loaded``: the tool in the spindle, changed in by M6
+    motion, mode, F, tool, loaded, rpm, spindle, comp = None, "per_minute", None, 0, 0, 0.0, "off", None
     tcp = machine.tcp and not tcp_codes
     comment = ""
     started = False
@@ -62,7 +65,7 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
         if pos != len(code):
             raise PostError(f"line {no}: cannot read {code[pos:]!r} in {raw.strip()!r}")
         new = row.copy()
-        moved, f_here, tool_change, named, turn = False, None, False, [], None
+        moved, f_here, tool_change, named, turn, length, h_word = False, None, False, [], None, None, None
         for letter, value in words:
             if letter == "G":
                 g = value.lstrip("0") or "0"
@@ -74,9 +77,11 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
                 elif g == "94":
                     mode = "per_minute"
                 elif g in ("43.4", "43.5") and tcp_codes:
-                    tcp = True
-                elif g == "49" and tcp_codes:
-                    tcp = False
+                    tcp, length = True, "on"
+                elif g == "43":
+                    length = "on"
+                elif g == "49":
+                    tcp, length = (False if tcp_codes else tcp), "off"
                 elif g not in IGNORED_G:
                     raise PostError(f"line {no}: G{value} is not supported by the reader")
             elif letter in names:
@@ -100,7 +105,9 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
                     turn = "off"
                 elif mcode not in IGNORED_M:
                     raise PostError(f"line {no}: M{value} is not supported by the reader")
-            elif letter in ("N", "H", "P", "Q", "D"):
+            elif letter == "H":
+                h_word = int(float(value))
+            elif letter in ("N", "P", "Q", "D"):
                 pass
             else:
                 raise PostError(f"line {no}: word {letter}{value} is not supported by the reader"
@@ -108,6 +115,7 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
         if f_here is not None:
             F = f_here
         if tool_change:
+            loaded = tool
             out.tool_changes.append((tool, no))
             # the tool-change cycle moves the machine where the program cannot see: every axis is unknown
             # until the program names it again (a word in this block still counts: M6 runs before motion)
@@ -118,6 +126,10 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
             spindle = "off"
         if turn is not None:
             spindle = turn
+        if length == "on":
+            comp = h_word if h_word is not None else loaded    # G43 alone: the tool in the spindle
+        elif length == "off":
+            comp = None
         if moved:
             if motion is None:
                 raise PostError(f"line {no}: axis words without G0 or G1")
@@ -127,8 +139,8 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
                 if F is None or not F > 0:
                     raise PostError(f"line {no}: G1 without a feed (F)")
             out.moves.append(Move("rapid" if motion == 0 else "feed", row.copy(), new.copy(),
-                                  "" if motion == 0 else mode, 0.0 if motion == 0 else F, no, tool, rpm, tcp, comment,
-                                  spindle))
+                                  "" if motion == 0 else mode, 0.0 if motion == 0 else F, no, loaded, rpm, tcp, comment,
+                                  spindle, comp))
             row = new
     return out
 

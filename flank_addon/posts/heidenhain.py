@@ -179,7 +179,8 @@ class HeidenhainPost(Post):
                 raise PostError(f"line {no}: L block without a feed (F or FMAX)")
             mode = "" if rapid else ("tip_speed" if tcp else "combined")
             out.moves.append(Move("rapid" if rapid else "feed", row.copy(), new.copy(), mode,
-                                  0.0 if rapid else F, no, tool, rpm, tcp, comment, spindle))
+                                  0.0 if rapid else F, no, tool, rpm, tcp, comment, spindle,
+                                  tool or None))           # TOOL CALL compensates the tool's length
             row = new
             spindle = at_end or spindle
         return out

@@ -31,7 +31,9 @@
    one their start is unknown and they are counted as ``unchecked``.
 7. Cycle time from the moves as the controller times them (:mod:`machining.cycle_time`).  The spindle: every
    feed move must cut with it turning clockwise (M3, as the posts turn the tools, which cut right-hand) at a
-   speed above 0 and within the machine's top speed (:func:`spindle_check`).
+   speed above 0 and within the machine's top speed (:func:`spindle_check`); every move of a tool that moves a
+   linear axis, with the length compensation of that tool (G43 H<n>; a Klartext TOOL CALL gives it)
+   (:func:`length_check`).
 8. ``findings``: every way the program differs from its plans or cuts where it must not
    (:func:`program_findings`); the command exits with status 1 when there is any.
 """
@@ -257,6 +259,22 @@ def spindle_check(read, machine):
             "max_rpm": max((mv.rpm for mv in feeds), default=None), "machine_max_rpm": machine.max_rpm}
 
 
+def length_check(read):
+    """Moves of a tool that move a linear axis (every cut, and rapids that are not a rotary turn alone) without
+    that tool's length compensation: none active, or another tool's (lines; the first (H, T) of those)."""
+    none, other = [], []
+    for mv in read.moves:
+        if mv.tool <= 0:
+            continue                # before any tool: nothing to compensate
+        start, end = np.asarray(mv.start[:3], float), np.asarray(mv.end[:3], float)
+        linear = mv.kind == "feed" or not np.array_equal(start, end, equal_nan=True)
+        if not linear or mv.length_comp == mv.tool:
+            continue
+        (none if mv.length_comp is None else other).append(mv)
+    return {"without": [mv.line for mv in none], "other_tool": [mv.line for mv in other],
+            "first_other": [other[0].length_comp, other[0].tool] if other else None}
+
+
 def check_links(read, machine, tools, rotor, step=1.0, spacing=1.5):
     """Intrusion of every non-cutting move into the stock, the shafts or the holders."""
     worst, bad, checked, unchecked = 0.0, [], 0, 0
@@ -353,6 +371,7 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
         "gouge_points": sum(lo["gouge_points"] for pl in plans_out for lo in pl["lobes"]),
         "links": check_links(read, machine, tools, rotor),
         "spindle": spindle_check(read, machine),
+        "length_compensation": length_check(read),
         "holders": [{"z_range": [a, b], "radius": r} for a, b, r in rotor.holders],
         **times,
     }
@@ -366,8 +385,8 @@ def program_findings(res):
     program does what the plans say): a text without the program's end, passes that match no strip, passes
     that leave the rotor's screw motion, strips never cut or cut twice, more gouge points on a lobe than the plan itself has, passes that start or end
     inside the body or enter a shaft or a holder, links that enter the stock, a shaft or a holder, feed moves
-    without the spindle turning clockwise within its speeds, points that one side covers and the other does
-    not."""
+    without the spindle turning clockwise within its speeds, moves without their tool's length compensation,
+    points that one side covers and the other does not."""
     out = []
     if not res["program_end_line"]:
         out.append("the program has no end (M2 / M30, END PGM): was it cut short?")
@@ -408,10 +427,11 @@ def program_findings(res):
     if into:
         out.append(f"passes at lines {into[:10]} enter {keep_out} by up to "
                    f"{-res['run_out']['min_keep_out_margin_mm']:.3g} mm")
+    def at(lines):
+        return ", ".join(map(str, lines[:10])) + (", ..." if len(lines) > 10 else "")
+
     sp = res.get("spindle")
     if sp is not None:
-        def at(lines):
-            return ", ".join(map(str, lines[:10])) + (", ..." if len(lines) > 10 else "")
         if sp["stopped"]:
             out.append(f"{len(sp['stopped'])} feed move(s) with the spindle stopped (lines {at(sp['stopped'])}): "
                        "M5, or no M3 after a tool change")
@@ -424,6 +444,15 @@ def program_findings(res):
         if sp["over_top_speed"]:
             out.append(f"{len(sp['over_top_speed'])} feed move(s) at S{sp['max_rpm']:g}, over the machine's top "
                        f"spindle speed {sp['machine_max_rpm']:g} /min (lines {at(sp['over_top_speed'])})")
+    lc = res.get("length_compensation")
+    if lc is not None and lc["without"]:
+        out.append(f"{len(lc['without'])} move(s) without tool length compensation (lines {at(lc['without'])}): "
+                   "no G43 H<tool> active, so the tool tip is off by the tool's length")
+    if lc is not None and lc["other_tool"]:
+        h, t = lc["first_other"]
+        out.append(f"{len(lc['other_tool'])} move(s) with another tool's length compensation (lines "
+                   f"{at(lc['other_tool'])}; H{h} with T{t}): the tool tip is off by the difference of their "
+                   "lengths")
     if res["links"]["max_intrusion_mm"] > 0:
         out.append(f"{len(res['links']['intrusions'])} link move(s) enter {stock_or}, deepest "
                    f"{res['links']['max_intrusion_mm']:.3g} mm")

@@ -1,15 +1,17 @@
-"""The spindle in a program read back: the readers follow M3 / M4 / M5, the tool change and the program's end as
-the controller does (LinuxCNC's own interpreter is the reference for rs274ngc), and the read-back names every
-feed move that would cut without the spindle turning clockwise within its speeds."""
+"""What the controller keeps besides the axes, in a program read back: the tool in the spindle, the spindle's
+rotation and speed, the tool length compensation.  The readers follow them as the controller does (LinuxCNC's
+own interpreter is the reference for rs274ngc), and the read-back names every feed move that would cut without
+the spindle turning clockwise within its speeds and every move without its tool's length compensation."""
 import re
 
+import numpy as np
 import pytest
 
-from flank_addon.machining.machine import load_machine
+from flank_addon.machining.machine import builtin_machines, load_machine
 from flank_addon.machining.operation import build_operation
 from flank_addon.machining.rotor_body import rotor_body
 from flank_addon.machining.toolpath import build_program
-from flank_addon.posts import get_post
+from flank_addon.posts import POSTS, get_post
 from flank_addon.posts.readback import verify_program
 
 pytestmark = pytest.mark.xdist_group("machining")     # shared session fixtures: one worker
@@ -46,6 +48,37 @@ def posted(single_flank_plan):
     op = build_operation([single_flank_plan], rb, lobes=[0, 1])
     machine = load_machine("rotor-xa-b")
     return single_flank_plan, rb, machine, build_program(op, machine)
+
+
+CANON_TOOLS = re.compile(r"(CHANGE_TOOL|USE_TOOL_LENGTH_OFFSET|STRAIGHT_FEED|STRAIGHT_TRAVERSE)\(([^)]*)\)")
+INCH = 25.4
+
+
+def rs274_move_tools(rs274, path, tool_table):
+    """(tool in the spindle, tool whose length offset is active or None) at every move of LinuxCNC's canonical
+    output; ``tool_table`` gives tool n the length n inches (rs274's tables are in inches), so the offset names
+    its tool."""
+    import subprocess
+
+    out = subprocess.run([rs274, "-t", str(tool_table), "-g", str(path)], capture_output=True, text=True,
+                         timeout=120).stdout
+    assert "PROGRAM_END()" in out
+    tool, comp, moves = 0, None, []
+    for kind, args in CANON_TOOLS.findall(out):
+        if kind == "CHANGE_TOOL":
+            tool = int(args)
+        elif kind == "USE_TOOL_LENGTH_OFFSET":
+            z = float(args.split(",")[0].split()[2])
+            comp = int(round(z / INCH)) or None
+        else:
+            moves.append((tool, comp))
+    return moves
+
+
+def tool_table(tmp_path, numbers):
+    path = tmp_path / "tools.tbl"
+    path.write_text("".join(f"T{n} P{n} Z{n:.1f} D0.1 ;tool {n}\n" for n in numbers))
+    return path
 
 
 def _before_passes(lines, marker, edits):
@@ -138,3 +171,60 @@ def test_heidenhain_spindle_words_act_where_the_tnc_acts(posted):
     no_m13 = [ln.replace(" M13", "") for ln in lines]
     read = post.read("\n".join(no_m13) + "\n", machine)
     assert {mv.spindle for mv in read.moves if mv.kind == "feed"} == {"off"}
+
+
+@pytest.mark.parametrize("post_name", list(POSTS))
+@pytest.mark.parametrize("machine_name", builtin_machines())
+def test_as_posted_every_cut_has_its_spindle_and_length_compensation(request, machine_name, post_name):
+    """Every built-in machine and post: every move that moves a linear axis has its tool's length compensation
+    and every cut the spindle turning clockwise at the tool's speed; no finding about either."""
+    plan = request.getfixturevalue("single_flank_plan")
+    rb = rotor_body(plan)
+    op = build_operation([plan], rb, lobes=[0])
+    machine = load_machine(machine_name)
+    prog = build_program(op, machine)
+    post = get_post(post_name)
+    text = post.write(prog)
+    res = verify_program(text, post, machine, [plan], rb)
+    assert res["length_compensation"] == {"without": [], "other_tool": [], "first_other": None}
+    sp = res["spindle"]
+    assert not (sp["stopped"] or sp["counter_clockwise"] or sp["no_speed"] or sp["over_top_speed"])
+    assert sp["min_rpm"] == sp["max_rpm"] == pytest.approx(op.tools[0].rpm, abs=0.5)
+    assert res["findings"] == []
+
+
+def test_linuxcnc_length_compensation_and_tool_are_the_interpreters(posted, rs274, tmp_path):
+    """Without the G43 H1 after the tool change every move is made without length compensation; with H2 instead
+    (another tool's) every move with the wrong one; a G43 without H takes the tool in the spindle, and a T word
+    without M6 (the next tool selected ahead) changes neither the tool nor its compensation.  The reader's tool
+    and compensation at every move are those of LinuxCNC's interpreter with a tool table."""
+    plan, rb, machine, prog = posted
+    post = get_post("linuxcnc")
+    lines = post.write(prog).splitlines()
+    table = tool_table(tmp_path, (1, 2, 3))
+    (g43,) = [k for k, ln in enumerate(lines) if ln == "G43 H1"]
+    cases = {"none": lines[:g43] + lines[g43 + 1:],
+             "other": lines[:g43] + ["G43 H2"] + lines[g43 + 1:],
+             "bare": lines[:g43] + ["G43"] + lines[g43 + 1:],
+             "preselect": _before_passes(lines, "(PASS ", {2: "T3"})}
+    found = {}
+    for name, edited in cases.items():
+        text = "\n".join(edited) + "\n"
+        path = tmp_path / f"{name}.ngc"
+        path.write_text(text)
+        read = post.read(text, machine)
+        assert [(mv.tool, mv.length_comp) for mv in read.moves] == rs274_move_tools(rs274, path, table), name
+        res = verify_program(text, post, machine, [plan], rb)
+        found[name] = (res["length_compensation"], [f for f in res["findings"] if "length compensation" in f])
+    def moved(name):                # lines of the moves that move a linear axis
+        return [mv.line for mv in post.read("\n".join(cases[name]) + "\n", machine).moves
+                if mv.kind == "feed" or not np.array_equal(mv.start[:3], mv.end[:3], equal_nan=True)]
+
+    lc, msgs = found["none"]
+    assert lc["without"] == moved("none") and lc["other_tool"] == [] and len(msgs) == 1
+    assert msgs[0].startswith(f"{len(moved('none'))} move(s) without tool length compensation (lines ")
+    lc, msgs = found["other"]
+    assert lc["other_tool"] == moved("other") and lc["without"] == []
+    assert lc["first_other"] == [2, 1] and "H2 with T1" in msgs[0]
+    for name in ("bare", "preselect"):
+        assert found[name] == ({"without": [], "other_tool": [], "first_other": None}, []), name
