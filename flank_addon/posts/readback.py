@@ -33,7 +33,8 @@
    feed move must cut with it turning clockwise (M3, as the posts turn the tools, which cut right-hand) at a
    speed above 0 and within the machine's top speed (:func:`spindle_check`); every move of a tool that moves a
    linear axis, with the length compensation of that tool (G43 H<n>; a Klartext TOOL CALL gives it)
-   (:func:`length_check`).
+   (:func:`length_check`); every move within the machine's axis limits (:func:`axis_limit_check`: the block
+   ends, and with TCP points between them, where the joints are not linear in the program's values).
 8. ``findings``: every way the program differs from its plans or cuts where it must not
    (:func:`program_findings`); the command exits with status 1 when there is any.
 """
@@ -275,6 +276,31 @@ def length_check(read):
             "first_other": [other[0].length_comp, other[0].tool] if other else None}
 
 
+def axis_limit_check(read, machine, gauges, samples=8):
+    """Where the program takes an axis beyond the machine's limits: per axis its farthest value out and the
+    line, [] when every move stays inside.  Joint values at the block ends (as the machine stands, known or
+    not: :func:`..machining.cycle_time.move_joints`), and on a TCP machine at ``samples`` points between them."""
+    J0, J1 = move_joints(read, machine, gauges)
+    rows, lines = [J1, J0], [np.array([mv.line for mv in read.moves], int)] * 2      # a value where a move ends it
+    if machine.tcp:
+        f = np.arange(1, samples + 1) / (samples + 1)
+        for i, mv in enumerate(read.moves):
+            if np.isfinite(mv.start).all() and np.isfinite(mv.end).all():
+                inner = (1 - f)[:, None] * np.asarray(mv.start)[None] + f[:, None] * np.asarray(mv.end)[None]
+                rows.append(machine.machine_joints(inner, gauges.get(mv.tool, 0.0)))
+                lines.append(np.full(samples, mv.line))
+    J, at = np.concatenate(rows), np.concatenate(lines)
+    out = []
+    for i, n in enumerate(machine.axis_names):
+        ax, col = machine.axes[n], J[:, i]
+        known = np.isfinite(col)
+        over = np.where(known, np.maximum(ax.min - col, col - ax.max), -np.inf)
+        k = int(np.argmax(over)) if len(col) else 0
+        if len(col) and over[k] > 1e-9:
+            out.append({"axis": n, "value": float(col[k]), "min": ax.min, "max": ax.max, "line": int(at[k])})
+    return out
+
+
 def check_links(read, machine, tools, rotor, step=1.0, spacing=1.5):
     """Intrusion of every non-cutting move into the stock, the shafts or the holders."""
     worst, bad, checked, unchecked = 0.0, [], 0, 0
@@ -342,7 +368,8 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
                           "plan_max_overcut_mm": ref["max_overcut"], "plan_gouge_points": len(ref["gouge_points"]),
                           "lobes": [x for x in lobes_out if x is not None]})
     diffs = [lo["max_deviation_difference_mm"] for pl in plans_out for lo in pl["lobes"]]
-    times = cycle_time(read, machine, {n: s.h_range()[1] - s.h_range()[0] for n, s in tools.items()})
+    gauges = {n: s.h_range()[1] - s.h_range()[0] for n, s in tools.items()}
+    times = cycle_time(read, machine, gauges)
     times.pop("block_minutes")
     res = {
         "schema": "flank-program-check/1", "post": post.name, "machine": machine.name,
@@ -372,6 +399,7 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
         "links": check_links(read, machine, tools, rotor),
         "spindle": spindle_check(read, machine),
         "length_compensation": length_check(read),
+        "axis_limits": axis_limit_check(read, machine, gauges),
         "holders": [{"z_range": [a, b], "radius": r} for a, b, r in rotor.holders],
         **times,
     }
@@ -386,7 +414,7 @@ def program_findings(res):
     that leave the rotor's screw motion, strips never cut or cut twice, more gouge points on a lobe than the plan itself has, passes that start or end
     inside the body or enter a shaft or a holder, links that enter the stock, a shaft or a holder, feed moves
     without the spindle turning clockwise within its speeds, moves without their tool's length compensation,
-    points that one side covers and the other does not."""
+    axes beyond the machine's limits, points that one side covers and the other does not."""
     out = []
     if not res["program_end_line"]:
         out.append("the program has no end (M2 / M30, END PGM): was it cut short?")
@@ -444,6 +472,9 @@ def program_findings(res):
         if sp["over_top_speed"]:
             out.append(f"{len(sp['over_top_speed'])} feed move(s) at S{sp['max_rpm']:g}, over the machine's top "
                        f"spindle speed {sp['machine_max_rpm']:g} /min (lines {at(sp['over_top_speed'])})")
+    for v in res.get("axis_limits", []):
+        out.append(f"axis {v['axis']} reaches {v['value']:.6g} at line {v['line']}, outside its limits "
+                   f"{v['min']:g}..{v['max']:g} on machine {res['machine']}: the controller stops there")
     lc = res.get("length_compensation")
     if lc is not None and lc["without"]:
         out.append(f"{len(lc['without'])} move(s) without tool length compensation (lines {at(lc['without'])}): "

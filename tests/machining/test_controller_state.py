@@ -190,7 +190,7 @@ def test_as_posted_every_cut_has_its_spindle_and_length_compensation(request, ma
     sp = res["spindle"]
     assert not (sp["stopped"] or sp["counter_clockwise"] or sp["no_speed"] or sp["over_top_speed"])
     assert sp["min_rpm"] == sp["max_rpm"] == pytest.approx(op.tools[0].rpm, abs=0.5)
-    assert res["findings"] == []
+    assert res["axis_limits"] == [] and res["findings"] == []
 
 
 def test_linuxcnc_length_compensation_and_tool_are_the_interpreters(posted, rs274, tmp_path):
@@ -228,3 +228,35 @@ def test_linuxcnc_length_compensation_and_tool_are_the_interpreters(posted, rs27
     assert lc["first_other"] == [2, 1] and "H2 with T1" in msgs[0]
     for name in ("bare", "preselect"):
         assert found[name] == ({"without": [], "other_tool": [], "first_other": None}, []), name
+
+
+@pytest.mark.parametrize("machine_name, post_name", [("rotor-xa-b", "linuxcnc"), ("xyzac-trt-tcp", "fanuc"),
+                                                     ("xyzac-trt", "heidenhain")])
+def test_an_axis_beyond_its_limit_is_found_where_the_move_ends(request, machine_name, post_name):
+    """One rapid's Z written beyond the machine's upper limit: the read-back names the axis, the value the
+    controller would be asked for (the joint: on the TCP machine the program's Z is the tip's, and the joint is
+    the forward kinematics' control point) and the line; the program as posted stays inside."""
+    plan = request.getfixturevalue("single_flank_plan")
+    rb = rotor_body(plan)
+    op = build_operation([plan], rb, lobes=[0])
+    machine = load_machine(machine_name)
+    post = get_post(post_name)
+    lines = post.write(build_program(op, machine)).splitlines()
+    zmax = machine.axes["Z"].max
+    k = next(i for i, ln in enumerate(lines) if re.search(r"(G0*0|FMAX)", ln) and re.search(r"Z[+-]?\d", ln))
+    for beyond in (100.0, 300.0, 1000.0):           # with TCP the joint is not the program's Z: push until it is out
+        lines[k] = re.sub(r"Z([+-]?)[\d.]+", f"Z{'+' if post_name == 'heidenhain' else ''}{zmax + beyond:.4f}",
+                          lines[k])
+        text = "\n".join(lines) + "\n"
+        read = post.read(text, machine)
+        (mv,) = [m for m in read.moves if m.line == k + 1]
+        joint_z = machine.machine_joints(mv.end[None], op.tools[0].gauge_length)[0, 2]
+        if joint_z > zmax:
+            break
+    assert joint_z > zmax
+    res = verify_program(text, post, machine, [plan], rb)
+    (v,) = [x for x in res["axis_limits"] if x["axis"] == "Z"]
+    assert v["line"] == k + 1 and v["value"] == pytest.approx(joint_z, abs=1e-9)
+    assert v["min"] == machine.axes["Z"].min and v["max"] == zmax
+    assert (f"axis Z reaches {joint_z:.6g} at line {k + 1}, outside its limits {machine.axes['Z'].min:g}..{zmax:g} "
+            f"on machine {machine.name}: the controller stops there") in res["findings"]
