@@ -408,13 +408,19 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
     return res
 
 
+def _some(lines):
+    """Up to ten line numbers of a finding, '...' for more."""
+    return ", ".join(map(str, lines[:10])) + (", ..." if len(lines) > 10 else "")
+
+
 def program_findings(res):
     """What makes the program differ from its plans or cut where it must not, one sentence each (empty: the
     program does what the plans say): a text without the program's end, passes that match no strip, passes
-    that leave the rotor's screw motion, strips never cut or cut twice, more gouge points on a lobe than the plan itself has, passes that start or end
-    inside the body or enter a shaft or a holder, links that enter the stock, a shaft or a holder, feed moves
-    without the spindle turning clockwise within its speeds, moves without their tool's length compensation,
-    axes beyond the machine's limits, points that one side covers and the other does not."""
+    that leave the rotor's screw motion, strips never cut or cut twice, more gouge points on a lobe than the
+    plan itself has, passes that start or end inside the body or enter a shaft or a holder, links that enter
+    the stock, a shaft or a holder, feed moves without the spindle turning clockwise within its speeds, axes
+    beyond the machine's limits, moves without their tool's length compensation, points that one side covers
+    and the other does not."""
     out = []
     if not res["program_end_line"]:
         out.append("the program has no end (M2 / M30, END PGM): was it cut short?")
@@ -428,9 +434,9 @@ def program_findings(res):
                        "the same --outer-radius-mm?")
     off = res.get("passes_off_screw", [])
     if off:
-        lines = ", ".join(str(o["line"]) for o in off[:10]) + (", ..." if len(off) > 10 else "")
         out.append(f"{len(off)} pass(es) leave the rotor's screw motion by up to "
-                   f"{max(o['screw_error_mm'] for o in off):.3g} mm (lines {lines}): not the plan's pitch or "
+                   f"{max(o['screw_error_mm'] for o in off):.3g} mm (lines {_some([o['line'] for o in off])}): "
+                   f"not the plan's pitch or "
                    f"rotary angles; the deviation figures sweep each pass along the screw through its first pose "
                    f"and do not show it")
     if res["missing_strips"]:
@@ -455,34 +461,31 @@ def program_findings(res):
     if into:
         out.append(f"passes at lines {into[:10]} enter {keep_out} by up to "
                    f"{-res['run_out']['min_keep_out_margin_mm']:.3g} mm")
-    def at(lines):
-        return ", ".join(map(str, lines[:10])) + (", ..." if len(lines) > 10 else "")
-
     sp = res.get("spindle")
     if sp is not None:
         if sp["stopped"]:
-            out.append(f"{len(sp['stopped'])} feed move(s) with the spindle stopped (lines {at(sp['stopped'])}): "
+            out.append(f"{len(sp['stopped'])} feed move(s) with the spindle stopped (lines {_some(sp['stopped'])}): "
                        "M5, or no M3 after a tool change")
         if sp["counter_clockwise"]:
             out.append(f"{len(sp['counter_clockwise'])} feed move(s) with the spindle turning counter-clockwise "
-                       f"(M4; lines {at(sp['counter_clockwise'])}): the tools cut right-hand, turned by M3")
+                       f"(M4; lines {_some(sp['counter_clockwise'])}): the tools cut right-hand, turned by M3")
         if sp["no_speed"]:
             out.append(f"{len(sp['no_speed'])} feed move(s) without a spindle speed (S0 or none; lines "
-                       f"{at(sp['no_speed'])})")
+                       f"{_some(sp['no_speed'])})")
         if sp["over_top_speed"]:
             out.append(f"{len(sp['over_top_speed'])} feed move(s) at S{sp['max_rpm']:g}, over the machine's top "
-                       f"spindle speed {sp['machine_max_rpm']:g} /min (lines {at(sp['over_top_speed'])})")
+                       f"spindle speed {sp['machine_max_rpm']:g} /min (lines {_some(sp['over_top_speed'])})")
     for v in res.get("axis_limits", []):
         out.append(f"axis {v['axis']} reaches {v['value']:.6g} at line {v['line']}, outside its limits "
                    f"{v['min']:g}..{v['max']:g} on machine {res['machine']}: the controller stops there")
     lc = res.get("length_compensation")
     if lc is not None and lc["without"]:
-        out.append(f"{len(lc['without'])} move(s) without tool length compensation (lines {at(lc['without'])}): "
+        out.append(f"{len(lc['without'])} move(s) without tool length compensation (lines {_some(lc['without'])}): "
                    "no G43 H<tool> active, so the tool tip is off by the tool's length")
     if lc is not None and lc["other_tool"]:
         h, t = lc["first_other"]
         out.append(f"{len(lc['other_tool'])} move(s) with another tool's length compensation (lines "
-                   f"{at(lc['other_tool'])}; H{h} with T{t}): the tool tip is off by the difference of their "
+                   f"{_some(lc['other_tool'])}; H{h} with T{t}): the tool tip is off by the difference of their "
                    "lengths")
     if res["links"]["max_intrusion_mm"] > 0:
         out.append(f"{len(res['links']['intrusions'])} link move(s) enter {stock_or}, deepest "
