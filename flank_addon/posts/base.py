@@ -6,8 +6,8 @@ of a block describes the block the controller really runs.  Axis words are modal
 that change (all of them after a tool change).
 
 Reader: a :class:`ReadProgram` of :class:`Move` s with full program rows at both ends, the feed mode and value
-as written, the active tool, spindle speed, spindle rotation, length compensation and TCP state, and the last
-comment before the move.
+as written, the active tool, spindle speed, spindle rotation, length compensation, work offset and TCP state,
+and the last comment before the move.
 Anything the reader does not know is refused with the line number (:class:`PostError`).
 """
 import math
@@ -37,6 +37,7 @@ class Move:
     comment: str = ""
     spindle: str = ""         # "cw" (M3), "ccw" (M4) or "off" during the move, as the reader follows it; "": not read
     length_comp: int = None   # the tool whose length compensation is active (G43 H<n>; TOOL CALL), None: none
+    work_offset: str = ""     # the active work offset (G54 ... G59.3); "" where the dialect has none in its words
 
 
 @dataclass

@@ -2,7 +2,8 @@
 
 The reader follows the modal state a controller keeps (motion G0/G1, feed mode G93/G94, axis values, F, the
 selected tool T and the tool in the spindle, spindle speed, spindle rotation M3/M4/M5, tool length compensation
-G43 [H<n>] ... G49, TCP G43.4/G43.5 ... G49) and turns every block that moves into a :class:`base.Move`.
+G43 [H<n>] ... G49, work offset G54 ... G59.3, TCP G43.4/G43.5 ... G49) and turns every block that moves into a
+:class:`base.Move`.
 Within a block it keeps rs274ngc's order of execution: the tool change (M6 puts the selected tool in the
 spindle, stops the spindle and leaves the length compensation as it was), then the spindle words, then the
 length compensation (G43 without H: the tool in the spindle), then the motion; the program's end (M2, M30)
@@ -16,7 +17,8 @@ import numpy as np
 from .base import Move, Post, PostError, ReadProgram, fixed
 
 WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
-IGNORED_G = {"17", "21", "40", "54", "55", "56", "57", "58", "59", "61", "61.1", "64", "80", "90"}
+IGNORED_G = {"17", "21", "40", "61", "61.1", "64", "80", "90"}
+WORK_OFFSETS = {"54", "55", "56", "57", "58", "59", "59.1", "59.2", "59.3"}
 IGNORED_M = {"0", "1", "2", "8", "9", "30"}
 
 
@@ -37,6 +39,7 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
     row = np.full(len(names), np.nan)
     # ``tool``: the latest T word (selected); ``loaded``: the tool in the spindle, changed in by M6
     motion, mode, F, tool, loaded, rpm, spindle, comp = None, "per_minute", None, 0, 0, 0.0, "off", None
+    work = "G54"                    # the controllers' power-on work offset
     tcp = machine.tcp and not tcp_codes
     comment = ""
     started = False
@@ -80,6 +83,8 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
                     tcp, length = True, "on"
                 elif g == "43":
                     length = "on"
+                elif g in WORK_OFFSETS:
+                    work = "G" + g
                 elif g == "49":
                     tcp, length = (False if tcp_codes else tcp), "off"
                 elif g not in IGNORED_G:
@@ -140,7 +145,7 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
                     raise PostError(f"line {no}: G1 without a feed (F)")
             out.moves.append(Move("rapid" if motion == 0 else "feed", row.copy(), new.copy(),
                                   "" if motion == 0 else mode, 0.0 if motion == 0 else F, no, loaded, rpm, tcp, comment,
-                                  spindle, comp))
+                                  spindle, comp, work))
             row = new
     return out
 

@@ -33,7 +33,8 @@
    feed move must cut with it turning clockwise (M3, as the posts turn the tools, which cut right-hand) at a
    speed above 0 and within the machine's top speed (:func:`spindle_check`); every move of a tool that moves a
    linear axis, with the length compensation of that tool (G43 H<n>; a Klartext TOOL CALL gives it)
-   (:func:`length_check`); every move within the machine's axis limits (:func:`axis_limit_check`: the block
+   (:func:`length_check`); one work offset throughout (:func:`work_offset_check`); every move within the
+   machine's axis limits (:func:`axis_limit_check`: the block
    ends, and with TCP points between them, where the joints are not linear in the program's values).
 8. ``findings``: every way the program differs from its plans or cuts where it must not
    (:func:`program_findings`); the command exits with status 1 when there is any.
@@ -276,6 +277,18 @@ def length_check(read):
             "first_other": [other[0].length_comp, other[0].tool] if other else None}
 
 
+def work_offset_check(read):
+    """Where the program's zero changes: the work offsets its moves are made in, in order, and the line of each
+    change (a program posted for one offset, G54 at the rotor-frame origin, never changes it)."""
+    offsets, changes = [], []
+    for mv in read.moves:
+        if mv.work_offset and (not offsets or offsets[-1] != mv.work_offset):
+            if offsets:
+                changes.append(mv.line)
+            offsets.append(mv.work_offset)
+    return {"offsets": offsets, "changes_at": changes}
+
+
 def axis_limit_check(read, machine, gauges, samples=8):
     """Where the program takes an axis beyond the machine's limits: per axis its farthest value out and the
     line, [] when every move stays inside.  Joint values at the block ends (as the machine stands, known or
@@ -400,6 +413,7 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
         "spindle": spindle_check(read, machine),
         "length_compensation": length_check(read),
         "axis_limits": axis_limit_check(read, machine, gauges),
+        "work_offsets": work_offset_check(read),
         "holders": [{"z_range": [a, b], "radius": r} for a, b, r in rotor.holders],
         **times,
     }
@@ -419,8 +433,8 @@ def program_findings(res):
     that leave the rotor's screw motion, strips never cut or cut twice, more gouge points on a lobe than the
     plan itself has, passes that start or end inside the body or enter a shaft or a holder, links that enter
     the stock, a shaft or a holder, feed moves without the spindle turning clockwise within its speeds, axes
-    beyond the machine's limits, moves without their tool's length compensation, points that one side covers
-    and the other does not."""
+    beyond the machine's limits, moves without their tool's length compensation, a change of work offset,
+    points that one side covers and the other does not."""
     out = []
     if not res["program_end_line"]:
         out.append("the program has no end (M2 / M30, END PGM): was it cut short?")
@@ -478,6 +492,10 @@ def program_findings(res):
     for v in res.get("axis_limits", []):
         out.append(f"axis {v['axis']} reaches {v['value']:.6g} at line {v['line']}, outside its limits "
                    f"{v['min']:g}..{v['max']:g} on machine {res['machine']}: the controller stops there")
+    wo = res.get("work_offsets")
+    if wo is not None and wo["changes_at"]:
+        out.append(f"the work offset changes {len(wo['changes_at'])} time(s) (lines {_some(wo['changes_at'])}; "
+                   f"{' -> '.join(wo['offsets'][:6])}): the program's zero moves under the part")
     lc = res.get("length_compensation")
     if lc is not None and lc["without"]:
         out.append(f"{len(lc['without'])} move(s) without tool length compensation (lines {_some(lc['without'])}): "

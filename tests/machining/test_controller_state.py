@@ -190,6 +190,7 @@ def test_as_posted_every_cut_has_its_spindle_and_length_compensation(request, ma
     sp = res["spindle"]
     assert not (sp["stopped"] or sp["counter_clockwise"] or sp["no_speed"] or sp["over_top_speed"])
     assert sp["min_rpm"] == sp["max_rpm"] == pytest.approx(op.tools[0].rpm, abs=0.5)
+    assert res["work_offsets"] == {"offsets": [] if post_name == "heidenhain" else ["G54"], "changes_at": []}
     assert res["axis_limits"] == [] and res["findings"] == []
 
 
@@ -260,3 +261,29 @@ def test_an_axis_beyond_its_limit_is_found_where_the_move_ends(request, machine_
     assert v["min"] == machine.axes["Z"].min and v["max"] == zmax
     assert (f"axis Z reaches {joint_z:.6g} at line {k + 1}, outside its limits {machine.axes['Z'].min:g}..{zmax:g} "
             f"on machine {machine.name}: the controller stops there") in res["findings"]
+
+
+def test_a_change_of_work_offset_is_found_as_linuxcnc_reads_it(posted, rs274, tmp_path):
+    """G55 before pass 3 and G54 again before pass 5: the reader's work offset at every move is LinuxCNC's, and
+    the two changes are a finding with the lines of the first moves made in the new offset."""
+    plan, rb, machine, prog = posted
+    post = get_post("linuxcnc")
+    text = "\n".join(_before_passes(post.write(prog).splitlines(), "(PASS ", {3: "G55", 5: "G54"})) + "\n"
+    path = tmp_path / "g55.ngc"
+    path.write_text(text)
+    import subprocess
+
+    canon = subprocess.run([rs274, "-g", str(path)], capture_output=True, text=True, timeout=120).stdout
+    names = {1: "G54", 2: "G55", 3: "G56", 4: "G57", 5: "G58", 6: "G59", 7: "G59.1", 8: "G59.2", 9: "G59.3"}
+    active, theirs = "G54", []
+    for kind, args in re.findall(r"(SET_G5X_OFFSET|STRAIGHT_FEED|STRAIGHT_TRAVERSE)\(([^)]*)\)", canon):
+        if kind == "SET_G5X_OFFSET":
+            active = names[int(args.split(",")[0])]
+        else:
+            theirs.append(active)
+    read = post.read(text, machine)
+    assert [mv.work_offset for mv in read.moves] == theirs
+    wo = verify_program(text, post, machine, [plan], rb)["work_offsets"]
+    firsts = [mv.line for a, mv in zip([None] + read.moves, read.moves) if a is not None
+              and a.work_offset != mv.work_offset]
+    assert wo == {"offsets": ["G54", "G55", "G54"], "changes_at": firsts} and len(firsts) == 2
