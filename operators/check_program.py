@@ -6,7 +6,9 @@ swept again, its links and passes checked against the stock, shafts and holders,
 program posted elsewhere, or edited by hand after Post Program wrote it.
 
 What the check finds is stored on the run (``flank_check_*``) and shown in the Machine panel; a program that
-does not do what the plan says gives a warning naming the findings.  Nothing in the scene changes.  Refused
+does not do what the plan says gives a warning naming the findings.  The program's tool tip path relative to
+the rotor is drawn as ``<run>: Checked Program`` (``program_scene``: the posted program's path, in another
+colour), replacing the one of the check before; nothing else in the scene changes.  Refused
 before any work, by name: no run, a free-form run, a plan without the rotor's extent, no such file, an unknown
 machine or post, a file whose extension names another post than the one chosen, bad lobes or holders.  Under
 ``bpy.app.background`` (and from scripts) it runs synchronously; from the UI the check runs off the UI thread
@@ -16,10 +18,13 @@ import os
 import time
 
 import bpy
+import numpy as np
 
+from .common import remove_objects
 from .modal import ModalPlannerMixin
 from .post_program import machine_and_post, mm_per_unit, plan_mm
-from .program import holders_of, parse_lobes
+from .program import holders_of, move_rows, parse_lobes, program_path
+from .program_scene import COLOR_CHECKED, ProgramBuild, checked_objects
 from .properties import check_program_props
 from .runs import PlanNeeded, run_plan
 
@@ -118,14 +123,14 @@ class FLANK_OT_check_program(ModalPlannerMixin, bpy.types.Operator):
             self.report({'ERROR'}, "Check program: " + k)
             return None
         (coll, plan), (machine, post) = found, mp
-        return dict(t0=time.perf_counter(), coll=coll.name, plan=plan, k=k, machine=machine, post=post,
-                    lobes=lobes, holders=holders, filepath=path)
+        return dict(t0=time.perf_counter(), coll=coll.name, plan=plan, to_world=plan["rotor"]["to_world"], k=k,
+                    machine=machine, post=post, lobes=lobes, holders=holders, filepath=path)
 
     # ------------------------------------------------------------------ worker thread
     @staticmethod
     def _compute(job, progress):
         from ..flank_addon.machining.rotor_body import rotor_body, with_holders
-        from ..flank_addon.posts.readback import verify_program
+        from ..flank_addon.posts.readback import tool_table, verify_program
 
         try:
             with open(job["filepath"], encoding="ascii", errors="replace") as fh:     # as the command line reads it
@@ -134,16 +139,32 @@ class FLANK_OT_check_program(ModalPlannerMixin, bpy.types.Operator):
             raise ValueError("cannot read '{}': {}".format(job["filepath"], ex.strerror or ex)) from None
         plan = plan_mm(job["coll"], job["plan"], job["k"])
         rotor = with_holders(rotor_body(plan), job["holders"])
-        return verify_program(text, job["post"], job["machine"], [plan], rotor, lobes=job["lobes"],
-                              progress=progress)
+        res = verify_program(text, job["post"], job["machine"], [plan], rotor, lobes=job["lobes"], progress=progress)
+        # the path as the read-back reads the program: the same reader, the plan's tools and their gauge lengths
+        machine, read = job["machine"], job["post"].read(text, job["machine"])
+        gauges = {n: s.h_range()[1] - s.h_range()[0] for n, s in tool_table([plan])[0].items()}
+        return dict(res=res, path=program_path(read, machine, gauges, move_rows(read, machine, gauges)))
 
     # ------------------------------------------------------------------ main thread: results
-    def _build(self, context, job, res):
+    def _build(self, context, job, out):
         coll = bpy.data.collections.get(job["coll"])
         if coll is None:
             self.report({'ERROR'}, "Check program: the run '{}' was removed meanwhile".format(job["coll"]))
             return {'CANCELLED'}
-        for key in [k for k in coll.keys() if k.startswith(CHECK_PREFIX)]:
+        res, k = out["res"], job["k"]
+        build = ProgramBuild(coll, coll.name)
+        if len(out["path"]["edges"]):                 # a program without a move has no path to draw
+            try:
+                build.path(out["path"], np.asarray(job["to_world"], float) @ np.diag([1.0 / k, 1.0 / k, 1.0 / k, 1.0]),
+                           label="Checked Program", role="checked", color=COLOR_CHECKED)
+            except Exception as ex:                   # Blender data: nothing stays
+                build.discard()
+                self.report({'ERROR'}, "Check program: {}: {}".format(type(ex).__name__, ex))
+                return {'CANCELLED'}
+        remove_objects([ob for ob in checked_objects(coll) if ob not in build.objects])
+        for ob in build.objects:                      # the name the one before had, now free
+            ob.name = ob.data.name = "{}: Checked Program".format(coll.name)
+        for key in [name for name in coll.keys() if name.startswith(CHECK_PREFIX)]:
             del coll[key]
         props = dict(file=job["filepath"], post=job["post"].name, machine=job["machine"].name,
                      holders=json.dumps(job["holders"]), findings=json.dumps(list(res["findings"])),

@@ -11,6 +11,8 @@ Objects (in the run's collection):
   by 1 / k (k = mm per plan length unit);
 - ``<run>: Holders`` (role ``holders``) when the program was posted with holders: their cylinders, placed as
   the path (they are round about the rotor axis, so they stand still while the rotor copy turns);
+- ``<run>: Checked Program`` (role ``checked``): the path of the program file the latest Check Program File read
+  back, placed as the posted one (flank.check_program; posting again leaves it);
 - with the animation (the run's animation, like flank.animate_strip's: replacing it, hiding the rotor and the
   path while it exists, removed with flank.animate_strip's next run or the run): the rotor frame (an empty), the
   spin (an empty keyed by psi about the rotor axis), a linked copy of the rotor and of the path riding on the
@@ -28,6 +30,7 @@ PROG_ROLE = PROG_PREFIX + "role"     # "path" on the program's path object
 MOTION_ATTR = "motion"               # INT edge attribute: 1 cutting, 0 rapid / link
 PASS_ATTR = "pass"                   # INT edge attribute: pass number (1..) of a cutting edge, 0 on links
 COLOR_PATH = (0.85, 0.35, 0.10, 1.0)
+COLOR_CHECKED = (0.15, 0.45, 0.85, 1.0)
 COLOR_TOOL = (0.90, 0.72, 0.20, 1.0)
 COLOR_HOLDER = (0.45, 0.47, 0.50, 1.0)
 TOOL_SEGMENTS = 32
@@ -115,13 +118,14 @@ class ProgramBuild:
                 ob[ANIM_HID] = hidden
 
     # ------------------------------------------------------------------ the path
-    def path(self, path, matrix):
-        """The path object (edges, motion and pass attributes) at ``matrix`` (rotor frame mm -> world)."""
+    def path(self, path, matrix, label="Program", role="path", color=COLOR_PATH):
+        """The path object (edges, motion and pass attributes) at ``matrix`` (rotor frame mm -> world), named
+        ``<run>: <label>`` with ``role``."""
         pts = np.ascontiguousarray(path["points"], dtype=np.float32)
         edges = np.ascontiguousarray(path["edges"], dtype=np.int32)
         if not len(edges):
             raise ValueError("the program has no moves to draw")
-        me = bpy.data.meshes.new(self.name + ": Program")
+        me = bpy.data.meshes.new("{}: {}".format(self.name, label))
         self.meshes.append(me)
         me.vertices.add(len(pts))
         me.vertices.foreach_set("co", pts.ravel())
@@ -130,10 +134,10 @@ class ProgramBuild:
         me.update()
         set_int_attr(me, MOTION_ATTR, path["motion"], domain='EDGE')
         set_int_attr(me, PASS_ATTR, path["passes"], domain='EDGE')
-        ob = self.add(self.name + ": Program", me)
+        ob = self.add(me.name, me)
         ob.matrix_world = Matrix(np.asarray(matrix, float).tolist())
-        ob.color = COLOR_PATH
-        ob[PROG_ROLE] = "path"
+        ob.color = color
+        ob[PROG_ROLE] = role
         return ob
 
     # ------------------------------------------------------------------ the holders
@@ -204,8 +208,14 @@ class ProgramBuild:
 
 
 def program_objects(coll):
-    """The program objects of a run (its path and holders), not its animation."""
-    return [ob for ob in coll.objects if ob.get(PROG_ROLE) is not None]
+    """The posted program's objects of a run (its path and holders), not its animation nor a checked program's
+    path."""
+    return [ob for ob in coll.objects if ob.get(PROG_ROLE) is not None and ob.get(PROG_ROLE) != "checked"]
+
+
+def checked_objects(coll):
+    """The path of the program file the latest Check Program File read back (at most one)."""
+    return [ob for ob in coll.objects if ob.get(PROG_ROLE) == "checked"]
 
 
 def store_program(coll, props):

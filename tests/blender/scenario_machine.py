@@ -180,13 +180,18 @@ def _errors(bpy, tmp, coll_name, good):
 
 
 def _check(bpy, coll, **kw):
-    """(result, error, new data-blocks, the run's check properties) of flank.check_program(**kw)."""
+    """(result, error, new data-blocks, the run's check properties, the checked program's path and the posted
+    program's path objects) of flank.check_program(**kw)."""
     before = _blocks(bpy)
     t0 = time.perf_counter()
     ret, err = driver._run_op(bpy.ops.flank.check_program, **kw)
     after = _blocks(bpy)
+    import numpy as np
+
     return dict(result=ret, error=err, seconds=time.perf_counter() - t0, new={k: after[k] - before[k] for k in before},
-                props={k: v for k, v in driver._obj_props(coll).items() if k.startswith("flank_check_")})
+                props={k: v for k, v in driver._obj_props(coll).items() if k.startswith("flank_check_")},
+                checked=[_path_facts(np, ob) for ob in coll.objects if ob.get("flank_prog_role") == "checked"],
+                posted_paths=sorted(ob.name for ob in coll.objects if ob.get("flank_prog_role") == "path"))
 
 
 def _checks(bpy, tmp, coll, settings, prog_path):

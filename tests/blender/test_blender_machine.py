@@ -352,7 +352,9 @@ def test_check_program_file_says_what_verify_program_says(mc):
     assert code == 0 and js["findings"] == []
     for key in ("as_posted", "by_extension"):            # the post chosen, or told by the file's extension
         r = c[key]
-        assert r["result"] == ["FINISHED"] and r["error"] is None and r["new"] == NOTHING, r
+        # the first check adds its path, the next one replaces it
+        added = dict(NOTHING, objects=1, meshes=1) if key == "as_posted" else NOTHING
+        assert r["result"] == ["FINISHED"] and r["error"] is None and r["new"] == added, r
         p = r["props"]
         assert json.loads(p["flank_check_findings"]) == []
         assert p["flank_check_post"] == "linuxcnc" and p["flank_check_machine"] == "rotor-xa-b"
@@ -373,6 +375,27 @@ def test_check_program_file_says_what_verify_program_says(mc):
             js["total_time_s"], js["untimed_moves"]),
         "As planned (machined deviation within {:.2g} mm of the plan's)".format(p["flank_check_deviation_mm"])]
     print("checked {} moves in {:.2f} s".format(js["moves"], c["as_posted"]["seconds"]))
+
+
+def test_the_checked_program_is_drawn_beside_the_posted_one(mc):
+    """Check Program File draws the file's tool path as '<run>: Checked Program': for the program Post Program
+    wrote, the posted path's edges, chains and placement; each check replaces it, a refused one leaves it, and
+    the posted program's path stays."""
+    c = mc["checks"]
+    posted = mc["post"]["path"]
+    (checked,) = c["as_posted"]["checked"]
+    run = posted["name"].rsplit(": Program", 1)[0]
+    assert checked["name"] == run + ": Checked Program" and not checked["hidden"]
+    for key in ("edges", "vertices", "cutting_edges", "rapid_edges", "cutting_chains", "pass_values",
+                "rapid_pass_values", "attr_domains", "matrix"):
+        assert checked[key] == posted[key], key
+    assert checked["max_radius"] == pytest.approx(posted["max_radius"], rel=1e-6)
+    for key in ("by_extension", "edited", "chuck"):
+        assert [p["name"] for p in c[key]["checked"]] == [checked["name"]], key
+        assert c[key]["posted_paths"] == c["as_posted"]["posted_paths"] and len(c[key]["posted_paths"]) == 1
+    assert c["edited"]["checked"][0]["cutting_chains"] == checked["cutting_chains"]
+    for case, r in c["refused"].items():
+        assert r["checked"] == c["chuck"]["checked"], case
 
 
 def test_check_program_file_finds_a_hand_edit_and_a_chuck_in_the_way(mc):
