@@ -450,9 +450,8 @@ def program_findings(res):
     if off:
         out.append(f"{len(off)} pass(es) leave the rotor's screw motion by up to "
                    f"{max(o['screw_error_mm'] for o in off):.3g} mm (lines {_some([o['line'] for o in off])}): "
-                   f"not the plan's pitch or "
-                   f"rotary angles; the deviation figures sweep each pass along the screw through its first pose "
-                   f"and do not show it")
+                   "not the plan's pitch or rotary angles; the deviation figures sweep each pass along the screw "
+                   "through its first pose and do not show it")
     if res["missing_strips"]:
         out.append(f"{len(res['missing_strips'])} strip(s) never cut, as [plan, strip, lobe]: "
                    f"{res['missing_strips'][:10]}")

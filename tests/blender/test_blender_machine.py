@@ -263,13 +263,18 @@ ERRORS = {
 }
 
 
+def assert_refused(e, title, message):
+    """An operator call refused with the message it owes, no traceback, nothing new in bpy.data."""
+    assert e["result"] is None and e["error"].startswith("Error: {}: ".format(title)), e
+    assert message in e["error"], e["error"]
+    assert "Traceback" not in e["error"] and e["new"] == NOTHING
+
+
 @pytest.mark.parametrize("case", sorted(ERRORS))
 def test_refusals_name_the_problem_and_leave_nothing(mc, case):
     e = mc["errors"][case]
-    assert e["result"] is None and e["error"].startswith("Error: Post program: "), e
-    assert ERRORS[case] in e["error"], e["error"]
-    assert "Traceback" not in e["error"]
-    assert e["new"] == NOTHING and not e["file"] and e["temp_files"] == []
+    assert_refused(e, "Post program", ERRORS[case])
+    assert not e["file"] and e["temp_files"] == []
     assert e["seconds"] < 5.0
     assert mc["program_unchanged"]
 
@@ -434,7 +439,5 @@ CHECK_ERRORS = {
 @pytest.mark.parametrize("case", sorted(CHECK_ERRORS))
 def test_check_program_refusals_name_the_problem_and_keep_the_last_check(mc, case):
     e = mc["checks"]["refused"][case]
-    assert e["result"] is None and e["error"].startswith("Error: Check program: "), e
-    assert CHECK_ERRORS[case] in e["error"], e["error"]
-    assert "Traceback" not in e["error"] and e["new"] == NOTHING
+    assert_refused(e, "Check program", CHECK_ERRORS[case])
     assert e["props"] == mc["checks"]["chuck"]["props"]          # the run's last check stays as it was
