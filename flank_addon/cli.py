@@ -874,11 +874,12 @@ def _cmd_verify_program(args):
               f"passes {some([u['line'] for u in res['unmatched_passes']])}")
     sp = res["spindle"]
     if sp["max_rpm"] is not None:
-        bad = sum(len(sp[k]) for k in ("stopped", "counter_clockwise"))
+        bad = len({ln for k in ("stopped", "counter_clockwise", "no_speed", "over_top_speed") for ln in sp[k]})
         speeds = f"S{sp['min_rpm']:g}" + ("" if sp["min_rpm"] == sp["max_rpm"] else f"..S{sp['max_rpm']:g}")
         lc = res["length_compensation"]
         print(f"  spindle on the cuts: {speeds} (machine top {sp['machine_max_rpm']:g}), "
-              + ("clockwise on every one" if not bad else f"{bad} not turning clockwise")
+              + ("clockwise within its speeds on every one" if not bad else f"{bad} not turning clockwise within "
+                                                                             "its speeds")
               + "; tool length compensation " + ("of its tool on every move" if not (lc["without"] or lc["other_tool"])
                                                  else f"missing on {len(lc['without'])} move(s), another tool's on "
                                                       f"{len(lc['other_tool'])}"))

@@ -131,6 +131,7 @@ class FLANK_OT_check_program(ModalPlannerMixin, bpy.types.Operator):
     def _compute(job, progress):
         from ..flank_addon.machining.rotor_body import rotor_body, with_holders
         from ..flank_addon.posts.readback import tool_table, verify_program
+        from ..flank_addon.progress import reporter, substage
 
         try:
             with open(job["filepath"], encoding="ascii", errors="replace") as fh:     # as the command line reads it
@@ -139,7 +140,10 @@ class FLANK_OT_check_program(ModalPlannerMixin, bpy.types.Operator):
             raise ValueError("cannot read '{}': {}".format(job["filepath"], ex.strerror or ex)) from None
         plan = plan_mm(job["coll"], job["plan"], job["k"])
         rotor = with_holders(rotor_body(plan), job["holders"])
-        res = verify_program(text, job["post"], job["machine"], [plan], rotor, lobes=job["lobes"], progress=progress)
+        report = reporter(progress)
+        res = verify_program(text, job["post"], job["machine"], [plan], rotor, lobes=job["lobes"],
+                             progress=substage(report, 0.0, 0.95))
+        report(0.95, "the program's path")              # Esc stops here too
         # the path as the read-back reads the program: the same reader, the plan's tools and their gauge lengths
         machine, read = job["machine"], job["post"].read(text, job["machine"])
         gauges = {n: s.h_range()[1] - s.h_range()[0] for n, s in tool_table([plan])[0].items()}

@@ -1,6 +1,7 @@
 """Fanuc-style ISO post: writer and reader.
 
-Program: ``%``, ``O1000``; G21 G17 G40 G49 G80 G90 G94 G54; per tool ``T<n> M06``, ``S<rpm> M03``, ``M08``;
+Program: ``%``, ``O1000``; G21 G17 G40 G49 G80 G90 G94 G54; per tool ``T<n> M06`` (after ``G49`` from the second
+tool on), ``S<rpm> M03``, ``M08``;
 the first linear positioning block of a tool (after its rotary block, on a machine without TCP) carries the
 length compensation, ``G43 H<n>`` or, on a TCP machine,
 ``G43.4 H<n>`` (tool centre point control type 1: programmed X Y Z = tool tip in work coordinates, rotary
@@ -42,6 +43,8 @@ class FanucPost(GcodePost):
     def _tool(self, op, program):
         self._mode("per_minute")
         self._comment(op["text"])
+        if self.state.get("compensated"):  # the earlier tool's G43 / G43.4 off first: many controls refuse M06 under TCP
+            self.lines.append("G49")
         self.lines += [f"T{op['number']} M06", f"S{fixed(op['rpm'], 0)} M03", "M08"]
         self.state["comp"] = op["number"]
 
@@ -53,7 +56,7 @@ class FanucPost(GcodePost):
         comp = ""
         if self.state.get("comp") and any(n in "XYZ" for n, _, _ in words):    # with the first linear move
             comp = ("G43.4" if program.machine.tcp else "G43") + f" H{self.state['comp']} "
-            self.state["comp"] = None
+            self.state["comp"], self.state["compensated"] = None, True
         self.lines.append("G00 " + comp + self._axes(words))
 
     def _feed(self, words, F, program):

@@ -3,12 +3,11 @@
 The reader follows the modal state a controller keeps (motion G0/G1, feed mode G93/G94, axis values, F, the
 selected tool T and the tool in the spindle, spindle speed, spindle rotation M3/M4/M5, tool length compensation
 G43 [H<n>] ... G49, work offset G54 ... G59.3, TCP G43.4/G43.5 ... G49) and turns every block that moves into a
-:class:`base.Move`.
-Within a block it keeps rs274ngc's order of execution: the tool change (M6 puts the selected tool in the
-spindle, stops the spindle and leaves the length compensation as it was), then the spindle words, then the
-length compensation (G43 without H: the tool in the spindle), then the motion; the program's end (M2, M30)
-stops the spindle.  It knows the words the posts write and the usual preamble codes; anything else
-(incremental G91, inch G20, arcs, canned cycles, subprograms, expressions) is refused with its line number.
+:class:`base.Move`.  Within a block it keeps rs274ngc's order of execution: the tool change (M6 puts the
+selected tool in the spindle, stops the spindle and leaves the length compensation as it was), then the
+spindle words, then the length compensation, then the motion; the program's end (M2, M30) stops the spindle
+after the motion.  It knows the words the posts write and the usual preamble codes; anything else (incremental
+G91, inch G20, arcs, canned cycles, subprograms, expressions) is refused with its line number.
 """
 import re
 
@@ -32,13 +31,19 @@ def strip_comments(line, semicolon):
 
 
 def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
-    """:class:`ReadProgram` of ISO G-code ``text`` for ``machine`` (rows in its axis order).  With
-    ``tcp_codes`` G43.4 / G43.5 switch TCP on and G49 off (Fanuc); otherwise TCP is the machine's."""
+    """:class:`ReadProgram` of ISO G-code ``text`` for ``machine`` (rows in its axis order).
+
+    ``tcp_codes`` False, rs274ngc (LinuxCNC): TCP is the machine's; G43 takes the offset of tool H, of the tool
+    in the spindle without H or with H0; an H word needs a G43 in its block.  ``tcp_codes`` True, Fanuc: G43.4 /
+    G43.5 switch TCP on, G43 and G49 (the same modal group) off; H is modal, G43 without H takes the latest H
+    (H0: no offset), and an H word while G43 is on changes the offset."""
     names = machine.axis_names
     out = ReadProgram(axes=list(names))
     row = np.full(len(names), np.nan)
-    # ``tool``: the latest T word (selected); ``loaded``: the tool in the spindle, changed in by M6
-    motion, mode, F, tool, loaded, rpm, spindle, comp = None, "per_minute", None, 0, 0, 0.0, "off", None
+    # ``tool``: the latest T word (selected); ``loaded``: the tool in the spindle, changed in by M6 (a program
+    # without any M6 is taken to cut with the tool its T word names)
+    motion, mode, F, tool, loaded, rpm, spindle, comp = None, "per_minute", None, 0, None, 0.0, "off", None
+    h_modal, comp_on = 0, False     # Fanuc: the latest H word; whether G43 / G43.4 / G43.5 is on
     work = "G54"                    # the controllers' power-on work offset
     tcp = machine.tcp and not tcp_codes
     comment = ""
@@ -69,6 +74,7 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
             raise PostError(f"line {no}: cannot read {code[pos:]!r} in {raw.strip()!r}")
         new = row.copy()
         moved, f_here, tool_change, named, turn, length, h_word = False, None, False, [], None, None, None
+        end_stop = False                # M2 / M30: the spindle stops after the block's motion
         for letter, value in words:
             if letter == "G":
                 g = value.lstrip("0") or "0"
@@ -82,7 +88,7 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
                 elif g in ("43.4", "43.5") and tcp_codes:
                     tcp, length = True, "on"
                 elif g == "43":
-                    length = "on"
+                    tcp, length = (False if tcp_codes else tcp), "on"
                 elif g in WORK_OFFSETS:
                     work = "G" + g
                 elif g == "49":
@@ -107,7 +113,7 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
                     turn = {"3": "cw", "4": "ccw", "5": "off"}[mcode]
                 elif mcode in ("2", "30"):
                     out.end_line = out.end_line or no
-                    turn = "off"
+                    end_stop = True
                 elif mcode not in IGNORED_M:
                     raise PostError(f"line {no}: M{value} is not supported by the reader")
             elif letter == "H":
@@ -119,6 +125,8 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
                                 f" (axes of machine {machine.name}: {' '.join(names)})")
         if f_here is not None:
             F = f_here
+        if h_word is not None and length != "on" and not tcp_codes:
+            raise PostError(f"line {no}: H word with no G43 to use it")
         if tool_change:
             loaded = tool
             out.tool_changes.append((tool, no))
@@ -131,8 +139,13 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
             spindle = "off"
         if turn is not None:
             spindle = turn
-        if length == "on":
-            comp = h_word if h_word is not None else loaded    # G43 alone: the tool in the spindle
+        in_spindle = tool if loaded is None else loaded
+        if tcp_codes:
+            h_modal = h_modal if h_word is None else h_word
+            comp_on = {"on": True, "off": False}.get(length, comp_on)
+            comp = (h_modal or None) if comp_on else None
+        elif length == "on":
+            comp = h_word or in_spindle or None         # G43, G43 H0: the tool in the spindle
         elif length == "off":
             comp = None
         if moved:
@@ -144,9 +157,11 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
                 if F is None or not F > 0:
                     raise PostError(f"line {no}: G1 without a feed (F)")
             out.moves.append(Move("rapid" if motion == 0 else "feed", row.copy(), new.copy(),
-                                  "" if motion == 0 else mode, 0.0 if motion == 0 else F, no, loaded, rpm, tcp, comment,
-                                  spindle, comp, work))
+                                  "" if motion == 0 else mode, 0.0 if motion == 0 else F, no, in_spindle, rpm, tcp,
+                                  comment, spindle, comp, work))
             row = new
+        if end_stop:
+            spindle = "off"
     return out
 
 

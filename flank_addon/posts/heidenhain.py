@@ -24,10 +24,10 @@ from .base import Move, Post, PostError, ReadProgram, feed_text, fixed, header_l
 NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)"
 
 
-# the TNC's spindle M functions: M3 / M4 (M13 / M14 with coolant) act at the start of their block, M5 and the
-# program's stops and end (M0, M2, M30) at its end
+# the TNC's spindle M functions: M3 / M4 (M13 / M14 with coolant) act at the start of their block, M5, the
+# program's stops (M0, M1), the tool change M6 and the program's end (M2, M30) at its end
 SPINDLE_AT_START = {"M3": "cw", "M13": "cw", "M4": "ccw", "M14": "ccw"}
-SPINDLE_AT_END = {"M5": "off", "M0": "off", "M2": "off", "M30": "off"}
+SPINDLE_AT_END = {"M5": "off", "M0": "off", "M1": "off", "M6": "off", "M2": "off", "M30": "off"}
 
 
 def _spindle_words(toks):

@@ -90,6 +90,8 @@ def read_passes(read, machine, tools, rotor, samples=8):
     out = []
     for group in passes:
         tool = group[0].tool
+        if tool == 0:
+            raise ValueError(f"line {group[0].line}: a cut with no tool in the spindle (no T word before it)")
         if tool not in tools:
             raise ValueError(f"line {group[0].line}: tool T{tool} is not a tool of these plans "
                              f"(T{', T'.join(map(str, sorted(tools)))})")
@@ -250,13 +252,14 @@ def lobe_deviation(plan, p, passes, tools, rotor, lobe, reference, recheck=1e-3)
 
 
 def spindle_check(read, machine):
-    """Feed moves that cut without the spindle as the posts turn it: stopped (M5, or no M3 after a tool
-    change), counter-clockwise (M4), at S0 or faster than the machine's top speed (lines; the fastest S)."""
+    """Feed moves that cut without the spindle as the posts turn it: stopped (M5, or not started again after a
+    tool change), counter-clockwise (M4), at S0 or faster than the machine's top speed (lines; the slowest and
+    fastest S).  The posts write S in whole turns per minute: half a turn over the top speed is their rounding."""
     feeds = [mv for mv in read.moves if mv.kind == "feed"]
     return {"stopped": [mv.line for mv in feeds if mv.spindle == "off"],
             "counter_clockwise": [mv.line for mv in feeds if mv.spindle == "ccw"],
             "no_speed": [mv.line for mv in feeds if not mv.rpm > 0],
-            "over_top_speed": [mv.line for mv in feeds if mv.rpm > machine.max_rpm],
+            "over_top_speed": [mv.line for mv in feeds if mv.rpm > machine.max_rpm + 0.5],
             "min_rpm": min((mv.rpm for mv in feeds), default=None),
             "max_rpm": max((mv.rpm for mv in feeds), default=None), "machine_max_rpm": machine.max_rpm}
 
@@ -295,13 +298,17 @@ def axis_limit_check(read, machine, gauges, samples=8):
     not: :func:`..machining.cycle_time.move_joints`), and on a TCP machine at ``samples`` points between them."""
     J0, J1 = move_joints(read, machine, gauges)
     rows, lines = [J1, J0], [np.array([mv.line for mv in read.moves], int)] * 2      # a value where a move ends it
-    if machine.tcp:
-        f = np.arange(1, samples + 1) / (samples + 1)
-        for i, mv in enumerate(read.moves):
-            if np.isfinite(mv.start).all() and np.isfinite(mv.end).all():
-                inner = (1 - f)[:, None] * np.asarray(mv.start)[None] + f[:, None] * np.asarray(mv.end)[None]
-                rows.append(machine.machine_joints(inner, gauges.get(mv.tool, 0.0)))
-                lines.append(np.full(samples, mv.line))
+    if machine.tcp and read.moves:
+        f = (np.arange(1, samples + 1) / (samples + 1))[None, :, None]
+        S = np.array([mv.start for mv in read.moves], float)
+        E = np.array([mv.end for mv in read.moves], float)
+        tools = np.array([mv.tool for mv in read.moves], int)
+        known = np.isfinite(S).all(axis=1) & np.isfinite(E).all(axis=1)
+        for t in np.unique(tools[known]):                  # one kinematics call per tool
+            k = np.flatnonzero(known & (tools == t))
+            inner = ((1 - f) * S[k, None, :] + f * E[k, None, :]).reshape(-1, S.shape[1])
+            rows.append(machine.machine_joints(inner, gauges.get(int(t), 0.0)))
+            lines.append(np.repeat([read.moves[i].line for i in k], samples))
     J, at = np.concatenate(rows), np.concatenate(lines)
     out = []
     for i, n in enumerate(machine.axis_names):
@@ -478,7 +485,7 @@ def program_findings(res):
     if sp is not None:
         if sp["stopped"]:
             out.append(f"{len(sp['stopped'])} feed move(s) with the spindle stopped (lines {_some(sp['stopped'])}): "
-                       "M5, or no M3 after a tool change")
+                       "M5, or not started again after a tool change")
         if sp["counter_clockwise"]:
             out.append(f"{len(sp['counter_clockwise'])} feed move(s) with the spindle turning counter-clockwise "
                        f"(M4; lines {_some(sp['counter_clockwise'])}): the tools cut right-hand, turned by M3")
@@ -486,8 +493,8 @@ def program_findings(res):
             out.append(f"{len(sp['no_speed'])} feed move(s) without a spindle speed (S0 or none; lines "
                        f"{_some(sp['no_speed'])})")
         if sp["over_top_speed"]:
-            out.append(f"{len(sp['over_top_speed'])} feed move(s) at S{sp['max_rpm']:g}, over the machine's top "
-                       f"spindle speed {sp['machine_max_rpm']:g} /min (lines {_some(sp['over_top_speed'])})")
+            out.append(f"{len(sp['over_top_speed'])} feed move(s) at up to S{sp['max_rpm']:g}, over the machine's "
+                       f"top spindle speed {sp['machine_max_rpm']:g} /min (lines {_some(sp['over_top_speed'])})")
     for v in res.get("axis_limits", []):
         out.append(f"axis {v['axis']} reaches {v['value']:.6g} at line {v['line']}, outside its limits "
                    f"{v['min']:g}..{v['max']:g} on machine {res['machine']}: the controller stops there")

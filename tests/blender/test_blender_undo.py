@@ -30,7 +30,7 @@ DATA_CHANGING = {
     "flank.animate_strip": "adds the moving rotor copies, empties and action; hides the rotor",
     "flank.post_program": "adds the program path, its animation (rotor copy, tool, empties, actions) replacing "
                           "the run's earlier one, flank_prog_* on the run; writes the program file",
-    "flank.check_program": "writes flank_check_* (the program's read-back) on the run",
+    "flank.check_program": "adds (replaces) the checked program's path object and mesh, flank_check_* on the run",
     "flank.error_plot": "adds a packed image with flank_plot_* properties",
     "flank.add_test_surface": "adds a test-surface object and mesh",
     "flank.pick_guiding_direction": "sets the free-form direction and point settings",

@@ -2,6 +2,7 @@
 rotation and speed, the tool length compensation.  The readers follow them as the controller does (LinuxCNC's
 own interpreter is the reference for rs274ngc), and the read-back names every feed move that would cut without
 the spindle turning clockwise within its speeds and every move without its tool's length compensation."""
+import math
 import re
 
 import numpy as np
@@ -115,12 +116,13 @@ def test_linuxcnc_spindle_states_are_the_interpreters(posted, rs274, tmp_path):
     assert sp["max_rpm"] == 30000.0 and machine.max_rpm < 30000.0
     found = [f for f in res["findings"] if "spindle" in f]
     assert found == [
-        f"1 feed move(s) with the spindle stopped (lines {feeds[1].line}): M5, or no M3 after a tool change",
+        f"1 feed move(s) with the spindle stopped (lines {feeds[1].line}): M5, or not started again after a tool "
+        "change",
         f"1 feed move(s) with the spindle turning counter-clockwise (M4; lines {feeds[3].line}): the tools cut "
         "right-hand, turned by M3",
         f"{len(feeds) - 5} feed move(s) without a spindle speed (S0 or none; lines "
         + ", ".join(str(mv.line) for mv in feeds[5:15]) + (", ..." if len(feeds) > 15 else "") + ")",
-        f"1 feed move(s) at S30000, over the machine's top spindle speed {machine.max_rpm:g} /min (lines "
+        f"1 feed move(s) at up to S30000, over the machine's top spindle speed {machine.max_rpm:g} /min (lines "
         f"{feeds[4].line})"]
 
 
@@ -287,3 +289,174 @@ def test_a_change_of_work_offset_is_found_as_linuxcnc_reads_it(posted, rs274, tm
     firsts = [mv.line for a, mv in zip([None] + read.moves, read.moves) if a is not None
               and a.work_offset != mv.work_offset]
     assert wo == {"offsets": ["G54", "G55", "G54"], "changes_at": firsts} and len(firsts) == 2
+
+
+# ------------------------------------------------------------------------------ two tools, block order, dialects
+@pytest.fixture(scope="module")
+def posted_two(two_tool_plan):
+    """The two-tool single-flank plan on rotor-xa-b (lobe 0): plan, rotor body, machine, program."""
+    rb = rotor_body(two_tool_plan)
+    op = build_operation([two_tool_plan], rb, lobes=[0])
+    machine = load_machine("rotor-xa-b")
+    return two_tool_plan, rb, machine, build_program(op, machine)
+
+
+def _feeds_of_tool(read, number):
+    return [mv for mv in read.moves if mv.kind == "feed" and mv.tool == number]
+
+
+def test_linuxcnc_tool_changes_and_block_order_are_the_interpreters(posted_two, rs274, tmp_path):
+    """On a two-tool program, each edit read as LinuxCNC reads it (rotation, speed, tool and length offset at
+    every move, with a tool table):
+    - no M3 for the second tool: M6 stopped the spindle, so only the second tool's cuts are made stopped;
+    - M3 in the M6 block: the change, then the start, so every cut turns;
+    - the next tool selected (T3) before a bare G43: G43 takes the tool in the spindle, not the T word;
+    - G43 H0: the tool in the spindle too."""
+    plan, rb, machine, prog = posted_two
+    post = get_post("linuxcnc")
+    lines = post.write(prog).splitlines()
+    table = tool_table(tmp_path, (1, 2, 3))
+    m3 = [k for k, ln in enumerate(lines) if re.fullmatch(r"S\d+ M3", ln)]
+    m6 = [k for k, ln in enumerate(lines) if ln.endswith(" M6")]
+    g43 = [k for k, ln in enumerate(lines) if ln.startswith("G43 H")]
+    assert len(m3) == len(m6) == len(g43) == 2
+    speed2 = lines[m3[1]].split()[0]
+
+    def edit(changes):
+        out = list(lines)
+        for k, new in sorted(changes.items(), reverse=True):
+            out[k:k + 1] = new
+        return out
+    cases = {"no_m3_second": edit({m3[1]: [speed2]}),
+             "m3_with_m6": edit({m6[1]: [lines[m6[1]] + " M3"], m3[1]: [speed2]}),
+             "preselect_bare_g43": edit({g43[0]: ["T3", "G43"]}),
+             "h0": edit({g43[1]: ["G43 H0"]})}
+    results = {}
+    for name, edited in cases.items():
+        text = "\n".join(edited) + "\n"
+        path = tmp_path / f"{name}.ngc"
+        path.write_text(text)
+        read = post.read(text, machine)
+        assert [(mv.spindle, mv.rpm) for mv in read.moves if mv.kind == "feed"] == \
+            rs274_feed_spindles(rs274, path), name
+        assert [(mv.tool, mv.length_comp) for mv in read.moves] == rs274_move_tools(rs274, path, table), name
+        results[name] = (read, verify_program(text, post, machine, [plan], rb))
+    read, res = results["no_m3_second"]
+    second = [mv.line for mv in _feeds_of_tool(read, 2)]
+    assert second and res["spindle"]["stopped"] == second and _feeds_of_tool(read, 1)
+    for name in ("m3_with_m6", "preselect_bare_g43", "h0"):
+        read, res = results[name]
+        assert not res["spindle"]["stopped"] and res["length_compensation"]["other_tool"] == [], name
+        assert not any(f for f in res["findings"] if "spindle" in f or "compensation" in f), name
+
+
+def test_linuxcnc_end_of_program_stops_the_spindle_after_its_motion_and_h_needs_g43(rs274, tmp_path):
+    """M2 in a cutting block stops the spindle after that cut (LinuxCNC runs the program's end last); an H word
+    without G43 is an error for LinuxCNC's interpreter and for the reader."""
+    machine = load_machine("rotor-xa-b")
+    post = get_post("linuxcnc")
+    text = "%\nG21 G90 G94\nT1 M6\nS100 M3\nG43 H1\nG0 X0 Y0 Z10 A0 B0\nG1 X4 F100 M2\n%\n"
+    path = tmp_path / "m2.ngc"
+    path.write_text(text)
+    read = post.read(text, machine)
+    assert [(mv.spindle, mv.rpm) for mv in read.moves if mv.kind == "feed"] == rs274_feed_spindles(rs274, path) \
+        == [("cw", 100.0)]
+    import subprocess
+
+    bad = text.replace("G43 H1\n", "H1\n")
+    path.write_text(bad)
+    r = subprocess.run([rs274, "-g", str(path)], capture_output=True, text=True, timeout=120)
+    assert "H word with no G43" in r.stdout + r.stderr
+    with pytest.raises(ValueError, match="line 5: H word with no G43 to use it"):
+        post.read(bad, machine)
+
+
+def test_heidenhain_tool_call_and_m6_stop_the_spindle(posted_two):
+    """Klartext: without the M13 of the second tool only its cuts are made stopped (its TOOL CALL stopped the
+    spindle); an M6 at the end of a cut's block stops it for the cuts after it."""
+    plan, rb, machine, prog = posted_two
+    post = get_post("heidenhain")
+    lines = post.write(prog).splitlines()
+    m13 = [k for k, ln in enumerate(lines) if " M13" in ln]
+    assert len(m13) == 2
+    edited = list(lines)
+    edited[m13[1]] = edited[m13[1]].replace(" M13", "")
+    read = post.read("\n".join(edited) + "\n", machine)
+    assert {mv.spindle for mv in _feeds_of_tool(read, 1)} == {"cw"}
+    assert {mv.spindle for mv in _feeds_of_tool(read, 2)} == {"off"}
+    cuts = [k for k, ln in enumerate(lines) if re.match(r"^\d+ L .* F[\d.]+", ln)]
+    edited = list(lines)
+    edited[cuts[0]] += " M6"
+    read = post.read("\n".join(edited) + "\n", machine)
+    turns = [mv.spindle for mv in _feeds_of_tool(read, 1)]
+    assert turns[0] == "cw" and set(turns[1:]) == {"off"}
+
+
+def test_fanuc_length_compensation_follows_fanucs_modal_h_and_g43_ends_tcp(two_tool_plan):
+    """Fanuc (TCP machine): the program as posted switches G43.4 off before the second tool change and on again
+    with that tool's H; G43 without H takes the latest H word (so the second tool would take the first's offset);
+    an H word under G43 changes the offset; G43 after G43.4 ends TCP (the same modal group)."""
+    rb = rotor_body(two_tool_plan)
+    machine = load_machine("xyzac-trt-tcp")
+    prog = build_program(build_operation([two_tool_plan], rb, lobes=[0]), machine)
+    post = get_post("fanuc")
+    lines = post.write(prog).splitlines()
+    m6 = [k for k, ln in enumerate(lines) if ln.endswith(" M06")]
+    assert len(m6) == 2 and lines[m6[1] - 1] == "G49" and lines[m6[0] - 1] != "G49"
+    read = post.read("\n".join(lines) + "\n", machine)
+    assert all(mv.length_comp == mv.tool and mv.tcp for mv in read.moves if mv.kind == "feed")
+    res = verify_program("\n".join(lines) + "\n", post, machine, [two_tool_plan], rb)
+    assert res["findings"] == []
+    (k,) = [k for k, ln in enumerate(lines) if "G43.4 H2 " in ln]
+    bare = list(lines)
+    bare[k] = bare[k].replace("G43.4 H2 ", "G43.4 ")
+    read = post.read("\n".join(bare) + "\n", machine)
+    assert {mv.length_comp for mv in _feeds_of_tool(read, 2)} == {1}
+    res = verify_program("\n".join(bare) + "\n", post, machine, [two_tool_plan], rb)
+    assert res["length_compensation"]["first_other"] == [1, 2]
+    changed = list(bare)
+    changed[k + 1:k + 1] = ["H2"]
+    read = post.read("\n".join(changed) + "\n", machine)
+    assert {mv.length_comp for mv in _feeds_of_tool(read, 2)} == {2}
+    (first,) = [k for k, ln in enumerate(lines) if "G43.4 H1 " in ln]
+    off = list(lines)
+    off[first + 1:first + 1] = ["G43 H1"]
+    read = post.read("\n".join(off) + "\n", machine)
+    assert not any(mv.tcp for mv in _feeds_of_tool(read, 1)) and all(mv.tcp for mv in _feeds_of_tool(read, 2))
+
+
+def test_tcp_axis_limits_are_checked_between_the_block_ends():
+    """A TCP rapid tilting A from 60 to 120 deg with the tip 650 mm from the A pivot: its ends stay inside Y's
+    limits (-562.9 mm) but the joints between them swing to -650 mm at A = 90 deg (dense samples of the
+    machine's kinematics); the check finds Y out at that line, at the nearest of its samples."""
+    from flank_addon.posts.readback import axis_limit_check
+
+    machine = load_machine("xyzac-trt-tcp")
+    text = "%\nG21 G90 G94\nT1 M6\nG43 H1\nS1000 M3\nG0 X0 Y0 Z550 A60 C0\nG0 A120\nM2\n%\n"
+    read = get_post("linuxcnc").read(text, machine)
+    mv = read.moves[-1]
+    f = np.linspace(0.0, 1.0, 2001)[:, None]
+    J = machine.machine_joints((1 - f) * mv.start[None] + f * mv.end[None], 0.0)
+    lo = machine.axes["Y"].min
+    assert J[0, 1] > lo and J[-1, 1] > lo and J[:, 1].min() == pytest.approx(-650.0, abs=1e-3)
+    (v,) = axis_limit_check(read, machine, {1: 0.0})
+    assert v["axis"] == "Y" and v["line"] == 7 and -650.0 <= v["value"] < lo
+    assert v["value"] == pytest.approx(-650.0 * math.cos(math.radians(30.0 / 9.0)), abs=1e-6)   # A at 90 +- 60/18
+
+
+def test_the_posts_rounding_of_a_capped_spindle_speed_is_not_over_the_top_speed(single_flank_plan):
+    """A machine whose top speed is 1000.6 /min caps the tool there, and the posts write S1001: half a turn of
+    rounding, not a finding; S1002 written by hand is over the top speed."""
+    import dataclasses
+
+    rb = rotor_body(single_flank_plan)
+    machine = dataclasses.replace(load_machine("rotor-xa-b"), max_rpm=1000.6)
+    prog = build_program(build_operation([single_flank_plan], rb, lobes=[0]), machine)
+    for name in ("linuxcnc", "heidenhain"):
+        post = get_post(name)
+        text = post.write(prog)
+        assert "S1001" in text
+        res = verify_program(text, post, machine, [single_flank_plan], rb)
+        assert res["spindle"]["over_top_speed"] == [] and res["findings"] == [], name
+        res = verify_program(text.replace("S1001", "S1002"), post, machine, [single_flank_plan], rb)
+        assert res["spindle"]["over_top_speed"] and res["spindle"]["max_rpm"] == 1002.0, name
