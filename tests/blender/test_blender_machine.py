@@ -418,6 +418,8 @@ def test_check_program_file_finds_a_hand_edit_and_a_chuck_in_the_way(mc):
         assert r["lines"][3:] == findings[:3]
         print(key, findings)
     assert "enter a shaft or a holder" in json.loads(c["chuck"]["props"]["flank_check_findings"])[0]
+    # the figure docs/blender.md gives: the pass turned 0.5 deg further leaves the screw by 0.775 mm
+    assert "leave the rotor's screw motion by up to 0.775 mm" in json.loads(c["edited"]["props"]["flank_check_findings"])[0]
 
 
 CHECK_ERRORS = {
