@@ -429,6 +429,17 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
     return res
 
 
+# what :func:`spindle_check` finds, as the findings say it (after "N feed move(s) ")
+SPINDLE_FINDINGS = (
+    ("stopped", "with the spindle stopped (lines {lines}): M5, or not started again after a tool change"),
+    ("counter_clockwise", "with the spindle turning counter-clockwise (M4; lines {lines}): the tools cut "
+                          "right-hand, turned by M3"),
+    ("no_speed", "without a spindle speed (S0 or none; lines {lines})"),
+    ("over_top_speed", "at up to S{max_rpm:g}, over the machine's top spindle speed {machine_max_rpm:g} /min "
+                       "(lines {lines})"),
+)
+
+
 def _some(lines):
     """Up to ten line numbers of a finding, '...' for more."""
     return ", ".join(map(str, lines[:10])) + (", ..." if len(lines) > 10 else "")
@@ -482,19 +493,9 @@ def program_findings(res):
         out.append(f"passes at lines {into[:10]} enter {keep_out} by up to "
                    f"{-res['run_out']['min_keep_out_margin_mm']:.3g} mm")
     sp = res.get("spindle")
-    if sp is not None:
-        if sp["stopped"]:
-            out.append(f"{len(sp['stopped'])} feed move(s) with the spindle stopped (lines {_some(sp['stopped'])}): "
-                       "M5, or not started again after a tool change")
-        if sp["counter_clockwise"]:
-            out.append(f"{len(sp['counter_clockwise'])} feed move(s) with the spindle turning counter-clockwise "
-                       f"(M4; lines {_some(sp['counter_clockwise'])}): the tools cut right-hand, turned by M3")
-        if sp["no_speed"]:
-            out.append(f"{len(sp['no_speed'])} feed move(s) without a spindle speed (S0 or none; lines "
-                       f"{_some(sp['no_speed'])})")
-        if sp["over_top_speed"]:
-            out.append(f"{len(sp['over_top_speed'])} feed move(s) at up to S{sp['max_rpm']:g}, over the machine's "
-                       f"top spindle speed {sp['machine_max_rpm']:g} /min (lines {_some(sp['over_top_speed'])})")
+    for key, text in SPINDLE_FINDINGS if sp is not None else ():
+        if sp[key]:
+            out.append(f"{len(sp[key])} feed move(s) " + text.format(lines=_some(sp[key]), **sp))
     for v in res.get("axis_limits", []):
         out.append(f"axis {v['axis']} reaches {v['value']:.6g} at line {v['line']}, outside its limits "
                    f"{v['min']:g}..{v['max']:g} on machine {res['machine']}: the controller stops there")

@@ -76,6 +76,18 @@ def rs274_move_tools(rs274, path, tool_table):
     return moves
 
 
+def read_as_linuxcnc(rs274, tmp_path, table, name, lines, machine):
+    """(text, our reading) of program lines, after checking that the reader's spindle rotation and speed at
+    every cut and tool and length offset at every move are those of LinuxCNC's interpreter (tool ``table``)."""
+    text = "\n".join(lines) + "\n"
+    path = tmp_path / f"{name}.ngc"
+    path.write_text(text)
+    read = get_post("linuxcnc").read(text, machine)
+    assert [(mv.spindle, mv.rpm) for mv in read.moves if mv.kind == "feed"] == rs274_feed_spindles(rs274, path), name
+    assert [(mv.tool, mv.length_comp) for mv in read.moves] == rs274_move_tools(rs274, path, table), name
+    return text, read
+
+
 def tool_table(tmp_path, numbers):
     path = tmp_path / "tools.tbl"
     path.write_text("".join(f"T{n} P{n} Z{n:.1f} D0.1 ;tool {n}\n" for n in numbers))
@@ -212,11 +224,7 @@ def test_linuxcnc_length_compensation_and_tool_are_the_interpreters(posted, rs27
              "preselect": _before_passes(lines, "(PASS ", {2: "T3"})}
     found = {}
     for name, edited in cases.items():
-        text = "\n".join(edited) + "\n"
-        path = tmp_path / f"{name}.ngc"
-        path.write_text(text)
-        read = post.read(text, machine)
-        assert [(mv.tool, mv.length_comp) for mv in read.moves] == rs274_move_tools(rs274, path, table), name
+        text, read = read_as_linuxcnc(rs274, tmp_path, table, name, edited, machine)
         res = verify_program(text, post, machine, [plan], rb)
         found[name] = (res["length_compensation"], [f for f in res["findings"] if "length compensation" in f])
     def moved(name):                # lines of the moves that move a linear axis
@@ -333,13 +341,7 @@ def test_linuxcnc_tool_changes_and_block_order_are_the_interpreters(posted_two, 
              "h0": edit({g43[1]: ["G43 H0"]})}
     results = {}
     for name, edited in cases.items():
-        text = "\n".join(edited) + "\n"
-        path = tmp_path / f"{name}.ngc"
-        path.write_text(text)
-        read = post.read(text, machine)
-        assert [(mv.spindle, mv.rpm) for mv in read.moves if mv.kind == "feed"] == \
-            rs274_feed_spindles(rs274, path), name
-        assert [(mv.tool, mv.length_comp) for mv in read.moves] == rs274_move_tools(rs274, path, table), name
+        text, read = read_as_linuxcnc(rs274, tmp_path, table, name, edited, machine)
         results[name] = (read, verify_program(text, post, machine, [plan], rb))
     read, res = results["no_m3_second"]
     second = [mv.line for mv in _feeds_of_tool(read, 2)]
