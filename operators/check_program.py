@@ -93,7 +93,7 @@ class FLANK_OT_check_program(ModalPlannerMixin, bpy.types.Operator):
 
     bl_idname = "flank.check_program"
     bl_label = "Check Program File"
-    bl_options = {'REGISTER', 'UNDO'}       # the run's flank_check_* change
+    bl_options = {'REGISTER', 'UNDO'}       # the run's checked path and flank_check_* change
     _title = "Check program"
 
     __annotations__ = check_program_props()
@@ -178,9 +178,9 @@ class FLANK_OT_check_program(ModalPlannerMixin, bpy.types.Operator):
                      cutting_time_s=float(res["cutting_time_s"]), rapid_time_s=float(res["rapid_time_s"]),
                      total_time_s=float(res["total_time_s"]), untimed_moves=int(res["untimed_moves"]),
                      elapsed=float(time.perf_counter() - job["t0"]))
-        for key in ("max_deviation_difference_mm", "pose_difference_mm"):       # None where no lobe was compared
-            if res[key] is not None:
-                props[{"max_deviation_difference_mm": "deviation_mm"}.get(key, "pose_mm")] = float(res[key])
+        for key, prop in (("max_deviation_difference_mm", "deviation_mm"), ("pose_difference_mm", "pose_mm")):
+            if res[key] is not None:                  # None where no lobe was compared
+                props[prop] = float(res[key])
         for name, value in props.items():
             coll[CHECK_PREFIX + name] = value
         name = os.path.basename(job["filepath"])
