@@ -42,7 +42,10 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
     row = np.full(len(names), np.nan)
     # ``tool``: the latest T word (selected); ``loaded``: the tool in the spindle, changed in by M6 (a program
     # without any M6 is taken to cut with the tool its T word names)
-    motion, mode, F, tool, loaded, rpm, spindle, comp = None, "per_minute", None, 0, None, 0.0, "off", None
+    changes = any(re.search(r"M0*6(?![\d.])", strip_comments(ln, semicolon_comments)[0].upper().replace(" ", ""))
+                  for ln in text.splitlines())
+    motion, mode, F, tool, rpm, spindle, comp = None, "per_minute", None, 0, 0.0, "off", None
+    loaded = 0 if changes else None     # with an M6 in the program, no tool is in the spindle before the first
     h_modal, comp_on = 0, False     # Fanuc: the latest H word; whether G43 / G43.4 / G43.5 is on
     work = "G54"                    # the controllers' power-on work offset
     tcp = machine.tcp and not tcp_codes

@@ -25,7 +25,8 @@ def rs274_feed_spindles(rs274, path):
     """(rotation, speed) of the spindle at every STRAIGHT_FEED of LinuxCNC's canonical output."""
     import subprocess
 
-    out = subprocess.run([rs274, "-g", str(path)], capture_output=True, text=True, timeout=120).stdout
+    out = subprocess.run([rs274, "-g", str(path)], capture_output=True, text=True, timeout=120,
+                        cwd=path.parent).stdout
     assert "PROGRAM_END()" in out
     turn, speed, feeds = "off", 0.0, []
     for kind, args in CANON_SPINDLE.findall(out):
@@ -62,7 +63,7 @@ def rs274_move_tools(rs274, path, tool_table):
     import subprocess
 
     out = subprocess.run([rs274, "-t", str(tool_table), "-g", str(path)], capture_output=True, text=True,
-                         timeout=120).stdout
+                         timeout=120, cwd=path.parent).stdout
     assert "PROGRAM_END()" in out
     tool, comp, moves = 0, None, []
     for kind, args in CANON_TOOLS.findall(out):
@@ -283,7 +284,8 @@ def test_a_change_of_work_offset_is_found_as_linuxcnc_reads_it(posted, rs274, tm
     path.write_text(text)
     import subprocess
 
-    canon = subprocess.run([rs274, "-g", str(path)], capture_output=True, text=True, timeout=120).stdout
+    canon = subprocess.run([rs274, "-g", str(path)], capture_output=True, text=True, timeout=120,
+                        cwd=path.parent).stdout
     names = {1: "G54", 2: "G55", 3: "G56", 4: "G57", 5: "G58", 6: "G59", 7: "G59.1", 8: "G59.2", 9: "G59.3"}
     active, theirs = "G54", []
     for kind, args in re.findall(r"(SET_G5X_OFFSET|STRAIGHT_FEED|STRAIGHT_TRAVERSE)\(([^)]*)\)", canon):
@@ -367,7 +369,8 @@ def test_linuxcnc_end_of_program_stops_the_spindle_after_its_motion_and_h_needs_
 
     bad = text.replace("G43 H1\n", "H1\n")
     path.write_text(bad)
-    r = subprocess.run([rs274, "-g", str(path)], capture_output=True, text=True, timeout=120)
+    r = subprocess.run([rs274, "-g", str(path)], capture_output=True, text=True, timeout=120,
+                        cwd=path.parent)
     assert "H word with no G43" in r.stdout + r.stderr
     with pytest.raises(ValueError, match="line 5: H word with no G43 to use it"):
         post.read(bad, machine)
@@ -462,3 +465,17 @@ def test_the_posts_rounding_of_a_capped_spindle_speed_is_not_over_the_top_speed(
         assert res["spindle"]["over_top_speed"] == [] and res["findings"] == [], name
         res = verify_program(text.replace("S1001", "S1002"), post, machine, [single_flank_plan], rb)
         assert res["spindle"]["over_top_speed"] and res["spindle"]["max_rpm"] == 1002.0, name
+
+
+def test_before_the_first_tool_change_no_tool_is_in_the_spindle(rs274, tmp_path):
+    """A program with an M6 cuts with no tool (and no offset) before its first M6, as LinuxCNC reads it, and the
+    read-back refuses such a cut by name; a program without any M6 cuts with the tool its T word names."""
+    machine = load_machine("rotor-xa-b")
+    table = tool_table(tmp_path, (1, 2))
+    early = ["%", "G21 G90 G94", "T2", "S100 M3", "G43", "G0 X0 Y0 Z10 A0 B0", "G1 X1 F100", "T1 M6", "G43 H1",
+             "S100 M3", "G1 X2 F100", "M2", "%"]
+    _, read = read_as_linuxcnc(rs274, tmp_path, table, "early", early, machine)
+    assert [(mv.tool, mv.length_comp) for mv in read.moves] == [(0, None), (0, None), (1, 1)]
+    never = [ln for ln in early if ln not in ("T1 M6", "G43 H1")]
+    read = get_post("linuxcnc").read("\n".join(never) + "\n", machine)
+    assert {(mv.tool, mv.length_comp) for mv in read.moves} == {(2, 2)}
