@@ -117,7 +117,7 @@ class FLANK_OT_check_program(ModalPlannerMixin, bpy.types.Operator):
         found = run_plan(context, self.collection, defer=self._defer_analysis) if msg is None else msg
         if isinstance(found, PlanNeeded):
             return self._read_first(found)           # a long plan not read yet: in a worker first
-        mp = machine_and_post(_Names(self.machine, post, self.flip_rotor)) if not isinstance(found, str) else found
+        mp = machine_and_post(self.machine, post, self.flip_rotor) if not isinstance(found, str) else found
         k = mm_per_unit(context, *found) if not isinstance(mp, str) else mp
         if isinstance(k, str):
             self.report({'ERROR'}, "Check program: " + k)
@@ -130,7 +130,7 @@ class FLANK_OT_check_program(ModalPlannerMixin, bpy.types.Operator):
     @staticmethod
     def _compute(job, progress):
         from ..flank_addon.machining.rotor_body import rotor_body, with_holders
-        from ..flank_addon.posts.readback import tool_table, verify_program
+        from ..flank_addon.posts.readback import tool_gauges, tool_table, verify_program
         from ..flank_addon.progress import reporter, substage
 
         try:
@@ -141,12 +141,12 @@ class FLANK_OT_check_program(ModalPlannerMixin, bpy.types.Operator):
         plan = plan_mm(job["coll"], job["plan"], job["k"])
         rotor = with_holders(rotor_body(plan), job["holders"])
         report = reporter(progress)
-        res = verify_program(text, job["post"], job["machine"], [plan], rotor, lobes=job["lobes"],
-                             progress=substage(report, 0.0, 0.95))
-        report(0.95, "the program's path")              # Esc stops here too
-        # the path as the read-back reads the program: the same reader, the plan's tools and their gauge lengths
         machine, read = job["machine"], job["post"].read(text, job["machine"])
-        gauges = {n: s.h_range()[1] - s.h_range()[0] for n, s in tool_table([plan])[0].items()}
+        res = verify_program(text, job["post"], machine, [plan], rotor, lobes=job["lobes"],
+                             progress=substage(report, 0.0, 0.95), read=read)
+        report(0.95, "the program's path")              # Esc stops here too
+        # the path as the read-back reads the program: the plan's tools and their gauge lengths
+        gauges = tool_gauges(tool_table([plan])[0])
         return dict(res=res, path=program_path(read, machine, gauges, move_rows(read, machine, gauges)))
 
     # ------------------------------------------------------------------ main thread: results
@@ -197,13 +197,6 @@ class FLANK_OT_check_program(ModalPlannerMixin, bpy.types.Operator):
                                           res["max_deviation_difference_mm"]),
                                       res["total_time_s"], props["elapsed"]))
         return {'FINISHED'}
-
-
-class _Names:
-    """The machine, post and mounting of a check, as :func:`.post_program.machine_and_post` reads them."""
-
-    def __init__(self, machine, post, flip_rotor):
-        self.machine, self.post, self.flip_rotor = machine, post, flip_rotor
 
 
 classes = (FLANK_OT_check_program,)

@@ -31,18 +31,18 @@ from .units import mm_per_scene_unit
 __all__ = ["FLANK_OT_post_program", "machine_and_post", "mm_per_unit", "plan_mm"]
 
 
-def machine_and_post(op):
-    """(machine, post) of the operator's names, or an error message."""
+def machine_and_post(machine_name, post_name, flip_rotor):
+    """(machine, post) of their names (the machine flipped when the rotor is), or an error message."""
     from ..flank_addon.machining.machine import load_machine
     from ..flank_addon.posts import get_post
 
-    name = str(op.machine).strip()
+    name = str(machine_name).strip()
     try:
-        post = get_post(str(op.post).strip())
+        post = get_post(str(post_name).strip())
         machine = load_machine(bpy.path.abspath(name) if name.startswith("//") else name)
     except ValueError as ex:                        # MachineError, PostError: names the valid ones
         return str(ex)
-    return (machine.flipped() if op.flip_rotor else machine), post
+    return (machine.flipped() if flip_rotor else machine), post
 
 
 def mm_per_unit(context, coll, plan):
@@ -133,7 +133,7 @@ class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
         found = run_plan(context, self.collection, defer=self._defer_analysis) if msg is None else msg
         if isinstance(found, PlanNeeded):
             return self._read_first(found)           # a long plan not read yet: in a worker first
-        mp = machine_and_post(self) if not isinstance(found, str) else found
+        mp = machine_and_post(self.machine, self.post, self.flip_rotor) if not isinstance(found, str) else found
         k = mm_per_unit(context, *found) if not isinstance(mp, str) else mp
         if isinstance(k, str):
             self.report({'ERROR'}, "Post program: " + k)

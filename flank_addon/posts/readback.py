@@ -71,6 +71,11 @@ def tool_table(plans):
     return table, of_strip
 
 
+def tool_gauges(tools):
+    """{number: gauge length} of a :func:`tool_table`: the tool's extent along its axis, tip to gauge line."""
+    return {n: s.h_range()[1] - s.h_range()[0] for n, s in tools.items()}
+
+
 def _map_to_level(P, a, z, v0, hand):
     """The pose (P, a) screwed along the rotor's screw until its tip is at height z."""
     t = (z - P[..., 2]) / v0
@@ -325,7 +330,7 @@ def check_links(read, machine, tools, rotor, step=1.0, spacing=1.5):
     """Intrusion of every non-cutting move into the stock, the shafts or the holders."""
     worst, bad, checked, unchecked = 0.0, [], 0, 0
     local = {n: s.local_points(spacing) for n, s in tools.items()}
-    gauges = {n: s.h_range()[1] - s.h_range()[0] for n, s in tools.items()}
+    gauges = tool_gauges(tools)
     J0, J1 = move_joints(read, machine, gauges)
     for i, mv in enumerate(read.moves):
         if mv.kind == "feed" or mv.tool not in tools:
@@ -348,18 +353,18 @@ def check_links(read, machine, tools, rotor, step=1.0, spacing=1.5):
             "intrusions": bad[:20]}
 
 
-def verify_program(text, post, machine, plans, rotor, lobes=None, references=None, progress=None):
+def verify_program(text, post, machine, plans, rotor, lobes=None, references=None, progress=None, read=None):
     """The read-back report of a posted program (module doc); ``lobes``: lobes to sweep (default all
     the program cuts); ``references``: verify_plan of each plan when already known; ``progress(fraction,
     message)``: reports before each plan's and lobe's sweep, and stops the check when it asks to
-    (:mod:`..progress`)."""
+    (:mod:`..progress`); ``read``: ``post.read(text, machine)`` when the caller has it already."""
     from ..progress import reporter
 
     report = reporter(progress)
     t0 = time.perf_counter()
     if lobes is not None:
         lobes = checked_lobes(lobes, rotor)
-    read = post.read(text, machine)
+    read = post.read(text, machine) if read is None else read
     tools, of_strip = tool_table(plans)
     passes = match_passes(read_passes(read, machine, tools, rotor), plans, rotor, tools, of_strip)
     seen = {}
@@ -388,7 +393,7 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
                           "plan_max_overcut_mm": ref["max_overcut"], "plan_gouge_points": len(ref["gouge_points"]),
                           "lobes": [x for x in lobes_out if x is not None]})
     diffs = [lo["max_deviation_difference_mm"] for pl in plans_out for lo in pl["lobes"]]
-    gauges = {n: s.h_range()[1] - s.h_range()[0] for n, s in tools.items()}
+    gauges = tool_gauges(tools)
     times = cycle_time(read, machine, gauges)
     times.pop("block_minutes")
     res = {
