@@ -479,3 +479,68 @@ def test_before_the_first_tool_change_no_tool_is_in_the_spindle(rs274, tmp_path)
     never = [ln for ln in early if ln not in ("T1 M6", "G43 H1")]
     read = get_post("linuxcnc").read("\n".join(never) + "\n", machine)
     assert {(mv.tool, mv.length_comp) for mv in read.moves} == {(2, 2)}
+
+
+def test_tcp_axis_limits_take_each_tools_own_gauge_length():
+    """On a TCP head machine whose B pivot sits at the spindle nose (rotor-xa-b with TCP and
+    ``tool_length_in_pivot``), B = 90 deg swings the nose a gauge length along +X past the tip: a tip at
+    X 1980 puts the X joint at 1980 for a tool of gauge 0, inside the 2000 mm limit, and at 2040 for one of
+    gauge 60.  The check takes each move's own tool's gauge, so the finding follows the long tool."""
+    import json
+
+    from flank_addon.machining.machine import MACHINE_DIR, parse_machine
+    from flank_addon.posts.readback import axis_limit_check
+
+    with open(f"{MACHINE_DIR}/rotor-xa-b.json", encoding="utf-8") as fh:
+        data = json.load(fh)
+    data["controller"] = {"tcp": True}
+    data["tool_length_in_pivot"] = True
+    machine = parse_machine(data)
+    text = ("%\nG21 G90 G94\nT1 M6\nG43\nS1000 M3\nG0 X1980 Y0 Z0 A0 B90\n"
+            "T2 M6\nG43\nG0 X1980 Y0 Z0 A0 B90\nM2\n%\n")
+    read = get_post("linuxcnc").read(text, machine)
+    assert [mv.tool for mv in read.moves] == [1, 2]
+    assert machine.machine_joints([[1980.0, 0.0, 0.0, 0.0, 90.0]], 60.0)[0, 0] == pytest.approx(2040.0)
+    assert axis_limit_check(read, machine, {1: 0.0, 2: 0.0}) == []
+    (v,) = axis_limit_check(read, machine, {1: 0.0, 2: 60.0})
+    assert v["axis"] == "X" and v["line"] == 9 and v["value"] == pytest.approx(2040.0)
+    (v,) = axis_limit_check(read, machine, {1: 60.0, 2: 0.0})
+    assert v["axis"] == "X" and v["line"] == 6 and v["value"] == pytest.approx(2040.0)
+
+
+def test_heidenhain_m1_stops_the_spindle_for_the_cuts_after_it(posted):
+    """Klartext M1 (optional stop) stops the spindle at the end of its block, like M0 and M5: the cuts after it
+    until the next M3 / M13 run stopped, a finding naming them."""
+    plan, rb, machine, prog = posted
+    post = get_post("heidenhain")
+    lines = post.write(prog).splitlines()
+    cuts = [k for k, ln in enumerate(lines) if re.match(r"^\d+ L .* F[\d.]+", ln)]
+    assert len(cuts) > 2
+    edited = list(lines)
+    edited[cuts[0]] += " M1"
+    read = post.read("\n".join(edited) + "\n", machine)
+    turns = [mv.spindle for mv in read.moves if mv.kind == "feed"]
+    assert turns[0] == "cw" and set(turns[1:]) == {"off"}
+    res = verify_program("\n".join(edited) + "\n", post, machine, [plan], rb)
+    assert res["spindle"]["stopped"] and res["findings"]
+    res = verify_program("\n".join(lines) + "\n", post, machine, [plan], rb)
+    assert res["spindle"]["stopped"] == [] and res["findings"] == []
+
+
+def test_fanuc_g49_ends_tcp_and_the_length_offset(two_tool_plan):
+    """Fanuc: G49 cancels G43.4 (one modal group), so the moves after it are neither under TCP nor under a
+    length offset, a finding; as posted, G49 stands only before the second tool change."""
+    rb = rotor_body(two_tool_plan)
+    machine = load_machine("xyzac-trt-tcp")
+    prog = build_program(build_operation([two_tool_plan], rb, lobes=[0]), machine)
+    post = get_post("fanuc")
+    lines = post.write(prog).splitlines()
+    (first,) = [k for k, ln in enumerate(lines) if "G43.4 H1 " in ln]
+    off = list(lines)
+    off[first + 1:first + 1] = ["G49"]
+    read = post.read("\n".join(off) + "\n", machine)
+    one = _feeds_of_tool(read, 1)
+    assert one and not any(mv.tcp for mv in one) and {mv.length_comp for mv in one} == {None}
+    assert all(mv.tcp and mv.length_comp == 2 for mv in _feeds_of_tool(read, 2))
+    res = verify_program("\n".join(off) + "\n", post, machine, [two_tool_plan], rb)
+    assert res["findings"] and res["length_compensation"]["without"]
