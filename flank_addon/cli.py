@@ -154,7 +154,8 @@ def _cmd_verify(args):
         return _cmd_verify_program(args)
     if len(args.plans) != 1:
         raise ValueError("verify takes one plan (several only with --program)")
-    for opt in ("machine", "post", "mesh", "outer_radius_mm", "lobes"):
+    for opt in ("machine", "post", "mesh", "outer_radius_mm", "lobes", "cutting_data", "flutes", "vc", "fz",
+                "max_rpm"):
         if getattr(args, opt) is not None or args.flip_rotor or args.holder:
             opt = opt if getattr(args, opt) is not None else "flip_rotor" if args.flip_rotor else "holder"
             raise ValueError(f"--{opt.replace('_', '-')} applies to verify --program only")
@@ -859,7 +860,7 @@ def _cmd_verify_program(args):
     plans, rotor = _machining_inputs(args)
     with open(args.program, encoding="ascii", errors="replace") as fh:
         text = fh.read()
-    res = verify_program(text, post, machine, plans, rotor, lobes=args.lobes)
+    res = verify_program(text, post, machine, plans, rotor, lobes=args.lobes, cutting_data=_cutting_data(args))
     res["program"] = str(args.program)
     status = 1 if res["findings"] else 0        # the program does not do what its plans say: a script must see it
     if args.json:
@@ -883,6 +884,13 @@ def _cmd_verify_program(args):
               + "; tool length compensation " + ("of its tool on every move" if not (lc["without"] or lc["other_tool"])
                                                  else f"missing on {len(lc['without'])} move(s), another tool's on "
                                                       f"{len(lc['other_tool'])}"))
+    for t in res["cutting"]["tools"]:
+        d = t["cutting_data"]
+        over = [k for k, n in t["moves_over"].items() if n]
+        print(f"  T{t['tool']} cuts at chip loads up to {t['max_chip_load_mm']:.4g} mm (fz {d['fz_mm']:g}), "
+              f"{t['max_surface_speed_m_min']:.4g} m/min (vc {d['vc_m_min']:g}), S{t['max_rpm']:g} (top "
+              f"{d['max_rpm']:g}; {d['source']}): " + ("within its cutting data" if not over else
+                                                        "OVER " + ", ".join(k[5:].replace("_", " ") for k in over)))
     print(f"  poses: screw error {res['screw_error_mm']:.3g} mm, interpolation error "
           f"{res['interpolation_error_mm']:.3g} mm")
     for pl in res["plans"]:
@@ -943,6 +951,15 @@ def _add_machining_inputs(p):
                    help="a chuck, collet or tailstock holding the rotor (repeatable; mm): a cylinder of DIAMETER "
                         "and LENGTH beyond the body's end face at SIDE (low or high: the end at the smaller or "
                         "larger rotor-frame z), GAP (default 0) away from it. No move may enter it")
+
+
+def _add_cutting_data(p, note=""):
+    p.add_argument("--cutting-data", metavar="PRESET", help="cutting data of a tool preset for every tool "
+                                                             "(default: the preset matching each plan's tool)" + note)
+    p.add_argument("--flutes", type=count_at_least(1), help="override: flutes")
+    p.add_argument("--vc", type=positive_number, help="override: cutting speed, m/min")
+    p.add_argument("--fz", type=positive_number, help="override: feed per tooth, mm")
+    p.add_argument("--max-rpm", type=positive_number, help="override: the tool's top spindle speed")
 
 
 def report_scene():
@@ -1052,6 +1069,8 @@ def build_parser():
     v.add_argument("--machine", help="with --program: built-in machine NAME or machine FILE")
     v.add_argument("--post", help="with --program: linuxcnc | fanuc | heidenhain (default: from the extension)")
     _add_machining_inputs(v)
+    _add_cutting_data(v, " (with --program: the data the program was posted with; its chip loads, cutting and "
+                         "spindle speeds are checked against them)")
     v.set_defaults(func=_cmd_verify)
 
     k = sub.add_parser("cutter", help="formed disc cutter: the axial profile for one tooth of a rotor (Hu, Zhou & Li 2025)")
@@ -1201,12 +1220,7 @@ def build_parser():
                          "zigzag (whichever start is nearer)")
     po.add_argument("--chord-tolerance", type=float, default=1e-3,
                     help="TCP machines: chord sagitta of the tip's helix, mm (default 0.001)")
-    po.add_argument("--cutting-data", metavar="PRESET", help="cutting data of a tool preset for every tool "
-                                                              "(default: the preset matching each plan's tool)")
-    po.add_argument("--flutes", type=count_at_least(1), help="override: flutes")
-    po.add_argument("--vc", type=positive_number, help="override: cutting speed, m/min")
-    po.add_argument("--fz", type=positive_number, help="override: feed per tooth, mm")
-    po.add_argument("--max-rpm", type=positive_number, help="override: the tool's top spindle speed")
+    _add_cutting_data(po)
     po.add_argument("--json", action="store_true", help="print passes, times, tools and per-pass cutting data")
     po.set_defaults(func=_cmd_post)
 

@@ -2,7 +2,8 @@
 """flank.check_program -- read a machine program file back and check it against the run's plan, exactly as
 ``python -m flank_addon verify PLAN --program FILE`` does (``flank_addon.posts.readback.verify_program``): the
 program's moves through the machine's kinematics, its passes matched to the plan's strips, every lobe it cuts
-swept again, its links and passes checked against the stock, shafts and holders, and its cycle time.  For a
+swept again, its links and passes checked against the stock, shafts and holders, its chip loads and speeds
+against the Tool panel's cutting data (as Post Program gives them to the post), and its cycle time.  For a
 program posted elsewhere, or edited by hand after Post Program wrote it.
 
 What the check finds is stored on the run (``flank_check_*``) and shown in the Machine panel; a program that
@@ -10,7 +11,8 @@ does not do what the plan says gives a warning naming the findings.  The program
 the rotor is drawn as ``<run>: Checked Program`` (``program_scene``: the posted program's path, in another
 colour), replacing the one of the check before; nothing else in the scene changes.  Refused
 before any work, by name: no run, a free-form run, a plan without the rotor's extent, no such file, an unknown
-machine or post, a file whose extension names another post than the one chosen, bad lobes or holders.  Under
+machine or post, a file whose extension names another post than the one chosen, bad lobes, holders or cutting
+data.  Under
 ``bpy.app.background`` (and from scripts) it runs synchronously; from the UI the check runs off the UI thread
 (``modal``), with progress and Esc."""
 import json
@@ -23,7 +25,7 @@ import numpy as np
 from .common import remove_objects
 from .modal import ModalPlannerMixin
 from .post_program import machine_and_post, mm_per_unit, plan_mm
-from .program import holders_of, move_rows, parse_lobes, program_path
+from .program import cutting_data_of, holders_of, move_rows, parse_lobes, program_path
 from .program_scene import COLOR_CHECKED, ProgramBuild, checked_objects
 from .properties import check_program_props
 from .runs import PlanNeeded, run_plan
@@ -114,6 +116,9 @@ class FLANK_OT_check_program(ModalPlannerMixin, bpy.types.Operator):
         msg = msg or (lobes if isinstance(lobes, str) else None)
         holders = holders_of(self.holders) if msg is None else None
         msg = msg or (holders if isinstance(holders, str) else None)
+        data = cutting_data_of(self.tool_flutes, self.tool_cutting_speed_m_min, self.tool_feed_per_tooth_mm,
+                               self.tool_max_rpm) if msg is None else None
+        msg = msg or (data if isinstance(data, str) else None)
         found = run_plan(context, self.collection, defer=self._defer_analysis) if msg is None else msg
         if isinstance(found, PlanNeeded):
             return self._read_first(found)           # a long plan not read yet: in a worker first
@@ -124,7 +129,7 @@ class FLANK_OT_check_program(ModalPlannerMixin, bpy.types.Operator):
             return None
         (coll, plan), (machine, post) = found, mp
         return dict(t0=time.perf_counter(), coll=coll.name, plan=plan, to_world=plan["rotor"]["to_world"], k=k,
-                    machine=machine, post=post, lobes=lobes, holders=holders, filepath=path)
+                    machine=machine, post=post, lobes=lobes, holders=holders, data=data, filepath=path)
 
     # ------------------------------------------------------------------ worker thread
     @staticmethod
@@ -143,7 +148,7 @@ class FLANK_OT_check_program(ModalPlannerMixin, bpy.types.Operator):
         report = reporter(progress)
         machine, read = job["machine"], job["post"].read(text, job["machine"])
         res = verify_program(text, job["post"], machine, [plan], rotor, lobes=job["lobes"],
-                             progress=substage(report, 0.0, 0.95), read=read)
+                             progress=substage(report, 0.0, 0.95), read=read, cutting_data=job["data"])
         report(0.95, "the program's path")              # Esc stops here too
         # the path as the read-back reads the program: the plan's tools and their gauge lengths
         gauges = tool_gauges(tool_table([plan])[0])

@@ -149,7 +149,8 @@ def read_back(text, job, machine, post, rotor, op, progress=None):
     from ..flank_addon.progress import Cancelled
 
     try:
-        res = verify_program(text, post, machine, [job["plan"]], rotor, lobes=list(op.lobes), progress=progress)
+        res = verify_program(text, post, machine, [job["plan"]], rotor, lobes=list(op.lobes), progress=progress,
+                             cutting_data=job["data"])
     except Cancelled:
         raise
     except Exception as ex:                  # the check, not the program: post it and say the check failed

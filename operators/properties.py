@@ -491,7 +491,8 @@ def post_program_props():
 
 def check_program_props():
     """Fresh property definitions of flank.check_program: the program file to read back, the run whose plan it
-    is checked against, and the machine, post and holders it was posted with (names, as flank.post_program)."""
+    is checked against, and the machine, post, holders and cutting data it was posted with (names, as
+    flank.post_program)."""
     return dict(
         filepath=StringProperty(name="Program File", description="The machine program to read back (absolute "
                                                                  "path, or relative to the saved .blend file)",
@@ -508,6 +509,7 @@ def check_program_props():
                                                        "cuts, else indices like 0,2,4", default=""),
         flip_rotor=machining_props()["flip_rotor"],
         holders=machining_props()["holders"],
+        **cutting_data_props(),
         # set by invoke when it opens the file browser: the check then runs modal like the planners
         modal_after_browser=BoolProperty(default=False, options={'HIDDEN', 'SKIP_SAVE'}),
     )

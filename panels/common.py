@@ -3,9 +3,13 @@
 
 The panels draw with box / column / row / label / prop / operator / menu / template_list only and read only
 ``context.scene`` and ``context.active_object`` (the headless tests call ``draw`` with those)."""
+import textwrap
+
 import bpy
 
 SPACE, REGION, CATEGORY = 'VIEW_3D', 'UI', "Flank"
+LABEL_WIDTH = 52               # characters per label line: the sidebar at its usual width cuts longer ones off
+CONTINUED = "    "             # the indent of a wrapped label's further lines
 
 
 def warm_up_when_shown():
@@ -15,6 +19,23 @@ def warm_up_when_shown():
         from ..operators.jobs import warm_up
 
         warm_up(__package__.rpartition(".")[0])
+
+
+def label_lines(text):
+    """A label's text as lines of at most ``LABEL_WIDTH`` characters, broken between words (a longer word keeps
+    a line of its own), the further lines indented by ``CONTINUED``: a read-back finding or a cycle time note
+    is shown whole instead of cut off at the sidebar's edge."""
+    return textwrap.wrap(str(text), LABEL_WIDTH, subsequent_indent=CONTINUED, break_long_words=False,
+                         break_on_hyphens=False) or [""]
+
+
+def draw_lines(layout, lines, icons=None):
+    """Labels of ``lines``, each wrapped by :func:`label_lines`; ``icons`` maps a line's index to the icon of
+    its first label."""
+    icons = icons or {}
+    for k, text in enumerate(lines):
+        for j, part in enumerate(label_lines(text)):
+            layout.label(text=part, icon=icons.get(k, 'NONE') if j == 0 else 'NONE')
 
 
 def settings_and_operator(layout, context, operator, icon, names, prefix=""):

@@ -5,7 +5,7 @@ program (flank.post_program) and the panel shows its cycle time once posted; Che
 back and checks it against the run's plan (flank.check_program), by default the program file above."""
 import bpy
 
-from .common import CATEGORY, REGION, SPACE
+from .common import CATEGORY, REGION, SPACE, draw_lines
 
 CUTTING_DATA = ("tool_flutes", "tool_cutting_speed_m_min", "tool_feed_per_tooth_mm", "tool_max_rpm")
 MACHINING = ("clearance", "lobes", "flip_rotor", "holders")
@@ -23,10 +23,12 @@ def post_call(settings, scene):
 
 def check_call(settings):
     """The keyword arguments the Check Program File button carries from the scene settings: the program file,
-    machine, post and holders as Post Program uses them (the lobes to sweep are those the program cuts)."""
+    machine, post, holders and cutting data as Post Program uses them (the lobes to sweep are those the program
+    cuts)."""
     return dict(filepath=settings.program_filepath, post=settings.post, flip_rotor=settings.flip_rotor,
                 holders=settings.holders,
-                machine=settings.machine_file if settings.machine == "FILE" else settings.machine)
+                machine=settings.machine_file if settings.machine == "FILE" else settings.machine,
+                **{name: getattr(settings, name) for name in CUTTING_DATA})
 
 
 class FLANK_PT_machine(bpy.types.Panel):
@@ -73,18 +75,14 @@ class FLANK_PT_machine(bpy.types.Panel):
         op.collection = coll.name
         lines = cycle_time_lines(coll)
         if lines:
-            box = layout.box()
-            for k, text in enumerate(lines):
-                box.label(text=text, icon='TIME' if k == 1 else 'NONE')
+            draw_lines(layout.box(), lines, {1: 'TIME'})
         op = layout.operator("flank.check_program", icon='VIEWZOOM')
         for name, value in check_call(settings).items():
             setattr(op, name, value)
         op.collection = coll.name
         lines = check_lines(coll)
         if lines:
-            box = layout.box()
-            for text in lines:
-                box.label(text=text)
+            draw_lines(layout.box(), lines)
 
 
 classes = (FLANK_PT_machine,)

@@ -7,7 +7,7 @@ import textwrap
 
 import bpy
 
-from .common import CATEGORY, REGION, SPACE
+from .common import CATEGORY, REGION, SPACE, draw_lines
 
 # legend swatch -> (multiple of the tolerance it shows, band name under it)
 LEGEND = (("gouge_deep", -10.0), ("gouge", -1.0), ("ok", 0.0), ("stock", 1.0), ("stock_deep", 10.0))
@@ -102,8 +102,7 @@ class FLANK_PT_results(bpy.types.Panel):
             box.label(text="Kinks between strips: max {:.3g}°, mean {:.3g}°".format(
                 float(coll.get(pre + "max_kink_deg", 0.0)), float(coll.get(pre + "mean_kink_deg", 0.0))),
                 icon='MOD_SMOOTH')
-        for k, text in enumerate(cycle_time_lines(coll)):          # after Post Program (Machine panel)
-            box.label(text=text, icon='TIME' if k == 1 else 'NONE')
+        draw_lines(box, cycle_time_lines(coll), {1: 'TIME'})      # after Post Program (Machine panel)
         col = layout.column(align=True)
         op = col.operator("flank.animate_strip", icon='PLAY')
         op.collection = coll.name

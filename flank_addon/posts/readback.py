@@ -36,7 +36,14 @@
    (:func:`length_check`); one work offset throughout (:func:`work_offset_check`); every move within the
    machine's axis limits (:func:`axis_limit_check`: the block
    ends, and with TCP points between them, where the joints are not linear in the program's values).
-8. ``findings``: every way the program differs from its plans or cuts where it must not
+8. Cutting conditions (:func:`cutting_check`): every feed move's chip load, surface speed and spindle speed
+   from what the controller does with the program (its S, and the block's time as the controller computes it
+   from F, :mod:`machining.cycle_time`), against the tool's cutting data (the same data the post is given;
+   by default each tool's, :func:`..machining.feeds.cutting_data_for`).  A screw motion moves every rotor
+   point q past the tool at omega |v(q)|, |v(q)| = sqrt(rho(q)^2 + v0^2) per radian of the screw parameter,
+   and a block turns the screw by |dz| / v0 in its time T: chip load = (|dz| / v0 / T) max |v| / (n z) over
+   the engaged edge (:mod:`..machining.feeds`), surface speed pi D_max n / 1000.
+9. ``findings``: every way the program differs from its plans or cuts where it must not
    (:func:`program_findings`); the command exits with status 1 when there is any.
 """
 import math
@@ -45,7 +52,8 @@ import time
 import numpy as np
 
 from ..geometry.screw import screw_motion
-from ..machining.cycle_time import cycle_time, move_joints
+from ..machining.cycle_time import block_times, cycle_time, move_joints
+from ..machining.feeds import cutting_data_for, engaged_edge
 from ..machining.operation import checked_lobes, repeats_earlier_strip
 from ..machining.tool_shape import ToolShape, place_points
 from ..machining.toolpath import segment_intrusion
@@ -54,6 +62,10 @@ from ..simulation.verify import profile_normals, verify_plan
 # mm: a pass is a strip's when its first pose is this near the strip's (modulo the screw) and its other poses
 # stay this near the screw through its first pose (the programs' own rounding is 0.0001 mm and 0.0001 deg)
 MATCH_TOL_MM = 1e-2
+# a chip load or surface speed this much (relative) over the cutting data is a finding, beyond the posts' rounding
+# of S to whole turns (half a turn: 0.5 / S relative): their F words carry 4 significant digits at least, and
+# TCP chords or the rounding of the axes move a block's time by less than 6e-4 on the built-in machines
+CUTTING_TOL = 1e-3
 
 
 def tool_table(plans):
@@ -69,6 +81,20 @@ def tool_table(plans):
                 table[by_sig[sig]] = shape
             of_strip[p, s] = by_sig[sig]
     return table, of_strip
+
+
+def tool_cutting_data(plans, cutting_data=None):
+    """{number: CuttingData} of the tools of :func:`tool_table`: ``cutting_data`` for every tool when given,
+    else each tool's own (:func:`..machining.feeds.cutting_data_for`), as the post chooses them."""
+    from ..io.plan import strip_tool
+
+    if cutting_data is not None:
+        return {n: cutting_data for n in tool_table(plans)[0]}
+    _, of_strip = tool_table(plans)
+    out = {}
+    for (p, s), n in of_strip.items():
+        out.setdefault(n, cutting_data_for(strip_tool(plans[p], s)))
+    return out
 
 
 def tool_gauges(tools):
@@ -269,6 +295,43 @@ def spindle_check(read, machine):
             "max_rpm": max((mv.rpm for mv in feeds), default=None), "machine_max_rpm": machine.max_rpm}
 
 
+def cutting_check(passes, machine, rotor, tools, data):
+    """Chip load, surface speed and spindle speed of every feed move of the read ``passes`` (module doc, 8)
+    against the cutting data ``data`` ({tool number: CuttingData}): per tool the largest of each, and the lines
+    of the moves over the tool's fz, vc (plus half a turn of the posts' rounding of S) or top speed.  A move
+    without a spindle speed is :func:`spindle_check`'s finding, not one of these."""
+    gauges = tool_gauges(tools)
+    per_tool, over = {}, {"over_chip_load": [], "over_surface_speed": [], "over_tool_top_speed": []}
+    for ps in passes:
+        n, moves = ps["tool"], ps["moves"]
+        d, shape = data[n], tools[n]
+        pts, D = engaged_edge(shape, ps["tip"], ps["axis"], rotor.outer_radius)
+        if not len(pts):
+            continue                            # the pass never enters the stock: nothing to load
+        v_max = float(np.hypot(np.hypot(pts[:, 0], pts[:, 1]), rotor.v0).max())
+        d_max = float(D.max())
+        P, _ = machine.forward(ps["rows"], gauges[n])
+        turn = np.abs(np.diff(P[:, 2])) / rotor.v0                  # screw parameter of each block, rad
+        minutes = block_times(moves, machine, gauges)
+        rpm = np.array([mv.rpm for mv in moves], float)
+        ok = (rpm > 0) & (minutes > 0)
+        chip = np.where(ok, turn / np.where(ok, minutes, 1.0) * v_max / (np.where(ok, rpm, 1.0) * d.flutes), 0.0)
+        vc = math.pi * d_max * rpm / 1000.0
+        t = per_tool.setdefault(n, {"tool": n, "cutting_data": d.as_dict(), "max_chip_load_mm": 0.0,
+                                    "max_surface_speed_m_min": 0.0, "max_rpm": 0.0, "moves_over": dict.fromkeys(over, 0)})
+        t["max_chip_load_mm"] = max(t["max_chip_load_mm"], float(chip.max()))
+        t["max_surface_speed_m_min"] = max(t["max_surface_speed_m_min"], float(vc.max()))
+        t["max_rpm"] = max(t["max_rpm"], float(rpm.max()))
+        lines = np.array([mv.line for mv in moves])
+        rounding = 1.0 + 0.5 / np.where(ok, rpm, 1.0)             # S in whole turns: the post's F is for n
+        for key, bad in (("over_chip_load", chip > d.fz_mm * (1 + CUTTING_TOL) * rounding),
+                         ("over_surface_speed", vc > d.vc_m_min * (1 + CUTTING_TOL) + math.pi * d_max * 0.5 / 1000.0),
+                         ("over_tool_top_speed", rpm > d.max_rpm + 0.5)):
+            over[key] += lines[bad].tolist()
+            t["moves_over"][key] += int(bad.sum())
+    return {"tools": [per_tool[n] for n in sorted(per_tool)], **{k: sorted(v) for k, v in over.items()}}
+
+
 def length_check(read):
     """Moves of a tool that move a linear axis (every cut, and rapids that are not a rotary turn alone) without
     that tool's length compensation: none active, or another tool's (lines; the first (H, T) of those)."""
@@ -353,11 +416,13 @@ def check_links(read, machine, tools, rotor, step=1.0, spacing=1.5):
             "intrusions": bad[:20]}
 
 
-def verify_program(text, post, machine, plans, rotor, lobes=None, references=None, progress=None, read=None):
+def verify_program(text, post, machine, plans, rotor, lobes=None, references=None, progress=None, read=None,
+                   cutting_data=None):
     """The read-back report of a posted program (module doc); ``lobes``: lobes to sweep (default all
     the program cuts); ``references``: verify_plan of each plan when already known; ``progress(fraction,
     message)``: reports before each plan's and lobe's sweep, and stops the check when it asks to
-    (:mod:`..progress`); ``read``: ``post.read(text, machine)`` when the caller has it already."""
+    (:mod:`..progress`); ``read``: ``post.read(text, machine)`` when the caller has it already;
+    ``cutting_data``: one CuttingData for every tool, as the post was given it (default: each tool's own)."""
     from ..progress import reporter
 
     report = reporter(progress)
@@ -423,6 +488,7 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
         "gouge_points": sum(lo["gouge_points"] for pl in plans_out for lo in pl["lobes"]),
         "links": check_links(read, machine, tools, rotor),
         "spindle": spindle_check(read, machine),
+        "cutting": cutting_check(passes, machine, rotor, tools, tool_cutting_data(plans, cutting_data)),
         "length_compensation": length_check(read),
         "axis_limits": axis_limit_check(read, machine, gauges),
         "work_offsets": work_offset_check(read),
@@ -443,6 +509,27 @@ SPINDLE_FINDINGS = (
     ("over_top_speed", "at up to S{max_rpm:g}, over the machine's top spindle speed {machine_max_rpm:g} /min "
                        "(lines {lines})"),
 )
+
+
+# what :func:`cutting_check` finds, as the findings say it (after "N feed move(s) "), and the figures
+CUTTING_FINDINGS = (
+    ("over_chip_load", "load the tool over its feed per tooth"),
+    ("over_surface_speed", "cut faster than the tool's cutting speed"),
+    ("over_tool_top_speed", "turn the tool faster than its top speed"),
+)
+
+
+def _cutting_text(t, key):
+    """One tool's figure of a cutting finding: its largest value against its data, or '' when within."""
+    d = t["cutting_data"]
+    if not t["moves_over"][key]:
+        return ""
+    if key == "over_chip_load":
+        return f"T{t['tool']} chip load up to {t['max_chip_load_mm']:.4g} mm against fz {d['fz_mm']:g} mm ({d['source']})"
+    if key == "over_surface_speed":
+        return (f"T{t['tool']} up to {t['max_surface_speed_m_min']:.4g} m/min against vc {d['vc_m_min']:g} m/min "
+                f"({d['source']})")
+    return f"T{t['tool']} at up to S{t['max_rpm']:g} against its {d['max_rpm']:g} /min ({d['source']})"
 
 
 def _some(lines):
@@ -501,6 +588,11 @@ def program_findings(res):
     for key, text in SPINDLE_FINDINGS if sp is not None else ():
         if sp[key]:
             out.append(f"{len(sp[key])} feed move(s) " + text.format(lines=_some(sp[key]), **sp))
+    cut = res.get("cutting")
+    for key, what in CUTTING_FINDINGS if cut is not None else ():
+        if cut[key]:
+            out.append(f"{len(cut[key])} feed move(s) " + what + f" (lines {_some(cut[key])}): "
+                       + "; ".join(_cutting_text(t, key) for t in cut["tools"] if _cutting_text(t, key)))
     for v in res.get("axis_limits", []):
         out.append(f"axis {v['axis']} reaches {v['value']:.6g} at line {v['line']}, outside its limits "
                    f"{v['min']:g}..{v['max']:g} on machine {res['machine']}: the controller stops there")

@@ -134,3 +134,19 @@ def assert_plans_kept(kept, at_least=1):
     assert len(live) >= at_least, kept
     for name, k in live.items():
         assert k["current"] and k["equal"], (name, k)
+
+
+CONTINUED = "    "       # panels/common.py: the indent of a wrapped label's further lines
+
+
+def panel_labels(calls):
+    """The label texts a panel drew (recorded calls), each wrapped label joined back into one line."""
+    out = []
+    for call in calls:
+        if call[0] != "label":
+            continue
+        if out and call[1].startswith(CONTINUED) and call[1].strip():
+            out[-1] += " " + call[1][len(CONTINUED):]
+        else:
+            out.append(call[1])
+    return out

@@ -196,8 +196,9 @@ def _check(bpy, coll, **kw):
 
 def _checks(bpy, tmp, coll, settings, prog_path):
     """Check Program File: the program Post Program wrote (the Machine panel's call), with the post told by the
-    extension, the same program edited by hand (one pass's end turned 0.5 deg further), checked with a chuck
-    in the run-out, and the refusals (each leaves the run's earlier check as it was)."""
+    extension, the same program edited by hand (one pass's end turned 0.5 deg further), checked against half the
+    Tool panel's feed per tooth, checked with a chuck in the run-out, and the refusals (each leaves the run's
+    earlier check as it was)."""
     machine_panel = __import__(driver.MODULE + ".panels.machine", fromlist=["x"])
     checker = __import__(driver.MODULE + ".operators.check_program", fromlist=["x"])
     call = dict(machine_panel.check_call(settings), collection=coll.name)
@@ -220,8 +221,13 @@ def _checks(bpy, tmp, coll, settings, prog_path):
     out["edited_file"] = edited
     out["edited"] = _check(bpy, coll, **dict(call, filepath=edited))
     out["edited"]["lines"] = checker.check_lines(coll)
+    out["edited"]["panel"] = driver._draw_panels(bpy, bpy.context.active_object)["FLANK_PT_machine"]
+    half = dict(call, tool_feed_per_tooth_mm=call["tool_feed_per_tooth_mm"] / 2)
+    out["half_fz"] = _check(bpy, coll, **half)
+    out["half_fz"]["call"] = {k: v for k, v in half.items()}
     out["chuck"] = _check(bpy, coll, **dict(call, holders="low,100,40,2"))
     out["chuck"]["lines"] = checker.check_lines(coll)
+    out["chuck"]["panel"] = driver._draw_panels(bpy, bpy.context.active_object)["FLANK_PT_machine"]
 
     for name, content in (("copy.nc", text), ("copy.txt", text), ("garbage.ngc", "G1 X1 Q\nhello\n")):
         with open(os.path.join(tmp, name), "w") as fh:
@@ -238,6 +244,8 @@ def _checks(bpy, tmp, coll, settings, prog_path):
         "lobes_text": dict(lobes="0,x"),
         "lobes_range": dict(lobes="9"),
         "holders_text": dict(holders="low,80"),
+        "flutes": dict(tool_flutes=0),
+        "feed_per_tooth": dict(tool_feed_per_tooth_mm=-0.01),
         "garbage": dict(filepath=os.path.join(tmp, "garbage.ngc")),
     }
     out["refused"] = {name: _check(bpy, coll, **dict(call, **kw)) for name, kw in cases.items()}

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from blender_harness import assert_plans_kept, run_scenario
+from blender_harness import assert_plans_kept, panel_labels, run_scenario
 from machining.machining_helpers import rs274_times, run_rs274
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -144,7 +144,7 @@ def test_the_cycle_time_shown_is_the_cores(mc, cli):
     want.append("Not timed: 2 move(s) out of a tool change")
     assert js["total_time_s"] >= 60.0
     for name in ("FLANK_PT_machine", "FLANK_PT_results"):
-        labels = [c[1] for c in mc["panels"][name] if c[0] == "label"]
+        labels = panel_labels(mc["panels"][name])
         assert all(w in labels for w in want), (name, labels)
     machine = mc["panels"]["FLANK_PT_machine"]
     assert ["operator", "flank.post_program"] in machine
@@ -177,7 +177,7 @@ def test_the_posted_program_is_read_back_as_verify_program_reads_it(mc):
     want = "Read back: as planned (machined deviation within {:.2g} mm of the plan's)".format(
         props["flank_prog_read_back_deviation_mm"])
     for name in ("FLANK_PT_machine", "FLANK_PT_results"):
-        assert want in [c[1] for c in mc["panels"][name] if c[0] == "label"], name
+        assert want in panel_labels(mc["panels"][name]), name
     assert ["prop", "program_read_back"] in mc["panels"]["FLANK_PT_machine"]
 
 
@@ -416,10 +416,34 @@ def test_check_program_file_finds_a_hand_edit_and_a_chuck_in_the_way(mc):
         assert code == 1 and findings == js["findings"] and findings, (key, findings)
         assert r["lines"][2] == "NOT AS PLANNED, {} finding(s):".format(len(findings))
         assert r["lines"][3:] == findings[:3]
+        # the panel shows each finding whole, wrapped into lines the sidebar does not cut off
+        drawn = [c[1] for c in r["panel"] if c[0] == "label"]
+        assert max(len(t) for t in drawn) <= 52 and max(len(f) for f in findings[:3]) > 52, drawn
+        labels = panel_labels(r["panel"])
+        assert labels[labels.index(r["lines"][2]):][:len(findings[:3]) + 1] == r["lines"][2:], labels
         print(key, findings)
     assert "enter a shaft or a holder" in json.loads(c["chuck"]["props"]["flank_check_findings"])[0]
     # the figure docs/blender.md gives: the pass turned 0.5 deg further leaves the screw by 0.775 mm
     assert "leave the rotor's screw motion by up to 0.775 mm" in json.loads(c["edited"]["props"]["flank_check_findings"])[0]
+
+
+def test_check_program_file_takes_the_tool_panels_cutting_data(mc):
+    """Check Program File checks the chip loads against the Tool panel's cutting data, as Post Program gives
+    them to the post: the posted program passes with the preset's data; with half its fz every feed move is
+    over, and the findings are the command line's with the same data (--flutes, --vc, --fz, --max-rpm) but for
+    the data's source."""
+    c = mc["checks"]
+    assert json.loads(c["as_posted"]["props"]["flank_check_findings"]) == []
+    r, call = c["half_fz"], c["half_fz"]["call"]
+    assert r["result"] == ["FINISHED"] and r["new"] == NOTHING, r
+    findings = json.loads(r["props"]["flank_check_findings"])
+    code, js = _verify_program(mc["post"]["file"], mc["plan_file"], "--flutes", str(call["tool_flutes"]),
+                               "--vc", repr(call["tool_cutting_speed_m_min"]),
+                               "--fz", repr(call["tool_feed_per_tooth_mm"]),
+                               "--max-rpm", repr(call["tool_max_rpm"]))
+    assert code == 1 and len(findings) == 1 and "load the tool over its feed per tooth" in findings[0]
+    assert findings == [f.replace("(command line)", "(Tool panel)") for f in js["findings"]]
+    assert "fz {:g} mm (Tool panel)".format(call["tool_feed_per_tooth_mm"]) in findings[0]
 
 
 CHECK_ERRORS = {
@@ -434,6 +458,8 @@ CHECK_ERRORS = {
     "lobes_text": "lobes '0,x' must be empty, 'all' or lobe indices",
     "lobes_range": "lobes [9] are not lobes of this rotor (0..3)",
     "holders_text": "Holders 'low,80': holder 'low,80' must be SIDE,DIAMETER,LENGTH[,GAP]",
+    "flutes": "cutting data: flutes must be an integer >= 1, got 0",
+    "feed_per_tooth": "cutting data: fz_mm must be a finite number > 0, got -0.01",
     "garbage": "line 1",
 }
 
