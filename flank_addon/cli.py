@@ -877,10 +877,11 @@ def _cmd_verify_program(args):
     if sp["max_rpm"] is not None:
         bad = len({ln for k in ("stopped", "counter_clockwise", "no_speed", "over_top_speed") for ln in sp[k]})
         speeds = f"S{sp['min_rpm']:g}" + ("" if sp["min_rpm"] == sp["max_rpm"] else f"..S{sp['max_rpm']:g}")
-        lc = res["length_compensation"]
+        lc, dry = res["length_compensation"], len(res["coolant"]["off"])
         print(f"  spindle on the cuts: {speeds} (machine top {sp['machine_max_rpm']:g}), "
               + ("clockwise within its speeds on every one" if not bad else f"{bad} not turning clockwise within "
                                                                              "its speeds")
+              + ("; coolant on every one" if not dry else f"; {dry} without coolant")
               + "; tool length compensation " + ("of its tool on every move" if not (lc["without"] or lc["other_tool"])
                                                  else f"missing on {len(lc['without'])} move(s), another tool's on "
                                                       f"{len(lc['other_tool'])}"))

@@ -38,6 +38,12 @@ class Move:
     spindle: str = ""         # "cw" (M3), "ccw" (M4) or "off" during the move, as the reader follows it; "": not read
     length_comp: int = None   # the tool whose length compensation is active (G43 H<n>; TOOL CALL), None: none
     work_offset: str = ""     # the active work offset (G54 ... G59.3); "" where the dialect has none in its words
+    coolant: str = ""         # "flood", "mist", "mist+flood" or "off" during the move, as the reader follows it
+
+
+def coolant_state(mist, flood):
+    """The :attr:`Move.coolant` text of the two coolants' states."""
+    return "mist+flood" if mist and flood else "flood" if flood else "mist" if mist else "off"
 
 
 @dataclass

@@ -1,24 +1,26 @@
 """What the ISO G-code dialects (LinuxCNC rs274ngc, Fanuc) share: the block reader.
 
 The reader follows the modal state a controller keeps (motion G0/G1, feed mode G93/G94, axis values, F, the
-selected tool T and the tool in the spindle, spindle speed, spindle rotation M3/M4/M5, tool length compensation
-G43 [H<n>] ... G49, work offset G54 ... G59.3, TCP G43.4/G43.5 ... G49) and turns every block that moves into a
-:class:`base.Move`.  Within a block it keeps rs274ngc's order of execution: the tool change (M6 puts the
-selected tool in the spindle, stops the spindle and leaves the length compensation as it was), then the
-spindle words, then the length compensation, then the motion; the program's end (M2, M30) stops the spindle
-after the motion.  It knows the words the posts write and the usual preamble codes; anything else (incremental
-G91, inch G20, arcs, canned cycles, subprograms, expressions) is refused with its line number.
+selected tool T and the tool in the spindle, spindle speed, spindle rotation M3/M4/M5, coolant M7/M8/M9, tool
+length compensation G43 [H<n>] ... G49, work offset G54 ... G59.3, TCP G43.4/G43.5 ... G49) and turns every
+block that moves into a :class:`base.Move`.  Within a block it keeps rs274ngc's order of execution: the tool
+change (M6 puts the selected tool in the spindle, stops the spindle and leaves the coolant and the length
+compensation as they were), then the spindle words, then the coolant (M7 mist and M8 flood each on, M9 both
+off; one of them per block), then the length compensation, then the motion; the program's end (M2, M30) stops
+the spindle and the coolant after the motion.  It knows the words the posts write and the usual preamble codes;
+anything else (incremental G91, inch G20, arcs, canned cycles, subprograms, expressions) is refused with its
+line number.
 """
 import re
 
 import numpy as np
 
-from .base import Move, Post, PostError, ReadProgram, fixed
+from .base import Move, Post, PostError, ReadProgram, coolant_state, fixed
 
 WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
 IGNORED_G = {"17", "21", "40", "61", "61.1", "64", "80", "90"}
 WORK_OFFSETS = {"54", "55", "56", "57", "58", "59", "59.1", "59.2", "59.3"}
-IGNORED_M = {"0", "1", "2", "8", "9", "30"}
+IGNORED_M = {"0", "1", "2", "30"}
 
 
 def strip_comments(line, semicolon):
@@ -45,6 +47,7 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
     changes = any(re.search(r"M0*6(?![\d.])", strip_comments(ln, semicolon_comments)[0].upper().replace(" ", ""))
                   for ln in text.splitlines())
     motion, mode, F, tool, rpm, spindle, comp = None, "per_minute", None, 0, 0.0, "off", None
+    mist = flood = False            # the coolants: off at power-on
     loaded = 0 if changes else None     # with an M6 in the program, no tool is in the spindle before the first
     h_modal, comp_on = 0, False     # Fanuc: the latest H word; whether G43 / G43.4 / G43.5 is on
     work = "G54"                    # the controllers' power-on work offset
@@ -77,7 +80,8 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
             raise PostError(f"line {no}: cannot read {code[pos:]!r} in {raw.strip()!r}")
         new = row.copy()
         moved, f_here, tool_change, named, turn, length, h_word = False, None, False, [], None, None, None
-        end_stop = False                # M2 / M30: the spindle stops after the block's motion
+        end_stop = False                # M2 / M30: the spindle and the coolant stop after the block's motion
+        cool = set()                    # the block's coolant words
         for letter, value in words:
             if letter == "G":
                 g = value.lstrip("0") or "0"
@@ -114,6 +118,8 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
                     tool_change = True
                 elif mcode in ("3", "4", "5"):
                     turn = {"3": "cw", "4": "ccw", "5": "off"}[mcode]
+                elif mcode in ("7", "8", "9"):
+                    cool.add(mcode)
                 elif mcode in ("2", "30"):
                     out.end_line = out.end_line or no
                     end_stop = True
@@ -142,6 +148,9 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
             spindle = "off"
         if turn is not None:
             spindle = turn
+        if len(cool) > 1:
+            raise PostError(f"line {no}: two of M7, M8 and M9 in one block (one modal group)")
+        mist, flood = ("7" in cool or mist) and "9" not in cool, ("8" in cool or flood) and "9" not in cool
         in_spindle = tool if loaded is None else loaded
         if tcp_codes:
             h_modal = h_modal if h_word is None else h_word
@@ -161,10 +170,10 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
                     raise PostError(f"line {no}: G1 without a feed (F)")
             out.moves.append(Move("rapid" if motion == 0 else "feed", row.copy(), new.copy(),
                                   "" if motion == 0 else mode, 0.0 if motion == 0 else F, no, in_spindle, rpm, tcp,
-                                  comment, spindle, comp, work))
+                                  comment, spindle, comp, work, coolant_state(mist, flood)))
             row = new
         if end_stop:
-            spindle = "off"
+            spindle, mist, flood = "off", False, False
     return out
 
 

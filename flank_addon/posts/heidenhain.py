@@ -28,13 +28,18 @@ NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)"
 # program's stops (M0, M1), the tool change M6 and the program's end (M2, M30) at its end
 SPINDLE_AT_START = {"M3": "cw", "M13": "cw", "M4": "ccw", "M14": "ccw"}
 SPINDLE_AT_END = {"M5": "off", "M0": "off", "M1": "off", "M6": "off", "M2": "off", "M30": "off"}
+# and its coolant: M8 (M13 / M14 with the spindle) on from the start of its block; M9, the program's stops and
+# its end off at the end of theirs (M5 and the tool change M6 leave it)
+COOLANT_AT_START = {"M8": "flood", "M13": "flood", "M14": "flood"}
+COOLANT_AT_END = {"M9": "off", "M0": "off", "M1": "off", "M2": "off", "M30": "off"}
 
 
-def _spindle_words(toks):
-    """(rotation from the block's start, rotation after it; None where the block does not change it)."""
+def _m_words(toks, at_start, at_end):
+    """(state from the block's start, state after it; None where the block does not change it) of one of the
+    TNC's M-function tables."""
     ms = ["M{}".format(int(t[1:])) for t in toks if re.fullmatch(r"M\d+", t)]       # M03 is M3
-    start = [SPINDLE_AT_START[m] for m in ms if m in SPINDLE_AT_START]
-    end = [SPINDLE_AT_END[m] for m in ms if m in SPINDLE_AT_END]
+    start = [at_start[m] for m in ms if m in at_start]
+    end = [at_end[m] for m in ms if m in at_end]
     return (start[-1] if start else None), (end[-1] if end else None)
 
 
@@ -107,7 +112,7 @@ class HeidenhainPost(Post):
         names = machine.axis_names
         out = ReadProgram(axes=list(names))
         row = np.full(len(names), np.nan)
-        F, tool, rpm, tcp, comment, spindle = None, 0, 0.0, False, "", "off"
+        F, tool, rpm, tcp, comment, spindle, coolant = None, 0, 0.0, False, "", "off", "off"
         axis_word = re.compile(r"^([XYZABC])(" + NUMBER + r")$")
         for no, raw in enumerate(text.splitlines(), 1):
             line = raw.strip()
@@ -150,11 +155,12 @@ class HeidenhainPost(Post):
             if toks[:3] == ["FUNCTION", "RESET", "TCPM"]:
                 tcp = False
                 continue
-            at_start, at_end = _spindle_words(toks)
-            spindle = at_start or spindle
+            at_start, at_end = _m_words(toks, SPINDLE_AT_START, SPINDLE_AT_END)
+            cool_start, cool_end = _m_words(toks, COOLANT_AT_START, COOLANT_AT_END)
+            spindle, coolant = at_start or spindle, cool_start or coolant
             if toks[0] != "L":
                 if all(re.fullmatch(r"M\d+", t) for t in toks):
-                    spindle = at_end or spindle
+                    spindle, coolant = at_end or spindle, cool_end or coolant
                     continue
                 raise PostError(f"line {no}: {toks[0]!r} blocks are not supported by the reader")
             new, rapid, moved = row.copy(), False, False
@@ -173,14 +179,14 @@ class HeidenhainPost(Post):
                     raise PostError(f"line {no}: {t!r} is not supported by the reader"
                                     f" (axes of machine {machine.name}: {' '.join(names)})")
             if not moved:
-                spindle = at_end or spindle
+                spindle, coolant = at_end or spindle, cool_end or coolant
                 continue
             if not rapid and not (F is not None and F > 0):
                 raise PostError(f"line {no}: L block without a feed (F or FMAX)")
             mode = "" if rapid else ("tip_speed" if tcp else "combined")
             out.moves.append(Move("rapid" if rapid else "feed", row.copy(), new.copy(), mode,
                                   0.0 if rapid else F, no, tool, rpm, tcp, comment, spindle,
-                                  tool or None))           # TOOL CALL compensates the tool's length
+                                  tool or None, coolant=coolant))   # TOOL CALL compensates the tool's length
             row = new
-            spindle = at_end or spindle
+            spindle, coolant = at_end or spindle, cool_end or coolant
         return out

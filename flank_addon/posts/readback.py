@@ -33,9 +33,9 @@
    feed move must cut with it turning clockwise (M3, as the posts turn the tools, which cut right-hand) at a
    speed above 0 and within the machine's top speed (:func:`spindle_check`); every move of a tool that moves a
    linear axis, with the length compensation of that tool (G43 H<n>; a Klartext TOOL CALL gives it)
-   (:func:`length_check`); one work offset throughout (:func:`work_offset_check`); every move within the
-   machine's axis limits (:func:`axis_limit_check`: the block
-   ends, and with TCP points between them, where the joints are not linear in the program's values).
+   (:func:`length_check`); every feed move with coolant (:func:`coolant_check`); one work offset throughout
+   (:func:`work_offset_check`); every move within the machine's axis limits (:func:`axis_limit_check`: the
+   block ends, and with TCP points between them, where the joints are not linear in the program's values).
 8. Cutting conditions (:func:`cutting_check`): every feed move's chip load, surface speed and spindle speed
    from what the controller does with the program (its S, and the block's time as the controller computes it
    from F, :mod:`machining.cycle_time`), against the tool's cutting data (the same data the post is given;
@@ -332,6 +332,13 @@ def cutting_check(passes, machine, rotor, tools, data):
     return {"tools": [per_tool[n] for n in sorted(per_tool)], **{k: sorted(v) for k, v in over.items()}}
 
 
+def coolant_check(read):
+    """Feed moves that cut without coolant (lines), as the reader follows it: the posts turn flood coolant on with
+    every tool (M8; Klartext M13), so a cut without it is an M9, a program stop or an M2 / M30 before it (mist
+    alone, M7, is coolant too: a shop's choice)."""
+    return {"off": [mv.line for mv in read.moves if mv.kind == "feed" and mv.coolant == "off"]}
+
+
 def length_check(read):
     """Moves of a tool that move a linear axis (every cut, and rapids that are not a rotary turn alone) without
     that tool's length compensation: none active, or another tool's (lines; the first (H, T) of those)."""
@@ -488,6 +495,7 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
         "gouge_points": sum(lo["gouge_points"] for pl in plans_out for lo in pl["lobes"]),
         "links": check_links(read, machine, tools, rotor),
         "spindle": spindle_check(read, machine),
+        "coolant": coolant_check(read),
         "cutting": cutting_check(passes, machine, rotor, tools, tool_cutting_data(plans, cutting_data)),
         "length_compensation": length_check(read),
         "axis_limits": axis_limit_check(read, machine, gauges),
@@ -588,6 +596,10 @@ def program_findings(res):
     for key, text in SPINDLE_FINDINGS if sp is not None else ():
         if sp[key]:
             out.append(f"{len(sp[key])} feed move(s) " + text.format(lines=_some(sp[key]), **sp))
+    cool = res.get("coolant")
+    if cool is not None and cool["off"]:
+        out.append(f"{len(cool['off'])} feed move(s) without coolant (lines {_some(cool['off'])}): M9, a program "
+                   "stop or the end before them, and no M8 / M7 (Klartext M8 / M13) after it")
     cut = res.get("cutting")
     for key, what in CUTTING_FINDINGS if cut is not None else ():
         if cut[key]:

@@ -206,7 +206,8 @@ def test_as_posted_every_cut_has_its_spindle_and_length_compensation(request, ma
     assert not (sp["stopped"] or sp["counter_clockwise"] or sp["no_speed"] or sp["over_top_speed"])
     assert sp["min_rpm"] == sp["max_rpm"] == pytest.approx(op.tools[0].rpm, abs=0.5)
     assert res["work_offsets"] == {"offsets": [] if post_name == "heidenhain" else ["G54"], "changes_at": []}
-    assert res["axis_limits"] == [] and res["findings"] == []
+    assert res["axis_limits"] == [] and res["findings"] == [] and res["coolant"] == {"off": []}
+    assert {mv.coolant for mv in post.read(text, machine).moves if mv.kind == "feed"} == {"flood"}
 
 
 def test_linuxcnc_length_compensation_and_tool_are_the_interpreters(posted, rs274, tmp_path):
@@ -544,3 +545,81 @@ def test_fanuc_g49_ends_tcp_and_the_length_offset(two_tool_plan):
     assert all(mv.tcp and mv.length_comp == 2 for mv in _feeds_of_tool(read, 2))
     res = verify_program("\n".join(off) + "\n", post, machine, [two_tool_plan], rb)
     assert res["findings"] and res["length_compensation"]["without"]
+
+
+CANON_COOLANT = re.compile(r"(FLOOD_ON|FLOOD_OFF|MIST_ON|MIST_OFF|STRAIGHT_FEED)\(")
+
+
+def rs274_feed_coolants(rs274, path):
+    """The coolant at every STRAIGHT_FEED of LinuxCNC's canonical output, as the reader names it."""
+    import subprocess
+
+    r = subprocess.run([rs274, "-g", str(path)], capture_output=True, text=True, timeout=120, cwd=path.parent)
+    assert "PROGRAM_END()" in r.stdout and "modal group" not in r.stdout + r.stderr
+    mist = flood = False
+    out = []
+    for kind in CANON_COOLANT.findall(r.stdout):
+        if kind == "STRAIGHT_FEED":
+            out.append("mist+flood" if mist and flood else "flood" if flood else "mist" if mist else "off")
+        elif kind.startswith("FLOOD"):
+            flood = kind == "FLOOD_ON"
+        else:
+            mist = kind == "MIST_ON"
+    return out
+
+
+def test_linuxcnc_coolant_is_the_interpreters(posted, posted_two, rs274, tmp_path):
+    """M9 before pass 2, M7 before pass 3 (mist alone), M8 before pass 4 (mist and flood), M9 and then M8 before
+    pass 6; and in the two-tool program without its second M8 (M6 leaves the coolant on): the reader's coolant
+    at every feed move is LinuxCNC's, and only the cut without any is a finding."""
+    plan, rb, machine, prog = posted
+    post = get_post("linuxcnc")
+    lines = post.write(prog).splitlines()
+    text = "\n".join(_before_passes(lines, "(PASS ", {2: "M9", 3: "M7", 4: "M8", 6: "M9\nM8"})) + "\n"
+    path = tmp_path / "coolant.ngc"
+    path.write_text(text)
+    read = post.read(text, machine)
+    ours = [mv.coolant for mv in read.moves if mv.kind == "feed"]
+    assert ours == rs274_feed_coolants(rs274, path)
+    assert ours[:6] == ["flood", "off", "mist", "mist+flood", "mist+flood", "flood"]
+    feeds = [mv for mv in read.moves if mv.kind == "feed"]
+    res = verify_program(text, post, machine, [plan], rb)
+    assert res["coolant"] == {"off": [feeds[1].line]}
+    assert f"1 feed move(s) without coolant (lines {feeds[1].line}): M9, a program stop or the end before them, " \
+           "and no M8 / M7 (Klartext M8 / M13) after it" in res["findings"]
+    two = get_post("linuxcnc").write(posted_two[3]).splitlines()
+    m8 = [k for k, ln in enumerate(two) if ln == "M8"]
+    assert len(m8) == 2
+    path = tmp_path / "second_m8.ngc"
+    path.write_text("\n".join(two[:m8[1]] + two[m8[1] + 1:]) + "\n")
+    read = post.read(path.read_text(), posted_two[2])
+    assert [mv.coolant for mv in read.moves if mv.kind == "feed"] == rs274_feed_coolants(rs274, path)
+    assert {mv.coolant for mv in _feeds_of_tool(read, 2)} == {"flood"}
+    with pytest.raises(Exception, match="line 3: two of M7, M8 and M9 in one block"):
+        post.read("%\nG21 G90\nM7 M8\nM2\n%\n", machine)
+
+
+def test_heidenhain_coolant_words_act_where_the_tnc_acts(posted):
+    """Klartext: M9 at the end of a cut's block, or M0 (a program stop), leaves the cuts after it without coolant
+    until M8 (on from the start of its block); M5 and M6 leave it on; as posted, M13 turns it on with the
+    spindle."""
+    plan, rb, machine, prog = posted
+    post = get_post("heidenhain")
+    lines = post.write(prog).splitlines()
+    cuts = [k for k, ln in enumerate(lines) if re.match(r"^\d+ L .* F[\d.]+", ln)]
+    read = post.read("\n".join(lines) + "\n", machine)
+    assert {mv.coolant for mv in read.moves if mv.kind == "feed"} == {"flood"}
+    for word, after in (("M9", "off"), ("M0", "off"), ("M5", "flood"), ("M6", "flood")):
+        edited = list(lines)
+        edited[cuts[0]] += " " + word
+        read = post.read("\n".join(edited) + "\n", machine)
+        cool = [mv.coolant for mv in read.moves if mv.kind == "feed"]
+        assert cool[0] == "flood" and set(cool[1:]) == {after}, word
+    edited = list(lines)
+    edited[cuts[0]] += " M9"
+    edited[cuts[2]] += " M8"
+    read = post.read("\n".join(edited) + "\n", machine)
+    feeds = [mv for mv in read.moves if mv.kind == "feed"]
+    assert [mv.coolant for mv in feeds[:4]] == ["flood", "off", "flood", "flood"]
+    res = verify_program("\n".join(edited) + "\n", post, machine, [plan], rb)
+    assert res["coolant"]["off"] == [feeds[1].line] and feeds[1].line == cuts[1] + 1
