@@ -9,10 +9,12 @@ Conditions of a pass (the tool fixed in the rotor frame while the rotor screws, 
 
 * engaged edge: the tool's surface points inside the stock cylinder, rho <= outer radius (what can cut);
 * spindle speed n = min(1000 vc / (pi D_max), tool top speed, machine top speed) with D_max the largest
-  engaged diameter, so the surface speed along the (tapered) edge runs from pi D_min n / 1000 to at most vc;
+  engaged diameter, rounded down to whole turns (the S the posts write), so the surface speed along the
+  (tapered) edge runs from pi D_min n / 1000 to at most vc;
 * feed: a rotor point q moves by dS_t/dt = hand (e_z x q) + v0 e_z per radian of the screw parameter t, so
   relative to the tool it moves at omega |v(q)|, |v(q)| = sqrt(rho(q)^2 + v0^2) (omega: screw rate, rad/min).
-  The feed n z fz is given to the fastest engaged point: omega = n z fz / max |v| over the engaged edge, so
+  The feed n z fz is given to the fastest engaged point: omega = n z fz / max |v| over the engaged edge (where
+  the cutting part reaches out of the stock, at the stock's radius exactly: :func:`fastest_engaged_speed`), so
   the largest chip load is fz (counted along the whole relative motion: conservative where part of it slides
   along the flutes); then omega is lowered until no joint of the pass exceeds its top speed (a joint-linear
   pass moves joint j at |dJ_j/dt| omega);
@@ -142,20 +144,37 @@ def engaged_edge(shape, tip, axis, outer_radius, spacing=0.5):
     return pts[inside], D[inside]
 
 
+def fastest_engaged_speed(shape, tip, axis, rotor, spacing=0.5):
+    """Largest |v(q)| = sqrt(rho(q)^2 + v0^2) (per radian of the screw parameter) over the engaged edge at the
+    pose (tip, axis), with the engaged points (K, 3) and diameters (K,) of :func:`engaged_edge`.  Where the
+    cutting part reaches out of the stock cylinder, its surface (connected, partly inside) crosses the cylinder,
+    so the largest rho is the stock's radius exactly, whatever the sampling; otherwise the largest sampled."""
+    pts, D = engaged_edge(shape, tip, axis, rotor.outer_radius, spacing)
+    if not len(pts):
+        return 0.0, pts, D
+    everything, _ = engaged_edge(shape, tip, axis, np.inf, spacing)
+    outside = bool(np.any(np.hypot(everything[:, 0], everything[:, 1]) > rotor.outer_radius))
+    rho = rotor.outer_radius if outside else float(np.hypot(pts[:, 0], pts[:, 1]).max())
+    return math.hypot(rho, rotor.v0), pts, D
+
+
 def spindle_speed(data, max_diameter, machine_max_rpm):
-    """n = min(1000 vc / (pi D_max), tool top speed, machine top speed), 1/min."""
-    return min(1000.0 * data.vc_m_min / (math.pi * max_diameter), data.max_rpm, machine_max_rpm)
+    """n = min(1000 vc / (pi D_max), tool top speed, machine top speed), 1/min, rounded down to whole turns: the
+    posts write S in whole turns, and the feeds are computed for the S the machine runs, so the chip load is fz
+    and the surface speed at most vc as the machine cuts (below 1 /min, as it is)."""
+    n = min(1000.0 * data.vc_m_min / (math.pi * max_diameter), data.max_rpm, machine_max_rpm)
+    return float(math.floor(n)) if n >= 1.0 else n
 
 
 def pass_conditions(shape, tip, axis, rotor, data, rpm, t_span, joint_rates, joint_limits):
     """:class:`PassConditions` of a pass (module doc).  ``joint_rates``: |dJ/dt| per joint (per radian of
     t), ``joint_limits``: their top speeds (same order) and ``names``."""
-    pts, D = engaged_edge(shape, tip, axis, rotor.outer_radius)
+    v_max, pts, D = fastest_engaged_speed(shape, tip, axis, rotor)
     if not len(pts):
         raise ValueError("the tool never enters the stock cylinder: nothing to cut")
     speed = np.hypot(np.hypot(pts[:, 0], pts[:, 1]), rotor.v0)          # |v| per radian of t
     z = data.flutes
-    omega = rpm * z * data.fz_mm / float(speed.max())
+    omega = rpm * z * data.fz_mm / v_max
     limited = "chip load"
     for name, rate, vmax in zip(joint_limits[0], joint_rates, joint_limits[1]):
         if rate > 0 and omega * rate > vmax:
@@ -163,8 +182,8 @@ def pass_conditions(shape, tip, axis, rotor, data, rpm, t_span, joint_rates, joi
     chip = omega * speed / (rpm * z)
     rho_tip = math.hypot(tip[0], tip[1])
     return PassConditions(rpm=rpm, omega=omega, time_min=abs(t_span) / omega,
-                          chip_load=(float(chip.min()), float(chip.max())),
+                          chip_load=(float(chip.min()), omega * v_max / (rpm * z)),
                           surface_speed=(math.pi * float(D.min()) * rpm / 1000.0, math.pi * float(D.max()) * rpm / 1000.0),
                           engaged_diameter=(float(D.min()), float(D.max())), limited_by=limited,
                           cutting_length=abs(t_span) * math.hypot(rho_tip, rotor.v0),
-                          feed_mm_min=omega * float(speed.max()))
+                          feed_mm_min=omega * v_max)

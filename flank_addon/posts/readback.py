@@ -53,7 +53,7 @@ import numpy as np
 
 from ..geometry.screw import screw_motion
 from ..machining.cycle_time import block_times, cycle_time, move_joints
-from ..machining.feeds import cutting_data_for, engaged_edge
+from ..machining.feeds import cutting_data_for, fastest_engaged_speed
 from ..machining.operation import checked_lobes, repeats_earlier_strip
 from ..machining.tool_shape import ToolShape, place_points
 from ..machining.toolpath import segment_intrusion
@@ -62,10 +62,12 @@ from ..simulation.verify import profile_normals, verify_plan
 # mm: a pass is a strip's when its first pose is this near the strip's (modulo the screw) and its other poses
 # stay this near the screw through its first pose (the programs' own rounding is 0.0001 mm and 0.0001 deg)
 MATCH_TOL_MM = 1e-2
-# a chip load or surface speed this much (relative) over the cutting data is a finding, beyond the posts' rounding
-# of S to whole turns (half a turn: 0.5 / S relative): their F words carry 4 significant digits at least, and
-# TCP chords or the rounding of the axes move a block's time by less than 6e-4 on the built-in machines
+# a chip load or surface speed this much (relative) over the cutting data is a finding, beyond the rounding of S
+# to whole turns (half a turn: 0.5 / S relative; the posts round down) and of a block's screw advance (below)
 CUTTING_TOL = 1e-3
+# mm: what the rounding of a program's numbers (0.0001 mm, 0.0001 deg at up to a metre from a pivot) can move a
+# block's screw advance |dz| by; a short TCP chord's chip load is judged on |dz| less this
+ADVANCE_ROUNDING_MM = 1e-3
 
 
 def tool_table(plans):
@@ -305,10 +307,9 @@ def cutting_check(passes, machine, rotor, tools, data):
     for ps in passes:
         n, moves = ps["tool"], ps["moves"]
         d, shape = data[n], tools[n]
-        pts, D = engaged_edge(shape, ps["tip"], ps["axis"], rotor.outer_radius)
+        v_max, pts, D = fastest_engaged_speed(shape, ps["tip"], ps["axis"], rotor)
         if not len(pts):
             continue                            # the pass never enters the stock: nothing to load
-        v_max = float(np.hypot(np.hypot(pts[:, 0], pts[:, 1]), rotor.v0).max())
         d_max = float(D.max())
         P, _ = machine.forward(ps["rows"], gauges[n])
         turn = np.abs(np.diff(P[:, 2])) / rotor.v0                  # screw parameter of each block, rad
@@ -324,7 +325,8 @@ def cutting_check(passes, machine, rotor, tools, data):
         t["max_rpm"] = max(t["max_rpm"], float(rpm.max()))
         lines = np.array([mv.line for mv in moves])
         rounding = 1.0 + 0.5 / np.where(ok, rpm, 1.0)             # S in whole turns: the post's F is for n
-        for key, bad in (("over_chip_load", chip > d.fz_mm * (1 + CUTTING_TOL) * rounding),
+        surely = chip * np.maximum(turn - ADVANCE_ROUNDING_MM / rotor.v0, 0.0) / np.where(turn > 0, turn, 1.0)
+        for key, bad in (("over_chip_load", surely > d.fz_mm * (1 + CUTTING_TOL) * rounding),
                          ("over_surface_speed", vc > d.vc_m_min * (1 + CUTTING_TOL) + math.pi * d_max * 0.5 / 1000.0),
                          ("over_tool_top_speed", rpm > d.max_rpm + 0.5)):
             over[key] += lines[bad].tolist()

@@ -451,8 +451,9 @@ def test_tcp_axis_limits_are_checked_between_the_block_ends():
 
 
 def test_the_posts_rounding_of_a_capped_spindle_speed_is_not_over_the_top_speed(single_flank_plan):
-    """A machine whose top speed is 1000.6 /min caps the tool there, and the posts write S1001: half a turn of
-    rounding, not a finding; S1002 written by hand is over the top speed."""
+    """A machine whose top speed is 1000.6 /min caps the tool there, and the posts write S1000 (whole turns,
+    rounded down); a post that rounds to the nearest turn writes S1001: half a turn of rounding, not a finding;
+    S1002 written by hand is over the top speed."""
     import dataclasses
 
     rb = rotor_body(single_flank_plan)
@@ -461,10 +462,12 @@ def test_the_posts_rounding_of_a_capped_spindle_speed_is_not_over_the_top_speed(
     for name in ("linuxcnc", "heidenhain"):
         post = get_post(name)
         text = post.write(prog)
-        assert "S1001" in text
+        assert "S1000" in text and "S1001" not in text
         res = verify_program(text, post, machine, [single_flank_plan], rb)
         assert res["spindle"]["over_top_speed"] == [] and res["findings"] == [], name
-        res = verify_program(text.replace("S1001", "S1002"), post, machine, [single_flank_plan], rb)
+        res = verify_program(text.replace("S1000", "S1001"), post, machine, [single_flank_plan], rb)
+        assert res["spindle"]["over_top_speed"] == [] and res["spindle"]["max_rpm"] == 1001.0, name
+        res = verify_program(text.replace("S1000", "S1002"), post, machine, [single_flank_plan], rb)
         assert res["spindle"]["over_top_speed"] and res["spindle"]["max_rpm"] == 1002.0, name
 
 

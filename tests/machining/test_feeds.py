@@ -19,8 +19,9 @@ PRESETS = Path(__file__).resolve().parents[2] / "presets" / "flank_tool"
 
 
 def test_spindle_speed_chip_load_and_surface_speed(single_flank_plan):
-    """n = 1000 vc / (pi D_max) over the engaged edge; the fastest point of the edge gets fz per tooth, every
-    other less; the surface speed runs from pi D_min n to pi D_max n = vc."""
+    """n = 1000 vc / (pi D_max) over the engaged edge, rounded down to the whole turns the posts write; the
+    fastest point of the edge gets fz per tooth at that n, every other less; the surface speed runs from pi D_min n
+    to pi D_max n <= vc, within a turn of vc."""
     rb = rotor_body(single_flank_plan)
     op = build_operation([single_flank_plan], rb, lobes=[0])
     data = cutting_data_for(single_flank_plan["tool"])
@@ -28,16 +29,17 @@ def test_spindle_speed_chip_load_and_surface_speed(single_flank_plan):
     prog = build_program(op, load_machine("rotor-xa-b"))
     tool = op.tools[0]
     D = max(engaged_edge(tool.shape, p.tip, p.axis, rb.outer_radius)[1].max() for p in op.passes)
-    assert abs(tool.rpm - 1000 * data.vc_m_min / (math.pi * D)) < 1e-6
+    assert tool.rpm == math.floor(1000 * data.vc_m_min / (math.pi * D)) and tool.rpm < 1000 * data.vc_m_min / (math.pi * D)
     for p in prog.passes:
         assert p["limited_by"] == "chip load"
+        dmin, dmax = p["engaged_diameter_mm"]
         assert abs(p["chip_load_mm"][1] - data.fz_mm) < 1e-12 and 0 < p["chip_load_mm"][0] <= data.fz_mm
         assert p["surface_speed_m_min"][1] <= data.vc_m_min * (1 + 1e-9)
-        dmin, dmax = p["engaged_diameter_mm"]
         assert abs(p["surface_speed_m_min"][0] / p["surface_speed_m_min"][1] - dmin / dmax) < 1e-12
         # feed = n z fz at the fastest engaged point, whose speed is omega sqrt(rho^2 + v0^2)
         assert abs(p["feed_mm_min"] - tool.rpm * data.flutes * data.fz_mm) < 1e-6
         assert abs(p["time_s"] - 60 * abs(p["t_range"][1] - p["t_range"][0]) / p["omega_rad_min"]) < 1e-9
+    assert data.vc_m_min - math.pi * D / 1000 < max(p["surface_speed_m_min"][1] for p in prog.passes)
 
 
 def test_a_tool_shorter_than_the_ring_spacing_engages_as_its_full_size_twin(single_flank_plan):
