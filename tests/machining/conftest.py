@@ -89,3 +89,17 @@ def two_tool_plan(male_rotor):
     plan = res.plan
     plan["rotor"]["extent"] = r.extent()
     return plan
+
+
+@pytest.fixture(scope="session")
+def posted(single_flank_plan):
+    """The single-flank plan as a program for rotor-xa-b (lobes 0, 1): plan, rotor body, machine, program."""
+    from flank_addon.machining.machine import load_machine
+    from flank_addon.machining.operation import build_operation
+    from flank_addon.machining.rotor_body import rotor_body
+    from flank_addon.machining.toolpath import build_program
+
+    rb = rotor_body(single_flank_plan)
+    op = build_operation([single_flank_plan], rb, lobes=[0, 1])
+    machine = load_machine("rotor-xa-b")
+    return single_flank_plan, rb, machine, build_program(op, machine)

@@ -43,15 +43,6 @@ def rs274_feed_spindles(rs274, path):
     return feeds
 
 
-@pytest.fixture(scope="module")
-def posted(single_flank_plan):
-    """The single-flank plan on rotor-xa-b (lobes 0, 1): plan, rotor body, machine, program text."""
-    rb = rotor_body(single_flank_plan)
-    op = build_operation([single_flank_plan], rb, lobes=[0, 1])
-    machine = load_machine("rotor-xa-b")
-    return single_flank_plan, rb, machine, build_program(op, machine)
-
-
 CANON_TOOLS = re.compile(r"(CHANGE_TOOL|USE_TOOL_LENGTH_OFFSET|STRAIGHT_FEED|STRAIGHT_TRAVERSE)\(([^)]*)\)")
 INCH = 25.4
 

@@ -51,14 +51,6 @@ def rs274_chip_loads(rs274, path, v0, outer_radius, flutes):
     return np.array(loads)
 
 
-@pytest.fixture(scope="module")
-def posted(single_flank_plan):
-    rb = rotor_body(single_flank_plan)
-    op = build_operation([single_flank_plan], rb, lobes=[0, 1])
-    machine = load_machine("rotor-xa-b")
-    return single_flank_plan, rb, machine, build_program(op, machine)
-
-
 def test_a_faster_feed_is_found_where_linuxcnc_cuts_it(posted, rs274, tmp_path):
     """One pass's F raised by a quarter by hand: LinuxCNC's interpreter cuts that block at 1.25 times the chip
     load of the others, over the tool preset's fz; the read-back finds exactly that block, with LinuxCNC's
