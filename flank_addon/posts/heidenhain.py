@@ -14,7 +14,6 @@ axes as positions, F the speed of the tool tip relative to the workpiece, the ax
 and F = |d tip| / block minutes; ``FUNCTION RESET TCPM`` at the end.  The rotor's spin axis must count
 continuously (no modulo display, M126 off).
 """
-import math
 import re
 
 import numpy as np
