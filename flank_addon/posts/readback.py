@@ -301,17 +301,21 @@ def cutting_check(passes, machine, rotor, tools, data):
     """Chip load, surface speed and spindle speed of every feed move of the read ``passes`` (module doc, 8)
     against the cutting data ``data`` ({tool number: CuttingData}): per tool the largest of each, and the lines
     of the moves over the tool's fz, vc (plus half a turn of the posts' rounding of S) or top speed.  A move
-    without a spindle speed is :func:`spindle_check`'s finding, not one of these."""
+    without a spindle speed is :func:`spindle_check`'s finding, not one of these (it is counted as not checked).
+    The engaged edge is taken at the pass's first pose in the stock (a screw motion keeps it); a pass off the
+    screw (a finding of its own) is judged as if its blocks were screw motions, which overstates a plunge."""
     gauges = tool_gauges(tools)
     per_tool, over = {}, {"over_chip_load": [], "over_surface_speed": [], "over_tool_top_speed": []}
     for ps in passes:
         n, moves = ps["tool"], ps["moves"]
         d, shape = data[n], tools[n]
-        v_max, pts, D = fastest_engaged_speed(shape, ps["tip"], ps["axis"], rotor)
-        if not len(pts):
-            continue                            # the pass never enters the stock: nothing to load
-        d_max = float(D.max())
-        P, _ = machine.forward(ps["rows"], gauges[n])
+        P, A = machine.forward(ps["rows"], gauges[n])
+        v_max = d_max = 0.0                     # a pass that never enters the stock loads nothing
+        for k in range(len(P)):
+            v, pts, D = fastest_engaged_speed(shape, P[k], A[k], rotor)
+            if len(pts):
+                v_max, d_max = v, float(D.max())
+                break
         turn = np.abs(np.diff(P[:, 2])) / rotor.v0                  # screw parameter of each block, rad
         minutes = block_times(moves, machine, gauges)
         rpm = np.array([mv.rpm for mv in moves], float)
@@ -319,7 +323,9 @@ def cutting_check(passes, machine, rotor, tools, data):
         chip = np.where(ok, turn / np.where(ok, minutes, 1.0) * v_max / (np.where(ok, rpm, 1.0) * d.flutes), 0.0)
         vc = math.pi * d_max * rpm / 1000.0
         t = per_tool.setdefault(n, {"tool": n, "cutting_data": d.as_dict(), "max_chip_load_mm": 0.0,
-                                    "max_surface_speed_m_min": 0.0, "max_rpm": 0.0, "moves_over": dict.fromkeys(over, 0)})
+                                    "max_surface_speed_m_min": 0.0, "max_rpm": 0.0, "moves_over": dict.fromkeys(over, 0),
+                                    "moves_without_speed": 0})
+        t["moves_without_speed"] += int(np.sum(~(rpm > 0)))
         t["max_chip_load_mm"] = max(t["max_chip_load_mm"], float(chip.max()))
         t["max_surface_speed_m_min"] = max(t["max_surface_speed_m_min"], float(vc.max()))
         t["max_rpm"] = max(t["max_rpm"], float(rpm.max()))

@@ -92,7 +92,7 @@ def test_a_faster_feed_is_found_where_linuxcnc_cuts_it(posted, rs274, tmp_path):
 def test_a_faster_spindle_is_over_the_cutting_speed_and_the_tools_top_speed(posted, tmp_path):
     """S raised by hand before the second lobe's passes: the surface speed grows with S (pi D_max n / 1000, the
     post's own figure scaled), over vc; with cutting data whose top speed is under the new S, that is a finding
-    too; the chip load falls with the faster spindle."""
+    too.  Half the speed instead loads the tool twice as much with the same feeds."""
     plan, rb, machine, prog = posted
     post = get_post("linuxcnc")
     text = post.write(prog)
@@ -109,6 +109,13 @@ def test_a_faster_spindle_is_over_the_cutting_speed_and_the_tools_top_speed(post
     assert res["cutting"]["over_chip_load"] == [] and res["cutting"]["over_tool_top_speed"] == []
     assert any("cut faster than the tool's cutting speed" in f and "against vc 100 m/min" in f
                for f in res["findings"])
+    # half the speed instead: the same feeds load the tool twice as much, and the surface speed halves
+    halved = lines[:feeds[4]] + ["S{} M3".format(S // 2)] + lines[feeds[4]:]
+    res_half = verify_program("\n".join(halved) + "\n", post, machine, [plan], rb)
+    (h,) = res_half["cutting"]["tools"]
+    assert res_half["cutting"]["over_chip_load"] == [k + 2 for k in feeds[4:]]
+    assert h["max_chip_load_mm"] == pytest.approx(prog.operation.tools[0].data.fz_mm * S / (S // 2), rel=1e-6)
+    assert h["max_surface_speed_m_min"] == pytest.approx(vc_post, rel=1e-9)      # lobe 0's, at S
     slow = CuttingData(3, 100.0, 0.015, 1.5 * S, "a slower spindle")
     res = verify_program("\n".join(edited) + "\n", post, machine, [plan], rb, cutting_data=slow)
     assert res["cutting"]["over_tool_top_speed"] == [k + 2 for k in feeds[4:]]
@@ -169,3 +176,41 @@ def test_the_command_line_checks_against_the_data_it_is_given(posted, tmp_path, 
     capsys.readouterr()
     code = main(["verify", str(plan_path), "--fz", "0.02"])
     assert code == 2 and "--fz applies to verify --program only" in capsys.readouterr().err
+
+
+def test_short_tcp_chords_and_a_plunge_into_the_stock(posted, tmp_path):
+    """A TCP program posted with chords of 2e-5 mm sagitta (blocks whose screw advance the axes' rounding moves
+    by a noticeable share): no finding, and the largest chip load of a block fz to 2e-3 (the rounding of a short
+    chord's advance to 0.0001 mm shows in it).  A pass whose first block plunges
+    into the stock from outside it (by hand, at 20000 /min): its cuts are still judged, over vc, and without a
+    spindle speed a move is counted as not checked."""
+    from flank_addon.cli import main
+
+    plan, rb, machine, prog = posted
+    tcp = load_machine("xyzac-trt-tcp")
+    fine = build_program(build_operation([plan], rb, lobes=[0]), tcp, chord_tolerance=2e-5)
+    post = get_post("fanuc")
+    res = verify_program(post.write(fine), post, tcp, [plan], rb)
+    (t,) = res["cutting"]["tools"]
+    assert res["findings"] == [] and len(fine.passes) < res["moves"] / 100
+    assert t["max_chip_load_mm"] == pytest.approx(fine.operation.tools[0].data.fz_mm, rel=2e-3)
+
+    post = get_post("linuxcnc")
+    lines = post.write(prog).splitlines()
+    first = next(k for k, ln in enumerate(lines) if ln.startswith("G1 "))
+    approach = next(k for k in range(first, 0, -1) if re.fullmatch(r"G0 Z[-\d.]+", lines[k]))
+    z = lines[approach].split("Z")[1]
+    plunge = lines[:approach] + ["G0 Z20", "G1 Z{} F500".format(z)] + lines[approach + 1:]
+    plunge = [re.sub(r"^S\d+ M3$", "S20000 M3", ln) for ln in plunge]
+    res = verify_program("\n".join(plunge) + "\n", post, machine, [plan], rb)
+    cut_lines = [k + 1 for k, ln in enumerate(plunge) if ln.startswith("G1 ")]
+    assert res["cutting"]["over_surface_speed"] == cut_lines and len(cut_lines) == len(prog.passes) + 1
+    assert res["passes_off_screw"] and res["passes_off_screw"][0]["line"] == cut_lines[0]
+    plan_path, prog_path = tmp_path / "plan.json", tmp_path / "s0.ngc"
+    plan_path.write_text(json.dumps(plan))
+    prog_path.write_text("\n".join(re.sub(r"^S\d+ M3$", "S0 M3", ln) for ln in lines) + "\n")
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        code = main(["verify", "--program", str(prog_path), str(plan_path), "--machine", "rotor-xa-b"])
+    assert code == 1 and "within its cutting data where it has a speed; {} feed move(s) without a spindle " \
+        "speed not checked".format(len(prog.passes)) in buf.getvalue()
