@@ -181,9 +181,9 @@ def test_the_command_line_checks_against_the_data_it_is_given(posted, tmp_path, 
 def test_short_tcp_chords_and_a_plunge_into_the_stock(posted, tmp_path):
     """A TCP program posted with chords of 2e-5 mm sagitta (blocks whose screw advance the axes' rounding moves
     by a noticeable share): no finding, and the largest chip load of a block fz to 2e-3 (the rounding of a short
-    chord's advance to 0.0001 mm shows in it).  A pass whose first block plunges
-    into the stock from outside it (by hand, at 20000 /min): its cuts are still judged, over vc, and without a
-    spindle speed a move is counted as not checked."""
+    chord's advance to 0.0001 mm shows in it).  A pass whose first block plunges into the stock from outside it
+    (by hand, at 20000 /min): its cuts are still judged, over vc.  Without a spindle speed a move is counted as
+    not checked."""
     from flank_addon.cli import main
 
     plan, rb, machine, prog = posted
