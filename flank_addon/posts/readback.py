@@ -300,7 +300,8 @@ def spindle_check(read, machine):
 def cutting_check(passes, machine, rotor, tools, data):
     """Chip load, surface speed and spindle speed of every feed move of the read ``passes`` (module doc, 8)
     against the cutting data ``data`` ({tool number: CuttingData}): per tool the largest of each, and the lines
-    of the moves over the tool's fz, vc (plus half a turn of the posts' rounding of S) or top speed.  A move
+    of the moves over the tool's fz, vc or top speed (beyond half a turn of S, for posts that round it to the
+    nearest turn, and :data:`CUTTING_TOL`).  A move
     without a spindle speed is :func:`spindle_check`'s finding, not one of these (it is counted as not checked).
     The engaged edge is taken at the pass's first pose in the stock (a screw motion keeps it); a pass off the
     screw (a finding of its own) is judged as if its blocks were screw motions, which overstates a plunge."""
@@ -330,7 +331,8 @@ def cutting_check(passes, machine, rotor, tools, data):
         t["max_surface_speed_m_min"] = max(t["max_surface_speed_m_min"], float(vc.max()))
         t["max_rpm"] = max(t["max_rpm"], float(rpm.max()))
         lines = np.array([mv.line for mv in moves])
-        rounding = 1.0 + 0.5 / np.where(ok, rpm, 1.0)             # S in whole turns: the post's F is for n
+        # half a turn of S: a post that rounds S to the nearest turn gives F for the speed before rounding
+        rounding = 1.0 + 0.5 / np.where(ok, rpm, 1.0)
         surely = chip * np.maximum(turn - ADVANCE_ROUNDING_MM / rotor.v0, 0.0) / np.where(turn > 0, turn, 1.0)
         for key, bad in (("over_chip_load", surely > d.fz_mm * (1 + CUTTING_TOL) * rounding),
                          ("over_surface_speed", vc > d.vc_m_min * (1 + CUTTING_TOL) + math.pi * d_max * 0.5 / 1000.0),
