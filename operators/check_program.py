@@ -79,13 +79,16 @@ def check_lines(coll):
     time_line = "Its cycle time: {:.1f} s".format(float(coll[p + "total_time_s"])) + (
         " (not counting {} move(s) out of a tool change)".format(int(coll[p + "untimed_moves"]))
         if int(coll[p + "untimed_moves"]) else "")
+    tools = ["T{}: chip load up to {:.4g} mm (fz {:g}), {:.4g} m/min (vc {:g})".format(
+        t["tool"], t["max_chip_load_mm"], t["cutting_data"]["fz_mm"], t["max_surface_speed_m_min"],
+        t["cutting_data"]["vc_m_min"]) for t in json.loads(coll.get(p + "cutting", "[]"))]
     if not findings:
         verdict = ["As planned" + ("" if p + "deviation_mm" not in coll else
                                    " (machined deviation within {:.2g} mm of the plan's)".format(
                                        float(coll[p + "deviation_mm"])))]
     else:
         verdict = ["NOT AS PLANNED, {} finding(s):".format(len(findings))] + findings[:3]
-    return [head, time_line] + verdict
+    return [head, time_line] + tools + verdict
 
 
 class FLANK_OT_check_program(ModalPlannerMixin, bpy.types.Operator):
@@ -182,7 +185,7 @@ class FLANK_OT_check_program(ModalPlannerMixin, bpy.types.Operator):
                      intrusion_mm=float(res["links"]["max_intrusion_mm"]), gouge_points=int(res["gouge_points"]),
                      cutting_time_s=float(res["cutting_time_s"]), rapid_time_s=float(res["rapid_time_s"]),
                      total_time_s=float(res["total_time_s"]), untimed_moves=int(res["untimed_moves"]),
-                     elapsed=float(time.perf_counter() - job["t0"]))
+                     cutting=json.dumps(res["cutting"]["tools"]), elapsed=float(time.perf_counter() - job["t0"]))
         for key, prop in (("max_deviation_difference_mm", "deviation_mm"), ("pose_difference_mm", "pose_mm")):
             if res[key] is not None:                  # None where no lobe was compared
                 props[prop] = float(res[key])

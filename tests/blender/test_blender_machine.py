@@ -378,7 +378,11 @@ def test_check_program_file_says_what_verify_program_says(mc):
         "Checked program.ngc: {} moves, {} passes ({} matched)".format(js["moves"], js["passes"], js["passes"]),
         "Its cycle time: {:.1f} s (not counting {} move(s) out of a tool change)".format(
             js["total_time_s"], js["untimed_moves"]),
+        *["T{}: chip load up to {:.4g} mm (fz {:g}), {:.4g} m/min (vc {:g})".format(
+            t["tool"], t["max_chip_load_mm"], t["cutting_data"]["fz_mm"], t["max_surface_speed_m_min"],
+            t["cutting_data"]["vc_m_min"]) for t in js["cutting"]["tools"]],
         "As planned (machined deviation within {:.2g} mm of the plan's)".format(p["flank_check_deviation_mm"])]
+    assert json.loads(p["flank_check_cutting"]) == js["cutting"]["tools"] and len(js["cutting"]["tools"]) == 1
     print("checked {} moves in {:.2f} s".format(js["moves"], c["as_posted"]["seconds"]))
 
 
@@ -414,13 +418,13 @@ def test_check_program_file_finds_a_hand_edit_and_a_chuck_in_the_way(mc):
         code, js = _verify_program(path, mc["plan_file"], *extra)
         findings = json.loads(r["props"]["flank_check_findings"])
         assert code == 1 and findings == js["findings"] and findings, (key, findings)
-        assert r["lines"][2] == "NOT AS PLANNED, {} finding(s):".format(len(findings))
-        assert r["lines"][3:] == findings[:3]
+        assert r["lines"][3] == "NOT AS PLANNED, {} finding(s):".format(len(findings))
+        assert r["lines"][4:] == findings[:3]
         # the panel shows each finding whole, wrapped into lines the sidebar does not cut off
         drawn = [c[1] for c in r["panel"] if c[0] == "label"]
         assert max(len(t) for t in drawn) <= 52 and max(len(f) for f in findings[:3]) > 52, drawn
         labels = panel_labels(r["panel"])
-        assert labels[labels.index(r["lines"][2]):][:len(findings[:3]) + 1] == r["lines"][2:], labels
+        assert labels[labels.index(r["lines"][3]):][:len(findings[:3]) + 1] == r["lines"][3:], labels
         print(key, findings)
     assert "enter a shaft or a holder" in json.loads(c["chuck"]["props"]["flank_check_findings"])[0]
     # the figure docs/blender.md gives: the pass turned 0.5 deg further leaves the screw by 0.775 mm
