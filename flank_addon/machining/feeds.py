@@ -10,7 +10,8 @@ Conditions of a pass (the tool fixed in the rotor frame while the rotor screws, 
 * engaged edge: the tool's surface points inside the stock cylinder, rho <= outer radius (what can cut);
 * spindle speed n = min(1000 vc / (pi D_max), tool top speed, machine top speed) with D_max the largest
   engaged diameter, rounded down to whole turns (the S the posts write), so the surface speed along the
-  (tapered) edge runs from pi D_min n / 1000 to at most vc;
+  (tapered) edge runs from pi D_min n / 1000 to vc (D_max as sampled: rings 0.5 mm apart, so up to a ring's
+  growth of the diameter, about 0.3% of vc, more where a tapered tool leaves the stock between two rings);
 * feed: a rotor point q moves by dS_t/dt = hand (e_z x q) + v0 e_z per radian of the screw parameter t, so
   relative to the tool it moves at omega |v(q)|, |v(q)| = sqrt(rho(q)^2 + v0^2) (omega: screw rate, rad/min).
   The feed n z fz is given to the fastest engaged point: omega = n z fz / max |v| over the engaged edge (where
@@ -161,9 +162,13 @@ def fastest_engaged_speed(shape, tip, axis, rotor, spacing=0.5):
 def spindle_speed(data, max_diameter, machine_max_rpm):
     """n = min(1000 vc / (pi D_max), tool top speed, machine top speed), 1/min, rounded down to whole turns: the
     posts write S in whole turns, and the feeds are computed for the S the machine runs, so the chip load is fz
-    and the surface speed at most vc as the machine cuts (below 1 /min, as it is)."""
+    and the surface speed vc (at the sampled D_max) as the machine cuts.  Below 1 /min there is no S to write: refused."""
     n = min(1000.0 * data.vc_m_min / (math.pi * max_diameter), data.max_rpm, machine_max_rpm)
-    return float(math.floor(n)) if n >= 1.0 else n
+    if not n >= 1.0:
+        raise ValueError(f"spindle speed {n:.3g} /min is below 1 /min (vc {data.vc_m_min:g} m/min, engaged "
+                         f"diameter {max_diameter:.4g} mm, tool top speed {data.max_rpm:g}, machine top speed "
+                         f"{machine_max_rpm:g}): a program's S counts whole turns")
+    return float(math.floor(n))
 
 
 def pass_conditions(shape, tip, axis, rotor, data, rpm, t_span, joint_rates, joint_limits):

@@ -68,8 +68,10 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
         code = code.upper().replace(" ", "")
         if not code:
             continue
-        if code.startswith("O") or code.startswith(":"):
+        if re.fullmatch(r"[O:]\d+", code):        # a program number
             continue
+        if code.startswith("O"):
+            raise PostError(f"line {no}: O-word control flow ({raw.strip()!r}) is not supported by the reader")
         pos, words = 0, []
         for mt in WORD.finditer(code):
             if mt.start() != pos:
@@ -172,8 +174,8 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
                                   "" if motion == 0 else mode, 0.0 if motion == 0 else F, no, in_spindle, rpm, tcp,
                                   comment, spindle, comp, work, coolant_state(mist, flood)))
             row = new
-        if end_stop:
-            spindle, mist, flood = "off", False, False
+        if end_stop:                # the controller stops here: nothing after the program's end runs
+            break
     return out
 
 

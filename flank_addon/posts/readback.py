@@ -304,7 +304,8 @@ def cutting_check(passes, machine, rotor, tools, data):
     nearest turn, and :data:`CUTTING_TOL`).  A move
     without a spindle speed is :func:`spindle_check`'s finding, not one of these (it is counted as not checked).
     The engaged edge is taken at the pass's first pose in the stock (a screw motion keeps it); a pass off the
-    screw (a finding of its own) is judged as if its blocks were screw motions, which overstates a plunge."""
+    screw (a finding of its own) takes the largest over all its poses, and is judged as if its blocks were screw
+    motions, which overstates a plunge."""
     gauges = tool_gauges(tools)
     per_tool, over = {}, {"over_chip_load": [], "over_surface_speed": [], "over_tool_top_speed": []}
     for ps in passes:
@@ -312,11 +313,13 @@ def cutting_check(passes, machine, rotor, tools, data):
         d, shape = data[n], tools[n]
         P, A = machine.forward(ps["rows"], gauges[n])
         v_max = d_max = 0.0                     # a pass that never enters the stock loads nothing
-        for k in range(len(P)):
+        on_screw = ps["screw_error"] <= MATCH_TOL_MM
+        for k in range(len(P)):                 # on the screw one pose in the stock stands for all; else every one
             v, pts, D = fastest_engaged_speed(shape, P[k], A[k], rotor)
             if len(pts):
-                v_max, d_max = v, float(D.max())
-                break
+                v_max, d_max = max(v_max, v), max(d_max, float(D.max()))
+                if on_screw:
+                    break
         turn = np.abs(np.diff(P[:, 2])) / rotor.v0                  # screw parameter of each block, rad
         minutes = block_times(moves, machine, gauges)
         rpm = np.array([mv.rpm for mv in moves], float)
@@ -333,7 +336,8 @@ def cutting_check(passes, machine, rotor, tools, data):
         lines = np.array([mv.line for mv in moves])
         # half a turn of S: a post that rounds S to the nearest turn gives F for the speed before rounding
         rounding = 1.0 + 0.5 / np.where(ok, rpm, 1.0)
-        surely = chip * np.maximum(turn - ADVANCE_ROUNDING_MM / rotor.v0, 0.0) / np.where(turn > 0, turn, 1.0)
+        # the rounding allowance is never more than 1% of a block's advance: a tiny block is still judged
+        surely = chip * np.maximum(turn - ADVANCE_ROUNDING_MM / rotor.v0, 0.99 * turn) / np.where(turn > 0, turn, 1.0)
         for key, bad in (("over_chip_load", surely > d.fz_mm * (1 + CUTTING_TOL) * rounding),
                          ("over_surface_speed", vc > d.vc_m_min * (1 + CUTTING_TOL) + math.pi * d_max * 0.5 / 1000.0),
                          ("over_tool_top_speed", rpm > d.max_rpm + 0.5)):

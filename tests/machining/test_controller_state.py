@@ -617,3 +617,26 @@ def test_heidenhain_coolant_words_act_where_the_tnc_acts(posted):
     assert [mv.coolant for mv in feeds[:4]] == ["flood", "off", "flood", "flood"]
     res = verify_program("\n".join(edited) + "\n", post, machine, [plan], rb)
     assert res["coolant"]["off"] == [feeds[1].line] and feeds[1].line == cuts[1] + 1
+
+
+def test_the_gcode_reader_stops_at_the_end_and_refuses_control_flow(rs274, tmp_path):
+    """rs274ngc stops at M2 / M30: a move after it never runs, and the reader has none either (LinuxCNC's
+    interpreter gives one feed); O-word control flow is refused by line, a Fanuc program number is read past."""
+    machine = load_machine("rotor-xa-b")
+    post = get_post("linuxcnc")
+    text = "%\nG21 G90 G94\nT1 M6\nG43\nS1000 M3\nM8\nG1 X1 F100\nM30\nG1 X2 F100\n%\n"
+    path = tmp_path / "end.ngc"
+    path.write_text(text)
+    read = post.read(text, machine)
+    assert [mv.coolant for mv in read.moves] == rs274_feed_coolants(rs274, path) == ["flood"]
+    with pytest.raises(Exception, match="line 3: O-word control flow"):
+        post.read("%\nG21 G90\nO100 if [0]\nM9\nO100 endif\nM2\n%\n", machine)
+    assert post.read("O1234\nG21 G90\nG0 X1\nM30\n", machine).moves[0].line == 3
+
+
+def test_a_spindle_speed_below_one_turn_is_refused():
+    from flank_addon.machining.feeds import DEFAULT_END_MILL, spindle_speed
+
+    assert spindle_speed(DEFAULT_END_MILL, 6.0, 24000.0) == math.floor(120000.0 / (math.pi * 6.0))
+    with pytest.raises(ValueError, match="spindle speed 0.4 /min is below 1 /min"):
+        spindle_speed(DEFAULT_END_MILL, 6.0, 0.4)
