@@ -130,6 +130,14 @@ def engaged_edge(shape, tip, axis, outer_radius, spacing=0.5):
     """Surface samples of the cutting part inside the stock radius at the pose (tip, axis): points (K, 3)
     and their diameters (K,).  Rings at most ``spacing`` (mm) apart along the axis and at least
     :data:`MIN_RINGS` of them over the cutting part, whatever its length."""
+    pts, D, rho = _edge_samples(shape, tip, axis, spacing)
+    inside = rho <= outer_radius
+    return pts[inside], D[inside]
+
+
+def _edge_samples(shape, tip, axis, spacing):
+    """Every surface sample of the cutting part at the pose (:func:`engaged_edge`): points (rings, m, 3), their
+    diameters and their distances rho from the rotor axis (rings, m)."""
     from .tool_shape import perpendicular_frames
 
     lo, hi = shape.cutting_range()
@@ -140,9 +148,8 @@ def engaged_edge(shape, tip, axis, outer_radius, spacing=0.5):
     e1, e2 = perpendicular_frames(axis)
     ring = np.cos(th)[:, None] * e1 + np.sin(th)[:, None] * e2              # (m, 3)
     pts = np.asarray(tip, float) + h[:, None, None] * np.asarray(axis, float) + R[:, None, None] * ring[None]
-    inside = np.hypot(pts[..., 0], pts[..., 1]) <= outer_radius
-    D = np.broadcast_to(2.0 * R[:, None], inside.shape)
-    return pts[inside], D[inside]
+    rho = np.hypot(pts[..., 0], pts[..., 1])
+    return pts, np.broadcast_to(2.0 * R[:, None], rho.shape), rho
 
 
 def fastest_engaged_speed(shape, tip, axis, rotor, spacing=0.5):
@@ -150,13 +157,12 @@ def fastest_engaged_speed(shape, tip, axis, rotor, spacing=0.5):
     pose (tip, axis), with the engaged points (K, 3) and diameters (K,) of :func:`engaged_edge`.  Where the
     cutting part reaches out of the stock cylinder, its surface (connected, partly inside) crosses the cylinder,
     so the largest rho is the stock's radius exactly, whatever the sampling; otherwise the largest sampled."""
-    pts, D = engaged_edge(shape, tip, axis, rotor.outer_radius, spacing)
-    if not len(pts):
-        return 0.0, pts, D
-    everything, _ = engaged_edge(shape, tip, axis, np.inf, spacing)
-    outside = bool(np.any(np.hypot(everything[:, 0], everything[:, 1]) > rotor.outer_radius))
-    rho = rotor.outer_radius if outside else float(np.hypot(pts[:, 0], pts[:, 1]).max())
-    return math.hypot(rho, rotor.v0), pts, D
+    pts, D, rho = _edge_samples(shape, tip, axis, spacing)
+    inside = rho <= rotor.outer_radius
+    if not inside.any():
+        return 0.0, pts[inside], D[inside]
+    top = rotor.outer_radius if not inside.all() else float(rho.max())
+    return math.hypot(top, rotor.v0), pts[inside], D[inside]
 
 
 def spindle_speed(data, max_diameter, machine_max_rpm):
