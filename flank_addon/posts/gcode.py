@@ -6,8 +6,8 @@ length compensation G43 [H<n>] ... G49, work offset G54 ... G59.3, TCP G43.4/G43
 block that moves into a :class:`base.Move`.  Within a block it keeps rs274ngc's order of execution: the tool
 change (M6 puts the selected tool in the spindle, stops the spindle and leaves the coolant and the length
 compensation as they were), then the spindle words, then the coolant (M7 mist and M8 flood each on, M9 both
-off; one of them per block), then the length compensation, then the motion; the program's end (M2, M30) stops
-the spindle and the coolant after the motion.  It knows the words the posts write and the usual preamble codes;
+off; one of them per block), then the length compensation, then the motion; the program's end (M2, M30) comes
+after the motion, and nothing after it is read (the controller never runs it).  It knows the words the posts write and the usual preamble codes;
 anything else (incremental G91, inch G20, arcs, canned cycles, subprograms, expressions) is refused with its
 line number.
 """
@@ -82,7 +82,7 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
             raise PostError(f"line {no}: cannot read {code[pos:]!r} in {raw.strip()!r}")
         new = row.copy()
         moved, f_here, tool_change, named, turn, length, h_word = False, None, False, [], None, None, None
-        end_stop = False                # M2 / M30: the spindle and the coolant stop after the block's motion
+        end_stop = False                # M2 / M30: the program ends after the block's motion
         cool = set()                    # the block's coolant words
         for letter, value in words:
             if letter == "G":

@@ -111,7 +111,8 @@ def _map_to_level(P, a, z, v0, hand):
 
 
 def read_passes(read, machine, tools, rotor, samples=8):
-    """Passes of a read-back program: dicts with rows, poses, tool, line, screw and interpolation error."""
+    """Passes of a read-back program: dicts with rows, poses (rotor-frame tips and axes at the block ends), tool,
+    line, screw and interpolation error."""
     passes, cur = [], []
     for mv in read.moves + [None]:
         if mv is not None and mv.kind == "feed" and (not cur or cur[-1].tool == mv.tool):
@@ -142,7 +143,7 @@ def read_passes(read, machine, tools, rotor, samples=8):
         Pi, Ai = machine.forward(inner, gauge)
         Qi, Bi = _map_to_level(Pi, Ai, P[0, 2], rotor.v0, rotor.hand)
         interp_err = float(np.max(np.linalg.norm(Qi - P[0], axis=1) + reach * np.linalg.norm(Bi - A[0], axis=1)))
-        out.append({"tool": tool, "line": group[0].line, "rows": rows, "tip": P[0], "axis": A[0],
+        out.append({"tool": tool, "line": group[0].line, "rows": rows, "poses": (P, A), "tip": P[0], "axis": A[0],
                     "t_span": float((P[0, 2] - P[-1, 2]) / rotor.v0), "ends": (P[[0, -1]], A[[0, -1]]),
                     "screw_error": screw_err, "interpolation_error": interp_err, "moves": group})
     return out
@@ -311,7 +312,7 @@ def cutting_check(passes, machine, rotor, tools, data):
     for ps in passes:
         n, moves = ps["tool"], ps["moves"]
         d, shape = data[n], tools[n]
-        P, A = machine.forward(ps["rows"], gauges[n])
+        P, A = ps["poses"]                      # rotor-frame poses at the block ends (:func:`read_passes`)
         v_max = d_max = 0.0                     # a pass that never enters the stock loads nothing
         on_screw = ps["screw_error"] <= MATCH_TOL_MM
         for k in range(len(P)):                 # on the screw one pose in the stock stands for all; else every one
