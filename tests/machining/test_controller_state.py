@@ -624,11 +624,9 @@ def test_the_gcode_reader_stops_at_the_end_and_refuses_control_flow(rs274, tmp_p
     interpreter gives one feed); O-word control flow is refused by line, a Fanuc program number is read past."""
     machine = load_machine("rotor-xa-b")
     post = get_post("linuxcnc")
-    text = "%\nG21 G90 G94\nT1 M6\nG43\nS1000 M3\nM8\nG1 X1 F100\nM30\nG1 X2 F100\n%\n"
-    path = tmp_path / "end.ngc"
-    path.write_text(text)
-    read = post.read(text, machine)
-    assert [mv.coolant for mv in read.moves] == rs274_feed_coolants(rs274, path) == ["flood"]
+    lines = ["%", "G21 G90 G94", "T1 M6", "G43", "S1000 M3", "M8", "G1 X1 F100", "M30", "G1 X2 F100", "%"]
+    _, read = read_as_linuxcnc(rs274, tmp_path, tool_table(tmp_path, [1]), "end", lines, machine)
+    assert [mv.coolant for mv in read.moves] == rs274_feed_coolants(rs274, tmp_path / "end.ngc") == ["flood"]
     with pytest.raises(Exception, match="line 3: O-word control flow"):
         post.read("%\nG21 G90\nO100 if [0]\nM9\nO100 endif\nM2\n%\n", machine)
     assert post.read("O1234\nG21 G90\nG0 X1\nM30\n", machine).moves[0].line == 3
