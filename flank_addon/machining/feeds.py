@@ -10,12 +10,12 @@ Conditions of a pass (the tool fixed in the rotor frame while the rotor screws, 
 * engaged edge: the tool's surface points inside the stock cylinder, rho <= outer radius (what can cut);
 * spindle speed n = min(1000 vc / (pi D_max), tool top speed, machine top speed) with D_max the largest
   engaged diameter, rounded down to whole turns (the S the posts write), so the surface speed along the
-  (tapered) edge runs from pi D_min n / 1000 to vc (D_max as sampled: rings 0.5 mm apart, so up to a ring's
-  growth of the diameter, about 0.3% of vc, more where a tapered tool leaves the stock between two rings);
+  (tapered) edge runs from pi D_min n / 1000 to vc; D_max is exact where the edge leaves the stock between two
+  sampled rings (:func:`largest_engaged_diameter`);
 * feed: a rotor point q moves by dS_t/dt = hand (e_z x q) + v0 e_z per radian of the screw parameter t, so
   relative to the tool it moves at omega |v(q)|, |v(q)| = sqrt(rho(q)^2 + v0^2) (omega: screw rate, rad/min).
   The feed n z fz is given to the fastest engaged point: omega = n z fz / max |v| over the engaged edge (where
-  the cutting part reaches out of the stock, at the stock's radius exactly: :func:`fastest_engaged_speed`), so
+  the cutting part reaches out of the stock, at the stock's radius exactly: :func:`engagement`), so
   the largest chip load is fz (counted along the whole relative motion: conservative where part of it slides
   along the flutes); then omega is lowered until no joint of the pass exceeds its top speed (a joint-linear
   pass moves joint j at |dJ_j/dt| omega);
@@ -25,6 +25,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import brentq
 
 
 @dataclass(frozen=True)
@@ -152,17 +153,111 @@ def _edge_samples(shape, tip, axis, spacing):
     return pts, np.broadcast_to(2.0 * R[:, None], rho.shape), rho
 
 
-def fastest_engaged_speed(shape, tip, axis, rotor, spacing=0.5):
-    """Largest |v(q)| = sqrt(rho(q)^2 + v0^2) (per radian of the screw parameter) over the engaged edge at the
-    pose (tip, axis), with the engaged points (K, 3) and diameters (K,) of :func:`engaged_edge`.  Where the
-    cutting part reaches out of the stock cylinder, its surface (connected, partly inside) crosses the cylinder,
-    so the largest rho is the stock's radius exactly, whatever the sampling; otherwise the largest sampled."""
+@dataclass(frozen=True)
+class Engagement:
+    """What the cutting part at one pose can cut (:func:`engagement`)."""
+    speed: float                 # largest |v(q)| = sqrt(rho^2 + v0^2) over the engaged edge, per radian of t
+    diameter: float              # largest engaged diameter, mm
+    points: np.ndarray           # sampled engaged points (K, 3)
+    diameters: np.ndarray        # their diameters (K,)
+
+
+def engagement(shape, tip, axis, rotor, spacing=0.5):
+    """:class:`Engagement` of the cutting part at the pose (tip, axis) in the stock cylinder of ``rotor``.
+
+    Fastest point: where the cutting part reaches out of the stock, its surface (connected, partly inside) crosses
+    the cylinder, so the largest rho is the stock's radius exactly, whatever the sampling; otherwise the largest
+    sampled.  Largest diameter: :func:`largest_engaged_diameter` (exact where the edge leaves the stock between
+    two rings).  Points and diameters: the samples of :func:`engaged_edge`."""
     pts, D, rho = _edge_samples(shape, tip, axis, spacing)
     inside = rho <= rotor.outer_radius
     if not inside.any():
-        return 0.0, pts[inside], D[inside]
+        return Engagement(0.0, 0.0, pts[inside], D[inside])
     top = rotor.outer_radius if not inside.all() else float(rho.max())
-    return math.hypot(top, rotor.v0), pts[inside], D[inside]
+    d_max = max(largest_engaged_diameter(shape, tip, axis, rotor.outer_radius, spacing), float(D[inside].max()))
+    return Engagement(math.hypot(top, rotor.v0), d_max, pts[inside], D[inside])
+
+
+def ring_min_rho(tip, axis, h, R, frame=None):
+    """Smallest distance from the rotor axis (the z axis) over each circle of radius R (n,) about tip + h axis,
+    perpendicular to the unit ``axis``: exact to rounding (48 samples, then Newton steps on rho^2(theta), a
+    trigonometric polynomial of degree 2 with at most two minima, so the best sample lies in the global one's
+    basin).  ``frame``: the axis' (e1, e2) of :func:`_frame`, when the caller has it."""
+    e1, e2 = _frame(axis) if frame is None else frame
+    h, R = np.asarray(h, float), np.asarray(R, float)
+    cx, cy = tip[0] + h * axis[0], tip[1] + h * axis[1]          # ring centres and axes, projected on xy
+    px, py, qx, qy = R * e1[0], R * e1[1], R * e2[0], R * e2[1]
+    m = 48
+    th = np.arange(m) * (2 * math.pi / m)
+    cs, sn = np.cos(th), np.sin(th)
+    g = ((cx[:, None] + px[:, None] * cs + qx[:, None] * sn) ** 2
+         + (cy[:, None] + py[:, None] * cs + qy[:, None] * sn) ** 2)
+    t = th[np.argmin(g, axis=1)]
+    best = g.min(axis=1)
+    for _ in range(8):
+        cs, sn = np.cos(t), np.sin(t)
+        ux, uy = px * cs + qx * sn, py * cs + qy * sn                # w - c
+        wx, wy = cx + ux, cy + uy
+        dx, dy = qx * cs - px * sn, qy * cs - py * sn                # dw / dtheta
+        g1 = 2.0 * (wx * dx + wy * dy)
+        g2 = 2.0 * (dx * dx + dy * dy - wx * ux - wy * uy)
+        step = np.clip(np.where(g2 > 0, -g1 / np.where(g2 > 0, g2, 1.0), -np.sign(g1) * (math.pi / m)),
+                       -math.pi / m, math.pi / m)
+        t = t + step
+        best = np.minimum(best, (cx + px * np.cos(t) + qx * np.sin(t)) ** 2 + (cy + py * np.cos(t) + qy * np.sin(t)) ** 2)
+        if not np.abs(step).max(initial=0.0) > 1e-13:         # Newton has converged (quadratically)
+            break
+    return np.sqrt(best)
+
+
+def _frame(axis):
+    """Two unit vectors (3,) completing the unit ``axis`` to a right-handed frame."""
+    from .tool_shape import perpendicular_frames
+
+    return tuple(np.reshape(e, 3) for e in perpendicular_frames(np.asarray(axis, float)))
+
+
+def _radius_knots(shape):
+    """Heights at which the cutting part's radius R(h) may have its largest values, so that between two
+    neighbouring sample heights the largest R is at one of them or where the edge leaves the stock: a meridian's
+    knots (R linear between them); the centres of a cone's spheres (R(h) = max_s sqrt(r_s^2 - (h - c_s)^2) is at
+    most the largest radius, reached at its centre); a paraboloid's axis start (its widest)."""
+    if shape.meridian is not None:
+        return shape.h_start + shape.meridian[:, 0]
+    if shape.paraboloid is not None:
+        return np.array([shape.h_start])
+    return np.linspace(shape.h_start, shape.h_end, len(shape.radii))
+
+
+def largest_engaged_diameter(shape, tip, axis, outer_radius, spacing=0.5):
+    """Largest diameter of the cutting part at the pose (tip, axis) with a point inside the stock cylinder
+    (rho <= ``outer_radius``), 0 where none is.  Rings at the heights of :func:`engaged_edge` and at
+    :func:`_radius_knots`; a ring counts when its nearest point to the rotor axis
+    (:func:`ring_min_rho`) is inside.  Between two neighbouring rings of which one counts and the other does not,
+    the height where the edge crosses the stock's surface is found (Brent's method), and its diameter taken: the
+    surface speed pi D n is then the largest on the edge, not the largest sampled (a tapered tool whose wide end
+    leaves the stock between two rings was up to 0.3% faster than sampled).  An edge that dips into the stock and
+    out again between two neighbouring rings (grazing, under ``spacing``) is not seen."""
+    lo, hi = shape.cutting_range()
+    h, R, sh = shape.outline(min(float(spacing), (hi - lo) / MIN_RINGS))
+    h, R = h[~sh], R[~sh]
+    knots = _radius_knots(shape)
+    h, R = np.concatenate([h, knots]), np.concatenate([R, shape._cutting_radius(knots)])
+    order = np.argsort(h, kind="stable")
+    h, R = h[order], R[order]
+    frame = _frame(axis)
+    counts = ring_min_rho(tip, axis, h, R, frame) <= outer_radius
+    best = float(2.0 * R[counts].max(initial=0.0))
+    def outside(hv):            # > 0 where the ring at height hv lies wholly outside the stock
+        hv = np.array([hv])
+        return float(ring_min_rho(tip, axis, hv, shape._cutting_radius(hv), frame)[0]) - outer_radius
+
+    for k in np.flatnonzero(counts[:-1] != counts[1:]):
+        lo_h, hi_h = h[k], h[k + 1]
+        if outside(lo_h) * outside(hi_h) < 0:     # (a meridian ring carries the largest radius of its cell)
+            cross = brentq(outside, lo_h, hi_h, xtol=1e-12 * max(1.0, abs(hi_h - lo_h)), rtol=4 * np.finfo(float).eps)
+            best = max(best, float(2.0 * shape._cutting_radius(np.array([cross]))[0]))
+    return best
 
 
 def spindle_speed(data, max_diameter, machine_max_rpm):
@@ -177,10 +272,12 @@ def spindle_speed(data, max_diameter, machine_max_rpm):
     return float(math.floor(n))
 
 
-def pass_conditions(shape, tip, axis, rotor, data, rpm, t_span, joint_rates, joint_limits):
+def pass_conditions(shape, tip, axis, rotor, data, rpm, t_span, joint_rates, joint_limits, eng=None):
     """:class:`PassConditions` of a pass (module doc).  ``joint_rates``: |dJ/dt| per joint (per radian of
-    t), ``joint_limits``: their top speeds (same order) and ``names``."""
-    v_max, pts, D = fastest_engaged_speed(shape, tip, axis, rotor)
+    t), ``joint_limits``: their top speeds (same order) and ``names``; ``eng``: the pose's :func:`engagement`,
+    when the caller has it."""
+    eng = engagement(shape, tip, axis, rotor) if eng is None else eng
+    v_max, pts, D = eng.speed, eng.points, eng.diameters
     if not len(pts):
         raise ValueError("the tool never enters the stock cylinder: nothing to cut")
     speed = np.hypot(np.hypot(pts[:, 0], pts[:, 1]), rotor.v0)          # |v| per radian of t
@@ -194,7 +291,7 @@ def pass_conditions(shape, tip, axis, rotor, data, rpm, t_span, joint_rates, joi
     rho_tip = math.hypot(tip[0], tip[1])
     return PassConditions(rpm=rpm, omega=omega, time_min=abs(t_span) / omega,
                           chip_load=(float(chip.min()), omega * v_max / (rpm * z)),
-                          surface_speed=(math.pi * float(D.min()) * rpm / 1000.0, math.pi * float(D.max()) * rpm / 1000.0),
-                          engaged_diameter=(float(D.min()), float(D.max())), limited_by=limited,
+                          surface_speed=(math.pi * float(D.min()) * rpm / 1000.0, math.pi * eng.diameter * rpm / 1000.0),
+                          engaged_diameter=(float(D.min()), eng.diameter), limited_by=limited,
                           cutting_length=abs(t_span) * math.hypot(rho_tip, rotor.v0),
                           feed_mm_min=omega * v_max)

@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .clearance import move_intrusion, reach_of
-from .feeds import engaged_edge, pass_conditions, spindle_speed
+from .feeds import engagement, pass_conditions, spindle_speed
 from .machine import MachineError
 from .operation import OperationError, nearest_keep_out
 from .tool_shape import place_points
@@ -314,7 +314,8 @@ def build_program(op, machine, direction="forward", chord_tolerance=1e-3, step=1
         mine = [p for p in op.passes if p.tool == tool.number]
         if not mine:
             continue
-        D = max(engaged_edge(tool.shape, p.tip, p.axis, rotor.outer_radius)[1].max(initial=0.0) for p in mine)
+        engaged = {id(p): engagement(tool.shape, p.tip, p.axis, rotor) for p in mine}
+        D = max(e.diameter for e in engaged.values())
         if not D > 0:
             raise OperationError(f"tool {tool.number} never enters the stock cylinder: nothing to cut")
         tool.rpm = spindle_speed(tool.data, D, machine.max_rpm)
@@ -348,7 +349,7 @@ def build_program(op, machine, direction="forward", chord_tolerance=1e-3, step=1
             span = float(ts[-1] - ts[0])
             rates = np.abs(mj[-1] - mj[0]) / abs(span)
             cond = pass_conditions(tool.shape, ps.tip, ps.axis, rotor, tool.data, tool.rpm, span, rates,
-                                   (names, [machine.axes[n].max_feed for n in names]))
+                                   (names, [machine.axes[n].max_feed for n in names]), engaged[id(ps)])
             ops.append({"op": "comment", "text": f"PASS {len(passes_out) + 1} plan {ps.plan} strip {ps.strip} "
                                                  f"lobe {ps.lobe} flank {ps.flank} T{tool.number}"
                                                  f"{' reverse' if rev else ''}"})

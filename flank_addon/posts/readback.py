@@ -53,7 +53,7 @@ import numpy as np
 
 from ..geometry.screw import screw_motion
 from ..machining.cycle_time import block_times, cycle_time, move_joints
-from ..machining.feeds import cutting_data_for, fastest_engaged_speed
+from ..machining.feeds import cutting_data_for, engagement
 from ..machining.operation import checked_lobes, repeats_earlier_strip
 from ..machining.tool_shape import ToolShape, place_points
 from ..machining.toolpath import segment_intrusion
@@ -316,9 +316,9 @@ def cutting_check(passes, machine, rotor, tools, data):
         v_max = d_max = 0.0                     # a pass that never enters the stock loads nothing
         on_screw = ps["screw_error"] <= MATCH_TOL_MM
         for k in range(len(P)):                 # on the screw one pose in the stock stands for all; else every one
-            v, pts, D = fastest_engaged_speed(shape, P[k], A[k], rotor)
-            if len(pts):
-                v_max, d_max = max(v_max, v), max(d_max, float(D.max()))
+            eng = engagement(shape, P[k], A[k], rotor)
+            if len(eng.points):
+                v_max, d_max = max(v_max, eng.speed), max(d_max, eng.diameter)
                 if on_screw:
                     break
         turn = np.abs(np.diff(P[:, 2])) / rotor.v0                  # screw parameter of each block, rad
