@@ -25,7 +25,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
 
 
 @dataclass(frozen=True)
@@ -219,14 +218,49 @@ def _frame(axis):
 
 def _radius_knots(shape):
     """Heights at which the cutting part's radius R(h) may have its largest values, so that between two
-    neighbouring sample heights the largest R is at one of them or where the edge leaves the stock: a meridian's
-    knots (R linear between them); the centres of a cone's spheres (R(h) = max_s sqrt(r_s^2 - (h - c_s)^2) is at
+    neighbouring sample heights the largest R is at one of them or where the edge leaves the stock: the knots of a
+    meridian where R is largest among its neighbours (R is linear between knots); the centres of a cone's spheres (R(h) = max_s sqrt(r_s^2 - (h - c_s)^2) is at
     most the largest radius, reached at its centre); a paraboloid's axis start (its widest)."""
-    if shape.meridian is not None:
-        return shape.h_start + shape.meridian[:, 0]
+    if shape.meridian is not None:            # its local maxima: R is linear between knots
+        R = shape.meridian[:, 1]
+        up = np.r_[True, R[1:] >= R[:-1]] & np.r_[R[:-1] >= R[1:], True]
+        return shape.h_start + shape.meridian[up, 0]
     if shape.paraboloid is not None:
         return np.array([shape.h_start])
     return np.linspace(shape.h_start, shape.h_end, len(shape.radii))
+
+
+def _crossing(f, a, b):
+    """A height in [a, b] where f changes sign from <= 0 (inside) to > 0: where |f| is at most 1e-12 of its
+    change over [a, b], else the inside end of the last bracket, 1e-12 of b - a wide (the Illinois variant of
+    regula falsi: superlinear on a smooth f, never leaving the bracket).  None when f does not change sign over [a, b] (a meridian ring that carries the largest radius of
+    its cell counted where the meridian itself does not)."""
+    fa, fb = f(a), f(b)
+    if (fa <= 0) == (fb <= 0):
+        return None
+    if fa > 0:                                    # keep a inside
+        a, b, fa, fb = b, a, fb, fa
+    tol, ftol, side = 1e-12 * abs(b - a), 1e-12 * (fb - fa), 0
+    for _ in range(100):
+        if abs(b - a) <= tol:
+            break
+        c = (a * fb - b * fa) / (fb - fa)
+        if not min(a, b) < c < max(a, b):
+            c = 0.5 * (a + b)
+        fc = f(c)
+        if abs(fc) <= ftol:                       # on the stock's surface, to rounding
+            return c
+        if fc <= 0:
+            a, fa = c, fc
+            if side == -1:
+                fb *= 0.5
+            side = -1
+        else:
+            b, fb = c, fc
+            if side == 1:
+                fa *= 0.5
+            side = 1
+    return a
 
 
 def largest_engaged_diameter(shape, tip, axis, outer_radius, spacing=0.5):
@@ -234,7 +268,7 @@ def largest_engaged_diameter(shape, tip, axis, outer_radius, spacing=0.5):
     (rho <= ``outer_radius``), 0 where none is.  Rings at the heights of :func:`engaged_edge` and at
     :func:`_radius_knots`; a ring counts when its nearest point to the rotor axis
     (:func:`ring_min_rho`) is inside.  Between two neighbouring rings of which one counts and the other does not,
-    the height where the edge crosses the stock's surface is found (Brent's method), and its diameter taken: the
+    the height where the edge crosses the stock's surface is found (:func:`_crossing`), and its diameter taken: the
     surface speed pi D n is then the largest on the edge, not the largest sampled (a tapered tool whose wide end
     leaves the stock between two rings was up to 0.3% faster than sampled).  An edge that dips into the stock and
     out again between two neighbouring rings (grazing, under ``spacing``) is not seen."""
@@ -253,9 +287,8 @@ def largest_engaged_diameter(shape, tip, axis, outer_radius, spacing=0.5):
         return float(ring_min_rho(tip, axis, hv, shape._cutting_radius(hv), frame)[0]) - outer_radius
 
     for k in np.flatnonzero(counts[:-1] != counts[1:]):
-        lo_h, hi_h = h[k], h[k + 1]
-        if outside(lo_h) * outside(hi_h) < 0:     # (a meridian ring carries the largest radius of its cell)
-            cross = brentq(outside, lo_h, hi_h, xtol=1e-12 * max(1.0, abs(hi_h - lo_h)), rtol=4 * np.finfo(float).eps)
+        cross = _crossing(outside, h[k], h[k + 1])
+        if cross is not None:
             best = max(best, float(2.0 * shape._cutting_radius(np.array([cross]))[0]))
     return best
 
