@@ -154,8 +154,8 @@ def _cmd_verify(args):
         return _cmd_verify_program(args)
     if len(args.plans) != 1:
         raise ValueError("verify takes one plan (several only with --program)")
-    for opt in ("machine", "post", "mesh", "outer_radius_mm", "lobes", "cutting_data", "flutes", "vc", "fz",
-                "max_rpm"):
+    for opt in ("machine", "post", "mesh", "outer_radius_mm", "lobes", "cutting_data", "coolant", "flutes", "vc",
+                "fz", "max_rpm"):
         if getattr(args, opt) is not None or args.flip_rotor or args.holder:
             opt = opt if getattr(args, opt) is not None else "flip_rotor" if args.flip_rotor else "holder"
             raise ValueError(f"--{opt.replace('_', '-')} applies to verify --program only")
@@ -818,13 +818,15 @@ def _cmd_post(args):
     machine = _machine(args)
     plans, rotor = _machining_inputs(args)
     op = build_operation(plans, rotor, lobes=args.lobes, clearance=args.clearance, cutting_data=_cutting_data(args))
-    prog = build_program(op, machine, direction=args.direction, chord_tolerance=args.chord_tolerance)
+    prog = build_program(op, machine, direction=args.direction, chord_tolerance=args.chord_tolerance,
+                         coolant=args.coolant or "flood")
     text = write_program(prog, post, args.out)
     read = post.read(text, machine)
     times = cycle_time(read, machine, {t.number: t.gauge_length for t in op.tools})
     times.pop("block_minutes")
     out = {"out": str(args.out), "post": post.name, "machine": machine.name, "passes": len(prog.passes),
-           "blocks": len(read.moves), "lines": text.count("\n"), "lobes": op.lobes, **times,
+           "blocks": len(read.moves), "lines": text.count("\n"), "lobes": op.lobes,
+           "coolant": args.coolant or "flood", **times,
            "cutting_length_mm": sum(p["cutting_length_mm"] for p in prog.passes),
            "tools": [{"number": t.number, "name": t.name, "rpm": t.rpm, "gauge_length_mm": t.gauge_length,
                       "shape": t.shape.describe(), "cutting_data": t.data.as_dict()} for t in op.tools],
@@ -860,7 +862,8 @@ def _cmd_verify_program(args):
     plans, rotor = _machining_inputs(args)
     with open(args.program, encoding="ascii", errors="replace") as fh:
         text = fh.read()
-    res = verify_program(text, post, machine, plans, rotor, lobes=args.lobes, cutting_data=_cutting_data(args))
+    res = verify_program(text, post, machine, plans, rotor, lobes=args.lobes, cutting_data=_cutting_data(args),
+                         coolant=args.coolant or "flood")
     res["program"] = str(args.program)
     status = 1 if res["findings"] else 0        # the program does not do what its plans say: a script must see it
     if args.json:
@@ -877,11 +880,14 @@ def _cmd_verify_program(args):
     if sp["max_rpm"] is not None:
         bad = len({ln for k in ("stopped", "counter_clockwise", "no_speed", "over_top_speed") for ln in sp[k]})
         speeds = f"S{sp['min_rpm']:g}" + ("" if sp["min_rpm"] == sp["max_rpm"] else f"..S{sp['max_rpm']:g}")
-        lc, dry = res["length_compensation"], len(res["coolant"]["off"])
+        lc, cool = res["length_compensation"], res["coolant"]
+        coolant = (("; dry on every one" if not cool["on"] else f"; {len(cool['on'])} with coolant, posted dry")
+                   if cool["expected"] == "off" else
+                   "; coolant on every one" if not cool["off"] else f"; {len(cool['off'])} without coolant")
         print(f"  spindle on the cuts: {speeds} (machine top {sp['machine_max_rpm']:g}), "
               + ("clockwise within its speeds on every one" if not bad else f"{bad} not turning clockwise within "
                                                                              "its speeds")
-              + ("; coolant on every one" if not dry else f"; {dry} without coolant")
+              + coolant
               + "; tool length compensation " + ("of its tool on every move" if not (lc["without"] or lc["other_tool"])
                                                  else f"missing on {len(lc['without'])} move(s), another tool's on "
                                                       f"{len(lc['other_tool'])}"))
@@ -958,8 +964,13 @@ def _add_machining_inputs(p):
 
 
 def _add_cutting_data(p, note=""):
+    from .machining.toolpath import COOLANTS
+
     p.add_argument("--cutting-data", metavar="PRESET", help="cutting data of a tool preset for every tool "
                                                              "(default: the preset matching each plan's tool)" + note)
+    p.add_argument("--coolant", choices=COOLANTS,
+                   help="coolant turned on with every tool: flood (M8; Klartext M13), mist (M7; G-code posts) or "
+                        "off (a dry cut) (default flood)")
     p.add_argument("--flutes", type=count_at_least(1), help="override: flutes")
     p.add_argument("--vc", type=positive_number, help="override: cutting speed, m/min")
     p.add_argument("--fz", type=positive_number, help="override: feed per tooth, mm")

@@ -132,7 +132,8 @@ class FLANK_OT_check_program(ModalPlannerMixin, bpy.types.Operator):
             return None
         (coll, plan), (machine, post) = found, mp
         return dict(t0=time.perf_counter(), coll=coll.name, plan=plan, to_world=plan["rotor"]["to_world"], k=k,
-                    machine=machine, post=post, lobes=lobes, holders=holders, data=data, filepath=path)
+                    machine=machine, post=post, lobes=lobes, holders=holders, data=data, filepath=path,
+                    coolant=self.coolant)
 
     # ------------------------------------------------------------------ worker thread
     @staticmethod
@@ -151,7 +152,8 @@ class FLANK_OT_check_program(ModalPlannerMixin, bpy.types.Operator):
         report = reporter(progress)
         machine, read = job["machine"], job["post"].read(text, job["machine"])
         res = verify_program(text, job["post"], machine, [plan], rotor, lobes=job["lobes"],
-                             progress=substage(report, 0.0, 0.95), read=read, cutting_data=job["data"])
+                             progress=substage(report, 0.0, 0.95), read=read, cutting_data=job["data"],
+                             coolant=job["coolant"])
         report(0.95, "the program's path")              # Esc stops here too
         # the path as the read-back reads the program: the plan's tools and their gauge lengths
         gauges = tool_gauges(tool_table([plan])[0])

@@ -142,7 +142,7 @@ class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
         rotor_name = run_prop(coll, "rotor")
         return dict(t0=time.perf_counter(), coll=coll.name, plan=plan, to_world=plan["rotor"]["to_world"], k=k,
                     machine=machine, post=post, lobes=lobes, clearance=float(self.clearance), filepath=path,
-                    holders=holders_of(self.holders),
+                    holders=holders_of(self.holders), coolant=self.coolant,
                     data=cutting_data_of(self.tool_flutes, self.tool_cutting_speed_m_min,
                                          self.tool_feed_per_tooth_mm, self.tool_max_rpm),
                     rotor=str(rotor_name) if rotor_name else "", animate=bool(self.animate),

@@ -120,7 +120,7 @@ def post_program(job, progress=None):
     rotor = with_holders(rotor_body(job["plan"]), job.get("holders", []))
     op = build_operation([job["plan"]], rotor, lobes=job["lobes"], clearance=job["clearance"],
                          cutting_data=job["data"])
-    prog = build_program(op, machine)
+    prog = build_program(op, machine, coolant=job.get("coolant", "flood"))
     text = post.write(prog)
     read = post.read(text, machine)
     gauges = {t.number: t.gauge_length for t in op.tools}
@@ -150,7 +150,7 @@ def read_back(text, job, machine, post, rotor, op, progress=None):
 
     try:
         res = verify_program(text, post, machine, [job["plan"]], rotor, lobes=list(op.lobes), progress=progress,
-                             cutting_data=job["data"])
+                             cutting_data=job["data"], coolant=job.get("coolant", "flood"))
     except Cancelled:
         raise
     except Exception as ex:                  # the check, not the program: post it and say the check failed

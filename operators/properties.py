@@ -440,6 +440,14 @@ def cutting_data_props():
     )
 
 
+COOLANT_ITEMS = (
+    ("flood", "Flood", "Flood coolant with every tool (M8; Klartext M13)"),
+    ("mist", "Mist", "Mist coolant with every tool (M7; the G-code posts: on a TNC its M function is the machine "
+                     "builder's)"),
+    ("off", "Off (Dry)", "No coolant: a dry cut (the program turns none on)"),
+)
+
+
 def machining_props():
     """Fresh property definitions shared by flank.post_program and the Machine panel's settings."""
     return dict(
@@ -459,6 +467,9 @@ def machining_props():
                                            "axis, GAP (default 0) its distance from that end face; e.g. "
                                            "'low,100,60,20; high,60,40'. No move may enter them, and a pass that "
                                            "runs out into one is refused", default=""),
+        coolant=EnumProperty(name="Coolant", items=COOLANT_ITEMS, default="flood",
+                             description="Coolant turned on with every tool; the read-back checks the program "
+                                         "against it"),
     )
 
 
@@ -509,6 +520,7 @@ def check_program_props():
                                                        "cuts, else indices like 0,2,4", default=""),
         flip_rotor=machining_props()["flip_rotor"],
         holders=machining_props()["holders"],
+        coolant=machining_props()["coolant"],
         **cutting_data_props(),
         # set by invoke when it opens the file browser: the check then runs modal like the planners
         modal_after_browser=BoolProperty(default=False, options={'HIDDEN', 'SKIP_SAVE'}),

@@ -8,7 +8,7 @@ import bpy
 from .common import CATEGORY, REGION, SPACE, draw_lines
 
 CUTTING_DATA = ("tool_flutes", "tool_cutting_speed_m_min", "tool_feed_per_tooth_mm", "tool_max_rpm")
-MACHINING = ("clearance", "lobes", "flip_rotor", "holders")
+MACHINING = ("clearance", "lobes", "flip_rotor", "holders", "coolant")
 
 
 def post_call(settings, scene):
@@ -26,7 +26,7 @@ def check_call(settings):
     machine, post, holders and cutting data as Post Program uses them (the lobes to sweep are those the program
     cuts)."""
     return dict(filepath=settings.program_filepath, post=settings.post, flip_rotor=settings.flip_rotor,
-                holders=settings.holders,
+                holders=settings.holders, coolant=settings.coolant,
                 machine=settings.machine_file if settings.machine == "FILE" else settings.machine,
                 **{name: getattr(settings, name) for name in CUTTING_DATA})
 

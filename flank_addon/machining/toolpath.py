@@ -39,13 +39,15 @@ from .operation import OperationError, nearest_keep_out
 from .tool_shape import place_points
 
 DIRECTIONS = ("forward", "reverse", "zigzag")
+# coolant a program turns on with every tool: flood, mist, or none (a dry cut, as cast iron is often finished)
+COOLANTS = ("flood", "mist", "off")
 TCP_ROUNDING_MM = 1e-3     # the program's rounding of a TCP pass' tip and rotaries, as the read-back measures it
 
 
 @dataclass
 class Program:
     """Dialect-free program: ``ops`` is a list of dicts, each with ``op`` one of
-    "comment" (text), "tool" (number, rpm, text), "tcp" (on), "rapid" (row), "feed" (row, time_min, pass),
+    "comment" (text), "tool" (number, rpm, coolant, text), "tcp" (on), "rapid" (row), "feed" (row, time_min, pass),
     "end".  Rows hold program values in the machine's axis order (X, Y, Z, rotaries)."""
     machine: object
     operation: object
@@ -292,13 +294,16 @@ def _check_out_of_tool_change(pl, tool, stood, first, label):
                              "tool_change_position away from the rotor")
 
 
-def build_program(op, machine, direction="forward", chord_tolerance=1e-3, step=1.0, spacing=1.5):
+def build_program(op, machine, direction="forward", chord_tolerance=1e-3, step=1.0, spacing=1.5, coolant="flood"):
     """:class:`Program` of an :class:`operation.Operation` on ``machine`` (module doc).
 
     direction: "forward" (the plan's CL direction: tool from above the body down), "reverse" or "zigzag";
-    chord_tolerance: TCP chord sagitta (mm); step / spacing: sampling of the link checks (mm)."""
+    chord_tolerance: TCP chord sagitta (mm); step / spacing: sampling of the link checks (mm); coolant: one of
+    :data:`COOLANTS`, turned on with every tool ("off": a dry cut)."""
     if direction not in DIRECTIONS:
         raise ValueError(f"direction {direction!r} is not one of {', '.join(DIRECTIONS)}")
+    if coolant not in COOLANTS:
+        raise ValueError(f"coolant {coolant!r} is not one of {', '.join(COOLANTS)}")
     if not (math.isfinite(chord_tolerance) and chord_tolerance > 0):
         raise ValueError(f"chord tolerance {chord_tolerance!r} must be a finite number > 0 (mm)")
     pl = _Planner(op, machine, direction, chord_tolerance, step, spacing)
@@ -319,7 +324,7 @@ def build_program(op, machine, direction="forward", chord_tolerance=1e-3, step=1
         if not D > 0:
             raise OperationError(f"tool {tool.number} never enters the stock cylinder: nothing to cut")
         tool.rpm = spindle_speed(tool.data, D, machine.max_rpm)
-        ops.append({"op": "tool", "number": tool.number, "rpm": tool.rpm,
+        ops.append({"op": "tool", "number": tool.number, "rpm": tool.rpm, "coolant": coolant,
                     "text": f"{tool.name}; {tool.data.flutes} flutes, vc {tool.data.vc_m_min:g} m/min, "
                             f"fz {tool.data.fz_mm:g} mm ({tool.data.source})"})
         prev = None

@@ -1,7 +1,7 @@
 """Fanuc-style ISO post: writer and reader.
 
 Program: ``%``, ``O1000``; G21 G17 G40 G49 G80 G90 G94 G54; per tool ``T<n> M06`` (after ``G49`` from the second
-tool on), ``S<rpm> M03``, ``M08``;
+tool on), ``S<rpm> M03``, ``M08`` (``M07`` for mist, none for a dry cut);
 the first linear positioning block of a tool (after its rotary block, on a machine without TCP) carries the
 length compensation, ``G43 H<n>`` or, on a TCP machine,
 ``G43.4 H<n>`` (tool centre point control type 1: programmed X Y Z = tool tip in work coordinates, rotary
@@ -18,7 +18,7 @@ checked path (docs/posts.md).
 import re
 
 from .base import feed_text, fixed, header_lines
-from .gcode import GcodePost, read_gcode
+from .gcode import COOLANT_ON, GcodePost, read_gcode
 
 
 class FanucPost(GcodePost):
@@ -45,7 +45,9 @@ class FanucPost(GcodePost):
         self._comment(op["text"])
         if self.state.get("compensated"):  # the earlier tool's G43 / G43.4 off first: many controls refuse M06 under TCP
             self.lines.append("G49")
-        self.lines += [f"T{op['number']} M06", f"S{fixed(op['rpm'], 0)} M03", "M08"]
+        self.lines += [f"T{op['number']} M06", f"S{fixed(op['rpm'], 0)} M03"]
+        if op["coolant"] != "off":
+            self.lines.append(f"M{COOLANT_ON[op['coolant']]:02d}")
         self.state["comp"] = op["number"]
 
     def _tcp(self, on, program):

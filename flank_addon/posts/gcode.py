@@ -21,6 +21,8 @@ WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
 IGNORED_G = {"17", "21", "40", "61", "61.1", "64", "80", "90"}
 WORK_OFFSETS = {"54", "55", "56", "57", "58", "59", "59.1", "59.2", "59.3"}
 IGNORED_M = {"0", "1", "2", "30"}
+# the M word that turns on a program's coolant (:data:`..machining.toolpath.COOLANTS`; "off": none)
+COOLANT_ON = {"flood": 8, "mist": 7}
 
 
 def strip_comments(line, semicolon):

@@ -3,7 +3,8 @@
 Program: numbered blocks ``0 BEGIN PGM FLANK MM`` ... ``END PGM FLANK MM``; comments ``; text``; a BLK FORM
 around the stock; per tool ``TOOL CALL <n> Z S<rpm>``; straight moves ``L X+.. Y+.. A+.. R0 FMAX`` (rapid)
 or ``L ... F<feed>``; signed coordinates with 4 decimals; the first move of a tool switches the spindle and
-coolant on (``M13``); ``M5 M9``, ``M30`` at the end.
+flood coolant on (``M13``; ``M3`` for a dry cut, and mist is refused: its M function is the machine builder's);
+``M5 M9``, ``M30`` at the end.
 
 Feed of simultaneous moves: Klartext has no inverse-time mode.  Without M116 the TNC reads F in a block that
 moves linear and rotary axes as the feed along the combined axis vector, degrees counted like millimetres;
@@ -82,8 +83,12 @@ class HeidenhainPost(Post):
 
     def _tool(self, op, program):
         self._comment(op["text"])
+        if op["coolant"] not in ("flood", "off"):
+            raise PostError(f"coolant {op['coolant']!r}: the Klartext post turns on flood coolant (M13: spindle "
+                            "and coolant) or none (M3, a dry cut); which M function turns on mist is the machine "
+                            "builder's choice on a TNC")
         self._line(f"TOOL CALL {op['number']} Z S{fixed(op['rpm'], 0)}")
-        self.state["spindle_on"] = True
+        self.state["spindle_on"] = "M13" if op["coolant"] == "flood" else "M3"
 
     def _tcp(self, on, program):
         self._line("FUNCTION TCPM F TCP AXIS POS PATHCTRL AXIS" if on else "FUNCTION RESET TCPM")
@@ -92,7 +97,8 @@ class HeidenhainPost(Post):
         return " ".join(f"{n}{self._num(v, d)}" for n, v, d in words)
 
     def _rapid(self, words, program):
-        m = " M13" if self.state.pop("spindle_on", False) else ""
+        on = self.state.pop("spindle_on", None)
+        m = f" {on}" if on else ""
         self._line("L " + self._axes(words) + " R0 FMAX" + m)
 
     def _feed(self, words, F, program):

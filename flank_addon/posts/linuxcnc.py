@@ -1,7 +1,7 @@
 """LinuxCNC (rs274ngc) post: writer and reader.
 
 Program: ``%`` ... ``%``; G21 G90 G17 G40 G49 G80 G94 G54 G64 P0.001; per tool ``T<n> M6``, ``G43 H<n>``,
-``S<rpm> M3``, ``M8``; rapids ``G0``; each pass under ``G93`` (inverse time: F = 1 / block minutes, in every
+``S<rpm> M3``, ``M8`` (``M7`` for mist, none for a dry cut); rapids ``G0``; each pass under ``G93`` (inverse time: F = 1 / block minutes, in every
 block, as LinuxCNC requires) and ``G94`` after it; ``M5 M9``, ``M2``.  Comments in parentheses.
 
 TCP: rs274ngc has no TCP word; a TCP machine's program (tool tip in work coordinates plus rotary positions)
@@ -11,7 +11,7 @@ without TCP needs identity kinematics (joint values).  The header says which.  L
 moves equal :meth:`LinuxCNCPost.read`'s and that its feeds give the same cycle time.
 """
 from .base import feed_text, fixed, header_lines
-from .gcode import GcodePost, read_gcode
+from .gcode import COOLANT_ON, GcodePost, read_gcode
 
 
 class LinuxCNCPost(GcodePost):
@@ -37,7 +37,9 @@ class LinuxCNCPost(GcodePost):
     def _tool(self, op, program):
         self._mode("per_minute")
         self._comment(op["text"])
-        self.lines += [f"T{op['number']} M6", f"G43 H{op['number']}", f"S{fixed(op['rpm'], 0)} M3", "M8"]
+        self.lines += [f"T{op['number']} M6", f"G43 H{op['number']}", f"S{fixed(op['rpm'], 0)} M3"]
+        if op["coolant"] != "off":
+            self.lines.append(f"M{COOLANT_ON[op['coolant']]}")
 
     def _tcp(self, on, program):
         pass

@@ -33,7 +33,8 @@
    feed move must cut with it turning clockwise (M3, as the posts turn the tools, which cut right-hand) at a
    speed above 0 and within the machine's top speed (:func:`spindle_check`); every move of a tool that moves a
    linear axis, with the length compensation of that tool (G43 H<n>; a Klartext TOOL CALL gives it)
-   (:func:`length_check`); every feed move with coolant (:func:`coolant_check`); one work offset throughout
+   (:func:`length_check`); every feed move with coolant, or without it in a program posted to cut dry
+   (:func:`coolant_check`); one work offset throughout
    (:func:`work_offset_check`); every move within the machine's axis limits (:func:`axis_limit_check`: the
    block ends, and with TCP points between them, where the joints are not linear in the program's values).
 8. Cutting conditions (:func:`cutting_check`): every feed move's chip load, surface speed and spindle speed
@@ -56,7 +57,7 @@ from ..machining.cycle_time import block_times, cycle_time, move_joints
 from ..machining.feeds import cutting_data_for, engagement
 from ..machining.operation import checked_lobes, repeats_earlier_strip
 from ..machining.tool_shape import ToolShape, place_points
-from ..machining.toolpath import segment_intrusion
+from ..machining.toolpath import COOLANTS, segment_intrusion
 from ..simulation.verify import profile_normals, verify_plan
 
 # mm: a pass is a strip's when its first pose is this near the strip's (modulo the screw) and its other poses
@@ -347,11 +348,15 @@ def cutting_check(passes, machine, rotor, tools, data):
     return {"tools": [per_tool[n] for n in sorted(per_tool)], **{k: sorted(v) for k, v in over.items()}}
 
 
-def coolant_check(read):
-    """Feed moves that cut without coolant (lines), as the reader follows it: the posts turn flood coolant on with
-    every tool (M8; Klartext M13), so a cut without it is an M9, a program stop or an M2 / M30 before it (mist
-    alone, M7, is coolant too: a shop's choice)."""
-    return {"off": [mv.line for mv in read.moves if mv.kind == "feed" and mv.coolant == "off"]}
+def coolant_check(read, coolant="flood"):
+    """Feed moves against the coolant the program was posted with (lines), as the reader follows it.  With coolant
+    (flood or mist: the posts turn it on with every tool, M8 / M7, Klartext M13), a cut without any is an M9, a
+    program stop or an M2 / M30 before it ("off"; mist where flood was posted, or the other way round, is coolant
+    too: a shop's choice).  Posted dry, a cut with coolant on is a finding as well ("on")."""
+    feeds = [mv for mv in read.moves if mv.kind == "feed"]
+    dry = coolant == "off"
+    return {"expected": coolant, "off": [] if dry else [mv.line for mv in feeds if mv.coolant == "off"],
+            "on": [mv.line for mv in feeds if mv.coolant not in ("off", "")] if dry else []}
 
 
 def length_check(read):
@@ -439,18 +444,21 @@ def check_links(read, machine, tools, rotor, step=1.0, spacing=1.5):
 
 
 def verify_program(text, post, machine, plans, rotor, lobes=None, references=None, progress=None, read=None,
-                   cutting_data=None):
+                   cutting_data=None, coolant="flood"):
     """The read-back report of a posted program (module doc); ``lobes``: lobes to sweep (default all
     the program cuts); ``references``: verify_plan of each plan when already known; ``progress(fraction,
     message)``: reports before each plan's and lobe's sweep, and stops the check when it asks to
     (:mod:`..progress`); ``read``: ``post.read(text, machine)`` when the caller has it already;
-    ``cutting_data``: one CuttingData for every tool, as the post was given it (default: each tool's own)."""
+    ``cutting_data``: one CuttingData for every tool, as the post was given it (default: each tool's own);
+    ``coolant``: the coolant it was posted with (:data:`..machining.toolpath.COOLANTS`)."""
     from ..progress import reporter
 
     report = reporter(progress)
     t0 = time.perf_counter()
     if lobes is not None:
         lobes = checked_lobes(lobes, rotor)
+    if coolant not in COOLANTS:
+        raise ValueError(f"coolant {coolant!r} is not one of {', '.join(COOLANTS)}")
     read = post.read(text, machine) if read is None else read
     tools, of_strip = tool_table(plans)
     passes = match_passes(read_passes(read, machine, tools, rotor), plans, rotor, tools, of_strip)
@@ -510,7 +518,7 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
         "gouge_points": sum(lo["gouge_points"] for pl in plans_out for lo in pl["lobes"]),
         "links": check_links(read, machine, tools, rotor),
         "spindle": spindle_check(read, machine),
-        "coolant": coolant_check(read),
+        "coolant": coolant_check(read, coolant),
         "cutting": cutting_check(passes, machine, rotor, tools, tool_cutting_data(plans, cutting_data)),
         "length_compensation": length_check(read),
         "axis_limits": axis_limit_check(read, machine, gauges),
@@ -614,7 +622,11 @@ def program_findings(res):
     cool = res.get("coolant")
     if cool is not None and cool["off"]:
         out.append(f"{len(cool['off'])} feed move(s) without coolant (lines {_some(cool['off'])}): M9, a program "
-                   "stop or the end before them, and no M8 / M7 (Klartext M8 / M13) after it")
+                   "stop or the end before them, and no M8 / M7 (Klartext M8 / M13) after it (or none at all: a "
+                   "program posted to cut dry is checked with coolant off)")
+    if cool is not None and cool.get("on"):
+        out.append(f"{len(cool['on'])} feed move(s) with coolant on (lines {_some(cool['on'])}) in a program "
+                   "posted to cut dry: an M8 / M7 (Klartext M8 / M13) before them")
     cut = res.get("cutting")
     for key, what in CUTTING_FINDINGS if cut is not None else ():
         if cut[key]:

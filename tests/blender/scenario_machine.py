@@ -169,11 +169,13 @@ def _errors(bpy, tmp, coll_name, good):
         "holders_text": dict(filepath=target, holders="low,80"),
         "holders_side": dict(filepath=target, holders="left,80,40"),
         "holder_in_run_out": dict(filepath=target, holders="low,100,40"),
+        "mist_klartext": dict(filepath=os.path.join(tmp, "refused.h"), post="heidenhain", coolant="mist"),
     }
     out = {}
     for name, kw in cases.items():
         r = _call(bpy, **dict(good, collection=coll_name, **kw))
-        r["file"] = os.path.exists(target) or os.path.exists(os.path.join(os.getcwd(), "relative_program.ngc"))
+        r["file"] = any(os.path.exists(p) for p in (target, os.path.join(tmp, "refused.h"),
+                                                    os.path.join(os.getcwd(), "relative_program.ngc")))
         r["temp_files"] = sorted(os.path.basename(p) for p in glob.glob(os.path.join(tmp, ".flank-*")))
         out[name] = r
     return out
@@ -197,7 +199,7 @@ def _check(bpy, coll, **kw):
 def _checks(bpy, tmp, coll, settings, prog_path):
     """Check Program File: the program Post Program wrote (the Machine panel's call), with the post told by the
     extension, the same program edited by hand (one pass's end turned 0.5 deg further), checked against half the
-    Tool panel's feed per tooth, checked with a chuck in the run-out, and the refusals (each leaves the run's
+    Tool panel's feed per tooth, checked as a dry cut, checked with a chuck in the run-out, and the refusals (each leaves the run's
     earlier check as it was)."""
     machine_panel = __import__(driver.MODULE + ".panels.machine", fromlist=["x"])
     checker = __import__(driver.MODULE + ".operators.check_program", fromlist=["x"])
@@ -225,6 +227,7 @@ def _checks(bpy, tmp, coll, settings, prog_path):
     half = dict(call, tool_feed_per_tooth_mm=call["tool_feed_per_tooth_mm"] / 2)
     out["half_fz"] = _check(bpy, coll, **half)
     out["half_fz"]["call"] = {k: v for k, v in half.items()}
+    out["dry"] = _check(bpy, coll, **dict(call, coolant="off"))
     out["chuck"] = _check(bpy, coll, **dict(call, holders="low,100,40,2"))
     out["chuck"]["lines"] = checker.check_lines(coll)
     out["chuck"]["panel"] = driver._draw_panels(bpy, bpy.context.active_object)["FLANK_PT_machine"]
@@ -271,6 +274,8 @@ def scenario(bpy, res, args):
                            machine=s.machine, post=s.post, clearance=s.clearance, lobes=s.lobes,
                            machines=[i.identifier for i in s.bl_rna.properties["machine"].enum_items],
                            posts=[i.identifier for i in s.bl_rna.properties["post"].enum_items],
+                           coolants=[[i.identifier, i.name] for i in s.bl_rna.properties["coolant"].enum_items],
+                           coolant=s.coolant,
                            builtin_machines=driver._core("machining.machine").builtin_machines())
     res["no_run"] = _call(bpy, filepath=os.path.join(tmp, "none.ngc"))
     res["no_run"]["file"] = os.path.exists(os.path.join(tmp, "none.ngc"))

@@ -260,6 +260,7 @@ ERRORS = {
     "holders_text": "Holders 'low,80': holder 'low,80' must be SIDE,DIAMETER,LENGTH[,GAP]",
     "holders_side": "holder 1: side 'left' must be one of low, high",
     "holder_in_run_out": "running out past the body the tool enters holder 1 (at the low end, diameter 100 mm)",
+    "mist_klartext": "coolant 'mist': the Klartext post turns on flood coolant (M13: spindle and coolant) or none",
 }
 
 
@@ -448,6 +449,25 @@ def test_check_program_file_takes_the_tool_panels_cutting_data(mc):
     assert code == 1 and len(findings) == 1 and "load the tool over its feed per tooth" in findings[0]
     assert findings == [f.replace("(command line)", "(Tool panel)") for f in js["findings"]]
     assert "fz {:g} mm (Tool panel)".format(call["tool_feed_per_tooth_mm"]) in findings[0]
+
+
+def test_check_program_file_takes_the_coolant_setting(mc):
+    """The Machine panel's Coolant is the command line's --coolant, for Check Program File as for Post Program
+    (which turns flood coolant on by default): the flooded program checked as a dry cut gives the command line's
+    finding, every cut named; the setting's choices are the core's."""
+    from flank_addon.machining.toolpath import COOLANTS
+
+    c = mc["checks"]
+    assert c["call"]["coolant"] == "flood" and "M8" in open(mc["post"]["file"]).read().split()
+    r = c["dry"]
+    assert r["result"] == ["FINISHED"] and r["new"] == NOTHING, r
+    findings = json.loads(r["props"]["flank_check_findings"])
+    code, js = _verify_program(mc["post"]["file"], mc["plan_file"], "--coolant", "off",
+                               "--cutting-data", "Tapered 2deg D3 L25")
+    assert code == 1 and findings == js["findings"] and len(findings) == 1
+    assert "{} feed move(s) with coolant on".format(mc["post"]["props"]["flank_prog_passes"]) in findings[0]
+    assert "in a program posted to cut dry" in findings[0]
+    assert [item[0] for item in mc["defaults"]["coolants"]] == list(COOLANTS) and mc["defaults"]["coolant"] == "flood"
 
 
 CHECK_ERRORS = {

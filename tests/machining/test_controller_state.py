@@ -197,7 +197,7 @@ def test_as_posted_every_cut_has_its_spindle_and_length_compensation(request, ma
     assert not (sp["stopped"] or sp["counter_clockwise"] or sp["no_speed"] or sp["over_top_speed"])
     assert sp["min_rpm"] == sp["max_rpm"] == pytest.approx(op.tools[0].rpm, abs=0.5)
     assert res["work_offsets"] == {"offsets": [] if post_name == "heidenhain" else ["G54"], "changes_at": []}
-    assert res["axis_limits"] == [] and res["findings"] == [] and res["coolant"] == {"off": []}
+    assert res["axis_limits"] == [] and res["findings"] == [] and res["coolant"] == {"expected": "flood", "off": [], "on": []}
     assert {mv.coolant for mv in post.read(text, machine).moves if mv.kind == "feed"} == {"flood"}
 
 
@@ -578,9 +578,10 @@ def test_linuxcnc_coolant_is_the_interpreters(posted, posted_two, rs274, tmp_pat
     assert ours[:6] == ["flood", "off", "mist", "mist+flood", "mist+flood", "flood"]
     feeds = [mv for mv in read.moves if mv.kind == "feed"]
     res = verify_program(text, post, machine, [plan], rb)
-    assert res["coolant"] == {"off": [feeds[1].line]}
+    assert res["coolant"] == {"expected": "flood", "off": [feeds[1].line], "on": []}
     assert f"1 feed move(s) without coolant (lines {feeds[1].line}): M9, a program stop or the end before them, " \
-           "and no M8 / M7 (Klartext M8 / M13) after it" in res["findings"]
+           "and no M8 / M7 (Klartext M8 / M13) after it (or none at all: a program posted to cut dry is checked " \
+           "with coolant off)" in res["findings"]
     two = get_post("linuxcnc").write(posted_two[3]).splitlines()
     m8 = [k for k, ln in enumerate(two) if ln == "M8"]
     assert len(m8) == 2
@@ -591,6 +592,53 @@ def test_linuxcnc_coolant_is_the_interpreters(posted, posted_two, rs274, tmp_pat
     assert {mv.coolant for mv in _feeds_of_tool(read, 2)} == {"flood"}
     with pytest.raises(Exception, match="line 3: two of M7, M8 and M9 in one block"):
         post.read("%\nG21 G90\nM7 M8\nM2\n%\n", machine)
+
+
+def test_dry_and_mist_programs_are_posted_and_read_back_as_such(posted_two, rs274, tmp_path):
+    """--coolant off writes no word that turns coolant on (Klartext: M3 instead of M13; M9 still ends the program)
+    and mist writes M7 (Fanuc M07) with every tool: LinuxCNC's interpreter cuts dry / with mist at every feed move, the reader agrees, and the read-back
+    finds nothing when told the coolant the program was posted with.  Told otherwise it names every cut: a dry
+    program checked for coolant, a flooded one checked as dry.  Mist on a TNC is refused (its M function is the
+    machine builder's) and leaves no file; an unknown coolant is refused by name."""
+    from flank_addon.posts import PostError, write_program
+
+    plan, rb, machine, prog = posted_two
+    for coolant, name, words in (("off", "linuxcnc", set()), ("mist", "linuxcnc", {"M7"}), ("off", "fanuc", set()),
+                                 ("mist", "fanuc", {"M07"}), ("off", "heidenhain", set())):
+        post = get_post(name)
+        text = post.write(build_program(prog.operation, machine, coolant=coolant))
+        assert {w for ln in text.splitlines() for w in re.findall(r"\bM0?[78]\b|\bM1[34]\b", ln)} == words, \
+            (coolant, name)
+        read = post.read(text, machine)
+        feeds = [mv for mv in read.moves if mv.kind == "feed"]
+        assert len({mv.tool for mv in feeds}) == 2 and {mv.coolant for mv in feeds} == {coolant}, (coolant, name)
+        if name == "linuxcnc":
+            path = tmp_path / f"{coolant}.ngc"
+            path.write_text(text)
+            assert rs274_feed_coolants(rs274, path) == [coolant] * len(feeds)
+        if name == "heidenhain":
+            assert re.search(r" R0 FMAX M3$", text, re.M) and " M13" not in text
+        res = verify_program(text, post, machine, [plan], rb, coolant=coolant)
+        assert res["coolant"] == {"expected": coolant, "off": [], "on": []} and not res["findings"], res["findings"]
+        if coolant == "off":
+            res = verify_program(text, post, machine, [plan], rb)
+            assert res["coolant"]["off"] == [mv.line for mv in feeds] and res["findings"]
+        else:           # mist where flood is the default: coolant all the same
+            assert not verify_program(text, post, machine, [plan], rb)["findings"]
+    text = get_post("linuxcnc").write(prog)
+    feeds = [mv for mv in get_post("linuxcnc").read(text, machine).moves if mv.kind == "feed"]
+    res = verify_program(text, get_post("linuxcnc"), machine, [plan], rb, coolant="off")
+    assert res["coolant"] == {"expected": "off", "off": [], "on": [mv.line for mv in feeds]}
+    assert len(feeds) == 8 and res["findings"] == [
+        f"8 feed move(s) with coolant on (lines {', '.join(str(mv.line) for mv in feeds)}) in a program posted to cut "
+        "dry: an M8 / M7 (Klartext M8 / M13) before them"]
+    with pytest.raises(PostError, match="coolant 'mist': the Klartext post turns on flood coolant"):
+        write_program(build_program(prog.operation, machine, coolant="mist"), "heidenhain", tmp_path / "mist.h")
+    assert not (tmp_path / "mist.h").exists()
+    with pytest.raises(ValueError, match="coolant 'wet' is not one of flood, mist, off"):
+        build_program(prog.operation, machine, coolant="wet")
+    with pytest.raises(ValueError, match="coolant 'wet' is not one of flood, mist, off"):
+        verify_program(text, get_post("linuxcnc"), machine, [plan], rb, coolant="wet")
 
 
 def test_heidenhain_coolant_words_act_where_the_tnc_acts(posted):

@@ -178,6 +178,39 @@ def test_the_command_line_checks_against_the_data_it_is_given(posted, tmp_path, 
     assert code == 2 and "--fz applies to verify --program only" in capsys.readouterr().err
 
 
+def test_the_command_line_posts_and_checks_a_dry_cut(posted, tmp_path, capsys):
+    """post --coolant off writes a program without M8 and says so in --json; verify --program checks it as dry
+    with --coolant off (exit 0, "dry on every one") and finds every cut without coolant otherwise (exit 1); the
+    option needs --program."""
+    from flank_addon.cli import main
+
+    plan, rb, machine, prog = posted
+    plan_path = tmp_path / "plan.json"
+    plan_path.write_text(json.dumps(plan))
+    prog_path = tmp_path / "dry.ngc"
+
+    def run(*args):
+        buf = io.StringIO()
+        with contextlib.redirect_stdout(buf):
+            code = main(list(args))
+        return code, buf.getvalue()
+
+    code, out = run("post", str(plan_path), "--machine", "rotor-xa-b", "--post", "linuxcnc", "--lobes", "0,1",
+                    "--coolant", "off", "-o", str(prog_path), "--json")
+    assert code == 0 and json.loads(out)["coolant"] == "off"
+    text = prog_path.read_text()
+    assert "M8" not in text.split() and "M7" not in text.split() and "M9" in text.split()
+    check = ("verify", "--program", str(prog_path), str(plan_path), "--machine", "rotor-xa-b", "--lobes", "0,1")
+    code, out = run(*check, "--coolant", "off")
+    assert code == 0 and "; dry on every one;" in out and "NOT AS PLANNED" not in out
+    code, out = run(*check)
+    assert code == 1 and f"; {len(prog.passes)} without coolant;" in out
+    assert f"NOT AS PLANNED: {len(prog.passes)} feed move(s) without coolant" in out
+    capsys.readouterr()
+    assert main(["verify", str(plan_path), "--coolant", "off"]) == 2
+    assert "--coolant applies to verify --program only" in capsys.readouterr().err
+
+
 def test_short_tcp_chords_and_a_plunge_into_the_stock(posted, tmp_path):
     """A TCP program posted with chords of 2e-5 mm sagitta (blocks whose screw advance the axes' rounding moves
     by a noticeable share): no finding, and the largest chip load of a block fz to 2e-3 (the rounding of a short
