@@ -203,7 +203,8 @@ def ring_min_rho(tip, axis, h, R, frame=None):
         step = np.clip(np.where(g2 > 0, -g1 / np.where(g2 > 0, g2, 1.0), -np.sign(g1) * (math.pi / m)),
                        -math.pi / m, math.pi / m)
         t = t + step
-        best = np.minimum(best, (cx + px * np.cos(t) + qx * np.sin(t)) ** 2 + (cy + py * np.cos(t) + qy * np.sin(t)) ** 2)
+        cs, sn = np.cos(t), np.sin(t)
+        best = np.minimum(best, (cx + px * cs + qx * sn) ** 2 + (cy + py * cs + qy * sn) ** 2)
         if not np.abs(step).max(initial=0.0) > 1e-13:         # Newton has converged (quadratically)
             break
     return np.sqrt(best)
@@ -218,10 +219,11 @@ def _frame(axis):
 
 def _radius_knots(shape):
     """Heights at which the cutting part's radius R(h) may have its largest values, so that between two
-    neighbouring sample heights the largest R is at one of them or where the edge leaves the stock: the knots of a
-    meridian where R is largest among its neighbours (R is linear between knots); the centres of a cone's spheres (R(h) = max_s sqrt(r_s^2 - (h - c_s)^2) is at
-    most the largest radius, reached at its centre); a paraboloid's axis start (its widest)."""
-    if shape.meridian is not None:            # its local maxima: R is linear between knots
+    neighbouring sample heights the largest R is at one of them or where the edge leaves the stock: the knots of
+    a meridian where R is largest among its neighbours (R is linear between knots); the centres of a cone's
+    spheres (R(h) = max_s sqrt(r_s^2 - (h - c_s)^2) is at most the largest radius, reached at its centre); a
+    paraboloid's axis start (its widest)."""
+    if shape.meridian is not None:
         R = shape.meridian[:, 1]
         up = np.r_[True, R[1:] >= R[:-1]] & np.r_[R[:-1] >= R[1:], True]
         return shape.h_start + shape.meridian[up, 0]
@@ -233,8 +235,9 @@ def _radius_knots(shape):
 def _crossing(f, a, b):
     """A height in [a, b] where f changes sign from <= 0 (inside) to > 0: where |f| is at most 1e-12 of its
     change over [a, b], else the inside end of the last bracket, 1e-12 of b - a wide (the Illinois variant of
-    regula falsi: superlinear on a smooth f, never leaving the bracket).  None when f does not change sign over [a, b] (a meridian ring that carries the largest radius of
-    its cell counted where the meridian itself does not)."""
+    regula falsi: superlinear on a smooth f, never leaving the bracket).  None when f does not change sign over
+    [a, b] (a meridian ring that carries the largest radius of its cell counted where the meridian itself does
+    not)."""
     fa, fb = f(a), f(b)
     if (fa <= 0) == (fb <= 0):
         return None
@@ -267,11 +270,12 @@ def largest_engaged_diameter(shape, tip, axis, outer_radius, spacing=0.5):
     """Largest diameter of the cutting part at the pose (tip, axis) with a point inside the stock cylinder
     (rho <= ``outer_radius``), 0 where none is.  Rings at the heights of :func:`engaged_edge` and at
     :func:`_radius_knots`; a ring counts when its nearest point to the rotor axis
-    (:func:`ring_min_rho`) is inside.  Between two neighbouring rings of which one counts and the other does not,
-    the height where the edge crosses the stock's surface is found (:func:`_crossing`), and its diameter taken: the
-    surface speed pi D n is then the largest on the edge, not the largest sampled (a tapered tool whose wide end
-    leaves the stock between two rings was up to 0.3% faster than sampled).  An edge that dips into the stock and
-    out again between two neighbouring rings (grazing, under ``spacing``) is not seen."""
+    (:func:`ring_min_rho`) is inside.  Between two neighbouring rings of which one counts and the other does
+    not, the height where the edge crosses the stock's surface is found (:func:`_crossing`), and its diameter
+    taken: the surface speed pi D n is then the largest on the edge, not the largest sampled (where a tool's wide
+    end leaves the stock between two rings the sampled one was up to 0.7% smaller on the test plans' cones, 2% on
+    the double-flank tool).  An edge that dips into the stock and out again between two neighbouring rings
+    (grazing, under ``spacing``) is not seen."""
     lo, hi = shape.cutting_range()
     h, R, sh = shape.outline(min(float(spacing), (hi - lo) / MIN_RINGS))
     h, R = h[~sh], R[~sh]
@@ -282,6 +286,7 @@ def largest_engaged_diameter(shape, tip, axis, outer_radius, spacing=0.5):
     frame = _frame(axis)
     counts = ring_min_rho(tip, axis, h, R, frame) <= outer_radius
     best = float(2.0 * R[counts].max(initial=0.0))
+
     def outside(hv):            # > 0 where the ring at height hv lies wholly outside the stock
         hv = np.array([hv])
         return float(ring_min_rho(tip, axis, hv, shape._cutting_radius(hv), frame)[0]) - outer_radius
@@ -324,7 +329,8 @@ def pass_conditions(shape, tip, axis, rotor, data, rpm, t_span, joint_rates, joi
     rho_tip = math.hypot(tip[0], tip[1])
     return PassConditions(rpm=rpm, omega=omega, time_min=abs(t_span) / omega,
                           chip_load=(float(chip.min()), omega * v_max / (rpm * z)),
-                          surface_speed=(math.pi * float(D.min()) * rpm / 1000.0, math.pi * eng.diameter * rpm / 1000.0),
+                          surface_speed=(math.pi * float(D.min()) * rpm / 1000.0,
+                                         math.pi * eng.diameter * rpm / 1000.0),
                           engaged_diameter=(float(D.min()), eng.diameter), limited_by=limited,
                           cutting_length=abs(t_span) * math.hypot(rho_tip, rotor.v0),
                           feed_mm_min=omega * v_max)

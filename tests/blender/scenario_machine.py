@@ -199,8 +199,8 @@ def _check(bpy, coll, **kw):
 def _checks(bpy, tmp, coll, settings, prog_path):
     """Check Program File: the program Post Program wrote (the Machine panel's call), with the post told by the
     extension, the same program edited by hand (one pass's end turned 0.5 deg further), checked against half the
-    Tool panel's feed per tooth, checked as a dry cut, checked with a chuck in the run-out, and the refusals (each leaves the run's
-    earlier check as it was)."""
+    Tool panel's feed per tooth, checked as a dry cut, checked with a chuck in the run-out, and the refusals (each
+    leaves the run's earlier check as it was)."""
     machine_panel = __import__(driver.MODULE + ".panels.machine", fromlist=["x"])
     checker = __import__(driver.MODULE + ".operators.check_program", fromlist=["x"])
     call = dict(machine_panel.check_call(settings), collection=coll.name)

@@ -197,7 +197,8 @@ def test_as_posted_every_cut_has_its_spindle_and_length_compensation(request, ma
     assert not (sp["stopped"] or sp["counter_clockwise"] or sp["no_speed"] or sp["over_top_speed"])
     assert sp["min_rpm"] == sp["max_rpm"] == pytest.approx(op.tools[0].rpm, abs=0.5)
     assert res["work_offsets"] == {"offsets": [] if post_name == "heidenhain" else ["G54"], "changes_at": []}
-    assert res["axis_limits"] == [] and res["findings"] == [] and res["coolant"] == {"expected": "flood", "off": [], "on": []}
+    assert res["axis_limits"] == [] and res["findings"] == []
+    assert res["coolant"] == {"expected": "flood", "off": [], "on": []}
     assert {mv.coolant for mv in post.read(text, machine).moves if mv.kind == "feed"} == {"flood"}
 
 
@@ -596,8 +597,8 @@ def test_linuxcnc_coolant_is_the_interpreters(posted, posted_two, rs274, tmp_pat
 
 def test_dry_and_mist_programs_are_posted_and_read_back_as_such(posted_two, rs274, tmp_path):
     """--coolant off writes no word that turns coolant on (Klartext: M3 instead of M13; M9 still ends the program)
-    and mist writes M7 (Fanuc M07) with every tool: LinuxCNC's interpreter cuts dry / with mist at every feed move, the reader agrees, and the read-back
-    finds nothing when told the coolant the program was posted with.  Told otherwise it names every cut: a dry
+    and mist writes M7 (Fanuc M07) with every tool: LinuxCNC's interpreter cuts dry / with mist at every feed
+    move, the reader agrees, and the read-back finds nothing when told the coolant the program was posted with.  Told otherwise it names every cut: a dry
     program checked for coolant, a flooded one checked as dry.  Mist on a TNC is refused (its M function is the
     machine builder's) and leaves no file; an unknown coolant is refused by name."""
     from flank_addon.posts import PostError, write_program
