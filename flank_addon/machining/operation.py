@@ -34,7 +34,7 @@ class ToolEntry:
     shape: ToolShape
     data: object                   # feeds.CuttingData
     name: str
-    gauge_length: float            # tip to the end of the shank (or of the cutting part)
+    gauge_length: float            # tip to the end of the shank (or of the cutting part): ToolShape.gauge_length
     rpm: float = 0.0
 
 
@@ -187,12 +187,11 @@ def build_operation(plans, rotor, lobes=None, clearance=5.0, cutting_data=None):
             if repeats_earlier_strip(plan, s):
                 continue
             if sig not in by_sig:
-                lo, hi = shape.h_range()
                 stool = strip_tool(plan, s)          # the strip's own tool in a plan with several
                 data = cutting_data if cutting_data is not None else cutting_data_for(stool)
                 label = stool.get("name") or stool.get("kind", "tool")
                 shape.name = f"T{len(tools) + 1} {label} ({plan.get('method', '?')})"
-                tools.append(ToolEntry(len(tools) + 1, shape, data, shape.name, hi - lo))
+                tools.append(ToolEntry(len(tools) + 1, shape, data, shape.name, shape.gauge_length()))
                 by_sig[sig] = len(tools)
                 local[len(tools)] = shape.local_points(1.0)
             number = by_sig[sig]

@@ -159,6 +159,12 @@ class ToolShape:
             lo, hi = min(lo, self.shank[0]), max(hi, self.shank[1])
         return lo, hi
 
+    def gauge_length(self):
+        """Distance from the programmed tip (h = 0) up the axis to the end of the shank (or of the cutting part),
+        where the spindle's gauge line is taken.  Not the solid's whole length: a cone's tip sphere reaches below
+        its flat tip (by up to r1), and that part of the model is no part of the tool's length."""
+        return self.h_range()[1]
+
     MIN_CUTTING_RINGS = 16
 
     def outline(self, spacing):

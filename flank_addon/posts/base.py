@@ -172,7 +172,18 @@ def header_lines(program, post):
         # the setup the program was checked against: the machine operator has to keep to it
         f"holder {k + 1}: diameter {2 * r:.4f} over {a:.4f}..{b:.4f} along the rotor axis, kept clear of; mount it "
         "no nearer the body"
-        for k, (a, b, r) in enumerate(rb.holders)]
+        for k, (a, b, r) in enumerate(rb.holders)] + [
+        line for tool in op.tools if any(p.tool == tool.number for p in op.passes) for line in tool_lines(tool)]
+
+
+def tool_lines(tool):
+    """Comment lines of a tool as the program was checked with it: its shank along its axis from the programmed
+    tip, and how far from the tip its holder must stay (nothing beyond the shank's end was part of the checks of
+    links and passes: a holder nearer the tip may hit what they kept the tool clear of)."""
+    shank = tool.shape.shank
+    return ([f"T{tool.number} shank: diameter {2 * shank[2]:.4f} over {shank[0]:.4f}..{shank[1]:.4f} mm from the tip"]
+            if shank is not None else []) + [
+        f"T{tool.number} checked up to {tool.gauge_length:.4f} mm from the tip (gauge length): keep its holder beyond"]
 
 
 def atomic_write(path, text):

@@ -101,8 +101,8 @@ def tool_cutting_data(plans, cutting_data=None):
 
 
 def tool_gauges(tools):
-    """{number: gauge length} of a :func:`tool_table`: the tool's extent along its axis, tip to gauge line."""
-    return {n: s.h_range()[1] - s.h_range()[0] for n, s in tools.items()}
+    """{number: gauge length} of a :func:`tool_table`: tip to gauge line (:meth:`ToolShape.gauge_length`)."""
+    return {n: s.gauge_length() for n, s in tools.items()}
 
 
 def _map_to_level(P, a, z, v0, hand):
@@ -131,7 +131,7 @@ def read_passes(read, machine, tools, rotor, samples=8):
             raise ValueError(f"line {group[0].line}: tool T{tool} is not a tool of these plans "
                              f"(T{', T'.join(map(str, sorted(tools)))})")
         shape = tools[tool]
-        gauge = shape.h_range()[1] - shape.h_range()[0]
+        gauge = shape.gauge_length()
         rows = np.array([group[0].start] + [mv.end for mv in group])
         if not np.isfinite(rows).all():
             raise ValueError(f"line {group[0].line}: a feed move starts from an unknown position")

@@ -154,3 +154,30 @@ def test_unknown_machine_lists_the_valid_names(tmp_path):
     bad.write_text("{nope")
     with pytest.raises(MachineError, match="not valid JSON"):
         load_machine(str(bad))
+
+
+def test_the_gauge_length_is_the_tools_own_length(single_flank_plan, two_tool_plan, formed_cutter_plan):
+    """The gauge length (programmed tip to the end of the shank, where the spindle's gauge line is taken; on a head
+    with tool_length_in_pivot it sets the program's XYZ) is the tool as built: flute length 25 + shank 45 = 70 mm
+    for the fixture's cone, each preset's flute length plus its shank for the two-tool plan, the disc's width plus
+    its arbor for the formed cutter.  The cone's model reaches 1.45 mm below its flat tip (the tip sphere) and
+    once counted in the gauge length, which put the tip that far off on such a head."""
+    from flank_addon.io.plan import strip_tool
+    from flank_addon.machining.operation import build_operation
+    from flank_addon.machining.rotor_body import rotor_body
+    from flank_addon.posts.readback import tool_gauges, tool_table
+
+    op = build_operation([single_flank_plan], rotor_body(single_flank_plan), lobes=[0])
+    assert op.tools[0].gauge_length == pytest.approx(70.0, abs=1e-9)
+    assert op.tools[0].shape.h_range()[0] == pytest.approx(-(1.5 / math.cos(math.radians(2)) - 1.5 * math.tan(
+        math.radians(2))), abs=1e-9)
+    assert tool_gauges(tool_table([single_flank_plan])[0]) == {1: op.tools[0].gauge_length}
+    op = build_operation([two_tool_plan], rotor_body(two_tool_plan), lobes=[0])
+    assert len(op.tools) == 2
+    for t in op.tools:
+        tool = next(strip_tool(two_tool_plan, s) for s in range(len(two_tool_plan["strips"]))
+                    if t.name.startswith(f"T{t.number} {strip_tool(two_tool_plan, s)['name']} "))
+        assert t.gauge_length == pytest.approx(tool["h"] + tool["shank_length"], abs=1e-9), t.name
+    op = build_operation([formed_cutter_plan], rotor_body(formed_cutter_plan), lobes=[0])
+    tool = formed_cutter_plan["tool"]
+    assert op.tools[0].gauge_length == pytest.approx(tool["width"] + tool["arbor_length"], rel=1e-9)

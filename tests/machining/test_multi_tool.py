@@ -91,3 +91,30 @@ def test_post_changes_tools_and_mills_what_the_plan_mills(two_tool_plan, tmp_pat
         assert lo["max_deviation_difference_mm"] < 2e-3 and lo["pose_difference_mm"] < 2e-3
         assert lo["coverage_mismatches"] == 0
     assert res["gouge_points"] == 0 and res["links"]["max_intrusion_mm"] == 0.0
+
+
+def test_the_program_header_lists_each_tool_as_it_was_checked(two_tool_plan):
+    """Every post's header names each tool's shank (diameter, from and to along the axis from the tip) and its
+    gauge length, beyond which nothing was checked: flute length + shank of each preset (35 + its shank, 20 +
+    its shank), as the plan's tools give them."""
+    from flank_addon.io.plan import strip_tool
+
+    rb = rotor_body(two_tool_plan)
+    op = build_operation([two_tool_plan], rb, lobes=[0])
+    prog = build_program(op, load_machine("rotor-xa-b"))
+    for name in ("linuxcnc", "fanuc", "heidenhain"):
+        text = get_post(name).write(prog)
+        head = text[:text.index("PASS 1")]
+        for t in op.tools:
+            tool = next(strip_tool(two_tool_plan, s) for s in range(len(two_tool_plan["strips"]))
+                        if t.name.startswith(f"T{t.number} {strip_tool(two_tool_plan, s)['name']} "))
+            g = tool["h"] + tool["shank_length"]
+            lines = [f"T{t.number} shank: diameter {2 * tool['shank_radius']:.4f} over {tool['h']:.4f}..{g:.4f} mm "
+                     "from the tip",
+                     f"T{t.number} checked up to {g:.4f} mm from the tip (gauge length): keep its holder beyond"]
+            for line in lines:
+                if name != "heidenhain":        # G-code comments are in parentheses
+                    line = line.replace("(", "[").replace(")", "]")
+                if name == "fanuc":
+                    line = line.upper()
+                assert line in head, (name, line)

@@ -99,7 +99,7 @@ def test_round_trip(request, tmp_path, kind, machine_name, post_name, rs274):
     assert sorted(ps["match"] for ps in passes) == sorted((0, s, k) for s in range(len(plan["strips"]))
                                                           for k in range(rb.lobes))
     for ps in passes:
-        gauge = tools[ps["tool"]].h_range()[1] - tools[ps["tool"]].h_range()[0]
+        gauge = tools[ps["tool"]].gauge_length()
         P, A = m.forward(ps["rows"], gauge)
         for p, a in zip(P, A):
             T, b = reference_pose(plan, rb, ps["match"][1], ps["match"][2], p[2])
