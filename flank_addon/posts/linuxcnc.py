@@ -2,7 +2,8 @@
 
 Program: ``%`` ... ``%``; G21 G90 G17 G40 G49 G80 G94 G54 G64 P0.001; per tool ``T<n> M6``, ``G43 H<n>``,
 ``S<rpm> M3``, ``M8`` (``M7`` for mist, none for a dry cut); rapids ``G0``; each pass under ``G93`` (inverse
-time: F = 1 / block minutes, in every block, as LinuxCNC requires) and ``G94`` after it; ``M5 M9``, ``M2``.  Comments in parentheses.
+time: F = 1 / block minutes, in every block, as LinuxCNC requires) and ``G94`` after it; ``M5 M9``, ``M2``.
+Comments in parentheses.
 
 TCP: rs274ngc has no TCP word; a TCP machine's program (tool tip in work coordinates plus rotary positions)
 needs a kinematics module doing TCP (e.g. xyzac-trt-kins, switchkins type 0), a program for a machine

@@ -598,9 +598,10 @@ def test_linuxcnc_coolant_is_the_interpreters(posted, posted_two, rs274, tmp_pat
 def test_dry_and_mist_programs_are_posted_and_read_back_as_such(posted_two, rs274, tmp_path):
     """--coolant off writes no word that turns coolant on (Klartext: M3 instead of M13; M9 still ends the program)
     and mist writes M7 (Fanuc M07) with every tool: LinuxCNC's interpreter cuts dry / with mist at every feed
-    move, the reader agrees, and the read-back finds nothing when told the coolant the program was posted with.  Told otherwise it names every cut: a dry
-    program checked for coolant, a flooded one checked as dry.  Mist on a TNC is refused (its M function is the
-    machine builder's) and leaves no file; an unknown coolant is refused by name."""
+    move, the reader agrees, and the read-back finds nothing when told the coolant the program was posted with.
+    Told otherwise it names every cut: a dry program checked for coolant, a flooded one checked as dry.  Mist on a
+    TNC is refused (its M function is the machine builder's) and leaves no file; an unknown coolant is refused by
+    name."""
     from flank_addon.posts import PostError, write_program
 
     plan, rb, machine, prog = posted_two
