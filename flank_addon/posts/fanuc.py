@@ -1,6 +1,6 @@
 """Fanuc-style ISO post: writer and reader.
 
-Program: ``%``, ``O1000``; G21 G17 G40 G49 G80 G90 G94 G54; per tool ``T<n> M06`` (after ``G49`` from the second
+Program: ``%``, ``O1000``; G21 (a block of its own); G17 G40 G49 G80 G90 G94 G54; per tool ``T<n> M06`` (after ``G49`` from the second
 tool on), ``S<rpm> M03``, ``M08`` (``M07`` for mist, none for a dry cut);
 the first linear positioning block of a tool (after its rotary block, on a machine without TCP) carries the
 length compensation, ``G43 H<n>`` or, on a TCP machine,
@@ -31,7 +31,7 @@ class FanucPost(GcodePost):
         for t in header_lines(program, self):
             self._comment(t)
         self._comment("rapids assume linear interpolation positioning, parameter 1401 bit 1 LRP = 1")
-        self.lines.append("G21 G17 G40 G49 G80 G90 G94 G54")
+        self.lines += ["G21", "G17 G40 G49 G80 G90 G94 G54"]    # G21 alone, before the coordinate system, as Fanuc asks
 
     def _footer(self, program):
         self.lines += ["G94", "M05", "M09", "G49", "M30", "%"]

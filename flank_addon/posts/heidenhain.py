@@ -10,9 +10,10 @@ Feed of simultaneous moves: Klartext has no inverse-time mode.  Without M116 the
 moves linear and rotary axes as the feed along the combined axis vector, degrees counted like millimetres;
 the post writes F = sqrt(sum dlinear^2 + sum drotary^2) / block minutes, so the block takes exactly its
 planned time (what CAM posts call the DPM-combination feed).  On a TCP machine
-``FUNCTION TCPM F TCP AXIS POS PATHCTRL AXIS`` is switched on (tool tip programmed in work coordinates, rotary
-axes as positions, F the speed of the tool tip relative to the workpiece, the axes interpolated linearly)
-and F = |d tip| / block minutes; ``FUNCTION RESET TCPM`` at the end.  The rotor's spin axis must count
+``FUNCTION TCPM F TCP AXIS POS PATHCTRL AXIS`` is switched on after each TOOL CALL (tool tip programmed in work
+coordinates, rotary axes as positions, F the speed of the tool tip relative to the workpiece, the axes
+interpolated linearly) and F = |d tip| / block minutes; ``FUNCTION RESET TCPM`` before the next TOOL CALL (the
+TNC's manuals ask for it there) and at the end.  The rotor's spin axis must count
 continuously (no modulo display, M126 off).
 """
 import re
@@ -41,6 +42,9 @@ def _m_words(toks, at_start, at_end):
     start = [at_start[m] for m in ms if m in at_start]
     end = [at_end[m] for m in ms if m in at_end]
     return (start[-1] if start else None), (end[-1] if end else None)
+
+
+TCPM_ON = "FUNCTION TCPM F TCP AXIS POS PATHCTRL AXIS"
 
 
 class HeidenhainPost(Post):
@@ -87,11 +91,20 @@ class HeidenhainPost(Post):
             raise PostError(f"coolant {op['coolant']!r}: the Klartext post turns on flood coolant (M13: spindle "
                             "and coolant) or none (M3, a dry cut); which M function turns on mist is the machine "
                             "builder's choice on a TNC")
+        if self.state.get("tcpm_active"):           # the TNC wants TCPM reset before a TOOL CALL
+            self._line("FUNCTION RESET TCPM")
         self._line(f"TOOL CALL {op['number']} Z S{fixed(op['rpm'], 0)}")
         self.state["spindle_on"] = "M13" if op["coolant"] == "flood" else "M3"
+        self.state["tcpm_active"] = bool(self.state.get("tcpm"))
+        if self.state["tcpm_active"]:
+            self._line(TCPM_ON)
 
     def _tcp(self, on, program):
-        self._line("FUNCTION TCPM F TCP AXIS POS PATHCTRL AXIS" if on else "FUNCTION RESET TCPM")
+        """TCP on: FUNCTION TCPM after each TOOL CALL (reset before the next); off: reset it."""
+        self.state["tcpm"] = on
+        if not on and self.state.get("tcpm_active"):
+            self._line("FUNCTION RESET TCPM")
+            self.state["tcpm_active"] = False
 
     def _axes(self, words):
         return " ".join(f"{n}{self._num(v, d)}" for n, v, d in words)

@@ -262,3 +262,28 @@ def test_heidenhain_header_says_what_its_feeds_mean(request, machine_name, meani
     (said,) = [ln for ln in lines if "F of simultaneous blocks" in ln]
     assert meaning in said
     assert any("FUNCTION TCPM F TCP" in ln for ln in lines) == prog.machine.tcp
+
+
+def test_klartext_resets_tcpm_before_every_tool_call(request):
+    """The TNC's manuals ask for FUNCTION RESET TCPM before a TOOL CALL: on a TCP machine with two tools every
+    TOOL CALL finds TCPM off and switches it on in the next block, the program ends with it reset, and every move
+    is read under TCPM (F as the tip's speed)."""
+    plan, rb, op, prog = program_of(request, "two_tool_plan", "xyzac-trt-tcp")
+    machine = prog.machine
+    post = get_post("heidenhain")
+    text = post.write(prog)
+    blocks = [ln.split(" ", 1)[1] for ln in text.splitlines()[1:-1]]
+    calls = [k for k, b in enumerate(blocks) if b.startswith("TOOL CALL")]
+    assert len(calls) == 2
+    on = False
+    for k, b in enumerate(blocks):
+        if b.startswith("FUNCTION TCPM"):
+            on = True
+        elif b == "FUNCTION RESET TCPM":
+            on = False
+        elif b.startswith("TOOL CALL"):
+            assert not on, k
+            assert blocks[k + 1].startswith("FUNCTION TCPM F TCP"), blocks[k + 1]
+    assert not on
+    read = post.read(text, machine)
+    assert read.moves and all(mv.tcp for mv in read.moves)
