@@ -811,7 +811,7 @@ def _cmd_post(args):
     from .machining.operation import build_operation
     from .machining.toolpath import build_program
     from .machining.cycle_time import cycle_time, untimed_note
-    from .posts import get_post, write_program
+    from .posts import atomic_write, get_post
 
     t0 = time.perf_counter()
     post = get_post(args.post)
@@ -820,8 +820,9 @@ def _cmd_post(args):
     op = build_operation(plans, rotor, lobes=args.lobes, clearance=args.clearance, cutting_data=_cutting_data(args))
     prog = build_program(op, machine, direction=args.direction, chord_tolerance=args.chord_tolerance,
                          coolant=args.coolant or "flood")
-    text = write_program(prog, post, args.out)
-    read = post.read(text, machine)
+    text = post.write(prog)
+    read = post.read(text, machine)         # the post's own reading first: a program it cannot read is not written
+    atomic_write(args.out, text)
     times = cycle_time(read, machine, {t.number: t.gauge_length for t in op.tools})
     times.pop("block_minutes")
     out = {"out": str(args.out), "post": post.name, "machine": machine.name, "passes": len(prog.passes),

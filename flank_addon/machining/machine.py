@@ -368,6 +368,10 @@ def parse_machine(data, source="<dict>"):
             raise MachineError(f"missing key {key!r}")
     if not isinstance(data["name"], str) or not data["name"]:
         raise MachineError(f"name must be a non-empty string, got {data['name']!r}")
+    if not data["name"].isascii() or not data["name"].isprintable():
+        # the programs' comments carry it: a line break or a character outside ASCII would break them
+        raise MachineError(f"name {data['name']!r} must be printable ASCII (no line breaks): the programs' "
+                           "comments carry it")
     lin, rot = data["linear_axes"], data["rotary_axes"]
     if not isinstance(lin, dict) or sorted(lin) != list(LINEAR):
         raise MachineError(f"linear_axes must define exactly X, Y, Z, got {sorted(lin) if isinstance(lin, dict) else lin!r}")

@@ -67,7 +67,11 @@ def feed_text(F, significant=7, max_decimals=6):
     if not (math.isfinite(F) and F > 0):
         raise PostError(f"feed {F!r} must be a finite number > 0")
     dec = min(max_decimals, max(0, significant - 1 - int(math.floor(math.log10(F)))))
-    return fixed(F, dec)
+    text = fixed(F, dec)
+    if not float(text) > 0:
+        raise PostError(f"feed {F:.3g} rounds to {text}: below the smallest feed the program writes "
+                        f"({10.0 ** -max_decimals:g}); raise the feed per tooth or the cutting speed")
+    return text
 
 
 class Post:

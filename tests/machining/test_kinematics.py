@@ -138,6 +138,8 @@ def _file():
     (lambda d: d["rotor_mount"].update(z="+Q"), "rotor_mount.z must be one of"),
     (lambda d: d["controller"].update(tcp="yes"), "controller.tcp must be true or false, got 'yes'"),
     (lambda d: d["linear_axes"]["Z"].update(min="low"), "linear_axes.Z.min must be a finite number, got 'low'"),
+    (lambda d: d.update(name="mill\nB"), "must be printable ASCII (no line breaks): the programs' comments"),
+    (lambda d: d.update(name="Fr\u00e4se"), "name 'Fr\u00e4se' must be printable ASCII"),
 ])
 def test_malformed_machine_is_refused_by_key(mutate, message):
     data = _file()

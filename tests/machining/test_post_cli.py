@@ -61,6 +61,18 @@ def test_unwritable_output_is_a_clear_error_and_no_file(capsys, tmp_path, plan_f
     assert "Traceback" not in err and blocker.read_text() == "x"
 
 
+def test_a_post_that_fails_leaves_the_old_program(capsys, tmp_path, plan_file):
+    """The post reads its program back before writing it: a feed that rounds to F0 (an absurd --fz) is refused by
+    name and the program already in place stays as it was."""
+    path = tmp_path / "p.ngc"
+    path.write_text("old program\n")
+    code, _, err = run(capsys, "post", plan_file, "--machine", "rotor-xa-b", "--post", "linuxcnc", "--fz", "1e-300",
+                       "-o", path)
+    assert code == 2 and "rounds to 0.000000: below the smallest feed the program writes (1e-06)" in err, err
+    assert "Traceback" not in err and path.read_text() == "old program\n" and os.listdir(tmp_path) == ["plan.json",
+                                                                                                        "p.ngc"]
+
+
 def test_a_failed_write_keeps_the_old_file_whole(tmp_path):
     path = tmp_path / "p.ngc"
     path.write_text("old program\n")
