@@ -375,6 +375,15 @@ def length_check(read):
             "first_other": [other[0].length_comp, other[0].tool] if other else None}
 
 
+def tcp_check(read, machine):
+    """Moves made in the other TCP mode than the machine's (lines): with TCP on (Fanuc G43.4, Klartext FUNCTION
+    TCPM) on a machine without it, or off on a machine with it.  The control then reads the program's joint
+    values as tool-tip positions, or the other way round, and the tool goes elsewhere than the read-back, which
+    maps every move through the machine file's kinematics, puts it.  (rs274ngc has no TCP word: a LinuxCNC
+    program's moves are in the machine's mode.)"""
+    return {"machine_tcp": machine.tcp, "other_mode": [mv.line for mv in read.moves if mv.tcp != machine.tcp]}
+
+
 def work_offset_check(read):
     """Where the program's zero changes: the work offsets its moves are made in, in order, and the line of each
     change (a program posted for one offset, G54 at the rotor-frame origin, never changes it)."""
@@ -523,6 +532,7 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
         "length_compensation": length_check(read),
         "axis_limits": axis_limit_check(read, machine, gauges),
         "work_offsets": work_offset_check(read),
+        "tcp": tcp_check(read, machine),
         "holders": [{"z_range": [a, b], "radius": r} for a, b, r in rotor.holders],
         **times,
     }
@@ -635,6 +645,12 @@ def program_findings(res):
     for v in res.get("axis_limits", []):
         out.append(f"axis {v['axis']} reaches {v['value']:.6g} at line {v['line']}, outside its limits "
                    f"{v['min']:g}..{v['max']:g} on machine {res['machine']}: the controller stops there")
+    tc = res.get("tcp")
+    if tc is not None and tc["other_mode"]:
+        mode = ("without TCP on a machine with it: the control reads their tool-tip positions as joint values"
+                if tc["machine_tcp"] else "with TCP on (G43.4 / FUNCTION TCPM) on a machine without it: the "
+                "control reads their joint values as tool-tip positions")
+        out.append(f"{len(tc['other_mode'])} move(s) {mode} (lines {_some(tc['other_mode'])})")
     wo = res.get("work_offsets")
     if wo is not None and wo["changes_at"]:
         out.append(f"the work offset changes {len(wo['changes_at'])} time(s) (lines {_some(wo['changes_at'])}; "

@@ -688,3 +688,26 @@ def test_a_spindle_speed_below_one_turn_is_refused():
     assert spindle_speed(DEFAULT_END_MILL, 6.0, 24000.0) == math.floor(120000.0 / (math.pi * 6.0))
     with pytest.raises(ValueError, match="spindle speed 0.4 /min is below 1 /min"):
         spindle_speed(DEFAULT_END_MILL, 6.0, 0.4)
+
+
+def test_moves_in_the_other_tcp_mode_are_named(single_flank_plan):
+    """A Fanuc program for a machine without TCP whose G43 became G43.4, and a Klartext program for a TCP machine
+    without its FUNCTION TCPM lines, move the tool elsewhere than the machine file's kinematics say: every move
+    made in the other mode is named; as posted, none is."""
+    rb = rotor_body(single_flank_plan)
+    op = build_operation([single_flank_plan], rb, lobes=[0])
+    for machine_name, post_name, edit, mode in (
+            ("xyzac-trt", "fanuc", lambda t: t.replace("G43 H1", "G43.4 H1"), "with TCP on (G43.4 / FUNCTION TCPM)"),
+            ("xyzac-trt-tcp", "heidenhain", lambda t: "\n".join(ln for ln in t.splitlines() if "TCPM" not in ln),
+             "without TCP on a machine with it")):
+        machine, post = load_machine(machine_name), get_post(post_name)
+        text = post.write(build_program(op, machine))
+        res = verify_program(text, post, machine, [single_flank_plan], rb)
+        assert res["tcp"] == {"machine_tcp": machine.tcp, "other_mode": []} and not res["findings"]
+        edited = edit(text)
+        assert edited != text
+        read = post.read(edited, machine)
+        res = verify_program(edited, post, machine, [single_flank_plan], rb)
+        other = [mv.line for mv in read.moves if mv.tcp != machine.tcp]
+        assert len(other) >= len(read.moves) - 1 and res["tcp"]["other_mode"] == other
+        assert any(f.startswith(f"{len(other)} move(s) {mode}") for f in res["findings"]), res["findings"]
