@@ -856,6 +856,9 @@ def _cmd_verify_program(args):
 
     if args.machine is None:
         raise ValueError("verify --program needs --machine NAME|FILE (the machine it was posted for)")
+    if args.tolerance is not None:
+        raise ValueError(f"--tolerance {args.tolerance:g} applies to verify without --program (the read-back "
+                         "compares the program with its plans' own deviation)")
     post = get_post(args.post) if args.post else post_for_file(args.program)
     if post is None:
         raise ValueError(f"cannot tell the dialect of {args.program} from its extension: pass --post")

@@ -33,6 +33,9 @@ SPINDLE_AT_END = {"M5": "off", "M0": "off", "M1": "off", "M6": "off", "M2": "off
 # its end off at the end of theirs (M5 and the tool change M6 leave it)
 COOLANT_AT_START = {"M8": "flood", "M13": "flood", "M14": "flood"}
 COOLANT_AT_END = {"M9": "off", "M0": "off", "M1": "off", "M2": "off", "M30": "off"}
+# every M function the reader follows; any other (M116 changes what F means, M128 switches TCP on, M126 the
+# rotaries' shortest path, M91 / M92 machine coordinates) would make the read-back wrong, so it is refused
+KNOWN_M = set(SPINDLE_AT_START) | set(SPINDLE_AT_END) | set(COOLANT_AT_START) | set(COOLANT_AT_END)
 
 
 def _m_words(toks, at_start, at_end):
@@ -173,6 +176,10 @@ class HeidenhainPost(Post):
             if toks[:3] == ["FUNCTION", "RESET", "TCPM"]:
                 tcp = False
                 continue
+            for t in toks:
+                if re.fullmatch(r"M\d+", t) and f"M{int(t[1:])}" not in KNOWN_M:
+                    raise PostError(f"line {no}: {t} is not supported by the reader (it follows "
+                                    f"{', '.join(sorted(KNOWN_M, key=lambda m: int(m[1:])))})")
             at_start, at_end = _m_words(toks, SPINDLE_AT_START, SPINDLE_AT_END)
             cool_start, cool_end = _m_words(toks, COOLANT_AT_START, COOLANT_AT_END)
             spindle, coolant = at_start or spindle, cool_start or coolant

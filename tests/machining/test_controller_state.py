@@ -667,6 +667,11 @@ def test_heidenhain_coolant_words_act_where_the_tnc_acts(posted):
     assert [mv.coolant for mv in feeds[:4]] == ["flood", "off", "flood", "flood"]
     res = verify_program("\n".join(edited) + "\n", post, machine, [plan], rb)
     assert res["coolant"]["off"] == [feeds[1].line] and feeds[1].line == cuts[1] + 1
+    for word in ("M128", "M116", "M126", "M91", "M999"):        # would change what the blocks mean: refused
+        edited = list(lines)
+        edited[cuts[1]] += " " + word
+        with pytest.raises(Exception, match=f"line {cuts[1] + 1}: {word} is not supported by the reader"):
+            post.read("\n".join(edited) + "\n", machine)
 
 
 def test_the_gcode_reader_stops_at_the_end_and_refuses_control_flow(rs274, tmp_path):

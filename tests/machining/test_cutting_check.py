@@ -209,6 +209,8 @@ def test_the_command_line_posts_and_checks_a_dry_cut(posted, tmp_path, capsys):
     capsys.readouterr()
     assert main(["verify", str(plan_path), "--coolant", "off"]) == 2
     assert "--coolant applies to verify --program only" in capsys.readouterr().err
+    assert main([*check, "--tolerance", "nan"]) == 2
+    assert "--tolerance nan applies to verify without --program" in capsys.readouterr().err
 
 
 def test_short_tcp_chords_and_a_plunge_into_the_stock(posted, tmp_path):
