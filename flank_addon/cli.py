@@ -818,8 +818,9 @@ def _cmd_post(args):
     machine = _machine(args)
     plans, rotor = _machining_inputs(args)
     op = build_operation(plans, rotor, lobes=args.lobes, clearance=args.clearance, cutting_data=_cutting_data(args))
+    coolant = args.coolant or "flood"
     prog = build_program(op, machine, direction=args.direction, chord_tolerance=args.chord_tolerance,
-                         coolant=args.coolant or "flood")
+                         coolant=coolant)
     text = post.write(prog)
     read = post.read(text, machine)         # the post's own reading first: a program it cannot read is not written
     atomic_write(args.out, text)
@@ -827,7 +828,7 @@ def _cmd_post(args):
     times.pop("block_minutes")
     out = {"out": str(args.out), "post": post.name, "machine": machine.name, "passes": len(prog.passes),
            "blocks": len(read.moves), "lines": text.count("\n"), "lobes": op.lobes,
-           "coolant": args.coolant or "flood", **times,
+           "coolant": coolant, **times,
            "cutting_length_mm": sum(p["cutting_length_mm"] for p in prog.passes),
            "tools": [{"number": t.number, "name": t.name, "rpm": t.rpm, "gauge_length_mm": t.gauge_length,
                       "shape": t.shape.describe(), "cutting_data": t.data.as_dict()} for t in op.tools],

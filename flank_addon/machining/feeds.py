@@ -130,19 +130,26 @@ def engaged_edge(shape, tip, axis, outer_radius, spacing=0.5):
     """Surface samples of the cutting part inside the stock radius at the pose (tip, axis): points (K, 3)
     and their diameters (K,).  Rings at most ``spacing`` (mm) apart along the axis and at least
     :data:`MIN_RINGS` of them over the cutting part, whatever its length."""
-    pts, D, rho = _edge_samples(shape, tip, axis, spacing)
+    pts, D, rho = _edge_samples(shape, tip, axis, _cutting_rings(shape, spacing))
     inside = rho <= outer_radius
     return pts[inside], D[inside]
 
 
-def _edge_samples(shape, tip, axis, spacing):
-    """Every surface sample of the cutting part at the pose (:func:`engaged_edge`): points (rings, m, 3), their
-    diameters and their distances rho from the rotor axis (rings, m)."""
-    from .tool_shape import perpendicular_frames
-
+def _cutting_rings(shape, spacing):
+    """Heights and radii (h, R) of the cutting part's rings: at most ``spacing`` apart, at least
+    :data:`MIN_RINGS` of them."""
     lo, hi = shape.cutting_range()
     h, R, sh = shape.outline(min(float(spacing), (hi - lo) / MIN_RINGS))
-    h, R = h[~sh], R[~sh]
+    return h[~sh], R[~sh]
+
+
+def _edge_samples(shape, tip, axis, rings):
+    """Every surface sample of the cutting part's ``rings`` (:func:`_cutting_rings`) at the pose
+    (:func:`engaged_edge`): points (rings, m, 3), their diameters and their distances rho from the rotor axis
+    (rings, m)."""
+    from .tool_shape import perpendicular_frames
+
+    h, R = rings
     m = 48
     th = np.arange(m) * (2 * math.pi / m)
     e1, e2 = perpendicular_frames(axis)
@@ -168,12 +175,13 @@ def engagement(shape, tip, axis, rotor, spacing=0.5):
     the cylinder, so the largest rho is the stock's radius exactly, whatever the sampling; otherwise the largest
     sampled.  Largest diameter: :func:`largest_engaged_diameter` (exact where the edge leaves the stock between
     two rings).  Points and diameters: the samples of :func:`engaged_edge`."""
-    pts, D, rho = _edge_samples(shape, tip, axis, spacing)
+    rings = _cutting_rings(shape, spacing)              # sampled once for both
+    pts, D, rho = _edge_samples(shape, tip, axis, rings)
     inside = rho <= rotor.outer_radius
     if not inside.any():
         return Engagement(0.0, 0.0, pts[inside], D[inside])
     top = rotor.outer_radius if not inside.all() else float(rho.max())
-    d_max = max(largest_engaged_diameter(shape, tip, axis, rotor.outer_radius, spacing), float(D[inside].max()))
+    d_max = max(largest_engaged_diameter(shape, tip, axis, rotor.outer_radius, rings=rings), float(D[inside].max()))
     return Engagement(math.hypot(top, rotor.v0), d_max, pts[inside], D[inside])
 
 
@@ -266,7 +274,7 @@ def _crossing(f, a, b):
     return a
 
 
-def largest_engaged_diameter(shape, tip, axis, outer_radius, spacing=0.5):
+def largest_engaged_diameter(shape, tip, axis, outer_radius, spacing=0.5, rings=None):
     """Largest diameter of the cutting part at the pose (tip, axis) with a point inside the stock cylinder
     (rho <= ``outer_radius``), 0 where none is.  Rings at the heights of :func:`engaged_edge` and at
     :func:`_radius_knots`; a ring counts when its nearest point to the rotor axis
@@ -275,10 +283,9 @@ def largest_engaged_diameter(shape, tip, axis, outer_radius, spacing=0.5):
     taken: the surface speed pi D n is then the largest on the edge, not the largest sampled (where a tool's wide
     end leaves the stock between two rings the sampled one was up to 0.7% smaller on the test plans' cones, 2% on
     the double-flank tool).  An edge that dips into the stock and out again between two neighbouring rings
-    (grazing, under ``spacing``) is not seen."""
-    lo, hi = shape.cutting_range()
-    h, R, sh = shape.outline(min(float(spacing), (hi - lo) / MIN_RINGS))
-    h, R = h[~sh], R[~sh]
+    (grazing, under ``spacing``) is not seen.  ``rings``: :func:`_cutting_rings` of ``spacing``, when the caller
+    has them."""
+    h, R = _cutting_rings(shape, spacing) if rings is None else rings
     knots = _radius_knots(shape)
     h, R = np.concatenate([h, knots]), np.concatenate([R, shape._cutting_radius(knots)])
     order = np.argsort(h, kind="stable")
@@ -301,7 +308,8 @@ def largest_engaged_diameter(shape, tip, axis, outer_radius, spacing=0.5):
 def spindle_speed(data, max_diameter, machine_max_rpm):
     """n = min(1000 vc / (pi D_max), tool top speed, machine top speed), 1/min, rounded down to whole turns: the
     posts write S in whole turns, and the feeds are computed for the S the machine runs, so the chip load is fz
-    and the surface speed vc (at the sampled D_max) as the machine cuts.  Below 1 /min there is no S to write: refused."""
+    and the surface speed at most vc (at D_max, :func:`largest_engaged_diameter`) as the machine cuts.  Below
+    1 /min there is no S to write: refused."""
     n = min(1000.0 * data.vc_m_min / (math.pi * max_diameter), data.max_rpm, machine_max_rpm)
     if not n >= 1.0:
         raise ValueError(f"spindle speed {n:.3g} /min is below 1 /min (vc {data.vc_m_min:g} m/min, engaged "
