@@ -24,7 +24,7 @@ import numpy as np
 
 from .common import remove_objects
 from .modal import ModalPlannerMixin
-from .post_program import machine_and_post, mm_per_unit, plan_mm
+from .post_program import machine_and_post, mm_per_unit, plan_mm, untimed_words
 from .program import cutting_data_of, holders_of, move_rows, parse_lobes, program_path
 from .program_scene import COLOR_CHECKED, ProgramBuild, checked_objects
 from .properties import check_program_props
@@ -77,8 +77,7 @@ def check_lines(coll):
         os.path.basename(str(coll.get(p + "file", "?"))), int(coll[p + "moves"]), int(coll[p + "passes"]),
         int(coll[p + "matched_passes"]))
     time_line = "Its cycle time: {:.1f} s".format(float(coll[p + "total_time_s"])) + (
-        " (not counting {} move(s) out of a tool change)".format(int(coll[p + "untimed_moves"]))
-        if int(coll[p + "untimed_moves"]) else "")
+        " (not counting {})".format(untimed_words(coll, p)) if untimed_words(coll, p) else "")
     tools = ["T{}: chip load up to {:.4g} mm (fz {:g}), {:.4g} m/min (vc {:g})".format(
         t["tool"], t["max_chip_load_mm"], t["cutting_data"]["fz_mm"], t["max_surface_speed_m_min"],
         t["cutting_data"]["vc_m_min"]) for t in json.loads(coll.get(p + "cutting", "[]"))]
@@ -187,6 +186,7 @@ class FLANK_OT_check_program(ModalPlannerMixin, bpy.types.Operator):
                      intrusion_mm=float(res["links"]["max_intrusion_mm"]), gouge_points=int(res["gouge_points"]),
                      cutting_time_s=float(res["cutting_time_s"]), rapid_time_s=float(res["rapid_time_s"]),
                      total_time_s=float(res["total_time_s"]), untimed_moves=int(res["untimed_moves"]),
+                     reference_returns=int(res["reference_returns"]),
                      cutting=json.dumps(res["cutting"]["tools"]), elapsed=float(time.perf_counter() - job["t0"]))
         for key, prop in (("max_deviation_difference_mm", "deviation_mm"), ("pose_difference_mm", "pose_mm")):
             if res[key] is not None:                  # None where no lobe was compared

@@ -83,8 +83,16 @@ def cycle_time_lines(coll):
             "Cutting {:.1f} s, rapid {:.1f} s, tool changes {:.1f} s".format(
                 float(coll[p + "cutting_time_s"]), float(coll[p + "rapid_time_s"]),
                 float(coll[p + "tool_change_time_s"]))] + (
-        ["Not timed: {} move(s) out of a tool change".format(int(coll[p + "untimed_moves"]))]
-        if int(coll.get(p + "untimed_moves", 0)) else []) + read_back_lines(coll)
+        ["Not timed: " + untimed_words(coll, p)] if untimed_words(coll, p) else []) + read_back_lines(coll)
+
+
+def untimed_words(coll, p):
+    """What a stored cycle time leaves out ('' for nothing): moves out of a tool change, reference returns."""
+    parts = ["{} move(s) out of a tool change".format(int(coll.get(p + "untimed_moves", 0)))] * bool(
+        int(coll.get(p + "untimed_moves", 0)))
+    parts += ["{} return(s) to the reference position".format(int(coll.get(p + "reference_returns", 0)))] * bool(
+        int(coll.get(p + "reference_returns", 0)))
+    return " and ".join(parts)
 
 
 def read_back_lines(coll):
@@ -216,7 +224,7 @@ class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
                      holders=json.dumps(job["holders"]),
                      cutting_time_s=float(t["cutting_time_s"]), rapid_time_s=float(t["rapid_time_s"]),
                      tool_changes=int(t["tool_changes"]), tool_change_time_s=float(t["tool_change_time_s"]),
-                     untimed_moves=int(t["untimed_moves"]),
+                     untimed_moves=int(t["untimed_moves"]), reference_returns=int(t["reference_returns"]),
                      total_time_s=float(t["total_time_s"]), cutting_length_mm=float(t["cutting_length_mm"]),
                      rpm=[float(v) for v in t["rpm"]], cutting_data=json.dumps(data.as_dict()),
                      path_edges=int(len(out["path"]["edges"])), summary=json.dumps(per, default=float),
@@ -255,7 +263,7 @@ class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
                               "rapid {:.1f} s, tool changes {:.1f} s{}); wrote {} ({} moves){}{}; {:.2f} s".format(
                                   coll.name, t["passes"], ",".join(map(str, t["lobes"])), job["post"].name,
                                   job["machine"].name, t["total_time_s"], t["cutting_time_s"], t["rapid_time_s"],
-                                  t["tool_change_time_s"], untimed_note(t["untimed_moves"], job["machine"]),
+                                  t["tool_change_time_s"], untimed_note(t["untimed_moves"], job["machine"], t["reference_returns"]),
                                   os.path.basename(job["filepath"]), t["moves"],
                                   ", animated over frames {}..{}".format(*job["frames"]) if job["animate"] else "",
                                   read, time.perf_counter() - job["t0"]))

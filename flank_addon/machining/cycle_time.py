@@ -81,9 +81,11 @@ def move_joints(read, machine, tool_lengths=None):
     where the program gives them; a move from an unknown position (the first after a tool change) starts where
     the machine stands: where the tool-change cycle leaves it (:meth:`..machine.Machine.after_tool_change`), NaN
     where that is unknown.  Without TCP a row the program gives only in part (the rotaries turned first) is
-    completed from there too."""
+    completed from there too.  After a return to the reference position (Fanuc G28) its axis is unknown."""
     tool_lengths = tool_lengths or {}
-    changes = sorted(line for _, line in read.tool_changes)
+    # what moves the machine where the program cannot see, in program order (M6 before the motion of its block)
+    events = sorted([(line, 0, None) for _, line in read.tool_changes]
+                    + [(line, 1, axis) for line, _, axis, _ in read.reference_returns])
     n, N = len(machine.axis_names), len(read.moves)
     S = np.array([mv.start for mv in read.moves], float).reshape(N, n)
     E = np.array([mv.end for mv in read.moves], float).reshape(N, n)
@@ -96,8 +98,13 @@ def move_joints(read, machine, tool_lengths=None):
             out[k] = machine.machine_joints(rows[k], tool_lengths.get(int(t), 0.0))
     here, k = np.full(n, np.nan), 0
     for i, mv in enumerate(read.moves):
-        while k < len(changes) and changes[k] <= mv.line:      # M6 runs before the motion of its block
-            here, k = machine.after_tool_change(here), k + 1
+        while k < len(events) and events[k][0] <= mv.line:
+            if events[k][2] is None:
+                here = machine.after_tool_change(here)
+            else:
+                here = here.copy()
+                here[events[k][2]] = np.nan
+            k += 1
         if np.isnan(J0[i, 0]):
             J0[i] = here
         if np.isnan(J1[i, 0]) and not machine.tcp:   # joint values: what the block does not name stays
@@ -126,13 +133,17 @@ def cycle_time(read, machine, tool_lengths=None):
     tc = changes * machine.tool_change_s / 60.0
     return {"cutting_time_s": 60.0 * cut, "rapid_time_s": 60.0 * rapid, "tool_changes": changes,
             "tool_change_time_s": 60.0 * tc, "total_time_s": 60.0 * (cut + rapid + tc),
-            "untimed_moves": untimed, "block_minutes": per_block}
+            "untimed_moves": untimed, "reference_returns": len(read.reference_returns), "block_minutes": per_block}
 
 
-def untimed_note(count, machine):
-    """What the cycle time leaves out: the moves out of a tool change whose start is unknown."""
-    if not count:
-        return ""
-    why = ("the machine file gives no tool_change_position" if machine.tool_change_position is None
-           else "the rotary axes the tool_change_position does not name are unknown before the first tool")
-    return f", not counting {count} move(s) out of a tool change ({why})"
+def untimed_note(count, machine, returns=0):
+    """What the cycle time leaves out: the moves out of a tool change whose start is unknown, and the returns to
+    the reference position (Fanuc G28), whose end the machine file does not give."""
+    parts = []
+    if count:
+        why = ("the machine file gives no tool_change_position" if machine.tool_change_position is None
+               else "the rotary axes the tool_change_position does not name are unknown before the first tool")
+        parts.append(f"{count} move(s) out of a tool change ({why})")
+    if returns:
+        parts.append(f"{returns} return(s) to the reference position (G28)")
+    return ", not counting " + " and ".join(parts) if parts else ""

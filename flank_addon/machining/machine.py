@@ -87,7 +87,7 @@ def _vec(v, key, unit=False):
 
 
 def _direction(v, key):
-    if v not in DIRECTIONS:
+    if not isinstance(v, str) or v not in DIRECTIONS:
         raise MachineError(f"{key} must be one of {', '.join(DIRECTIONS)}, got {v!r}")
     return np.array(DIRECTIONS[v], float)
 
@@ -139,6 +139,15 @@ class Machine:
     @property
     def tilt(self):
         return next(n for n in self.rotary_names if n != self.spin)
+
+    @property
+    def retract_axis(self):
+        """(name, end of travel) of the linear axis along the tool axis at all head angles 0 (Z on a vertical
+        machine), at the end the tool points to from its tip (``tool_axis``, tip -> shank): away from the work.
+        A reference return (Fanuc G28) and, on most machines, the tool-change cycle lift the tool that way."""
+        i = int(np.argmax(np.abs(self.tool_axis)))
+        ax = self.axes[LINEAR[i]]
+        return LINEAR[i], (ax.max if self.tool_axis[i] > 0 else ax.min)
 
     @property
     def spin_sign(self):

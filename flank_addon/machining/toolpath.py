@@ -19,7 +19,8 @@ turn to the next pass (turning the spin keeps every distance from the axis), the
 next start and the tool approaches it the reverse way.  Every segment is checked against the stock cylinder, the
 shafts and the holders (:mod:`.clearance`); when one is not clear the link is tried again with R_s + the tool's
 length, then with an extra lift along the tool axis, and refused by name if none is.  A tool starts and ends at that lifted
-position.  The first move after a tool change comes from where the tool-change cycle leaves the machine, which
+position, from which it must be clear to lift straight along the retract axis (Z) to the end of its travel, as
+a reference return (Fanuc G28) or the tool-change cycle takes it (:func:`lift_rows`).  The first move after a tool change comes from where the tool-change cycle leaves the machine, which
 the program cannot know; when the machine file gives it (``tool_change_position``) the moves out of it are
 checked as well, block by block as the post writes them (:meth:`.machine.Machine.tool_change_groups`), and a
 program whose tool would enter the stock on the way is refused by name.
@@ -294,6 +295,32 @@ def _check_out_of_tool_change(pl, tool, stood, first, label):
                              "tool_change_position away from the rotor")
 
 
+def lift_rows(machine, row, gauge):
+    """Program rows (2, axes) of the straight lift from program row ``row`` along the retract axis to the end of
+    its travel (:attr:`.machine.Machine.retract_axis`, Z up on a vertical machine), rotaries fixed: the way a
+    reference return (Fanuc G28) takes the tool, and the tool-change cycle on most machines, which the program
+    does not see.  The reference position is on that way, so a lift that is clear to the end is clear to it."""
+    name, end = machine.retract_axis
+    J = machine.machine_joints(np.array([row], float), gauge)[0]
+    J1 = J.copy()
+    J1[machine.axis_names.index(name)] = end
+    return machine.program_rows(np.array([J, J1]), gauge)
+
+
+def _check_lift(pl, tool, row):
+    """Refuse a program whose tool, where it ends, cannot be lifted straight to the end of the retract axis
+    (:func:`lift_rows`) without entering the stock, a shaft or a holder."""
+    seq = list(lift_rows(pl.m, row, tool.gauge_length))
+    depth, pt = pl.check(tool.number, seq, f"lift after tool {tool.number}")
+    if depth > 0:
+        name, end = pl.m.retract_axis
+        solid = pl.rotor.solid_at(pt) or pl.rotor.solids_words
+        raise OperationError(f"tool {tool.number} ends where lifting it along {name} to {end:g} (the way a reference "
+                             f"return or the tool-change cycle takes it) enters {solid} by {depth:.3g} mm at "
+                             f"{np.round(pt, 3).tolist()} in the rotor frame: check the machine file's tool_axis "
+                             "and rotary axes")
+
+
 def build_program(op, machine, direction="forward", chord_tolerance=1e-3, step=1.0, spacing=1.5, coolant="flood"):
     """:class:`Program` of an :class:`operation.Operation` on ``machine`` (module doc).
 
@@ -371,6 +398,7 @@ def build_program(op, machine, direction="forward", chord_tolerance=1e-3, step=1
             prev = rows[-1]
         for r in pl.link(tool.number, prev, None, f"retract after tool {tool.number}")[1:]:
             ops.append({"op": "rapid", "row": r})
+        _check_lift(pl, tool, ops[-1]["row"])
         spin = float(ops[-1]["row"][pl.ispin])      # where the tool change leaves the spin axis
         stood = machine.machine_joints(ops[-1]["row"], tool.gauge_length)[0]
     if machine.tcp:

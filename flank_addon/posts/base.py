@@ -53,6 +53,8 @@ class ReadProgram:
     comments: list = field(default_factory=list)
     axes: list = field(default_factory=list)
     end_line: int = 0            # line of the program's end (M2 / M30, END PGM); 0: the text ends without one
+    # returns to the reference position (Fanuc G91 G28 Z0.): (line, program row before it, index of the axis, tool)
+    reference_returns: list = field(default_factory=list)
 
 
 def fixed(x, decimals):

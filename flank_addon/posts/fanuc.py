@@ -1,12 +1,13 @@
 """Fanuc-style ISO post: writer and reader.
 
-Program: ``%``, ``O1000``; G21 (a block of its own); G17 G40 G49 G80 G90 G94 G54; per tool ``T<n> M06`` (after ``G49`` from the second
-tool on), ``S<rpm> M03``, ``M08`` (``M07`` for mist, none for a dry cut);
+Program: ``%``, ``O1000``; G21 (a block of its own); G17 G40 G49 G80 G90 G94 G54; per tool ``T<n> M06`` (from the
+second tool on after ``G91 G28 Z0.`` ``G90`` ``G49``: the tool goes to the reference position before its length
+compensation is cancelled, which on a control with parameter 5006#6 TOS = 0 moves the axis by the tool length), ``S<rpm> M03``, ``M08`` (``M07`` for mist, none for a dry cut);
 the first linear positioning block of a tool (after its rotary block, on a machine without TCP) carries the
 length compensation, ``G43 H<n>`` or, on a TCP machine,
 ``G43.4 H<n>`` (tool centre point control type 1: programmed X Y Z = tool tip in work coordinates, rotary
 axes as positions); passes under ``G93`` (inverse time, F = 1 / block minutes in every block), ``G94``
-after them; ``M05 M09 G49 M30 %``.  Coordinates always carry a decimal point (X12.3456), comments are
+after them; ``M05 M09 G91 G28 Z0. G90 G49 M30 %`` (Z: the machine's retract axis).  Coordinates always carry a decimal point (X12.3456), comments are
 upper case in parentheses, reduced to letters, digits and . , : = + - / [ ] # % *.  G43.5 (the tool vector
 I J K) is not written: the control would choose between the two rotary solutions itself, and the read-back
 could not tell which it took.
@@ -34,7 +35,15 @@ class FanucPost(GcodePost):
         self.lines += ["G21", "G17 G40 G49 G80 G90 G94 G54"]    # G21 alone, before the coordinate system, as Fanuc asks
 
     def _footer(self, program):
-        self.lines += ["G94", "M05", "M09", "G49", "M30", "%"]
+        self.lines += ["G94", "M05", "M09"]
+        self._reference_return(program)
+        self.lines += ["G49", "M30", "%"]
+
+    def _reference_return(self, program):
+        # G49 alone moves the axis by the tool length on a control with 5006#6 TOS = 0 (the default): only
+        # at the reference position is that harmless, so the tool goes there first, straight up the retract
+        # axis (checked clear by the toolpath), as the tool-change cycle would take it anyway
+        self.lines += [f"G91 G28 {program.machine.retract_axis[0]}0.", "G90"]
 
     def _comment(self, text):
         t = str(text).upper().replace("(", "[").replace(")", "]").replace(";", ",")
@@ -44,6 +53,7 @@ class FanucPost(GcodePost):
         self._mode("per_minute")
         self._comment(op["text"])
         if self.state.get("compensated"):  # the earlier tool's G43 / G43.4 off first: many controls refuse M06 under TCP
+            self._reference_return(program)
             self.lines.append("G49")
         self.lines += [f"T{op['number']} M06", f"S{fixed(op['rpm'], 0)} M03"]
         if op["coolant"] != "off":
@@ -66,4 +76,4 @@ class FanucPost(GcodePost):
         self.lines.append("G01 " + self._axes(words) + " F" + feed_text(F))
 
     def read(self, text, machine):
-        return read_gcode(text, machine, semicolon_comments=False, tcp_codes=True)
+        return read_gcode(text, machine, semicolon_comments=False, tcp_codes=True, reference_return=True)

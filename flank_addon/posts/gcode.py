@@ -34,13 +34,19 @@ def strip_comments(line, semicolon):
     return code, [c.strip() for c in comments]
 
 
-def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
+def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False, reference_return=False):
     """:class:`ReadProgram` of ISO G-code ``text`` for ``machine`` (rows in its axis order).
 
     ``tcp_codes`` False, rs274ngc (LinuxCNC): TCP is the machine's; G43 takes the offset of tool H, of the tool
     in the spindle without H or with H0; an H word needs a G43 in its block.  ``tcp_codes`` True, Fanuc: G43.4 /
     G43.5 switch TCP on, G43 and G49 (the same modal group) off; H is modal, G43 without H takes the latest H
-    (H0: no offset), and an H word while G43 is on changes the offset."""
+    (H0: no offset), and an H word while G43 is on changes the offset.
+
+    ``reference_return`` True (Fanuc): ``G91 G28 Z0.`` (the machine's retract axis, :attr:`..machining.machine.
+    Machine.retract_axis`) returns that axis straight to its reference position, which the program does not
+    know: the axis is unknown after it (with TCP on, every linear program axis), and the return is kept in
+    :attr:`ReadProgram.reference_returns` for the link checks.  G91 is followed only for that block; an axis
+    word under it elsewhere is refused, and so is G28 in G90 (its axis words would be a point to pass first)."""
     names = machine.axis_names
     out = ReadProgram(axes=list(names))
     row = np.full(len(names), np.nan)
@@ -54,6 +60,8 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
     h_modal, comp_on = 0, False     # Fanuc: the latest H word; whether G43 / G43.4 / G43.5 is on
     work = "G54"                    # the controllers' power-on work offset
     tcp = machine.tcp and not tcp_codes
+    incremental = False             # G91 (only with reference_return, for G28)
+    up = machine.retract_axis[0]
     comment = ""
     started = False
     for no, raw in enumerate(text.splitlines(), 1):
@@ -86,7 +94,17 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
         moved, f_here, tool_change, named, turn, length, h_word = False, None, False, [], None, None, None
         end_stop = False                # M2 / M30: the program ends after the block's motion
         cool = set()                    # the block's coolant words
+        turns = set()                   # the block's spindle words (one modal group)
+        ret, distance = False, None     # G28 in the block; G90 / G91 in the block
+        once = {}                       # words a block may hold once (all but G and M)
         for letter, value in words:
+            if letter not in "GM":
+                if letter in once:
+                    raise PostError(f"line {no}: two {letter} words in one block ({letter}{once[letter]}, "
+                                    f"{letter}{value}): the control refuses it")
+                once[letter] = value
+            if letter in "THD" and float(value) != int(float(value)):
+                raise PostError(f"line {no}: {letter}{value} is not a whole number")
             if letter == "G":
                 g = value.lstrip("0") or "0"
                 g = g[:-2] if g.endswith(".0") else g
@@ -104,6 +122,10 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
                     work = "G" + g
                 elif g == "49":
                     tcp, length = (False if tcp_codes else tcp), "off"
+                elif g == "28" and reference_return:
+                    ret = True
+                elif g in ("90", "91") and reference_return:
+                    distance = g
                 elif g not in IGNORED_G:
                     raise PostError(f"line {no}: G{value} is not supported by the reader")
             elif letter in names:
@@ -122,6 +144,7 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
                     tool_change = True
                 elif mcode in ("3", "4", "5"):
                     turn = {"3": "cw", "4": "ccw", "5": "off"}[mcode]
+                    turns.add(mcode)
                 elif mcode in ("7", "8", "9"):
                     cool.add(mcode)
                 elif mcode in ("2", "30"):
@@ -136,6 +159,20 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
             else:
                 raise PostError(f"line {no}: word {letter}{value} is not supported by the reader"
                                 f" (axes of machine {machine.name}: {' '.join(names)})")
+        if len(turns) > 1:
+            raise PostError(f"line {no}: two of M3, M4 and M5 in one block (one modal group)")
+        if distance is not None:
+            incremental = distance == "91"
+        if ret:
+            values = {names[i]: float(once[names[i]]) for i in named}
+            if not incremental:
+                raise PostError(f"line {no}: G28 under G90 passes its axis words as a point first; the reader "
+                                f"follows G91 G28 {up}0. (straight to the reference position)")
+            if list(values) != [up] or values[up] != 0.0:
+                raise PostError(f"line {no}: the reader follows a reference return of the retract axis alone, "
+                                f"G91 G28 {up}0. (machine {machine.name}), not {raw.strip()!r}")
+        elif incremental and moved:
+            raise PostError(f"line {no}: incremental axis words (G91) are not supported by the reader: G90 first")
         if f_here is not None:
             F = f_here
         if h_word is not None and length != "on" and not tcp_codes:
@@ -164,6 +201,13 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False):
             comp = h_word or in_spindle or None         # G43, G43 H0: the tool in the spindle
         elif length == "off":
             comp = None
+        if ret:
+            # straight up to where the control keeps its reference position, which the program does not know;
+            # with TCP on, that moves the tool tip in every linear program axis of a tilted table
+            out.reference_returns.append((no, row.copy(), names.index(up), in_spindle))
+            row = row.copy()
+            row[[0, 1, 2] if tcp else [names.index(up)]] = np.nan
+            moved = False
         if moved:
             if motion is None:
                 raise PostError(f"line {no}: axis words without G0 or G1")

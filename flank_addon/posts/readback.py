@@ -26,7 +26,8 @@
 5. Run-out: at its first and last pose the whole tool (and shank) must be beyond the body's end faces.
 6. Every other move (rapids, links) is checked against the stock cylinder, the shafts and the holders
    (:func:`machining.toolpath.segment_intrusion`); the passes against the shafts and the holders
-   (:func:`keep_out_margin`).  The moves out of a tool change start where the machine
+   (:func:`keep_out_margin`); a return to the reference position (Fanuc G28) as the straight lift of its axis
+   to the end of its travel.  The moves out of a tool change start where the machine
    file's ``tool_change_position`` leaves the machine (:func:`machining.cycle_time.move_joints`); without
    one their start is unknown and they are counted as ``unchecked``.
 7. Cycle time from the moves as the controller times them (:mod:`machining.cycle_time`).  The spindle: every
@@ -57,7 +58,7 @@ from ..machining.cycle_time import block_times, cycle_time, move_joints
 from ..machining.feeds import cutting_data_for, engagement
 from ..machining.operation import checked_lobes, repeats_earlier_strip
 from ..machining.tool_shape import ToolShape, place_points
-from ..machining.toolpath import COOLANTS, segment_intrusion
+from ..machining.toolpath import COOLANTS, lift_rows, segment_intrusion
 from ..simulation.verify import profile_normals, verify_plan
 
 # mm: a pass is a strip's when its first pose is this near the strip's (modulo the screw) and its other poses
@@ -426,7 +427,8 @@ def axis_limit_check(read, machine, gauges, samples=8):
 
 
 def check_links(read, machine, tools, rotor, step=1.0, spacing=1.5):
-    """Intrusion of every non-cutting move into the stock, the shafts or the holders."""
+    """Intrusion of every non-cutting move into the stock, the shafts or the holders, and of every return to the
+    reference position (:func:`..machining.toolpath.lift_rows`)."""
     worst, bad, checked, unchecked = 0.0, [], 0, 0
     local = {n: s.local_points(spacing) for n, s in tools.items()}
     gauges = tool_gauges(tools)
@@ -448,6 +450,19 @@ def check_links(read, machine, tools, rotor, step=1.0, spacing=1.5):
         worst = max(worst, depth)
         if depth > 0:
             bad.append({"line": mv.line, "depth_mm": depth, "point": pt})
+    for line, row, _, tool in read.reference_returns:
+        # straight up the retract axis to the end of its travel: the reference position is on the way
+        if tool not in tools:
+            continue
+        if not np.isfinite(row).all():
+            unchecked += 1
+            continue
+        start, end = lift_rows(machine, row, gauges[tool])
+        depth, frac, pt = segment_intrusion(machine, rotor, start, end, local[tool], gauges[tool], step)
+        checked += 1
+        worst = max(worst, depth)
+        if depth > 0:
+            bad.append({"line": line, "depth_mm": depth, "point": pt})
     return {"moves_checked": checked, "moves_unchecked": unchecked, "max_intrusion_mm": worst,
             "intrusions": bad[:20]}
 

@@ -716,3 +716,106 @@ def test_moves_in_the_other_tcp_mode_are_named(single_flank_plan):
         other = [mv.line for mv in read.moves if mv.tcp != machine.tcp]
         assert len(other) >= len(read.moves) - 1 and res["tcp"]["other_mode"] == other
         assert any(f.startswith(f"{len(other)} move(s) {mode}") for f in res["findings"]), res["findings"]
+
+
+# ------------------------------------------------------------------------------ Fanuc: the reference return
+def test_fanuc_returns_to_the_reference_position_before_each_g49(two_tool_plan):
+    """A Fanuc control with 5006#6 TOS = 0 (its default) moves the axis by the tool length when G49 cancels the
+    offset.  Every G49 after a cut (before the second tool change and at the end) comes right after
+    ``G91 G28 Z0.`` and ``G90``, which take Z straight to the reference position first.  The reader keeps each
+    return, its axis is unknown after it (the move after it is not timed), each is checked as the straight lift
+    to Z's end of travel, and the cycle time says it leaves them out.  With and without TCP."""
+    from dataclasses import replace
+
+    from flank_addon.machining.cycle_time import cycle_time, untimed_note
+    from flank_addon.posts.readback import check_links, tool_gauges, tool_table
+
+    rb = rotor_body(two_tool_plan)
+    op = build_operation([two_tool_plan], rb, lobes=[0])
+    post = get_post("fanuc")
+    tools, _ = tool_table([two_tool_plan])
+    for name in ("rotor-xa-b", "xyzac-trt-tcp"):
+        machine = load_machine(name)
+        text = post.write(build_program(op, machine))
+        lines = text.splitlines()
+        g49 = [k for k, ln in enumerate(lines) if ln == "G49" and k > 5]
+        assert len(g49) == 2 and all(lines[k - 2:k] == ["G91 G28 Z0.", "G90"] for k in g49)
+        read = post.read(text, machine)
+        assert [(line, axis, tool) for line, _, axis, tool in read.reference_returns] == [(g49[0] - 1, 2, 1),
+                                                                                          (g49[1] - 1, 2, 2)]
+        assert all(np.isfinite(row).all() for _, row, _, _ in read.reference_returns)
+        res = verify_program(text, post, machine, [two_tool_plan], rb)
+        assert res["findings"] == [] and res["reference_returns"] == 2
+        without = check_links(replace(read, reference_returns=[]), machine, tools, rb)
+        assert res["links"]["moves_checked"] == without["moves_checked"] + 2
+        times = cycle_time(read, machine, tool_gauges(tools))
+        assert untimed_note(0, machine, times["reference_returns"]) == \
+            ", not counting 2 return(s) to the reference position (G28)"
+    # a hand-made return from under the rotor, mid-body: its lift goes through the stock, a finding at its line
+    machine = load_machine("rotor-xa-b")
+    lines = post.write(build_program(op, machine)).splitlines()
+    first_cut = next(k for k, ln in enumerate(lines) if ln.startswith("G01 "))
+    mid = 0.5 * (rb.z_range[0] + rb.z_range[1])
+    below = ["G94", f"G00 X{mid:.4f} Y0. Z{-rb.outer_radius - 30.0:.4f}", "G91 G28 Z0.", "G90"]
+    edited = lines[:first_cut + 1] + below + lines[first_cut + 1:]
+    res = verify_program("\n".join(edited) + "\n", post, machine, [two_tool_plan], rb)
+    depths = [b["depth_mm"] for b in res["links"]["intrusions"] if b["line"] == first_cut + 4]
+    assert depths and max(depths) > 0.9 * rb.outer_radius
+
+
+def test_a_tool_that_cannot_be_lifted_straight_up_is_refused(two_tool_plan):
+    """Where a tool ends, the toolpath checks the straight lift of Z to its end of travel (the way G28 and the
+    tool-change cycle take it): with TCP as program rows whose machine joints differ in Z alone; the posted
+    program's ends are clear, the same tool under the rotor mid-body is refused by name."""
+    from flank_addon.machining.operation import OperationError
+    from flank_addon.machining.toolpath import _check_lift, _Planner, lift_rows
+
+    rb = rotor_body(two_tool_plan)
+    op = build_operation([two_tool_plan], rb, lobes=[0])
+    for name in ("xyzac-trt-tcp", "rotor-xa-b"):          # the last one's end is moved under the rotor below
+        machine = load_machine(name)
+        prog = build_program(op, machine)
+        k = next(i for i, o in enumerate(prog.ops) if o["op"] == "tool" and o["number"] == 2)
+        end = next(o["row"] for o in reversed(prog.ops[:k]) if o["op"] == "rapid")
+        tool = op.tool(1)
+        rows = lift_rows(machine, end, tool.gauge_length)
+        J = machine.machine_joints(rows, tool.gauge_length)
+        assert np.allclose(rows[0], end) and J[1, 2] == machine.axes["Z"].max
+        assert np.allclose(np.delete(J[1], 2), np.delete(J[0], 2))
+        pl = _Planner(op, machine, "forward", 1e-3, 1.0, 1.5)
+        _check_lift(pl, tool, end)
+    below = np.array(end, float)
+    below[:3] = [0.5 * (rb.z_range[0] + rb.z_range[1]), 0.0, -rb.outer_radius - 30.0]
+    with pytest.raises(OperationError, match="tool 1 ends where lifting it along Z to 800 .* enters the stock"):
+        _check_lift(pl, tool, below)
+
+
+def test_the_fanuc_reader_follows_only_a_straight_reference_return():
+    """G28 with G91 and Z0. alone is followed (Z unknown after it, until the program names it); G28 under G90
+    (its words are a point it passes first), another axis, a nonzero word and axis words under G91 elsewhere are
+    refused by line.  The readers also refuse what the controls refuse: a word twice in one block, two spindle
+    words in one block, a tool number with a fraction.  LinuxCNC's reader follows no G28 (its G28 goes to a
+    stored position)."""
+    from flank_addon.posts.base import PostError
+
+    machine = load_machine("rotor-xa-b")
+    post = get_post("fanuc")
+    head = ["%", "O1000", "G21", "G17 G40 G49 G80 G90 G94 G54", "T1 M06", "S1000 M03", "G00 G43 H1 X0. Y0. Z100."]
+    read = post.read("\n".join(head + ["G91 G28 Z0.", "G90", "G00 X5.", "G00 Z50.", "M30", "%"]), machine)
+    assert [r[0] for r in read.reference_returns] == [8]
+    assert np.isnan(read.moves[1].start[2]) and np.isnan(read.moves[1].end[2]) and read.moves[1].end[0] == 5.0
+    assert np.isnan(read.moves[2].start[2]) and read.moves[2].end[2] == 50.0
+    for extra, message in ((["G28 Z0."], "line 8: G28 under G90"),
+                           (["G91 G28 X0."], "line 8: the reader follows a reference return of the retract axis"),
+                           (["G91 G28 Z5."], "line 8: the reader follows a reference return of the retract axis"),
+                           (["G91 G00 Z5."], r"line 8: incremental axis words \(G91\)"),
+                           (["G91 G28 Z0.", "G00 Z5."], r"line 9: incremental axis words \(G91\)"),
+                           (["G00 X1. X2."], "line 8: two X words in one block"),
+                           (["M03 M04"], "line 8: two of M3, M4 and M5 in one block"),
+                           (["T1.5"], "line 8: T1.5 is not a whole number")):
+        with pytest.raises(PostError, match=message):
+            post.read("\n".join(head + extra + ["M30", "%"]), machine)
+    linuxcnc = get_post("linuxcnc")
+    for block in ("G91 G28 Z0", "G28 Z0"):
+        with pytest.raises(PostError, match="line 4: G(91|28) is not supported by the reader"):
+            linuxcnc.read("%\nG21 G90\nG0 X1\n" + block + "\nM2\n%\n", machine)
