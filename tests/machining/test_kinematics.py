@@ -140,6 +140,8 @@ def _file():
     (lambda d: d["linear_axes"]["Z"].update(min="low"), "linear_axes.Z.min must be a finite number, got 'low'"),
     (lambda d: d.update(name="mill\nB"), "must be printable ASCII (no line breaks): the programs' comments"),
     (lambda d: d.update(name="Fr\u00e4se"), "name 'Fr\u00e4se' must be printable ASCII"),
+    (lambda d: d.update(tool_axis=[0, 0, 1]), "tool_axis must be one of +X, -X, +Y, -Y, +Z, -Z, got "),
+    (lambda d: d["rotor_mount"].update(x=None), "rotor_mount.x must be one of +X"),
 ])
 def test_malformed_machine_is_refused_by_key(mutate, message):
     data = _file()
