@@ -1239,7 +1239,7 @@ def build_parser():
                     help="pass direction: forward (tool from above the body down, as the CL data), reverse, or "
                          "zigzag (whichever start is nearer)")
     po.add_argument("--chord-tolerance", type=float, default=1e-3,
-                    help="TCP machines: chord sagitta of the tip's helix, mm (default 0.001)")
+                    help="TCP machines: chord sagitta of the tip's helix, mm (default 0.001, at most 0.005)")
     _add_cutting_data(po)
     po.add_argument("--json", action="store_true", help="print passes, times, tools and per-pass cutting data")
     po.set_defaults(func=_cmd_post)

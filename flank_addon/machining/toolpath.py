@@ -43,6 +43,9 @@ DIRECTIONS = ("forward", "reverse", "zigzag")
 # coolant a program turns on with every tool: flood, mist, or none (a dry cut, as cast iron is often finished)
 COOLANTS = ("flood", "mist", "off")
 TCP_ROUNDING_MM = 1e-3     # the program's rounding of a TCP pass' tip and rotaries, as the read-back measures it
+# the largest chord sagitta a TCP pass may have: with the rounding it stays well within the 0.01 mm by which the
+# read-back lets a pass leave the plan's screw motion before it takes it for another (posts.readback.MATCH_TOL_MM)
+MAX_CHORD_TOLERANCE_MM = 5e-3
 
 
 @dataclass
@@ -331,8 +334,9 @@ def build_program(op, machine, direction="forward", chord_tolerance=1e-3, step=1
         raise ValueError(f"direction {direction!r} is not one of {', '.join(DIRECTIONS)}")
     if coolant not in COOLANTS:
         raise ValueError(f"coolant {coolant!r} is not one of {', '.join(COOLANTS)}")
-    if not (math.isfinite(chord_tolerance) and chord_tolerance > 0):
-        raise ValueError(f"chord tolerance {chord_tolerance!r} must be a finite number > 0 (mm)")
+    if not (math.isfinite(chord_tolerance) and 0 < chord_tolerance <= MAX_CHORD_TOLERANCE_MM):
+        raise ValueError(f"chord tolerance {chord_tolerance!r} must be a number > 0 and at most "
+                         f"{MAX_CHORD_TOLERANCE_MM:g} mm: a chord's sagitta moves the tool off the plan's screw motion")
     pl = _Planner(op, machine, direction, chord_tolerance, step, spacing)
     rotor = op.rotor
     dirs = {"forward": (False,), "reverse": (True,), "zigzag": (False, True)}[direction]

@@ -9,7 +9,7 @@
    between the block ends the controller's interpolation is sampled the same way (``interpolation_error``: 0
    for joint-linear passes, the chord sagitta with TCP).  A pass whose block ends leave that screw by more
    than the matching tolerance (``MATCH_TOL_MM``) is not what any strip says, whatever its first pose: a
-   finding names it.
+   finding names it; so does one whose interpolation leaves it by more (chords too long).
 3. Each pass is matched to the plan strip and lobe whose pose it is, modulo the screw (no comment is
    trusted); every strip must appear once per lobe with the tool number the post gave its solid (a strip
    that repeats an earlier one, :func:`..machining.operation.repeats_earlier_strip`, is cut by that one's
@@ -529,6 +529,8 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
         "passes_off_screw": [{"line": ps["line"], "screw_error_mm": ps["screw_error"]} for ps in passes
                              if ps["screw_error"] > MATCH_TOL_MM],
         "interpolation_error_mm": max((ps["interpolation_error"] for ps in passes), default=0.0),
+        "passes_off_screw_between": [{"line": ps["line"], "interpolation_error_mm": ps["interpolation_error"]}
+                                     for ps in passes if ps["interpolation_error"] > MATCH_TOL_MM],
         # null without any pass: strict JSON has no Infinity
         "run_out": {"min_start_clearance_mm": min((c[0] for c in clear), default=None),
                     "min_end_clearance_mm": min((c[1] for c in clear), default=None),
@@ -618,6 +620,13 @@ def program_findings(res):
                    f"{max(o['screw_error_mm'] for o in off):.3g} mm (lines {_some([o['line'] for o in off])}): "
                    "not the plan's pitch or rotary angles; the deviation figures sweep each pass along the screw "
                    "through its first pose and do not show it")
+    between = res.get("passes_off_screw_between", [])
+    if between:
+        out.append(f"{len(between)} pass(es) leave the rotor's screw motion between their block ends by up to "
+                   f"{max(b['interpolation_error_mm'] for b in between):.3g} mm (lines "
+                   f"{_some([b['line'] for b in between])}): the controller's straight moves between them (TCP "
+                   "chords) are too long for the plan's tolerance; post with a lower --chord-tolerance; the "
+                   "deviation figures do not show it")
     if res["missing_strips"]:
         out.append(f"{len(res['missing_strips'])} strip(s) never cut, as [plan, strip, lobe]: "
                    f"{res['missing_strips'][:10]}")

@@ -819,3 +819,40 @@ def test_the_fanuc_reader_follows_only_a_straight_reference_return():
     for block in ("G91 G28 Z0", "G28 Z0"):
         with pytest.raises(PostError, match="line 4: G(91|28) is not supported by the reader"):
             linuxcnc.read("%\nG21 G90\nG0 X1\n" + block + "\nM2\n%\n", machine)
+
+
+def test_tcp_chords_too_long_are_refused_when_posting_and_a_finding_on_read_back(single_flank_plan):
+    """A TCP pass runs on chords of the tip's helix, off the plan's screw motion by their sagitta: the post refuses
+    a chord tolerance over 0.005 mm, and at 0.005 mm the read-back's interpolation error stays under its 0.01 mm
+    match tolerance (no finding).  The same program with three of every four blocks of each pass left out (chords
+    four times as long, sagitta about 16 times) is a finding, by line, with the error the sampling measures."""
+    from flank_addon.machining.toolpath import MAX_CHORD_TOLERANCE_MM
+    from flank_addon.posts.readback import MATCH_TOL_MM
+
+    rb = rotor_body(single_flank_plan)
+    op = build_operation([single_flank_plan], rb, lobes=[0])
+    tcp, post = load_machine("xyzac-trt-tcp"), get_post("linuxcnc")
+    with pytest.raises(ValueError, match=r"chord tolerance 0.0051 must be a number > 0 and at most 0.005 mm"):
+        build_program(op, tcp, chord_tolerance=0.0051)
+    text = post.write(build_program(op, tcp, chord_tolerance=MAX_CHORD_TOLERANCE_MM))
+    res = verify_program(text, post, tcp, [single_flank_plan], rb)
+    assert res["findings"] == [] and 0.8 * MAX_CHORD_TOLERANCE_MM < res["interpolation_error_mm"] < MATCH_TOL_MM
+    lines, kept, run = text.splitlines(), [], []
+    for ln in lines + [""]:
+        if ln.startswith("G1 "):
+            run.append(ln)
+            continue
+        kept += [b for i, b in enumerate(run) if i % 4 == 3 or i == len(run) - 1]
+        run = []
+        kept.append(ln)
+    edited = "\n".join(kept[:-1]) + "\n"
+    res = verify_program(edited, post, tcp, [single_flank_plan], rb)
+    between = res["passes_off_screw_between"]
+    read = post.read(edited, tcp)
+    firsts = [mv.line for a, mv in zip([None] + read.moves, read.moves) if mv.kind == "feed"
+              and (a is None or a.kind != "feed")]
+    assert [b["line"] for b in between] == firsts and len(firsts) == res["passes"] > 1
+    worst = max(b["interpolation_error_mm"] for b in between)
+    assert 10 * MAX_CHORD_TOLERANCE_MM < worst < 20 * MAX_CHORD_TOLERANCE_MM
+    assert any(f.startswith(f"{len(firsts)} pass(es) leave the rotor's screw motion between their block ends by "
+                            f"up to {worst:.3g} mm") for f in res["findings"]), res["findings"]
