@@ -867,6 +867,8 @@ def _cmd_verify_program(args):
     plans, rotor = _machining_inputs(args)
     with open(args.program, encoding="ascii", errors="replace") as fh:
         text = fh.read()
+    if not text.strip():
+        raise ValueError(f"{args.program} is empty: no program to check")
     res = verify_program(text, post, machine, plans, rotor, lobes=args.lobes, cutting_data=_cutting_data(args),
                          coolant=args.coolant or "flood")
     res["program"] = str(args.program)

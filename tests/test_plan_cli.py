@@ -110,6 +110,8 @@ def test_write_plan_is_atomic_and_names_the_file(tmp_path, monkeypatch):
     (lambda p: p["strips"][0].update(axis_end=p["strips"][0]["axis_start"]),
      r"strips\[0\]: axis_start and axis_end coincide, yet the tool's radius varies"),
     (lambda p: p["summary"].update(max_error=-0.001), r"summary.max_error -0.001 is below summary.min_error -0.0005"),
+    (lambda p: p.update(tolerance=float("nan")), r"tolerance must be a finite number > 0 \(in the plan's length unit\)"),
+    (lambda p: p.update(tolerance=0), r"tolerance must be a finite number > 0 .*, got 0"),
 ])
 def test_plan_validation_names_the_field(mutate, message):
     plan = json.loads(json.dumps(sample_plan()))

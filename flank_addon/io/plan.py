@@ -283,6 +283,9 @@ def _validate(plan):
         if not _is_num(plan["summary"].get(key)):
             raise PlanError(f"summary.{key} must be a number")
     _check_error_order(plan["summary"])
+    tol = plan.get("tolerance")
+    if tol is not None and not (_is_num(tol) and tol > 0):
+        raise PlanError(f"tolerance must be a finite number > 0 (in the plan's length unit), got {tol!r}")
     return plan
 
 

@@ -141,6 +141,10 @@ def test_post_json_and_verify_program_text(capsys, tmp_path, single_flank_plan):
     assert code == 2 and "lobes [9] are not lobes of this rotor (0..3)" in err
     code, _, err = run(capsys, "verify", plan_file, plan_file)
     assert code == 2 and "several only with --program" in err
+    empty = tmp_path / "empty.nc"
+    empty.write_text("\n  \n")
+    code, _, err = run(capsys, "verify", plan_file, "--program", empty, "--machine", "rotor-xa-b")
+    assert code == 2 and f"{empty} is empty: no program to check" in err
 
 
 def test_machines_command_lists_machines_and_posts(capsys):
