@@ -109,6 +109,21 @@ def flank_on_lobe(plan, flank, turn, solid=None):
     return int(solid.flank_of[i])
 
 
+# no milling tool, end mill or disc cutter, is longer or wider than this (mm): a larger one is a plan of the wrong
+# size, and its surface sampled every millimetre for the checks would not fit in memory
+MAX_TOOL_MM = 2000.0
+
+
+def _check_tool_size(shape, what):
+    lo, hi = shape.h_range()
+    h, R, _ = shape.outline(max((hi - lo) / 64.0, 1e-9))
+    length, width = float(hi - lo), 2.0 * float(R.max())
+    if not (length <= MAX_TOOL_MM and width <= MAX_TOOL_MM):
+        raise OperationError(f"{what}: its tool is {length:.6g} mm long and {width:.6g} mm across, over the "
+                             f"{MAX_TOOL_MM:g} mm of any milling tool: is the plan's size right? (a plan in units of "
+                             "R is scaled by --outer-radius-mm)")
+
+
 def run_out(shape, tip, axis, rotor, clearance, spacing=1.0, local=None, detail=False):
     """(t_a, t_b, shaft margin) of the pose (module doc); margin = smallest rho - radius over the tool points
     that pass over a shaft or a holder (inf when none does); with ``detail`` also the name of that solid.
@@ -183,6 +198,7 @@ def build_operation(plans, rotor, lobes=None, clearance=5.0, cutting_data=None):
         solid = ProfileSolid(np.asarray(plan["rotor"]["profile"], float), plan["rotor"]["flanks"])
         for s in range(len(plan["strips"])):
             shape = ToolShape.from_strip(plan, s)
+            _check_tool_size(shape, f"plan {p} strip {s}")
             sig = shape.signature()
             if repeats_earlier_strip(plan, s):
                 continue
