@@ -74,10 +74,16 @@ def _num(v, key, lo=-math.inf, hi=math.inf, positive=False):
     return float(v)
 
 
-def _vec(v, key, unit=False):
+# the largest length (mm) and angle (deg) a machine file may give: a kilometre of travel or a pivot a
+# kilometre off is a typing error, and values near the float range overflow in the kinematics
+MAX_LENGTH_MM = 1e6
+MAX_ANGLE_DEG = 1e9
+
+
+def _vec(v, key, unit=False, bound=MAX_LENGTH_MM):
     if not (isinstance(v, list) and len(v) == 3):
         raise MachineError(f"{key} must be a list of 3 numbers, got {v!r}")
-    a = np.array([_num(x, f"{key}[{i}]") for i, x in enumerate(v)])
+    a = np.array([_num(x, f"{key}[{i}]", -bound, bound) for i, x in enumerate(v)])
     if unit:
         n = float(np.linalg.norm(a))
         if not n > 0:
@@ -336,7 +342,8 @@ def _axis(name, d, kind):
     for k in ("min", "max", "max_feed", "rapid"):
         if k not in d:
             raise MachineError(f"missing key {key}.{k}")
-    ax = Axis(name, _num(d["min"], f"{key}.min"), _num(d["max"], f"{key}.max"),
+    bound = MAX_LENGTH_MM if kind == "linear" else MAX_ANGLE_DEG
+    ax = Axis(name, _num(d["min"], f"{key}.min", -bound, bound), _num(d["max"], f"{key}.max", -bound, bound),
               _num(d["max_feed"], f"{key}.max_feed", positive=True), _num(d["rapid"], f"{key}.rapid", positive=True))
     if not ax.min < ax.max:
         raise MachineError(f"{key}: min {ax.min:g} must be below max {ax.max:g}")
@@ -416,7 +423,7 @@ def parse_machine(data, source="<dict>"):
         raise MachineError(f"tool_length_in_pivot must be true or false, got {tla!r}")
     m = Machine(name=data["name"], description=str(data.get("description", "")), version=version,
                 tcp=ctrl["tcp"], axes=axes, table_chain=chains["table"], head_chain=chains["head"],
-                pivot_length=_num(data.get("pivot_length", 0.0), "pivot_length", lo=0.0),
+                pivot_length=_num(data.get("pivot_length", 0.0), "pivot_length", lo=0.0, hi=MAX_LENGTH_MM),
                 tool_length_in_pivot=tla, mount=np.c_[ex, np.cross(ez, ex), ez],
                 tool_axis=_direction(data.get("tool_axis", "+Z"), "tool_axis"),
                 max_rpm=_num(spindle.get("max_rpm") if isinstance(spindle, dict) else spindle, "spindle.max_rpm",

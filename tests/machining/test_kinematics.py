@@ -142,6 +142,10 @@ def _file():
     (lambda d: d.update(name="Fr\u00e4se"), "name 'Fr\u00e4se' must be printable ASCII"),
     (lambda d: d.update(tool_axis=[0, 0, 1]), "tool_axis must be one of +X, -X, +Y, -Y, +Z, -Z, got "),
     (lambda d: d["rotor_mount"].update(x=None), "rotor_mount.x must be one of +X"),
+    (lambda d: d["rotary_axes"]["A"].update(pivot=[1e300, 0, 0]), "A.pivot.0. = 1e+300 is outside -1e+06..1e+06"),
+    (lambda d: d.update(pivot_length=1e300), "pivot_length = 1e+300 is outside 0..1e+06"),
+    (lambda d: d["linear_axes"]["X"].update(max=1e308), "linear_axes.X.max = 1e+308 is outside -1e+06..1e+06"),
+    (lambda d: d["rotary_axes"]["A"].update(min=-1e12), "rotary_axes.A.min = -1000000000000.0 is outside -1e+09..1e+09"),
 ])
 def test_malformed_machine_is_refused_by_key(mutate, message):
     data = _file()
