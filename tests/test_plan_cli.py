@@ -112,6 +112,10 @@ def test_write_plan_is_atomic_and_names_the_file(tmp_path, monkeypatch):
     (lambda p: p["summary"].update(max_error=-0.001), r"summary.max_error -0.001 is below summary.min_error -0.0005"),
     (lambda p: p.update(tolerance=float("nan")), r"tolerance must be a finite number > 0 \(in the plan's length unit\)"),
     (lambda p: p.update(tolerance=0), r"tolerance must be a finite number > 0 .*, got 0"),
+    (lambda p: p["rotor"].update(v0=1e-300), r"rotor.v0 1e-300 must be within 1e-06..1e\+06 times rotor.outer_radius"),
+    (lambda p: p["strips"][0].update(axis_start=[1e300, 0.0, 0.0]), r"strips\[0\].axis_start .* is over 1e\+06 times"),
+    (lambda p: p["rotor"].update(profile=(np.asarray(p["rotor"]["profile"]) * 1e7).tolist()),
+     r"rotor.profile reaches .*, over 1e\+06 times rotor.outer_radius"),
 ])
 def test_plan_validation_names_the_field(mutate, message):
     plan = json.loads(json.dumps(sample_plan()))

@@ -8,7 +8,7 @@ it.  Fields (more are welcome, none may be removed or change meaning):
     length_unit   "mm" | "R"  (every length below, including errors)
     rotor
       to_world      4x4 row-major, rotor frame -> input model frame
-      v0            axial advance per radian (> 0); pitch = 2 pi v0
+      v0            axial advance per radian (> 0, 1e-6..1e6 times outer_radius); pitch = 2 pi v0
       handedness    "right" | "left"  (Bizzarri, Bo & Bartoň Eq. (1))
       profile       [[x, y], ...] closed transverse section z = 0 of the whole rotor, CCW, >= 720 points
       flanks        [[i_start, i_end], ...] inclusive profile index ranges, i_start < i_end,
@@ -33,6 +33,9 @@ it.  Fields (more are welcome, none may be removed or change meaning):
                        paraboloid  {a, b}: the lens |h| <= b + a rho^2 (a < 0 < b) centred
                                    at axis_start (Doğrusadık)}, ...]
     summary        {max_error, min_error, elapsed_s}
+    tolerance      optional: the error tolerance the plan was made for (> 0)
+
+Every coordinate of a rotor plan (profile, strips) lies within 1e6 times the outer radius of the origin.
 
 Free-form plans (Rajain et al. 2023, method "freeform-g1-cone") have ``surface`` instead of ``rotor``:
 
@@ -75,6 +78,11 @@ class PlanError(ValueError):
 
 def _is_int(x):
     return isinstance(x, int) and not isinstance(x, bool)
+
+
+# a rotor plan's lengths relative to its outer radius: the lead (v0) and every coordinate (profile, strips) must
+# lie within these factors, or the plan is of no rotor (and the screw arithmetic would overflow)
+RELATIVE_RANGE = (1e-6, 1e6)
 
 
 def _is_num(x):
@@ -228,6 +236,10 @@ def _validate(plan):
         raise PlanError(f"rotor.handedness must be 'right' or 'left', got {rotor['handedness']!r}")
     if not (_is_num(rotor["outer_radius"]) and rotor["outer_radius"] > 0):
         raise PlanError(f"rotor.outer_radius must be a number > 0, got {rotor['outer_radius']!r}")
+    L = float(rotor["outer_radius"])
+    if not RELATIVE_RANGE[0] <= v0 / L <= RELATIVE_RANGE[1]:
+        raise PlanError(f"rotor.v0 {v0!r} must be within {RELATIVE_RANGE[0]:g}..{RELATIVE_RANGE[1]:g} times "
+                        f"rotor.outer_radius {L!r} (a screw of that lead is no rotor)")
     if rotor.get("extent") is not None:
         _check_extent(rotor["extent"])
     prof = np.asarray(rotor["profile"], float)
@@ -235,6 +247,9 @@ def _validate(plan):
         raise PlanError("rotor.profile must be a list of finite [x, y] pairs")
     if len(prof) < MIN_PROFILE_POINTS:
         raise PlanError(f"rotor.profile has {len(prof)} points, at least {MIN_PROFILE_POINTS} are required")
+    if np.abs(prof).max() > RELATIVE_RANGE[1] * L:
+        raise PlanError(f"rotor.profile reaches {np.abs(prof).max():.6g}, over {RELATIVE_RANGE[1]:g} times "
+                        f"rotor.outer_radius {L!r}")
     x, y = prof[:, 0], prof[:, 1]
     if np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y) <= 0:
         raise PlanError("rotor.profile must be counter-clockwise")
@@ -252,6 +267,10 @@ def _validate(plan):
     _check_tool(plan["tool"], "tool")
     for k, st in enumerate(plan["strips"]):
         _check_strip_axes(k, st)
+        for key in ("axis_start", "axis_end", "shank_start", "shank_end"):
+            if np.abs(np.asarray(st[key], float)).max() > RELATIVE_RANGE[1] * L:
+                raise PlanError(f"strips[{k}].{key} {st[key]!r} is over {RELATIVE_RANGE[1]:g} times "
+                                f"rotor.outer_radius {L!r} from the rotor axis's origin")
         radii = np.asarray(st.get("radii", []), float)
         if radii.ndim != 1 or len(radii) < 2 or not np.isfinite(radii).all() or (radii < 0).any():
             raise PlanError(f"strips[{k}].radii must hold >= 2 non-negative radii")

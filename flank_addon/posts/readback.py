@@ -530,7 +530,9 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
                              if ps["screw_error"] > MATCH_TOL_MM],
         "interpolation_error_mm": max((ps["interpolation_error"] for ps in passes), default=0.0),
         "passes_off_screw_between": [{"line": ps["line"], "interpolation_error_mm": ps["interpolation_error"]}
-                                     for ps in passes if ps["interpolation_error"] > MATCH_TOL_MM],
+                                     # the passes whose block ends are on it: the others are named already
+                                     for ps in passes if ps["interpolation_error"] > MATCH_TOL_MM
+                                     and ps["screw_error"] <= MATCH_TOL_MM],
         # null without any pass: strict JSON has no Infinity
         "run_out": {"min_start_clearance_mm": min((c[0] for c in clear), default=None),
                     "min_end_clearance_mm": min((c[1] for c in clear), default=None),
