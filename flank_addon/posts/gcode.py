@@ -8,8 +8,9 @@ change (M6 puts the selected tool in the spindle, stops the spindle and leaves t
 compensation as they were), then the spindle words, then the coolant (M7 mist and M8 flood each on, M9 both
 off; one of them per block), then the length compensation, then the motion; the program's end (M2, M30) comes
 after the motion, and nothing after it is read (the controller never runs it).  It knows the words the posts write and the usual preamble codes;
-anything else (incremental G91, inch G20, arcs, canned cycles, subprograms, expressions) is refused with its
-line number.
+anything else (incremental G91 but for a Fanuc reference return, inch G20, arcs, canned cycles, subprograms,
+expressions, Q and D words, P but with G64) is refused with its line number, and so is what the controls refuse:
+a word twice in one block (G and M aside), two spindle or two coolant words in one block, a fractional T or H.
 """
 import re
 
@@ -154,8 +155,10 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False, referenc
                     raise PostError(f"line {no}: M{value} is not supported by the reader")
             elif letter == "H":
                 h_word = int(float(value))
-            elif letter in ("N", "P", "Q", "D"):
+            elif letter == "N":
                 pass
+            elif letter == "P" and "64" in [v.lstrip("0") for k, v in words if k == "G"]:
+                pass                    # LinuxCNC's G64 P<tolerance>: path blending, which the header sets
             else:
                 raise PostError(f"line {no}: word {letter}{value} is not supported by the reader"
                                 f" (axes of machine {machine.name}: {' '.join(names)})")

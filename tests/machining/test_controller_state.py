@@ -794,7 +794,8 @@ def test_the_fanuc_reader_follows_only_a_straight_reference_return():
     """G28 with G91 and Z0. alone is followed (Z unknown after it, until the program names it); G28 under G90
     (its words are a point it passes first), another axis, a nonzero word and axis words under G91 elsewhere are
     refused by line.  The readers also refuse what the controls refuse: a word twice in one block, two spindle
-    words in one block, a tool number with a fraction.  LinuxCNC's reader follows no G28 (its G28 goes to a
+    words in one block, a tool number with a fraction, and the words they do not follow (Q, D, and P but with
+    LinuxCNC's G64).  LinuxCNC's reader follows no G28 (its G28 goes to a
     stored position)."""
     from flank_addon.posts.base import PostError
 
@@ -812,10 +813,14 @@ def test_the_fanuc_reader_follows_only_a_straight_reference_return():
                            (["G91 G28 Z0.", "G00 Z5."], r"line 9: incremental axis words \(G91\)"),
                            (["G00 X1. X2."], "line 8: two X words in one block"),
                            (["M03 M04"], "line 8: two of M3, M4 and M5 in one block"),
-                           (["T1.5"], "line 8: T1.5 is not a whole number")):
+                           (["T1.5"], "line 8: T1.5 is not a whole number"),
+                           (["G00 X1. Q2"], "line 8: word Q2 is not supported by the reader"),
+                           (["G00 X1. D2"], "line 8: word D2 is not supported by the reader"),
+                           (["G00 X1. P5"], "line 8: word P5 is not supported by the reader")):
         with pytest.raises(PostError, match=message):
             post.read("\n".join(head + extra + ["M30", "%"]), machine)
     linuxcnc = get_post("linuxcnc")
+    assert len(linuxcnc.read("%\nG21 G90 G64 P0.001\nG0 X1\nM2\n%\n", machine).moves) == 1   # G64's P: blending
     for block in ("G91 G28 Z0", "G28 Z0"):
         with pytest.raises(PostError, match="line 4: G(91|28) is not supported by the reader"):
             linuxcnc.read("%\nG21 G90\nG0 X1\n" + block + "\nM2\n%\n", machine)
