@@ -783,6 +783,10 @@ def _machining_inputs(args):
             plan = scale_plan(plan, args.outer_radius_mm / plan["rotor"]["outer_radius"])
         elif args.outer_radius_mm is not None:
             raise ValueError(f"--outer-radius-mm applies to plans in units of R; {path} is in mm")
+        for k, earlier in enumerate(plans):
+            if plan == earlier:
+                raise ValueError(f"{path} is the same plan as {args.plans[k]}: given twice, every strip would be "
+                                 "cut twice")
         plans.append(plan)
     extent = None
     if args.mesh:
@@ -1300,6 +1304,8 @@ def _missing_output_folder(args):
 
     for name in _output_options(args) + ("strips_stl", "strips_ply"):
         path = getattr(args, name, None)
+        if isinstance(path, str) and not path.strip():
+            return f"--{name.replace('_', '-')} is empty: give the file to write"
         if isinstance(path, str) and path:
             msg = output_path_error(path, prefix=name in ("strips_stl", "strips_ply"))
             if msg:

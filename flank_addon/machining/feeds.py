@@ -282,26 +282,65 @@ def largest_engaged_diameter(shape, tip, axis, outer_radius, spacing=0.5, rings=
     not, the height where the edge crosses the stock's surface is found (:func:`_crossing`), and its diameter
     taken: the surface speed pi D n is then the largest on the edge, not the largest sampled (where a tool's wide
     end leaves the stock between two rings the sampled one was up to 0.7% smaller on the test plans' cones, 2% on
-    the double-flank tool).  An edge that dips into the stock and out again between two neighbouring rings
-    (grazing, under ``spacing``) is not seen.  ``rings``: :func:`_cutting_rings` of ``spacing``, when the caller
-    has them."""
+    the double-flank tool).  Where the edge may dip into the stock and out again between two neighbouring rings
+    (grazing), the stretch is searched (:func:`_grazing_diameter`).  ``rings``: :func:`_cutting_rings` of
+    ``spacing``, when the caller has them."""
     h, R = _cutting_rings(shape, spacing) if rings is None else rings
     knots = _radius_knots(shape)
     h, R = np.concatenate([h, knots]), np.concatenate([R, shape._cutting_radius(knots)])
     order = np.argsort(h, kind="stable")
     h, R = h[order], R[order]
     frame = _frame(axis)
-    counts = ring_min_rho(tip, axis, h, R, frame) <= outer_radius
+    rho = ring_min_rho(tip, axis, h, R, frame)
+    counts = rho <= outer_radius
     best = float(2.0 * R[counts].max(initial=0.0))
 
     def outside(hv):            # > 0 where the ring at height hv lies wholly outside the stock
         hv = np.array([hv])
         return float(ring_min_rho(tip, axis, hv, shape._cutting_radius(hv), frame)[0]) - outer_radius
 
+    # (a, b, g(a), g(b)) of the stretches between two heights outside the stock: g = rho_min - outer radius
+    out = rho - outer_radius
+    both_out = np.flatnonzero(~counts[:-1] & ~counts[1:])
+    spans = [(h[both_out], h[both_out + 1], out[both_out], out[both_out + 1])]
     for k in np.flatnonzero(counts[:-1] != counts[1:]):
         cross = _crossing(outside, h[k], h[k + 1])
         if cross is not None:
             best = max(best, float(2.0 * shape._cutting_radius(np.array([cross]))[0]))
+            # beyond the crossing, up to the neighbour outside, the edge may come back in: examined too
+            k_out = k + 1 if counts[k] else k
+            a, b = sorted((cross, h[k_out]))
+            spans.append((np.array([a]), np.array([b]), np.array([0.0]), np.array([out[k_out]])))
+    return _grazing_diameter(shape, tip, axis, outer_radius, frame, best, *map(np.concatenate, zip(*spans)))
+
+
+def _grazing_diameter(shape, tip, axis, outer_radius, frame, best, a, b, ga, gb, levels=10, n_var=9):
+    """``best`` or the diameter of a ring inside the stock on a stretch [a, b] whose ends are outside it (g =
+    rho_min - outer radius > 0, or 0 at a crossing), where the edge may dip in and out between two rings.
+
+    Moving a ring by dh along the axis and changing its radius by dR moves each of its points by at most
+    |dh| + |dR|, so |g(h) - g(a)| <= |h - a| + |R(h) - R(a)|: a stretch can hold a ring inside only when
+    g(a) - V_a + g(b) - V_b <= b - a, V_a (V_b) the largest change of R from its value at a (b) over the stretch
+    (from R at ``n_var`` points).  Such a stretch, if it could carry a diameter over ``best``, is halved and
+    its midpoint's ring examined, ``levels`` times: at most 2^-levels of the ring spacing is left unseen."""
+    for _ in range(levels):
+        if not len(a):
+            break
+        u = np.linspace(0.0, 1.0, n_var)
+        hs = a[:, None] + (b - a)[:, None] * u[None, :]
+        Rs = shape._cutting_radius(hs.ravel()).reshape(hs.shape)
+        va = np.abs(Rs - Rs[:, :1]).max(axis=1)
+        vb = np.abs(Rs - Rs[:, -1:]).max(axis=1)
+        keep = (2.0 * Rs.max(axis=1) > best) & (ga - va + gb - vb <= b - a)
+        a, b, ga, gb = a[keep], b[keep], ga[keep], gb[keep]
+        if not len(a):
+            break
+        mid, Rm = hs[keep, n_var // 2], Rs[keep, n_var // 2]       # the samples' middle ones (n_var odd)
+        gm = ring_min_rho(tip, axis, mid, Rm, frame) - outer_radius
+        if (gm <= 0).any():
+            best = max(best, float(2.0 * Rm[gm <= 0].max()))
+        a, b = np.r_[a, mid], np.r_[mid, b]
+        ga, gb = np.r_[ga, gm], np.r_[gm, gb]
     return best
 
 

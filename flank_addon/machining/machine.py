@@ -450,6 +450,9 @@ def load_machine(name_or_path):
         path = name
     elif name in builtin_machines():
         path = os.path.join(MACHINE_DIR, name + ".json")
+    elif os.path.isdir(name):
+        raise MachineError(f"machine {name!r} is a folder: give a machine file (flank-machine/1 JSON) or one of "
+                           f"{', '.join(builtin_machines())}")
     else:
         raise MachineError(f"unknown machine {name!r}: give a machine file or one of {', '.join(builtin_machines())}")
     try:

@@ -53,7 +53,7 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False, referenc
     row = np.full(len(names), np.nan)
     # ``tool``: the latest T word (selected); ``loaded``: the tool in the spindle, changed in by M6 (a program
     # without any M6 is taken to cut with the tool its T word names)
-    changes = any(re.search(r"M0*6(?![\d.])", strip_comments(ln, semicolon_comments)[0].upper().replace(" ", ""))
+    changes = any(re.search(r"M0*6(?![\d.])", re.sub(r"\s", "", strip_comments(ln, semicolon_comments)[0].upper()))
                   for ln in text.splitlines())
     motion, mode, F, tool, rpm, spindle, comp = None, "per_minute", None, 0, 0.0, "off", None
     mist = flood = False            # the coolants: off at power-on
@@ -76,7 +76,7 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False, referenc
         for c in comments:
             out.comments.append((no, c))
             comment = c
-        code = code.upper().replace(" ", "")
+        code = re.sub(r"\s", "", code.upper())      # spaces and tabs mean nothing between words
         if not code:
             continue
         if re.fullmatch(r"[O:]\d+", code):        # a program number
@@ -106,6 +106,8 @@ def read_gcode(text, machine, semicolon_comments=True, tcp_codes=False, referenc
                 once[letter] = value
             if letter in "THD" and float(value) != int(float(value)):
                 raise PostError(f"line {no}: {letter}{value} is not a whole number")
+            if letter in "FSTHN" and float(value) < 0:
+                raise PostError(f"line {no}: {letter}{value} is negative")
             if letter == "G":
                 g = value.lstrip("0") or "0"
                 g = g[:-2] if g.endswith(".0") else g

@@ -816,11 +816,15 @@ def test_the_fanuc_reader_follows_only_a_straight_reference_return():
                            (["T1.5"], "line 8: T1.5 is not a whole number"),
                            (["G00 X1. Q2"], "line 8: word Q2 is not supported by the reader"),
                            (["G00 X1. D2"], "line 8: word D2 is not supported by the reader"),
-                           (["G00 X1. P5"], "line 8: word P5 is not supported by the reader")):
+                           (["G00 X1. P5"], "line 8: word P5 is not supported by the reader"),
+                           (["S-5 M03"], "line 8: S-5 is negative"),
+                           (["G01 X1. F-3"], "line 8: F-3 is negative")):
         with pytest.raises(PostError, match=message):
             post.read("\n".join(head + extra + ["M30", "%"]), machine)
     linuxcnc = get_post("linuxcnc")
     assert len(linuxcnc.read("%\nG21 G90 G64 P0.001\nG0 X1\nM2\n%\n", machine).moves) == 1   # G64's P: blending
+    tabs = linuxcnc.read("%\nG21\tG90\nT1\tM6\nG0\tX1\nM2\n%\n", machine)               # tabs are spaces
+    assert tabs.tool_changes == [(1, 3)] and tabs.moves[0].end[0] == 1.0
     for block in ("G91 G28 Z0", "G28 Z0"):
         with pytest.raises(PostError, match="line 4: G(91|28) is not supported by the reader"):
             linuxcnc.read("%\nG21 G90\nG0 X1\n" + block + "\nM2\n%\n", machine)

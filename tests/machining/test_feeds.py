@@ -141,6 +141,24 @@ def test_the_largest_engaged_diameter_is_the_edge_s_own(which, request):
         assert missed > 1e-3, missed
 
 
+def test_an_edge_grazing_the_stock_between_two_rings_is_found():
+    """A 4 mm cylinder lying across the rotor axis (along x, 12 mm - eps off it) whose rings come nearest to the axis at
+    h = 10.25 mm, halfway between two of the 0.5 mm rings: its edge enters the 10 mm stock only within
+    +-0.2 mm of there (eps = 2 um), so neither ring counts and the sampled edge is empty.  The largest engaged
+    diameter is still found, as brute force finds it (rings 2 um apart, 3,600 points each); with the edge
+    moved 0.3 mm further out it enters nowhere, and the diameter is 0."""
+    from flank_addon.machining.tool_shape import ToolShape
+
+    shape = ToolShape(kind="revolved", h_start=0.0, h_end=20.0, radii=np.array([2.0, 2.0]),
+                      meridian=np.array([[0.0, 2.0], [20.0, 2.0]]))
+    tip, axis = np.array([-10.25, 12.0 - 2e-3, 0.0]), np.array([1.0, 0.0, 0.0])
+    assert len(engaged_edge(shape, tip, axis, 10.0)[1]) == 0
+    found = largest_engaged_diameter(shape, tip, axis, 10.0)
+    dense = dense_engaged_diameter(shape, tip, axis, 10.0)
+    assert dense == 4.0 and abs(found / dense - 1.0) < 2e-6, (found, dense)
+    assert largest_engaged_diameter(shape, tip + [0.0, 0.3, 0.0], axis, 10.0) == 0.0
+
+
 def test_ring_min_rho_against_dense_circles():
     """The nearest point of a tilted circle to the z axis, against 360,000 points of it, for random circles."""
     rng = np.random.default_rng(7)

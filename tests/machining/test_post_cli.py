@@ -34,7 +34,23 @@ def test_unknown_post_and_machine_list_the_valid_names(capsys, tmp_path, plan_fi
     assert code == 2 and "unknown post 'haas'; valid posts: linuxcnc, fanuc, heidenhain" in err
     code, _, err = run(capsys, "post", plan_file, "--machine", "mill-9000", "--post", "fanuc", "-o", out)
     assert code == 2 and "unknown machine 'mill-9000'" in err and "xyzac-trt-tcp" in err
+    code, _, err = run(capsys, "post", plan_file, "--machine", tmp_path, "--post", "fanuc", "-o", out)
+    assert code == 2 and f"machine '{tmp_path}' is a folder: give a machine file (flank-machine/1 JSON)" in err
     assert not out.exists()
+
+
+def test_an_empty_output_and_a_plan_given_twice_are_named(capsys, tmp_path, plan_file):
+    """An empty -o names the option (it was "cannot write : not a regular file"); the same plan twice would cut
+    every strip twice: refused by file, for post and for verify --program alike."""
+    code, _, err = run(capsys, "post", plan_file, "--machine", "rotor-xa-b", "--post", "fanuc", "-o", "")
+    assert code == 2 and "--out is empty: give the file to write" in err
+    copy_file = tmp_path / "copy.json"
+    copy_file.write_text(plan_file.read_text())
+    for argv in (("post", plan_file, copy_file, "--machine", "rotor-xa-b", "--post", "fanuc", "-o", tmp_path / "p.nc"),
+                 ("verify", plan_file, plan_file, "--program", tmp_path / "p.nc", "--machine", "rotor-xa-b")):
+        code, _, err = run(capsys, *argv)
+        assert code == 2 and f"{argv[2]} is the same plan as {plan_file}: given twice" in err, err
+    assert not (tmp_path / "p.nc").exists()
 
 
 def test_malformed_machine_file_and_unreachable_pass_are_named(capsys, tmp_path, plan_file):
