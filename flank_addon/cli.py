@@ -92,6 +92,8 @@ def _cmd_analyze(args):
 
     if args.profile_points < 720:
         raise ValueError(f"--profile-points {args.profile_points} is below the minimum 720 of flank-plan/1")
+    if args.profile_points > MAX_PROFILE_POINTS:
+        raise ValueError(f"--profile-points {args.profile_points} is over the maximum {MAX_PROFILE_POINTS}")
     t0 = time.perf_counter()
     verts, faces = read_mesh(args.path)
     t1 = time.perf_counter()
@@ -126,6 +128,13 @@ def _cmd_check_plan(args):
 
 
 MIN_GROOVE_POINTS = 101
+MAX_GROOVE_POINTS = 100000
+# the largest profile resolution the commands take: a rotor profile sampled finer than every micrometre of a
+# 10 mm rotor's rim says nothing more, and its mesh or analysis would not fit in memory
+MAX_PROFILE_POINTS = 65536
+# a screw rotor's lead is some times its outer radius; a disc cutter for a lead below a tenth of it would wind
+# the profile round its axis tens of thousands of times (and run out of memory doing so)
+MIN_CUTTER_LEAD = 0.1
 
 
 def _cmd_paraboloid(args):
@@ -136,6 +145,8 @@ def _cmd_paraboloid(args):
         # the largest overcut is a maximum over these points: 101 hold it to 2e-4 of 4001's on the paper's example
         raise ValueError(f"--points {args.points} is below the minimum {MIN_GROOVE_POINTS} (the section and its "
                          "largest overcut are sampled at these points)")
+    if args.points > MAX_GROOVE_POINTS:
+        raise ValueError(f"--points {args.points} is over the maximum {MAX_GROOVE_POINTS}")
     t0 = time.perf_counter()
     sec = groove_section(args.radius, args.a, args.b, args.pitch, n=args.points, part=part)
     dt = time.perf_counter() - t0
@@ -219,8 +230,15 @@ def _cmd_cutter(args):
     if lead < 0:  # as for the rotor command: a negative lead flips the hand
         lead = -lead
         hand = "left" if hand == "right" else "right"
+    pts = np.asarray(getattr(prof, "points", prof), float)
+    outer = float(np.hypot(pts[:, 0], pts[:, 1]).max())
+    if lead < MIN_CUTTER_LEAD * outer:
+        raise ValueError(f"--lead {lead:g} is below {MIN_CUTTER_LEAD:g} times the rotor's outer radius {outer:g}: a "
+                         "screw rotor's lead is some times its radius")
     if args.planes < 2:
         raise ValueError(f"--planes {args.planes} is below the minimum 2")
+    if args.planes > 10000:
+        raise ValueError(f"--planes {args.planes} is over the maximum 10000")
     cp = cutter_profile(prof, lead, args.center_distance, args.swivel, handedness=hand, planes=args.planes,
                         eps_b=args.eps_b)
     _write_csv(args.out, cp.meridian, "z,r")
@@ -1056,8 +1074,10 @@ def build_parser():
     r.add_argument("--lead", type=float, help="axial advance per turn (default: 300 deg wrap)")
     r.add_argument("--length", type=float, help="rotor length")
     r.add_argument("--handedness", choices=["right", "left"])
-    r.add_argument("--resolution", type=count_at_least(8), help="points around the profile (default 2048)")
-    r.add_argument("--axial", type=int, default=120, help="rings along the axis (default 120)")
+    r.add_argument("--resolution", type=count_at_least(8, MAX_PROFILE_POINTS),
+                   help=f"points around the profile (default 2048, at most {MAX_PROFILE_POINTS})")
+    r.add_argument("--axial", type=count_at_least(1, 20000), default=120,
+                   help="rings along the axis (default 120, at most 20000)")
     r.add_argument("--out", required=True, help="PATH.stl | PATH.ply | PATH.obj")
     r.set_defaults(func=_cmd_rotor)
 
@@ -1184,8 +1204,10 @@ def build_parser():
     ff.add_argument("--weights", metavar="W1,...,W5", type=CommaList(5, "w1,w2,w3,w4,w5"), help="freeform: w1,w2,w3,w4,w5 of Eq. (18): rigidity, approximation, G1, "
                                       "proximity, fairness (default 1,1,0.01,0.0001,0.001)")
     ff.add_argument("--spacing", type=float, help="freeform: guiding-curve spacing d (default sqrt(L^2 - (r2-r1)^2))")
-    ff.add_argument("--samples", type=int, default=30, help="freeform: samples K per ruling (Eq. (11), default 30)")
-    ff.add_argument("--columns", type=int, default=20, help="freeform: rulings N per strip (default 20)")
+    ff.add_argument("--samples", type=count_at_least(2, 1000), default=30,
+                    help="freeform: samples K per ruling (Eq. (11), default 30, at most 1000)")
+    ff.add_argument("--columns", type=count_at_least(2, 1000), default=20,
+                    help="freeform: rulings N per strip (default 20, at most 1000)")
     ff.add_argument("--engagement", type=float, default=1.0,
                     help="freeform: cutting fraction of the tool next to its base (Fig. 18, default 1 = full)")
     ff.add_argument("--optimize-tool", default="", help="freeform: tool variables among L,r1,r2 (Rajain et al. 2023, Section 7.2)")
