@@ -114,6 +114,9 @@ def test_write_plan_is_atomic_and_names_the_file(tmp_path, monkeypatch):
     (lambda p: p.update(tolerance=0), r"tolerance must be a finite number > 0 .*, got 0"),
     (lambda p: p["rotor"].update(v0=1e-300), r"rotor.v0 1e-300 must be within 1e-06..1e\+06 times rotor.outer_radius"),
     (lambda p: p["strips"][0].update(axis_start=[1e300, 0.0, 0.0]), r"strips\[0\].axis_start .* is over 1e\+06 times"),
+    (lambda p: p["strips"][0].update(radii=[0.0, 0.0]), r"strips\[0\].radii are all 0: a tool of no thickness"),
+    (lambda p: p["strips"][0].update(radii=[1e-9, 1e-9]), r"strips\[0\]: the tool is .* times as long as its largest "
+                                                          r"radius \(at most 1000\): a needle"),
     (lambda p: p["rotor"].update(profile=(np.asarray(p["rotor"]["profile"]) * 1e7).tolist()),
      r"rotor.profile reaches .*, over 1e\+06 times rotor.outer_radius"),
 ])

@@ -274,6 +274,15 @@ def _validate(plan):
         radii = np.asarray(st.get("radii", []), float)
         if radii.ndim != 1 or len(radii) < 2 or not np.isfinite(radii).all() or (radii < 0).any():
             raise PlanError(f"strips[{k}].radii must hold >= 2 non-negative radii")
+        if not radii.max() > 0:
+            raise PlanError(f"strips[{k}].radii are all 0: a tool of no thickness")
+        length = float(np.linalg.norm(np.subtract(st["axis_end"], st["axis_start"])))
+        if st.get("meridian") is None and radii.max() < 1e-3 * length:
+            raise PlanError(f"strips[{k}]: the tool is {length / radii.max():.3g} times as long as its largest "
+                            "radius (at most 1000): a needle, not a milling tool")
+        if radii.max() > RELATIVE_RANGE[1] * L:
+            raise PlanError(f"strips[{k}].radii reach {radii.max():.6g}, over {RELATIVE_RANGE[1]:g} times "
+                            f"rotor.outer_radius {L!r}")
         axis = np.subtract(st["axis_end"], st["axis_start"])
         if not np.any(axis) and (st.get("meridian") is not None or np.ptp(radii) > 0):
             raise PlanError(f"strips[{k}]: axis_start and axis_end coincide, yet the tool's radius varies along "
@@ -284,6 +293,8 @@ def _validate(plan):
                     or (np.diff(mer[:, 0]) <= 0).any() or (mer[:, 1] < 0).any()):
                 raise PlanError(f"strips[{k}].meridian must be >= 2 finite [h, R] rows, h strictly "
                                 "increasing, R >= 0")
+            if not mer[:, 1].max() > 0:
+                raise PlanError(f"strips[{k}].meridian has no radius above 0: a tool of no thickness")
         if st.get("paraboloid") is not None:
             par = st["paraboloid"]
             if not (isinstance(par, dict) and _is_num(par.get("a")) and _is_num(par.get("b"))
