@@ -51,10 +51,10 @@ class FanucPost(GcodePost):
 
     def _tool(self, op, program):
         self._mode("per_minute")
-        self._comment(op["text"])
         if self.state.get("compensated"):  # the earlier tool's G43 / G43.4 off first: many controls refuse M06 under TCP
             self._reference_return(program)
             self.lines.append("G49")
+        self._comment(op["text"])
         self.lines += [f"T{op['number']} M06", f"S{fixed(op['rpm'], 0)} M03"]
         if op["coolant"] != "off":
             self.lines.append(f"M{COOLANT_ON[op['coolant']]:02d}")

@@ -400,7 +400,7 @@ def test_fanuc_length_compensation_follows_fanucs_modal_h_and_g43_ends_tcp(two_t
     post = get_post("fanuc")
     lines = post.write(prog).splitlines()
     m6 = [k for k, ln in enumerate(lines) if ln.endswith(" M06")]
-    assert len(m6) == 2 and lines[m6[1] - 1] == "G49" and lines[m6[0] - 1] != "G49"
+    assert len(m6) == 2 and lines[m6[1] - 2] == "G49" and lines[m6[0] - 2] != "G49"     # G49, the tool's comment
     read = post.read("\n".join(lines) + "\n", machine)
     assert all(mv.length_comp == mv.tool and mv.tcp for mv in read.moves if mv.kind == "feed")
     res = verify_program("\n".join(lines) + "\n", post, machine, [two_tool_plan], rb)
