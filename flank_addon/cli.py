@@ -127,6 +127,8 @@ def _cmd_check_plan(args):
     return 0
 
 
+# a cone (with its shank) longer or wider than this many outer radii of the rotor is in another unit than the rotor
+MAX_TOOL_TO_ROTOR = 100.0
 MIN_GROOVE_POINTS = 101
 MAX_GROOVE_POINTS = 100000
 # the largest profile resolution the commands take: a rotor profile sampled finer than every micrometre of a
@@ -530,6 +532,11 @@ def _cmd_plan_single_flank(args):
     if select == "order" and args.max_tools is not None:
         raise ValueError("--max-tools applies to --tools auto")
     surface, flanks, to_world, unit, src = _load_rotor(args)
+    for _, tool in tools:
+        size = max(tool.h + tool.shank_length, tool.r2c, tool.shank_radius)
+        if size > MAX_TOOL_TO_ROTOR * surface.outer_radius:
+            raise ValueError(f"the tool ({size:.6g} long or wide) is over {MAX_TOOL_TO_ROTOR:g} times the rotor's "
+                             f"outer radius {surface.outer_radius:.6g}: are they in the same unit?")
     if args.flank is not None:
         if not 0 <= args.flank < len(flanks):
             raise ValueError(f"--flank {args.flank} is outside 0..{len(flanks) - 1} (this rotor has "

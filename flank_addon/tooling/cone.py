@@ -36,6 +36,11 @@ class ConeTool:
             raise ValueError(f"cone tool: opening angle alpha = {a} rad is outside (0, pi/2)")
         if not 0.0 <= r1 < r2:
             raise ValueError(f"cone tool: radii must satisfy 0 <= r1 < r2, got r1 = {r1}, r2 = {r2}")
+        if 0.0 < r1 < 1e-6 * r2:
+            # a tip circle a millionth of the top's is a sharp tip to any tolerance, and its sphere would set the
+            # sampling of the checks a millionth apart
+            raise ValueError(f"cone tool: tip radius r1 = {r1:g} is under a millionth of r2 = {r2:g}: give 0 for a "
+                             "sharp tip")
         if self.shank_radius < 0 or self.shank_length < 0:
             raise ValueError(f"cone tool: shank radius {self.shank_radius} and length "
                              f"{self.shank_length} must be >= 0")
