@@ -420,6 +420,12 @@ def _cmd_plan_freeform(args):
     if args.direction is None and args.field is None:
         raise ValueError("freeform needs a guiding direction: --direction X,Y,Z (at --point) or --field CSV")
     V, F = read_mesh(args.mesh)
+    span = float(np.linalg.norm(np.ptp(np.asarray(V, float), axis=0)))
+    for name in ("tool_r1", "tool_r2", "tool_length", "shank_radius", "shank_length"):
+        v = getattr(args, name)
+        if v is not None and not (math.isfinite(v) and abs(v) <= MAX_TOOL_TO_ROTOR * span):
+            raise ValueError(f"--{name.replace('_', '-')} {v:g} is over {MAX_TOOL_TO_ROTOR:g} times the mesh's size "
+                             f"{span:.6g} (its bounding box diagonal): are they in the same unit?")
     direction = list(args.direction) if args.direction else None
     point = list(args.point) if args.point else None
     field = None

@@ -352,3 +352,6 @@ def test_cli_round_trip_and_errors(tmp_path):
     r = cli("--builtin", "nilson-male", "--scale", "100", "--center-distance", "50", "--swivel", "35",
             "--out", str(out))
     assert r.returncode == 2 and "centre distance A = 50.0 must exceed" in r.stderr
+    r = cli("--builtin", "nilson-male", "--scale", "100", "--center-distance", "1e300", "--swivel", "35",
+            "--out", str(out))                                      # it overflowed with a traceback
+    assert r.returncode == 2 and "centre distance A = 1e+300 is over 100 times the rotor's outer radius 100" in r.stderr

@@ -664,6 +664,12 @@ def test_cli_plan_freeform_verify_and_export(tmp_path):
     summary = json.loads(r.stdout)
     plan = read_plan(out)
     assert summary["max_kink_deg"] == plan["summary"]["max_kink_deg"]
+    span = float(np.linalg.norm(np.ptp(S.vertices, axis=0)))
+    for option in ("--tool-length", "--shank-length"):      # 1e300 overflowed, or raised an IndexError
+        r = run("plan", "freeform", "--mesh", str(mesh), "--direction", "1,0,0", "--point", "0,0,0", "--tool-r1",
+                "0.3", "--tool-r2", "1", "--tool-length", "2.5", option, "1e300", "--out", str(tmp_path / "x.json"))
+        assert r.returncode == 2 and f"{option} 1e+300 is over 100 times the mesh's size {span:.6g}" in r.stderr
+    assert not (tmp_path / "x.json").exists()
     r = run("verify", str(out), "--json")
     assert r.returncode == 0, r.stderr
     v = json.loads(r.stdout)

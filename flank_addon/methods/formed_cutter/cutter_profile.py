@@ -653,6 +653,10 @@ def _check_setup(setup, r_outer):
     if not math.isfinite(A) or not A > r_outer:
         raise FormedCutterError(f"centre distance A = {A!r} must exceed the rotor's outer radius {r_outer:.6g}: "
                                 "otherwise the cutter axis passes through the rotor")
+    if A > 100.0 * r_outer:
+        # a disc cutter a hundred rotor radii across is no cutter (and its arithmetic overflows far beyond)
+        raise FormedCutterError(f"centre distance A = {A!r} is over 100 times the rotor's outer radius "
+                                f"{r_outer:.6g}")
 
 
 # --------------------------------------------------------------------------- the numerical method
