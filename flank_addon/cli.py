@@ -881,7 +881,8 @@ def _cmd_post(args):
               f"{min(chip):.3g}..{max(chip):.3g} mm ({t.data.source})")
     print(f"  cutting {out['cutting_time_s']:.1f} s ({out['cutting_length_mm']:.0f} mm), rapid "
           f"{out['rapid_time_s']:.1f} s, tool changes {out['tool_change_time_s']:.0f} s, total "
-          f"{out['total_time_s']:.1f} s{untimed_note(out['untimed_moves'], machine, out['reference_returns'])}; {out['elapsed_s']:.2f} s")
+          f"{out['total_time_s']:.1f} s{untimed_note(out['untimed_moves'], machine, out['reference_returns'])}; "
+          f"{out['elapsed_s']:.2f} s")
     return 0
 
 

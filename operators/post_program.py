@@ -263,7 +263,8 @@ class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
                               "rapid {:.1f} s, tool changes {:.1f} s{}); wrote {} ({} moves){}{}; {:.2f} s".format(
                                   coll.name, t["passes"], ",".join(map(str, t["lobes"])), job["post"].name,
                                   job["machine"].name, t["total_time_s"], t["cutting_time_s"], t["rapid_time_s"],
-                                  t["tool_change_time_s"], untimed_note(t["untimed_moves"], job["machine"], t["reference_returns"]),
+                                  t["tool_change_time_s"],
+                                  untimed_note(t["untimed_moves"], job["machine"], t["reference_returns"]),
                                   os.path.basename(job["filepath"]), t["moves"],
                                   ", animated over frames {}..{}".format(*job["frames"]) if job["animate"] else "",
                                   read, time.perf_counter() - job["t0"]))

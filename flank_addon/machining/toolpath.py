@@ -20,10 +20,11 @@ next start and the tool approaches it the reverse way.  Every segment is checked
 shafts and the holders (:mod:`.clearance`); when one is not clear the link is tried again with R_s + the tool's
 length, then with an extra lift along the tool axis, and refused by name if none is.  A tool starts and ends at that lifted
 position, from which it must be clear to lift straight along the retract axis (Z) to the end of its travel, as
-a reference return (Fanuc G28) or the tool-change cycle takes it (:func:`lift_rows`).  The first move after a tool change comes from where the tool-change cycle leaves the machine, which
-the program cannot know; when the machine file gives it (``tool_change_position``) the moves out of it are
-checked as well, block by block as the post writes them (:meth:`.machine.Machine.tool_change_groups`), and a
-program whose tool would enter the stock on the way is refused by name.
+a reference return (Fanuc G28) or the tool-change cycle takes it (:func:`lift_rows`).  The first move after a
+tool change comes from where the tool-change cycle leaves the machine, which the program cannot know; when the
+machine file gives it (``tool_change_position``) the moves out of it are checked as well, block by block as the
+post writes them (:meth:`.machine.Machine.tool_change_groups`), and a program whose tool would enter the stock on
+the way is refused by name.
 
 Feeds: :func:`feeds.pass_conditions`; a pass' blocks share its screw rate, so a block's time is its share of
 the screw parameter over the rate.

@@ -2,15 +2,16 @@
 
 Program: ``%``, ``O1000``; G21 (a block of its own); G17 G40 G49 G80 G90 G94 G54; per tool ``T<n> M06`` (from the
 second tool on after ``G91 G28 Z0.`` ``G90`` ``G49``: the tool goes to the reference position before its length
-compensation is cancelled, which on a control with parameter 5006#6 TOS = 0 moves the axis by the tool length), ``S<rpm> M03``, ``M08`` (``M07`` for mist, none for a dry cut);
+compensation is cancelled, which on a control with parameter 5006#6 TOS = 0 moves the axis by the tool length),
+``S<rpm> M03``, ``M08`` (``M07`` for mist, none for a dry cut);
 the first linear positioning block of a tool (after its rotary block, on a machine without TCP) carries the
 length compensation, ``G43 H<n>`` or, on a TCP machine,
 ``G43.4 H<n>`` (tool centre point control type 1: programmed X Y Z = tool tip in work coordinates, rotary
 axes as positions); passes under ``G93`` (inverse time, F = 1 / block minutes in every block), ``G94``
-after them; ``M05 M09 G91 G28 Z0. G90 G49 M30 %`` (Z: the machine's retract axis).  Coordinates always carry a decimal point (X12.3456), comments are
-upper case in parentheses, reduced to letters, digits and . , : = + - / [ ] # % *.  G43.5 (the tool vector
-I J K) is not written: the control would choose between the two rotary solutions itself, and the read-back
-could not tell which it took.
+after them; ``M05 M09 G91 G28 Z0. G90 G49 M30 %`` (Z: the machine's retract axis).  Coordinates always carry a
+decimal point (X12.3456), comments are upper case in parentheses, reduced to letters, digits and
+. , : = + - / [ ] # % *.  G43.5 (the tool vector I J K) is not written: the control would choose between the two
+rotary solutions itself, and the read-back could not tell which it took.
 
 Rapids are written as straight G00 moves; the link checks assume the control interpolates them linearly
 (Fanuc parameter 1401#1 LRP = 1), otherwise each axis runs at its own rapid and the tool may leave the
