@@ -1218,10 +1218,10 @@ def build_parser():
     ff.add_argument("--weights", metavar="W1,...,W5", type=CommaList(5, "w1,w2,w3,w4,w5"), help="freeform: w1,w2,w3,w4,w5 of Eq. (18): rigidity, approximation, G1, "
                                       "proximity, fairness (default 1,1,0.01,0.0001,0.001)")
     ff.add_argument("--spacing", type=float, help="freeform: guiding-curve spacing d (default sqrt(L^2 - (r2-r1)^2))")
-    ff.add_argument("--samples", type=count_at_least(2, 1000), default=30,
-                    help="freeform: samples K per ruling (Eq. (11), default 30, at most 1000)")
-    ff.add_argument("--columns", type=count_at_least(2, 1000), default=20,
-                    help="freeform: rulings N per strip (default 20, at most 1000)")
+    ff.add_argument("--samples", type=count_at_least(2, 200), default=30,
+                    help="freeform: samples K per ruling (Eq. (11), default 30, at most 200)")
+    ff.add_argument("--columns", type=count_at_least(2, 2000), default=20,
+                    help="freeform: rulings N per strip (default 20, at most 2000)")
     ff.add_argument("--engagement", type=float, default=1.0,
                     help="freeform: cutting fraction of the tool next to its base (Fig. 18, default 1 = full)")
     ff.add_argument("--optimize-tool", default="", help="freeform: tool variables among L,r1,r2 (Rajain et al. 2023, Section 7.2)")
