@@ -393,6 +393,8 @@ def scenario(bpy, res, args):
         feeds_runs += mv.kind == "feed" and prev != "feed"
         prev = mv.kind
     res["repost"].update(props=driver._obj_props(coll), read_passes=feeds_runs, moves=len(read.moves) if read else 0,
+                         returns=[r[0] for r in read.reference_returns] if read else None,
+                         time_lines=post_mod.cycle_time_lines(coll),
                          path_objects=sorted(ob.name for ob in coll.objects if ob.get("flank_prog_role") == "path"),
                          anim_objects=sorted(ob.name for ob in coll.objects if "flank_anim_role" in ob),
                          rotor_hidden=rotor.hide_get(),

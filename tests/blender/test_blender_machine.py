@@ -231,6 +231,9 @@ def test_a_repost_replaces_the_program_and_its_animation(mc):
     assert p["flank_prog_machine"] == "xyzac-trt" and p["flank_prog_post"] == "fanuc"
     assert r["read_passes"] == p["flank_prog_passes"] == mc["post"]["props"]["flank_prog_passes"]
     assert r["moves"] == p["flank_prog_moves"]
+    # the Fanuc program ends with Z to the reference position before its G49: kept, and said to be left out
+    assert len(r["returns"]) == p["flank_prog_reference_returns"] == 1
+    assert "Not timed: 2 move(s) out of a tool change and 1 return(s) to the reference position" in r["time_lines"]
     assert len(r["path_objects"]) == 1 and r["anim_objects"] == [] and not r["rotor_hidden"]
     assert r["orphans"] == {"meshes": 0, "actions": 0}
     assert "flank_prog_frames" not in p
