@@ -127,8 +127,9 @@ def _cmd_check_plan(args):
     return 0
 
 
-# a cone (with its shank) longer or wider than this many outer radii of the rotor is in another unit than the rotor
-MAX_TOOL_TO_ROTOR = 100.0
+# a tool (with its shank) longer or wider than this many times the part (a rotor's outer radius, a mesh's
+# bounding-box diagonal) is in another unit than the part
+MAX_TOOL_SCALE = 100.0
 MIN_GROOVE_POINTS = 101
 MAX_GROOVE_POINTS = 100000
 # the largest profile resolution the commands take: a rotor profile sampled finer than every micrometre of a
@@ -232,8 +233,7 @@ def _cmd_cutter(args):
     if lead < 0:  # as for the rotor command: a negative lead flips the hand
         lead = -lead
         hand = "left" if hand == "right" else "right"
-    pts = np.asarray(getattr(prof, "points", prof), float)
-    outer = float(np.hypot(pts[:, 0], pts[:, 1]).max())
+    outer = prof.outer_radius()
     if lead < MIN_CUTTER_LEAD * outer:
         raise ValueError(f"--lead {lead:g} is below {MIN_CUTTER_LEAD:g} times the rotor's outer radius {outer:g}: a "
                          "screw rotor's lead is some times its radius")
@@ -423,8 +423,8 @@ def _cmd_plan_freeform(args):
     span = float(np.linalg.norm(np.ptp(np.asarray(V, float), axis=0)))
     for name in ("tool_r1", "tool_r2", "tool_length", "shank_radius", "shank_length"):
         v = getattr(args, name)
-        if v is not None and not (math.isfinite(v) and abs(v) <= MAX_TOOL_TO_ROTOR * span):
-            raise ValueError(f"--{name.replace('_', '-')} {v:g} is over {MAX_TOOL_TO_ROTOR:g} times the mesh's size "
+        if v is not None and not (math.isfinite(v) and abs(v) <= MAX_TOOL_SCALE * span):
+            raise ValueError(f"--{name.replace('_', '-')} {v:g} is over {MAX_TOOL_SCALE:g} times the mesh's size "
                              f"{span:.6g} (its bounding box diagonal): are they in the same unit?")
     direction = list(args.direction) if args.direction else None
     point = list(args.point) if args.point else None
@@ -540,8 +540,8 @@ def _cmd_plan_single_flank(args):
     surface, flanks, to_world, unit, src = _load_rotor(args)
     for _, tool in tools:
         size = max(tool.h + tool.shank_length, tool.r2c, tool.shank_radius)
-        if size > MAX_TOOL_TO_ROTOR * surface.outer_radius:
-            raise ValueError(f"the tool ({size:.6g} long or wide) is over {MAX_TOOL_TO_ROTOR:g} times the rotor's "
+        if size > MAX_TOOL_SCALE * surface.outer_radius:
+            raise ValueError(f"the tool ({size:.6g} long or wide) is over {MAX_TOOL_SCALE:g} times the rotor's "
                              f"outer radius {surface.outer_radius:.6g}: are they in the same unit?")
     if args.flank is not None:
         if not 0 <= args.flank < len(flanks):

@@ -76,8 +76,9 @@ def check_lines(coll):
     head = "Checked {}: {} moves, {} passes ({} matched)".format(
         os.path.basename(str(coll.get(p + "file", "?"))), int(coll[p + "moves"]), int(coll[p + "passes"]),
         int(coll[p + "matched_passes"]))
+    untimed = untimed_words(coll, p)
     time_line = "Its cycle time: {:.1f} s".format(float(coll[p + "total_time_s"])) + (
-        " (not counting {})".format(untimed_words(coll, p)) if untimed_words(coll, p) else "")
+        " (not counting {})".format(untimed) if untimed else "")
     tools = ["T{}: chip load up to {:.4g} mm (fz {:g}), {:.4g} m/min (vc {:g})".format(
         t["tool"], t["max_chip_load_mm"], t["cutting_data"]["fz_mm"], t["max_surface_speed_m_min"],
         t["cutting_data"]["vc_m_min"]) for t in json.loads(coll.get(p + "cutting", "[]"))]

@@ -77,22 +77,21 @@ def cycle_time_lines(coll):
     p = "flank_prog_"
     if p + "total_time_s" not in coll:
         return []
+    untimed = untimed_words(coll, p)
     return ["Program: {} passes, {} for {}".format(int(coll[p + "passes"]), coll.get(p + "post", "?"),
                                                    coll.get(p + "machine", "?")),
             "Cycle time: {}".format(_time_text(coll[p + "total_time_s"])),
             "Cutting {:.1f} s, rapid {:.1f} s, tool changes {:.1f} s".format(
                 float(coll[p + "cutting_time_s"]), float(coll[p + "rapid_time_s"]),
                 float(coll[p + "tool_change_time_s"]))] + (
-        ["Not timed: " + untimed_words(coll, p)] if untimed_words(coll, p) else []) + read_back_lines(coll)
+        ["Not timed: " + untimed] if untimed else []) + read_back_lines(coll)
 
 
 def untimed_words(coll, p):
     """What a stored cycle time leaves out ('' for nothing): moves out of a tool change, reference returns."""
-    parts = ["{} move(s) out of a tool change".format(int(coll.get(p + "untimed_moves", 0)))] * bool(
-        int(coll.get(p + "untimed_moves", 0)))
-    parts += ["{} return(s) to the reference position".format(int(coll.get(p + "reference_returns", 0)))] * bool(
-        int(coll.get(p + "reference_returns", 0)))
-    return " and ".join(parts)
+    moves, returns = int(coll.get(p + "untimed_moves", 0)), int(coll.get(p + "reference_returns", 0))
+    return " and ".join((["{} move(s) out of a tool change".format(moves)] if moves else [])
+                        + (["{} return(s) to the reference position".format(returns)] if returns else []))
 
 
 def read_back_lines(coll):

@@ -266,24 +266,20 @@ def _validate(plan):
             raise PlanError(f"target_flanks entry {i!r} is not a flank index (0..{nf - 1})")
     _check_tool(plan["tool"], "tool")
     for k, st in enumerate(plan["strips"]):
-        _check_strip_axes(k, st)
-        for key in ("axis_start", "axis_end", "shank_start", "shank_end"):
-            if np.abs(np.asarray(st[key], float)).max() > RELATIVE_RANGE[1] * L:
-                raise PlanError(f"strips[{k}].{key} {st[key]!r} is over {RELATIVE_RANGE[1]:g} times "
-                                f"rotor.outer_radius {L!r} from the rotor axis's origin")
+        _check_strip_axes(k, st, L)
+        axis = np.subtract(st["axis_end"], st["axis_start"])
         radii = np.asarray(st.get("radii", []), float)
         if radii.ndim != 1 or len(radii) < 2 or not np.isfinite(radii).all() or (radii < 0).any():
             raise PlanError(f"strips[{k}].radii must hold >= 2 non-negative radii")
         if not radii.max() > 0:
             raise PlanError(f"strips[{k}].radii are all 0: a tool of no thickness")
-        length = float(np.linalg.norm(np.subtract(st["axis_end"], st["axis_start"])))
+        length = float(np.linalg.norm(axis))
         if st.get("meridian") is None and radii.max() < 1e-3 * length:
             raise PlanError(f"strips[{k}]: the tool is {length / radii.max():.3g} times as long as its largest "
                             "radius (at most 1000): a needle, not a milling tool")
         if radii.max() > RELATIVE_RANGE[1] * L:
             raise PlanError(f"strips[{k}].radii reach {radii.max():.6g}, over {RELATIVE_RANGE[1]:g} times "
                             f"rotor.outer_radius {L!r}")
-        axis = np.subtract(st["axis_end"], st["axis_start"])
         if not np.any(axis) and (st.get("meridian") is not None or np.ptp(radii) > 0):
             raise PlanError(f"strips[{k}]: axis_start and axis_end coincide, yet the tool's radius varies along "
                             "its axis (only a ball may have a zero-length axis)")
@@ -375,13 +371,18 @@ def plan_tools(plan):
     return out
 
 
-def _check_strip_axes(k, st):
+def _check_strip_axes(k, st, outer_radius=None):
+    """A strip's axis and shank points: present, three finite numbers each, and for a rotor plan (its
+    ``outer_radius`` given) within :data:`RELATIVE_RANGE` of it from the origin."""
     if not isinstance(st, dict):
         raise PlanError(f"strips[{k}] must be an object")
     for key in ("axis_start", "axis_end", "shank_start", "shank_end"):
         if key not in st:
             raise PlanError(f"missing field strips[{k}].{key}")
-        _vec(st[key], 3, f"strips[{k}].{key}")
+        p = _vec(st[key], 3, f"strips[{k}].{key}")
+        if outer_radius is not None and np.abs(p).max() > RELATIVE_RANGE[1] * outer_radius:
+            raise PlanError(f"strips[{k}].{key} {st[key]!r} is over {RELATIVE_RANGE[1]:g} times "
+                            f"rotor.outer_radius {outer_radius!r} from the rotor axis's origin")
 
 
 def _validate_mesh_plan(plan):

@@ -85,7 +85,7 @@ def move_joints(read, machine, tool_lengths=None):
     tool_lengths = tool_lengths or {}
     # what moves the machine where the program cannot see, in program order (M6 before the motion of its block)
     events = sorted([(line, 0, None) for _, line in read.tool_changes]
-                    + [(line, 1, axis) for line, _, axis, _ in read.reference_returns])
+                    + [(line, 1, axis) for line, _, axis, _ in read.reference_returns], key=lambda e: e[:2])
     n, N = len(machine.axis_names), len(read.moves)
     S = np.array([mv.start for mv in read.moves], float).reshape(N, n)
     E = np.array([mv.end for mv in read.moves], float).reshape(N, n)

@@ -116,7 +116,7 @@ MAX_TOOL_MM = 2000.0
 
 def _check_tool_size(shape, what):
     lo, hi = shape.h_range()
-    h, R, _ = shape.outline(max((hi - lo) / 64.0, 1e-9))
+    _, R, _ = shape.outline(max((hi - lo) / 64.0, 1e-9))
     length, width = float(hi - lo), 2.0 * float(R.max())
     if not (length <= MAX_TOOL_MM and width <= MAX_TOOL_MM):
         raise OperationError(f"{what}: its tool is {length:.6g} mm long and {width:.6g} mm across, over the "
@@ -198,11 +198,11 @@ def build_operation(plans, rotor, lobes=None, clearance=5.0, cutting_data=None):
         solid = ProfileSolid(np.asarray(plan["rotor"]["profile"], float), plan["rotor"]["flanks"])
         for s in range(len(plan["strips"])):
             shape = ToolShape.from_strip(plan, s)
-            _check_tool_size(shape, f"plan {p} strip {s}")
             sig = shape.signature()
             if repeats_earlier_strip(plan, s):
                 continue
             if sig not in by_sig:
+                _check_tool_size(shape, f"plan {p} strip {s}")       # before its surface is sampled, below
                 stool = strip_tool(plan, s)          # the strip's own tool in a plan with several
                 data = cutting_data if cutting_data is not None else cutting_data_for(stool)
                 label = stool.get("name") or stool.get("kind", "tool")

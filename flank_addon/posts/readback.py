@@ -429,8 +429,7 @@ def axis_limit_check(read, machine, gauges, samples=8):
 def check_links(read, machine, tools, rotor, step=1.0, spacing=1.5):
     """Intrusion of every non-cutting move into the stock, the shafts or the holders, and of every return to the
     reference position (:func:`..machining.toolpath.lift_rows`)."""
-    worst, bad, checked, unchecked = 0.0, [], 0, 0
-    local = {n: s.local_points(spacing) for n, s in tools.items()}
+    segments, unchecked = [], 0             # (line, tool, start row, end row) of every move to check
     gauges = tool_gauges(tools)
     J0, J1 = move_joints(read, machine, gauges)
     for i, mv in enumerate(read.moves):
@@ -443,13 +442,8 @@ def check_links(read, machine, tools, rotor, step=1.0, spacing=1.5):
                 unchecked += 1
                 continue
             start, end = machine.program_rows(np.array([J0[i], J1[i]]), gauges[mv.tool])
-        if np.allclose(start, end):
-            continue
-        depth, frac, pt = segment_intrusion(machine, rotor, start, end, local[mv.tool], gauges[mv.tool], step)
-        checked += 1
-        worst = max(worst, depth)
-        if depth > 0:
-            bad.append({"line": mv.line, "depth_mm": depth, "point": pt})
+        if not np.allclose(start, end):
+            segments.append((mv.line, mv.tool, start, end))
     for line, row, _, tool in read.reference_returns:
         # straight up the retract axis to the end of its travel: the reference position is on the way
         if tool not in tools:
@@ -457,13 +451,15 @@ def check_links(read, machine, tools, rotor, step=1.0, spacing=1.5):
         if not np.isfinite(row).all():
             unchecked += 1
             continue
-        start, end = lift_rows(machine, row, gauges[tool])
-        depth, frac, pt = segment_intrusion(machine, rotor, start, end, local[tool], gauges[tool], step)
-        checked += 1
+        segments.append((line, tool, *lift_rows(machine, row, gauges[tool])))
+    local = {n: s.local_points(spacing) for n, s in tools.items()}
+    worst, bad = 0.0, []
+    for line, tool, start, end in segments:
+        depth, _, pt = segment_intrusion(machine, rotor, start, end, local[tool], gauges[tool], step)
         worst = max(worst, depth)
         if depth > 0:
             bad.append({"line": line, "depth_mm": depth, "point": pt})
-    return {"moves_checked": checked, "moves_unchecked": unchecked, "max_intrusion_mm": worst,
+    return {"moves_checked": len(segments), "moves_unchecked": unchecked, "max_intrusion_mm": worst,
             "intrusions": bad[:20]}
 
 
