@@ -17,6 +17,15 @@ A third kind is shown beside them but not counted as pinned: the cold starts' ex
 (``FlankFeet._exact_seeds``, on the planner's midpoint trees of 64 samples per leaf; checked: the same answers).
 Their answers do not depend on the tree, so their time is free to shrink.
 
+A fourth is the planner's own arithmetic on the same paths: the foot points' Newton runs
+(``flank_feet._newton_rows``), whose every row must come out bit for bit as before, since the guard and the
+optimiser read them.  They are recorded in the click (inputs and feet) and replayed alone in the recording process
+with this code (checked: the same feet, bit for bit).  Each row's operations are fixed by the formulas; a faster
+implementation could only spend less around them (numpy calls on the same rows), so the column says what they
+cost now, not a bound.  ``left`` is what the goal leaves for everything else (the tool, its meridians, the
+simulated errors, the cold seeds, the mesh's reading and analysis, the optimisers' evaluations around the feet)
+once the pinned calls and the Newton runs are paid.
+
 Each plan runs in fresh processes after the extension's warm-up, from cached bytecode (as
 ``bench_interactive.py --imported``): ``--runs`` times plain, for the click's time (the fastest), and once
 recording.  The table gives the replays' minima over ``--repeat``, the pinned time against the click and its
@@ -113,14 +122,36 @@ if record:
                          "options": options, "logs": logs, "x": r.x.copy()})
         return r
 
+    newton_rows, newton = flank_feet._newton_rows, []
+
+    def recorded_newton(s, u, tau, q0, lo, hi, span, iters=40):
+        # the foot points' Newton runs (inputs copied before the run, which may write into them)
+        args = (s,) + tuple(np.array(a, copy=True) for a in (u, tau, q0, lo, hi, span)) + (iters,)
+        out = newton_rows(s, u, tau, q0, lo, hi, span, iters)
+        with lock:
+            newton.append((args, tuple(o.copy() for o in out)))
+        return out
+
     flank_feet.FlankFeet._exact_seeds, flank_feet.cKDTree = recorded_seeds, GuardTree
+    flank_feet._newton_rows = recorded_newton
     scipy.optimize.minimize = recorded_minimize
     with contextlib.redirect_stdout(io.StringIO()):
         rc = cli.main(argv)
+    flank_feet._newton_rows = newton_rows
     with open(record, "wb") as fh:
         pickle.dump({"guard": guard, "seeds": seeds, "tables": tables, "runs": runs}, fh)
+    # the Newton runs replayed here, in the recording process (their surfaces are live objects): the same
+    # code on the same inputs, checked to give the same feet bit for bit; the fastest of the repeats
+    newton_s = float("inf")
+    for _ in range(int(sys.argv[4])):
+        t0 = time.perf_counter()
+        outs = [newton_rows(*args) for args, _ in newton]
+        newton_s = min(newton_s, time.perf_counter() - t0)
+        if not all(all(np.array_equal(a, b) for a, b in zip(o, ref)) for o, (_, ref) in zip(outs, newton)):
+            raise AssertionError("a replayed Newton run gave other feet")
     res = {"guard": len(guard), "seeds": len(seeds), "minimize": len(runs),
-           "evaluations": sum(len(r["logs"]["fun"]) for r in runs)}
+           "evaluations": sum(len(r["logs"]["fun"]) for r in runs), "newton_s": newton_s,
+           "newton_runs": len(newton), "newton_rows": sum(len(args[1]) for args, _ in newton)}
 else:
     t0 = time.perf_counter()
     with contextlib.redirect_stdout(io.StringIO()):
@@ -221,14 +252,17 @@ def main():
         subprocess.run([sys.executable, "-m", "compileall", "-q", str(HERE / "flank_addon")], check=True,
                        stdout=subprocess.DEVNULL)
         print("pinned = SLSQP + guard; the cold seeds are shown, not pinned; rest = click - pinned, and what it "
-              "may take at the goal (share of now)")
+              "may take at the goal (share of now); Newton = the foot points' Newton runs replayed alone (this code); "
+              "left = what the goal leaves for everything else once the pinned calls and the Newton runs are paid")
         print(f"{'plan':<14} {'click':>7} {'SLSQP':>7} {'guard':>7} {'pinned':>7} {'seeds':>7} {'goal':>6} "
-              f"{'rest now':>9} {'rest at goal':>15}   calls: minimize (objective evaluations) / guard / seeds")
+              f"{'rest now':>9} {'rest at goal':>15} {'Newton':>7} {'left':>7}   calls: minimize (objective "
+              f"evaluations) / guard / seeds / Newton runs (rows)")
         for name in plans:
-            click = min(run_runner(RUNNER, [str(HERE), json.dumps(ops[name]), ""], name, cwd=str(HERE))["click_s"]
+            click = min(run_runner(RUNNER, [str(HERE), json.dumps(ops[name]), "", "0"], name, cwd=str(HERE))["click_s"]
                         for _ in range(args.runs))
             rec = d / f"{name}.pkl"
-            counts = run_runner(RUNNER, [str(HERE), json.dumps(ops[name]), str(rec)], name, cwd=str(HERE))
+            counts = run_runner(RUNNER, [str(HERE), json.dumps(ops[name]), str(rec), str(args.repeat)], name,
+                                cwd=str(HERE))
             with open(rec, "rb") as fh:
                 data = pickle.load(fh)
             t_min = min(replay_minimize(data["runs"]) for _ in range(args.repeat))
@@ -238,10 +272,11 @@ def main():
             goal = GOALS[name]
             rest, room = click - pinned, goal - pinned
             at_goal = f"{room:.3f} s ({room / rest:.0%})" if room > 0 else "none"
+            left = goal - pinned - counts["newton_s"]
             print(f"{name:<14} {click:7.3f} {t_min:7.3f} {t_guard:7.3f} {pinned:7.3f} {t_seeds:7.3f} {goal:6.2f} "
-                  f"{rest:9.3f} {at_goal:>15}   {counts['minimize']} ({counts['evaluations']}) / {counts['guard']} / "
-                  f"{counts['seeds']}")
-
+                  f"{rest:9.3f} {at_goal:>15} {counts['newton_s']:7.3f} {left:7.3f}   {counts['minimize']} "
+                  f"({counts['evaluations']}) / {counts['guard']} / {counts['seeds']} / {counts['newton_runs']} "
+                  f"({counts['newton_rows']})")
 
 if __name__ == "__main__":
     main()
