@@ -72,6 +72,12 @@ CUTTING_TOL = 1e-3
 ADVANCE_ROUNDING_MM = 1e-3
 
 
+def is_empty_program(text):
+    """True when a program's text has no block to read: blank lines and the tape's '%' markers only (a file
+    that ends up so after a failed transfer is not a program that cuts nothing, but no program)."""
+    return not text.replace("%", "").strip()
+
+
 def tool_table(plans):
     """{number: ToolShape} numbered as :func:`machining.operation.build_operation` numbers them, and
     {(plan, strip): number}."""

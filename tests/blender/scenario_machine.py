@@ -232,7 +232,8 @@ def _checks(bpy, tmp, coll, settings, prog_path):
     out["chuck"]["lines"] = checker.check_lines(coll)
     out["chuck"]["panel"] = driver._draw_panels(bpy, bpy.context.active_object)["FLANK_PT_machine"]
 
-    for name, content in (("copy.nc", text), ("copy.txt", text), ("garbage.ngc", "G1 X1 Q\nhello\n")):
+    for name, content in (("copy.nc", text), ("copy.txt", text), ("garbage.ngc", "G1 X1 Q\nhello\n"),
+                          ("tape.ngc", "%\n\n%\n")):
         with open(os.path.join(tmp, name), "w") as fh:
             fh.write(content)
     cases = {
@@ -250,6 +251,7 @@ def _checks(bpy, tmp, coll, settings, prog_path):
         "flutes": dict(tool_flutes=0),
         "feed_per_tooth": dict(tool_feed_per_tooth_mm=-0.01),
         "garbage": dict(filepath=os.path.join(tmp, "garbage.ngc")),
+        "tape_only": dict(filepath=os.path.join(tmp, "tape.ngc")),
     }
     out["refused"] = {name: _check(bpy, coll, **dict(call, **kw)) for name, kw in cases.items()}
     return out

@@ -488,6 +488,7 @@ CHECK_ERRORS = {
     "flutes": "cutting data: flutes must be an integer >= 1, got 0",
     "feed_per_tooth": "cutting data: fz_mm must be a finite number > 0, got -0.01",
     "garbage": "line 1",
+    "tape_only": "tape.ngc' is empty but for '%' lines: no program to check",
 }
 
 

@@ -184,6 +184,9 @@ def test_post_json_and_verify_program_text(capsys, tmp_path, single_flank_plan):
     empty.write_text("\n  \n")
     code, _, err = run(capsys, "verify", plan_file, "--program", empty, "--machine", "rotor-xa-b")
     assert code == 2 and f"{empty} is empty: no program to check" in err
+    empty.write_text("%\n\n%\n")                   # a tape's markers and nothing between them
+    code, _, err = run(capsys, "verify", plan_file, "--program", empty, "--machine", "rotor-xa-b")
+    assert code == 2 and f"{empty} is empty but for '%' lines: no program to check" in err
 
 
 def test_machines_command_lists_machines_and_posts(capsys):
