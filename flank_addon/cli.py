@@ -1217,7 +1217,7 @@ def build_parser():
     gd.add_argument("--field", help="freeform: CSV of one guiding vector x,y,z per mesh vertex (or face)")
     ff.add_argument("--point", metavar="X,Y,Z", type=CommaList(3, "X,Y,Z"), help="freeform: central point X,Y,Z of the direction (default: mesh centre)")
     ff.add_argument("--weights", metavar="W1,...,W5", type=CommaList(5, "w1,w2,w3,w4,w5"), help="freeform: w1,w2,w3,w4,w5 of Eq. (18): rigidity, approximation, G1, "
-                                      "proximity, fairness (default 1,1,0.01,0.0001,0.001)")
+                                      "proximity, fairness (default 1,1,0.01,0.0001,0.001); only their ratios count, and w2 must be > 0")
     ff.add_argument("--spacing", type=float, help="freeform: guiding-curve spacing d (default sqrt(L^2 - (r2-r1)^2))")
     ff.add_argument("--samples", type=count_at_least(2, 200), default=30,
                     help="freeform: samples K per ruling (Eq. (11), default 30, at most 200)")

@@ -16,7 +16,7 @@ import scipy.sparse as sp
 from flank_addon.cli import main
 from flank_addon.methods.freeform_g1 import guiding
 from flank_addon.geometry.freeform_surfaces import bump, cylinder_patch, make_surface, parabolic_blade, plane_patch
-from flank_addon.methods.freeform_g1.planner import (Layout, Objective, assemble, envelope, envelope_normal,
+from flank_addon.methods.freeform_g1.planner import (DEFAULT_WEIGHTS, Layout, Objective, assemble, envelope, envelope_normal,
                                        freeform_envelopes, freeform_kinks, plan_freeform, rail_derivative_matrix,
                                        sweep_deviation, verify_freeform)
 from flank_addon.methods.freeform_g1.initial_rulings import initial_rulings
@@ -629,12 +629,32 @@ def test_plan_file_round_trip_and_validation(tmp_path):
     (dict(r1=0.01, r2=0.05, L=0.03), "L = 0.03 must exceed"),
     (dict(r1=0.01, r2=0.05, L=0.2, engagement=0.0), "engagement"),
     (dict(r1=0.01, r2=0.05, L=0.2, weights=[1, 1, -1, 0, 0]), "weights"),
+    (dict(r1=0.01, r2=0.05, L=0.2, weights=[0, 0, 0, 0, 0]), r"approximation weight w2 = 0 must be > 0"),
+    (dict(r1=0.01, r2=0.05, L=0.2, weights=[1, 0, 1, 1e-4, 1e-3]), r"approximation weight w2 = 0 must be > 0"),
     (dict(r1=0.01, r2=0.05, L=5.0), "no strip"),
 ])
 def test_bad_input_is_named(kw, msg):
     S = plane_patch(size=1.0, resolution=10)
     with pytest.raises(ValueError, match=msg):
         plan_freeform(S.vertices, S.faces, direction=[1, 0, 0], **kw)
+
+
+def test_only_the_weights_ratios_matter():
+    # Eq. (18)'s optimum depends on the weights' ratios alone: the defaults scaled by 1e-12 or 1e300 plan as the
+    # defaults do (they used to stop at the start, or overflow, and return the unoptimised layout unremarked)
+    S = bump(size=1.0, resolution=30, height=0.06, width=0.25)
+    common = dict(direction=[1, 0, 0], point=S.point(np.zeros((1, 2)))[0], r1=0.01, r2=0.03, L=0.1, n_columns=6,
+                  n_ruling_samples=8)
+    base = np.array(DEFAULT_WEIGHTS)
+    ref = plan_freeform(S.vertices, S.faces, weights=base, **common)["summary"]
+    # the optimiser moved the layout: the overcut is a third smaller than the start's
+    assert ref["min_error"] > 0.8 * ref["initial_min_error"]
+    for scale in (1e-12, 1e300):
+        plan = plan_freeform(S.vertices, S.faces, weights=base * scale, **common)
+        got = plan["summary"]
+        assert plan["optimization"]["weights"]["approx"] == scale        # the plan keeps the weights as given
+        for key in ("max_error", "min_error", "max_kink_deg", "mean_kink_deg"):
+            assert abs(got[key] - ref[key]) <= 1e-6 * max(abs(ref[key]), 1e-3), (scale, key, got[key], ref[key])
 
 
 def test_direction_along_the_normal_is_refused():

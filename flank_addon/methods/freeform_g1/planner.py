@@ -764,6 +764,13 @@ def plan_freeform(vertices, faces, *, direction=None, point=None, field_vectors=
     if w.shape != (5,) or not np.isfinite(w).all() or (w < 0).any():
         raise ValueError(f"weights must be 5 finite numbers >= 0 (w1 rigid, w2 approx, w3 G1, w4 proximity, "
                          f"w5 fair), got {weights!r}")
+    if not w[1] > 0:
+        raise ValueError(f"the approximation weight w2 = {w[1]:g} must be > 0: without it nothing in Eq. (18) "
+                         f"holds the tool to the surface (weights {w.tolist()})")
+    # only the weights' ratios set the optimum of Eq. (18); the solver's tolerances are absolute, so weights
+    # 1e-12 or 1e300 times the defaults stopped at the start or overflowed.  Solved with the largest weight 1
+    # (the defaults are so already: dividing by 1.0 changes no bit); the plan keeps the weights as given.
+    w_solve = w / w.max()
     K = int(n_ruling_samples)
     if not 2 <= K <= 200:
         raise ValueError(f"samples per ruling K = {n_ruling_samples!r} is outside the limits 2 .. 200")
@@ -811,7 +818,7 @@ def plan_freeform(vertices, faces, *, direction=None, point=None, field_vectors=
     if weight_units not in ("tool", "length"):
         raise ValueError(f"weight_units must be 'tool' (terms divided by the axis length) or 'length' (the paper's "
                          f"terms in the document's unit), got {weight_units!r}")
-    opt = optimize(mesh, layout, m0, n0, r1e, r2e, Le, K, w, tuple(optimize_tool), rounds, max_nfev,
+    opt = optimize(mesh, layout, m0, n0, r1e, r2e, Le, K, w_solve, tuple(optimize_tool), rounds, max_nfev,
                    substage(report, 0.1, 0.85), g1_term=g1_term, tangents=t0,
                    scale=None if weight_units == "tool" else 1.0)
     t_opt = time.perf_counter() - t_opt
