@@ -881,7 +881,7 @@ def _cmd_post(args):
               f"{min(chip):.3g}..{max(chip):.3g} mm ({t.data.source})")
     print(f"  cutting {out['cutting_time_s']:.1f} s ({out['cutting_length_mm']:.0f} mm), rapid "
           f"{out['rapid_time_s']:.1f} s, tool changes {out['tool_change_time_s']:.0f} s, total "
-          f"{out['total_time_s']:.1f} s{untimed_note(out['untimed_moves'], machine, out['reference_returns'])}; "
+          f"{out['total_time_s']:.1f} s{untimed_note(out['untimed_moves'], machine, out['untimed_returns'])}; "
           f"{out['elapsed_s']:.2f} s")
     return 0
 
@@ -968,7 +968,7 @@ def _cmd_verify_program(args):
         print(f"  passes over shafts{' or holders' if res['holders'] else ''}: the tool "
               + (f"stays {margin:.3g} mm from them" if margin >= 0 else f"enters them by {-margin:.3g} mm"))
     print(f"  cutting {res['cutting_time_s']:.1f} s, rapid {res['rapid_time_s']:.1f} s, total "
-          f"{res['total_time_s']:.1f} s{untimed_note(res['untimed_moves'], machine, res['reference_returns'])}")
+          f"{res['total_time_s']:.1f} s{untimed_note(res['untimed_moves'], machine, res['untimed_returns'])}")
     for f in res["findings"]:
         print(f"  NOT AS PLANNED: {f}")
     return status

@@ -190,7 +190,7 @@ class FLANK_OT_check_program(ModalPlannerMixin, bpy.types.Operator):
                      intrusion_mm=float(res["links"]["max_intrusion_mm"]), gouge_points=int(res["gouge_points"]),
                      cutting_time_s=float(res["cutting_time_s"]), rapid_time_s=float(res["rapid_time_s"]),
                      total_time_s=float(res["total_time_s"]), untimed_moves=int(res["untimed_moves"]),
-                     reference_returns=int(res["reference_returns"]),
+                     reference_returns=int(res["reference_returns"]), untimed_returns=int(res["untimed_returns"]),
                      cutting=json.dumps(res["cutting"]["tools"]), elapsed=float(time.perf_counter() - job["t0"]))
         for key, prop in (("max_deviation_difference_mm", "deviation_mm"), ("pose_difference_mm", "pose_mm")):
             if res[key] is not None:                  # None where no lobe was compared

@@ -88,8 +88,10 @@ def cycle_time_lines(coll):
 
 
 def untimed_words(coll, p):
-    """What a stored cycle time leaves out ('' for nothing): moves out of a tool change, reference returns."""
-    moves, returns = int(coll.get(p + "untimed_moves", 0)), int(coll.get(p + "reference_returns", 0))
+    """What a stored cycle time leaves out ('' for nothing): moves out of a tool change, reference returns it
+    could not time (a run stored before those were timed kept only their count: none was timed then)."""
+    moves = int(coll.get(p + "untimed_moves", 0))
+    returns = int(coll.get(p + "untimed_returns", coll.get(p + "reference_returns", 0)))
     return " and ".join((["{} move(s) out of a tool change".format(moves)] if moves else [])
                         + (["{} return(s) to the reference position".format(returns)] if returns else []))
 
@@ -224,6 +226,7 @@ class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
                      cutting_time_s=float(t["cutting_time_s"]), rapid_time_s=float(t["rapid_time_s"]),
                      tool_changes=int(t["tool_changes"]), tool_change_time_s=float(t["tool_change_time_s"]),
                      untimed_moves=int(t["untimed_moves"]), reference_returns=int(t["reference_returns"]),
+                     untimed_returns=int(t["untimed_returns"]),
                      total_time_s=float(t["total_time_s"]), cutting_length_mm=float(t["cutting_length_mm"]),
                      rpm=[float(v) for v in t["rpm"]], cutting_data=json.dumps(data.as_dict()),
                      path_edges=int(len(out["path"]["edges"])), summary=json.dumps(per, default=float),
@@ -263,7 +266,7 @@ class FLANK_OT_post_program(ModalPlannerMixin, bpy.types.Operator):
                                   coll.name, t["passes"], ",".join(map(str, t["lobes"])), job["post"].name,
                                   job["machine"].name, t["total_time_s"], t["cutting_time_s"], t["rapid_time_s"],
                                   t["tool_change_time_s"],
-                                  untimed_note(t["untimed_moves"], job["machine"], t["reference_returns"]),
+                                  untimed_note(t["untimed_moves"], job["machine"], t["untimed_returns"]),
                                   os.path.basename(job["filepath"]), t["moves"],
                                   ", animated over frames {}..{}".format(*job["frames"]) if job["animate"] else "",
                                   read, time.perf_counter() - job["t0"]))

@@ -15,7 +15,9 @@ modelled; a tool change costs the machine file's ``tool_change_s``.
 After a tool change the program cannot say where the machine stands.  When the machine file gives a
 ``tool_change_position`` the moves out of it are timed as rapids from there (the rotary axes it does not
 name stay where the earlier tool left them); otherwise, or where a position stays unknown, the move is
-counted in ``untimed_moves`` and takes 0.
+counted in ``untimed_moves`` and takes 0.  A return to the reference position (Fanuc ``G91 G28``) is timed as
+a rapid of its axis to the machine file's ``reference_position``, and leaves the axis there; without one it is
+counted in ``untimed_returns`` and the axis is unknown after it.
 """
 import numpy as np
 
@@ -81,7 +83,8 @@ def move_joints(read, machine, tool_lengths=None):
     where the program gives them; a move from an unknown position (the first after a tool change) starts where
     the machine stands: where the tool-change cycle leaves it (:meth:`..machine.Machine.after_tool_change`), NaN
     where that is unknown.  Without TCP a row the program gives only in part (the rotaries turned first) is
-    completed from there too.  After a return to the reference position (Fanuc G28) its axis is unknown."""
+    completed from there too.  A return to the reference position (Fanuc G28) leaves its axis at the machine
+    file's ``reference_position``, unknown when the file gives none."""
     tool_lengths = tool_lengths or {}
     # what moves the machine where the program cannot see, in program order (M6 before the motion of its block)
     events = sorted([(line, 0, None) for _, line in read.tool_changes]
@@ -103,7 +106,7 @@ def move_joints(read, machine, tool_lengths=None):
                 here = machine.after_tool_change(here)
             else:
                 here = here.copy()
-                here[events[k][2]] = np.nan
+                here[events[k][2]] = _reference_joint(machine, events[k][2])
             k += 1
         if np.isnan(J0[i, 0]):
             J0[i] = here
@@ -113,8 +116,31 @@ def move_joints(read, machine, tool_lengths=None):
     return J0, J1
 
 
+def _reference_joint(machine, axis):
+    """Joint value where a reference return leaves axis ``axis`` (an index into ``axis_names``): the machine
+    file's ``reference_position``, NaN when it gives none."""
+    ref = machine.reference_position or {}
+    return float(ref.get(machine.axis_names[axis], np.nan))
+
+
+def reference_return_minutes(read, machine, tool_lengths=None):
+    """Minutes of each return to the reference position (Fanuc ``G91 G28``) of a read-back program, NaN where
+    untimed: the axis goes at its rapid rate from where the return starts (its program row, through the
+    kinematics with the tool's length) straight to the machine file's ``reference_position``, as the program's
+    other rapid moves are timed.  Untimed when the file gives no reference position."""
+    tool_lengths = tool_lengths or {}
+    out = np.full(len(read.reference_returns), np.nan)
+    for k, (_, row, axis, tool) in enumerate(read.reference_returns):
+        ref = _reference_joint(machine, axis)
+        if np.isfinite(ref) and np.isfinite(row).all():
+            start = machine.machine_joints(np.asarray(row, float)[None], tool_lengths.get(int(tool), 0.0))[0]
+            out[k] = abs(ref - start[axis]) / machine.axes[machine.axis_names[axis]].rapid
+    return out
+
+
 def cycle_time(read, machine, tool_lengths=None):
-    """Cutting, rapid and tool-change seconds of a read-back program (:class:`..posts.base.ReadProgram`)."""
+    """Cutting, rapid and tool-change seconds of a read-back program (:class:`..posts.base.ReadProgram`); the
+    rapid seconds include the returns to the reference position that the machine file lets it time."""
     per = block_times(read.moves, machine, tool_lengths)
     feed = np.array([mv.kind == "feed" for mv in read.moves], bool)
     unknown = np.array([not np.isfinite(mv.start).all() for mv in read.moves], bool)
@@ -127,23 +153,28 @@ def cycle_time(read, machine, tool_lengths=None):
                 untimed += 1            # a cut from an unknown position has no length to time
                 continue
             per[i] = float((np.abs(J1[i] - J0[i]) / rapid_rate).max())
-    cut, rapid = float(per[feed].sum()), float(per[~feed].sum())
+    returns = reference_return_minutes(read, machine, tool_lengths)
+    timed = np.isfinite(returns)
+    cut, rapid = float(per[feed].sum()), float(per[~feed].sum()) + float(returns[timed].sum())
     per_block = per.tolist()
     changes = len(read.tool_changes)
     tc = changes * machine.tool_change_s / 60.0
     return {"cutting_time_s": 60.0 * cut, "rapid_time_s": 60.0 * rapid, "tool_changes": changes,
             "tool_change_time_s": 60.0 * tc, "total_time_s": 60.0 * (cut + rapid + tc),
-            "untimed_moves": untimed, "reference_returns": len(read.reference_returns), "block_minutes": per_block}
+            "untimed_moves": untimed, "reference_returns": len(read.reference_returns),
+            "untimed_returns": int((~timed).sum()), "reference_return_time_s": 60.0 * float(returns[timed].sum()),
+            "block_minutes": per_block}
 
 
 def untimed_note(count, machine, returns=0):
-    """What the cycle time leaves out: the moves out of a tool change whose start is unknown, and the returns to
-    the reference position (Fanuc G28), whose end the machine file does not give."""
+    """What the cycle time leaves out: the moves out of a tool change whose start is unknown, and the ``returns``
+    to the reference position (Fanuc G28) that it cannot time (the machine file gives no reference_position)."""
     parts = []
     if count:
         why = ("the machine file gives no tool_change_position" if machine.tool_change_position is None
                else "the rotary axes the tool_change_position does not name are unknown before the first tool")
         parts.append(f"{count} move(s) out of a tool change ({why})")
     if returns:
-        parts.append(f"{returns} return(s) to the reference position (G28)")
+        parts.append(f"{returns} return(s) to the reference position (G28; the machine file gives no "
+                     "reference_position)")
     return ", not counting " + " and ".join(parts) if parts else ""

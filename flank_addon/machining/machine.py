@@ -128,6 +128,7 @@ class Machine:
     source: str = ""
     notes: list = field(default_factory=list)
     tool_change_position: dict = None   # joint values the tool-change cycle leaves (X, Y, Z; rotaries optional)
+    reference_position: dict = None     # joint value a reference return (Fanuc G28) takes the retract axis to
 
     # ------------------------------------------------------------------ structure
     @property
@@ -373,6 +374,24 @@ def _tool_change_position(d, axes):
     return {n: _num(d[n], f"{key}.{n}", lo=axes[n].min, hi=axes[n].max) for n in axes if n in d}
 
 
+def _reference_position(d, axes, retract):
+    """The optional ``reference_position``: the joint value of the retract axis (``retract``: its name and end of
+    travel) that a reference return (Fanuc ``G28``) takes it to, inside its travel; None when the file has none."""
+    if d is None:
+        return None
+    key = "reference_position"
+    name = retract[0]
+    if not isinstance(d, dict):
+        raise MachineError(f"{key} must be an object such as {{\"{name}\": {retract[1]:g}}}, got {d!r}")
+    other = sorted(set(d) - {name})
+    if other:
+        raise MachineError(f"{key}.{other[0]}: a reference return moves the retract axis {name} alone (the linear "
+                           f"axis along tool_axis); give {name} only")
+    if name not in d:
+        raise MachineError(f"{key} must give {name}, the retract axis (the linear axis along tool_axis)")
+    return {name: _num(d[name], f"{key}.{name}", lo=axes[name].min, hi=axes[name].max)}
+
+
 def parse_machine(data, source="<dict>"):
     """A :class:`Machine` from a decoded flank-machine/1 document; :class:`MachineError` names the key."""
     if not isinstance(data, dict):
@@ -431,6 +450,7 @@ def parse_machine(data, source="<dict>"):
                 tool_change_s=_num(data.get("tool_change_s", 0.0), "tool_change_s", lo=0.0), source=source,
                 notes=list(data.get("notes", [])),
                 tool_change_position=_tool_change_position(data.get("tool_change_position"), axes))
+    m.reference_position = _reference_position(data.get("reference_position"), axes, m.retract_axis)
     spin = m.axes[m.spin]
     if abs(abs(float(spin.direction @ m.mount[:, 2])) - 1.0) > 1e-9 or np.linalg.norm(
             np.cross(spin.pivot, m.mount[:, 2])) > 1e-9 * (1.0 + np.linalg.norm(spin.pivot)):

@@ -749,8 +749,26 @@ def test_fanuc_returns_to_the_reference_position_before_each_g49(two_tool_plan):
         without = check_links(replace(read, reference_returns=[]), machine, tools, rb)
         assert res["links"]["moves_checked"] == without["moves_checked"] + 2
         times = cycle_time(read, machine, tool_gauges(tools))
-        assert untimed_note(0, machine, times["reference_returns"]) == \
-            ", not counting 2 return(s) to the reference position (G28)"
+        assert times["reference_returns"] == times["untimed_returns"] == 2 and times["reference_return_time_s"] == 0
+        assert untimed_note(0, machine, times["untimed_returns"]) == \
+            ", not counting 2 return(s) to the reference position (G28; the machine file gives no reference_position)"
+        # with the reference position in the machine file each return is a rapid of Z up to it, timed as the
+        # program's other rapids: from the Z the return starts at (rotor-xa-b without TCP: the Z word in force)
+        if name == "rotor-xa-b":
+            top = machine.axes["Z"].max
+            placed = replace(machine, reference_position={"Z": top})
+            timed = cycle_time(read, placed, tool_gauges(tools))
+            z, expect = None, 0.0
+            for ln in lines:
+                if ln == "G91 G28 Z0.":
+                    expect += abs(top - z) / machine.axes["Z"].rapid * 60.0
+                if not ln.startswith(("(", "G91")):             # a block's Z word (comments and G28 aside)
+                    z = next((float(w[1:]) for w in ln.split() if re.fullmatch(r"Z-?[0-9.]+", w)), z)
+            assert expect > 1.0 and timed["untimed_returns"] == 0
+            assert abs(timed["reference_return_time_s"] - expect) < 1e-9
+            assert abs(timed["rapid_time_s"] - times["rapid_time_s"] - expect) < 1e-9
+            assert abs(timed["total_time_s"] - times["total_time_s"] - expect) < 1e-9
+            assert untimed_note(0, placed, timed["untimed_returns"]) == ""
     # a hand-made return from under the rotor, mid-body: its lift goes through the stock, a finding at its line
     machine = load_machine("rotor-xa-b")
     lines = post.write(build_program(op, machine)).splitlines()

@@ -45,6 +45,20 @@ def test_the_field_is_checked_by_name():
             _machine(tool_change_position=bad)
 
 
+def test_the_reference_position_is_checked_by_name():
+    assert _machine().reference_position is None
+    assert _machine(reference_position={"Z": 800}).reference_position == {"Z": 800.0}
+    for bad, words in (({"Z": 900}, "reference_position.Z = 900 is outside -500..800"),
+                       ({"X": 0, "Z": 700}, "reference_position.X: a reference return moves the retract axis Z alone"),
+                       ({}, "must give Z, the retract axis"), (800, "must be an object such as"),
+                       ({"Z": "top"}, "reference_position.Z must be a finite number")):
+        with pytest.raises(MachineError, match=words):
+            _machine(reference_position=bad)
+    # the retract axis follows tool_axis: a machine whose tool points along X returns X
+    with pytest.raises(MachineError, match="reference_position.Z: a reference return moves the retract axis X alone"):
+        _machine(tool_axis="+X", reference_position={"Z": 800})
+
+
 def test_the_reader_forgets_the_position_at_a_tool_change(two_tools, tmp_path):
     prog, text, read = _posted(two_tools, _machine(), tmp_path, "plain.ngc")
     changes = [line for _, line in read.tool_changes]
