@@ -129,6 +129,8 @@ class Machine:
     notes: list = field(default_factory=list)
     tool_change_position: dict = None   # joint values the tool-change cycle leaves (X, Y, Z; rotaries optional)
     reference_position: dict = None     # joint value a reference return (Fanuc G28) takes the retract axis to
+    increment_mm: float = None          # the control's least input increment of lengths (None: the post's own)
+    increment_deg: float = None         # ... of angles
 
     # ------------------------------------------------------------------ structure
     @property
@@ -374,6 +376,25 @@ def _tool_change_position(d, axes):
     return {n: _num(d[n], f"{key}.{n}", lo=axes[n].min, hi=axes[n].max) for n in axes if n in d}
 
 
+# the least input increments a machine file may give (a control's IS-A .. IS-E): powers of ten
+INCREMENTS = (0.1, 0.01, 0.001, 0.0001, 0.00001, 0.000001)
+
+
+def _increment(v, key):
+    """An optional least input increment (``controller.increment_mm`` / ``increment_deg``): one of INCREMENTS."""
+    if v is None:
+        return None
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not any(abs(v - i) <= 1e-12 * i for i in INCREMENTS):
+        raise MachineError(f"{key} must be the control's least input increment, one of "
+                           f"{', '.join(f'{i:g}' for i in INCREMENTS)}, got {v!r}")
+    return next(i for i in INCREMENTS if abs(v - i) <= 1e-12 * i)
+
+
+def increment_decimals(increment):
+    """Decimals of a least input increment of :data:`INCREMENTS` (0.001 -> 3)."""
+    return INCREMENTS.index(increment) + 1
+
+
 def _reference_position(d, axes, retract):
     """The optional ``reference_position``: the joint value of the retract axis (``retract``: its name and end of
     travel) that a reference return (Fanuc ``G28``) takes it to, inside its travel; None when the file has none."""
@@ -451,6 +472,8 @@ def parse_machine(data, source="<dict>"):
                 notes=list(data.get("notes", [])),
                 tool_change_position=_tool_change_position(data.get("tool_change_position"), axes))
     m.reference_position = _reference_position(data.get("reference_position"), axes, m.retract_axis)
+    m.increment_mm = _increment(ctrl.get("increment_mm"), "controller.increment_mm")
+    m.increment_deg = _increment(ctrl.get("increment_deg"), "controller.increment_deg")
     spin = m.axes[m.spin]
     if abs(abs(float(spin.direction @ m.mount[:, 2])) - 1.0) > 1e-9 or np.linalg.norm(
             np.cross(spin.pivot, m.mount[:, 2])) > 1e-9 * (1.0 + np.linalg.norm(spin.pivot)):

@@ -63,13 +63,14 @@ def fixed(x, decimals):
     return s[1:] if s.startswith("-") and float(s) == 0 else s
 
 
-def feed_text(F, significant=7, max_decimals=6):
-    """A positive feed with about ``significant`` digits in plain decimal notation."""
+def feed_text(F, significant=7, max_decimals=6, down=False):
+    """A positive feed with about ``significant`` digits in plain decimal notation; ``down``: cut to those digits
+    rather than rounded (a control's input increment: the block may only get slower, never over its chip load)."""
     F = float(F)
     if not (math.isfinite(F) and F > 0):
         raise PostError(f"feed {F!r} must be a finite number > 0")
     dec = min(max_decimals, max(0, significant - 1 - int(math.floor(math.log10(F)))))
-    text = fixed(F, dec)
+    text = fixed(math.floor(F * 10.0 ** dec) / 10.0 ** dec if down else F, dec)
     if not float(text) > 0:
         raise PostError(f"feed {F:.3g} rounds to {text}: below the smallest feed the program writes "
                         f"({10.0 ** -max_decimals:g}); raise the feed per tooth or the cutting speed")
@@ -86,17 +87,35 @@ class Post:
     rotary_decimals = 4
 
     # ------------------------------------------------------------------ writing
+    def decimals(self, machine):
+        """(linear, rotary) decimals of the program's axis words: the machine file's least input increments
+        (``controller.increment_mm`` / ``increment_deg``) where it gives them, else the dialect's own."""
+        from ..machining.machine import increment_decimals
+
+        return tuple(self_dec if inc is None else increment_decimals(inc)
+                     for self_dec, inc in ((self.linear_decimals, machine.increment_mm),
+                                           (self.rotary_decimals, machine.increment_deg)))
+
+    def feed_text(self, F, machine, significant=7, max_decimals=6):
+        """The F word's value: :func:`feed_text`, with at most the decimals of the machine's length increment
+        where its file gives one, cut rather than rounded there."""
+        if machine.increment_mm is None:
+            return feed_text(F, significant, max_decimals)
+        return feed_text(F, significant, min(max_decimals, self.decimals(machine)[0]), down=True)
+
     def round_row(self, row, machine):
+        lin, rot = self.decimals(machine)
         r = np.asarray(row, float).copy()
-        r[:3] = np.round(r[:3], self.linear_decimals)
-        r[3:] = np.round(r[3:], self.rotary_decimals)
+        r[:3] = np.round(r[:3], lin)
+        r[3:] = np.round(r[3:], rot)
         return r + 0.0
 
-    def words(self, names, row, prev, force):
+    def words(self, names, row, prev, force, machine=None):
+        lin, rot = (self.linear_decimals, self.rotary_decimals) if machine is None else self.decimals(machine)
         out = []
         for i, n in enumerate(names):
             if force or prev is None or row[i] != prev[i]:
-                out.append((n, row[i], self.linear_decimals if i < 3 else self.rotary_decimals))
+                out.append((n, row[i], lin if i < 3 else rot))
         return out
 
     def write(self, program):
@@ -118,7 +137,7 @@ class Post:
                 self._tcp(op["on"], program)
             elif kind in ("rapid", "feed"):
                 row = self.round_row(op["row"], m)
-                words = self.words(names, row, cur, force)
+                words = self.words(names, row, cur, force, m)
                 if not words and not force:
                     continue
                 if kind == "rapid" and force:
@@ -170,9 +189,12 @@ def header_lines(program, post):
     """Comment lines every dialect starts with (plain text; the dialect wraps them)."""
     m, op = program.machine, program.operation
     rb = op.rotor
+    # only where the machine file gives the control's increments: a program without them stays as it was
+    increments = [f"{v:g} {unit}" for v, unit in ((m.increment_mm, "mm"), (m.increment_deg, "deg")) if v]
     return [f"Flank Toolpath program, post {post.name}, machine {m.name} version {m.version}"
             + (" with TCP" if m.tcp else ""),
-            "units mm and degrees; program zero = the plan's rotor-frame origin",
+            "units mm and degrees; program zero = the plan's rotor-frame origin"] + (
+        [f"axis words and feeds to the control's input increment: {', '.join(increments)}"] if increments else []) + [
             f"rotor: {'right' if rb.hand > 0 else 'left'}-handed, v0 {rb.v0:.6f} mm/rad, lobes {rb.lobes}, "
             f"outer radius {rb.outer_radius:.4f}, body z {rb.z_range[0]:.4f}..{rb.z_range[1]:.4f}"] + [
         # the setup the program was checked against: the machine operator has to keep to it

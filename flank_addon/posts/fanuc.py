@@ -19,7 +19,7 @@ checked path (docs/posts.md).
 """
 import re
 
-from .base import feed_text, fixed, header_lines
+from .base import fixed, header_lines
 from .gcode import COOLANT_ON, GcodePost, read_gcode
 
 
@@ -74,7 +74,7 @@ class FanucPost(GcodePost):
 
     def _feed(self, words, F, program):
         self._mode("inverse_time")
-        self.lines.append("G01 " + self._axes(words) + " F" + feed_text(F))
+        self.lines.append("G01 " + self._axes(words) + " F" + self.feed_text(F, program.machine))
 
     def read(self, text, machine):
         return read_gcode(text, machine, semicolon_comments=False, tcp_codes=True, reference_return=True)

@@ -20,7 +20,7 @@ import re
 
 import numpy as np
 
-from .base import Move, Post, PostError, ReadProgram, feed_text, fixed, header_lines
+from .base import Move, Post, PostError, ReadProgram, fixed, header_lines
 
 NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)"
 
@@ -72,8 +72,9 @@ class HeidenhainPost(Post):
                         [-rb.outer_radius, -rb.outer_radius, rb.z_range[0]]])
         corners = np.array([[x, y, z] for x in ext[:, 0] for y in ext[:, 1] for z in ext[:, 2]]) @ m.mount.T
         lo, hi = corners.min(axis=0), corners.max(axis=0)
-        self._line("BLK FORM 0.1 Z " + " ".join(f"{n}{self._num(v, 4)}" for n, v in zip("XYZ", lo)))
-        self._line("BLK FORM 0.2 " + " ".join(f"{n}{self._num(v, 4)}" for n, v in zip("XYZ", hi)))
+        d = self.decimals(m)[0]                       # the blank (graphics only) to the axis words' resolution
+        self._line("BLK FORM 0.1 Z " + " ".join(f"{n}{self._num(v, d)}" for n, v in zip("XYZ", lo)))
+        self._line("BLK FORM 0.2 " + " ".join(f"{n}{self._num(v, d)}" for n, v in zip("XYZ", hi)))
 
     def _footer(self, program):
         self._line("M5")
@@ -118,7 +119,7 @@ class HeidenhainPost(Post):
         self._line("L " + self._axes(words) + " R0 FMAX" + m)
 
     def _feed(self, words, F, program):
-        self._line("L " + self._axes(words) + " F" + feed_text(F, 8, 4))
+        self._line("L " + self._axes(words) + " F" + self.feed_text(F, program.machine, 8, 4))
 
     def feed_value(self, start, end, time_min, machine):
         d = np.abs(np.subtract(end, start))

@@ -11,7 +11,7 @@ without TCP needs identity kinematics (joint values).  The header says which.  L
 (``rs274 -g``) reads these programs: tests/machining checks that it does without error, that its canonical
 moves equal :meth:`LinuxCNCPost.read`'s and that its feeds give the same cycle time.
 """
-from .base import feed_text, fixed, header_lines
+from .base import fixed, header_lines
 from .gcode import COOLANT_ON, GcodePost, read_gcode
 
 
@@ -51,7 +51,7 @@ class LinuxCNCPost(GcodePost):
 
     def _feed(self, words, F, program):
         self._mode("inverse_time")
-        self.lines.append("G1 " + self._axes(words) + " F" + feed_text(F))
+        self.lines.append("G1 " + self._axes(words) + " F" + self.feed_text(F, program.machine))
 
     def read(self, text, machine):
         return read_gcode(text, machine, semicolon_comments=True, tcp_codes=False)
