@@ -18,7 +18,7 @@ import time
 import bpy
 import numpy as np
 
-from ..flank_addon.machining.cycle_time import untimed_note
+from ..flank_addon.machining.cycle_time import untimed_note, untimed_parts
 from .common import check_filepath, hide_objects, remove_objects
 from .modal import ModalPlannerMixin
 from .program import (check_numbers, cutting_data_of, holders_of, key_frames, parse_lobes, plan_in_mm, rounded,
@@ -92,8 +92,7 @@ def untimed_words(coll, p):
     could not time (a run stored before those were timed kept only their count: none was timed then)."""
     moves = int(coll.get(p + "untimed_moves", 0))
     returns = int(coll.get(p + "untimed_returns", coll.get(p + "reference_returns", 0)))
-    return " and ".join((["{} move(s) out of a tool change".format(moves)] if moves else [])
-                        + (["{} return(s) to the reference position".format(returns)] if returns else []))
+    return " and ".join(untimed_parts(moves, returns))
 
 
 def read_back_lines(coll):

@@ -166,15 +166,24 @@ def cycle_time(read, machine, tool_lengths=None):
             "block_minutes": per_block}
 
 
-def untimed_note(count, machine, returns=0):
-    """What the cycle time leaves out: the moves out of a tool change whose start is unknown, and the ``returns``
-    to the reference position (Fanuc G28) that it cannot time (the machine file gives no reference_position)."""
+def untimed_parts(count, returns=0, machine=None):
+    """What a cycle time leaves out, as phrases: ``count`` moves out of a tool change whose start is unknown and
+    ``returns`` to the reference position (Fanuc G28) it cannot time; with ``machine``, each says why (the
+    machine file's missing keys).  The command line's note and Blender's panel word them alike."""
     parts = []
     if count:
-        why = ("the machine file gives no tool_change_position" if machine.tool_change_position is None
-               else "the rotary axes the tool_change_position does not name are unknown before the first tool")
-        parts.append(f"{count} move(s) out of a tool change ({why})")
+        why = "" if machine is None else (
+            " (the machine file gives no tool_change_position" if machine.tool_change_position is None
+            else " (the rotary axes the tool_change_position does not name are unknown before the first tool") + ")"
+        parts.append(f"{count} move(s) out of a tool change{why}")
     if returns:
-        parts.append(f"{returns} return(s) to the reference position (G28; the machine file gives no "
-                     "reference_position)")
+        why = "" if machine is None else " (G28; the machine file gives no reference_position)"
+        parts.append(f"{returns} return(s) to the reference position{why}")
+    return parts
+
+
+def untimed_note(count, machine, returns=0):
+    """``", not counting ..."`` of what the cycle time leaves out, with the reasons (:func:`untimed_parts`), or
+    "" when it times everything."""
+    parts = untimed_parts(count, returns, machine)
     return ", not counting " + " and ".join(parts) if parts else ""
