@@ -657,6 +657,21 @@ def test_only_the_weights_ratios_matter():
             assert abs(got[key] - ref[key]) <= 1e-6 * max(abs(ref[key]), 1e-3), (scale, key, got[key], ref[key])
 
 
+def test_a_plan_in_other_units_is_the_same_plan():
+    # Eq. (18)'s terms are dimensionless and its unknowns lengths: the same bump and tool 1000 times larger (metres
+    # -> millimetres) take as many evaluations and give the same figures.  scipy's gtol test reads the gradient
+    # unscaled, so a fixed gtol stopped the larger plan after 9 evaluations while the smaller one ran 100
+    S = bump(size=1.0, resolution=40, height=0.06, width=0.25)
+    P0 = S.point(np.zeros((1, 2)))[0]
+    plans = [plan_freeform(S.vertices * k, S.faces, direction=[1, 0, 0], point=P0 * k, r1=0.01 * k, r2=0.03 * k,
+                           L=0.1 * k, n_columns=8, n_ruling_samples=10) for k in (1.0, 1000.0)]
+    assert plans[0]["optimization"]["evaluations"] == plans[1]["optimization"]["evaluations"]
+    small, large = plans[0]["summary"], plans[1]["summary"]
+    for key in ("max_error", "min_error"):
+        assert abs(large[key] / 1000.0 - small[key]) <= 1e-4 * abs(small[key]), key
+    assert abs(large["max_kink_deg"] - small["max_kink_deg"]) <= 1e-4 * small["max_kink_deg"]
+
+
 def test_direction_along_the_normal_is_refused():
     S = plane_patch(size=1.0, resolution=10)
     with pytest.raises(ValueError):

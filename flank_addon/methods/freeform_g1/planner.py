@@ -61,6 +61,8 @@ METHOD = "freeform-g1-cone"
 # fairness 1e-3: base points on a faceted mesh are not evenly spaced in angle, and 1e-2 already moved an
 # exact cylinder plan by 1.3e-6 of its size (1e-3: 1.1e-7)
 DEFAULT_WEIGHTS = (1.0, 1.0, 0.01, 1e-4, 1e-3)
+# the solve's gradient tolerance for a tool of axis length 1 (least_squares' gtol is GTOL / L0)
+GTOL = 1e-10
 WEIGHT_NAMES = ("rigid", "approx", "g1", "proximity", "fair")
 
 
@@ -507,9 +509,12 @@ def optimize(mesh, layout, m_ini, normals, r1, r2, L, K=30, weights=DEFAULT_WEIG
         hi = np.full(len(start), np.inf)
         for i, k in enumerate(obj.free):
             lo[tool_at + i] = 0.0 if k != "L" else 1e-9 * tool["L"]
+        # the residuals are dimensionless and the unknowns lengths, so the gradient scales as 1 / L0; scipy's
+        # gtol test reads the gradient unscaled (x_scale does not enter it), and a fixed gtol stopped a plan in
+        # metres after a few evaluations while the same plan in millimetres ran on: gtol in units of 1 / L0
         sol = least_squares(fun, start, jac=jac, method="trf", tr_solver="lsmr", x_scale="jac",
                             bounds=(lo, hi) if obj.free else (-np.inf, np.inf), max_nfev=max_nfev,
-                            xtol=1e-10, ftol=1e-10, gtol=1e-10)
+                            xtol=1e-10, ftol=1e-10, gtol=GTOL / obj.L0)
         nfev += sol.nfev
         status = sol.status
         x = to_x(sol.x)
