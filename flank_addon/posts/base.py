@@ -23,6 +23,12 @@ class PostError(ValueError):
     """An unknown post, a program the reader cannot follow (line named) or an output that cannot be written."""
 
 
+# how far the rounding of a cutting block's axis words to the control's input increments may move the tool: half
+# the 0.01 mm by which the read-back lets a pass leave its strip (readback.MATCH_TOL_MM), the other half left to
+# the chords of TCP passes (toolpath.MAX_CHORD_TOLERANCE_MM)
+MAX_ROUNDING_MM = 5e-3
+
+
 @dataclass
 class Move:
     kind: str                 # "rapid" | "feed"
@@ -123,6 +129,7 @@ class Post:
         m = program.machine
         names = m.axis_names
         self.lines, self.state = [], {"mode": None, "tool": None}
+        rounded = []          # (tool, exact row, rounded row, line) of every feed block
         self._header(program)
         cur, force = None, True
         for op in program.ops:
@@ -149,10 +156,34 @@ class Post:
                     self._rapid(words, program)
                 else:
                     self._feed(words, self.feed_value(cur, row, op["time_min"], m), program)
+                    rounded.append((self.state["tool"], op["row"], row, len(self.lines)))
                 cur, force = row, False
             elif kind == "end":
                 self._footer(program)
+        if m.increment_mm is not None or m.increment_deg is not None:
+            self._check_rounding(program, rounded)
         return "\n".join(self.lines) + "\n"
+
+    def _check_rounding(self, program, rounded):
+        """:class:`PostError` when the axis words, rounded to the machine file's input increments, move a cutting
+        pose by more than MAX_ROUNDING_MM: the tip's shift plus the axis' turn over the tool's gauge length, in the
+        rotor frame.  (The dialects' own 4 decimals move it by well under a micrometre.)"""
+        m, worst = program.machine, (0.0, 0)
+        for number in sorted({t for t, _, _, _ in rounded}):
+            mine = [r for r in rounded if r[0] == number]
+            gauge = program.operation.tool(number).gauge_length
+            exact, rows = (np.array([r[k] for r in mine], float) for k in (1, 2))
+            (t0, a0), (t1, a1) = m.forward(exact, gauge), m.forward(rows, gauge)
+            moved = np.linalg.norm(t1 - t0, axis=1) + gauge * np.linalg.norm(a1 - a0, axis=1)
+            k = int(np.argmax(moved))
+            if moved[k] > worst[0]:
+                worst = (float(moved[k]), mine[k][3])
+        if worst[0] > MAX_ROUNDING_MM:
+            inc = ", ".join(f"{v:g} {u}" for v, u in ((m.increment_mm, "mm"), (m.increment_deg, "deg")) if v)
+            raise PostError(f"the control's input increment ({inc}, machine {m.name}) moves the tool by up to "
+                            f"{worst[0]:.4g} mm at line {worst[1]}, over the {MAX_ROUNDING_MM:g} mm a cutting block "
+                            "may move when rounded: the passes would leave their strips; a control this coarse "
+                            "cannot cut this plan as planned")
 
     def feed_value(self, start, end, time_min, machine):
         """The F word of a feed block taking ``time_min`` (default: inverse time, 1 / minutes)."""

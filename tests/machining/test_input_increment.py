@@ -14,6 +14,7 @@ from flank_addon.machining.operation import build_operation
 from flank_addon.machining.rotor_body import rotor_body
 from flank_addon.machining.toolpath import build_program
 from flank_addon.posts import POSTS, get_post, write_program
+from flank_addon.posts.base import MAX_ROUNDING_MM, PostError
 from flank_addon.posts.readback import tool_gauges, tool_table, verify_program
 
 pytestmark = pytest.mark.xdist_group("machining")     # shared session fixtures: one worker
@@ -99,3 +100,38 @@ def test_programs_keep_to_the_controls_increment(single_flank_plan, post_name, t
                         for c in canon])
         known = np.isfinite(got)
         assert len(canon) == len(read.moves) and np.abs(pos - got)[known].max() < 1e-9
+
+
+def test_a_control_too_coarse_for_the_plan_is_refused(single_flank_plan):
+    """Rounded to 0.01 mm the tool moves by several micrometres, to 0.1 mm by tens: more than a cutting block may
+    move (MAX_ROUNDING_MM, half the read-back's match tolerance), and the post refuses by name, naming the
+    increment and the block's line.  The rounding it measures is the rotor-frame pose change of the line's
+    block, checked here through the kinematics from the written words."""
+    rb = rotor_body(single_flank_plan)
+    op = build_operation([single_flank_plan], rb, lobes=[0])
+    post = get_post("fanuc")
+    coarse = _machine(increment_mm=0.1)
+    prog = build_program(op, coarse)
+    with pytest.raises(PostError, match=r"input increment \(0.1 mm, machine rotor-xa-b\) moves the tool by up to "
+                                        r"[0-9.]+ mm at line [0-9]+, over the 0.005 mm") as e:
+        post.write(prog)
+    moved, line = (float(x) for x in re.search(r"up to ([0-9.e-]+) mm at line ([0-9]+)", str(e.value)).groups())
+    # the block at that line, written without the check, as the control would read it: its pose against the exact one
+    text = post.write(build_program(op, _machine()))      # 4 decimals: the exact rows to 5e-5
+    fine, plain = post.read(text, _machine()), post.read(post_unchecked(post, prog), coarse)
+    gauge = op.tool(1).gauge_length
+    k = next(i for i, mv in enumerate(plain.moves) if mv.line == int(line))
+    (t0, a0), (t1, a1) = (coarse.forward(np.array([mv.end]), gauge) for mv in (fine.moves[k], plain.moves[k]))
+    assert moved > MAX_ROUNDING_MM and abs(np.linalg.norm(t1 - t0) + gauge * np.linalg.norm(a1 - a0) - moved) < 1e-3
+    # IS-B (0.001 mm, 0.001 deg) stays well within it: the same plan posts
+    assert "G01" in post.write(build_program(op, _machine(increment_mm=0.001, increment_deg=0.001)))
+
+
+def post_unchecked(post, prog):
+    """The program text as the post writes it, without the rounding check."""
+    check, post._check_rounding = post._check_rounding, lambda *a: None
+    try:
+        return post.write(prog)
+    finally:
+        del post._check_rounding
+        assert post._check_rounding.__func__ is check.__func__
