@@ -85,10 +85,17 @@ def move_joints(read, machine, tool_lengths=None):
     where that is unknown.  Without TCP a row the program gives only in part (the rotaries turned first) is
     completed from there too.  A return to the reference position (Fanuc G28) leaves its axis at the machine
     file's ``reference_position``, unknown when the file gives none."""
+    return _follow(read, machine, tool_lengths)[:2]
+
+
+def _follow(read, machine, tool_lengths=None):
+    """(J0, J1) of :func:`move_joints` and the joints (R, axes) where each reference return starts, as far as
+    they are known: the machine's state followed through the program, tool changes and returns included."""
     tool_lengths = tool_lengths or {}
     # what moves the machine where the program cannot see, in program order (M6 before the motion of its block)
-    events = sorted([(line, 0, None) for _, line in read.tool_changes]
-                    + [(line, 1, axis) for line, _, axis, _ in read.reference_returns], key=lambda e: e[:2])
+    events = sorted([(line, 0, None, None) for _, line in read.tool_changes]
+                    + [(line, 1, axis, r) for r, (line, _, axis, _) in enumerate(read.reference_returns)],
+                    key=lambda e: e[:2])
     n, N = len(machine.axis_names), len(read.moves)
     S = np.array([mv.start for mv in read.moves], float).reshape(N, n)
     E = np.array([mv.end for mv in read.moves], float).reshape(N, n)
@@ -99,21 +106,29 @@ def move_joints(read, machine, tool_lengths=None):
         for t in np.unique(tools[known]):
             k = known & (tools == t)
             out[k] = machine.machine_joints(rows[k], tool_lengths.get(int(t), 0.0))
+    starts = np.full((len(read.reference_returns), n), np.nan)
     here, k = np.full(n, np.nan), 0
+
+    def apply(event, here):
+        if event[2] is None:
+            return machine.after_tool_change(here)
+        starts[event[3]] = here
+        here = here.copy()
+        here[event[2]] = _reference_joint(machine, event[2])
+        return here
+
     for i, mv in enumerate(read.moves):
         while k < len(events) and events[k][0] <= mv.line:
-            if events[k][2] is None:
-                here = machine.after_tool_change(here)
-            else:
-                here = here.copy()
-                here[events[k][2]] = _reference_joint(machine, events[k][2])
+            here = apply(events[k], here)
             k += 1
         if np.isnan(J0[i, 0]):
             J0[i] = here
         if np.isnan(J1[i, 0]) and not machine.tcp:   # joint values: what the block does not name stays
             J1[i] = np.where(np.isfinite(E[i]), E[i], J0[i])
         here = J1[i]
-    return J0, J1
+    for event in events[k:]:                       # after the last move (the program's end)
+        here = apply(event, here)
+    return J0, J1, starts
 
 
 def _reference_joint(machine, axis):
@@ -125,16 +140,17 @@ def _reference_joint(machine, axis):
 
 def reference_return_minutes(read, machine, tool_lengths=None):
     """Minutes of each return to the reference position (Fanuc ``G91 G28``) of a read-back program, NaN where
-    untimed: the axis goes at its rapid rate from where the return starts (its program row, through the
-    kinematics with the tool's length) straight to the machine file's ``reference_position``, as the program's
-    other rapid moves are timed.  Untimed when the file gives no reference position."""
-    tool_lengths = tool_lengths or {}
+    untimed: the axis goes at its rapid rate from where the machine stands when the return starts (followed
+    through the program as :func:`move_joints` follows it) straight to the machine file's
+    ``reference_position``, as the program's other rapid moves are timed.  Untimed when the file gives no
+    reference position, or where the machine stands is unknown (a return right after a tool change whose
+    position the file does not give)."""
+    starts = _follow(read, machine, tool_lengths)[2]
     out = np.full(len(read.reference_returns), np.nan)
-    for k, (_, row, axis, tool) in enumerate(read.reference_returns):
+    for k, (_, _, axis, _) in enumerate(read.reference_returns):
         ref = _reference_joint(machine, axis)
-        if np.isfinite(ref) and np.isfinite(row).all():
-            start = machine.machine_joints(np.asarray(row, float)[None], tool_lengths.get(int(tool), 0.0))[0]
-            out[k] = abs(ref - start[axis]) / machine.axes[machine.axis_names[axis]].rapid
+        if np.isfinite(ref) and np.isfinite(starts[k, axis]):
+            out[k] = abs(ref - starts[k, axis]) / machine.axes[machine.axis_names[axis]].rapid
     return out
 
 
@@ -177,7 +193,9 @@ def untimed_parts(count, returns=0, machine=None):
             else " (the rotary axes the tool_change_position does not name are unknown before the first tool") + ")"
         parts.append(f"{count} move(s) out of a tool change{why}")
     if returns:
-        why = "" if machine is None else " (G28; the machine file gives no reference_position)"
+        why = "" if machine is None else (" (G28; the machine file gives no reference_position)"
+                                          if machine.reference_position is None else
+                                          " (G28 from where the program does not know the machine stands)")
         parts.append(f"{returns} return(s) to the reference position{why}")
     return parts
 

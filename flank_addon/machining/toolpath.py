@@ -299,30 +299,37 @@ def _check_out_of_tool_change(pl, tool, stood, first, label):
                              "tool_change_position away from the rotor")
 
 
-def lift_rows(machine, row, gauge):
-    """Program rows (2, axes) of the straight lift from program row ``row`` along the retract axis to the end of
-    its travel (:attr:`.machine.Machine.retract_axis`, Z up on a vertical machine), rotaries fixed: the way a
-    reference return (Fanuc G28) takes the tool, and the tool-change cycle on most machines, which the program
-    does not see.  The reference position is on that way, so a lift that is clear to the end is clear to it."""
+def lift_rows(machine, row, gauge, to=None):
+    """Program rows (2, axes) of the straight move from program row ``row`` along the retract axis
+    (:attr:`.machine.Machine.retract_axis`, Z on a vertical machine) to joint value ``to`` of that axis, rotaries
+    fixed; by default to the end of its travel on the tool side (Z up): the way the tool-change cycle on most
+    machines takes the tool, which the program does not see.  A reference return (Fanuc G28) moves it to the
+    machine file's ``reference_position``, on that way or not."""
     name, end = machine.retract_axis
     J = machine.machine_joints(np.array([row], float), gauge)[0]
     J1 = J.copy()
-    J1[machine.axis_names.index(name)] = end
+    J1[machine.axis_names.index(name)] = end if to is None else to
     return machine.program_rows(np.array([J, J1]), gauge)
 
 
 def _check_lift(pl, tool, row):
-    """Refuse a program whose tool, where it ends, cannot be lifted straight to the end of the retract axis
-    (:func:`lift_rows`) without entering the stock, a shaft or a holder."""
-    seq = list(lift_rows(pl.m, row, tool.gauge_length))
-    depth, pt = pl.check(tool.number, seq, f"lift after tool {tool.number}")
-    if depth > 0:
-        name, end = pl.m.retract_axis
-        solid = pl.rotor.solid_at(pt) or pl.rotor.solids_words
-        raise OperationError(f"tool {tool.number} ends where lifting it along {name} to {end:g} (the way a reference "
-                             f"return or the tool-change cycle takes it) enters {solid} by {depth:.3g} mm at "
-                             f"{np.round(pt, 3).tolist()} in the rotor frame: check the machine file's tool_axis "
-                             "and rotary axes")
+    """Refuse a program whose tool, where it ends, cannot be moved straight along the retract axis to the end of
+    its travel (:func:`lift_rows`: the tool-change cycle's way) and, where the machine file gives it, to the
+    reference position (a Fanuc G28 takes it there, whichever side it lies) without entering the stock, a shaft
+    or a holder."""
+    name, end = pl.m.retract_axis
+    targets = [("the end of its travel", end, "the way the tool-change cycle takes it")]
+    if pl.m.reference_position is not None:
+        targets.append(("the reference position", pl.m.reference_position[name], "the way a reference return "
+                                                                                  "takes it"))
+    for what, to, way in targets:
+        seq = list(lift_rows(pl.m, row, tool.gauge_length, to))
+        depth, pt = pl.check(tool.number, seq, f"lift after tool {tool.number}")
+        if depth > 0:
+            solid = pl.rotor.solid_at(pt) or pl.rotor.solids_words
+            raise OperationError(f"tool {tool.number} ends where moving it along {name} to {to:g} ({what}: {way}) "
+                                 f"enters {solid} by {depth:.3g} mm at {np.round(pt, 3).tolist()} in the rotor "
+                                 "frame: check the machine file's tool_axis, reference_position and rotary axes")
 
 
 def build_program(op, machine, direction="forward", chord_tolerance=1e-3, step=1.0, spacing=1.5, coolant="flood"):

@@ -450,14 +450,16 @@ def check_links(read, machine, tools, rotor, step=1.0, spacing=1.5):
             start, end = machine.program_rows(np.array([J0[i], J1[i]]), gauges[mv.tool])
         if not np.allclose(start, end):
             segments.append((mv.line, mv.tool, start, end))
+    ref = (machine.reference_position or {}).get(machine.retract_axis[0])
     for line, row, _, tool in read.reference_returns:
-        # straight up the retract axis to the end of its travel: the reference position is on the way
+        # straight along the retract axis to the reference position where the machine file gives it, else to the
+        # end of the axis' travel on the tool side (the reference position is then taken to be on that way)
         if tool not in tools:
             continue
         if not np.isfinite(row).all():
             unchecked += 1
             continue
-        segments.append((line, tool, *lift_rows(machine, row, gauges[tool])))
+        segments.append((line, tool, *lift_rows(machine, row, gauges[tool], ref)))
     local = {n: s.local_points(spacing) for n, s in tools.items()}
     worst, bad = 0.0, []
     for line, tool, start, end in segments:

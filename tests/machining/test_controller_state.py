@@ -781,6 +781,74 @@ def test_fanuc_returns_to_the_reference_position_before_each_g49(two_tool_plan):
     assert depths and max(depths) > 0.9 * rb.outer_radius
 
 
+def test_a_return_is_timed_from_where_the_machine_stands(two_tool_plan):
+    """A return the program makes right after a tool change (its program row unknown) starts where the tool-change
+    cycle left the machine: with the file's tool_change_position it is timed from there, without it it is
+    counted as untimed, and the note says why (not: no reference_position).  On a TCP machine the returns are
+    timed from the joints of the program rows before them."""
+    from dataclasses import replace
+
+    from flank_addon.machining.cycle_time import cycle_time, untimed_note
+    from flank_addon.posts.readback import tool_gauges, tool_table
+
+    rb = rotor_body(two_tool_plan)
+    op = build_operation([two_tool_plan], rb, lobes=[0])
+    post = get_post("fanuc")
+    gauges = tool_gauges(tool_table([two_tool_plan])[0])
+    plain = load_machine("rotor-xa-b")
+    lines = post.write(build_program(op, plain)).splitlines()
+    k = next(i for i, ln in enumerate(lines) if ln.startswith("T2 M06"))
+    edited = "\n".join(lines[:k + 2] + ["G91 G28 Z0.", "G90"] + lines[k + 2:]) + "\n"
+    at = replace(plain, reference_position={"Z": 800.0}, tool_change_position={"X": 0.0, "Y": 0.0, "Z": 700.0})
+    read = post.read(edited, at)
+    assert len(read.reference_returns) == 3 and not np.isfinite(read.reference_returns[1][1]).all()
+    timed = cycle_time(read, at, gauges)
+    assert timed["untimed_returns"] == 0
+    without_it = cycle_time(replace(read, reference_returns=[r for j, r in enumerate(read.reference_returns)
+                                                             if j != 1]), at, gauges)
+    # from the tool-change position's Z 700 up to 800 at Z's rapid rate
+    assert abs(timed["reference_return_time_s"] - without_it["reference_return_time_s"]
+               - 100.0 / plain.axes["Z"].rapid * 60.0) < 1e-9
+    unknown = replace(plain, reference_position={"Z": 800.0})
+    times = cycle_time(post.read(edited, unknown), unknown, gauges)
+    assert times["untimed_returns"] == 1
+    assert untimed_note(0, unknown, 1) == (", not counting 1 return(s) to the reference position (G28 from where "
+                                           "the program does not know the machine stands)")
+    # TCP: the joints of the row before each return, through the kinematics with the tool's gauge length
+    tcp = load_machine("xyzac-trt-tcp")
+    tcp_ref = replace(tcp, reference_position={"Z": tcp.axes["Z"].max})
+    text = post.write(build_program(op, tcp_ref))
+    read = post.read(text, tcp_ref)
+    t = cycle_time(read, tcp_ref, gauges)
+    z = [tcp.machine_joints(np.array([row]), gauges[tool])[0][2] for _, row, _, tool in read.reference_returns]
+    expect = sum(abs(tcp.axes["Z"].max - v) for v in z) / tcp.axes["Z"].rapid * 60.0
+    assert t["untimed_returns"] == 0 and expect > 0.1 and abs(t["reference_return_time_s"] - expect) < 1e-9
+
+
+def test_a_reference_position_down_the_retract_axis_is_checked_that_way(two_tool_plan):
+    """A machine file whose reference position lies at the far end of Z's travel: a G28 takes the tool there,
+    straight down through the rotor.  The post refuses by name; the read-back of a program posted without the key
+    finds the return's move into the stock at its line."""
+    from dataclasses import replace
+
+    from flank_addon.machining.operation import OperationError
+
+    rb = rotor_body(two_tool_plan)
+    op = build_operation([two_tool_plan], rb, lobes=[0])
+    plain = load_machine("rotor-xa-b")
+    low = replace(plain, reference_position={"Z": plain.axes["Z"].min})
+    with pytest.raises(OperationError, match=r"moving it along Z to -500 \(the reference position: the way a "
+                                             r"reference return takes it\) enters"):
+        build_program(op, low)
+    post = get_post("fanuc")
+    text = post.write(build_program(op, plain))
+    res = verify_program(text, post, low, [two_tool_plan], rb)
+    returns = [line for line, _, _, _ in post.read(text, low).reference_returns]
+    assert res["links"]["max_intrusion_mm"] > 1.0
+    assert {b["line"] for b in res["links"]["intrusions"]} & set(returns)
+    assert verify_program(text, post, plain, [two_tool_plan], rb)["links"]["max_intrusion_mm"] == 0
+
+
 def test_a_tool_that_cannot_be_lifted_straight_up_is_refused(two_tool_plan):
     """Where a tool ends, the toolpath checks the straight lift of Z to its end of travel (the way G28 and the
     tool-change cycle take it): with TCP as program rows whose machine joints differ in Z alone; the posted
@@ -804,7 +872,8 @@ def test_a_tool_that_cannot_be_lifted_straight_up_is_refused(two_tool_plan):
         _check_lift(pl, tool, end)
     below = np.array(end, float)
     below[:3] = [0.5 * (rb.z_range[0] + rb.z_range[1]), 0.0, -rb.outer_radius - 30.0]
-    with pytest.raises(OperationError, match="tool 1 ends where lifting it along Z to 800 .* enters the stock"):
+    with pytest.raises(OperationError, match=r"tool 1 ends where moving it along Z to 800 \(the end of its travel: "
+                                             r"the way the tool-change cycle takes it\) enters the stock"):
         _check_lift(pl, tool, below)
 
 
