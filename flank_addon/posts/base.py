@@ -78,8 +78,8 @@ def feed_text(F, significant=7, max_decimals=6, down=False):
     dec = min(max_decimals, max(0, significant - 1 - int(math.floor(math.log10(F)))))
     text = fixed(math.floor(F * 10.0 ** dec) / 10.0 ** dec if down else F, dec)
     if not float(text) > 0:
-        raise PostError(f"feed {F:.3g} rounds to {text}: below the smallest feed the program writes "
-                        f"({10.0 ** -max_decimals:g}); raise the feed per tooth or the cutting speed")
+        raise PostError(f"feed {F:.3g} {'is cut' if down else 'rounds'} to {text}: below the smallest feed the "
+                        f"program writes ({10.0 ** -max_decimals:g}); raise the feed per tooth or the cutting speed")
     return text
 
 
@@ -225,7 +225,8 @@ def header_lines(program, post):
     return [f"Flank Toolpath program, post {post.name}, machine {m.name} version {m.version}"
             + (" with TCP" if m.tcp else ""),
             "units mm and degrees; program zero = the plan's rotor-frame origin"] + (
-        [f"axis words and feeds to the control's input increment: {', '.join(increments)}"] if increments else []) + [
+        [f"axis words{' and feeds' if m.increment_mm else ''} to the control's input increment: "
+         f"{', '.join(increments)}"] if increments else []) + [
             f"rotor: {'right' if rb.hand > 0 else 'left'}-handed, v0 {rb.v0:.6f} mm/rad, lobes {rb.lobes}, "
             f"outer radius {rb.outer_radius:.4f}, body z {rb.z_range[0]:.4f}..{rb.z_range[1]:.4f}"] + [
         # the setup the program was checked against: the machine operator has to keep to it

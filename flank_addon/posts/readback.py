@@ -49,6 +49,7 @@
    (:func:`program_findings`); the command exits with status 1 when there is any.
 """
 import math
+import re
 import time
 
 import numpy as np
@@ -76,6 +77,32 @@ def is_empty_program(text):
     """True when a program's text has no block to read: blank lines and the tape's '%' markers only (a file
     that ends up so after a failed transfer is not a program that cuts nothing, but no program)."""
     return not text.replace("%", "").strip()
+
+
+# an axis word of the program (a Klartext word may carry its sign, a G-code word its minus) and an F word
+_AXIS_WORD = re.compile(r"(?<![A-Z])([XYZABC])[-+]?[0-9]*\.([0-9]+)")
+_FEED_WORD = re.compile(r"(?<![A-Z])F[0-9]*\.([0-9]+)")
+
+
+def finer_than_increments(text, post, machine):
+    """Lines (1-based) whose axis or F words carry more decimals than the machine file's least input increments
+    (``controller.increment_mm`` / ``increment_deg``; F against the length increment): a program posted without
+    them, whose extra digits the control may drop or refuse.  [] when the file gives no increment."""
+    from ..machining.machine import increment_decimals
+
+    lin = None if machine.increment_mm is None else increment_decimals(machine.increment_mm)
+    rot = None if machine.increment_deg is None else increment_decimals(machine.increment_deg)
+    if lin is None and rot is None:
+        return []
+    out = []
+    for no, line in enumerate(text.splitlines(), 1):
+        # the words of the block: comments out ('(...)' in G-code, ';' to the end in Klartext and LinuxCNC)
+        code = re.sub(r"\([^)]*\)", "", line.split(";")[0]) if post.name != "heidenhain" else line.split(";")[0]
+        too_fine = any(len(dec) > (lin if letter in "XYZ" else rot)
+                       for letter, dec in _AXIS_WORD.findall(code) if (lin if letter in "XYZ" else rot) is not None)
+        if too_fine or (lin is not None and any(len(dec) > lin for dec in _FEED_WORD.findall(code))):
+            out.append(no)
+    return out
 
 
 def tool_table(plans):
@@ -556,6 +583,7 @@ def verify_program(text, post, machine, plans, rotor, lobes=None, references=Non
         "axis_limits": axis_limit_check(read, machine, gauges),
         "work_offsets": work_offset_check(read),
         "tcp": tcp_check(read, machine),
+        "finer_than_increments": finer_than_increments(text, post, machine),
         "holders": [{"z_range": [a, b], "radius": r} for a, b, r in rotor.holders],
         **times,
     }
@@ -697,4 +725,9 @@ def program_findings(res):
     if res["links"]["max_intrusion_mm"] > 0:
         out.append(f"{len(res['links']['intrusions'])} link move(s) enter {stock_or}, deepest "
                    f"{res['links']['max_intrusion_mm']:.3g} mm")
+    fine = res.get("finer_than_increments") or []
+    if fine:
+        out.append(f"{len(fine)} block(s) give axis or F words finer than the control's input increments of the "
+                   f"machine file (lines {_some(fine)}): the control may drop the extra digits or refuse them, "
+                   "and this check reads them as written; post the program for this machine file")
     return out

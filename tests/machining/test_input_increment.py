@@ -1,6 +1,7 @@
 """The control's least input increment (``controller.increment_mm`` / ``increment_deg`` of a machine file): the
-posts write every axis word to it and cut every F word down to it, the read-back checks the program the control
-will run, and a machine file without them gets the dialect's own resolution, as before."""
+posts write every axis word to it and cut every F word down to it, the read-back names the blocks of a program
+posted without it, a control too coarse for the plan is refused, and a machine file without them gets the
+dialect's own resolution, as before."""
 import json
 import re
 
@@ -91,7 +92,13 @@ def test_programs_keep_to_the_controls_increment(single_flank_plan, post_name, t
     assert (taken > planned * (1 + 1e-7)).any()
     # the read-back of what the control runs: every strip cut as planned, no chip load over the tool's fz
     res = verify_program(text, post, machine, [single_flank_plan], rb)
-    assert res["findings"] == [], res["findings"]
+    assert res["findings"] == [] and res["finer_than_increments"] == [], res["findings"]
+    # the plain program (4 decimals) checked against this machine file: every block with a finer word is named
+    fine = verify_program(plain, post, machine, [single_flank_plan], rb)
+    lines = plain.splitlines()
+    assert len(fine["finer_than_increments"]) >= len(words) // 3
+    assert all(re.search(r"[XYZABCF][-+]?[0-9]*\.[0-9]{4}", lines[no - 1]) for no in fine["finer_than_increments"])
+    assert [f for f in fine["findings"] if "finer than the control's input increments" in f]
     assert res["screw_error_mm"] < 5e-3
     if post_name == "linuxcnc":                       # LinuxCNC's own interpreter reads the same numbers
         canon = run_rs274(rs274, path)
