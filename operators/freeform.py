@@ -33,7 +33,8 @@ PROP_PREFIX = "flank_ff_"
 KINK_ATTR = "kink_deg"                  # FLOAT point and edge attribute of the boundary curves (degrees)
 TOOL_SEGMENTS = 48
 COLOR_BOUNDARY = (0.95, 0.35, 0.85, 1.0)
-MAX_WEIGHT = 1.0e6                      # the objective's weights (only their ratios matter; the panel offers 0..100)
+MAX_WEIGHT = 1.0e6                      # the objective's weights: the panel offers 0..100, and only their ratios
+                                        # matter, so a larger one (infinity typed is FLT_MAX) is a typing error
 
 __all__ = ["FLANK_OT_plan_freeform"]
 
@@ -54,8 +55,10 @@ def _check_inputs(op):
         v = typed(v)
         if not math.isfinite(v) or v < 0.0:
             return "weight {} = {} must be a finite number >= 0".format(label, v)
-        if v > MAX_WEIGHT:      # infinity typed is FLT_MAX: the optimiser would crawl for minutes
+        if v > MAX_WEIGHT:
             return "weight {} = {:g} exceeds the limit {:g}".format(label, v, MAX_WEIGHT)
+    if not typed(op.w_approx) > 0.0:              # the planner's own rule, said before its worker starts
+        return "weight w2 (approximation) = 0 must be > 0: without it nothing holds the tool to the surface"
     tol = typed(op.tolerance)
     if not math.isfinite(tol) or tol <= 0.0:
         return "tolerance = {} must be > 0 (scene units)".format(tol)

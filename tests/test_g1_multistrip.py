@@ -647,7 +647,7 @@ def test_only_the_weights_ratios_matter():
                   n_ruling_samples=8)
     base = np.array(DEFAULT_WEIGHTS)
     ref = plan_freeform(S.vertices, S.faces, weights=base, **common)["summary"]
-    # the optimiser moved the layout: the overcut is a third smaller than the start's
+    # the optimiser moved the layout: the overcut is at least a fifth smaller than the start's
     assert ref["min_error"] > 0.8 * ref["initial_min_error"]
     for scale in (1e-12, 1e300):
         plan = plan_freeform(S.vertices, S.faces, weights=base * scale, **common)

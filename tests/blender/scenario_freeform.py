@@ -361,6 +361,7 @@ def scenario(bpy, res, args):
                       ("tool_too_large", dict(PLAN_KW, length=500.0)),
                       ("zero_direction", dict(PLAN_KW, direction=(0.0, 0.0, 0.0))),
                       ("negative_weight", dict(PLAN_KW, w_g1=-1.0)),
+                      ("no_approximation", dict(PLAN_KW, w_approx=0.0)),
                       ("engagement", dict(PLAN_KW, engagement=0.01)),
                       ("no_strip", dict(PLAN_KW, spacing=3.0))):
         bad[label] = _call(bpy, bpy.ops.flank.plan_freeform, **kw)

@@ -180,6 +180,7 @@ def test_vector_attribute_field_and_selected_faces(ff):
 @pytest.mark.parametrize("case,words", [
     ("r1_nan", "r1 = nan"), ("short_axis", "must exceed |r2 - r1|"), ("tool_too_large", "exceeds the limit"),
     ("zero_direction", "non-zero"), ("negative_weight", "w3 (G1) = -1.0"), ("engagement", "0.05 .. 1"),
+    ("no_approximation", "weight w2 (approximation) = 0 must be > 0"),
     ("no_strip", "no strip"), ("empty_active", "select a mesh object"), ("non_uniform_scale", "not uniform")])
 def test_bad_input_is_refused_with_a_message_and_nothing_is_made(ff, case, words):
     r = ff["bad"][case]
