@@ -829,17 +829,15 @@ def _machining_inputs(args):
 
 
 def _cutting_data(args):
-    """One CuttingData for every tool from --cutting-data / --flutes / --vc / --fz / --max-rpm, or None."""
-    import dataclasses
-
-    from .machining.feeds import DEFAULT_END_MILL, preset_cutting_data
+    """The cutting data of --cutting-data / --flutes / --vc / --fz / --max-rpm: None (each tool's own), one
+    CuttingData for every tool (--cutting-data), or each tool's own data, or --cutting-data's, with the fields
+    given replaced (:func:`machining.feeds.with_overrides`: a disc cutter keeps its top speed under --fz)."""
+    from .machining.feeds import preset_cutting_data, with_overrides
 
     base = preset_cutting_data(args.cutting_data) if args.cutting_data else None
     over = {k: v for k, v in (("flutes", args.flutes), ("vc_m_min", args.vc), ("fz_mm", args.fz),
                               ("max_rpm", args.max_rpm)) if v is not None}
-    if over:
-        base = dataclasses.replace(base or DEFAULT_END_MILL, source="command line", **over)
-    return base
+    return with_overrides(over, base) if over else base
 
 
 def _cmd_post(args):
@@ -1015,10 +1013,10 @@ def _add_cutting_data(p, note=""):
     p.add_argument("--coolant", choices=COOLANTS,
                    help="coolant turned on with every tool: flood (M8; Klartext M13), mist (M7; G-code posts) or "
                         "off (a dry cut) (default flood)")
-    p.add_argument("--flutes", type=count_at_least(1), help="override: flutes")
-    p.add_argument("--vc", type=positive_number, help="override: cutting speed, m/min")
-    p.add_argument("--fz", type=positive_number, help="override: feed per tooth, mm")
-    p.add_argument("--max-rpm", type=positive_number, help="override: the tool's top spindle speed")
+    p.add_argument("--flutes", type=count_at_least(1), help="override: flutes (of each tool's own data, or of --cutting-data)")
+    p.add_argument("--vc", type=positive_number, help="override: cutting speed, m/min (of each tool's own data, or of --cutting-data)")
+    p.add_argument("--fz", type=positive_number, help="override: feed per tooth, mm (of each tool's own data, or of --cutting-data)")
+    p.add_argument("--max-rpm", type=positive_number, help="override: the tool's top spindle speed (of each tool's own data, or of --cutting-data)")
 
 
 def report_scene():

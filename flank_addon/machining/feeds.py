@@ -102,6 +102,32 @@ def cutting_data_for(tool):
     return DEFAULT_END_MILL
 
 
+def tool_cutting_data(spec, tool):
+    """The cutting data of a plan's ``tool`` dict under ``spec``: None -> the tool's own
+    (:func:`cutting_data_for`); a :class:`CuttingData` -> that, for every tool; a callable -> ``spec(tool)``
+    (e.g. :func:`with_overrides` on each tool's own data)."""
+    if spec is None:
+        return cutting_data_for(tool)
+    if isinstance(spec, CuttingData):
+        return spec
+    return spec(tool)
+
+
+def with_overrides(overrides, base=None):
+    """A cutting-data spec for :func:`tool_cutting_data`: each tool's own data (``base``: one CuttingData for
+    every tool instead) with the fields of ``overrides`` ({"flutes": .., "vc_m_min": .., "fz_mm": .., "max_rpm":
+    ..}, any of them) replaced, so a disc cutter keeps its own top speed when only fz is given."""
+    import dataclasses
+
+    dataclasses.replace(base or DEFAULT_END_MILL, **overrides)        # a value the data refuses is named at once
+
+    def spec(tool):
+        own = base if base is not None else cutting_data_for(tool)
+        return dataclasses.replace(own, source=f"{own.source} with " + ", ".join(
+            f"{k} {v:g}" for k, v in overrides.items()) + " from the command line", **overrides)
+    return spec
+
+
 @dataclass
 class PassConditions:
     rpm: float

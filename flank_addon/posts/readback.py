@@ -56,7 +56,7 @@ import numpy as np
 
 from ..geometry.screw import screw_motion
 from ..machining.cycle_time import block_times, cycle_time, move_joints
-from ..machining.feeds import cutting_data_for, engagement
+from ..machining.feeds import engagement
 from ..machining.operation import checked_lobes, repeats_earlier_strip
 from ..machining.tool_shape import ToolShape, place_points
 from ..machining.toolpath import COOLANTS, lift_rows, segment_intrusion
@@ -121,16 +121,17 @@ def tool_table(plans):
 
 
 def tool_cutting_data(plans, cutting_data=None):
-    """{number: CuttingData} of the tools of :func:`tool_table`: ``cutting_data`` for every tool when given,
-    else each tool's own (:func:`..machining.feeds.cutting_data_for`), as the post chooses them."""
+    """{number: CuttingData} of the tools of :func:`tool_table`, as the post chose them: ``cutting_data`` for
+    every tool when it is one CuttingData, each tool's own (:func:`..machining.feeds.cutting_data_for`) when
+    None, or a function of the plan's tool dict (:func:`..machining.feeds.with_overrides`)."""
     from ..io.plan import strip_tool
+    from ..machining.feeds import tool_cutting_data as data_of
 
-    if cutting_data is not None:
-        return {n: cutting_data for n in tool_table(plans)[0]}
     _, of_strip = tool_table(plans)
     out = {}
     for (p, s), n in of_strip.items():
-        out.setdefault(n, cutting_data_for(strip_tool(plans[p], s)))
+        if n not in out:
+            out[n] = data_of(cutting_data, strip_tool(plans[p], s))
     return out
 
 

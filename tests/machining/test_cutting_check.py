@@ -171,7 +171,7 @@ def test_the_command_line_checks_against_the_data_it_is_given(posted, tmp_path, 
     assert code == 0 and "T1 cuts at chip loads up to 0.015" in out and "within its cutting data" in out
     code, out = verify("--cutting-data", "Tapered 2deg D3 L25", "--fz", "0.01")
     assert code == 1 and "OVER chip load" in out
-    assert "against fz 0.01 mm (command line)" in out
+    assert "against fz 0.01 mm (Tapered 2deg D3 L25 with fz_mm 0.01 from the command line)" in out
     assert "NOT AS PLANNED: {} feed move(s) load the tool".format(len(prog.passes)) in out
     capsys.readouterr()
     code = main(["verify", str(plan_path), "--fz", "0.02"])

@@ -89,6 +89,36 @@ def test_a_post_that_fails_leaves_the_old_program(capsys, tmp_path, plan_file):
                                                                                                         "p.ngc"]
 
 
+def test_single_cutting_values_override_each_tools_own_data(capsys, tmp_path, formed_cutter_plan):
+    """--vc (or --fz, --flutes, --max-rpm) alone replaces that value of each tool's own data: a formed disc keeps
+    its 16 flutes and its top speed of 3000 1/min.  (It used to get the default end mill's data around the value
+    given: 4 flutes and 24000 1/min, and under --vc 1000 a spindle speed over the disc's own top speed.)  With
+    --cutting-data the values replace the preset's."""
+    from flank_addon.machining.feeds import DEFAULT_DISC_CUTTER, PRESET_CUTTING_DATA
+
+    plan = tmp_path / "disc.json"
+    write_plan(plan, formed_cutter_plan)
+    out = tmp_path / "d.ngc"
+    code, text, err = run(capsys, "post", plan, "--machine", "rotor-xa-b", "--post", "linuxcnc", "--vc", "1000",
+                          "--lobes", "0", "-o", out, "--json")
+    assert code == 0, err
+    tool = json.loads(text)["tools"][0]
+    data = tool["cutting_data"]
+    assert (data["flutes"], data["max_rpm"], data["vc_m_min"], data["fz_mm"]) == (
+        DEFAULT_DISC_CUTTER.flutes, DEFAULT_DISC_CUTTER.max_rpm, 1000.0, DEFAULT_DISC_CUTTER.fz_mm)
+    assert data["source"] == "default disc cutter with vc_m_min 1000 from the command line"
+    assert 0 < tool["rpm"] <= DEFAULT_DISC_CUTTER.max_rpm
+    # the program reads back within that data when verify is given the same option
+    code, text, _ = run(capsys, "verify", plan, "--program", out, "--machine", "rotor-xa-b", "--vc", "1000")
+    assert code == 0 and "within its cutting data" in text
+    # on top of --cutting-data: the preset's flutes and speeds, the fz given
+    preset = PRESET_CUTTING_DATA["Tapered 2deg D3 L25"]
+    code, text, err = run(capsys, "post", plan, "--machine", "rotor-xa-b", "--post", "linuxcnc", "--lobes", "0",
+                          "--cutting-data", "Tapered 2deg D3 L25", "--fz", "0.02", "-o", out, "--json")
+    data = json.loads(text)["tools"][0]["cutting_data"]
+    assert code == 0 and (data["flutes"], data["vc_m_min"], data["fz_mm"]) == (preset.flutes, preset.vc_m_min, 0.02)
+
+
 def test_a_plan_scaled_beyond_any_tool_is_refused_before_it_is_sampled(capsys, tmp_path, double_flank_plan):
     """A plan in units of R given an outer radius of 10 m or 1e9 mm has a tool metres (or a million km) long: refused by
     name before its surface is sampled every millimetre (which took minutes and tens of gigabytes, or ran out of
