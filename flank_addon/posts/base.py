@@ -103,11 +103,13 @@ class Post:
                                            (self.rotary_decimals, machine.increment_deg)))
 
     def feed_text(self, F, machine, significant=7, max_decimals=6):
-        """The F word's value: :func:`feed_text`, with at most the decimals of the machine's length increment
-        where its file gives one, cut rather than rounded there."""
-        if machine.increment_mm is None:
-            return feed_text(F, significant, max_decimals)
-        return feed_text(F, significant, min(max_decimals, self.decimals(machine)[0]), down=True)
+        """The F word's value: :func:`feed_text` cut down to its digits, never rounded up (a block may only get
+        slower than planned: rounded to nearest, the fastest point's chip load went over fz by up to half a unit
+        of the last digit), with at most the decimals of the machine's length increment where its file gives
+        one."""
+        if machine.increment_mm is not None:
+            max_decimals = min(max_decimals, self.decimals(machine)[0])
+        return feed_text(F, significant, max_decimals, down=True)
 
     def round_row(self, row, machine):
         lin, rot = self.decimals(machine)

@@ -142,3 +142,19 @@ def post_unchecked(post, prog):
     finally:
         del post._check_rounding
         assert post._check_rounding.__func__ is check.__func__
+
+
+@pytest.mark.parametrize("post_name", ["linuxcnc", "fanuc"])
+def test_f_words_are_cut_down_never_rounded_up(two_tool_plan, post_name):
+    """Inverse-time F = 1 / planned minutes, written to about 7 digits: cut down, so no block runs faster than
+    planned and no chip load goes over fz (rounded to nearest, about half of the F words went up by up to half a
+    unit of their last digit, and the fastest point's chip load over fz with them)."""
+    rb = rotor_body(two_tool_plan)
+    op = build_operation([two_tool_plan], rb, lobes=[0, 1])
+    prog = build_program(op, _machine())
+    text = get_post(post_name).write(prog)
+    feeds = np.array([float(f) for b in _blocks(text, post_name) for f in FEED_WORD.findall(b)])
+    exact = np.array([1.0 / o["time_min"] for o in prog.ops if o["op"] == "feed"])
+    assert len(feeds) == len(exact) >= 16
+    assert (feeds <= exact).all()
+    assert (exact - feeds <= 1e-6 * exact + 1e-6).all() and (exact - feeds > 0).mean() > 0.9

@@ -84,7 +84,7 @@ def test_a_post_that_fails_leaves_the_old_program(capsys, tmp_path, plan_file):
     path.write_text("old program\n")
     code, _, err = run(capsys, "post", plan_file, "--machine", "rotor-xa-b", "--post", "linuxcnc", "--fz", "1e-300",
                        "-o", path)
-    assert code == 2 and "rounds to 0.000000: below the smallest feed the program writes (1e-06)" in err, err
+    assert code == 2 and "is cut to 0.000000: below the smallest feed the program writes (1e-06)" in err, err
     assert "Traceback" not in err and path.read_text() == "old program\n" and os.listdir(tmp_path) == ["plan.json",
                                                                                                         "p.ngc"]
 
