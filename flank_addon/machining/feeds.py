@@ -205,7 +205,11 @@ def engagement(shape, tip, axis, rotor, spacing=0.5):
     pts, D, rho = _edge_samples(shape, tip, axis, rings)
     inside = rho <= rotor.outer_radius
     if not inside.any():
-        return Engagement(0.0, 0.0, pts[inside], D[inside])
+        # no sample inside, yet the edge may graze the stock between two rings: then it crosses the stock's
+        # cylinder, and its fastest engaged point is on the rim, as where it reaches out of the stock
+        graze = largest_engaged_diameter(shape, tip, axis, rotor.outer_radius, rings=rings)
+        speed = math.hypot(rotor.outer_radius, rotor.v0) if graze > 0 else 0.0
+        return Engagement(speed, graze, pts[inside], D[inside])
     top = rotor.outer_radius if not inside.all() else max(float(rho.max()), _largest_rho(shape, tip, axis, rings))
     d_max = max(largest_engaged_diameter(shape, tip, axis, rotor.outer_radius, rings=rings), float(D[inside].max()))
     return Engagement(math.hypot(top, rotor.v0), d_max, pts[inside], D[inside])
@@ -420,8 +424,10 @@ def pass_conditions(shape, tip, axis, rotor, data, rpm, t_span, joint_rates, joi
     when the caller has it."""
     eng = engagement(shape, tip, axis, rotor) if eng is None else eng
     v_max, pts, D = eng.speed, eng.points, eng.diameters
-    if not len(pts):
+    if not eng.diameter > 0:
         raise ValueError("the tool never enters the stock cylinder: nothing to cut")
+    if not len(pts):                    # a graze between two rings (:func:`engagement`): its rim point alone
+        pts, D = np.array([[rotor.outer_radius, 0.0, 0.0]]), np.array([eng.diameter])
     speed = np.hypot(np.hypot(pts[:, 0], pts[:, 1]), rotor.v0)          # |v| per radian of t
     z = data.flutes
     omega = rpm * z * data.fz_mm / v_max

@@ -392,8 +392,11 @@ def build_program(op, machine, direction="forward", chord_tolerance=1e-3, step=1
             ops.append({"op": "rapid", "row": rows[0]})
             span = float(ts[-1] - ts[0])
             rates = np.abs(mj[-1] - mj[0]) / abs(span)
-            cond = pass_conditions(tool.shape, ps.tip, ps.axis, rotor, tool.data, tool.rpm, span, rates,
-                                   (names, [machine.axes[n].max_feed for n in names]), engaged[id(ps)])
+            try:
+                cond = pass_conditions(tool.shape, ps.tip, ps.axis, rotor, tool.data, tool.rpm, span, rates,
+                                       (names, [machine.axes[n].max_feed for n in names]), engaged[id(ps)])
+            except ValueError as e:                   # named by its pass
+                raise OperationError(f"{label}: {e}") from None
             ops.append({"op": "comment", "text": f"PASS {len(passes_out) + 1} plan {ps.plan} strip {ps.strip} "
                                                  f"lobe {ps.lobe} flank {ps.flank} T{tool.number}"
                                                  f"{' reverse' if rev else ''}"})

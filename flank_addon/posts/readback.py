@@ -353,7 +353,7 @@ def cutting_check(passes, machine, rotor, tools, data):
         on_screw = ps["screw_error"] <= MATCH_TOL_MM
         for k in range(len(P)):                 # on the screw one pose in the stock stands for all; else every one
             eng = engagement(shape, P[k], A[k], rotor)
-            if len(eng.points):
+            if eng.diameter > 0:                # engaged, if only by a graze between two sampled rings
                 v_max, d_max = max(v_max, eng.speed), max(d_max, eng.diameter)
                 if on_screw:
                     break

@@ -157,6 +157,22 @@ def test_an_edge_grazing_the_stock_between_two_rings_is_found():
     dense = dense_engaged_diameter(shape, tip, axis, 10.0)
     assert dense == 4.0 and abs(found / dense - 1.0) < 2e-6, (found, dense)
     assert largest_engaged_diameter(shape, tip + [0.0, 0.3, 0.0], axis, 10.0) == 0.0
+    # the engagement the posts and the read-back use sees the graze too: its fastest point is on the stock's rim
+    # (it used to say "never enters", the post refused the pass without naming it and the read-back counted 0)
+    from types import SimpleNamespace
+
+    from flank_addon.machining.feeds import pass_conditions
+
+    rotor = SimpleNamespace(outer_radius=10.0, v0=8.0)
+    eng = engagement(shape, tip, axis, rotor)
+    assert eng.diameter == found and eng.speed == math.hypot(10.0, 8.0) and len(eng.points) == 0
+    cond = pass_conditions(shape, tip, axis, rotor, DEFAULT_END_MILL, 1000.0, 1.0, [0.0], (["A"], [1e9]), eng)
+    assert abs(cond.chip_load[1] - DEFAULT_END_MILL.fz_mm) < 1e-15 and cond.engaged_diameter == (found, found)
+    away = engagement(shape, tip + [0.0, 0.3, 0.0], axis, rotor)
+    assert away.diameter == 0.0 and away.speed == 0.0
+    with pytest.raises(ValueError, match="never enters the stock cylinder"):
+        pass_conditions(shape, tip + [0.0, 0.3, 0.0], axis, rotor, DEFAULT_END_MILL, 1000.0, 1.0, [0.0],
+                        (["A"], [1e9]), away)
 
 
 def test_ring_min_rho_against_dense_circles():
