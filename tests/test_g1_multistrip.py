@@ -623,6 +623,41 @@ def test_plan_file_round_trip_and_validation(tmp_path):
     assert dev[inside].min() > -1e-9
 
 
+_SMALL_PLAN = {}
+
+
+def _small_freeform_plan():
+    if not _SMALL_PLAN:
+        S = plane_patch(size=1.0, resolution=12)
+        _SMALL_PLAN["plan"] = json.loads(json.dumps(plan_freeform(S.vertices, S.faces, direction=[1, 0, 0], r1=0.02,
+                                                                  r2=0.06, L=0.2, n_columns=5, n_ruling_samples=5)))
+    return json.loads(json.dumps(_SMALL_PLAN["plan"]))
+
+
+@pytest.mark.parametrize("mutate, message", [
+    (lambda p: p["strips"][0]["rulings"][0][1].__setitem__(0, 1e300),
+     r"strips\[0\].rulings reach 1e\+300 from the surface, over 1e\+06 times its size"),
+    (lambda p: p["strips"][0]["rulings"][0][1].__setitem__(0, "1"), r"strips\[0\].rulings must hold numbers only"),
+    (lambda p: p["surface"]["vertices"][0].__setitem__(0, 1e300), r"surface.vertices reach 1e\+300, over 1e\+12"),
+    (lambda p: p.update(strips=[]), r"strips must be a list of at least one strip"),
+    (lambda p: p["surface"].update(vertices=[[0.0, 0.0, 0.0]] * len(p["surface"]["vertices"])),
+     r"surface.faces have no area"),
+    (lambda p: p["strips"][0].update(radii=[0.0, 0.0]), r"strips\[0\].radii are both 0"),
+    (lambda p: p["strips"][0].update(shank_radius=-1.0), r"strips\[0\].shank_radius must be >= 0"),
+    (lambda p: p["strips"][0].update(axis_end=[0.0, 0.0, 1e300]), r"strips\[0\].axis_end .* is over 1e\+06 times "
+                                                                  r"the surface's size"),
+])
+def test_freeform_plan_validation_names_the_field(mutate, message):
+    """A free-form plan's fields are bounded by its surface's size, as a rotor plan's by its outer radius: a
+    ruling at 1e300 passed and made verify and the exports fail with a traceback, degenerate faces ran verify for
+    minutes, and strings in a field passed as numbers."""
+    plan = _small_freeform_plan()
+    validate_plan(plan)
+    mutate(plan)
+    with pytest.raises(PlanError, match=message):
+        validate_plan(plan)
+
+
 @pytest.mark.parametrize("kw, msg", [
     (dict(r1=-0.1, r2=0.05, L=0.2), "must be >= 0"),
     (dict(r1=float("nan"), r2=0.05, L=0.2), "r1"),

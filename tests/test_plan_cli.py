@@ -110,7 +110,20 @@ def test_write_plan_is_atomic_and_names_the_file(tmp_path, monkeypatch):
     (lambda p: p["strips"][0].update(axis_end=p["strips"][0]["axis_start"]),
      r"strips\[0\]: axis_start and axis_end coincide, yet the tool's radius varies"),
     (lambda p: p["summary"].update(max_error=-0.001), r"summary.max_error -0.001 is below summary.min_error -0.0005"),
-    (lambda p: p.update(tolerance=float("nan")), r"tolerance must be a finite number > 0 \(in the plan's length unit\)"),
+    (lambda p: p.update(tolerance=float("nan")), r"tolerance must be a finite number > 0 and at most "
+                                                 r"rotor.outer_radius 1.0 \(in the plan's length unit\), got nan"),
+    (lambda p: p.update(tolerance=2.0), r"tolerance must be .* at most rotor.outer_radius 1.0 .*, got 2.0"),
+    (lambda p: p["strips"][0].update(radii=["0.05", 0.08]), r"strips\[0\].radii must hold numbers only, got '0.05'"),
+    (lambda p: p["strips"][0].update(axis_start=["0", 0, 0]), r"strips\[0\].axis_start must hold numbers only"),
+    (lambda p: p["rotor"]["profile"][3].__setitem__(0, None), r"rotor.profile must hold numbers only, got None"),
+    (lambda p: p["rotor"].update(profile=p["rotor"]["profile"][:719] + [[0.5]]), r"rotor.profile must hold numbers "
+                                                                                r"in lists of equal lengths"),
+    (lambda p: p["strips"][0].update(shank_radius=-0.02), r"strips\[0\].shank_radius must be >= 0 \(0: no shank\), "
+                                                          r"got -0.02"),
+    (lambda p: p["strips"][0].update(reported_max_error=-1.0), r"strips\[0\].reported_max_error -1.0 is below"),
+    (lambda p: p["rotor"].update(outer_radius=2.0), r"rotor.outer_radius 2.0 is not the profile's largest radius 1 "),
+    (lambda p: p["tool"].update(alpha=None, r1c=0.05, r2c=0.08), r"tool gives r1c, r2c but not all of alpha, r1c and "
+                                                                r"r2c"),
     (lambda p: p.update(tolerance=0), r"tolerance must be a finite number > 0 .*, got 0"),
     (lambda p: p["rotor"].update(v0=1e-300), r"rotor.v0 1e-300 must be within 1e-06..1e\+06 times rotor.outer_radius"),
     (lambda p: p["strips"][0].update(axis_start=[1e300, 0.0, 0.0]), r"strips\[0\].axis_start .* is over 1e\+06 times"),
@@ -336,3 +349,21 @@ def test_an_option_of_another_planner_is_refused(tmp_path, argv, message):
     """An option the chosen planner does not read would be silently ignored: it is named instead."""
     r = main_cli("plan", argv[0], "--builtin", "asymmetric-female", *argv[1:], "--out", tmp_path / "p.json")
     assert r.returncode == 2 and r.stderr.strip() == "error: " + message
+
+
+def test_a_plan_nested_too_deeply_is_named(tmp_path):
+    """JSON nested 100,000 lists deep: the parser's recursion is refused by name (exit 2), not a traceback."""
+    path = tmp_path / "deep.json"
+    path.write_text("[" * 100000 + "]" * 100000)
+    r = main_cli("check-plan", path)
+    assert r.returncode == 2 and f"{path}: its JSON nests too deeply to be a plan" in r.stderr
+
+
+def test_a_disc_cutter_plan_that_cannot_be_made_leaves_no_file(tmp_path):
+    """cutter --plan-out makes and checks the plan before it writes either file: a lead no rotor has is refused
+    by name (it used to write the CSV, then fail on the plan's rotor.v0), and neither file is left."""
+    csv, plan = tmp_path / "c.csv", tmp_path / "p.json"
+    r = main_cli("cutter", "--builtin", "nilson-male", "--scale", "100", "--center-distance", "180", "--swivel", "20",
+                 "--lead", "1e9", "--out", csv, "--plan-out", plan)
+    assert r.returncode == 2 and "--lead 1e+09 is over 6.283e+06 times the rotor's outer radius" in r.stderr
+    assert sorted(tmp_path.iterdir()) == []

@@ -83,14 +83,43 @@ def _is_int(x):
 # a rotor plan's lengths relative to its outer radius: the lead (v0) and every coordinate (profile, strips) must
 # lie within these factors, or the plan is of no rotor (and the screw arithmetic would overflow)
 RELATIVE_RANGE = (1e-6, 1e6)
+# how closely a rotor plan's outer_radius must be its profile's largest radius (the planners write it so exactly)
+OUTER_RADIUS_TOL = 1e-3
+# the largest coordinate of a free-form plan's surface, in its own unit: beyond it the distance queries overflow
+MAX_MESH_COORDINATE = 1e12
 
 
 def _is_num(x):
     return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
 
 
+def _numbers(x, name, rows=None):
+    """A plan field of JSON numbers (a number, or lists of them) as a float array; :class:`PlanError` naming the
+    field for strings, booleans, nulls or ragged lists (``np.asarray(x, float)`` alone took "0.05" for 0.05, and
+    a post then failed on it).  ``rows``: :func:`.json_pieces.lists_to_array` for long lists of rows."""
+    try:
+        a = np.asarray(x) if rows is None else rows(x)
+    except (ValueError, TypeError):
+        raise PlanError(f"{name} must hold numbers in lists of equal lengths") from None
+    if a.dtype.kind not in "iuf":
+        raise PlanError(f"{name} must hold numbers only, got {_sample(x)!r}")
+    return a.astype(float)
+
+
+def _sample(x):
+    """A short look at a field's value for a message: the first non-number in it, else its start."""
+    stack = [x]
+    while stack:
+        v = stack.pop(0)
+        if isinstance(v, list):
+            stack[:0] = v
+        elif not (isinstance(v, (int, float)) and not isinstance(v, bool)):
+            return v
+    return str(x)[:80]
+
+
 def _vec(x, n, name):
-    a = np.asarray(x, dtype=float)
+    a = _numbers(x, name)
     if a.shape != (n,) or not np.isfinite(a).all():
         raise PlanError(f"{name} must be {n} finite numbers, got {x!r}")
     return a
@@ -220,7 +249,7 @@ def _validate(plan):
     for key in ("to_world", "v0", "handedness", "profile", "flanks", "outer_radius"):
         if key not in rotor:
             raise PlanError(f"missing field rotor.{key}")
-    T = np.asarray(rotor["to_world"], float)
+    T = _numbers(rotor["to_world"], "rotor.to_world")
     if T.shape != (4, 4) or not np.isfinite(T).all():
         raise PlanError(f"rotor.to_world must be a 4x4 matrix, got shape {T.shape}")
     if not np.allclose(T[3], [0, 0, 0, 1]):
@@ -242,7 +271,7 @@ def _validate(plan):
                         f"rotor.outer_radius {L!r} (a screw of that lead is no rotor)")
     if rotor.get("extent") is not None:
         _check_extent(rotor["extent"])
-    prof = np.asarray(rotor["profile"], float)
+    prof = _numbers(rotor["profile"], "rotor.profile")
     if prof.ndim != 2 or prof.shape[1] != 2 or not np.isfinite(prof).all():
         raise PlanError("rotor.profile must be a list of finite [x, y] pairs")
     if len(prof) < MIN_PROFILE_POINTS:
@@ -253,6 +282,11 @@ def _validate(plan):
     x, y = prof[:, 0], prof[:, 1]
     if np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y) <= 0:
         raise PlanError("rotor.profile must be counter-clockwise")
+    reach = float(np.hypot(x, y).max())
+    if abs(reach - L) > OUTER_RADIUS_TOL * L:
+        # every length the posts and checks scale by the outer radius: a mismatch would cut another rotor
+        raise PlanError(f"rotor.outer_radius {L!r} is not the profile's largest radius {reach:.9g} (within "
+                        f"{OUTER_RADIUS_TOL:g} of it)")
     n = len(prof)
     for k, fl in enumerate(rotor["flanks"]):
         if len(fl) != 2 or not all(_is_int(i) for i in fl):
@@ -268,7 +302,7 @@ def _validate(plan):
     for k, st in enumerate(plan["strips"]):
         _check_strip_axes(k, st, L)
         axis = np.subtract(st["axis_end"], st["axis_start"])
-        radii = np.asarray(st.get("radii", []), float)
+        radii = _numbers(st.get("radii", []), f"strips[{k}].radii")
         if radii.ndim != 1 or len(radii) < 2 or not np.isfinite(radii).all() or (radii < 0).any():
             raise PlanError(f"strips[{k}].radii must hold >= 2 non-negative radii")
         if not radii.max() > 0:
@@ -284,7 +318,7 @@ def _validate(plan):
             raise PlanError(f"strips[{k}]: axis_start and axis_end coincide, yet the tool's radius varies along "
                             "its axis (only a ball may have a zero-length axis)")
         if st.get("meridian") is not None:
-            mer = np.asarray(st["meridian"], float)
+            mer = _numbers(st["meridian"], f"strips[{k}].meridian")
             if (mer.ndim != 2 or mer.shape[1] != 2 or len(mer) < 2 or not np.isfinite(mer).all()
                     or (np.diff(mer[:, 0]) <= 0).any() or (mer[:, 1] < 0).any()):
                 raise PlanError(f"strips[{k}].meridian must be >= 2 finite [h, R] rows, h strictly "
@@ -296,9 +330,7 @@ def _validate(plan):
             if not (isinstance(par, dict) and _is_num(par.get("a")) and _is_num(par.get("b"))
                     and par["a"] < 0 < par["b"]):
                 raise PlanError(f"strips[{k}].paraboloid must be {{a, b}} with a < 0 < b, got {par!r}")
-        for key in ("shank_radius", "reported_max_error", "reported_min_error"):
-            if not _is_num(st.get(key)):
-                raise PlanError(f"strips[{k}].{key} must be a finite number")
+        _check_strip_numbers(k, st)
         if not _is_int(st.get("flank")) or not 0 <= st["flank"] < nf:
             raise PlanError(f"strips[{k}].flank must be a flank index (0..{nf - 1})")
         if not isinstance(st.get("collision"), bool):
@@ -310,9 +342,23 @@ def _validate(plan):
             raise PlanError(f"summary.{key} must be a number")
     _check_error_order(plan["summary"])
     tol = plan.get("tolerance")
-    if tol is not None and not (_is_num(tol) and tol > 0):
-        raise PlanError(f"tolerance must be a finite number > 0 (in the plan's length unit), got {tol!r}")
+    if tol is not None and not (_is_num(tol) and 0 < tol <= L):
+        raise PlanError(f"tolerance must be a finite number > 0 and at most rotor.outer_radius {L!r} (in the plan's "
+                        f"length unit), got {tol!r}")
     return plan
+
+
+def _check_strip_numbers(k, st):
+    """A strip's shank radius (>= 0: a negative one dropped the shank from every check) and its reported errors
+    (finite, max not below min)."""
+    for key in ("shank_radius", "reported_max_error", "reported_min_error"):
+        if not _is_num(st.get(key)):
+            raise PlanError(f"strips[{k}].{key} must be a finite number")
+    if st["shank_radius"] < 0:
+        raise PlanError(f"strips[{k}].shank_radius must be >= 0 (0: no shank), got {st['shank_radius']!r}")
+    if st["reported_max_error"] < st["reported_min_error"]:
+        raise PlanError(f"strips[{k}].reported_max_error {st['reported_max_error']!r} is below "
+                        f"reported_min_error {st['reported_min_error']!r}")
 
 
 def _check_error_order(summary):
@@ -326,7 +372,11 @@ def _check_tool(tool, name):
     if not isinstance(tool, dict) or tool.get("kind") not in TOOL_KINDS:
         got = tool.get("kind") if isinstance(tool, dict) else tool
         raise PlanError(f"{name}.kind must be one of {TOOL_KINDS}, got {got!r}")
-    if tool["kind"] == "cone" and all(k in tool for k in ("alpha", "r1c", "r2c")):
+    shape_keys = [k for k in ("alpha", "r1c", "r2c") if tool.get(k) is not None]
+    if tool["kind"] == "cone" and 0 < len(shape_keys) < 3:
+        raise PlanError(f"{name} gives {', '.join(shape_keys)} but not all of alpha, r1c and r2c: a cone's shape "
+                        "needs the three together (or none, where the strips' radii give it)")
+    if tool["kind"] == "cone" and len(shape_keys) == 3:
         a, r1, r2 = tool["alpha"], tool["r1c"], tool["r2c"]
         if not (_is_num(a) and 0 < a < 0.5 * math.pi and _is_num(r1) and _is_num(r2) and 0 <= r1 < r2):
             raise PlanError(f"{name} must have 0 < alpha < pi/2 and 0 <= r1c < r2c, got alpha {a!r}, r1c {r1!r}, "
@@ -395,27 +445,44 @@ def _validate_mesh_plan(plan):
     surf = plan["surface"]
     if not isinstance(surf, dict) or surf.get("kind") != "mesh":
         raise PlanError(f"surface.kind must be 'mesh', got {surf.get('kind') if isinstance(surf, dict) else surf!r}")
-    V = lists_to_array(surf.get("vertices", []), float)
+    V = _numbers(surf.get("vertices", []), "surface.vertices", rows=lists_to_array)
     F = lists_to_array(surf.get("faces", []))
     if V.ndim != 2 or V.shape[1] != 3 or len(V) < 3 or not np.isfinite(V).all():
         raise PlanError("surface.vertices must be >= 3 finite [x, y, z] rows")
+    if np.abs(V).max() > MAX_MESH_COORDINATE:
+        raise PlanError(f"surface.vertices reach {np.abs(V).max():.6g}, over {MAX_MESH_COORDINATE:g} in the "
+                        "plan's length unit")
     if (F.ndim != 2 or F.shape[1] != 3 or len(F) < 1 or not np.issubdtype(F.dtype, np.integer)
             or F.min() < 0 or F.max() >= len(V)):
         raise PlanError(f"surface.faces must be >= 1 rows of 3 vertex indices in 0..{len(V) - 1}")
+    size = float(np.linalg.norm(np.ptp(V, axis=0)))
+    area = np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1)
+    if not (size > 0 and area.max() > 1e-12 * size * size):
+        raise PlanError(f"surface.faces have no area (the largest is {0.5 * area.max():.3g} on a surface "
+                        f"{size:.6g} across): no surface to verify against")
     _check_tool(plan["tool"], "tool")
-    if not isinstance(plan["strips"], list):
-        raise PlanError("strips must be a list")
+    if not isinstance(plan["strips"], list) or not plan["strips"]:
+        raise PlanError("strips must be a list of at least one strip")
+    reach = RELATIVE_RANGE[1] * size        # the strips' points: within a million surface sizes of it
+    centre = 0.5 * (V.min(axis=0) + V.max(axis=0))
     for k, st in enumerate(plan["strips"]):
         _check_strip_axes(k, st)
-        R = np.asarray(st.get("rulings", []), float)
+        for key in ("axis_start", "axis_end", "shank_start", "shank_end"):
+            if np.abs(np.asarray(st[key], float) - centre).max() > reach:
+                raise PlanError(f"strips[{k}].{key} {st[key]!r} is over {RELATIVE_RANGE[1]:g} times the surface's "
+                                f"size {size:.6g} from it")
+        R = _numbers(st.get("rulings", []), f"strips[{k}].rulings")
         if R.ndim != 3 or R.shape[1:] != (2, 3) or len(R) < 2 or not np.isfinite(R).all():
             raise PlanError(f"strips[{k}].rulings must be >= 2 finite [axis_start, axis_end] pairs")
-        radii = np.asarray(st.get("radii", []), float)
+        if np.abs(R - centre).max() > reach:
+            raise PlanError(f"strips[{k}].rulings reach {np.abs(R - centre).max():.6g} from the surface, over "
+                            f"{RELATIVE_RANGE[1]:g} times its size {size:.6g}")
+        radii = _numbers(st.get("radii", []), f"strips[{k}].radii")
         if radii.ndim != 1 or len(radii) != 2 or not np.isfinite(radii).all() or (radii < 0).any():
             raise PlanError(f"strips[{k}].radii must be [r1_sphere, r2_sphere], both >= 0")
-        for key in ("shank_radius", "reported_max_error", "reported_min_error"):
-            if not _is_num(st.get(key)):
-                raise PlanError(f"strips[{k}].{key} must be a finite number")
+        if not radii.max() > 0:
+            raise PlanError(f"strips[{k}].radii are both 0: a tool of no thickness")
+        _check_strip_numbers(k, st)
         if not isinstance(st.get("collision"), bool):
             raise PlanError(f"strips[{k}].collision must be true or false")
         cols = st.get("columns")
@@ -495,6 +562,8 @@ def read_plan(path):
             plan = json.load(f)
     except json.JSONDecodeError as e:
         raise PlanError(f"{path}: not valid JSON ({e})") from None
+    except RecursionError:
+        raise PlanError(f"{path}: its JSON nests too deeply to be a plan") from None
     except UnicodeDecodeError:
         raise PlanError(f"{path}: not a text file (a flank-plan is JSON text; is it a mesh or a program?)") from None
     return validate_plan(plan)
