@@ -211,6 +211,8 @@ def _cmd_cutter(args):
     from .methods.formed_cutter.cutter_profile import cutter_profile
     from .geometry.profile import load_profile_csv
     from .geometry.rotors import builtin_by_name
+    from .io.files import atomic_write_all
+    from .io.plan import RELATIVE_RANGE, plan_text
 
     if (args.profile is None) == (args.builtin is None):
         raise ValueError("give exactly one of --profile CSV or --builtin NAME")
@@ -237,16 +239,23 @@ def _cmd_cutter(args):
     if lead < MIN_CUTTER_LEAD * outer:
         raise ValueError(f"--lead {lead:g} is below {MIN_CUTTER_LEAD:g} times the rotor's outer radius {outer:g}: a "
                          "screw rotor's lead is some times its radius")
+    if lead > 2 * np.pi * RELATIVE_RANGE[1] * outer:       # a plan of it (v0 = lead / 2 pi) could not be read
+        raise ValueError(f"--lead {lead:g} is over {2 * np.pi * RELATIVE_RANGE[1]:.4g} times the rotor's outer "
+                         f"radius {outer:g}: no screw rotor")
     if args.planes < 2:
         raise ValueError(f"--planes {args.planes} is below the minimum 2")
     if args.planes > 10000:
         raise ValueError(f"--planes {args.planes} is over the maximum 10000")
     cp = cutter_profile(prof, lead, args.center_distance, args.swivel, handedness=hand, planes=args.planes,
                         eps_b=args.eps_b)
-    _write_csv(args.out, cp.meridian, "z,r")
     s = cp.summary()
     if args.plan_out:
-        s["plan"] = _write_cutter_plan(args, prof, lead, hand, cp, rotor if args.builtin else None)
+        # the plan is made and checked before either file is written; then both are written as one
+        plan, s["plan"] = _cutter_plan(args, prof, lead, hand, cp, rotor if args.builtin else None)
+        atomic_write_all([(args.out, _csv_text(cp.meridian, "z,r").encode()),
+                          (args.plan_out, plan_text(plan).encode())])
+    else:
+        _write_csv(args.out, cp.meridian, "z,r")
     if args.json:
         s.update({"source": src, "out": str(args.out), "handedness": hand, "lead": lead})
         print(json.dumps(s, indent=1))
@@ -262,11 +271,11 @@ def _cmd_cutter(args):
     return 0
 
 
-def _write_cutter_plan(args, prof, lead, hand, cp, rotor):
+def _cutter_plan(args, prof, lead, hand, cp, rotor):
     """--plan-out: the cutter as a flank-plan/1 plan (one strip, the disc's meridian) with the rotor's extent
-    when it is a built-in."""
+    when it is a built-in, validated; and what the command reports of it."""
     from .geometry.rotor_analysis import split_flanks
-    from .io.plan import write_plan
+    from .io.plan import validate_plan
     from .machining.disc_cutter_plan import disc_cutter_plan
 
     unit = args.length_unit or ("R" if args.builtin and args.scale == 1.0 else "mm")
@@ -284,10 +293,10 @@ def _write_cutter_plan(args, prof, lead, hand, cp, rotor):
         from .machining.rotor_body import scale_plan
 
         plan = scale_plan(plan, 1.0 / outer, "R")
-    write_plan(args.plan_out, plan)
-    return {"out": str(args.plan_out), "target_flanks": plan["target_flanks"], "length_unit": unit,
-            "max_error": plan["summary"]["max_error"], "min_error": plan["summary"]["min_error"],
-            "extent": plan["rotor"].get("extent")}
+    validate_plan(plan)
+    return plan, {"out": str(args.plan_out), "target_flanks": plan["target_flanks"], "length_unit": unit,
+                  "max_error": plan["summary"]["max_error"], "min_error": plan["summary"]["min_error"],
+                  "extent": plan["rotor"].get("extent")}
 
 
 def _load_rotor(args):
@@ -1305,11 +1314,16 @@ def _picked_point(surface, point, to_world, option, unit):
     return p
 
 
-def _write_csv(path, rows, header, fmt="%.12g"):
-    """Rows as comma-separated text under a one-line header, written whole or not at all."""
+def _csv_text(rows, header, fmt="%.12g"):
+    """Rows as comma-separated text under a one-line header."""
     buf = io.StringIO()
     np.savetxt(buf, rows, delimiter=",", header=header, comments="", fmt=fmt)
-    atomic_write(path, buf.getvalue())
+    return buf.getvalue()
+
+
+def _write_csv(path, rows, header, fmt="%.12g"):
+    """Rows as comma-separated text under a one-line header, written whole or not at all."""
+    atomic_write(path, _csv_text(rows, header, fmt))
 
 
 class UsageError(ValueError):

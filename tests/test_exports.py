@@ -114,6 +114,9 @@ def test_cl_z_range_must_come_near_the_rotor_body(single):
     with pytest.raises(ValueError, match=r"misses the rotor: its body spans z = 0 .. 3"):
         cl_data(plan, steps=8, z_range=(3.0 + 1.01 * R, 10.0))
     assert "GOTO" in cl_data(plan, steps=8, z_range=(3.0 + 0.99 * R, 10.0))
+    # a range that overlaps the body but reaches a million outer radii is of no rotor either (it wrote GOTOs at 1e300)
+    with pytest.raises(ValueError, match=r"reaches beyond 1e4 x the outer radius"):
+        cl_data(plan, steps=8, z_range=(0.0, 1e300))
 
 
 def test_error_csv_equals_verify_profile(single):

@@ -98,7 +98,7 @@ def _z_range(plan, z_range):
         if z1 < lo - R or z0 > hi + R:
             raise ValueError(f"z range {z0:g},{z1:g} misses the rotor: its body spans z = {lo:g} .. {hi:g} {unit} "
                              f"(outer radius {R:g}); the tool tip's range must come within an outer radius of it")
-    elif max(abs(z0), abs(z1)) > 1e4 * R:
+    if max(abs(z0), abs(z1)) > 1e4 * R:      # with the body's extent or not: a range of no rotor
         raise ValueError(f"z range {z0:g},{z1:g} reaches beyond 1e4 x the outer radius {R:g} {unit}")
     return z0, z1
 
@@ -221,7 +221,7 @@ def cl_data(plan, strip=None, steps=DEFAULT_STEPS, z_range=None):
         if multi and number[k][0] != current:
             current, t = number[k]
             out.append(f"LOADTL/{current}")
-            if t.get("kind") == "cone" and "r1c" in t:
+            if t.get("kind") == "cone" and all(t.get(k) is not None for k in ("r1c", "alpha")):
                 # APT CUTTER/d,r,e,f,a,b,h: tip diameter, no corner radius, taper angle (deg), flute length
                 out.append("CUTTER/%s,0,0,0,%s,0,%s" % (_fmt(2 * float(t["r1c"])), _fmt(math.degrees(float(t["alpha"]))),
                                                          _fmt(float(t.get("h", 0.0)))))
