@@ -13,7 +13,7 @@ it.  Fields (more are welcome, none may be removed or change meaning):
       profile       [[x, y], ...] closed transverse section z = 0 of the whole rotor, CCW, >= 720 points
       flanks        [[i_start, i_end], ...] inclusive profile index ranges, i_start < i_end,
                     indices taken modulo len(profile) (a flank may run through index 0)
-      outer_radius  float
+      outer_radius  float: the profile's largest radius (within 1e-3 of it)
       extent        optional: the finite rotor in the rotor frame, {"z_range": [z0, z1] axial extent of the
                     helical body, "shafts": [{"z_range": [a, b], "radius": r}, ...] coaxial cylinders
                     (journals, stubs) beyond it}; written by the planners when the rotor is known (a mesh's
@@ -22,8 +22,8 @@ it.  Fields (more are welcome, none may be removed or change meaning):
     tool           {"kind": "cone" | "revolved" | "disc" | "paraboloid", ...shape parameters...}
     strips         [{axis_start, axis_end (rotor frame, inscribed-sphere centres, start = tip end),
                      radii [r_0..r_m] at m+1 equally spaced axis points (cone: 2),
-                     shank_start, shank_end, shank_radius, flank, reported_max_error,
-                     reported_min_error, collision,
+                     shank_start, shank_end, shank_radius (>= 0; 0: none), flank, reported_max_error,
+                     reported_min_error (max not below min), collision,
                      tool        optional: the strip's own tool, same form as the plan's ``tool`` (a
                                  plan milling with several tools; without it the strip uses the
                                  plan's ``tool``, which is then the first of them),
@@ -33,14 +33,17 @@ it.  Fields (more are welcome, none may be removed or change meaning):
                        paraboloid  {a, b}: the lens |h| <= b + a rho^2 (a < 0 < b) centred
                                    at axis_start (Doğrusadık)}, ...]
     summary        {max_error, min_error, elapsed_s}
-    tolerance      optional: the error tolerance the plan was made for (> 0)
+    tolerance      optional: the error tolerance the plan was made for (> 0, at most outer_radius)
 
-Every coordinate of a rotor plan (profile, strips) lies within 1e6 times the outer radius of the origin.
+Every coordinate of a rotor plan (profile, strips) lies within 1e6 times the outer radius of the origin.  A
+cone tool gives alpha, r1c and r2c together or none of them.  Number fields hold JSON numbers: a string such as
+"0.05" is refused, not read as a number.
 
 Free-form plans (Rajain et al. 2023, method "freeform-g1-cone") have ``surface`` instead of ``rotor``:
 
     surface        {kind: "mesh", vertices [[x, y, z], ...], faces [[i, j, k], ...]} in the input
-                   model's coordinates; the tool is on the side the face normals point to
+                   model's coordinates (within 1e12, some face of positive area); the tool is on the side
+                   the face normals point to; every strip point lies within 1e6 surface sizes of it
     target_flanks  [] (optional)
     tool           {kind: "cone", r1, r2, length, engagement, shank_radius, shank_length}
     strips         [{rulings [[axis_start, axis_end], ...] one pair per time sample (sphere
