@@ -947,11 +947,14 @@ def _cmd_verify_program(args):
         over = [k for k, n in t["moves_over"].items() if n]
         bare = t["moves_without_speed"]
         verdict = ("OVER " + ", ".join(k[5:].replace("_", " ") for k in over) if over else
-                   "within its cutting data" if not bare else "within its cutting data where it has a speed")
+                   "within its cutting data" + (" where it has a speed" if bare else "")
+                   + (" where judged" if t["moves_chip_load_not_judged"] else ""))
         print(f"  T{t['tool']} cuts at chip loads up to {t['max_chip_load_mm']:.4g} mm (fz {d['fz_mm']:g}), "
               f"{t['max_surface_speed_m_min']:.4g} m/min (vc {d['vc_m_min']:g}), S{t['max_rpm']:g} (top "
               f"{d['max_rpm']:g}; {d['source']}): " + verdict
-              + (f"; {bare} feed move(s) without a spindle speed not checked" if bare else ""))
+              + (f"; {bare} feed move(s) without a spindle speed not checked" if bare else "")
+              + (f"; chip load not judged on {t['moves_chip_load_not_judged']} feed move(s) off the rotor's screw"
+                 if t["moves_chip_load_not_judged"] else ""))
     print(f"  poses: screw error {res['screw_error_mm']:.3g} mm, interpolation error "
           f"{res['interpolation_error_mm']:.3g} mm")
     for pl in res["plans"]:

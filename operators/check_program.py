@@ -79,9 +79,11 @@ def check_lines(coll):
     untimed = untimed_words(coll, p)
     time_line = "Its cycle time: {:.1f} s".format(float(coll[p + "total_time_s"])) + (
         " (not counting {})".format(untimed) if untimed else "")
-    tools = ["T{}: chip load up to {:.4g} mm (fz {:g}), {:.4g} m/min (vc {:g})".format(
+    tools = ["T{}: chip load up to {:.4g} mm (fz {:g}), {:.4g} m/min (vc {:g}){}".format(
         t["tool"], t["max_chip_load_mm"], t["cutting_data"]["fz_mm"], t["max_surface_speed_m_min"],
-        t["cutting_data"]["vc_m_min"]) for t in json.loads(coll.get(p + "cutting", "[]"))]
+        t["cutting_data"]["vc_m_min"], "; chip load not judged on {} move(s) off the screw".format(
+            t["moves_chip_load_not_judged"]) if t.get("moves_chip_load_not_judged") else "")
+        for t in json.loads(coll.get(p + "cutting", "[]"))]
     if not findings:
         verdict = ["As planned" + ("" if p + "deviation_mm" not in coll else
                                    " (machined deviation within {:.2g} mm of the plan's)".format(

@@ -340,11 +340,13 @@ def cutting_check(passes, machine, rotor, tools, data):
     of the moves over the tool's fz, vc or top speed (beyond half a turn of S, for posts that round it to the
     nearest turn, and :data:`CUTTING_TOL`).  A move
     without a spindle speed is :func:`spindle_check`'s finding, not one of these (it is counted as not checked).
-    The engaged edge is taken at the pass's first pose in the stock (a screw motion keeps it); a pass off the
-    screw (a finding of its own) takes the largest over all its poses, and is judged as if its blocks were screw
-    motions, which overstates a plunge."""
+    The engaged edge is taken at the pass's first pose in the stock (a screw motion keeps it).  A pass off the
+    screw (a finding of its own) is not judged for its chip load: the screw's advance per block, which measures
+    it, says nothing of a plunge or a turn of the rotary axes alone (read as none); its lines are listed in
+    ``chip_load_not_judged``.  Its surface and spindle speeds are judged, over all its poses."""
     gauges = tool_gauges(tools)
     per_tool, over = {}, {"over_chip_load": [], "over_surface_speed": [], "over_tool_top_speed": []}
+    not_judged = []
     for ps in passes:
         n, moves = ps["tool"], ps["moves"]
         d, shape = data[n], tools[n]
@@ -362,10 +364,15 @@ def cutting_check(passes, machine, rotor, tools, data):
         rpm = np.array([mv.rpm for mv in moves], float)
         ok = (rpm > 0) & (minutes > 0)
         chip = np.where(ok, turn / np.where(ok, minutes, 1.0) * v_max / (np.where(ok, rpm, 1.0) * d.flutes), 0.0)
+        if not on_screw:
+            chip = np.zeros_like(chip)
+            not_judged += [mv.line for mv in moves]
         vc = math.pi * d_max * rpm / 1000.0
         t = per_tool.setdefault(n, {"tool": n, "cutting_data": d.as_dict(), "max_chip_load_mm": 0.0,
                                     "max_surface_speed_m_min": 0.0, "max_rpm": 0.0, "moves_over": dict.fromkeys(over, 0),
-                                    "moves_without_speed": 0})
+                                    "moves_without_speed": 0, "moves_chip_load_not_judged": 0})
+        if not on_screw:
+            t["moves_chip_load_not_judged"] += len(moves)
         t["moves_without_speed"] += int(np.sum(~(rpm > 0)))
         t["max_chip_load_mm"] = max(t["max_chip_load_mm"], float(chip.max()))
         t["max_surface_speed_m_min"] = max(t["max_surface_speed_m_min"], float(vc.max()))
@@ -380,7 +387,8 @@ def cutting_check(passes, machine, rotor, tools, data):
                          ("over_tool_top_speed", rpm > d.max_rpm + 0.5)):
             over[key] += lines[bad].tolist()
             t["moves_over"][key] += int(bad.sum())
-    return {"tools": [per_tool[n] for n in sorted(per_tool)], **{k: sorted(v) for k, v in over.items()}}
+    return {"tools": [per_tool[n] for n in sorted(per_tool)], **{k: sorted(v) for k, v in over.items()},
+            "chip_load_not_judged": sorted(not_judged)}
 
 
 def coolant_check(read, coolant="flood"):

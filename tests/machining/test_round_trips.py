@@ -199,8 +199,12 @@ def test_a_pass_off_the_rotors_screw_is_found(request, turn_deg, finding):
         assert res["findings"] == [f"1 pass(es) leave the rotor's screw motion by up to {off[0]['screw_error_mm']:.3g} "
                                    f"mm (lines {i + 1}): not the plan's pitch or rotary angles; the deviation figures "
                                    f"sweep each pass along the screw through its first pose and do not show it"]
+        # its chip load is not judged (the screw's advance measures it), and said so, not read as within fz
+        cut = res["cutting"]
+        assert cut["chip_load_not_judged"] and min(cut["chip_load_not_judged"]) <= i + 1 <= max(cut["chip_load_not_judged"])
+        assert cut["tools"][0]["moves_chip_load_not_judged"] == len(cut["chip_load_not_judged"])
     else:
-        assert off == [] and res["findings"] == []
+        assert off == [] and res["findings"] == [] and res["cutting"]["chip_load_not_judged"] == []
 
 
 def test_a_pass_moved_into_the_flank_shows_as_gouges(request):
