@@ -729,17 +729,34 @@ def _cmd_builtins(args):
     return 0
 
 
+# the most steps along the z range a strip mesh is made of
+MAX_MESH_STEPS = 2000
+
+
 def _cmd_export(args):
     from . import exports
     from .io.plan import read_plan
 
     plan = read_plan(args.plan)
     z_range = args.z_range
+    # options that would change nothing are refused, not ignored
+    given = [name for name, v in (("--strip", args.strip), ("--steps", args.steps), ("--z-range", args.z_range))
+             if v is not None]
+    if args.error_csv and given:
+        raise ValueError(f"{', '.join(given)} {'applies' if len(given) == 1 else 'apply'} to --cl and the strip "
+                         "meshes: --error-csv writes the verified deviation of the whole plan's target profile")
+    if plan.get("surface") is not None and args.steps is not None:
+        raise ValueError("--steps applies to rotor plans: a free-form plan's CL data and strip meshes follow its "
+                         "own rulings")
+    steps = 360 if args.steps is None else args.steps
+    if (args.strips_stl or args.strips_ply) and steps > MAX_MESH_STEPS:
+        raise ValueError(f"--steps {steps} is over {MAX_MESH_STEPS} for strip meshes (each step is a row of the "
+                         "envelope's triangles)")
     if args.strip is not None:
         exports.strip_tip(plan, args.strip)          # names a missing strip before any work
     t0 = time.perf_counter()
     if args.cl:
-        text = exports.cl_data(plan, strip=args.strip, steps=args.steps, z_range=z_range)
+        text = exports.cl_data(plan, strip=args.strip, steps=steps, z_range=z_range)
         atomic_write(args.cl, text)
         n = text.count("\nGOTO/")
         what = f"CL data, {n} GOTO steps, to {args.cl}"
@@ -750,7 +767,7 @@ def _cmd_export(args):
     else:
         fmt, prefix = ("stl", args.strips_stl) if args.strips_stl else ("ply", args.strips_ply)
         paths = exports.write_strip_meshes(plan, prefix, fmt, strip=args.strip, z_range=z_range,
-                                           n_t=min(args.steps, 2000) + 1)
+                                           n_t=steps + 1)
         what = f"{len(paths)} strip envelope(s): {', '.join(paths)}"
     print(f"wrote {what} in {time.perf_counter() - t0:.2f} s")
     return 0
@@ -1008,7 +1025,9 @@ def _add_machining_inputs(p):
                                   "that do not record rotor.extent)")
     p.add_argument("--outer-radius-mm", type=positive_number,
                    help="plans in units of R: the rotor's outer radius in mm")
-    p.add_argument("--lobes", type=lobe_list, help="lobes to cut: all (default) or indices like 0,2,4")
+    p.add_argument("--lobes", type=lobe_list, help="post: lobes to cut, all (default) or indices like 0,2,4; "
+                                                    "verify --program: lobes to check, every strip due on each (default: "
+                                                    "the lobes the program cuts)")
     p.add_argument("--flip-rotor", action="store_true",
                    help="the rotor is mounted the other way round (turned 180 deg about its x axis) on the machine")
     p.add_argument("--holder", type=holder_spec, action="append", default=[], metavar="SIDE,DIAMETER,LENGTH[,GAP]",
@@ -1264,7 +1283,8 @@ def build_parser():
     out.add_argument("--strips-stl", metavar="PREFIX", help="strip envelopes as PREFIX_<k>.stl")
     out.add_argument("--strips-ply", metavar="PREFIX", help="strip envelopes as PREFIX_<k>.ply")
     ex.add_argument("--strip", type=int, help="only strip K (default: all)")
-    ex.add_argument("--steps", type=int, default=360, help="steps over the z range (default 360)")
+    ex.add_argument("--steps", type=int, help=f"steps over the z range of a rotor plan (default 360; strip meshes: "
+                                               f"at most {MAX_MESH_STEPS})")
     ex.add_argument("--z-range", metavar="Z0,Z1", type=CommaList(2, "Z0,Z1"), help="Z0,Z1 rotor-frame range of the tool tip (default 0,lead)")
     ex.set_defaults(func=_cmd_export)
 

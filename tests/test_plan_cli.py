@@ -367,3 +367,30 @@ def test_a_disc_cutter_plan_that_cannot_be_made_leaves_no_file(tmp_path):
                  "--lead", "1e9", "--out", csv, "--plan-out", plan)
     assert r.returncode == 2 and "--lead 1e+09 is over 6.283e+06 times the rotor's outer radius" in r.stderr
     assert sorted(tmp_path.iterdir()) == []
+
+
+def test_export_options_that_would_change_nothing_are_refused(tmp_path):
+    """--strip, --steps and --z-range do not shape --error-csv (the whole plan's verified profile), --steps not a
+    free-form plan's exports, and strip meshes take at most 2000 steps: each is refused by name (they used to be
+    ignored, or capped, without a word), and nothing is written."""
+    from flank_addon.geometry.freeform_surfaces import plane_patch
+    from flank_addon.methods.freeform_g1.planner import plan_freeform
+
+    rotor = tmp_path / "rotor.json"
+    write_plan(rotor, sample_plan())
+    free = tmp_path / "free.json"
+    S = plane_patch(size=1.0, resolution=12)
+    write_plan(free, plan_freeform(S.vertices, S.faces, direction=[1, 0, 0], r1=0.02, r2=0.06, L=0.2, n_columns=5,
+                                   n_ruling_samples=5))
+    for argv, words in (((rotor, "--error-csv", tmp_path / "e.csv", "--strip", "0", "--steps", "9"),
+                         "--strip, --steps apply to --cl and the strip meshes: --error-csv writes"),
+                        ((free, "--cl", tmp_path / "f.apt", "--steps", "10"), "--steps applies to rotor plans"),
+                        ((rotor, "--strips-stl", tmp_path / "s", "--steps", "5000"),
+                         "--steps 5000 is over 2000 for strip meshes")):
+        r = main_cli("export", *argv)
+        assert r.returncode == 2 and words in r.stderr, r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["free.json", "rotor.json"]
+    # a plan file an editor saved with a byte-order mark reads as the plan
+    bom = tmp_path / "bom.json"
+    bom.write_bytes(b"\xef\xbb\xbf" + rotor.read_bytes())
+    assert main_cli("check-plan", bom).returncode == 0
