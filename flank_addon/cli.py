@@ -784,6 +784,19 @@ def positive_number(text):
     return v
 
 
+# the largest outer radius a rotor given in mm may have: 100 m (larger is a unit slip, and scaled plans overflow)
+MAX_OUTER_RADIUS_MM = 1e5
+
+
+def outer_radius_mm(text):
+    """argparse type of --outer-radius-mm: a finite number > 0 and at most MAX_OUTER_RADIUS_MM."""
+    v = positive_number(text)
+    if v > MAX_OUTER_RADIUS_MM:
+        raise argparse.ArgumentTypeError(f"{text} mm is over {MAX_OUTER_RADIUS_MM:g} mm: no rotor is that large "
+                                         "(is it in micrometres?)")
+    return v
+
+
 def count_at_least(least, most=None):
     """argparse type of a count: a whole number >= ``least`` (and <= ``most``)."""
     def count(text):
@@ -1023,7 +1036,7 @@ def _cmd_machines(args):
 def _add_machining_inputs(p):
     p.add_argument("--mesh", help="the rotor mesh the plans were made on: its axial extent and shafts (for plans "
                                   "that do not record rotor.extent)")
-    p.add_argument("--outer-radius-mm", type=positive_number,
+    p.add_argument("--outer-radius-mm", type=outer_radius_mm,
                    help="plans in units of R: the rotor's outer radius in mm")
     p.add_argument("--lobes", type=lobe_list, help="post: lobes to cut, all (default) or indices like 0,2,4; "
                                                     "verify --program: lobes to check, every strip due on each (default: "
@@ -1207,7 +1220,7 @@ def build_parser():
                     help="cones from the shipped tool presets instead of --tool-*: 'auto' picks the largest preset "
                          "admissible for the flank, then smaller ones for what it leaves; or preset names, tried "
                          "in that order (see docs/cli.md)")
-    sf.add_argument("--outer-radius-mm", type=float,
+    sf.add_argument("--outer-radius-mm", type=outer_radius_mm,
                     help="with --tools on a built-in rotor (units of R): its outer radius in mm (default 50)")
     sf.add_argument("--max-tools", type=count_at_least(1, 50), help="with --tools auto: at most this many tools (default: as needed)")
     sf.add_argument("--split", choices=["hyperbolic", "elliptic"],
@@ -1269,7 +1282,7 @@ def build_parser():
     src.add_argument("--mesh", help="rotor mesh (STL, PLY, OBJ) in mm, analysed for axis, pitch and flanks")
     src.add_argument("--builtin", help="built-in rotor NAME (see the builtins command)")
     st.add_argument("--flank", type=int, required=True, help="flank index K (valley K // 2)")
-    st.add_argument("--outer-radius-mm", type=float, default=SUGGEST_DEFAULT_R_MM,
+    st.add_argument("--outer-radius-mm", type=outer_radius_mm, default=SUGGEST_DEFAULT_R_MM,
                     help="built-ins: outer radius in mm the catalogue is scaled to (default 50)")
     st.add_argument("--samples", type=int, default=400, help="flank profile samples (default 400)")
     st.add_argument("--json", action="store_true")

@@ -122,6 +122,8 @@ def test_write_plan_is_atomic_and_names_the_file(tmp_path, monkeypatch):
                                                           r"got -0.02"),
     (lambda p: p["strips"][0].update(reported_max_error=-1.0), r"strips\[0\].reported_max_error -1.0 is below"),
     (lambda p: p["rotor"].update(outer_radius=2.0), r"rotor.outer_radius 2.0 is not the profile's largest radius 1 "),
+    (lambda p: p["tool"].update(engagement=1.5), r"tool.engagement must be at most 1, got 1.5"),
+    (lambda p: p["rotor"].update(extent={"z_range": [0.0, 1e300], "shafts": []}), r"rotor.extent reaches 1e\+300"),
     (lambda p: p["tool"].update(alpha=None, r1c=0.05, r2c=0.08), r"tool gives r1c, r2c but not all of alpha, r1c and "
                                                                 r"r2c"),
     (lambda p: p.update(tolerance=0), r"tolerance must be a finite number > 0 .*, got 0"),

@@ -274,6 +274,12 @@ def _validate(plan):
                         f"rotor.outer_radius {L!r} (a screw of that lead is no rotor)")
     if rotor.get("extent") is not None:
         _check_extent(rotor["extent"])
+        ext = rotor["extent"]
+        reach = max([abs(z) for z in ext["z_range"]] + [abs(z) for sh in ext.get("shafts", []) for z in sh["z_range"]]
+                    + [sh["radius"] for sh in ext.get("shafts", [])])
+        if reach > RELATIVE_RANGE[1] * L:
+            raise PlanError(f"rotor.extent reaches {reach:.6g}, over {RELATIVE_RANGE[1]:g} times rotor.outer_radius "
+                            f"{L!r}")
     prof = _numbers(rotor["profile"], "rotor.profile")
     if prof.ndim != 2 or prof.shape[1] != 2 or not np.isfinite(prof).all():
         raise PlanError("rotor.profile must be a list of finite [x, y] pairs")
@@ -393,6 +399,8 @@ def _check_tool(tool, name):
             continue
         if not _is_num(v) or v < least or (strict and v == least):
             raise PlanError(f"{name}.{key} must be a finite number {'>' if strict else '>='} {least:g}, got {v!r}")
+        if key in _TOOL_MOST and v > _TOOL_MOST[key]:
+            raise PlanError(f"{name}.{key} must be at most {_TOOL_MOST[key]:g}, got {v!r}")
 
 
 # (field, least value, whether the least value itself is excluded) of the tools' shape numbers
@@ -401,6 +409,9 @@ _TOOL_NUMBERS = (("r1c", 0.0, False), ("r2c", 0.0, True), ("h", 0.0, True), ("sh
                  ("arbor_radius", 0.0, False), ("arbor_length", 0.0, False), ("centre_distance", 0.0, True),
                  ("swivel_deg", -90.0, False), ("rim", 0.0, True), ("r1", 0.0, False), ("r2", 0.0, True),
                  ("length", 0.0, True), ("engagement", 0.0, True))
+# their largest values where one exists: a disc's swivel is an angle within a quarter turn, the engaged fraction
+# of a free-form tool at most all of it
+_TOOL_MOST = {"swivel_deg": 90.0, "engagement": 1.0}
 
 
 def strip_tool(plan, k):

@@ -27,6 +27,11 @@ from dataclasses import dataclass
 import numpy as np
 
 
+# the largest cutting data taken: beyond them a value is a typing or unit slip (high-speed milling of aluminium
+# reaches a few thousand m/min; a disc cutter has tens of teeth; spindles turn up to some 100,000 1/min)
+MAX_CUTTING = {"flutes": 500, "vc_m_min": 10000.0, "fz_mm": 10.0, "max_rpm": 500000.0}
+
+
 @dataclass(frozen=True)
 class CuttingData:
     flutes: int
@@ -38,10 +43,15 @@ class CuttingData:
     def __post_init__(self):
         if isinstance(self.flutes, bool) or not isinstance(self.flutes, int) or self.flutes < 1:
             raise ValueError(f"flutes must be an integer >= 1, got {self.flutes!r}")
+        if self.flutes > MAX_CUTTING["flutes"]:
+            raise ValueError(f"flutes {self.flutes} is over {MAX_CUTTING['flutes']}: no milling tool has as many")
         for name in ("vc_m_min", "fz_mm", "max_rpm"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a finite number > 0, got {v!r}")
+            if v > MAX_CUTTING[name]:
+                raise ValueError(f"{name} {v:g} is over {MAX_CUTTING[name]:g}: no cutting data of a milling tool "
+                                 "(a unit slip?)")
 
     def as_dict(self):
         return {"flutes": self.flutes, "vc_m_min": self.vc_m_min, "fz_mm": self.fz_mm,

@@ -175,6 +175,14 @@ def test_an_edge_grazing_the_stock_between_two_rings_is_found():
                         (["A"], [1e9]), away)
 
 
+def test_cutting_data_beyond_any_milling_tool_is_refused():
+    for kw, words in ((dict(vc_m_min=1e300), "vc_m_min 1e+300 is over 10000"), (dict(fz_mm=11.0), "fz_mm 11 is over 10"),
+                      (dict(max_rpm=1e6), "max_rpm 1e+06 is over 500000"), (dict(flutes=501), "flutes 501 is over 500")):
+        with pytest.raises(ValueError, match=re.escape(words)):
+            CuttingData(**dict(DEFAULT_END_MILL.as_dict(), source="test", **kw))
+    assert all(d.vc_m_min <= 10000 for d in PRESET_CUTTING_DATA.values())
+
+
 def test_ring_min_rho_against_dense_circles():
     """The nearest point of a tilted circle to the z axis, against 360,000 points of it, for random circles."""
     rng = np.random.default_rng(7)

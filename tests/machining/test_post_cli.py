@@ -120,7 +120,7 @@ def test_single_cutting_values_override_each_tools_own_data(capsys, tmp_path, fo
 
 
 def test_a_plan_scaled_beyond_any_tool_is_refused_before_it_is_sampled(capsys, tmp_path, double_flank_plan):
-    """A plan in units of R given an outer radius of 10 m or 1e9 mm has a tool metres (or a million km) long: refused by
+    """A plan in units of R given an outer radius of 10 m or 100 m has a tool metres long: refused by
     name before its surface is sampled every millimetre (which took minutes and tens of gigabytes, or ran out of
     memory), with the tool's length and width as the plan gives them; 2000 mm is the largest tool taken."""
     from flank_addon.machining.operation import MAX_TOOL_MM, OperationError, _check_tool_size
@@ -130,12 +130,16 @@ def test_a_plan_scaled_beyond_any_tool_is_refused_before_it_is_sampled(capsys, t
     write_plan(r, scale_plan(double_flank_plan, 1 / 30.0, "R"))
     shape = ToolShape.from_strip(double_flank_plan, 0)
     lo, hi = shape.h_range()
-    for radius in (1e4, 1e9):
+    for radius in (1e4, 1e5):
         code, _, err = run(capsys, "post", r, "--machine", "rotor-xa-b", "--post", "linuxcnc", "--outer-radius-mm",
                            radius, "-o", tmp_path / "p.ngc")
         length = (hi - lo) * radius / 30.0
         assert code == 2 and f"plan 0 strip 0: its tool is {length:.6g} mm long and " in err, err
         assert "over the 2000 mm of any milling tool" in err and not (tmp_path / "p.ngc").exists()
+    # beyond 100 m the outer radius itself is refused, before the plan is read
+    code, _, err = run(capsys, "post", r, "--machine", "rotor-xa-b", "--post", "linuxcnc", "--outer-radius-mm", "1e9",
+                       "-o", tmp_path / "p.ngc")
+    assert code == 2 and "--outer-radius-mm: 1e9 mm is over 100000 mm: no rotor is that large" in err, err
     k = MAX_TOOL_MM / (hi - lo)             # the tool is longer than it is wide
     _check_tool_size(ToolShape.from_strip(scale_plan(double_flank_plan, 0.999 * k), 0), "under the limit")
     with pytest.raises(OperationError, match="over: its tool is 2002 mm long .* over the 2000 mm"):
