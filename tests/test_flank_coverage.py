@@ -211,7 +211,7 @@ def test_cli_named_tools(tmp_path, capsys, male_d4):
     (["--tools", "Tapered 9deg D1 L1"], "no tool preset 'Tapered 9deg D1 L1'; presets: Cylindrical D10 L22"),
     (["--tools", "auto", "--tool-r1", "0.02"], "--tools takes the cones from the presets: drop --tool-r1"),
     (["--tools", "Tapered 3deg D4 L20,Tapered 3deg D4 L20"], "tool preset 'Tapered 3deg D4 L20' is named twice"),
-    (["--tools", "auto", "--outer-radius-mm", "-5"], "--outer-radius-mm -5.0 must be a finite number > 0"),
+    (["--tools", "auto", "--outer-radius-mm", "-5"], "argument --outer-radius-mm: -5 is not a finite number > 0"),
     (["--tool-r1", "0.05", "--tool-r2", "0.08", "--tool-alpha", "0.1", "--max-tools", "2"],
      "--max-tools applies to --tools auto"),
     (["--tool-r1", "0.05", "--tool-r2", "0.08", "--tool-alpha", "0.1", "--outer-radius-mm", "30"],

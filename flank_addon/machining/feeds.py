@@ -126,13 +126,16 @@ def tool_cutting_data(spec, tool):
 def with_overrides(overrides, base=None):
     """A cutting-data spec for :func:`tool_cutting_data`: each tool's own data (``base``: one CuttingData for
     every tool instead) with the fields of ``overrides`` ({"flutes": .., "vc_m_min": .., "fz_mm": .., "max_rpm":
-    ..}, any of them) replaced, so a disc cutter keeps its own top speed when only fz is given."""
+    ..}, any of them) replaced, so a disc cutter keeps its own top speed when only fz is given.  The data names its
+    source: "<the tool's own> with fz_mm 0.02 from the command line", or "command line" when all four are given."""
     import dataclasses
 
     dataclasses.replace(base or DEFAULT_END_MILL, **overrides)        # a value the data refuses is named at once
 
     def spec(tool):
         own = base if base is not None else cutting_data_for(tool)
+        if set(overrides) == {"flutes", "vc_m_min", "fz_mm", "max_rpm"}:        # nothing of its own is left
+            return dataclasses.replace(own, source="command line", **overrides)
         return dataclasses.replace(own, source=f"{own.source} with " + ", ".join(
             f"{k} {v:g}" for k, v in overrides.items()) + " from the command line", **overrides)
     return spec
