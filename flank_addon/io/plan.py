@@ -178,7 +178,9 @@ def scaled_extent(extent, k):
     return out
 
 
-def _check_extent(ext):
+def _check_extent(ext, outer_radius=None):
+    """A rotor's ``extent``: its body's z range and its shafts; with ``outer_radius`` (a plan's), every value
+    within :data:`RELATIVE_RANGE` of it."""
     if not isinstance(ext, dict):
         raise PlanError(f"rotor.extent must be an object, got {ext!r}")
     zr = ext.get("z_range")
@@ -193,6 +195,12 @@ def _check_extent(ext):
             raise PlanError(f"rotor.extent.shafts[{k}].z_range must be [a, b] with a < b, got {zs!r}")
         if not (_is_num(sh.get("radius")) and sh["radius"] > 0):
             raise PlanError(f"rotor.extent.shafts[{k}].radius must be a number > 0, got {sh.get('radius')!r}")
+    if outer_radius is not None:
+        reach = max([abs(z) for z in zr] + [abs(z) for sh in shafts for z in sh["z_range"]]
+                    + [sh["radius"] for sh in shafts])
+        if reach > RELATIVE_RANGE[1] * outer_radius:
+            raise PlanError(f"rotor.extent reaches {reach:.6g}, over {RELATIVE_RANGE[1]:g} times rotor.outer_radius "
+                            f"{outer_radius!r}")
 
 
 def new_plan(method, rotor, tool, length_unit="R", target_flanks=(), strips=(), elapsed_s=0.0):
@@ -273,13 +281,7 @@ def _validate(plan):
         raise PlanError(f"rotor.v0 {v0!r} must be within {RELATIVE_RANGE[0]:g}..{RELATIVE_RANGE[1]:g} times "
                         f"rotor.outer_radius {L!r} (a screw of that lead is no rotor)")
     if rotor.get("extent") is not None:
-        _check_extent(rotor["extent"])
-        ext = rotor["extent"]
-        reach = max([abs(z) for z in ext["z_range"]] + [abs(z) for sh in ext.get("shafts", []) for z in sh["z_range"]]
-                    + [sh["radius"] for sh in ext.get("shafts", [])])
-        if reach > RELATIVE_RANGE[1] * L:
-            raise PlanError(f"rotor.extent reaches {reach:.6g}, over {RELATIVE_RANGE[1]:g} times rotor.outer_radius "
-                            f"{L!r}")
+        _check_extent(rotor["extent"], L)
     prof = _numbers(rotor["profile"], "rotor.profile")
     if prof.ndim != 2 or prof.shape[1] != 2 or not np.isfinite(prof).all():
         raise PlanError("rotor.profile must be a list of finite [x, y] pairs")
@@ -309,7 +311,7 @@ def _validate(plan):
             raise PlanError(f"target_flanks entry {i!r} is not a flank index (0..{nf - 1})")
     _check_tool(plan["tool"], "tool")
     for k, st in enumerate(plan["strips"]):
-        _check_strip_axes(k, st, L)
+        _check_strip_axes(k, st, L, 0.0, f"rotor.outer_radius {L!r}", "the rotor axis's origin")
         axis = np.subtract(st["axis_end"], st["axis_start"])
         radii = _numbers(st.get("radii", []), f"strips[{k}].radii")
         if radii.ndim != 1 or len(radii) < 2 or not np.isfinite(radii).all() or (radii < 0).any():
@@ -435,18 +437,19 @@ def plan_tools(plan):
     return out
 
 
-def _check_strip_axes(k, st, outer_radius=None):
-    """A strip's axis and shank points: present, three finite numbers each, and for a rotor plan (its
-    ``outer_radius`` given) within :data:`RELATIVE_RANGE` of it from the origin."""
+def _check_strip_axes(k, st, size=None, centre=0.0, size_words="", centre_words=""):
+    """A strip's axis and shank points: present, three finite numbers each, and, with the plan's ``size`` (a
+    rotor's outer radius, a surface's diagonal), within :data:`RELATIVE_RANGE` of it from ``centre`` (the words
+    name them in the message)."""
     if not isinstance(st, dict):
         raise PlanError(f"strips[{k}] must be an object")
     for key in ("axis_start", "axis_end", "shank_start", "shank_end"):
         if key not in st:
             raise PlanError(f"missing field strips[{k}].{key}")
         p = _vec(st[key], 3, f"strips[{k}].{key}")
-        if outer_radius is not None and np.abs(p).max() > RELATIVE_RANGE[1] * outer_radius:
-            raise PlanError(f"strips[{k}].{key} {st[key]!r} is over {RELATIVE_RANGE[1]:g} times "
-                            f"rotor.outer_radius {outer_radius!r} from the rotor axis's origin")
+        if size is not None and np.abs(p - centre).max() > RELATIVE_RANGE[1] * size:
+            raise PlanError(f"strips[{k}].{key} {st[key]!r} is over {RELATIVE_RANGE[1]:g} times {size_words} from "
+                            f"{centre_words}")
 
 
 def _validate_mesh_plan(plan):
@@ -480,11 +483,7 @@ def _validate_mesh_plan(plan):
     reach = RELATIVE_RANGE[1] * size        # the strips' points: within a million surface sizes of it
     centre = 0.5 * (V.min(axis=0) + V.max(axis=0))
     for k, st in enumerate(plan["strips"]):
-        _check_strip_axes(k, st)
-        for key in ("axis_start", "axis_end", "shank_start", "shank_end"):
-            if np.abs(np.asarray(st[key], float) - centre).max() > reach:
-                raise PlanError(f"strips[{k}].{key} {st[key]!r} is over {RELATIVE_RANGE[1]:g} times the surface's "
-                                f"size {size:.6g} from it")
+        _check_strip_axes(k, st, size, centre, f"the surface's size {size:.6g}", "it")
         R = _numbers(st.get("rulings", []), f"strips[{k}].rulings")
         if R.ndim != 3 or R.shape[1:] != (2, 3) or len(R) < 2 or not np.isfinite(R).all():
             raise PlanError(f"strips[{k}].rulings must be >= 2 finite [axis_start, axis_end] pairs")
