@@ -926,7 +926,7 @@ def _cmd_post(args):
 def _cmd_verify_program(args):
     from .machining.cycle_time import untimed_note
     from .posts import get_post, post_for_file
-    from .posts.readback import is_empty_program, verify_program
+    from .posts.readback import empty_program, verify_program
 
     if args.machine is None:
         raise ValueError("verify --program needs --machine NAME|FILE (the machine it was posted for)")
@@ -940,9 +940,9 @@ def _cmd_verify_program(args):
     plans, rotor = _machining_inputs(args)
     with open(args.program, encoding="ascii", errors="replace") as fh:
         text = fh.read()
-    if is_empty_program(text):
-        raise ValueError(f"{args.program} is empty" + (" but for '%' lines" if text.strip() else "")
-                         + ": no program to check")
+    empty = empty_program(text, args.program)
+    if empty:
+        raise ValueError(empty)
     res = verify_program(text, post, machine, plans, rotor, lobes=args.lobes, cutting_data=_cutting_data(args),
                          coolant=args.coolant or "flood")
     res["program"] = str(args.program)

@@ -141,7 +141,7 @@ class FLANK_OT_check_program(ModalPlannerMixin, bpy.types.Operator):
     @staticmethod
     def _compute(job, progress):
         from ..flank_addon.machining.rotor_body import rotor_body, with_holders
-        from ..flank_addon.posts.readback import is_empty_program, tool_gauges, tool_table, verify_program
+        from ..flank_addon.posts.readback import empty_program, tool_gauges, tool_table, verify_program
         from ..flank_addon.progress import reporter, substage
 
         try:
@@ -149,9 +149,9 @@ class FLANK_OT_check_program(ModalPlannerMixin, bpy.types.Operator):
                 text = fh.read()
         except OSError as ex:
             raise ValueError("cannot read '{}': {}".format(job["filepath"], ex.strerror or ex)) from None
-        if is_empty_program(text):
-            raise ValueError("'{}' is empty{}: no program to check".format(
-                job["filepath"], " but for '%' lines" if text.strip() else ""))
+        empty = empty_program(text, "'{}'".format(job["filepath"]))
+        if empty:
+            raise ValueError(empty)
         plan = plan_mm(job["coll"], job["plan"], job["k"])
         rotor = with_holders(rotor_body(plan), job["holders"])
         report = reporter(progress)

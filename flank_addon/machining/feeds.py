@@ -112,7 +112,7 @@ def cutting_data_for(tool):
     return DEFAULT_END_MILL
 
 
-def tool_cutting_data(spec, tool):
+def resolve_cutting_data(spec, tool):
     """The cutting data of a plan's ``tool`` dict under ``spec``: None -> the tool's own
     (:func:`cutting_data_for`); a :class:`CuttingData` -> that, for every tool; a callable -> ``spec(tool)``
     (e.g. :func:`with_overrides` on each tool's own data)."""
@@ -124,7 +124,7 @@ def tool_cutting_data(spec, tool):
 
 
 def with_overrides(overrides, base=None):
-    """A cutting-data spec for :func:`tool_cutting_data`: each tool's own data (``base``: one CuttingData for
+    """A cutting-data spec for :func:`resolve_cutting_data`: each tool's own data (``base``: one CuttingData for
     every tool instead) with the fields of ``overrides`` ({"flutes": .., "vc_m_min": .., "fz_mm": .., "max_rpm":
     ..}, any of them) replaced, so a disc cutter keeps its own top speed when only fz is given.  The data names its
     source: "<the tool's own> with fz_mm 0.02 from the command line", or "command line" when all four are given."""

@@ -178,7 +178,7 @@ def build_operation(plans, rotor, lobes=None, clearance=5.0, cutting_data=None):
     lobes: lobe indices to cut (default all); clearance: run-out beyond the body's end faces and the
     margin of every link (mm); cutting_data: one :class:`feeds.CuttingData` for every tool, or a function of the
     plan's tool dict (:func:`feeds.with_overrides`) (default: per tool, :func:`feeds.cutting_data_for`)."""
-    from .feeds import tool_cutting_data
+    from .feeds import resolve_cutting_data
 
     if not plans:
         raise OperationError("no plan given")
@@ -204,7 +204,7 @@ def build_operation(plans, rotor, lobes=None, clearance=5.0, cutting_data=None):
             if sig not in by_sig:
                 _check_tool_size(shape, f"plan {p} strip {s}")       # before its surface is sampled, below
                 stool = strip_tool(plan, s)          # the strip's own tool in a plan with several
-                data = tool_cutting_data(cutting_data, stool)
+                data = resolve_cutting_data(cutting_data, stool)
                 label = stool.get("name") or stool.get("kind", "tool")
                 shape.name = f"T{len(tools) + 1} {label} ({plan.get('method', '?')})"
                 tools.append(ToolEntry(len(tools) + 1, shape, data, shape.name, shape.gauge_length()))

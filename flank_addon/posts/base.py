@@ -118,8 +118,8 @@ class Post:
         r[3:] = np.round(r[3:], rot)
         return r + 0.0
 
-    def words(self, names, row, prev, force, machine=None):
-        lin, rot = (self.linear_decimals, self.rotary_decimals) if machine is None else self.decimals(machine)
+    def words(self, names, row, prev, force, machine):
+        lin, rot = self.decimals(machine)
         out = []
         for i, n in enumerate(names):
             if force or prev is None or row[i] != prev[i]:

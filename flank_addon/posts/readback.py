@@ -26,8 +26,8 @@
 5. Run-out: at its first and last pose the whole tool (and shank) must be beyond the body's end faces.
 6. Every other move (rapids, links) is checked against the stock cylinder, the shafts and the holders
    (:func:`machining.toolpath.segment_intrusion`); the passes against the shafts and the holders
-   (:func:`keep_out_margin`); a return to the reference position (Fanuc G28) as the straight lift of its axis
-   to the end of its travel.  The moves out of a tool change start where the machine
+   (:func:`keep_out_margin`); a return to the reference position (Fanuc G28) as the straight move of its axis
+   to the machine file's ``reference_position``, or without one to the end of its travel.  The moves out of a tool change start where the machine
    file's ``tool_change_position`` leaves the machine (:func:`machining.cycle_time.move_joints`); without
    one their start is unknown and they are counted as ``unchecked``.
 7. Cycle time from the moves as the controller times them (:mod:`machining.cycle_time`).  The spindle: every
@@ -73,10 +73,13 @@ CUTTING_TOL = 1e-3
 ADVANCE_ROUNDING_MM = 1e-3
 
 
-def is_empty_program(text):
-    """True when a program's text has no block to read: blank lines and the tape's '%' markers only (a file
-    that ends up so after a failed transfer is not a program that cuts nothing, but no program)."""
-    return not text.replace("%", "").strip()
+def empty_program(text, name):
+    """The message for a program ``name`` whose text has no block to read (blank lines and the tape's '%'
+    markers only: a file that ends up so after a failed transfer is not a program that cuts nothing, but no
+    program), else None."""
+    if text.replace("%", "").strip():
+        return None
+    return f"{name} is empty" + (" but for '%' lines" if text.strip() else "") + ": no program to check"
 
 
 # an axis word of the program (a Klartext word may carry its sign, a G-code word its minus) and an F word
@@ -125,13 +128,13 @@ def tool_cutting_data(plans, cutting_data=None):
     every tool when it is one CuttingData, each tool's own (:func:`..machining.feeds.cutting_data_for`) when
     None, or a function of the plan's tool dict (:func:`..machining.feeds.with_overrides`)."""
     from ..io.plan import strip_tool
-    from ..machining.feeds import tool_cutting_data as data_of
+    from ..machining.feeds import resolve_cutting_data
 
     _, of_strip = tool_table(plans)
     out = {}
     for (p, s), n in of_strip.items():
         if n not in out:
-            out[n] = data_of(cutting_data, strip_tool(plans[p], s))
+            out[n] = resolve_cutting_data(cutting_data, strip_tool(plans[p], s))
     return out
 
 
@@ -364,14 +367,13 @@ def cutting_check(passes, machine, rotor, tools, data):
         rpm = np.array([mv.rpm for mv in moves], float)
         ok = (rpm > 0) & (minutes > 0)
         chip = np.where(ok, turn / np.where(ok, minutes, 1.0) * v_max / (np.where(ok, rpm, 1.0) * d.flutes), 0.0)
-        if not on_screw:
-            chip = np.zeros_like(chip)
-            not_judged += [mv.line for mv in moves]
         vc = math.pi * d_max * rpm / 1000.0
         t = per_tool.setdefault(n, {"tool": n, "cutting_data": d.as_dict(), "max_chip_load_mm": 0.0,
                                     "max_surface_speed_m_min": 0.0, "max_rpm": 0.0, "moves_over": dict.fromkeys(over, 0),
                                     "moves_without_speed": 0, "moves_chip_load_not_judged": 0})
-        if not on_screw:
+        if not on_screw:                        # the screw's advance measures no chip here: not judged
+            chip = np.zeros_like(chip)
+            not_judged += [mv.line for mv in moves]
             t["moves_chip_load_not_judged"] += len(moves)
         t["moves_without_speed"] += int(np.sum(~(rpm > 0)))
         t["max_chip_load_mm"] = max(t["max_chip_load_mm"], float(chip.max()))
